@@ -1,0 +1,43 @@
+"""vgraph: a node-graph framework for volume visualization.
+
+Scripts meet vgraph through a few names::
+
+    import vgraph
+    net = vgraph.load("networks/grayscale.json")
+    net.set("gray.saturation", 0.5)
+    image = net.evaluate("gray.image")          # float32 (H, W, 4), row 0 at the top
+    net.save("mine.json")
+"""
+
+from vgraph.errors import (CycleError, NetworkFileError, PortError, ProcessorError, PropertyError,
+                           ShaderError, VGraphError, VolumeFileError)
+from vgraph.network import Network
+from vgraph.ports import Inport, Outport
+from vgraph.processor import Processor
+from vgraph.properties import (BoolProperty, CameraProperty, ColorProperty, FilePathProperty,
+                               FloatProperty, IntProperty, Invalidation, OptionProperty,
+                               StringProperty, TransferFunctionProperty, VectorProperty)
+from vgraph.registry import registry
+from vgraph.volume import Volume
+
+__version__ = "0.1.0"
+
+
+def load(path) -> Network:
+    """Load a saved .json network (raises NetworkFileError naming the JSON path of each problem)."""
+    from vgraph.fileformat import load_network
+    return load_network(path)
+
+
+def register(processor_class):
+    """Register a processor class defined in a script (usable as a decorator)."""
+    return registry.register(processor_class, origin=processor_class.__module__)
+
+
+__all__ = [
+    "load", "register", "registry", "Network", "Processor", "Inport", "Outport", "Volume",
+    "Invalidation", "BoolProperty", "CameraProperty", "ColorProperty", "FilePathProperty",
+    "FloatProperty", "IntProperty", "OptionProperty", "StringProperty", "TransferFunctionProperty",
+    "VectorProperty", "VGraphError", "NetworkFileError", "PortError", "CycleError", "ProcessorError",
+    "PropertyError", "ShaderError", "VolumeFileError",
+]

@@ -1,0 +1,282 @@
+"""The camera: a pydantic model that is also the value of every `camera` property.
+
+JSON form (world units)::
+
+    {"projection": "perspective", "position": [x, y, z], "focus": [x, y, z], "up": [x, y, z],
+     "fov": 30, "parallel_scale": 1, "near": 0.01, "far": 100}
+
+``fov`` is the vertical field of view in degrees (perspective); ``parallel_scale`` is half the
+height of the view in world units (orthographic), as in VTK.
+
+Conventions (the GL renderers and the CPU reference ray caster all rely on them):
+
+- Right-handed world. The camera frame is ``forward = normalize(focus - position)``,
+  ``right = normalize(forward x up)``, ``true_up = right x forward`` (gluLookAt). ``up`` need not be
+  orthogonal to the viewing direction; only its component orthogonal to it is used.
+- ``view_matrix()`` is gluLookAt, ``projection_matrix(aspect)`` is gluPerspective (vertical ``fov``)
+  or glOrtho(-s*aspect, s*aspect, -s, s, near, far) with ``s = parallel_scale``; OpenGL clip
+  conventions (eye looks down -z, NDC z = -1 at the near plane, +1 at the far plane).
+  ``aspect`` = image width / height.
+- The matrices are 4x4 float64 numpy arrays acting on column vectors (``clip = M @ [x, y, z, 1]``),
+  stored row-major. GLSL ``mat4`` uniforms are column-major, so upload them transposed:
+  ``program["u_mvp"].write(matrix.T.astype("f4").tobytes())``.
+- ``rays(width, height)`` gives one ray per pixel through the pixel CENTRE, row 0 at the TOP of the
+  image: ``ndc_x = (col + 0.5) / W * 2 - 1``, ``ndc_y = 1 - (row + 0.5) / H * 2``. Origins lie on the
+  near plane (t = 0 is the near plane); directions are unit vectors. A GL fragment at
+  ``gl_FragCoord.xy`` has the same NDC; GL images are read back bottom row first, so flip them.
+- Interaction (the GUI calls these; each returns a new, validated Camera, the model is frozen):
+  ``rotate(dx, dy)`` orbits around the focus by angles in radians such that the scene turns with
+  the mouse (dx > 0: drag right, dy > 0: drag UP); a GUI typically uses
+  ``angle = pi * pixels / viewport_height`` (Qt's y axis points down: negate dy).
+  ``pan(dx, dy)`` moves position and focus in the view plane by fractions of the visible height at
+  the focus distance, so ``pan(dx_px / height_px, -dy_px / height_px)`` keeps the point under the
+  cursor (at focus depth) under the cursor. ``zoom(factor)`` with factor > 1 magnifies: perspective
+  dollies towards the focus (distance / factor, near and far move with the camera), orthographic
+  divides ``parallel_scale``. ``framing(box_min, box_max, aspect)`` centres the box and fits its
+  bounding sphere into the view with near/far enclosing it.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+Vec3 = tuple[float, float, float]
+
+# Near and far planes of framing() leave this relative margin around the box's bounding sphere.
+_CLIP_MARGIN = 1e-3
+
+
+class Camera(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    projection: Literal["perspective", "orthographic"] = "perspective"
+    position: Vec3 = (0.0, 0.0, 3.0)
+    focus: Vec3 = (0.0, 0.0, 0.0)
+    up: Vec3 = (0.0, 1.0, 0.0)
+    fov: float = Field(30.0, gt=0.0, lt=180.0)
+    parallel_scale: float = Field(1.0, gt=0.0)
+    near: float = Field(0.01, gt=0.0)
+    far: float = Field(100.0, gt=0.0)
+
+    @model_validator(mode="after")
+    def _check_geometry(self) -> "Camera":
+        for name in ("position", "focus", "up"):
+            if not all(np.isfinite(getattr(self, name))):
+                raise ValueError(f"{name} must be finite, got {list(getattr(self, name))}")
+        view = np.subtract(self.focus, self.position)
+        if np.linalg.norm(view) == 0.0:
+            raise ValueError("position and focus must differ")
+        if np.linalg.norm(np.cross(view, self.up)) <= 1e-12 * np.linalg.norm(view) * max(np.linalg.norm(self.up), 1e-300):
+            raise ValueError("up must not be parallel to the viewing direction (or zero)")
+        if not self.near < self.far:
+            raise ValueError(f"near ({self.near}) must be smaller than far ({self.far})")
+        return self
+
+    # --- frame ----------------------------------------------------------------------------------
+    @property
+    def distance(self) -> float:
+        """Distance from position to focus (world units)."""
+        return float(np.linalg.norm(np.subtract(self.focus, self.position)))
+
+    def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Orthonormal (right, true_up, forward) of the camera, float64, as in gluLookAt."""
+        forward = _unit(np.subtract(self.focus, self.position, dtype=np.float64))
+        right = _unit(np.cross(forward, np.asarray(self.up, dtype=np.float64)))
+        return right, np.cross(right, forward), forward
+
+    def visible_half_height(self) -> float:
+        """Half the height of the view in world units at the focus distance."""
+        if self.projection == "orthographic":
+            return self.parallel_scale
+        return self.distance * math.tan(math.radians(self.fov) / 2.0)
+
+    # --- matrices -------------------------------------------------------------------------------
+    def view_matrix(self) -> np.ndarray:
+        """World -> eye coordinates (gluLookAt): the eye at the origin looking down -z."""
+        right, true_up, forward = self.basis()
+        matrix = np.eye(4)
+        matrix[0, :3], matrix[1, :3], matrix[2, :3] = right, true_up, -forward
+        matrix[:3, 3] = -matrix[:3, :3] @ np.asarray(self.position, dtype=np.float64)
+        return matrix
+
+    def projection_matrix(self, aspect: float) -> np.ndarray:
+        """Eye -> clip coordinates with OpenGL conventions (gluPerspective / glOrtho)."""
+        aspect = _check_aspect(aspect)
+        n, f = self.near, self.far
+        matrix = np.zeros((4, 4))
+        if self.projection == "perspective":
+            cot = 1.0 / math.tan(math.radians(self.fov) / 2.0)
+            matrix[0, 0], matrix[1, 1] = cot / aspect, cot
+            matrix[2, 2], matrix[2, 3] = (f + n) / (n - f), 2.0 * f * n / (n - f)
+            matrix[3, 2] = -1.0
+        else:
+            s = self.parallel_scale
+            matrix[0, 0], matrix[1, 1] = 1.0 / (s * aspect), 1.0 / s
+            matrix[2, 2], matrix[2, 3] = -2.0 / (f - n), -(f + n) / (f - n)
+            matrix[3, 3] = 1.0
+        return matrix
+
+    def view_projection(self, aspect: float) -> np.ndarray:
+        """World -> clip coordinates: projection_matrix(aspect) @ view_matrix()."""
+        return self.projection_matrix(aspect) @ self.view_matrix()
+
+    # --- rays -----------------------------------------------------------------------------------
+    def rays(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+        """(origins, directions), each (height, width, 3) float64: one ray per pixel centre, row 0
+        at the top, origins on the near plane, unit directions (see the module docstring)."""
+        width, height = _check_size(width, height)
+        aspect = width / height
+        ndc_x = (np.arange(width) + 0.5) / width * 2.0 - 1.0
+        ndc_y = 1.0 - (np.arange(height) + 0.5) / height * 2.0
+        right, true_up, forward = self.basis()
+        eye = np.asarray(self.position, dtype=np.float64)
+        if self.projection == "perspective":
+            tan_half = math.tan(math.radians(self.fov) / 2.0)
+            # Point on the plane at depth 1 in front of the eye; the near plane is `near` times it.
+            to_plane = (forward + (ndc_x[None, :, None] * tan_half * aspect) * right
+                        + (ndc_y[:, None, None] * tan_half) * true_up)
+            origins = eye + self.near * to_plane
+            directions = to_plane / np.linalg.norm(to_plane, axis=-1, keepdims=True)
+        else:
+            s = self.parallel_scale
+            origins = (eye + self.near * forward + (ndc_x[None, :, None] * s * aspect) * right
+                       + (ndc_y[:, None, None] * s) * true_up)
+            directions = np.broadcast_to(forward, origins.shape).copy()
+        return origins, directions
+
+    def far_distance(self, directions: np.ndarray) -> np.ndarray:
+        """Ray parameter of the far plane for rays from rays() with these unit directions."""
+        _, _, forward = self.basis()
+        return (self.far - self.near) / (np.asarray(directions) @ forward)
+
+    # --- interaction ----------------------------------------------------------------------------
+    def rotate(self, dx: float, dy: float) -> "Camera":
+        """Orbit around the focus by dx radians about the camera's up axis and dy radians about its
+        right axis, so the scene turns with the mouse (dx > 0 right, dy > 0 up). The distance to
+        the focus is kept; the stored up becomes the rotated, orthonormal up."""
+        _check_finite(dx=dx, dy=dy)
+        right, true_up, _ = self.basis()
+        # The camera moves opposite to the drag: left for a drag right, down for a drag up.
+        rotation = _rotation(right, dy) @ _rotation(true_up, -dx)
+        offset = np.subtract(self.position, self.focus, dtype=np.float64)
+        position = np.asarray(self.focus) + rotation @ offset
+        return self._replace(position=_vec(position), up=_vec(rotation @ true_up))
+
+    def zoom(self, factor: float) -> "Camera":
+        """Magnify by ``factor`` (> 1 zooms in). Perspective: dolly to distance / factor, moving near
+        and far with the camera (near stays positive); orthographic: parallel_scale / factor."""
+        _check_finite(factor=factor)
+        if factor <= 0.0:
+            raise ValueError(f"zoom factor must be positive, got {factor}")
+        if self.projection == "orthographic":
+            return self._replace(parallel_scale=self.parallel_scale / factor)
+        _, _, forward = self.basis()
+        new_distance = self.distance / factor
+        shift = new_distance - self.distance  # the camera moves by -shift along forward
+        far = max(self.far + shift, self.far * 1e-3)  # stays positive in odd set-ups
+        near = max(self.near + shift, far * 1e-4)
+        position = np.asarray(self.focus) - new_distance * forward
+        return self._replace(position=_vec(position), near=near, far=far)
+
+    def pan(self, dx: float, dy: float) -> "Camera":
+        """Move position and focus in the view plane so the scene moves by (dx, dy) times the
+        visible height at the focus distance (dx > 0 right, dy > 0 up)."""
+        _check_finite(dx=dx, dy=dy)
+        right, true_up, _ = self.basis()
+        height = 2.0 * self.visible_half_height()
+        shift = -(dx * right + dy * true_up) * height
+        return self._replace(position=_vec(np.add(self.position, shift)),
+                             focus=_vec(np.add(self.focus, shift)))
+
+    def framing(self, box_min, box_max, aspect: float = 1.0) -> "Camera":
+        """Keep direction and up; put the focus at the box centre and the camera at a distance
+        where the box's bounding sphere fits the view (for both projections: fov and
+        parallel_scale are both set, so switching projection keeps the picture); near and far
+        enclose the sphere."""
+        aspect = _check_aspect(aspect)
+        centre, radius = _bounding_sphere(box_min, box_max)
+        half_v = math.radians(self.fov) / 2.0
+        half_angle = min(half_v, math.atan(aspect * math.tan(half_v)))
+        distance = radius / math.sin(half_angle)
+        _, _, forward = self.basis()
+        position = centre - distance * forward
+        parallel_scale = radius * max(1.0, 1.0 / aspect)
+        framed = self._replace(position=_vec(position), focus=_vec(centre),
+                               parallel_scale=parallel_scale)
+        return framed.with_clipping_range(box_min, box_max)
+
+    def with_clipping_range(self, box_min, box_max) -> "Camera":
+        """Near and far enclosing the box's bounding sphere from the current position (like VTK's
+        ResetCameraClippingRange); near stays positive when the camera is inside. Unchanged if the
+        box is entirely behind the camera."""
+        centre, radius = _bounding_sphere(box_min, box_max)
+        _, _, forward = self.basis()
+        depth = float((centre - np.asarray(self.position)) @ forward)
+        far = (depth + radius) * (1.0 + _CLIP_MARGIN)
+        if far <= 0.0:
+            return self
+        near = (depth - radius) * (1.0 - _CLIP_MARGIN)
+        return self._replace(near=max(near, far * 1e-4), far=far)
+
+    @classmethod
+    def looking_at_box(cls, box_min, box_max, direction=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0),
+                       projection: str = "perspective", aspect: float = 1.0, **fields) -> "Camera":
+        """A camera viewing along ``direction`` that frames the box (see framing())."""
+        centre, radius = _bounding_sphere(box_min, box_max)
+        start = cls(projection=projection, position=_vec(centre - np.asarray(direction, float)),
+                    focus=_vec(centre), up=tuple(up), **fields)
+        return start.framing(box_min, box_max, aspect)
+
+    def _replace(self, **changes) -> "Camera":
+        # Re-validated construction (model_copy(update=...) would skip the validators).
+        return type(self)(**{**self.model_dump(), **changes})
+
+
+# --- helpers ------------------------------------------------------------------------------------
+def _unit(vector: np.ndarray) -> np.ndarray:
+    return vector / np.linalg.norm(vector)
+
+
+def _vec(array) -> Vec3:
+    return tuple(float(v) for v in array)
+
+
+def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Right-handed rotation by ``angle`` radians about the unit ``axis`` (Rodrigues)."""
+    x, y, z = axis
+    cross = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    return np.eye(3) + math.sin(angle) * cross + (1.0 - math.cos(angle)) * (cross @ cross)
+
+
+def _bounding_sphere(box_min, box_max) -> tuple[np.ndarray, float]:
+    lo, hi = np.asarray(box_min, dtype=np.float64), np.asarray(box_max, dtype=np.float64)
+    if lo.shape != (3,) or hi.shape != (3,) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise ValueError(f"box corners must be three finite numbers each, got {box_min!r}, {box_max!r}")
+    if np.any(hi < lo):
+        raise ValueError(f"box_max {list(hi)} must not be below box_min {list(lo)}")
+    # A flat or single-voxel box still needs a sphere to frame.
+    radius = max(float(np.linalg.norm(hi - lo)) / 2.0, 1e-6 * (1.0 + float(np.abs(lo).max())))
+    return (lo + hi) / 2.0, radius
+
+
+def _check_aspect(aspect: float) -> float:
+    aspect = float(aspect)
+    if not (math.isfinite(aspect) and aspect > 0.0):
+        raise ValueError(f"aspect (width / height) must be positive, got {aspect}")
+    return aspect
+
+
+def _check_size(width: int, height: int) -> tuple[int, int]:
+    if int(width) != width or int(height) != height or width < 1 or height < 1:
+        raise ValueError(f"image size must be positive integers, got {width} x {height}")
+    return int(width), int(height)
+
+
+def _check_finite(**values: float) -> None:
+    for name, value in values.items():
+        if not math.isfinite(value):
+            raise ValueError(f"{name} must be finite, got {value}")

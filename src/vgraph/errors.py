@@ -1,0 +1,71 @@
+"""The errors vgraph raises. Each one carries the place it comes from (file, processor, property,
+JSON path, shader line) so that a message alone tells a user what to fix.
+
+Everything a user can cause derives from ``VGraphError``; the CLI maps it to exit code 2.
+Anything else escaping vgraph is an internal failure (exit code 1).
+"""
+
+from __future__ import annotations
+
+
+class VGraphError(Exception):
+    """Bad input of any kind: a file, a network, a property value, a port connection."""
+
+
+class PropertyError(VGraphError, ValueError):
+    """A property value was rejected. Names processor and property."""
+
+    def __init__(self, where: str, reason: str):
+        self.where = where
+        self.reason = reason
+        super().__init__(f"{where}: {reason}")
+
+
+class PortError(VGraphError):
+    """A connection was refused (unknown port, incompatible data types, taken inport)."""
+
+
+class CycleError(PortError):
+    """A connection would close a cycle in the network."""
+
+
+class NetworkFileError(VGraphError):
+    """A .json network could not be read. ``problems`` lists (JSON path, reason) pairs."""
+
+    def __init__(self, file: str, problems: list[tuple[str, str]]):
+        self.file = file
+        self.problems = problems
+        lines = [f"{file}: {path or '(top level)'}: {reason}" for path, reason in problems]
+        super().__init__("\n".join(lines))
+
+
+class VolumeFileError(VGraphError):
+    """A volume file could not be read. Names the file and, where known, the header field."""
+
+    def __init__(self, file: str, reason: str, field: str | None = None):
+        self.file = str(file)
+        self.field = field
+        self.reason = reason
+        place = f"{self.file} [{field}]" if field else self.file
+        super().__init__(f"{place}: {reason}")
+
+
+class ShaderError(VGraphError):
+    """A GLSL program failed to compile or link. Names the shader file, line and processor."""
+
+    def __init__(self, message: str, file: str | None = None, line: int | None = None,
+                 processor: str | None = None):
+        self.file, self.line, self.processor = file, line, processor
+        place = ":".join(str(p) for p in (file, line) if p is not None)
+        who = f"processor {processor}: " if processor else ""
+        super().__init__(f"{who}{place + ': ' if place else ''}{message}")
+
+
+class ProcessorError(VGraphError):
+    """A processor failed while it ran. Names its id and type; the cause is chained."""
+
+    def __init__(self, processor_id: str, type_name: str, reason: str):
+        self.processor_id = processor_id
+        self.type_name = type_name
+        self.reason = reason
+        super().__init__(f"processor '{processor_id}' ({type_name}): {reason}")

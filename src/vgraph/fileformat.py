@@ -1,0 +1,225 @@
+"""The .json network format: pydantic models, version migrations, load and atomic save.
+
+    {"format": "vgraph-network", "version": 1, "description": "...",
+     "processors": [{"id": "src", "type": "FunctionSelector", "properties": {...}, "position": [x, y]}],
+     "connections": [{"from": "src.volume", "to": "spline.volume"}],
+     "links": [{"from": "eep.camera", "to": "rc.camera", "bidirectional": false}]}
+
+Loading either returns a complete Network or raises NetworkFileError listing every problem with
+its JSON path (``processors[2].properties.level``) and reason; it never changes an existing network.
+Older versions are upgraded by the chain in ``MIGRATIONS`` before validation.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Annotated, Any, Callable, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, StringConstraints, ValidationError
+
+from vgraph.atomic import write_text_atomic
+from vgraph.errors import NetworkFileError, VGraphError
+from vgraph.network import Network
+from vgraph.properties import FilePathProperty
+from vgraph.registry import registry
+
+FORMAT = "vgraph-network"
+CURRENT_VERSION = 1
+
+ProcessorId = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")]
+Address = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*\.[a-z][a-z0-9_]*$")]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", populate_by_name=True)
+
+
+class ProcessorEntry(_Strict):
+    id: ProcessorId
+    type: str
+    properties: dict[str, Any] = {}
+    position: tuple[Annotated[float, Field(allow_inf_nan=False)], Annotated[float, Field(allow_inf_nan=False)]] = (0.0, 0.0)
+
+
+class ConnectionEntry(_Strict):
+    source: Address = Field(alias="from")
+    target: Address = Field(alias="to")
+
+
+class LinkEntry(ConnectionEntry):
+    bidirectional: bool = False
+
+
+class NetworkDocument(_Strict):
+    format: Literal["vgraph-network"]
+    version: Literal[1]
+    description: str = ""
+    processors: list[ProcessorEntry] = []
+    connections: list[ConnectionEntry] = []
+    links: list[LinkEntry] = []
+
+
+# --- migrations -----------------------------------------------------------------------------------
+def _from_version_0(document: dict) -> dict:
+    """Version 0, the pre-release draft: processors keyed by id under "nodes", connections and
+    links as "a.out -> b.in" strings under "edges" and "links"."""
+    def arrow(text: str) -> dict:
+        source, _, target = str(text).partition("->")
+        return {"from": source.strip(), "to": target.strip()}
+
+    nodes = document.get("nodes", {})
+    if not isinstance(nodes, dict):
+        raise ValueError("'nodes' must be an object keyed by processor id")
+    return {"format": FORMAT, "version": 1, "description": document.get("description", ""),
+            "processors": [{"id": key, **node} for key, node in nodes.items()],
+            "connections": [arrow(e) for e in document.get("edges", [])],
+            "links": [arrow(e) for e in document.get("links", [])]}
+
+
+MIGRATIONS: dict[int, Callable[[dict], dict]] = {0: _from_version_0}
+
+
+def migrate(document: dict) -> dict:
+    """Upgrade a document through every migration from its version to CURRENT_VERSION."""
+    version = document.get("version")
+    if not isinstance(version, int) or isinstance(version, bool):
+        raise ValueError(f"'version' must be an integer, got {version!r}")
+    if version > CURRENT_VERSION:
+        raise ValueError(f"version {version} was written by a newer vgraph (this one reads up to "
+                         f"{CURRENT_VERSION})")
+    while version < CURRENT_VERSION:
+        if version not in MIGRATIONS:
+            raise ValueError(f"no migration from version {version}")
+        document = MIGRATIONS[version](document)
+        version = document["version"]
+    return document
+
+
+# --- loading --------------------------------------------------------------------------------------
+def load_network(path: str | Path) -> Network:
+    path = Path(path)
+    document = parse_document(read_json(path), str(path))
+    return build_network(document, str(path), base_dir=path.resolve().parent)
+
+
+def read_json(path: Path):
+    def reject_constant(name):
+        raise ValueError(f"{name} is not allowed in a network file")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise NetworkFileError(str(path), [("", "file not found")]) from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise NetworkFileError(str(path), [("", f"cannot read the file: {error}")]) from None
+    try:
+        return json.loads(text, parse_constant=reject_constant)
+    except json.JSONDecodeError as error:
+        raise NetworkFileError(str(path), [("", f"not valid JSON: {error.msg} at line {error.lineno} "
+                                                f"column {error.colno}")]) from None
+    except ValueError as error:
+        raise NetworkFileError(str(path), [("", str(error))]) from None
+
+
+def parse_document(data, file: str = "<network>") -> NetworkDocument:
+    if not isinstance(data, dict):
+        raise NetworkFileError(file, [("", f"expected a JSON object, got {type(data).__name__}")])
+    if data.get("format") != FORMAT:
+        raise NetworkFileError(file, [("format", f"expected \"{FORMAT}\", got {data.get('format')!r}")])
+    try:
+        data = migrate(data)
+    except Exception as error:
+        raise NetworkFileError(file, [("version", str(error))]) from None
+    try:
+        return NetworkDocument.model_validate(data)
+    except ValidationError as error:
+        raise NetworkFileError(file, [(json_path(e["loc"]), e["msg"]) for e in error.errors()]) from None
+
+
+def json_path(location) -> str:
+    text = ""
+    for part in location:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text
+
+
+def build_network(document: NetworkDocument, file: str = "<network>", base_dir=None) -> Network:
+    network = Network(base_dir)
+    network.description = document.description
+    problems: list[tuple[str, str]] = []
+    for i, entry in enumerate(document.processors):
+        where = f"processors[{i}]"
+        if entry.id in network:
+            problems.append((f"{where}.id", f"duplicate processor id '{entry.id}'"))
+            continue
+        try:
+            processor = registry.get(entry.type)(id=entry.id)
+        except VGraphError as error:
+            problems.append((f"{where}.type", str(error)))
+            continue
+        for name, value in entry.properties.items():
+            try:
+                processor.set_property(name, value)
+            except VGraphError as error:
+                problems.append((f"{where}.properties.{name}", getattr(error, "reason", str(error))))
+        processor.position = entry.position
+        network.add(processor)
+    for kind, entries, make in (("connections", document.connections, network.connect),
+                                ("links", document.links, network.link)):
+        for i, entry in enumerate(entries):
+            extra = {"bidirectional": entry.bidirectional} if kind == "links" else {}
+            try:
+                make(entry.source, entry.target, **extra)
+            except VGraphError as error:
+                problems.append((f"{kind}[{i}]", str(error)))
+    if problems:
+        raise NetworkFileError(file, problems)
+    return network
+
+
+# --- saving ---------------------------------------------------------------------------------------
+def network_document(network: Network, base_dir: Path | None = None) -> dict:
+    """The network as a version-1 document; relative file paths are re-expressed against
+    ``base_dir`` (the folder the file is saved to) so they keep pointing at the same files."""
+    def value_json(processor, name, prop):
+        value = processor.property_values[name]
+        if isinstance(prop, FilePathProperty) and base_dir is not None:
+            value = _relocated(processor, value, base_dir)
+        return prop.to_json(value)
+
+    return {
+        "format": FORMAT, "version": CURRENT_VERSION, "description": network.description,
+        "processors": [{"id": p.id, "type": p.type_name,
+                        "properties": {n: value_json(p, n, prop) for n, prop in p.properties.items()},
+                        "position": list(p.position)} for p in network.processors.values()],
+        "connections": [{"from": f"{c.source}.{c.outport}", "to": f"{c.target}.{c.inport}"}
+                        for c in network.connections],
+        "links": [{"from": l.source, "to": l.target, "bidirectional": l.bidirectional}
+                  for l in network.links],
+    }
+
+
+def _relocated(processor, value: str, base_dir: Path) -> str:
+    """A relative path property value re-expressed relative to ``base_dir``."""
+    if not value or Path(value).expanduser().is_absolute():
+        return value
+    resolved = processor.resolve_path(value).resolve()
+    try:
+        return os.path.relpath(resolved, base_dir)
+    except ValueError:  # another drive on Windows
+        return str(resolved)
+
+
+def save_network(network: Network, path: str | Path) -> None:
+    path = Path(path)
+    base_dir = path.resolve().parent
+    document = network_document(network, base_dir)
+    write_text_atomic(path, json.dumps(document, indent=2) + "\n")
+    if network.base_dir != base_dir:  # the network now lives where it was saved
+        for processor in network.processors.values():
+            for name, prop in processor.properties.items():
+                if isinstance(prop, FilePathProperty):
+                    processor.property_values[name] = _relocated(
+                        processor, processor.property_values[name], base_dir)
+        network.base_dir = base_dir

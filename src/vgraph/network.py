@@ -1,0 +1,254 @@
+"""The network: processors (unique ids), typed connections and property links, kept in a
+networkx MultiDiGraph whose edges are keyed by (outport, inport).
+
+Edits validate before they change anything. A changed property invalidates its processor and
+everything downstream; links carry the value to the properties that follow it. Listeners (the GUI)
+are told of every change as ``callback(event, **details)``.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import networkx as nx
+
+from vgraph.errors import CycleError, PortError, PropertyError, VGraphError
+from vgraph.processor import Processor
+from vgraph.properties import Invalidation
+from vgraph.registry import registry
+
+
+@dataclass(frozen=True)
+class Connection:
+    source: str
+    outport: str
+    target: str
+    inport: str
+
+    def __str__(self) -> str:
+        return f"{self.source}.{self.outport} -> {self.target}.{self.inport}"
+
+
+@dataclass(frozen=True)
+class Link:
+    source: str  # "id.property"
+    target: str
+    bidirectional: bool = False
+
+
+def split_address(address: str, what: str = "port") -> tuple[str, str]:
+    """'id.name' -> ('id', 'name')."""
+    owner, dot, name = str(address).rpartition(".")
+    if not dot or not owner or not name:
+        raise VGraphError(f"'{address}' is not a {what} address of the form ID.NAME")
+    return owner, name
+
+
+class Network:
+    def __init__(self, base_dir: str | Path | None = None):
+        self.graph = nx.MultiDiGraph()
+        self.processors: dict[str, Processor] = {}
+        self.links: list[Link] = []
+        self.base_dir = Path(base_dir) if base_dir is not None else None
+        self.description = ""
+        self.listeners: list[Callable] = []
+        self.last_evaluation = None  # an EvaluationReport, set by the scheduler
+        self._sequence = itertools.count()
+
+    # --- processors -----------------------------------------------------------------------------
+    def add(self, processor: str | type[Processor] | Processor, id: str | None = None,
+            **properties) -> Processor:
+        """Add a processor by type name, class or instance, with property values."""
+        if isinstance(processor, str):
+            processor = registry.get(processor)
+        if isinstance(processor, type):
+            processor = processor(id=id or self._free_id(processor.type_name), **properties)
+        elif properties or id:
+            raise VGraphError("pass properties and id when adding by type, not with an instance")
+        if "." in processor.id or not processor.id:
+            raise VGraphError(f"processor id '{processor.id}' must be non-empty and contain no '.'")
+        if processor.id in self.processors:
+            raise VGraphError(f"a processor with id '{processor.id}' already exists")
+        processor.network = self
+        self.processors[processor.id] = processor
+        self.graph.add_node(processor.id)
+        self._emit("processor_added", processor=processor)
+        return processor
+
+    def remove(self, processor_id: str) -> None:
+        processor = self[processor_id]
+        for connection in self.connections_of(processor_id):
+            self.disconnect(connection)
+        for link in [l for l in self.links if processor_id in (l.source.split(".")[0], l.target.split(".")[0])]:
+            self.unlink(link.source, link.target)
+        self.graph.remove_node(processor_id)
+        del self.processors[processor_id]
+        processor.network = None
+        self._emit("processor_removed", processor=processor)
+
+    def __getitem__(self, processor_id: str) -> Processor:
+        try:
+            return self.processors[processor_id]
+        except KeyError:
+            known = ", ".join(self.processors) or "none"
+            raise VGraphError(f"no processor with id '{processor_id}' (ids: {known})") from None
+
+    def __contains__(self, processor_id: str) -> bool:
+        return processor_id in self.processors
+
+    def _free_id(self, type_name: str) -> str:
+        stem = type_name[0].lower() + type_name[1:]
+        return next(f"{stem}{i or ''}" for i in itertools.count() if f"{stem}{i or ''}" not in self.processors)
+
+    # --- connections ----------------------------------------------------------------------------
+    def connect(self, source: str, target: str) -> Connection:
+        """Connect outport 'a.out' to inport 'b.in'; refused (nothing changes) when the ports are
+        unknown, their data types incompatible, a single inport is taken, or a cycle would close."""
+        src_id, out_name = split_address(source)
+        dst_id, in_name = split_address(target)
+        connection = Connection(src_id, out_name, dst_id, in_name)
+        self.check_connection(connection)
+        self.graph.add_edge(src_id, dst_id, key=(out_name, in_name), sequence=next(self._sequence))
+        self.invalidate_downstream(dst_id)
+        self._emit("connected", connection=connection)
+        return connection
+
+    def check_connection(self, c: Connection) -> None:
+        outport = self[c.source].outport(c.outport)
+        if outport is None:
+            raise PortError(f"{c.source} ({self[c.source].type_name}) has no outport '{c.outport}' "
+                            f"(outports: {', '.join(p.name for p in self[c.source].outports) or 'none'})")
+        inport = self[c.target].inport(c.inport)
+        if inport is None:
+            raise PortError(f"{c.target} ({self[c.target].type_name}) has no inport '{c.inport}' "
+                            f"(inports: {', '.join(p.name for p in self[c.target].inports) or 'none'})")
+        if not inport.accepts(outport):
+            raise PortError(f"cannot connect {c}: {c.source}.{c.outport} carries {outport.type_name} "
+                            f"but {c.target}.{c.inport} takes {inport.type_name}")
+        if self.graph.has_edge(c.source, c.target, key=(c.outport, c.inport)):
+            raise PortError(f"{c} is already connected")
+        taken = self.inputs_of(c.target, c.inport)
+        if taken and not inport.multiple:
+            raise PortError(f"inport {c.target}.{c.inport} is already connected to {taken[0].source}."
+                            f"{taken[0].outport}; disconnect it first")
+        if c.source == c.target or nx.has_path(self.graph, c.target, c.source):
+            raise CycleError(f"connecting {c} would create a cycle")
+
+    def disconnect(self, connection: Connection | str, target: str | None = None) -> None:
+        if not isinstance(connection, Connection):
+            (src, out), (dst, inp) = split_address(connection), split_address(target)
+            connection = Connection(src, out, dst, inp)
+        key = (connection.outport, connection.inport)
+        if not self.graph.has_edge(connection.source, connection.target, key=key):
+            raise PortError(f"{connection} is not connected")
+        self.graph.remove_edge(connection.source, connection.target, key=key)
+        self.invalidate_downstream(connection.target)
+        self._emit("disconnected", connection=connection)
+
+    @property
+    def connections(self) -> list[Connection]:
+        """All connections in the order they were made."""
+        edges = sorted(self.graph.edges(keys=True, data="sequence"), key=lambda e: e[3])
+        return [Connection(u, key[0], v, key[1]) for u, v, key, _ in edges]
+
+    def inputs_of(self, processor_id: str, inport: str) -> list[Connection]:
+        edges = sorted(self.graph.in_edges(processor_id, keys=True, data="sequence"), key=lambda e: e[3])
+        return [Connection(u, key[0], v, key[1]) for u, v, key, _ in edges if key[1] == inport]
+
+    def connections_of(self, processor_id: str) -> list[Connection]:
+        return [c for c in self.connections if processor_id in (c.source, c.target)]
+
+    # --- properties and links -------------------------------------------------------------------
+    def set(self, address: str, value) -> None:
+        """Set 'id.property' (validated; follows links; invalidates downstream)."""
+        processor_id, name = split_address(address, "property")
+        self[processor_id].set_property(name, value)
+
+    def get(self, address: str):
+        processor_id, name = split_address(address, "property")
+        processor = self[processor_id]
+        if name not in processor.properties:
+            processor.set_property(name, None)  # raises the error that lists the properties
+        return processor.property_values[name]
+
+    def link(self, source: str, target: str, bidirectional: bool = False) -> Link:
+        """Make ``target`` follow ``source`` (and the other way round if bidirectional). The target
+        takes the source's value at once."""
+        src_prop, dst_prop = self._property(source), self._property(target)
+        if type(src_prop) is not type(dst_prop):
+            raise PropertyError(target, f"cannot link a {src_prop.kind} property ({source}) to a "
+                                        f"{dst_prop.kind} property")
+        if source == target or any({l.source, l.target} == {source, target} for l in self.links):
+            raise PropertyError(target, f"{source} and {target} are already linked (or the same)")
+        link = Link(source, target, bidirectional)
+        self.set(target, self.get(source))
+        self.links.append(link)
+        self._emit("linked", link=link)
+        return link
+
+    def unlink(self, source: str, target: str) -> None:
+        before = len(self.links)
+        self.links = [l for l in self.links if (l.source, l.target) != (source, target)]
+        if len(self.links) == before:
+            raise PropertyError(target, f"no link from {source} to {target}")
+        self._emit("unlinked", source=source, target=target)
+
+    def _property(self, address: str):
+        processor_id, name = split_address(address, "property")
+        processor = self[processor_id]
+        if name not in processor.properties:
+            raise PropertyError(address, f"{processor.type_name} has no property '{name}'")
+        return processor.properties[name]
+
+    def property_changed(self, processor: Processor, name: str) -> None:
+        """Called by a processor after one of its properties took a new value."""
+        processor.invalidate(processor.properties[name].invalidates)
+        self.invalidate_downstream(processor.id)
+        self._emit("property_changed", processor=processor, name=name)
+        address = f"{processor.id}.{name}"
+        value = processor.property_values[name]
+        for link in self.links:
+            follower = link.target if link.source == address else \
+                link.source if link.bidirectional and link.target == address else None
+            if follower is not None and self.get(follower) != value:
+                self.set(follower, value)  # the follower's own change carries it further
+
+    def invalidate_downstream(self, processor_id: str, level: Invalidation = Invalidation.OUTPUT) -> None:
+        for pid in (processor_id, *nx.descendants(self.graph, processor_id)):
+            self.processors[pid].invalidate(level)
+
+    # --- evaluation and files -------------------------------------------------------------------
+    def update(self, *targets: str, size: tuple[int, int] | None = None):
+        """Evaluate what ``targets`` need ('id.outport' or a sink's id; default: every sink)."""
+        from vgraph.scheduler import evaluate
+        return evaluate(self, targets, size)
+
+    def output(self, target: str):
+        """The data at 'id.outport', or what a sink 'id' received (after update)."""
+        from vgraph.scheduler import target_data
+        return target_data(self, target)
+
+    def evaluate(self, target: str | None = None, size: tuple[int, int] | None = None):
+        """Evaluate one target and return its data as numpy: an image as float32 (H, W, 4) with
+        row 0 at the top, a volume as its [z, y, x] array."""
+        from vgraph.scheduler import default_target, to_numpy
+        target = target or default_target(self)
+        self.update(target, size=size)
+        return to_numpy(self.output(target))
+
+    def save(self, path: str | Path) -> None:
+        from vgraph.fileformat import save_network
+        save_network(self, path)
+
+    def sinks(self) -> list[Processor]:
+        return [p for p in self.processors.values() if not p.outports]
+
+    def subscribe(self, callback: Callable) -> None:
+        self.listeners.append(callback)
+
+    def _emit(self, event: str, **details) -> None:
+        for callback in list(self.listeners):
+            callback(event, **details)

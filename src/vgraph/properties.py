@@ -1,0 +1,211 @@
+"""Typed properties, declared once on a processor class.
+
+A declaration such as ``sampling_rate = FloatProperty(1.0, min=0.1, max=16)`` gives the default, the
+range, the validation (a pydantic TypeAdapter), the JSON form, the row in ``vgraph list`` and, later,
+the GUI widget. On an instance the attribute reads the current value; assigning validates it.
+
+Each property says what a change invalidates: ``Invalidation.OUTPUT`` (run process() again) or
+``Invalidation.RESOURCES`` (rebuild resources such as the shader's define set, then run again).
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+from typing import Annotated, Literal
+
+from pydantic import BeforeValidator, Field, StrictBool, StrictInt, TypeAdapter, ValidationError
+
+from vgraph.camera import Camera
+from vgraph.errors import PropertyError
+from vgraph.ports import SNAKE_CASE
+from vgraph.transfer_function import TransferFunction
+
+
+class Invalidation(IntEnum):
+    VALID = 0
+    OUTPUT = 1
+    RESOURCES = 2
+
+
+def _not_bool(value):
+    if isinstance(value, bool):
+        raise ValueError("expected a number, not a boolean")
+    return value
+
+
+_NOT_BOOL = BeforeValidator(_not_bool)
+
+
+class Property:
+    """Base of all property kinds. Subclasses set ``kind`` and build ``_value_type``."""
+
+    kind = "property"
+
+    def __init__(self, default, *, label: str | None = None, doc: str = "",
+                 invalidates: Invalidation = Invalidation.OUTPUT):
+        self.label = label
+        self.doc = doc
+        self.invalidates = invalidates
+        self.name = ""
+        self._adapter = TypeAdapter(self._value_type())
+        self.default = self.validate(default, "default")
+
+    # --- declaration ----------------------------------------------------------------------------
+    def __set_name__(self, owner, name: str):
+        if not SNAKE_CASE.match(name):
+            raise ValueError(f"{owner.__name__}.{name}: property names must be snake_case")
+        self.name = name
+        self.label = self.label or name.replace("_", " ").capitalize()
+
+    def __get__(self, processor, owner=None):
+        if processor is None:
+            return self
+        return processor.property_values[self.name]
+
+    def __set__(self, processor, value):
+        processor.set_property(self.name, value)
+
+    # --- values ---------------------------------------------------------------------------------
+    def _value_type(self):
+        raise NotImplementedError
+
+    def validate(self, value, where: str):
+        """The value as stored, or PropertyError naming ``where`` and the reason."""
+        try:
+            return self._adapter.validate_python(value)
+        except ValidationError as error:
+            reasons = "; ".join(_describe(e) for e in error.errors())
+            raise PropertyError(where, f"invalid value {value!r}: {reasons}") from None
+
+    def to_json(self, value):
+        return self._adapter.dump_python(value, mode="json")
+
+    def describe(self) -> dict:
+        """The row of ``vgraph list --json``."""
+        return {"name": self.name, "type": self.kind, "default": self.to_json(self.default),
+                "min": getattr(self, "min", None), "max": getattr(self, "max", None),
+                "choices": list(getattr(self, "choices", [])) or None, "doc": self.doc}
+
+
+def _describe(error: dict) -> str:
+    location = ".".join(str(p) for p in error.get("loc", ()))
+    return f"{location}: {error['msg']}" if location else error["msg"]
+
+
+class FloatProperty(Property):
+    kind = "float"
+
+    def __init__(self, default: float, *, min: float | None = None, max: float | None = None, **kw):
+        self.min, self.max = min, max
+        super().__init__(default, **kw)
+
+    def _value_type(self):
+        return Annotated[float, Field(ge=self.min, le=self.max, allow_inf_nan=False), _NOT_BOOL]
+
+
+class IntProperty(Property):
+    kind = "int"
+
+    def __init__(self, default: int, *, min: int | None = None, max: int | None = None, **kw):
+        self.min, self.max = min, max
+        super().__init__(default, **kw)
+
+    def _value_type(self):
+        return Annotated[StrictInt, Field(ge=self.min, le=self.max)]
+
+
+class BoolProperty(Property):
+    kind = "bool"
+
+    def _value_type(self):
+        return StrictBool
+
+
+class OptionProperty(Property):
+    kind = "option"
+
+    def __init__(self, default: str, *, choices: list[str], **kw):
+        self.choices = tuple(choices)
+        super().__init__(default, **kw)
+
+    def _value_type(self):
+        return Literal[self.choices]
+
+
+class StringProperty(Property):
+    kind = "string"
+
+    def _value_type(self):
+        return str
+
+
+class FilePathProperty(StringProperty):
+    """A path; relative paths are resolved against the network file's folder when used.
+    ``filters`` are the file patterns a file dialog offers, e.g. ("*.png", "*.jpg")."""
+
+    kind = "file_path"
+
+    def __init__(self, default: str = "", *, filters: tuple[str, ...] = ("*",), **kw):
+        self.filters = tuple(filters)
+        super().__init__(default, **kw)
+
+    def describe(self) -> dict:
+        return super().describe() | {"filters": list(self.filters)}
+
+
+class VectorProperty(Property):
+    """A fixed-length vector of floats (or ints with ``integer=True``), each within [min, max]."""
+
+    kind = "vector"
+
+    def __init__(self, default, *, min: float | None = None, max: float | None = None,
+                 integer: bool = False, **kw):
+        self.size = len(default)
+        self.min, self.max, self.integer = min, max, integer
+        super().__init__(default, **kw)
+
+    def _value_type(self):
+        number = StrictInt if self.integer else Annotated[float, Field(allow_inf_nan=False), _NOT_BOOL]
+        item = Annotated[number, Field(ge=self.min, le=self.max)]
+        return tuple[(item,) * self.size]
+
+    def describe(self) -> dict:
+        return super().describe() | {"size": self.size}
+
+
+class ColorProperty(Property):
+    """RGBA in [0, 1]; an RGB triple gets alpha 1."""
+
+    kind = "color"
+
+    def _value_type(self):
+        channel = Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False), _NOT_BOOL]
+        return Annotated[tuple[channel, channel, channel, channel], BeforeValidator(_add_alpha)]
+
+
+class TransferFunctionProperty(Property):
+    kind = "transfer_function"
+
+    def _value_type(self):
+        return TransferFunction
+
+
+class CameraProperty(Property):
+    kind = "camera"
+
+    def _value_type(self):
+        return Camera
+
+
+def _add_alpha(value):
+    if isinstance(value, (list, tuple)) and len(value) == 3:
+        return (*value, 1.0)
+    return value
+
+
+
+PROPERTY_KINDS: dict[str, type[Property]] = {
+    cls.kind: cls for cls in (FloatProperty, IntProperty, BoolProperty, OptionProperty,
+                              StringProperty, FilePathProperty, VectorProperty, ColorProperty,
+                              TransferFunctionProperty, CameraProperty)
+}

@@ -1,0 +1,193 @@
+"""Demand-driven evaluation.
+
+``evaluate(network, targets, size)`` runs, in topological order, only the processors the targets
+depend on, and of those only the invalid ones. Processors outside the targets' ancestors are never
+initialised, so they compile no shader and upload no texture. Every evaluation is recorded (which
+processors ran, in order, and how long each took). A failure inside a processor becomes a
+ProcessorError naming its id and type; the processor stays invalid and the network usable.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import networkx as nx
+import numpy as np
+
+from vgraph.errors import ProcessorError, VGraphError
+from vgraph.network import Network, split_address
+from vgraph.processor import Processor
+from vgraph.properties import Invalidation
+
+DEFAULT_SIZE = (512, 512)
+
+
+@dataclass
+class EvaluationRecord:
+    id: str
+    type: str
+    seconds: float
+
+
+@dataclass
+class EvaluationReport:
+    evaluated: list[EvaluationRecord] = field(default_factory=list)
+    total_seconds: float = 0.0
+
+    @property
+    def ids(self) -> list[str]:
+        return [record.id for record in self.evaluated]
+
+    def to_json(self) -> dict:
+        return {"evaluated": [vars(r) for r in self.evaluated], "total_seconds": self.total_seconds}
+
+
+def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None) -> EvaluationReport:
+    targets = list(targets) or [p.id for p in network.sinks()]
+    target_ids = [_target_processor(network, t) for t in targets]
+    size = _checked_size(size) if size is not None else default_size(network, target_ids)
+    needed = set(target_ids).union(*(nx.ancestors(network.graph, t) for t in target_ids))
+    order = list(nx.topological_sort(network.graph.subgraph(needed)))
+    for pid in order:
+        processor = network.processors[pid]
+        if processor.renders_at_size and processor.render_size != size:
+            processor.render_size = size
+            network.invalidate_downstream(pid)
+
+    report = EvaluationReport()
+    network.last_evaluation = report
+    start = time.perf_counter()
+    try:
+        for pid in order:
+            processor = network.processors[pid]
+            if processor.invalid_level != Invalidation.VALID:
+                report.evaluated.append(_run(network, processor))
+    finally:
+        report.total_seconds = time.perf_counter() - start
+    return report
+
+
+def _run(network: Network, processor: Processor) -> EvaluationRecord:
+    start = time.perf_counter()
+    try:
+        inputs = _gather_inputs(network, processor)
+        if not processor.initialized:
+            processor.initialize()
+            processor.initialized = True
+        if processor.invalid_level >= Invalidation.RESOURCES:
+            processor.build_resources()
+        outputs = _checked_outputs(processor, processor.process(**inputs))
+    except Exception as error:
+        processor.last_error = _reason(error)
+        processor.last_seconds = time.perf_counter() - start
+        network._emit("evaluated", processor=processor)
+        wrapped = ProcessorError(processor.id, processor.type_name, processor.last_error)
+        wrapped.internal = not isinstance(error, VGraphError)
+        raise wrapped from error
+    processor.inputs, processor.outputs = inputs, outputs
+    processor.invalid_level = Invalidation.VALID
+    processor.last_error = None
+    processor.last_seconds = time.perf_counter() - start
+    processor.evaluation_count += 1
+    network._emit("evaluated", processor=processor)
+    return EvaluationRecord(processor.id, processor.type_name, processor.last_seconds)
+
+
+def _reason(error: Exception) -> str:
+    return str(error) if isinstance(error, VGraphError) else f"{type(error).__name__}: {error}"
+
+
+def _gather_inputs(network: Network, processor: Processor) -> dict:
+    inputs = {}
+    for inport in processor.inports:
+        data = [network.processors[c.source].outputs.get(c.outport)
+                for c in network.inputs_of(processor.id, inport.name)]
+        if not data and not inport.optional:
+            raise VGraphError(f"inport '{inport.name}' ({inport.type_name}) is not connected")
+        inputs[inport.name] = data if inport.multiple else (data[0] if data else None)
+    return inputs
+
+
+def _checked_outputs(processor: Processor, result) -> dict:
+    if not processor.outports:
+        return {}
+    if len(processor.outports) == 1 and not isinstance(result, dict):
+        result = {processor.outports[0].name: result}
+    if not isinstance(result, dict):
+        raise VGraphError(f"process() must return a dict of outputs by outport name, got {type(result).__name__}")
+    for outport in processor.outports:
+        data = result.get(outport.name)
+        if data is not None and not isinstance(data, outport.data_type):
+            raise VGraphError(f"process() returned {type(data).__name__} for outport "
+                              f"'{outport.name}', which carries {outport.type_name}")
+    unknown = set(result) - {p.name for p in processor.outports}
+    if unknown:
+        raise VGraphError(f"process() returned outputs for unknown outports {sorted(unknown)}")
+    return result
+
+
+# --- targets --------------------------------------------------------------------------------------
+def _target_processor(network: Network, target: str) -> str:
+    if "." not in target:
+        network[target]  # raises with the list of ids
+        return target
+    processor_id, port = split_address(target)
+    processor = network[processor_id]
+    if processor.outport(port) is None:
+        names = ", ".join(p.name for p in processor.outports) or "none"
+        raise VGraphError(f"{processor_id} ({processor.type_name}) has no outport '{port}' (outports: {names})")
+    return processor_id
+
+
+def target_data(network: Network, target: str):
+    if "." in target:
+        processor_id, port = split_address(target)
+        return network[processor_id].outputs.get(port)
+    sink = network[target]
+    if len(sink.inports) != 1:
+        raise VGraphError(f"'{target}' is not a sink with one inport; name a port as ID.PORT")
+    return sink.inputs.get(sink.inports[0].name)
+
+
+def default_target(network: Network) -> str:
+    """The network's canvas: the first Canvas, else the only sink."""
+    canvases = [p.id for p in network.processors.values() if p.type_name == "Canvas"]
+    sinks = [p.id for p in network.sinks()]
+    if canvases:
+        return canvases[0]
+    if len(sinks) == 1:
+        return sinks[0]
+    raise VGraphError("the network has no Canvas; choose a port as ID.PORT "
+                      f"(processors: {', '.join(network.processors) or 'none'})")
+
+
+def default_size(network: Network, target_ids: list[str]) -> tuple[int, int]:
+    """The size property of the first targeted sink that has one (a Canvas), else 512 x 512."""
+    for pid in target_ids:
+        processor = network.processors[pid]
+        if "size" in processor.properties and not processor.outports:
+            return tuple(processor.property_values["size"])
+    return DEFAULT_SIZE
+
+
+def _checked_size(size) -> tuple[int, int]:
+    try:
+        width, height = (int(v) for v in size)
+    except (TypeError, ValueError):
+        raise VGraphError(f"image size must be two integers (width, height), got {size!r}") from None
+    if not (1 <= width <= 16384 and 1 <= height <= 16384):
+        raise VGraphError(f"image size must be between 1 and 16384 per side, got {width}x{height}")
+    return width, height
+
+
+def to_numpy(data):
+    if data is None:
+        raise VGraphError("the target holds no data (was it evaluated? is its input connected?)")
+    if hasattr(data, "to_numpy"):
+        return data.to_numpy()
+    if hasattr(data, "data") and isinstance(data.data, np.ndarray):
+        return data.data
+    if isinstance(data, np.ndarray):
+        return data
+    raise VGraphError(f"cannot convert {type(data).__name__} to a numpy array")

@@ -1,0 +1,170 @@
+"""The Volume data type: a [z, y, x] array with its place in the world and its value range.
+
+Conventions (docs/volumes.md says the same for users):
+- ``data`` is indexed [z, y, x]; x varies fastest in memory, as in raw files and GL 3D textures.
+- ``spacing`` and ``origin`` are (x, y, z) in world units. Voxel (i, j, k) = data[k, j, i] has its
+  centre at origin + (i, j, k) * spacing.
+- ``value_range`` maps stored values to normalised intensities in [0, 1], the unit of every
+  transfer-function position and iso level. Unless declared: uint8 -> [0, 255], uint16 -> [0, 65535],
+  anything else -> [min, max] of the finite values.
+- A volume of cubic B-spline coefficients (``is_spline_coefficients``) holds no samples; consumers
+  that need one kind refuse the other.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from vgraph.errors import VGraphError
+
+Vec3 = tuple[float, float, float]
+
+_DEFAULT_INTEGER_RANGES = {np.dtype(np.uint8): (0.0, 255.0), np.dtype(np.uint16): (0.0, 65535.0)}
+
+# Texture formats by dtype: (moderngl dtype, full-scale value of a normalised sample).
+_TEXTURE_FORMATS = {np.dtype(np.uint8): ("f1", 255.0), np.dtype(np.uint16): ("nu2", 65535.0)}
+
+
+@dataclass(eq=False)
+class Volume:
+    data: np.ndarray
+    spacing: Vec3 = (1.0, 1.0, 1.0)
+    origin: Vec3 = (0.0, 0.0, 0.0)
+    declared_range: tuple[float, float] | None = None
+    is_spline_coefficients: bool = False
+    source: str = ""  # where the data came from, for messages
+    _textures: dict = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self):
+        where = f" from {self.source}" if self.source else ""
+        data = np.asarray(self.data)
+        if data.ndim != 3:
+            raise VGraphError(f"volume{where}: expected a 3D [z, y, x] array, got shape {data.shape}")
+        if 0 in data.shape:
+            raise VGraphError(f"volume{where}: zero-size dimension in shape (z, y, x) = {data.shape}")
+        if data.dtype.kind not in "uif":
+            raise VGraphError(f"volume{where}: unsupported data type {data.dtype}")
+        self.data = data
+        self.spacing = _vec3(self.spacing, "spacing", where, positive=True)
+        self.origin = _vec3(self.origin, "origin", where)
+        if self.declared_range is not None:
+            lo, hi = (float(v) for v in self.declared_range)
+            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+                raise VGraphError(f"volume{where}: value_range must be finite with low < high, "
+                                  f"got {self.declared_range}")
+            self.declared_range = (lo, hi)
+        weakref.finalize(self, _release_all, self._textures)
+
+    # --- geometry -------------------------------------------------------------------------------
+    @property
+    def dims(self) -> tuple[int, int, int]:
+        """Voxel counts as (x, y, z)."""
+        z, y, x = self.data.shape
+        return (x, y, z)
+
+    @property
+    def extent(self) -> np.ndarray:
+        """World-space size of the box spanned by the voxel centres, (x, y, z)."""
+        return (np.array(self.dims) - 1) * np.array(self.spacing)
+
+    def voxel_to_world(self, ijk) -> np.ndarray:
+        return np.asarray(self.origin) + np.asarray(ijk, dtype=float) * np.asarray(self.spacing)
+
+    def world_to_voxel(self, xyz) -> np.ndarray:
+        return (np.asarray(xyz, dtype=float) - np.asarray(self.origin)) / np.asarray(self.spacing)
+
+    # --- values ---------------------------------------------------------------------------------
+    @cached_property
+    def nonfinite_count(self) -> int:
+        if self.data.dtype.kind != "f":
+            return 0
+        return int(self.data.size - np.count_nonzero(np.isfinite(self.data)))
+
+    @cached_property
+    def value_range(self) -> tuple[float, float]:
+        if self.declared_range is not None:
+            return self.declared_range
+        if self.data.dtype in _DEFAULT_INTEGER_RANGES:
+            return _DEFAULT_INTEGER_RANGES[self.data.dtype]
+        finite = self.data[np.isfinite(self.data)] if self.nonfinite_count else self.data
+        if finite.size == 0:
+            return (0.0, 1.0)
+        lo, hi = float(finite.min()), float(finite.max())
+        return (lo, hi) if hi > lo else (lo, lo + 1.0)  # a constant volume still maps somewhere
+
+    def normalized(self, values) -> np.ndarray:
+        """Stored values -> normalised intensities (not clamped)."""
+        lo, hi = self.value_range
+        return (np.asarray(values, dtype=np.float64) - lo) / (hi - lo)
+
+    def histogram(self, bins: int = 256) -> tuple[np.ndarray, np.ndarray]:
+        """Counts of finite voxels in ``bins`` equal bins over the value range, and the bin edges
+        in normalised intensity."""
+        key = ("histogram", bins)
+        if key not in self.__dict__:
+            lo, hi = self.value_range
+            values = self.data[np.isfinite(self.data)] if self.nonfinite_count else self.data
+            counts, _ = np.histogram(values, bins=bins, range=(lo, hi))
+            self.__dict__[key] = (counts, np.linspace(0.0, 1.0, bins + 1))
+        return self.__dict__[key]
+
+    # --- GPU ------------------------------------------------------------------------------------
+    def texture(self, ctx):
+        """The volume as a 3D texture on ``ctx`` (R8 / R16 normalised, otherwise R32F), uploaded
+        once per context and released with the volume. Non-finite voxels are uploaded clamped to
+        the value range so that no shader ever samples NaN."""
+        key = id(ctx)
+        if key not in self._textures:
+            self._textures[key] = self._upload(ctx)
+        return self._textures[key]
+
+    def texture_scale_offset(self) -> tuple[float, float]:
+        """(scale, offset) with normalised intensity = texture sample * scale + offset."""
+        lo, hi = self.value_range
+        full_scale = _TEXTURE_FORMATS.get(self.data.dtype, (None, 1.0))[1]
+        return full_scale / (hi - lo), -lo / (hi - lo)
+
+    def _upload(self, ctx):
+        gl_dtype, _ = _TEXTURE_FORMATS.get(self.data.dtype, ("f4", 1.0))
+        data = self.data
+        if gl_dtype == "f4":
+            data = data.astype(np.float32, copy=False)
+            if self.nonfinite_count:
+                lo, hi = self.value_range
+                data = np.nan_to_num(data, nan=lo, posinf=hi, neginf=lo)
+        texture = ctx.texture3d(self.dims, 1, np.ascontiguousarray(data).tobytes(),
+                                dtype=gl_dtype, alignment=1)
+        texture.repeat_x = texture.repeat_y = texture.repeat_z = False
+        return texture
+
+    def with_data(self, data: np.ndarray, **changes) -> "Volume":
+        """A new volume on the same grid with other voxel values."""
+        fields = dict(spacing=self.spacing, origin=self.origin, declared_range=self.declared_range,
+                      is_spline_coefficients=self.is_spline_coefficients, source=self.source)
+        fields.update(changes)
+        return Volume(data, **fields)
+
+
+def _vec3(value, name: str, where: str, positive: bool = False) -> Vec3:
+    try:
+        vec = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        raise VGraphError(f"volume{where}: {name} must be three numbers (x, y, z), got {value!r}")
+    if len(vec) != 3 or not all(np.isfinite(vec)):
+        raise VGraphError(f"volume{where}: {name} must be three finite numbers (x, y, z), got {value!r}")
+    if positive and min(vec) <= 0:
+        raise VGraphError(f"volume{where}: {name} must be positive, got {vec}")
+    return vec
+
+
+def _release_all(textures: dict) -> None:
+    for texture in textures.values():
+        try:
+            texture.release()
+        except Exception:  # the context may already be gone at interpreter exit
+            pass
+    textures.clear()
