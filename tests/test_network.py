@@ -1,0 +1,179 @@
+"""The network model: typed connections, cycles, properties, links, listeners."""
+
+import pytest
+
+import vgraph
+from vgraph import CycleError, Network, PortError, PropertyError, VGraphError
+from vgraph.image import Image
+from vgraph.volume import Volume
+
+import toy_processors
+from toy_processors import Collect, Number, Sum, Text
+
+for cls in toy_processors.ALL:
+    vgraph.register(cls)
+
+
+@pytest.fixture
+def net():
+    network = Network()
+    network.add("Number", id="a", value=2.0)
+    network.add("Number", id="b", value=3.0)
+    network.add("Sum", id="sum")
+    network.add("Collect", id="out")
+    network.connect("a.value", "sum.values")
+    network.connect("b.value", "sum.values")
+    network.connect("sum.value", "out.value")
+    return network
+
+
+def test_multiple_inport_receives_connections_in_order(net):
+    net.update()
+    assert net.output("out") == 5.0
+    assert [c.source for c in net.inputs_of("sum", "values")] == ["a", "b"]
+
+
+def test_incompatible_data_types_are_refused_and_nothing_changes(net):
+    net.add("Text", id="t")
+    before = net.connections
+    with pytest.raises(PortError, match=r"t.text carries str but sum.offset takes float"):
+        net.connect("t.text", "sum.offset")
+    assert net.connections == before
+
+
+def test_builtin_image_and_volume_ports_do_not_mix():
+    network = Network()
+    network.add("ImageSource", id="src")
+    network.add("Canvas", id="canvas")
+    network.connect("src.image", "canvas.image")
+    assert Image.__name__ == "Image" and Volume.__name__ == "Volume"
+    with pytest.raises(PortError, match="already connected"):
+        network.connect("src.image", "canvas.image")
+
+
+def test_subtype_is_accepted_by_its_base_type():
+    class SpecialNumber(float):
+        pass
+
+    class Special(vgraph.Processor):
+        outports = [vgraph.Outport("value", SpecialNumber)]
+
+        def process(self):
+            return SpecialNumber(4.0)
+
+    network = Network()
+    network.add(Special, id="s")
+    network.add(Collect, id="c")
+    network.connect("s.value", "c.value")
+    network.update()
+    assert network.output("c") == 4.0
+
+
+def test_unknown_ports_name_the_existing_ones(net):
+    with pytest.raises(PortError, match=r"a \(Number\) has no outport 'nope' \(outports: value\)"):
+        net.connect("a.nope", "sum.offset")
+    with pytest.raises(PortError, match=r"has no inport 'nope' \(inports: values, offset\)"):
+        net.connect("a.value", "sum.nope")
+
+
+def test_single_inport_takes_one_connection(net):
+    net.add("Number", id="c")
+    with pytest.raises(PortError, match="out.value is already connected to sum.value"):
+        net.connect("c.value", "out.value")
+
+
+def test_cycles_are_rejected(net):
+    net.add("Sum", id="second")
+    net.connect("sum.value", "second.values")
+    with pytest.raises(CycleError, match="cycle"):
+        net.connect("second.value", "sum.offset")
+    with pytest.raises(CycleError):
+        net.connect("sum.value", "sum.offset")
+    assert len(net.connections) == 4
+
+
+def test_disconnect_and_remove(net):
+    net.disconnect("b.value", "sum.values")
+    net.update()
+    assert net.output("out") == 2.0
+    net.remove("a")
+    assert "a" not in net and all("a" not in (c.source, c.target) for c in net.connections)
+    with pytest.raises(PortError, match="is not connected"):
+        net.disconnect("b.value", "sum.values")
+
+
+def test_duplicate_and_bad_ids(net):
+    with pytest.raises(VGraphError, match="already exists"):
+        net.add("Number", id="a")
+    with pytest.raises(VGraphError, match="contain no '.'"):
+        net.add("Number", id="x.y")
+    assert net.add("Number").id == "number"
+    assert net.add("Number").id == "number1"
+
+
+@pytest.mark.parametrize("value, message", [
+    (101.0, "less than or equal to 100"),
+    ("high", "valid number"),
+    (True, "not a boolean"),
+    (float("nan"), "finite number"),
+])
+def test_property_validation_names_processor_and_property(net, value, message):
+    with pytest.raises(PropertyError, match=rf"a\.value: invalid value .*{message}"):
+        net.set("a.value", value)
+    assert net.get("a.value") == 2.0
+
+
+def test_unknown_property_lists_the_known_ones(net):
+    with pytest.raises(PropertyError, match=r"a\.colour: Number has no property 'colour' \(its properties: value, mode\)"):
+        net.set("a.colour", 1)
+
+
+@pytest.mark.parametrize("prop, good, bad", [
+    (vgraph.IntProperty(3, min=1, max=5), 4, 2.5),
+    (vgraph.BoolProperty(False), True, 1),
+    (vgraph.OptionProperty("mip", choices=["mip", "dvr"]), "dvr", "iso"),
+    (vgraph.ColorProperty((0, 0, 0)), (1, 0.5, 0), (2, 0, 0)),
+    (vgraph.VectorProperty((1.0, 2.0, 3.0), min=0.0), [4, 5, 6], [1, 2]),
+    (vgraph.TransferFunctionProperty({"points": [[0, 0, 0, 0, 0]]}), {"points": [[0.5, 1, 1, 1, 1]]},
+     {"points": [[0.5, 1, 1, 1]]}),
+    (vgraph.CameraProperty({}), {"projection": "orthographic"}, {"projection": "fisheye"}),
+])
+def test_property_kinds_accept_and_reject(prop, good, bad):
+    prop.validate(good, "p.x")
+    with pytest.raises(PropertyError, match=r"^p\.x: invalid value"):
+        prop.validate(bad, "p.x")
+
+
+def test_links_propagate_one_way(net):
+    net.link("a.value", "b.value")
+    assert net.get("b.value") == 2.0  # the follower takes the value at once
+    net.set("a.value", 7.0)
+    assert net.get("b.value") == 7.0
+    net.set("b.value", 1.0)
+    assert net.get("a.value") == 7.0
+
+
+def test_links_propagate_both_ways_and_through_chains(net):
+    net.add("Number", id="c")
+    net.link("a.value", "b.value", bidirectional=True)
+    net.link("b.value", "c.value")
+    net.set("b.value", 9.0)
+    assert (net.get("a.value"), net.get("c.value")) == (9.0, 9.0)
+    net.set("a.value", -1.0)
+    assert net.get("c.value") == -1.0
+
+
+def test_links_between_different_kinds_are_refused(net):
+    with pytest.raises(PropertyError, match="cannot link a float property"):
+        net.link("a.value", "a.mode")
+
+
+def test_listeners_hear_every_edit(net):
+    events = []
+    net.subscribe(lambda event, **details: events.append(event))
+    net.set("a.value", 4.0)
+    net.add("Number", id="z")
+    net.connect("z.value", "sum.offset")
+    net.remove("z")
+    assert events == ["property_changed", "processor_added", "connected", "disconnected",
+                      "processor_removed"]

@@ -1,0 +1,118 @@
+"""Demand-driven evaluation: only what the targets need, only what is invalid."""
+
+import pytest
+
+import vgraph
+from vgraph import Network, ProcessorError
+
+import toy_processors
+
+for cls in toy_processors.ALL:
+    vgraph.register(cls)
+
+
+@pytest.fixture
+def net():
+    """a -> sum -> fragile -> out, with b feeding sum; x and y form a branch nobody asks for."""
+    network = Network()
+    for pid in ("a", "b", "x"):
+        network.add("Number", id=pid)
+    network.add("Sum", id="sum")
+    network.add("Fragile", id="fragile")
+    network.add("Collect", id="out")
+    network.add("Collect", id="y")
+    network.connect("a.value", "sum.values")
+    network.connect("b.value", "sum.values")
+    network.connect("sum.value", "fragile.value")
+    network.connect("fragile.value", "out.value")
+    network.connect("x.value", "y.value")
+    return network
+
+
+def counts(network):
+    return {pid: p.evaluation_count for pid, p in network.processors.items()}
+
+
+def test_only_ancestors_of_the_target_run_in_topological_order(net):
+    report = net.update("out")
+    assert report.ids[-2:] == ["fragile", "out"] and set(report.ids[:3]) == {"a", "b", "sum"}
+    assert report.ids.index("sum") == 2
+    assert net["x"].evaluation_count == 0 and not net["x"].initialized
+    assert net["y"].evaluation_count == 0
+
+
+def test_a_port_target_stops_at_that_port(net):
+    assert sorted(net.update("sum.value").ids) == ["a", "b", "sum"]
+    assert net.output("sum.value") == 2.0
+
+
+def test_a_property_change_reruns_only_it_and_downstream(net):
+    net.update("out")
+    before = counts(net)
+    net.set("b.value", 5.0)
+    report = net.update("out")
+    assert report.ids == ["b", "sum", "fragile", "out"]
+    after = counts(net)
+    assert after["a"] == before["a"] and after["x"] == before["x"] == 0
+    assert net.output("out") == 6.0
+    assert net.update("out").ids == []  # nothing changed, nothing runs
+
+
+def test_setting_the_same_value_invalidates_nothing(net):
+    net.update("out")
+    net.set("a.value", 1.0)
+    assert net.update("out").ids == []
+
+
+def test_initialize_once_and_resources_rebuilt_only_for_resource_properties(net):
+    net.update("out")
+    a = net["a"]
+    assert (a.initialize_count, a.build_count) == (1, 1)
+    net.set("a.value", 4.0)
+    net.update("out")
+    assert (a.initialize_count, a.build_count) == (1, 1)
+    net.set("a.mode", "fancy")
+    net.update("out")
+    assert (a.initialize_count, a.build_count) == (1, 2)
+
+
+def test_default_targets_are_all_sinks(net):
+    assert set(net.update().ids) == {"a", "b", "sum", "fragile", "out", "x", "y"}
+
+
+def test_a_failing_processor_is_named_and_the_network_recovers(net):
+    net.set("fragile.fail", 1)
+    with pytest.raises(ProcessorError, match=r"processor 'fragile' \(Fragile\): ZeroDivisionError: deliberate failure") as caught:
+        net.update("out")
+    assert caught.value.internal
+    assert net["fragile"].last_error.startswith("ZeroDivisionError")
+    assert net.last_evaluation.ids == ["a", "b", "sum"]  # what ran before the failure is recorded
+    net.set("fragile.fail", 0)
+    assert net.update("out").ids == ["fragile", "out"]
+    assert net.output("out") == 2.0 and net["fragile"].last_error is None
+
+
+def test_unconnected_required_inport_is_reported(net):
+    net.disconnect("sum.value", "fragile.value")
+    with pytest.raises(ProcessorError, match=r"'fragile' \(Fragile\): inport 'value' \(float\) is not connected"):
+        net.update("out")
+
+
+def test_wrong_output_type_is_reported():
+    class Liar(vgraph.Processor):
+        outports = [vgraph.Outport("value", float)]
+
+        def process(self):
+            return "not a number"
+
+    network = Network()
+    network.add(Liar, id="liar")
+    with pytest.raises(ProcessorError, match="returned str for outport 'value', which carries float"):
+        network.update("liar.value")
+
+
+def test_every_evaluation_records_times(net):
+    report = net.update("out")
+    assert all(r.seconds >= 0 for r in report.evaluated)
+    assert report.total_seconds >= sum(r.seconds for r in report.evaluated) * 0.5
+    assert report.to_json()["evaluated"][0].keys() == {"id", "type", "seconds"}
