@@ -78,6 +78,24 @@ def test_transparent_tf_samples_the_whole_ray_from_face_to_face(rate):
     np.testing.assert_allclose(image, np.broadcast_to(background, image.shape), atol=1e-7)
 
 
+def test_perspective_rays_start_at_the_box_and_stop_at_the_far_plane():
+    volume = Volume(np.zeros((17, 8, 8)), spacing=(1.0, 1.0, 0.5))  # z extent 8 world units
+    lo, hi = volume_box(volume)
+    centre = (lo + hi) / 2
+    camera = Camera(position=(centre[0], centre[1], hi[2] + 10.0), focus=tuple(centre), near=1.0,
+                    far=100.0, fov=40.0)
+    transparent = constant_tf((1, 1, 1), 0.0)
+    for rate in (1.0, 2.5):
+        _, samples = render(volume, camera, transparent, (5, 5), sampling_rate=rate,
+                            return_samples=True)
+        assert samples[2, 2] == np.floor(8.0 / (0.5 / rate) + 1e-3) + 1  # the central ray: z axis
+        assert np.all(samples[[0, 0, -1, -1], [0, -1, 0, -1]] < samples[2, 2])  # oblique rays: shorter
+    # The far plane halfway through the box cuts the rays there.
+    clipped = camera.model_copy(update={"far": 14.0})
+    _, samples = render(volume, clipped, transparent, (5, 5), return_samples=True, early_termination=1.0)
+    assert samples[2, 2] == np.floor(4.0 / 0.5 + 1e-3) + 1
+
+
 @pytest.mark.parametrize("threshold, expected_samples", [(0.99, 7), (0.9, 4), (0.5, 1)])
 def test_early_termination_at_the_accumulated_opacity(threshold, expected_samples):
     volume = aligned_volume(shape=(12, 3, 4))
@@ -203,6 +221,11 @@ def test_shading_lights_surfaces_facing_the_headlight():
     row = image[16, :, 0] / np.maximum(image[16, :, 3], 1e-9)
     rim = np.flatnonzero(image[16, :, 3] > 0.5)[0]
     assert row[rim] < 0.7 * row[16]
+    # Two-sided lighting: the same surface with the opposite polarity (inside darker) looks the same.
+    inverted = Volume(1.0 - data, declared_range=(0, 1))
+    mirrored = TransferFunction(points=[(0.4, *colour, 1.0), (0.7, *colour, 0.0)])
+    np.testing.assert_allclose(render(inverted, camera, mirrored, (33, 33), shading=shading,
+                                      background=(0, 0, 0, 0)), image, atol=1e-4)
     # A constant volume has no gradient: shading leaves it unchanged.
     flat = Volume(np.full((8, 8, 8), 0.5), declared_range=(0, 1))
     flat_camera = Camera.looking_at_box(*volume_box(flat))

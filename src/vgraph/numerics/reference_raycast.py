@@ -1,0 +1,287 @@
+"""CPU reference ray caster (numpy, vectorised over rays). The GL ray caster copies this model;
+tests compare the two images pixel by pixel.
+
+Optical model (seed 000 ch. 2.4 and 4.1-4.3), in this order:
+
+1. Rays: ``Camera.rays(W, H)`` - one per pixel centre, row 0 at the top, origin on the near plane
+   (ray parameter t = 0), unit direction, t in world units. The far plane is at
+   ``t_far = (far - near) / dot(direction, forward)``.
+2. Box: the volume's voxel centres span ``[origin, origin + (dims - 1) * spacing]`` (x, y, z).
+   Slab test against this box grown by ``eps = 1e-9 * (max |corner coordinate| + min spacing)`` on
+   every side (so rays running exactly along a face count as hits; a float32 GL version uses
+   ~1e-5 instead; only such grazing rays may differ). ``t_entry = max(t_box_in, 0)`` (clipped to
+   the near plane, so a camera inside the box works), ``t_exit = min(t_box_out, t_far)``.
+   The ray misses if ``t_exit < t_entry``: its pixel is the background, exactly.
+3. Samples: ``step = min(spacing) / sampling_rate`` (world units). Sample i is at
+   ``t_entry + i * step`` for ``i = 0 .. n - 1`` with ``n = floor((t_exit - t_entry) / step + 1e-3) + 1``:
+   the first sample lies on the entry face and, when the length is a whole number of steps (up to
+   rounding), the last one on the exit face. (So an orthographic view along an axis with pixels on
+   voxel centres samples exactly the voxel centres of each column.)
+4. Reconstruction: voxel coordinate ``u = (p - origin) / spacing``, clamped to [0, dims - 1] per
+   axis (= GL clamp-to-edge with texture coordinate ``(u + 0.5) / dims``), trilinear interpolation
+   with voxel centres at integer u. Values are normalised intensities ``volume.normalized``;
+   non-finite voxels count as the value range's end (NaN and -inf -> low, +inf -> high), as the
+   volume's texture upload does.
+5. Classification: the TF's 4096-entry LUT (``TransferFunction.lut()``) with LINEAR interpolation
+   between entries, intensity clamped to [0, 1]: ``x = v * 4095``, entries floor(x) and floor(x)+1
+   (= a GL 1D texture, linear filter, clamp-to-edge, coordinate ``0.5/4096 + v * 4095/4096``).
+6. Optional shading (``shading=Shading(...)``, seed 000 ch. 4.3, Blinn-Phong with a headlight):
+   gradient by central differences of the reconstructed field one voxel away along each axis,
+   ``g_k = (f(p + h_k e_k) - f(p - h_k e_k)) / (2 h_k)``, ``h = spacing`` (normalised intensity per
+   world unit). ``L = V = H = -direction``; two-sided: ``c = |dot(g / |g|, L)|``;
+   ``rgb' = clamp(ambient * rgb + diffuse * c * rgb + specular * c ** shininess, 0, 1)``; where
+   ``|g| * min(spacing) <= 1e-6`` the colour stays unshaded. Alpha is not changed. (Only samples
+   with opacity > 0 are shaded; the others do not contribute anyway.)
+7. DVR: opacity correction ``a' = 1 - (1 - a) ** (step / min(spacing))`` (the TF alpha is per sample
+   at sampling rate 1); front-to-back ``C += (1 - A) * a' * rgb``, ``A += (1 - A) * a'``, starting
+   from C = 0, A = 0. Early termination: before each sample the ray stops if ``A >= early_termination``
+   (so an opaque TF takes exactly one sample). Final pixel over the background:
+   ``rgb = C + (1 - A) * bg.rgb``, ``alpha = A + (1 - A) * bg.a``.
+8. MIP: ``m`` = max over all n samples of the normalised intensity clamped to [0, 1] (no early
+   termination, no opacity correction, no shading); ``(rgb, a) = TF(m)`` via the LUT as in 5;
+   pixel = ``a * rgb + (1 - a) * bg.rgb``, alpha ``a + (1 - a) * bg.a`` - a single DVR sample.
+
+The image is float32 (H, W, 4), row 0 at the top. Arithmetic is float64.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from vgraph.camera import Camera
+from vgraph.errors import VGraphError
+from vgraph.transfer_function import TransferFunction
+from vgraph.volume import Volume
+
+MODES = ("dvr", "mip")
+SAMPLE_COUNT_SLACK = 1e-3  # fraction of a step; see rule 3 of the module docstring
+BOX_EPSILON = 1e-9  # relative growth of the box; see rule 2
+GRADIENT_EPSILON = 1e-6  # |g| * min(spacing) below this: no shading; see rule 6
+
+
+@dataclass(frozen=True)
+class Shading:
+    """Blinn-Phong coefficients (headlight, white light and specular colour)."""
+
+    ambient: float = 0.3
+    diffuse: float = 0.7
+    specular: float = 0.2
+    shininess: float = 32.0
+
+
+def volume_box(volume: Volume) -> tuple[np.ndarray, np.ndarray]:
+    """World-space (min, max) corners of the box spanned by the voxel centres, (x, y, z)."""
+    lo = np.asarray(volume.origin, dtype=np.float64)
+    return lo, lo + volume.extent
+
+
+def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, size,
+           *, mode: str = "dvr", sampling_rate: float = 1.0, early_termination: float = 0.99,
+           background=(0.0, 0.0, 0.0, 1.0), shading: Shading | None = None,
+           return_samples: bool = False, chunk_rays: int = 65536):
+    """Render ``volume`` as the GL ray caster does (model in the module docstring).
+
+    ``size`` is (width, height). Returns the float32 (H, W, 4) image, row 0 at the top, and with
+    ``return_samples=True`` also the int32 (H, W) number of samples each ray took."""
+    width, height, background = _check_arguments(volume, size, mode, sampling_rate,
+                                                 early_termination, background)
+    origins, directions = camera.rays(width, height)
+    origins, directions = origins.reshape(-1, 3), directions.reshape(-1, 3)
+    t_entry, t_exit = _clip_to_box(origins, directions, *volume_box(volume),
+                                   camera.far_distance(directions), min(volume.spacing))
+    step = min(volume.spacing) / sampling_rate
+    counts = sample_counts(t_entry, t_exit, step)
+    sampler = VolumeSampler(volume)
+    lut = transfer_function.lut().astype(np.float64)
+
+    rgba = np.empty((len(origins), 4))
+    taken = np.zeros(len(origins), dtype=np.int32)
+    for start in range(0, len(origins), chunk_rays):
+        rays = slice(start, start + chunk_rays)
+        march = _march_dvr if mode == "dvr" else _march_mip
+        rgba[rays], taken[rays] = march(sampler, lut, origins[rays], directions[rays],
+                                        t_entry[rays], counts[rays], step, sampling_rate,
+                                        early_termination, shading)
+    # Over the background; a missed ray (A = 0, no samples) becomes the background exactly.
+    coverage = rgba[:, 3:4]
+    image = np.concatenate([rgba[:, :3] + (1.0 - coverage) * background[:3],
+                            coverage + (1.0 - coverage) * background[3]], axis=1)
+    image = image.reshape(height, width, 4).astype(np.float32)
+    if return_samples:
+        return image, taken.reshape(height, width)
+    return image
+
+
+def sample_counts(t_entry: np.ndarray, t_exit: np.ndarray, step: float) -> np.ndarray:
+    """n = floor((t_exit - t_entry) / step + slack) + 1 for hits, 0 for misses (t_exit < t_entry)."""
+    length = t_exit - t_entry
+    hit = length >= 0.0
+    counts = np.zeros(len(length), dtype=np.int64)
+    counts[hit] = np.floor(length[hit] / step + SAMPLE_COUNT_SLACK).astype(np.int64) + 1
+    return counts
+
+
+class VolumeSampler:
+    """Trilinear reconstruction of normalised intensity at world points, clamp-to-edge."""
+
+    def __init__(self, volume: Volume):
+        data = np.asarray(volume.data, dtype=np.float64)
+        if volume.nonfinite_count:
+            lo, hi = volume.value_range
+            data = np.nan_to_num(data, nan=lo, posinf=hi, neginf=lo)
+        self.flat = volume.normalized(data).ravel()  # [z, y, x] order: x fastest
+        self.dims = np.array(volume.dims)
+        self.origin = np.asarray(volume.origin, dtype=np.float64)
+        self.spacing = np.asarray(volume.spacing, dtype=np.float64)
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        """(M, 3) world points (x, y, z) -> (M,) normalised intensities."""
+        u = np.clip((points - self.origin) / self.spacing, 0.0, self.dims - 1)
+        base = np.minimum(np.floor(u).astype(np.int64), np.maximum(self.dims - 2, 0))
+        frac = u - base
+        nxt = np.minimum(base + 1, self.dims - 1)
+        nx, ny = self.dims[0], self.dims[1]
+        x0, y0, z0 = base.T
+        x1, y1, z1 = nxt.T
+        fx, fy, fz = frac.T
+
+        def fetch(x, y, z):
+            return self.flat[(z * ny + y) * nx + x]
+
+        c00 = _lerp(fetch(x0, y0, z0), fetch(x1, y0, z0), fx)
+        c10 = _lerp(fetch(x0, y1, z0), fetch(x1, y1, z0), fx)
+        c01 = _lerp(fetch(x0, y0, z1), fetch(x1, y0, z1), fx)
+        c11 = _lerp(fetch(x0, y1, z1), fetch(x1, y1, z1), fx)
+        return _lerp(_lerp(c00, c10, fy), _lerp(c01, c11, fy), fz)
+
+    def gradient(self, points: np.ndarray) -> np.ndarray:
+        """(M, 3) central differences one voxel away along each axis, per world unit."""
+        grad = np.empty_like(points)
+        for axis in range(3):
+            offset = np.zeros(3)
+            offset[axis] = self.spacing[axis]
+            grad[:, axis] = (self(points + offset) - self(points - offset)) / (2.0 * self.spacing[axis])
+        return grad
+
+
+def lookup(lut: np.ndarray, intensity: np.ndarray) -> np.ndarray:
+    """RGBA from an (N, 4) LUT at normalised intensities, linear between entries, clamped."""
+    x = np.clip(intensity, 0.0, 1.0) * (len(lut) - 1)
+    base = np.minimum(np.floor(x).astype(np.int64), len(lut) - 2)
+    frac = (x - base)[:, None]
+    return lut[base] * (1.0 - frac) + lut[base + 1] * frac
+
+
+# --- marching -----------------------------------------------------------------------------------
+def _march_dvr(sampler, lut, origins, directions, t_entry, counts, step, sampling_rate,
+               early_termination, shading):
+    """Front-to-back compositing of a chunk of rays in lockstep; returns premultiplied RGBA and
+    the samples taken per ray."""
+    colour = np.zeros((len(origins), 3))
+    alpha = np.zeros(len(origins))
+    taken = np.zeros(len(origins), dtype=np.int32)
+    exponent = 1.0 / sampling_rate  # step / step_ref with step_ref = min(spacing)
+    active = np.flatnonzero(counts > 0)
+    i = 0
+    while active.size:
+        points = origins[active] + (t_entry[active] + i * step)[:, None] * directions[active]
+        sample = lookup(lut, sampler(points))
+        opacity = 1.0 - (1.0 - sample[:, 3]) ** exponent
+        rgb = sample[:, :3]
+        if shading is not None:
+            rgb = _shade(sampler, shading, points, directions[active], rgb, opacity > 0.0)
+        weight = (1.0 - alpha[active]) * opacity
+        colour[active] += weight[:, None] * rgb
+        alpha[active] += weight
+        taken[active] += 1
+        i += 1
+        active = active[(i < counts[active]) & (alpha[active] < early_termination)]
+    return np.concatenate([colour, alpha[:, None]], axis=1), taken
+
+
+def _march_mip(sampler, lut, origins, directions, t_entry, counts, step, sampling_rate,
+               early_termination, shading):
+    """Maximum intensity along each ray, classified once; premultiplied RGBA (0 for misses)."""
+    maximum = np.zeros(len(origins))  # intensities are clamped to [0, 1], so 0 is neutral
+    active = np.flatnonzero(counts > 0)
+    i = 0
+    while active.size:
+        points = origins[active] + (t_entry[active] + i * step)[:, None] * directions[active]
+        maximum[active] = np.maximum(maximum[active], np.clip(sampler(points), 0.0, 1.0))
+        i += 1
+        active = active[i < counts[active]]
+    sample = lookup(lut, maximum)
+    rgba = np.concatenate([sample[:, :3] * sample[:, 3:4], sample[:, 3:4]], axis=1)
+    rgba[counts == 0] = 0.0
+    return rgba, counts.astype(np.int32)
+
+
+def _shade(sampler, shading, points, directions, rgb, visible):
+    """Blinn-Phong with a two-sided headlight for the visible samples (rule 6)."""
+    shaded = rgb.copy()
+    grad = sampler.gradient(points[visible])
+    norm = np.linalg.norm(grad, axis=1)
+    lit = norm * sampler.spacing.min() > GRADIENT_EPSILON
+    cosine = np.abs(np.einsum("ij,ij->i", grad[lit], -directions[visible][lit])) / norm[lit]
+    base = rgb[visible][lit]
+    light = ((shading.ambient + shading.diffuse * cosine)[:, None] * base
+             + (shading.specular * cosine ** shading.shininess)[:, None])
+    rows = np.flatnonzero(visible)[lit]
+    shaded[rows] = np.clip(light, 0.0, 1.0)
+    return shaded
+
+
+# --- geometry -----------------------------------------------------------------------------------
+def _clip_to_box(origins, directions, box_min, box_max, t_far, min_spacing):
+    """Slab test (rule 2): (t_entry, t_exit) per ray; t_exit < t_entry for misses."""
+    eps = BOX_EPSILON * (max(np.abs(box_min).max(), np.abs(box_max).max()) + min_spacing)
+    lo, hi = box_min - eps, box_max + eps
+    t_in = np.zeros(len(origins))
+    t_out = np.array(t_far, dtype=np.float64)
+    for axis in range(3):
+        o, d = origins[:, axis], directions[:, axis]
+        parallel = d == 0.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t0, t1 = (lo[axis] - o) / d, (hi[axis] - o) / d
+        near_t, far_t = np.minimum(t0, t1), np.maximum(t0, t1)
+        # A ray parallel to the slab is inside it for all t or for none.
+        inside = (o >= lo[axis]) & (o <= hi[axis])
+        near_t[parallel] = np.where(inside[parallel], -np.inf, np.inf)
+        far_t[parallel] = np.where(inside[parallel], np.inf, -np.inf)
+        t_in, t_out = np.maximum(t_in, near_t), np.minimum(t_out, far_t)
+    return t_in, t_out
+
+
+def _lerp(a, b, t):
+    return a + (b - a) * t
+
+
+def _check_arguments(volume, size, mode, sampling_rate, early_termination, background):
+    if volume.is_spline_coefficients:
+        raise VGraphError(f"reference ray caster: volume{_where(volume)} holds B-spline "
+                          "coefficients, not samples")
+    try:
+        width, height = (int(v) for v in size)
+    except (TypeError, ValueError):
+        raise VGraphError(f"reference ray caster: size must be (width, height), got {size!r}")
+    if width < 1 or height < 1 or (width, height) != tuple(size):
+        raise VGraphError(f"reference ray caster: size must be positive integers, got {size!r}")
+    if mode not in MODES:
+        raise VGraphError(f"reference ray caster: mode must be one of {MODES}, got {mode!r}")
+    if not (math.isfinite(sampling_rate) and sampling_rate > 0.0):
+        raise VGraphError(f"reference ray caster: sampling_rate must be positive, got {sampling_rate}")
+    if not (0.0 < early_termination <= 1.0):
+        raise VGraphError("reference ray caster: early_termination must be in (0, 1], "
+                          f"got {early_termination}")
+    bg = np.asarray(background, dtype=np.float64)
+    if bg.shape != (4,) or not np.all(np.isfinite(bg)):
+        raise VGraphError(f"reference ray caster: background must be 4 finite numbers (r, g, b, a), "
+                          f"got {background!r}")
+    return width, height, bg
+
+
+def _where(volume) -> str:
+    return f" from {volume.source}" if volume.source else ""
