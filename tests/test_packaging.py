@@ -36,6 +36,8 @@ def test_wheel_contains_processors_and_shaders(tmp_path):
     names = set(zipfile.ZipFile(wheel).namelist())
     for processor in (REPO / "processors").glob("*.py"):
         assert f"vgraph/processors/{processor.name}" in names
+    for module in (REPO / "src" / "vgraph").rglob("*.py"):
+        assert f"vgraph/{module.relative_to(REPO / 'src' / 'vgraph').as_posix()}" in names, module
     for shader in (REPO / "shaders").rglob("*.glsl"):
         assert f"vgraph/shaders/{shader.relative_to(REPO / 'shaders').as_posix()}" in names
     assert any(n.endswith("entry_points.txt") for n in names)
