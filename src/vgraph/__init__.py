@@ -14,7 +14,7 @@ from vgraph.errors import (CycleError, NetworkFileError, PortError, ProcessorErr
 from vgraph.network import Network
 from vgraph.ports import Inport, Outport
 from vgraph.processor import Processor
-from vgraph.properties import (BoolProperty, CameraProperty, ColorProperty, FilePathProperty,
+from vgraph.properties import (BoolProperty, CameraProperty, ColorProperty, DictProperty, FilePathProperty,
                                FloatProperty, IntProperty, Invalidation, OptionProperty,
                                StringProperty, TransferFunctionProperty, VectorProperty)
 from vgraph.registry import registry
@@ -36,7 +36,7 @@ def register(processor_class):
 
 __all__ = [
     "load", "register", "registry", "Network", "Processor", "Inport", "Outport", "Volume",
-    "Invalidation", "BoolProperty", "CameraProperty", "ColorProperty", "FilePathProperty",
+    "Invalidation", "BoolProperty", "CameraProperty", "ColorProperty", "DictProperty", "FilePathProperty",
     "FloatProperty", "IntProperty", "OptionProperty", "StringProperty", "TransferFunctionProperty",
     "VectorProperty", "VGraphError", "NetworkFileError", "PortError", "CycleError", "ProcessorError",
     "PropertyError", "ShaderError", "VolumeFileError",

@@ -154,23 +154,36 @@ class FilePathProperty(StringProperty):
 
 
 class VectorProperty(Property):
-    """A fixed-length vector of floats (or ints with ``integer=True``), each within [min, max]."""
+    """A fixed-length vector of floats (or ints with ``integer=True``), each within [min, max].
+    With ``optional=True`` the value may be None (e.g. "take the spacing from the file")."""
 
     kind = "vector"
 
-    def __init__(self, default, *, min: float | None = None, max: float | None = None,
-                 integer: bool = False, **kw):
-        self.size = len(default)
-        self.min, self.max, self.integer = min, max, integer
+    def __init__(self, default, *, size: int | None = None, min: float | None = None,
+                 max: float | None = None, integer: bool = False, optional: bool = False, **kw):
+        self.size = size if size is not None else len(default)
+        self.min, self.max, self.integer, self.optional = min, max, integer, optional
         super().__init__(default, **kw)
 
     def _value_type(self):
         number = StrictInt if self.integer else Annotated[float, Field(allow_inf_nan=False), _NOT_BOOL]
         item = Annotated[number, Field(ge=self.min, le=self.max)]
-        return tuple[(item,) * self.size]
+        vector = tuple[(item,) * self.size]
+        return vector | None if self.optional else vector
 
     def describe(self) -> dict:
-        return super().describe() | {"size": self.size}
+        return super().describe() | {"size": self.size, "optional": self.optional}
+
+
+class DictProperty(Property):
+    """Named numbers (e.g. a function's parameters); an empty dict means "the defaults". The owner
+    checks the names and ranges, since they depend on its other properties."""
+
+    kind = "dict"
+
+    def _value_type(self):
+        number = Annotated[float, Field(allow_inf_nan=False), _NOT_BOOL]
+        return dict[str, number | list[number]]
 
 
 class ColorProperty(Property):
@@ -206,6 +219,6 @@ def _add_alpha(value):
 
 PROPERTY_KINDS: dict[str, type[Property]] = {
     cls.kind: cls for cls in (FloatProperty, IntProperty, BoolProperty, OptionProperty,
-                              StringProperty, FilePathProperty, VectorProperty, ColorProperty,
+                              StringProperty, FilePathProperty, VectorProperty, DictProperty, ColorProperty,
                               TransferFunctionProperty, CameraProperty)
 }
