@@ -129,6 +129,7 @@ def test_dicom_series_sorted_by_position_equals_pydicom(data, target):
                     (-250, -250, -12))
     np.testing.assert_array_equal(volume.data, reference)
     assert volume.declared_range == (0.0, 4095.0)  # BitsStored 12 of 16
+    assert volume.source == str(data / target)
 
 
 def test_every_supported_extension_is_a_string_with_a_dot():
@@ -153,8 +154,9 @@ def test_big_endian_raw_and_header_offset(tmp_path):
 
 def test_big_endian_scaled_nifti_equals_nibabel(tmp_path):
     stored = np.random.default_rng(1).integers(-300, 3000, size=(5, 6, 7)).astype(np.int16)
-    image = nib.Nifti1Image(stored.astype(">i2"), np.diag([0.5, 0.75, 2.0, 1.0]))
-    image.header.set_data_dtype(">i2")
+    header = nib.Nifti1Header(endianness=">")
+    header.set_data_dtype(np.int16)
+    image = nib.Nifti1Image(stored, np.diag([0.5, 0.75, 2.0, 1.0]), header=header)
     image.header.set_slope_inter(0.5, -1024.0)
     path = tmp_path / "big.nii"
     nib.save(image, path)
@@ -162,8 +164,12 @@ def test_big_endian_scaled_nifti_equals_nibabel(tmp_path):
     volume = read_volume(path)
     assert_geometry(volume, (7, 6, 5), np.float32, (0.5, 0.75, 2.0))
     np.testing.assert_array_equal(volume.data, nib.load(path).get_fdata().T.astype(np.float32))
-    unscaled = nib.Nifti1Image(stored.astype(">i2"), np.eye(4))
+    np.testing.assert_array_equal(volume.data, stored.T * 0.5 - 1024)
+    header = nib.Nifti1Header(endianness=">")
+    header.set_data_dtype(np.int16)
+    unscaled = nib.Nifti1Image(stored, np.eye(4), header=header)
     nib.save(unscaled, tmp_path / "big_int.nii.gz")
+    assert nib.load(tmp_path / "big_int.nii.gz").header.endianness == ">"
     plain = read_volume(tmp_path / "big_int.nii.gz")
     assert plain.data.dtype == np.dtype("=i2")
     np.testing.assert_array_equal(plain.data, stored.T)
@@ -237,7 +243,7 @@ def test_qvis_reads_relative_data_file_and_spacing(tmp_path):
     ({"Format": "RGB24"}, "Format", ["unknown Format", "'RGB24'"]),
     ({"ObjectFileName": "missing.raw"}, "ObjectFileName", ["missing.raw", "does not exist"]),
     ({"Resolution": "4 0 2"}, "Resolution", ["at least 1", "(4, 0, 2)"]),
-    ({"Resolution": "4 3 3"}, "Resolution", ["larger", "expected 36 bytes, found 24"]),
+    ({"Resolution": "4 3 1"}, "Resolution", ["larger", "expected 12 bytes, found 24"]),
     ({"Resolution": "4 3"}, "Resolution", ["expected 3 values"]),
     ({"Format": "USHORT"}, "Resolution", ["truncated", "expected 48 bytes, found 24"]),
     ({"SliceThickness": "1 -1 1"}, "SliceThickness", ["positive"]),
@@ -369,8 +375,9 @@ def test_dicom_non_uniform_spacing_is_refused(data, tmp_path):
     ds.ImagePositionPatient = [-250, -250, 20]
     ds.save_as(files[0])
     error = error_of(tmp_path)
-    assert (error.file, error.field) == (str(files[0]), "ImagePositionPatient")
-    assert "non-uniform slice spacing" in str(error) and "20 mm" in str(error)
+    assert (error.file, error.field) == (str(tmp_path), "ImagePositionPatient")
+    assert "non-uniform slice spacing" in str(error) and "from 12 to 20 mm" in str(error)
+    assert "20 mm between 1-2.dcm and 1-1.dcm" in str(error)
     ds.ImagePositionPatient = [-250, -250, 0]
     ds.save_as(files[0])
     assert "duplicate slice" in str(error_of(tmp_path))
@@ -405,3 +412,65 @@ def test_missing_and_unknown_files(tmp_path):
     (tmp_path / "a.xyz").write_text("hello")
     error = error_of(tmp_path / "a.xyz")
     assert error.field == "extension" and ".nrrd" in str(error)
+
+
+# --- the VTK source files (optional formats) -----------------------------------------------------
+@pytest.mark.parametrize("name, raw_copy, dtype", [
+    ("sim_neghip/neghip.slc", "sim_neghip/neghip_66x66x66_uint8.raw", "u1"),
+    ("sim_hydrogen/hydrogen.vti", "sim_hydrogen/hydrogen_64x64x64_float32.raw", "<f4"),
+])
+def test_vtk_sources_equal_their_derived_raw_copies(data, name, raw_copy, dtype):
+    volume = read_volume(data / name)
+    reference = np.fromfile(data / raw_copy, dtype)
+    n = round(len(reference) ** (1 / 3))
+    assert_geometry(volume, (n, n, n), dtype, (1, 1, 1))
+    np.testing.assert_array_equal(volume.data, reference.reshape(n, n, n))
+
+
+def vti_text(array_xml: str, appended: bytes = b"", compressor: str = "",
+             extent="0 1 0 2 0 3") -> bytes:
+    head = (f'<?xml version="1.0"?>\n<VTKFile type="ImageData" version="1.0" byte_order="BigEndian" '
+            f'header_type="UInt64"{compressor}>\n<ImageData WholeExtent="{extent}" '
+            f'Origin="1 2 3" Spacing="0.5 1 2">\n<Piece Extent="{extent}">\n'
+            f'<PointData Scalars="b">\n{array_xml}\n</PointData>\n</Piece>\n</ImageData>\n')
+    tail = b'<AppendedData encoding="raw">\n_' + appended + b"\n</AppendedData>\n" if appended else b""
+    return head.encode() + tail + b"</VTKFile>\n"
+
+
+def test_vti_inline_appended_and_compressed_forms(tmp_path):
+    import base64
+    import zlib
+    values = np.arange(24, dtype=np.int16).reshape(4, 3, 2) * 100 - 700
+    payload = values.astype(">i2").tobytes()
+    joint = base64.b64encode(np.array([len(payload)], ">u8").tobytes() + payload).decode()
+    (tmp_path / "inline.vti").write_bytes(vti_text(
+        f'<DataArray type="Int16" Name="b" format="binary">{joint}</DataArray>'))
+    volume = read_volume(tmp_path / "inline.vti")
+    assert_geometry(volume, (4, 3, 2), np.int16, (0.5, 1, 2), (1, 2, 3))
+    np.testing.assert_array_equal(volume.data, values)
+
+    other = np.zeros(24, ">f8").tobytes()
+    block = np.array([len(other)], ">u8").tobytes() + other
+    appended = block + np.array([len(payload)], ">u8").tobytes() + payload
+    (tmp_path / "appended.vti").write_bytes(vti_text(
+        '<DataArray type="Float64" Name="a" format="appended" offset="0"/>\n'
+        f'<DataArray type="Int16" Name="b" format="appended" offset="{len(block)}"/>', appended))
+    np.testing.assert_array_equal(read_volume(tmp_path / "appended.vti").data, values)
+
+    halves = [zlib.compress(payload[:24]), zlib.compress(payload[24:])]
+    header = np.array([2, 24, 24, *map(len, halves)], ">u8").tobytes()
+    (tmp_path / "zlib.vti").write_bytes(vti_text(
+        '<DataArray type="Int16" Name="b" format="appended" offset="0"/>',
+        header + b"".join(halves), ' compressor="vtkZLibDataCompressor"'))
+    np.testing.assert_array_equal(read_volume(tmp_path / "zlib.vti").data, values)
+
+    (tmp_path / "short.vti").write_bytes(vti_text(
+        f'<DataArray type="Int16" Name="b" format="binary">{joint}</DataArray>', extent="0 1 0 2 0 4"))
+    assert error_of(tmp_path / "short.vti").field == "DataArray"
+
+
+def test_truncated_slc_names_the_slice(data, tmp_path):
+    blob = (data / "sim_neghip/neghip.slc").read_bytes()
+    (tmp_path / "n.slc").write_bytes(blob[: len(blob) - 500])
+    error = error_of(tmp_path / "n.slc")
+    assert error.field.startswith("slice ") and "truncated" in str(error)

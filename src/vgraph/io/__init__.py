@@ -1,0 +1,109 @@
+"""Reading and writing volume files.
+
+    read_volume(path, *, raw=None) -> Volume
+    write_volume(volume, path) -> Path
+
+Formats (by extension; a folder is a DICOM series):
+  .dat               QVis header + raw file                       (qvis.py)
+  .raw / other       headerless raw with raw={...} or a name like x_64x64x64_uint8.raw  (raw.py)
+  .nrrd / .nhdr      NRRD, attached or detached, also multi-file   (nrrd_format.py)
+  .nii / .nii.gz     NIfTI-1/2                                     (nifti.py)
+  .mhd / .mha        MetaImage                                     (metaimage.py)
+  folder, .dcm/.ima  DICOM series                                  (dicom_series.py)
+  .npy / .npz        NumPy arrays [z, y, x]                        (numpy_format.py)
+  .slc               VolVis SLC (8-bit, run-length encoded)         (slc.py)
+  .vti               VTK XML ImageData, one scalar array            (vti.py)
+Writing: .npy, .npz, .nrrd, .nii, .nii.gz (writers.py), atomically.
+
+Every reader returns a Volume with data [z, y, x] in native byte order (file order, x fastest;
+nothing is reoriented), spacing and origin (x, y, z), declared_range where the header states one,
+and source = str(path). Any problem with the input raises VolumeFileError naming the file and the
+header field; float NaN/Inf voxels load with a NonFiniteVoxelsWarning. docs/volumes.md has the
+details per format.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from vgraph.errors import VolumeFileError
+from vgraph.io._common import NonFiniteVoxelsWarning
+from vgraph.io.dicom_series import read_dicom_series
+from vgraph.io.metaimage import read_metaimage
+from vgraph.io.nifti import read_nifti
+from vgraph.io.nrrd_format import read_nrrd
+from vgraph.io.numpy_format import read_npy, read_npz
+from vgraph.io.qvis import read_qvis
+from vgraph.io.raw import read_raw
+from vgraph.io.slc import read_slc
+from vgraph.io.vti import read_vti
+from vgraph.io.writers import WRITABLE_EXTENSIONS, write_volume
+from vgraph.volume import Volume
+
+__all__ = ["read_volume", "write_volume", "SUPPORTED_EXTENSIONS", "WRITABLE_EXTENSIONS",
+           "FILE_FILTERS", "NonFiniteVoxelsWarning", "VolumeFileError"]
+
+_READERS = {
+    ".dat": read_qvis,
+    ".raw": None,  # needs the raw description
+    ".nrrd": read_nrrd, ".nhdr": read_nrrd,
+    ".nii": read_nifti, ".nii.gz": read_nifti,
+    ".mhd": read_metaimage, ".mha": read_metaimage,
+    ".dcm": read_dicom_series, ".ima": read_dicom_series,
+    ".npy": read_npy, ".npz": read_npz,
+    ".slc": read_slc, ".vti": read_vti,
+}
+SUPPORTED_EXTENSIONS: tuple[str, ...] = tuple(_READERS)
+
+# For GUI file dialogs: (label, extensions). A DICOM series is opened by picking one of its files.
+FILE_FILTERS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("QVis volume", (".dat",)),
+    ("Raw volume", (".raw",)),
+    ("NRRD", (".nrrd", ".nhdr")),
+    ("NIfTI", (".nii", ".nii.gz")),
+    ("MetaImage", (".mhd", ".mha")),
+    ("DICOM series", (".dcm", ".ima")),
+    ("NumPy array", (".npy", ".npz")),
+    ("VolVis SLC", (".slc",)),
+    ("VTK image data", (".vti",)),
+)
+
+
+def read_volume(path, *, raw: dict | None = None) -> Volume:
+    """Load a volume file, or a DICOM series folder.
+
+    ``raw`` describes a headerless raw file: {'dims': (x, y, z), 'dtype': 'uint16',
+    'endianness': 'little' | 'big', 'spacing': (x, y, z), 'origin': (x, y, z), 'offset': bytes}.
+    Given, it forces raw reading whatever the extension."""
+    path = Path(path)
+    if raw is not None:
+        return read_raw(path, raw)
+    if path.is_dir():
+        return read_dicom_series(path)
+    if not path.exists():
+        raise VolumeFileError(path, "file does not exist")
+    ext = extension_of(path)
+    if ext == ".raw":
+        return read_raw(path)
+    if ext in _READERS:
+        return _READERS[ext](path)
+    if _looks_like_dicom(path):
+        return read_dicom_series(path)
+    raise VolumeFileError(path, f"unknown volume file type {path.suffix or '(no extension)'!r}; "
+                                f"supported: {', '.join(SUPPORTED_EXTENSIONS)}, a DICOM folder, or "
+                                f"raw={{...}} for headerless data", "extension")
+
+
+def extension_of(path: Path) -> str:
+    name = path.name.lower()
+    return ".nii.gz" if name.endswith(".nii.gz") else path.suffix.lower()
+
+
+def _looks_like_dicom(path: Path) -> bool:
+    """DICOM Part 10 files have 'DICM' after a 128-byte preamble, whatever their name."""
+    try:
+        with open(path, "rb") as fh:
+            fh.seek(128)
+            return fh.read(4) == b"DICM"
+    except OSError:
+        return False

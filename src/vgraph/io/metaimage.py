@@ -1,0 +1,165 @@
+"""MetaImage volumes (ITK/VTK): .mhd text header + data file, or .mha with the data attached.
+
+Header ``Key = value`` fields read (keys as MetaIO writes them):
+  NDims                          2 or 3
+  DimSize                        x y z voxel counts
+  ElementType                    MET_UCHAR, MET_CHAR, MET_USHORT, MET_SHORT, MET_UINT, MET_INT,
+                                 MET_LONG (4 bytes), MET_ULONG, MET_LONG_LONG, MET_ULONG_LONG,
+                                 MET_FLOAT, MET_DOUBLE
+  ElementSpacing                 spacing (falls back to ElementSize, then 1)
+  Offset / Origin / Position     origin
+  ElementByteOrderMSB / BinaryDataByteOrderMSB   True = big-endian
+  ElementNumberOfChannels        must be 1
+  CompressedData                 True = zlib stream
+  HeaderSize                     bytes to skip in the data file (-1: data are the last bytes)
+  ElementMin / ElementMax        the declared value range, when both are given
+  ElementDataFile                file name relative to the header, or LOCAL (data follow the
+                                 header); it must be the last field. LIST and file patterns are
+                                 not supported.
+TransformMatrix / AnatomicalOrientation are ignored: the array keeps the file's voxel order.
+A raw data file must hold exactly the described bytes unless HeaderSize is given.
+"""
+
+from __future__ import annotations
+
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from vgraph.errors import VolumeFileError
+from vgraph.io._common import (check_dims, check_memory, check_origin, check_spacing,
+                               existing_file, make_volume, parse_numbers, read_raw_array,
+                               to_native)
+from vgraph.volume import Volume
+
+ELEMENT_TYPES = {
+    "MET_CHAR": "i1", "MET_UCHAR": "u1", "MET_SHORT": "i2", "MET_USHORT": "u2",
+    "MET_INT": "i4", "MET_UINT": "u4", "MET_LONG": "i4", "MET_ULONG": "u4",
+    "MET_LONG_LONG": "i8", "MET_ULONG_LONG": "u8", "MET_FLOAT": "f4", "MET_DOUBLE": "f8",
+}
+_TRUE = ("true", "1", "yes")
+
+
+def read_metaimage(path) -> Volume:
+    path = Path(path)
+    fields, data_offset = parse_header(path)
+    if "ElementDataFile" not in fields:
+        raise VolumeFileError(path, "required field is missing", "ElementDataFile")
+    ndims = parse_numbers(fields.get("NDims", "3"), path, "NDims", 1, int)[0]
+    if ndims not in (2, 3):
+        raise VolumeFileError(path, f"only 2D and 3D images are supported, got NDims = {ndims}",
+                              "NDims")
+    sizes = parse_numbers(_required(fields, "DimSize", path), path, "DimSize", ndims, int)
+    dims = check_dims(sizes + [1] * (3 - ndims), path, "DimSize")
+    channels = parse_numbers(fields.get("ElementNumberOfChannels", "1"), path,
+                             "ElementNumberOfChannels", 1, int)[0]
+    if channels != 1:
+        raise VolumeFileError(path, f"only scalar images are supported, got {channels} channels",
+                              "ElementNumberOfChannels")
+    if fields.get("BinaryData", "True").lower() not in _TRUE:
+        raise VolumeFileError(path, "ASCII MetaImage data are not supported", "BinaryData")
+    dtype = _dtype(fields, path)
+    count = dims[0] * dims[1] * dims[2]
+    flat = _read_data(path, fields, data_offset, dtype, count)
+    return make_volume(flat.reshape(dims[::-1]), path, spacing=_spacing(fields, path, ndims),
+                       origin=_origin(fields, path, ndims), declared_range=_range(fields, path))
+
+
+def parse_header(path: Path) -> tuple[dict[str, str], int]:
+    """Fields up to and including ElementDataFile, and the byte offset after that line."""
+    fields: dict[str, str] = {}
+    try:
+        with open(path, "rb") as fh:
+            for number, raw_line in enumerate(iter(fh.readline, b""), start=1):
+                line = raw_line.decode("latin-1").strip()
+                if not line:
+                    continue
+                key, equals, value = line.partition("=")
+                if not equals:
+                    raise VolumeFileError(path, f"line {number} is not 'Key = value': {line[:60]!r}",
+                                          f"line {number}")
+                fields[key.strip()] = value.strip()
+                if key.strip() == "ElementDataFile":
+                    break
+            offset = fh.tell()
+    except OSError as exc:
+        raise VolumeFileError(path, f"cannot read header: {exc.strerror}") from exc
+    return fields, offset
+
+
+def _required(fields: dict, key: str, path: Path) -> str:
+    if key not in fields:
+        raise VolumeFileError(path, "required field is missing", key)
+    return fields[key]
+
+
+def _dtype(fields: dict, path: Path) -> np.dtype:
+    name = _required(fields, "ElementType", path)
+    if name not in ELEMENT_TYPES:
+        raise VolumeFileError(path, f"unknown ElementType {name!r}; known: "
+                                    f"{', '.join(ELEMENT_TYPES)}", "ElementType")
+    msb = fields.get("ElementByteOrderMSB", fields.get("BinaryDataByteOrderMSB", "False"))
+    return np.dtype((">" if msb.lower() in _TRUE else "<") + ELEMENT_TYPES[name])
+
+
+def _read_data(path: Path, fields: dict, data_offset: int, dtype: np.dtype, count: int):
+    name = fields["ElementDataFile"]
+    if name.split()[0].upper() == "LIST" or "%" in name:
+        raise VolumeFileError(path, f"multi-file data ({name!r}) are not supported", "ElementDataFile")
+    local = name.upper() == "LOCAL"
+    data_file = path if local else existing_file(path.parent / name, path, "ElementDataFile")
+    header_size = parse_numbers(fields["HeaderSize"], path, "HeaderSize", 1, int)[0] \
+        if "HeaderSize" in fields else None
+    if fields.get("CompressedData", "False").lower() in _TRUE:
+        start = data_offset if local else max(header_size or 0, 0)
+        return _read_compressed(path, data_file, start, dtype, count)
+    if local:
+        offset = data_offset + (header_size or 0) if header_size != -1 else -1
+    else:
+        offset = 0 if header_size is None else header_size
+    return read_raw_array(data_file, dtype, count, offset=offset,
+                          allow_trailing=header_size is not None, size_field="DimSize",
+                          header=None if local else path)
+
+
+def _read_compressed(path, data_file, start, dtype, count) -> np.ndarray:
+    needed = count * dtype.itemsize
+    check_memory(path, needed + Path(data_file).stat().st_size, "DimSize")
+    with open(data_file, "rb") as fh:
+        fh.seek(start)
+        try:
+            payload = zlib.decompress(fh.read())
+        except zlib.error as exc:
+            raise VolumeFileError(path, f"cannot decompress the data: {exc}", "CompressedData") from exc
+    if len(payload) != needed:
+        raise VolumeFileError(path, f"decompressed data hold {len(payload)} bytes, expected "
+                                    f"{needed}", "DimSize")
+    return to_native(np.frombuffer(payload, dtype=dtype).copy())
+
+
+def _spacing(fields: dict, path: Path, ndims: int):
+    for key in ("ElementSpacing", "ElementSize"):
+        if key in fields:
+            values = parse_numbers(fields[key], path, key, ndims)
+            return check_spacing(values + [1.0] * (3 - ndims), path, key)
+    return (1.0, 1.0, 1.0)
+
+
+def _origin(fields: dict, path: Path, ndims: int):
+    for key in ("Offset", "Origin", "Position"):
+        if key in fields:
+            values = parse_numbers(fields[key], path, key, ndims)
+            return check_origin(values + [0.0] * (3 - ndims), path, key)
+    return (0.0, 0.0, 0.0)
+
+
+def _range(fields: dict, path: Path):
+    if "ElementMin" in fields and "ElementMax" in fields:
+        lo = parse_numbers(fields["ElementMin"], path, "ElementMin", 1)[0]
+        hi = parse_numbers(fields["ElementMax"], path, "ElementMax", 1)[0]
+        if not lo < hi:
+            raise VolumeFileError(path, f"ElementMin {lo} must be below ElementMax {hi}",
+                                  "ElementMin/ElementMax")
+        return (lo, hi)
+    return None

@@ -1,0 +1,98 @@
+"""Saving volumes (the VolumeWriter sink uses this): .npy, .npz, .nrrd, .nii, .nii.gz.
+
+Writes are atomic: the file is written under a temporary name in the target folder, flushed to
+disk, and moved over the target with os.replace. If anything fails the temporary file is removed
+and an existing file of that name is left untouched.
+
+What each format keeps:
+  .npy      values only ([z, y, x]); spacing and origin are NOT stored (use .npz for them)
+  .npz      data, spacing, origin, value_range (if declared)
+  .nrrd     values (gzip), spacing (space directions), origin (space origin), value range
+            (``vgraph value range`` key)
+  .nii(.gz) values, spacing (pixdim), origin (affine translation), value range (cal_min/cal_max,
+            read back only from files vgraph wrote)
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from vgraph.errors import VolumeFileError
+from vgraph.io.nifti import write_nifti
+from vgraph.io.nrrd_format import write_nrrd
+from vgraph.io.numpy_format import write_npy, write_npz
+from vgraph.volume import Volume
+
+
+def _write_with_handle(writer):
+    def write(volume: Volume, file: Path) -> None:
+        with open(file, "wb") as fh:
+            writer(volume, fh)
+    return write
+
+
+WRITERS = {
+    ".npy": _write_with_handle(write_npy),
+    ".npz": _write_with_handle(write_npz),
+    ".nrrd": write_nrrd,
+    ".nii": write_nifti,
+    ".nii.gz": write_nifti,
+}
+WRITABLE_EXTENSIONS = tuple(WRITERS)
+
+
+def writable_extension(path: Path) -> str | None:
+    name = path.name.lower()
+    return next((ext for ext in sorted(WRITERS, key=len, reverse=True) if name.endswith(ext)), None)
+
+
+def write_volume(volume: Volume, path) -> Path:
+    """Save ``volume`` to ``path`` (format from the extension), atomically. Returns the path."""
+    path = Path(path)
+    ext = writable_extension(path)
+    if ext is None:
+        raise VolumeFileError(path, f"cannot write this file type; use one of "
+                                    f"{', '.join(WRITABLE_EXTENSIONS)}", "extension")
+    if not isinstance(volume, Volume):
+        raise VolumeFileError(path, f"expected a Volume to write, got {type(volume).__name__}")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise VolumeFileError(path, f"folder {str(folder)!r} does not exist", "path")
+    try:
+        # the temporary name keeps the extension: nibabel picks compression from it
+        fd, temp_name = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".tmp" + ext)
+    except OSError as exc:
+        raise VolumeFileError(path, f"cannot create a file in {str(folder)!r}: {exc.strerror}",
+                              "path") from exc
+    os.close(fd)
+    temp = Path(temp_name)
+    try:
+        WRITERS[ext](volume, temp)
+        _flush_to_disk(temp)
+        _set_default_mode(temp, path)
+        os.replace(temp, path)
+    except BaseException as exc:
+        temp.unlink(missing_ok=True)
+        if isinstance(exc, Exception) and not isinstance(exc, VolumeFileError):
+            raise VolumeFileError(path, f"writing failed, existing file left untouched: "
+                                        f"{type(exc).__name__}: {exc}") from exc
+        raise
+    return path
+
+
+def _flush_to_disk(file: Path) -> None:
+    with open(file, "rb+") as fh:
+        os.fsync(fh.fileno())
+
+
+def _set_default_mode(temp: Path, target: Path) -> None:
+    """mkstemp makes 0600 files; keep the target's mode, or use what open() would have given."""
+    try:
+        mode = target.stat().st_mode & 0o777
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        mode = 0o666 & ~umask
+    os.chmod(temp, mode)
