@@ -20,4 +20,5 @@ class ImageWriter(Processor):
         path = self.resolve_path(self.path)
         if Path(path).suffix.lower() != ".png":
             raise VGraphError(f"{self.id}.path: '{self.path}' must end in .png")
+        path.parent.mkdir(parents=True, exist_ok=True)  # batch jobs write into fresh folders
         write_png(path, image.to_numpy())

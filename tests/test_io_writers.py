@@ -121,7 +121,7 @@ def test_failed_rename_leaves_the_old_file_intact(tmp_path, monkeypatch):
     def refuse(*args):
         raise PermissionError(13, "Permission denied")
 
-    monkeypatch.setattr("vgraph.io.writers.os.replace", refuse)
+    monkeypatch.setattr("vgraph.atomic.os.replace", refuse)
     with pytest.raises(VolumeFileError, match="Permission denied"):
         write_volume(sample_volumes()["float32"], path)
     assert path.read_bytes() == before and sorted(tmp_path.iterdir()) == [path]

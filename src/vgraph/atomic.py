@@ -1,5 +1,5 @@
-"""Atomic file writes: write to a temporary file beside the target, then rename over it, so a
-crash or an error halfway leaves the old file as it was."""
+"""Atomic file writes: write to a temporary file beside the target, flush it to disk, then rename
+it over the target, so a crash or an error halfway leaves the old file as it was."""
 
 from __future__ import annotations
 
@@ -16,22 +16,29 @@ def atomic_path(path: str | Path, suffix: str | None = None):
     file name work on the temporary file."""
     path = Path(path)
     suffix = suffix if suffix is not None else "".join(path.suffixes)
-    descriptor, temporary = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=suffix or ".tmp",
+    descriptor, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + suffix,
                                              dir=path.parent if str(path.parent) else ".")
     os.close(descriptor)
+    temporary = Path(temporary)
     try:
-        yield Path(temporary)
-        os.chmod(temporary, 0o666 & ~_umask())  # mkstemp makes 0600; give the file normal rights
+        yield temporary
+        with open(temporary, "rb+") as written:
+            os.fsync(written.fileno())
+        os.chmod(temporary, _mode_for(path))
         os.replace(temporary, path)
     except BaseException:
-        Path(temporary).unlink(missing_ok=True)
+        temporary.unlink(missing_ok=True)
         raise
 
 
-def _umask() -> int:
-    current = os.umask(0)
-    os.umask(current)
-    return current
+def _mode_for(target: Path) -> int:
+    """mkstemp makes 0600 files: keep the target's mode, or what open() would have given."""
+    try:
+        return target.stat().st_mode & 0o777
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:

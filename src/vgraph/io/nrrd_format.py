@@ -261,4 +261,5 @@ def write_nrrd(volume: Volume, file: Path) -> None:
     if volume.declared_range is not None:
         header[VALUE_RANGE_KEY] = "{!r} {!r}".format(*(float(v) for v in volume.declared_range))
     with open(file, "wb") as fh:
-        nrrd.write(fh, np.ascontiguousarray(volume.data), header, index_order="C")
+        # gzip level 1: about as small as level 9 on volume data and many times faster
+        nrrd.write(fh, np.ascontiguousarray(volume.data), header, index_order="C", compression_level=1)

@@ -15,10 +15,9 @@ What each format keeps:
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
+from vgraph.atomic import atomic_path
 from vgraph.errors import VolumeFileError
 from vgraph.io.nifti import write_nifti
 from vgraph.io.nrrd_format import write_nrrd
@@ -61,38 +60,11 @@ def write_volume(volume: Volume, path) -> Path:
     if not folder.is_dir():
         raise VolumeFileError(path, f"folder {str(folder)!r} does not exist", "path")
     try:
-        # the temporary name keeps the extension: nibabel picks compression from it
-        fd, temp_name = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".tmp" + ext)
-    except OSError as exc:
-        raise VolumeFileError(path, f"cannot create a file in {str(folder)!r}: {exc.strerror}",
-                              "path") from exc
-    os.close(fd)
-    temp = Path(temp_name)
-    try:
-        WRITERS[ext](volume, temp)
-        _flush_to_disk(temp)
-        _set_default_mode(temp, path)
-        os.replace(temp, path)
-    except BaseException as exc:
-        temp.unlink(missing_ok=True)
-        if isinstance(exc, Exception) and not isinstance(exc, VolumeFileError):
-            raise VolumeFileError(path, f"writing failed, existing file left untouched: "
-                                        f"{type(exc).__name__}: {exc}") from exc
+        with atomic_path(path, suffix=ext) as temporary:  # the extension picks the compression
+            WRITERS[ext](volume, temporary)
+    except VolumeFileError:
         raise
+    except Exception as exc:
+        raise VolumeFileError(path, f"writing failed, existing file left untouched: "
+                                    f"{type(exc).__name__}: {exc}") from exc
     return path
-
-
-def _flush_to_disk(file: Path) -> None:
-    with open(file, "rb+") as fh:
-        os.fsync(fh.fileno())
-
-
-def _set_default_mode(temp: Path, target: Path) -> None:
-    """mkstemp makes 0600 files; keep the target's mode, or use what open() would have given."""
-    try:
-        mode = target.stat().st_mode & 0o777
-    except FileNotFoundError:
-        umask = os.umask(0)
-        os.umask(umask)
-        mode = 0o666 & ~umask
-    os.chmod(temp, mode)
