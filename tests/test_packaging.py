@@ -89,3 +89,15 @@ def test_plugin_option_loads_a_module_by_name(tmp_path):
                        "--npy", tmp_path / "out.npy"], [REPO / "tests" / "plugin_example"])
     assert done.returncode == 0, done.stderr
     assert np.load(tmp_path / "out.npy")[..., 3].max() == pytest.approx(0.0)
+
+
+def test_a_broken_plugin_is_reported_and_the_rest_still_loads(tmp_path):
+    package = tmp_path / "site" / "broken_plugin-1.0.dist-info"
+    package.mkdir(parents=True)
+    (package / "METADATA").write_text("Metadata-Version: 2.1\nName: broken-plugin\nVersion: 1.0\n")
+    (package / "entry_points.txt").write_text("[vgraph.processors]\nbroken = no_such_module_anywhere\n")
+    listing = run_vgraph(["list"], [tmp_path / "site"])
+    assert listing.returncode == 0 and "Grayscale" in listing.stdout
+    assert "broken (no_such_module_anywhere) failed to load: ModuleNotFoundError" in listing.stderr
+    done = run_vgraph(["validate", plugin_network(tmp_path)], [tmp_path / "site"])
+    assert done.returncode == 2 and "broken (no_such_module_anywhere) failed to load" in done.stderr

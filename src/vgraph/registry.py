@@ -64,8 +64,9 @@ class Registry:
     def unknown_type_message(self, type_name: str) -> str:
         self.ensure_loaded()
         plugins = ", ".join(self.plugins) or "none"
+        failed = "".join(f"; {origin} failed to load ({reason})" for origin, reason in self.failed_plugins.items())
         return (f"unknown processor type '{type_name}'; known types: {', '.join(sorted(self.types))}; "
-                f"plug-ins loaded: {plugins}")
+                f"plug-ins loaded: {plugins}{failed}")
 
     def all(self) -> list[type[Processor]]:
         self.ensure_loaded()
@@ -75,17 +76,24 @@ class Registry:
     def _load_builtins(self) -> None:
         import vgraph.processors as package
         for info in pkgutil.iter_modules(package.__path__, package.__name__ + "."):
-            self._register_object(importlib.import_module(info.name), info.name)
+            self._load_guarded(info.name, lambda name=info.name: importlib.import_module(name))
 
     def _load_entry_points(self) -> None:
         for entry in entry_points(group=ENTRY_POINT_GROUP):
             origin = f"{entry.name} ({entry.value})"
-            try:
-                self._register_object(entry.load(), origin)
+            if self._load_guarded(origin, entry.load):
                 self.plugins.append(origin)
-            except Exception as error:  # one broken plug-in must not take vgraph down with it
-                self.failed_plugins[origin] = str(error)
-                warnings.warn(f"vgraph plug-in {origin} failed to load: {error}", stacklevel=2)
+
+    def _load_guarded(self, origin: str, load) -> bool:
+        """Load one module or entry point; a broken one is reported (``failed_plugins``, a
+        warning, ``vgraph list``) and must not take the other processors down with it."""
+        try:
+            self._register_object(load(), origin)
+            return True
+        except Exception as error:
+            self.failed_plugins[origin] = f"{type(error).__name__}: {error}"
+            warnings.warn(f"vgraph: {origin} failed to load: {error}", stacklevel=3)
+            return False
 
     def _register_object(self, obj, origin: str) -> None:
         if isinstance(obj, ModuleType):
