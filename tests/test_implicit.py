@@ -218,7 +218,8 @@ def test_rounded_cube_levels_are_convex_with_closed_form_gaussian_curvature():
 
 def test_curvature_is_zero_not_nan_where_the_gradient_vanishes():
     curv = exact_curvature(Sphere(), [[0.0, 0.0, 0.0]])
-    assert all(np.isfinite(k).all() and k[0] == 0 for k in curv)
+    assert all(np.isfinite(k).all() and k[0] == 0 for k in (curv.k1, curv.k2, curv.K, curv.H))
+    assert not curv.defined[0]
 
 
 # --- sampling -----------------------------------------------------------------------------------

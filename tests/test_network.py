@@ -8,7 +8,7 @@ from vgraph.image import Image
 from vgraph.volume import Volume
 
 import toy_processors
-from toy_processors import Collect, Number, Sum, Text
+from toy_processors import Collect
 
 for cls in toy_processors.ALL:
     vgraph.register(cls)

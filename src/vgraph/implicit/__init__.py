@@ -21,12 +21,12 @@ FUNCTIONS registry), sampling.py (exact_curvature, sample, level mapping).
 from vgraph.implicit.functions import (FUNCTIONS, UNIT_BOX, Box, Cylinder, Ellipsoid, Genus2,
                                        Hyperboloid, ImplicitFunction, MarschnerLobb, Plane, Range,
                                        RoundedCube, Saddle, Sphere, StiffShell, Torus, make_function)
-from vgraph.implicit.sampling import (DATA_TYPES, RESOLUTION_RANGE, Curvatures, SampledVolume,
+from vgraph.implicit.sampling import (DATA_TYPES, RESOLUTION_RANGE, SampledVolume,
                                       exact_curvature, level_to_value, sample, value_to_level)
 
 __all__ = [
     "FUNCTIONS", "UNIT_BOX", "Box", "Cylinder", "Ellipsoid", "Genus2", "Hyperboloid",
     "ImplicitFunction", "MarschnerLobb", "Plane", "Range", "RoundedCube", "Saddle", "Sphere",
-    "StiffShell", "Torus", "make_function", "DATA_TYPES", "RESOLUTION_RANGE", "Curvatures",
+    "StiffShell", "Torus", "make_function", "DATA_TYPES", "RESOLUTION_RANGE",
     "SampledVolume", "exact_curvature", "level_to_value", "sample", "value_to_level",
 ]

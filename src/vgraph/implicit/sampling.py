@@ -11,46 +11,21 @@ is the level set f = (2L - 1) m; the map has positive scale, so level-set curvat
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 from tqdm import tqdm
 
 from vgraph.errors import PropertyError
 from vgraph.implicit.functions import ImplicitFunction, make_function
-from vgraph.implicit.jets import TINY, outer
+from vgraph.numerics.curvature import Curvature, kindlmann
 from vgraph.volume import Volume
 
 
-class Curvatures(NamedTuple):
-    k1: np.ndarray
-    k2: np.ndarray
-    K: np.ndarray  # Gaussian curvature k1 k2
-    H: np.ndarray  # mean curvature (k1 + k2) / 2
-
-
-def _kindlmann(gradient: np.ndarray, hessian: np.ndarray) -> Curvatures:
-    """Kindlmann et al. 2003: n = -g/|g|, P = I - n n^T, G = -P H P / |g|, T = tr G, F = |G|_F,
-    k1,2 = (T +- sqrt(2F^2 - T^2)) / 2. Zero where |g| = 0; umbilics clamp the root at 0."""
-    norm = np.linalg.norm(gradient, axis=-1)
-    ok = norm > TINY
-    safe = np.where(ok, norm, 1.0)
-    n = -gradient / safe[..., None]
-    proj = np.eye(3) - outer(n, n)
-    g_mat = -(proj @ hessian @ proj) / safe[..., None, None]
-    trace = np.trace(g_mat, axis1=-2, axis2=-1)
-    frob2 = np.sum(g_mat**2, axis=(-2, -1))
-    root = np.sqrt(np.maximum(2.0 * frob2 - trace**2, 0.0))
-    k1 = np.where(ok, (trace + root) / 2, 0.0)
-    k2 = np.where(ok, (trace - root) / 2, 0.0)
-    return Curvatures(k1, k2, k1 * k2, (k1 + k2) / 2)
-
-
-def exact_curvature(function: ImplicitFunction, p) -> Curvatures:
+def exact_curvature(function: ImplicitFunction, p) -> Curvature:
     """Principal, Gaussian and mean curvature (1/world unit) of the level set of ``function``
-    through each world point p (N, 3), from its exact gradient and Hessian."""
+    through each world point p (N, 3), from its exact gradient and Hessian (Kindlmann et al.)."""
     _, g, h = function.jet(p)
-    return _kindlmann(g, h)
+    return kindlmann(g, h)
 
 
 
