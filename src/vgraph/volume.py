@@ -112,6 +112,19 @@ class Volume:
             self.__dict__[key] = (counts, np.linspace(0.0, 1.0, bins + 1))
         return self.__dict__[key]
 
+    # --- what a consumer needs -------------------------------------------------------------------
+    def require_samples(self, consumer: str) -> "Volume":
+        if self.is_spline_coefficients:
+            raise VGraphError(f"{consumer} needs voxel samples but received B-spline coefficients: "
+                              f"disable or remove the CubicSplineProcessor in front of it")
+        return self
+
+    def require_coefficients(self, consumer: str) -> "Volume":
+        if not self.is_spline_coefficients:
+            raise VGraphError(f"{consumer} needs B-spline coefficients but received voxel samples: "
+                              f"insert a CubicSplineProcessor in front of it")
+        return self
+
     # --- GPU ------------------------------------------------------------------------------------
     def texture(self, ctx):
         """The volume as a 3D texture on ``ctx`` (R8 / R16 normalised, otherwise R32F), uploaded
