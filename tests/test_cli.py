@@ -90,3 +90,15 @@ def test_version_and_help():
     code, out, _ = vgraph_cli("--version")
     assert code == 0 and out.startswith("vgraph ")
     assert vgraph_cli()[0] == 2
+
+
+def test_a_bug_inside_a_processor_exits_1_and_names_it(tmp_path, capsys):
+    network = {"format": "vgraph-network", "version": 1,
+               "processors": [{"id": "n", "type": "Number"}, {"id": "f", "type": "Fragile", "properties": {"fail": 1}},
+                              {"id": "c", "type": "Collect"}],
+               "connections": [{"from": "n.value", "to": "f.value"}, {"from": "f.value", "to": "c.value"}]}
+    (tmp_path / "fragile.json").write_text(json.dumps(network))
+    args = ["run", str(tmp_path / "fragile.json"), "--plugin", "toy_processors", "--profile", str(tmp_path / "p.json")]
+    assert main(args) == 1
+    assert "processor 'f' (Fragile): ZeroDivisionError: deliberate failure" in capsys.readouterr().err
+    assert [e["id"] for e in json.loads((tmp_path / "p.json").read_text())["evaluated"]] == ["n"]

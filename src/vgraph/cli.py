@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 import vgraph
-from vgraph.errors import VGraphError
+from vgraph.errors import ProcessorError, VGraphError
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -32,7 +32,7 @@ def main(argv: list[str] | None = None) -> int:
         return args.command(args)
     except VGraphError as error:
         print(f"vgraph: error: {error}", file=sys.stderr)
-        return EXIT_INTERNAL if getattr(error, "internal", False) else EXIT_BAD_INPUT
+        return EXIT_INTERNAL if isinstance(error, ProcessorError) and error.internal else EXIT_BAD_INPUT
     except KeyboardInterrupt:
         return EXIT_INTERNAL
     except Exception:
@@ -90,6 +90,7 @@ def parse_assignment(text: str) -> tuple[str, object]:
 
 def command_run(args) -> int:
     from vgraph.atomic import atomic_path, write_text_atomic
+    from vgraph.image import Image
     from vgraph.imagefile import write_png
     from vgraph.scheduler import default_target, to_numpy
 
@@ -105,7 +106,7 @@ def command_run(args) -> int:
             write_text_atomic(args.profile, json.dumps(network.last_evaluation.to_json(), indent=2) + "\n")
     if args.output:
         image = network.output(target)
-        if not isinstance(image, vgraph.image.Image):
+        if not isinstance(image, Image):
             raise VGraphError(f"{target} holds {type(image).__name__}, not an image: use --npy")
         write_png(args.output, image.to_numpy())
     if args.npy:

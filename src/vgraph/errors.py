@@ -62,10 +62,12 @@ class ShaderError(VGraphError):
 
 
 class ProcessorError(VGraphError):
-    """A processor failed while it ran. Names its id and type; the cause is chained."""
+    """A processor failed while it ran. Names its id and type; the cause is chained. ``internal``
+    is True when the cause was a bug (not a VGraphError), which the CLI reports as exit code 1."""
 
-    def __init__(self, processor_id: str, type_name: str, reason: str):
+    def __init__(self, processor_id: str, type_name: str, reason: str, internal: bool = False):
         self.processor_id = processor_id
         self.type_name = type_name
         self.reason = reason
+        self.internal = internal
         super().__init__(f"processor '{processor_id}' ({type_name}): {reason}")

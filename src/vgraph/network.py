@@ -168,11 +168,9 @@ class Network:
         self[processor_id].set_property(name, value)
 
     def get(self, address: str):
+        self._property(address)  # names the processor's properties if this one does not exist
         processor_id, name = split_address(address, "property")
-        processor = self[processor_id]
-        if name not in processor.properties:
-            processor.set_property(name, None)  # raises the error that lists the properties
-        return processor.property_values[name]
+        return self[processor_id].property_values[name]
 
     def link(self, source: str, target: str, bidirectional: bool = False) -> Link:
         """Make ``target`` follow ``source`` (and the other way round if bidirectional). The target
@@ -200,7 +198,8 @@ class Network:
         processor_id, name = split_address(address, "property")
         processor = self[processor_id]
         if name not in processor.properties:
-            raise PropertyError(address, f"{processor.type_name} has no property '{name}'")
+            known = ", ".join(processor.properties) or "none"
+            raise PropertyError(address, f"{processor.type_name} has no property '{name}' (its properties: {known})")
         return processor.properties[name]
 
     def property_changed(self, processor: Processor, name: str) -> None:

@@ -82,9 +82,8 @@ def _run(network: Network, processor: Processor) -> EvaluationRecord:
         processor.last_error = _reason(error)
         processor.last_seconds = time.perf_counter() - start
         network._emit("evaluated", processor=processor)
-        wrapped = ProcessorError(processor.id, processor.type_name, processor.last_error)
-        wrapped.internal = not isinstance(error, VGraphError)
-        raise wrapped from error
+        raise ProcessorError(processor.id, processor.type_name, processor.last_error,
+                             internal=not isinstance(error, VGraphError)) from error
     processor.inputs, processor.outputs = inputs, outputs
     processor.invalid_level = Invalidation.VALID
     processor.last_error = None
