@@ -1,0 +1,155 @@
+"""EntryExitPoints (seed 000 ch. 4.2.2, Krueger & Westermann 2003): where each pixel's view ray
+enters and leaves the volume's box, as two images for the ray casters.
+
+Conventions (vgraph.gl.volume_rendering has the long form):
+- The box is the one spanned by the voxel centres, in world space (dims - 1) * spacing from the
+  origin, so anisotropic volumes have their true shape. Its faces, grown by a margin, are
+  rasterised to find the pixels the box covers; each fragment then intersects its pixel's ray with
+  the box exactly (slab test in float32): interpolated attributes would inherit the rasteriser's
+  sub-pixel snapping (llvmpipe: 1/256 pixel, ~1e-3 voxel errors, ragged edges).
+- Outputs are RGBA32F images at the render size (the Canvas's size drives it): rgb = texture
+  coordinates (voxel centre i at (i + 0.5) / dims, clamped to the box of the voxel centres),
+  alpha = 1 where the ray meets the box between the near and far planes, else 0 (rgb 0).
+- Exit points: back faces, then far-plane capping (pixels whose far-plane point is inside the box,
+  whose back face was clipped: the ray ends on the far plane). Entry points: front faces, then
+  near-plane capping (where the near plane cuts the box, e.g. a camera inside the volume, the ray
+  starts on the near plane, as Camera.rays does).
+- Rays are those of Camera.rays: one per pixel centre, row 0 at the top after Image.to_numpy().
+- The default camera frames the implicit functions' box [-1, 1]^3. While the camera still has its
+  default value, each volume that arrives is framed (frame_volume(): Camera.framing, keeping the
+  view direction), so a volume from a file shows without setting a camera first.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from vgraph import CameraProperty, FloatProperty, Inport, Outport, Processor, VGraphError
+from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass, set_uniform
+from vgraph.gl.shaders import programs
+from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, VolumeGeometry, plane_frame,
+                                        ray_uniforms, vec)
+from vgraph.image import Image
+from vgraph.volume import Volume
+
+FACE_SHADERS = ("raycasting/entry_exit.vert.glsl", "raycasting/entry_exit.frag.glsl")
+CAP_SHADER = "raycasting/plane_cap.frag.glsl"
+
+
+def cube_triangles() -> np.ndarray:
+    """The unit cube's 12 triangles as 36 corners (0/1 per axis), float32, each triangle
+    counter-clockwise seen from outside (GL's default front face is the outside)."""
+    corners = []
+    for axis in range(3):
+        u, v = (axis + 1) % 3, (axis + 2) % 3
+        for side in (0.0, 1.0):
+            quad = []
+            for a, b in ((0, 0), (1, 0), (1, 1), (0, 1)):
+                point = np.zeros(3)
+                point[axis], point[u], point[v] = side, a, b
+                quad.append(point)
+            normal = np.cross(quad[1] - quad[0], quad[2] - quad[0])
+            if normal[axis] * (side - 0.5) < 0.0:  # points inwards: reverse the quad
+                quad.reverse()
+            corners += [quad[0], quad[1], quad[2], quad[0], quad[2], quad[3]]
+    return np.array(corners, dtype=np.float32)
+
+
+class EntryExitPoints(Processor):
+    """Entry and exit points of the view rays through the volume's box (texture coordinates)."""
+
+    category = "Volume rendering"
+    inports = [Inport("volume", Volume)]
+    outports = [Outport("entry", Image), Outport("exit", Image)]
+    renders_at_size = True
+
+    camera = CameraProperty(DEFAULT_CAMERA, doc="the view; link it to the ray caster's camera. While "
+                                                "it is the default, each volume is framed")
+    jitter = FloatProperty(0.0, min=0.0, max=4.0,
+                           doc="move entry points along their ray by a per-pixel pseudo-random "
+                               "fraction of this many voxels (smallest spacing); 0 = off. About "
+                               "1 / sampling_rate hides wood-grain artefacts")
+
+    def __init__(self, id: str | None = None, **values):
+        super().__init__(id, **values)
+        self._entry, self._exit = RenderTargets(1), RenderTargets(1)
+        self._cube: tuple | None = None  # (ctx, vertex buffer, {program: vertex array})
+
+    def process(self, volume: Volume) -> dict:
+        if self.camera == DEFAULT_CAMERA:
+            self.frame_volume(volume)  # an untouched camera shows whatever volume arrives
+        ctx = self.gl
+        size = self.render_size
+        (entry,), (exit_points,) = self._entry.ensure(ctx, size), self._exit.ensure(ctx, size)
+        uniforms = self._uniforms(volume, size)
+        self._draw(ctx, exit_points, "front", {}, uniforms, "far")
+        self._draw(ctx, entry, "back", {"ENTRY": True}, uniforms, "near", exit_points)
+        return {"entry": entry, "exit": exit_points}
+
+    def frame_volume(self, volume: Volume | None = None) -> None:
+        """Move the camera so the volume's box fills the view (keeping direction and up; see
+        Camera.framing). Uses the last volume received unless one is given."""
+        volume = volume if volume is not None else self.inputs.get("volume")
+        if volume is None:
+            raise VGraphError(f"{self.id}: frame_volume() needs a volume: evaluate the network "
+                              "first or pass one")
+        width, height = self.render_size
+        framed = self.camera.framing(*VolumeGeometry.of(volume).box, width / height)
+        if framed != self.camera:
+            self.camera = framed  # a linked ray caster's camera follows
+
+    # --- drawing --------------------------------------------------------------------------------
+    def _uniforms(self, volume: Volume, size) -> dict:
+        geometry = VolumeGeometry.of(volume)
+        box_min, box_max = geometry.box
+        hit_min, hit_max = geometry.grown_box()
+        proxy_min, proxy_max = geometry.proxy_box()
+        scale, offset = geometry.world_to_texture
+        texture_min, texture_max = geometry.texture_box
+        return {"box_min": vec(box_min), "box_max": vec(box_max),
+                "hit_box_min": vec(hit_min), "hit_box_max": vec(hit_max),
+                "proxy_min": vec(proxy_min), "proxy_max": vec(proxy_max),
+                "proxy_size": vec(proxy_max - proxy_min),
+                "view_projection": self.camera.view_projection(size[0] / size[1]),
+                "near_to_far": self.camera.far - self.camera.near,
+                "world_to_texture_scale": vec(scale), "world_to_texture_offset": vec(offset),
+                "texture_box_min": vec(texture_min), "texture_box_max": vec(texture_max),
+                "texture_to_world_scale": vec(geometry.texture_to_world[0]),
+                "jitter": float(self.jitter * geometry.spacing.min()),
+                "viewport_size": (float(size[0]), float(size[1])),
+                **ray_uniforms(self.camera, size)}
+
+    def _draw(self, ctx, target: Image, culled: str, defines: dict, uniforms: dict, plane: str,
+              exit_points: Image | None = None) -> None:
+        """Clear ``target``, rasterise the box's faces that survive culling, then cap with the
+        near or far plane."""
+        textures = {"exit_points": exit_points} if exit_points is not None else {}
+        target.framebuffer.use()
+        target.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+        ctx.viewport = (0, 0, *target.size)
+        faces = programs.program(ctx, *FACE_SHADERS, defines, processor=self.id)
+        for unit, (name, image) in enumerate(textures.items()):
+            image.texture.use(location=unit)
+            set_uniform(faces, name, unit)
+        for name, value in uniforms.items():
+            set_uniform(faces, name, value)
+        ctx.front_face, ctx.cull_face = "ccw", culled
+        ctx.enable(moderngl.CULL_FACE)
+        try:
+            self._cube_vertex_array(ctx, faces).render(moderngl.TRIANGLES)
+        finally:
+            ctx.disable(moderngl.CULL_FACE)
+        centre, right, up = plane_frame(self.camera, target.size, plane)
+        cap = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, CAP_SHADER, defines, processor=self.id)
+        fullscreen_pass(ctx, cap, target, textures,
+                        {**uniforms, "cap_centre": vec(centre), "cap_right": vec(right),
+                         "cap_up": vec(up)})
+
+    def _cube_vertex_array(self, ctx, program):
+        if self._cube is None or self._cube[0] is not ctx:
+            self._cube = (ctx, ctx.buffer(cube_triangles().tobytes()), {})
+        _, buffer, arrays = self._cube
+        if program not in arrays:
+            arrays[program] = ctx.vertex_array(program, [(buffer, "3f", "corner")])
+        return arrays[program]

@@ -1,0 +1,48 @@
+// COMPOSITING_DVR: direct volume rendering, front-to-back (seed 000 eq. 2.3-2.4):
+// C += (1 - A) a' rgb, A += (1 - A) a' with a' the opacity-corrected TF alpha, shaded colour where
+// SHADING_BLINN_PHONG (only samples with a' > 0 are shaded: the others add nothing). The ray stops
+// once A >= early_termination. Depth: the first sample with a' > 0. With SKIP_EMPTY_SPACE, regions
+// of blocks where the TF has no opacity are jumped over (empty_space.glsl).
+#ifdef COMPOSITING_DVR
+uniform float early_termination;
+
+Result march(Ray ray) {
+    Result result = empty_result();
+    vec4 sum = vec4(0.0);
+#ifdef SKIP_EMPTY_SPACE
+    BlockWalk walk = block_walk(ray);
+#endif
+    int i = 0;
+    while (i < ray.samples) {
+#ifdef SKIP_EMPTY_SPACE
+        ivec3 block = block_of(walk, i);
+        float radius = block_value(block);
+        if (radius > 0.0) {
+            i = next_sample_outside(walk, i, block, radius, ray.samples);
+            continue;
+        }
+#endif
+        vec3 t = sample_point(ray, float(i));
+        float raw = raw_sample(t);
+        vec4 color = classify(raw * intensity_scale + intensity_offset);
+        result.taken++;
+        if (color.a > 0.0) {
+            float alpha = corrected_opacity(color.a);
+#ifdef SHADING_BLINN_PHONG
+            color.rgb = shade(color.rgb, gradient(t, raw), -ray.direction);
+#endif
+            if (result.depth_sample < 0.0) {
+                result.depth_sample = float(i);
+            }
+            float weight = (1.0 - sum.a) * alpha;
+            sum += vec4(weight * color.rgb, weight);
+            if (sum.a >= early_termination) {
+                break;
+            }
+        }
+        ++i;
+    }
+    result.color = sum;
+    return result;
+}
+#endif

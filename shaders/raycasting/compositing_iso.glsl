@@ -1,0 +1,70 @@
+// COMPOSITING_ISO: the first point where the normalised intensity reaches `iso_level`. The first
+// sample with value >= level is found, then the crossing between it and the sample before is refined
+// by ISO_REFINEMENT regula-falsi steps (one volume sample each) and a final linear interpolation.
+// (If sample 0 already reaches the level, the surface is cut by the box or the near plane and the
+// hit is sample 0.) Colour: TF(iso_level).rgb, shaded at the hit with SHADING_BLINN_PHONG, opaque.
+// Depth: the refined hit. With SKIP_EMPTY_SPACE, regions of blocks whose maximum is below the level
+// are jumped over; the sample before a hit is then fetched again for the refinement.
+#ifdef COMPOSITING_ISO
+#define ISO_REFINEMENT 3
+uniform float iso_level;
+
+// a < b are fractional sample indices with value(a) - level = fa < 0 <= fb = value(b) - level.
+float refine_crossing(Ray ray, float a, float fa, float b, float fb) {
+    for (int k = 0; k < ISO_REFINEMENT; ++k) {
+        float middle = a + (b - a) * fa / (fa - fb);
+        float fm = intensity(sample_point(ray, middle)) - iso_level;
+        if (fm >= 0.0) {
+            b = middle;
+            fb = fm;
+        } else {
+            a = middle;
+            fa = fm;
+        }
+    }
+    return a + (b - a) * fa / (fa - fb);
+}
+
+Result march(Ray ray) {
+    Result result = empty_result();
+    float previous = 0.0;
+    bool have_previous = false;  // false after a skip: the sample before was not evaluated
+#ifdef SKIP_EMPTY_SPACE
+    BlockWalk walk = block_walk(ray);
+#endif
+    int i = 0;
+    while (i < ray.samples) {
+#ifdef SKIP_EMPTY_SPACE
+        ivec3 block = block_of(walk, i);
+        float radius = block_value(block);
+        if (radius > 0.0) {
+            i = next_sample_outside(walk, i, block, radius, ray.samples);
+            have_previous = false;
+            continue;
+        }
+#endif
+        float value = intensity(sample_point(ray, float(i)));
+        result.taken++;
+        if (value >= iso_level) {
+            float hit = float(i);
+            if (i > 0) {
+                float before = have_previous ? previous
+                                             : intensity(sample_point(ray, float(i - 1)));
+                hit = refine_crossing(ray, float(i - 1), before - iso_level, hit, value - iso_level);
+            }
+            vec3 rgb = classify(iso_level).rgb;
+#ifdef SHADING_BLINN_PHONG
+            vec3 t = sample_point(ray, hit);
+            rgb = shade(rgb, gradient(t, raw_sample(t)), -ray.direction);
+#endif
+            result.color = vec4(rgb, 1.0);
+            result.depth_sample = hit;
+            return result;
+        }
+        previous = value;
+        have_previous = true;
+        ++i;
+    }
+    return result;
+}
+#endif

@@ -1,0 +1,94 @@
+// The point an EntryExitPoints fragment stores, shared by the face and plane-cap passes.
+//
+// The pixel's ray is the one of Camera.rays: origin on the near plane, direction through the
+// pixel centre (not normalised: its component along the view direction is 1, so the far plane is
+// at ray parameter far - near). Its intersection with the box of the voxel centres is computed
+// exactly by the slab test, clipped to [0, far - near] (rays that meet the box grown by
+// BOX_EPSILON count as hits, as in the CPU reference): rasterised faces only say which pixels to compute, because interpolated
+// attributes would inherit the rasteriser's sub-pixel snapping of the vertices (llvmpipe: 1/256
+// pixel, errors of ~1e-3 voxel and ragged edges).
+//
+// Stored: rgb = texture coordinates of the entry point (ENTRY) or exit point, clamped to the box
+// of the voxel centres, alpha = 1. Rays that miss are discarded (the image is cleared to 0). With
+// ENTRY, entry points may be jittered: moved towards the exit point (read from the exit image,
+// drawn before) by a per-pixel pseudo-random fraction of `jitter` world units, never past it.
+uniform vec2 viewport_size;
+uniform vec3 near_centre;  // near-plane point of pixel centre (ndc_x, ndc_y):
+uniform vec3 near_right;   //   near_centre + ndc_x * near_right + ndc_y * near_up
+uniform vec3 near_up;
+uniform vec3 direction_centre;  // its direction: direction_centre + ndc_x * direction_right + ...
+uniform vec3 direction_right;   // (given apart from the points: near_point - eye would lose
+uniform vec3 direction_up;      //  digits when the near plane is close to the eye)
+uniform float near_to_far;      // far - near
+
+uniform vec3 box_min;      // world: the box of the voxel centres
+uniform vec3 box_max;
+uniform vec3 hit_box_min;  // the same grown by BOX_EPSILON: rays meeting it count as hits
+uniform vec3 hit_box_max;
+uniform vec3 world_to_texture_scale;  // t = p * scale + offset
+uniform vec3 world_to_texture_offset;
+uniform vec3 texture_box_min;  // 0.5 / dims
+uniform vec3 texture_box_max;  // 1 - 0.5 / dims
+
+#ifdef ENTRY
+uniform sampler2D exit_points;
+uniform float jitter;                 // world units; 0 turns jitter off
+uniform vec3 texture_to_world_scale;  // dims * spacing
+
+// Interleaved gradient noise (Jimenez 2014): a fixed pattern in [0, 1), so images are reproducible.
+float pixel_noise(vec2 pixel) {
+    return fract(52.9829189 * fract(dot(pixel, vec2(0.06711056, 0.00583715))));
+}
+#endif
+
+vec2 pixel_ndc() {
+    return gl_FragCoord.xy / viewport_size * 2.0 - 1.0;
+}
+
+// The ray parameters [enter, leave] of the part of the ray inside [lo, hi] and in [0, far - near].
+vec2 slab_interval(vec3 origin, vec3 inverse, vec3 lo, vec3 hi) {
+    vec3 t0 = (lo - origin) * inverse;
+    vec3 t1 = (hi - origin) * inverse;
+    vec3 near_t = min(t0, t1);
+    vec3 far_t = max(t0, t1);
+    return vec2(max(max(max(near_t.x, near_t.y), near_t.z), 0.0),
+                min(min(min(far_t.x, far_t.y), far_t.z), near_to_far));
+}
+
+vec4 box_point() {
+    vec2 ndc = pixel_ndc();
+    vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
+    vec3 direction = direction_centre + ndc.x * direction_right + ndc.y * direction_up;
+    // A ray parallel to a slab is inside it for all or no t: a huge 1/d gives +-huge or 0 there.
+    vec3 inverse = vec3(direction.x != 0.0 ? 1.0 / direction.x : 1e30,
+                        direction.y != 0.0 ? 1.0 / direction.y : 1e30,
+                        direction.z != 0.0 ? 1.0 / direction.z : 1e30);
+    // Hit or miss by the grown box; the points from the box itself (the grown box's faces lie
+    // off the voxel-centre box by BOX_EPSILON, which oblique rays would carry sideways).
+    vec2 grown = slab_interval(origin, inverse, hit_box_min, hit_box_max);
+    if (grown.y < grown.x) {
+        discard;
+    }
+    vec2 exact = slab_interval(origin, inverse, box_min, box_max);
+    vec2 interval = exact.y < exact.x ? grown : exact;  // a grazing ray: only the grown box
+    float enter = interval.x;
+    float leave = interval.y;
+#ifdef ENTRY
+    float s = enter;
+#else
+    float s = leave;
+#endif
+    vec3 t = (origin + s * direction) * world_to_texture_scale + world_to_texture_offset;
+    t = clamp(t, texture_box_min, texture_box_max);
+#ifdef ENTRY
+    if (jitter > 0.0) {
+        vec4 exit_point = texelFetch(exit_points, ivec2(gl_FragCoord.xy), 0);
+        vec3 along = exit_point.xyz - t;
+        float len = length(along * texture_to_world_scale);
+        if (exit_point.a > 0.0 && len > 0.0) {
+            t += along * (min(jitter * pixel_noise(floor(gl_FragCoord.xy)), len) / len);
+        }
+    }
+#endif
+    return vec4(t, 1.0);
+}

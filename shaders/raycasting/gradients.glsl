@@ -1,0 +1,38 @@
+// Gradients of the reconstructed field in normalised intensity per world unit, from samples one
+// voxel away along each axis: GRADIENT_FORWARD (f(p + h) - f(p)) / h, GRADIENT_BACKWARD
+// (f(p) - f(p - h)) / h, GRADIENT_CENTRAL (f(p + h) - f(p - h)) / 2h, GRADIENT_SOBEL the 3x3x3
+// Sobel operator (central difference along the axis, weights 1 2 1 across it, divided by 32 h).
+// `here` is raw_sample(t), which the caller already has. Compiled only with a GRADIENT_* define.
+#if defined(GRADIENT_FORWARD) || defined(GRADIENT_BACKWARD) || defined(GRADIENT_CENTRAL) || defined(GRADIENT_SOBEL)
+uniform vec3 voxel_step;      // one voxel in texture space: 1 / dims
+uniform vec3 gradient_scale;  // intensity_scale / (h, 2h or 32h): raw differences -> per world unit
+
+vec3 gradient(vec3 t, float here) {
+    vec3 dx = vec3(voxel_step.x, 0.0, 0.0);
+    vec3 dy = vec3(0.0, voxel_step.y, 0.0);
+    vec3 dz = vec3(0.0, 0.0, voxel_step.z);
+#if defined(GRADIENT_FORWARD)
+    vec3 g = vec3(raw_sample(t + dx), raw_sample(t + dy), raw_sample(t + dz)) - here;
+#elif defined(GRADIENT_BACKWARD)
+    vec3 g = here - vec3(raw_sample(t - dx), raw_sample(t - dy), raw_sample(t - dz));
+#elif defined(GRADIENT_CENTRAL)
+    vec3 g = vec3(raw_sample(t + dx) - raw_sample(t - dx), raw_sample(t + dy) - raw_sample(t - dy),
+                  raw_sample(t + dz) - raw_sample(t - dz));
+#else
+    vec3 g = vec3(0.0);
+    for (int z = -1; z <= 1; ++z) {
+        for (int y = -1; y <= 1; ++y) {
+            for (int x = -1; x <= 1; ++x) {
+                vec3 offset = vec3(x, y, z);
+                vec3 smoothing = 2.0 - abs(offset);  // 1 off-centre, 2 on the centre line
+                vec3 weight = offset * smoothing.yxx * smoothing.zzy;
+                if (weight != vec3(0.0)) {
+                    g += weight * raw_sample(t + offset * voxel_step);
+                }
+            }
+        }
+    }
+#endif
+    return g * gradient_scale;
+}
+#endif
