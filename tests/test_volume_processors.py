@@ -13,6 +13,7 @@ import vgraph
 from vgraph import Network, ProcessorError
 from vgraph.cli import main
 from vgraph.implicit import DATA_TYPES, FUNCTIONS
+from vgraph.io import read_volume
 
 from conftest import REPO
 
@@ -65,7 +66,7 @@ def test_every_shared_data_set_loads_through_vgraph_run(name, data_dir, tmp_path
 def test_volume_networks_write_their_volume(network, data_dir, tmp_path):
     out = tmp_path / "sub" / "v.nii.gz"
     assert main(["run", str(NETWORKS / f"{network}.json"), "--set", f"writer.path={out}"]) == 0
-    written = vgraph.io.read_volume(out)
+    written = read_volume(out)
     source = vgraph.load(NETWORKS / f"{network}.json")
     source.update("source.volume")
     assert written.data.shape == source.output("source.volume").data.shape
@@ -178,7 +179,7 @@ def test_volume_writer_round_trip_keeps_geometry(tmp_path):
     network.add("VolumeWriter", id="w", path=str(tmp_path / "sphere.nrrd"))
     network.connect("f.volume", "w.volume")
     network.update()
-    written, original = vgraph.io.read_volume(tmp_path / "sphere.nrrd"), network.output("f.volume")
+    written, original = read_volume(tmp_path / "sphere.nrrd"), network.output("f.volume")
     np.testing.assert_array_equal(written.data, original.data)
     np.testing.assert_allclose(written.spacing, original.spacing)
     np.testing.assert_allclose(written.origin, original.origin)
