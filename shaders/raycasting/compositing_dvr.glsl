@@ -15,12 +15,7 @@ Result march(Ray ray) {
     int i = 0;
     while (i < ray.samples) {
 #ifdef SKIP_EMPTY_SPACE
-        ivec3 block = block_of(walk, i);
-        float radius = block_value(block);
-        if (radius > 0.0) {
-            i = next_sample_outside(walk, i, block, radius, ray.samples);
-            continue;
-        }
+        if (skipped_empty_region(walk, i, ray.samples)) continue;
 #endif
         vec3 t = sample_point(ray, float(i));
         float raw = raw_sample(t);

@@ -46,4 +46,16 @@ int next_sample_outside(BlockWalk walk, int i, ivec3 block, float radius, int sa
     float steps = clamp(min(min(ahead.x, ahead.y), ahead.z), 0.0, float(samples));
     return i + 1 + int(steps);
 }
+
+// Where sample i lies in an empty region, move i past it and return true (the caller continues
+// its loop); otherwise leave i and return false.
+bool skipped_empty_region(BlockWalk walk, inout int i, int samples) {
+    ivec3 block = block_of(walk, i);
+    float radius = block_value(block);
+    if (radius <= 0.0) {
+        return false;
+    }
+    i = next_sample_outside(walk, i, block, radius, samples);
+    return true;
+}
 #endif
