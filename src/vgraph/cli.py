@@ -67,6 +67,11 @@ def build_parser() -> argparse.ArgumentParser:
     listing.add_argument("--json", action="store_true", help="machine-readable output")
     listing.add_argument("--plugin", action="append", metavar="MODULE")
     listing.set_defaults(command=command_list)
+
+    gui = commands.add_parser("gui", help="open the network editor (PySide6)")
+    gui.add_argument("network", type=Path, nargs="?", help="a .json network to open")
+    gui.add_argument("--plugin", action="append", metavar="MODULE", help="import a plug-in module")
+    gui.set_defaults(command=command_gui)
     return parser
 
 
@@ -147,3 +152,6 @@ def command_list(args) -> int:
     return EXIT_OK
 
 
+def command_gui(args) -> int:
+    from vgraph.gui.app import run_gui  # imported here so no other command imports Qt
+    return run_gui(args.network)

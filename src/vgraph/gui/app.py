@@ -1,0 +1,300 @@
+"""The main window and ``run_gui`` (``vgraph gui [NETWORK.json]``).
+
+Layout: the network editor in the middle, the processor palette on the left, the property
+inspector on the right, the log at the bottom, messages (such as why a connection is refused) in
+the status bar.
+
+Conventions:
+- The window wires views to the Workspace; it holds no model state of its own.
+- Errors never close the window: a bad file gets a dialog naming every problem, a processor error
+  shows on its node and in the log, and anything unexpected goes to the log (``run_gui`` installs
+  an exception hook for slots and event handlers).
+- Dialogs go through ``ask_*``/``report_error`` so tests can answer them.
+- No OpenGL here: evaluation goes through ``LiveEvaluation``/``Evaluator``.
+"""
+
+from __future__ import annotations
+
+import sys
+import traceback
+from pathlib import Path
+
+from PySide6.QtCore import QSettings, Qt
+from PySide6.QtGui import QAction, QKeySequence
+from PySide6.QtWidgets import QApplication, QDockWidget, QFileDialog, QMainWindow, QMessageBox
+
+from vgraph.errors import VGraphError
+from vgraph.gui.evaluator import EvaluationOutcome
+from vgraph.gui.inspector import PropertyInspector
+from vgraph.gui.links import LinkDialog
+from vgraph.gui.live_evaluation import LiveEvaluation
+from vgraph.gui.log import LogPanel
+from vgraph.gui.palette import ProcessorPalette
+from vgraph.gui.scene import NetworkScene, NetworkView
+from vgraph.gui.workspace import Workspace
+
+NETWORK_FILTER = "vgraph networks (*.json);;All files (*)"
+
+
+class MainWindow(QMainWindow):
+    def __init__(self, settings: QSettings | None = None):
+        super().__init__()
+        self.workspace = Workspace(settings, self)
+        self.scene = NetworkScene(self.workspace, self)
+        self.view = NetworkView(self.scene)
+        self.setCentralWidget(self.view)
+        self.palette = ProcessorPalette()
+        self.inspector = PropertyInspector(self.workspace)
+        self.log = LogPanel()
+        self._dock("Processors", self.palette, Qt.LeftDockWidgetArea)
+        self._dock("Properties", self.inspector, Qt.RightDockWidgetArea)
+        self._dock("Log", self.log, Qt.BottomDockWidgetArea)
+        self.evaluation = LiveEvaluation(self.workspace, parent=self)
+        self.failures: dict[str, str] = {}
+        self._build_actions()
+        self._build_menus()
+        self._wire()
+        self.resize(1280, 800)
+        self._update_title()
+
+    def _dock(self, title: str, widget, area) -> QDockWidget:
+        dock = QDockWidget(title, self)
+        dock.setObjectName(title)
+        dock.setWidget(widget)
+        self.addDockWidget(area, dock)
+        return dock
+
+    def _action(self, text: str, slot, shortcut=None, checkable=False, checked=False) -> QAction:
+        action = QAction(text, self)
+        if shortcut is not None:
+            action.setShortcut(QKeySequence(shortcut))
+        action.setCheckable(checkable)
+        if checkable:
+            action.setChecked(checked)
+            action.toggled.connect(slot)
+        else:
+            action.triggered.connect(lambda *_: slot())
+        return action
+
+    def _build_actions(self) -> None:
+        stack = self.workspace.undo_stack
+        self.new_action = self._action("&New", self.new_network, QKeySequence.New)
+        self.open_action = self._action("&Open...", self.open_network, QKeySequence.Open)
+        self.save_action = self._action("&Save", self.save_network, QKeySequence.Save)
+        self.save_as_action = self._action("Save &As...", self.save_network_as, QKeySequence.SaveAs)
+        self.quit_action = self._action("&Quit", self.close, QKeySequence.Quit)
+        self.undo_action = stack.createUndoAction(self, "&Undo")
+        self.undo_action.setShortcut(QKeySequence.Undo)
+        self.redo_action = stack.createRedoAction(self, "&Redo")
+        self.redo_action.setShortcut(QKeySequence.Redo)
+        self.delete_action = self._action("&Delete", self.scene.delete_selected, QKeySequence.Delete)
+        self.select_all_action = self._action("Select &All", self._select_all, QKeySequence.SelectAll)
+        self.links_action = self._action("Property &Links...", self.edit_links, "Ctrl+L")
+        self.auto_link_action = self._action("Auto-link &Cameras", self._set_auto_link, checkable=True,
+                                             checked=self.workspace.auto_link_cameras)
+        self.zoom_in_action = self._action("Zoom &In", lambda: self.view.zoom(1.25), QKeySequence.ZoomIn)
+        self.zoom_out_action = self._action("Zoom &Out", lambda: self.view.zoom(0.8), QKeySequence.ZoomOut)
+        self.fit_action = self._action("&Fit Network", self.view.fit_network, "Ctrl+0")
+        self.show_links_action = self._action("Show Property Links", self.scene.set_links_visible,
+                                              checkable=True, checked=True)
+        self.evaluate_action = self._action("&Evaluate Now", self.evaluation.run, "F5")
+        self.writers_action = self._action("Run &Writers", lambda: self.evaluation.run(include_writers=True),
+                                           "Ctrl+R")
+
+    def _build_menus(self) -> None:
+        bar = self.menuBar()
+        file_menu = bar.addMenu("&File")
+        file_menu.addActions([self.new_action, self.open_action])
+        self.recent_menu = file_menu.addMenu("Open &Recent")
+        file_menu.addActions([self.save_action, self.save_as_action])
+        file_menu.addSeparator()
+        file_menu.addAction(self.quit_action)
+        edit_menu = bar.addMenu("&Edit")
+        edit_menu.addActions([self.undo_action, self.redo_action])
+        edit_menu.addSeparator()
+        edit_menu.addActions([self.delete_action, self.select_all_action])
+        edit_menu.addSeparator()
+        edit_menu.addActions([self.links_action, self.auto_link_action])
+        view_menu = bar.addMenu("&View")
+        view_menu.addActions([self.zoom_in_action, self.zoom_out_action, self.fit_action,
+                              self.show_links_action])
+        view_menu.addSeparator()
+        for dock in self.findChildren(QDockWidget):
+            view_menu.addAction(dock.toggleViewAction())
+        network_menu = bar.addMenu("&Network")
+        network_menu.addActions([self.evaluate_action, self.writers_action])
+        self._fill_recent_menu(self.workspace.recent_files())
+
+    def _wire(self) -> None:
+        workspace = self.workspace
+        self.palette.processor_chosen.connect(self.add_processor)
+        self.scene.status_message.connect(self.show_message)
+        self.inspector.status_message.connect(self.show_message)
+        self.scene.selectionChanged.connect(self._selection_changed)
+        workspace.undo_stack.cleanChanged.connect(self._update_title)
+        workspace.path_changed.connect(self._update_title)
+        workspace.recent_files_changed.connect(self._fill_recent_menu)
+        workspace.network_replaced.connect(self._network_replaced)
+        self.evaluation.finished.connect(self.report_outcome)
+        self.evaluation.crashed.connect(lambda text: self.log.error(f"internal error (please report it):\n{text}"))
+
+    # --- messages and dialogs -------------------------------------------------------------------
+    def show_message(self, text: str) -> None:
+        self.statusBar().showMessage(text)
+
+    def report_error(self, title: str, message: str) -> None:
+        self.log.error(message)
+        QMessageBox.critical(self, title, message)
+
+    def ask_save_changes(self) -> QMessageBox.StandardButton:
+        return QMessageBox.question(
+            self, "Unsaved changes", f"Save the changes to {self._file_name()}?",
+            QMessageBox.Save | QMessageBox.Discard | QMessageBox.Cancel, QMessageBox.Save)
+
+    def ask_open_path(self) -> str:
+        path, _ = QFileDialog.getOpenFileName(self, "Open network", self._start_dir(), NETWORK_FILTER)
+        return path
+
+    def ask_save_path(self) -> str:
+        path, _ = QFileDialog.getSaveFileName(self, "Save network as", self._start_dir(), NETWORK_FILTER)
+        return path
+
+    def _start_dir(self) -> str:
+        return str(self.workspace.path.parent) if self.workspace.path else ""
+
+    def _file_name(self) -> str:
+        return self.workspace.path.name if self.workspace.path else "the untitled network"
+
+    def _update_title(self, *_) -> None:
+        self.setWindowTitle(f"{self.workspace.display_name()}[*] - vgraph")
+        self.setWindowModified(self.workspace.is_modified())
+
+    # --- workspace actions ----------------------------------------------------------------------
+    def confirm_discard(self) -> bool:
+        """True when the current network may be replaced (saved, discarded, or unmodified)."""
+        if not self.workspace.is_modified():
+            return True
+        answer = self.ask_save_changes()
+        if answer == QMessageBox.Save:
+            return self.save_network()
+        return answer == QMessageBox.Discard
+
+    def new_network(self) -> None:
+        if self.confirm_discard():
+            self.workspace.new()
+            self.log.info("new network")
+
+    def open_network(self, path: str | Path | None = None) -> bool:
+        if not self.confirm_discard():
+            return False
+        path = path or self.ask_open_path()
+        if not path:
+            return False
+        try:
+            self.workspace.open(path)
+        except VGraphError as error:
+            self.report_error("Cannot open network", f"Cannot open {path}:\n{error}")
+            return False
+        self.log.info(f"opened {path}")
+        self.view.fit_network()
+        return True
+
+    def save_network(self) -> bool:
+        if self.workspace.path is None:
+            return self.save_network_as()
+        return self._save(self.workspace.path)
+
+    def save_network_as(self, path: str | Path | None = None) -> bool:
+        path = path or self.ask_save_path()
+        if not path:
+            return False
+        path = Path(path)
+        return self._save(path if path.suffix else path.with_suffix(".json"))
+
+    def _save(self, path: Path) -> bool:
+        try:
+            self.workspace.save_as(path)
+        except (OSError, VGraphError) as error:
+            self.report_error("Cannot save network", f"Cannot save {path}:\n{error}")
+            return False
+        self.inspector.show_processor(self.inspector.processor_id)  # paths may be re-expressed
+        self.log.info(f"saved {path}")
+        return True
+
+    def add_processor(self, type_name: str):
+        center = self.view.mapToScene(self.view.viewport().rect().center())
+        try:
+            processor = self.workspace.add_processor(type_name, self.scene.free_position(center))
+        except VGraphError as error:
+            self.show_message(f"Cannot add {type_name}: {error}")
+            return None
+        self.scene.select_processor(processor.id)
+        return processor
+
+    def edit_links(self) -> None:
+        LinkDialog(self.workspace, self).exec()
+
+    def _set_auto_link(self, on: bool) -> None:
+        self.workspace.auto_link_cameras = on
+
+    def _select_all(self) -> None:
+        for node in self.scene.nodes.values():
+            node.setSelected(True)
+
+    def _fill_recent_menu(self, files: list[str]) -> None:
+        self.recent_menu.clear()
+        for path in files:
+            self.recent_menu.addAction(path).triggered.connect(lambda *_, p=path: self.open_network(p))
+        self.recent_menu.setEnabled(bool(files))
+
+    def _selection_changed(self) -> None:
+        processors, _, _ = self.scene.selection()
+        self.inspector.show_processor(processors[0] if len(processors) == 1 else None)
+
+    def _network_replaced(self, network) -> None:
+        self.failures.clear()
+        self.inspector.show_processor(None)
+
+    def report_outcome(self, outcome: EvaluationOutcome) -> None:
+        """Log new failures and recoveries (not every evaluation: that would drown the log)."""
+        network = self.workspace.network
+        for pid, reason in outcome.failed.items():
+            if self.failures.get(pid) != reason and pid in network:
+                self.log.error(f"processor '{pid}' ({network[pid].type_name}): {reason}")
+        for pid in set(self.failures) - set(outcome.failed):
+            if pid in outcome.ran:
+                self.log.info(f"processor '{pid}' evaluates again")
+        self.failures = {pid: r for pid, r in self.failures.items() if pid not in outcome.ran}
+        self.failures.update(outcome.failed)
+        if outcome.ran or outcome.failed:
+            failed = f", {len(outcome.failed)} failed" if outcome.failed else ""
+            self.show_message(f"evaluated {len(outcome.ran)} processor{'s' * (len(outcome.ran) != 1)}{failed}")
+
+    def closeEvent(self, event) -> None:
+        if not self.confirm_discard():
+            event.ignore()
+            return
+        for view in (self.scene, self.inspector, self.evaluation):
+            view.detach()
+        event.accept()
+
+
+def run_gui(path: str | Path | None = None) -> int:
+    """Start the GUI (optionally opening a network) and return the exit code."""
+    app = QApplication.instance() or QApplication([sys.argv[0] if sys.argv else "vgraph"])
+    app.setApplicationName("vgraph")
+    window = MainWindow()
+    previous_hook = sys.excepthook
+
+    def log_exception(kind, value, trace):
+        window.log.error("internal error (please report it):\n"
+                         + "".join(traceback.format_exception(kind, value, trace)))
+
+    sys.excepthook = log_exception
+    try:
+        window.show()
+        if path is not None:
+            window.open_network(path)
+        return app.exec()
+    finally:
+        sys.excepthook = previous_hook

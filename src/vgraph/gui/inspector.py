@@ -1,0 +1,127 @@
+"""The property inspector: the selected processor's properties as editors (see ``editors.py``).
+
+Conventions:
+- Editors are generated from the property declarations; labels carry the property's doc as a
+  tooltip and a mark when the property is linked.
+- Edits go through the workspace (one undo command each; slider drags merge). A rejected value
+  is reported through ``status_message`` and the editor shows the current value again.
+- The inspector follows the network's events: a value changed elsewhere (undo, a link, a script)
+  is shown at once; the status line follows evaluations.
+"""
+
+from __future__ import annotations
+
+from PySide6.QtCore import Qt, Signal
+from PySide6.QtWidgets import QFormLayout, QLabel, QScrollArea, QVBoxLayout, QWidget
+
+from vgraph.errors import VGraphError
+from vgraph.gui.editors import PropertyEditor, editor_for
+from vgraph.gui.evaluator import processor_status
+from vgraph.gui.workspace import Workspace
+from vgraph.network import Network
+
+LINK_MARK = " \u2194"  # a two-headed arrow after the label of a linked property
+
+
+class PropertyInspector(QWidget):
+    status_message = Signal(str)
+
+    def __init__(self, workspace: Workspace, parent=None):
+        super().__init__(parent)
+        self.workspace = workspace
+        self.network: Network | None = None
+        self.processor_id: str | None = None
+        self.editors: dict[str, PropertyEditor] = {}
+        self.labels: dict[str, QLabel] = {}
+        self.title = QLabel()
+        self.title.setTextFormat(Qt.RichText)
+        self.title.setWordWrap(True)
+        self.status = QLabel()
+        self.status.setWordWrap(True)
+        self.status.setTextInteractionFlags(Qt.TextSelectableByMouse)
+        self.form_host = QWidget()
+        self.form = QFormLayout(self.form_host)
+        scroll = QScrollArea()
+        scroll.setWidgetResizable(True)
+        scroll.setWidget(self.form_host)
+        layout = QVBoxLayout(self)
+        layout.addWidget(self.title)
+        layout.addWidget(self.status)
+        layout.addWidget(scroll, 1)
+        workspace.network_replaced.connect(self._follow)
+        self._follow(workspace.network)
+
+    def _follow(self, network: Network) -> None:
+        self.detach()
+        self.network = network
+        network.subscribe(self._on_event)
+        self.show_processor(None)
+
+    def detach(self) -> None:
+        if self.network is not None and self._on_event in self.network.listeners:
+            self.network.listeners.remove(self._on_event)
+
+    # --- showing --------------------------------------------------------------------------------
+    def show_processor(self, processor_id: str | None) -> None:
+        self.processor_id = processor_id if processor_id in (self.network or {}) else None
+        while self.form.rowCount():
+            self.form.removeRow(0)
+        self.editors.clear(), self.labels.clear()
+        if self.processor_id is None:
+            self.title.setText("<i>Select one processor to edit its properties.</i>")
+            self.status.clear()
+            return
+        processor = self.network[self.processor_id]
+        self.title.setText(f"<b>{processor.id}</b> ({processor.type_name})<br><small>"
+                           f"{processor.description}</small>")
+        for name, prop in processor.properties.items():
+            editor = editor_for(prop, processor)
+            editor.edited.connect(lambda value, merge, name=name: self.edit(name, value, merge))
+            editor.problem.connect(self.status_message)
+            label = QLabel(prop.label)
+            self.editors[name], self.labels[name] = editor, label
+            self.form.addRow(label, editor)
+        self._refresh_links()
+        self._refresh_status()
+
+    def _refresh_status(self) -> None:
+        if self.processor_id is not None:
+            status = processor_status(self.network, self.network[self.processor_id])
+            self.status.setText(f"{status.state.replace('_', ' ')}: {status.detail}")
+
+    def _refresh_links(self) -> None:
+        processor = self.network[self.processor_id]
+        for name, label in self.labels.items():
+            address = f"{processor.id}.{name}"
+            partners = [l.target if l.source == address else l.source for l in self.network.links
+                        if address in (l.source, l.target)]
+            prop = processor.properties[name]
+            label.setText(prop.label + (LINK_MARK if partners else ""))
+            tips = [prop.doc] if prop.doc else []
+            if partners:
+                tips.append("linked with " + ", ".join(partners))
+            label.setToolTip("\n".join(tips))
+
+    # --- editing --------------------------------------------------------------------------------
+    def edit(self, name: str, value, merge=None) -> None:
+        address = f"{self.processor_id}.{name}"
+        try:
+            self.workspace.set_property(address, value, merge=merge)
+        except VGraphError as error:
+            self.status_message.emit(str(error))
+            self.editors[name].show_value(self.network.get(address))
+
+    def _on_event(self, event: str, **details) -> None:
+        if self.processor_id is None:
+            return
+        if event == "processor_removed" and details["processor"].id == self.processor_id:
+            self.show_processor(None)
+        elif event == "property_changed":
+            editor = self.editors.get(details["name"]) if details["processor"].id == self.processor_id else None
+            if editor is not None:
+                editor.show_value(details["processor"].property_values[details["name"]])
+            self._refresh_status()  # a change upstream invalidates this processor too
+        elif event in ("linked", "unlinked"):
+            self._refresh_links()
+        elif event in ("evaluated", "connected", "disconnected"):
+            self._refresh_status()

@@ -1,0 +1,190 @@
+"""The workspace: the open network, its file, its undo stack and the edit operations.
+
+Conventions:
+- Every edit method builds a command (``commands.py``) and runs it through ``execute``: the command
+  is applied once (a refused edit raises VGraphError and changes nothing) and then pushed.
+- ``network_replaced`` is emitted when New/Open put a different Network in place; views rebuild.
+- "Modified" means the undo stack is not at its clean index (set when saved or opened).
+- Recent files live in a QSettings (injected, so tests use their own file); most recent first.
+- Auto-linked cameras: a processor added with a camera property gets it linked both ways to the
+  first camera property already in the network (Voreen's default), in the same undo step.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from PySide6.QtCore import QObject, QSettings, Signal
+from PySide6.QtGui import QUndoStack
+
+from vgraph.errors import PropertyError, VGraphError
+from vgraph.fileformat import load_network, save_network
+from vgraph.gui.commands import (AddProcessor, Connect, Disconnect, LinkProperties, MoveProcessors,
+                                 NetworkCommand, RemoveProcessor, SetProperty, Unlink, free_id)
+from vgraph.network import Connection, Link, Network, split_address
+from vgraph.processor import Processor
+from vgraph.properties import CameraProperty
+from vgraph.registry import registry
+
+RECENT_FILES_KEY = "recent_files"
+MAX_RECENT_FILES = 8
+
+
+class Workspace(QObject):
+    network_replaced = Signal(object)   # the new Network
+    path_changed = Signal(object)       # Path or None
+    recent_files_changed = Signal(list)
+
+    def __init__(self, settings: QSettings | None = None, parent: QObject | None = None):
+        super().__init__(parent)
+        self.settings = settings if settings is not None else QSettings("vgraph", "vgraph")
+        self.network = Network()
+        self.path: Path | None = None
+        self.undo_stack = QUndoStack(self)
+        self.auto_link_cameras = True
+
+    # --- state ----------------------------------------------------------------------------------
+    def is_modified(self) -> bool:
+        return not self.undo_stack.isClean()
+
+    def display_name(self) -> str:
+        return self.path.name if self.path else "untitled"
+
+    # --- commands -------------------------------------------------------------------------------
+    def execute(self, command: NetworkCommand) -> NetworkCommand:
+        """Apply ``command`` (raises VGraphError if the network refuses it), then push it."""
+        command.apply()
+        command.applied_once()
+        self.undo_stack.push(command)
+        return command
+
+    def add_processor(self, type_name: str, position=(0.0, 0.0), id: str | None = None) -> Processor:
+        cls = registry.get(type_name)
+        if id is not None and id in self.network:  # refuse before an (empty) undo macro opens
+            raise VGraphError(f"a processor with id '{id}' already exists")
+        processor = cls(id=id or free_id(self.network, cls.type_name))
+        processor.position = (float(position[0]), float(position[1]))
+        leaders = self._camera_leaders(processor) if self.auto_link_cameras else []
+        self.undo_stack.beginMacro(f"Add {processor.id} ({cls.type_name})")
+        try:
+            self.execute(AddProcessor(self.network, processor))
+            for leader, follower in leaders:
+                self.execute(LinkProperties(self.network, leader, follower, bidirectional=True))
+        finally:
+            self.undo_stack.endMacro()
+        return processor
+
+    def _camera_leaders(self, processor: Processor) -> list[tuple[str, str]]:
+        """(existing camera property, new camera property) pairs to link."""
+        existing = next((f"{p.id}.{name}" for p in self.network.processors.values()
+                         for name, prop in p.properties.items() if isinstance(prop, CameraProperty)),
+                        None)
+        if existing is None:
+            return []
+        return [(existing, f"{processor.id}.{name}") for name, prop in processor.properties.items()
+                if isinstance(prop, CameraProperty)]
+
+    def remove(self, processor_ids=(), connections=(), links=()) -> None:
+        """Delete a selection: links and connections first, then processors (with theirs)."""
+        processor_ids, connections, links = list(processor_ids), list(connections), list(links)
+        count = len(processor_ids) + len(connections) + len(links)
+        if not count:
+            return
+        self.undo_stack.beginMacro(f"Delete {count} item{'s' if count > 1 else ''}")
+        try:
+            for link in links:
+                if link in self.network.links:
+                    self.execute(Unlink(self.network, link))
+            for connection in connections:
+                if connection in self.network.connections:
+                    self.execute(Disconnect(self.network, connection))
+            for pid in processor_ids:
+                if pid in self.network:
+                    self.execute(RemoveProcessor(self.network, pid))
+        finally:
+            self.undo_stack.endMacro()
+
+    def connect(self, source: str, target: str) -> Connection:
+        (src, out), (dst, inp) = split_address(source), split_address(target)
+        connection = Connection(src, out, dst, inp)
+        self.execute(Connect(self.network, connection))
+        return connection
+
+    def connection_refusal(self, connection: Connection) -> str | None:
+        """Why the network would refuse ``connection`` (None: it would accept it)."""
+        try:
+            self.network.check_connection(connection)
+        except VGraphError as error:
+            return str(error)
+        return None
+
+    def disconnect(self, connection: Connection) -> None:
+        self.execute(Disconnect(self.network, connection))
+
+    def set_property(self, address: str, value, merge=None) -> None:
+        """Validate and set a property through the undo stack; an unchanged value pushes nothing."""
+        processor_id, name = split_address(address, "property")
+        processor = self.network[processor_id]
+        if name not in processor.properties:
+            raise PropertyError(address, f"{processor.type_name} has no property '{name}'")
+        if processor.properties[name].validate(value, address) == processor.property_values[name]:
+            return
+        self.execute(SetProperty(self.network, address, value, merge=merge))
+
+    def link(self, source: str, target: str, bidirectional: bool = False) -> None:
+        self.execute(LinkProperties(self.network, source, target, bidirectional))
+
+    def unlink(self, link: Link) -> None:
+        self.execute(Unlink(self.network, link))
+
+    def move(self, positions: dict[str, tuple[float, float]]) -> None:
+        changed = {pid: xy for pid, xy in positions.items()
+                   if tuple(self.network[pid].position) != tuple(map(float, xy))}
+        if changed:
+            self.execute(MoveProcessors(self.network, changed))
+
+    # --- files ----------------------------------------------------------------------------------
+    def new(self) -> None:
+        self._replace(Network(), None)
+
+    def open(self, path: str | Path) -> None:
+        """Load a network (NetworkFileError on a bad file; the open network is then untouched)."""
+        path = Path(path)
+        network = load_network(path)
+        self._replace(network, path)
+        self.add_recent_file(path)
+
+    def save(self) -> None:
+        if self.path is None:
+            raise ValueError("the network has no file yet; use save_as")
+        self.save_as(self.path)
+
+    def save_as(self, path: str | Path) -> None:
+        """Atomic save; file paths in properties are re-expressed relative to the new folder."""
+        path = Path(path)
+        save_network(self.network, path)
+        self.undo_stack.setClean()
+        if path != self.path:
+            self.path = path
+            self.path_changed.emit(path)
+        self.add_recent_file(path)
+
+    def _replace(self, network: Network, path: Path | None) -> None:
+        self.undo_stack.clear()
+        self.network = network
+        self.path = path
+        self.network_replaced.emit(network)
+        self.path_changed.emit(path)
+
+    # --- recent files ---------------------------------------------------------------------------
+    def recent_files(self) -> list[str]:
+        value = self.settings.value(RECENT_FILES_KEY, [])
+        if isinstance(value, str):  # QSettings returns a lone string for a one-item list
+            value = [value]
+        return [str(v) for v in value or []]
+
+    def add_recent_file(self, path: Path) -> None:
+        entry = str(Path(path).resolve())
+        files = [entry] + [f for f in self.recent_files() if f != entry]
+        self.settings.setValue(RECENT_FILES_KEY, files[:MAX_RECENT_FILES])
+        self.recent_files_changed.emit(files[:MAX_RECENT_FILES])
