@@ -28,7 +28,7 @@ import numpy as np
 from vgraph import CameraProperty, FloatProperty, Inport, Outport, Processor, VGraphError
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass, set_uniform
 from vgraph.gl.shaders import programs
-from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, VolumeGeometry, plane_frame,
+from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, VolumeGeometry, plane_cuts_box, plane_frame,
                                         ray_uniforms, vec)
 from vgraph.image import Image
 from vgraph.volume import Volume
@@ -103,7 +103,7 @@ class EntryExitPoints(Processor):
     def _uniforms(self, volume: Volume, size) -> dict:
         geometry = VolumeGeometry.of(volume)
         box_min, box_max = geometry.box
-        hit_min, hit_max = geometry.grown_box()
+        hit_min, hit_max = self._hit_box = geometry.grown_box()
         proxy_min, proxy_max = geometry.proxy_box()
         scale, offset = geometry.world_to_texture
         texture_min, texture_max = geometry.texture_box
@@ -140,6 +140,8 @@ class EntryExitPoints(Processor):
             self._cube_vertex_array(ctx, faces).render(moderngl.TRIANGLES)
         finally:
             ctx.disable(moderngl.CULL_FACE)
+        if not plane_cuts_box(self.camera, plane, *self._hit_box):
+            return  # the full-screen capping pass would change no pixel
         centre, right, up = plane_frame(self.camera, target.size, plane)
         cap = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, CAP_SHADER, defines, processor=self.id)
         fullscreen_pass(ctx, cap, target, textures,

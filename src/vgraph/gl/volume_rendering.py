@@ -117,6 +117,14 @@ def plane_frame(camera: Camera, size, plane: str = "near") -> tuple[np.ndarray, 
     return centre, half_height * aspect * right, half_height * true_up
 
 
+def plane_cuts_box(camera: Camera, plane: str, box_min, box_max) -> bool:
+    """Whether the near or far plane passes through the box (only then does it cap any ray)."""
+    corners = np.array([[(box_min, box_max)[(i >> axis) & 1][axis] for axis in range(3)] for i in range(8)])
+    depths = (corners - np.asarray(camera.position)) @ camera.basis()[2]
+    plane_depth = camera.near if plane == "near" else camera.far
+    return bool(depths.min() < plane_depth < depths.max())
+
+
 def ray_uniforms(camera: Camera, size) -> dict[str, tuple[float, ...]]:
     """Uniforms of the pixel rays (Camera.rays): origin near_centre + x near_right + y near_up and
     direction direction_centre + x direction_right + y direction_up (not normalised) for the pixel
