@@ -1,0 +1,57 @@
+#version 330
+// CurvatureVolumeRaycaster (seed 001 sec. 5.5): direct volume rendering between the EntryExitPoints
+// images with opacity from the transfer function and colour from curvature
+// (compositing_curvature.glsl). Composed from the RayCaster's parts (ray set-up, volume sampling,
+// transfer function, empty-space skipping, shading) and the curvature parts; the defines choose
+// exactly one field (DERIVATIVES_*), one measure (CURVATURE_*), the normalisation
+// (NORMALIZATION_*), RANGE_PASS, OPACITY_CORRECTION, SHADING_BLINN_PHONG with LIGHT_HEADLIGHT and
+// SKIP_EMPTY_SPACE. Code for what is off is not compiled.
+//
+// Outputs: `color` = the composited colour over `background` (RANGE_PASS: the range of the
+// measure, see compositing_curvature.glsl); `depth` = the RayCaster's depth output at the first
+// sample with opacity > 0 (else (1, 0, samples, 0)).
+#include "raycasting/ray.glsl"
+#include "raycasting/volume_sampling.glsl"
+#include "raycasting/transfer_function.glsl"
+#include "raycasting/empty_space.glsl"
+#include "raycasting/shading.glsl"
+#include "curvature/field_fd.glsl"
+#include "curvature/field_tricubic.glsl"
+#include "curvature/kindlmann.glsl"
+#include "curvature/measure.glsl"
+#include "curvature/normalization.glsl"
+#include "curvature/hit_outputs.glsl"
+#include "curvature/compositing_curvature.glsl"
+
+uniform sampler2D entry_points;
+uniform sampler2D exit_points;
+uniform vec4 background;
+
+layout(location = 0) out vec4 color;
+layout(location = 1) out vec4 depth;
+
+void main() {
+    ivec2 pixel = ivec2(gl_FragCoord.xy);
+    vec4 entry_point = texelFetch(entry_points, pixel, 0);
+    vec4 exit_point = texelFetch(exit_points, pixel, 0);
+    if (entry_point.a == 0.0 || exit_point.a == 0.0) {
+#ifdef RANGE_PASS
+        color = vec4(3.0e38, -3.0e38, 0.0, 1.0);
+#else
+        color = background;
+#endif
+        depth = vec4(1.0, 0.0, 0.0, 0.0);
+        return;
+    }
+    Ray ray = make_ray(entry_point.xyz, exit_point.xyz);
+    Result result = march(ray);
+#ifdef RANGE_PASS
+    color = result.color;
+#else
+    color = vec4(result.color.rgb + (1.0 - result.color.a) * background.rgb,
+                 result.color.a + (1.0 - result.color.a) * background.a);
+#endif
+    depth = result.depth_sample >= 0.0
+          ? depth_of(world_point(sample_point(ray, result.depth_sample)), result.taken)
+          : vec4(1.0, 0.0, float(result.taken), 0.0);
+}

@@ -1,0 +1,20 @@
+// Per-pixel outputs shared by the curvature ray casters: world position and the depth output of
+// the RayCaster's convention (docs/rendering.md): (window-space depth in [0, 1], distance in world
+// units from the ray's start on the near plane, samples evaluated, 1).
+uniform vec3 texture_to_world_offset;  // p = t * texture_to_world_scale + offset (ray.glsl)
+uniform mat4 view_projection;
+uniform vec2 viewport_size;
+uniform vec3 near_centre;  // the pixel centre (ndc_x, ndc_y) is at near_centre + ndc_x near_right
+uniform vec3 near_right;   // + ndc_y near_up on the near plane (where Camera.rays start)
+uniform vec3 near_up;
+
+vec3 world_point(vec3 t) {
+    return t * texture_to_world_scale + texture_to_world_offset;
+}
+
+vec4 depth_of(vec3 world, int taken) {
+    vec4 clip = view_projection * vec4(world, 1.0);
+    vec2 ndc = gl_FragCoord.xy / viewport_size * 2.0 - 1.0;
+    vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
+    return vec4(clip.z / clip.w * 0.5 + 0.5, distance(world, origin), float(taken), 1.0);
+}
