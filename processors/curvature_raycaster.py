@@ -10,7 +10,8 @@ Conventions (docs/curvature.md explains each property with pictures):
   (normalised like every iso level; 0.5 is the surface of every FunctionSelector volume), found by
   marching and refined by regula falsi to float precision (shaders/curvature/iso_hit.glsl).
 - Curvature (Kindlmann et al. 2003) in 1/world units with the DESIGN.md sign: interior brighter,
-  a sphere of radius r has k1 = k2 = +1/r. Undefined where |grad f| * min(spacing) <= 1e-6.
+  a sphere of radius r has k1 = k2 = +1/r. Undefined where |grad f| is too small to give the
+  surface a direction (vgraph.gl.curvature.min_gradient); such hits are flagged, not coloured.
 - Two GPU passes and a reduction: pass 1 (curvature_raycaster.frag.glsl) writes the curvature,
   position, depth and (internal) gradient images; for linear normalisation a min/max reduction
   runs on the GPU (RangeReduction); pass 2 (curvature_color.frag.glsl) colours. Nothing is read
@@ -28,7 +29,8 @@ from vgraph import (BoolProperty, CameraProperty, ColorProperty, FloatProperty, 
 from vgraph.gl.curvature import (COLORMAPS, CURVATURES, DERIVATIVES, NORMALIZATIONS,
                                  ColormapTexture, RangeReduction, SkipBlocks, check_volume_kind,
                                  derivative_defines, field_uniforms, level_occupancy,
-                                 measure_defines, raw_level, shading_defines, shading_uniforms)
+                                 measure_defines, measure_uniforms, raw_level, shading_defines,
+                                 shading_uniforms)
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import programs
 from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, VolumeGeometry,
@@ -114,7 +116,7 @@ class CurvatureRaycaster(Processor):
                     "position_image": position, "colormap": self._colormap.update(ctx, self.colormap)}
         if self.normalization == "linear":
             textures["curvature_range"] = self._reduction.run(
-                ctx, curvature, measure_defines(self.curvature), self.id)
+                ctx, curvature, measure_defines(self.curvature), self.id, measure_uniforms(volume))
         program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, COLOR_SHADER, self.color_defines(),
                                    processor=self.id)
         fullscreen_pass(ctx, program, image, textures, self._color_uniforms(volume))
@@ -158,7 +160,8 @@ class CurvatureRaycaster(Processor):
                     "undefined_color": tuple(self.undefined_color),
                     "attenuation": self.attenuation, "contour_width": self.contour_width,
                     "eye": vec(self.camera.position), "view_forward": vec(self.camera.basis()[2]),
-                    "perspective": self.camera.projection == "perspective"}
+                    "perspective": self.camera.projection == "perspective",
+                    **measure_uniforms(volume)}
         if self.shading != "none":
             uniforms.update(shading_uniforms(self, float(min(volume.spacing))))
         return uniforms

@@ -24,7 +24,7 @@ from vgraph import (BoolProperty, CameraProperty, ColorProperty, FloatProperty, 
 from vgraph.gl.curvature import (COLORMAPS, CURVATURES, DERIVATIVES, NORMALIZATIONS,
                                  ColormapTexture, RangeReduction, SkipBlocks, check_volume_kind,
                                  derivative_defines, field_uniforms, measure_defines,
-                                 shading_defines, shading_uniforms)
+                                 measure_uniforms, shading_defines, shading_uniforms)
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import programs
 from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, TransferFunctionTexture,
@@ -125,7 +125,8 @@ class CurvatureVolumeRaycaster(Processor):
         if self.normalization == "linear":
             self._pass(ctx, textures, uniforms, range_pass=True, skipping=blocks is not None)
             textures["curvature_range"] = self._reduction.run(
-                ctx, image, measure_defines(self.curvature), self.id, pairs=True)
+                ctx, image, measure_defines(self.curvature), self.id, measure_uniforms(volume),
+                pairs=True)
         self._pass(ctx, textures, uniforms, range_pass=False, skipping=blocks is not None)
         return {"image": image, "depth": depth}
 

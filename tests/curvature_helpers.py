@@ -80,11 +80,16 @@ def reference_derivatives(mode, volume, world_points):
 
 
 # --- CPU reference of the colour pass --------------------------------------------------------------
-def measure(curvature, name):
+def measure(curvature, name, zero=0.0):
+    """The measure shown, with measure.glsl's zero floor ``zero`` (1/world units)."""
     k1, k2 = curvature[..., 0].astype(np.float64), curvature[..., 1].astype(np.float64)
-    return {"k1": k1, "k2": k2, "gaussian": curvature[..., 2].astype(np.float64),
-            "mean": 0.5 * (k1 + k2), "curvedness": np.sqrt(0.5 * (k1 * k1 + k2 * k2)),
-            "shape_index": (2 / np.pi) * np.arctan2(k1 + k2, k1 - k2)}[name]
+    curvedness = np.sqrt(0.5 * (k1 * k1 + k2 * k2))
+    value = {"k1": k1, "k2": k2, "gaussian": curvature[..., 2].astype(np.float64),
+             "mean": 0.5 * (k1 + k2), "curvedness": curvedness,
+             "shape_index": (2 / np.pi) * np.arctan2(k1 + k2, k1 - k2)}[name]
+    if name == "shape_index":
+        return np.where(curvedness <= zero, 0.0, value)
+    return np.where(np.abs(value) <= (zero * zero if name == "gaussian" else zero), 0.0, value)
 
 
 def normalize(k, name, normalization, kmin, kmax, attenuation=1.0):
@@ -132,10 +137,11 @@ def contour_weight(k, defined, width):
 
 
 def reference_colours(curvature, name, normalization="linear", colormap_name="jet",
-                      contour_width=2.0, attenuation=1.0):
-    """Unshaded colour of every pixel with defined curvature, as curvature_color.frag.glsl."""
+                      contour_width=2.0, attenuation=1.0, zero=0.0):
+    """Unshaded colour of every pixel with defined curvature, as curvature_color.frag.glsl
+    (``zero``: the volume's zero-curvature floor, vgraph.gl.curvature.measure_uniforms)."""
     defined = curvature[..., 3] == 1.0
-    k = np.where(defined, measure(curvature, name), 0.0)
+    k = np.where(defined, measure(curvature, name, zero), 0.0)
     kmin = min(float(k[defined].min()), 0.0) if defined.any() else 0.0
     kmax = max(float(k[defined].max()), 0.0) if defined.any() else 0.0
     rgb = colormap(normalize(k, name, normalization, kmin, kmax, attenuation), colormap_name)

@@ -11,6 +11,7 @@ import pytest
 from vgraph import ProcessorError
 from vgraph.camera import Camera
 from vgraph.cli import main
+from vgraph.gl.curvature import measure_uniforms
 from vgraph.gl.shaders import compose, programs
 from vgraph.implicit import exact_curvature, sample
 from vgraph.numerics.bspline import evaluate
@@ -181,7 +182,8 @@ def test_colours_follow_measure_normalisation_and_colormap(torus, measure, norma
     curvature = network.evaluate("cr.curvature", size=SIZE)
     image = network.evaluate("cr.image", size=SIZE)
     defined = curvature[..., 3] == 1.0
-    expected = reference_colours(curvature, measure, normalization, colormap, 2.0, 0.4)
+    zero = measure_uniforms(torus[1])["zero_curvature"]
+    expected = reference_colours(curvature, measure, normalization, colormap, 2.0, 0.4, zero)
     np.testing.assert_allclose(image[defined, :3], expected[defined], atol=2e-4)
 
 
@@ -299,8 +301,8 @@ def test_gpu_range_reduction_equals_numpy(gl, size):
     pixels = rng.normal(3.0, 2.0, size=(height, width, 4)).astype(np.float32)
     pixels[..., 3] = rng.choice([0.0, 0.5, 1.0], size=(height, width))
     defined = pixels[..., 3] == 1.0
-    result = RangeReduction().run(gl, Image.from_numpy(gl, pixels), measure_defines("k2"),
-                                  "test").to_numpy()[0, 0]
+    result = RangeReduction().run(gl, Image.from_numpy(gl, pixels), measure_defines("k2"), "test",
+                                  {"zero_curvature": 0.0}).to_numpy()[0, 0]
     k2 = pixels[defined, 1]
     expected = (min(k2.min(), 0.0), max(k2.max(), 0.0)) if defined.any() else (0.0, 0.0)
     assert tuple(result[:2]) == expected and result[2] == defined.sum()

@@ -10,7 +10,11 @@ Conventions (docs/curvature.md explains them for users):
   curvatures in 1/world unit with the sign convention of vgraph.numerics.curvature (interior
   brighter: a sphere of radius r has k1 = k2 = +1/r).
 - Curvature is undefined where |grad f| * min(spacing) <= MIN_GRADIENT (normalised intensity per
-  voxel): no direction, so no surface; such pixels are flagged, never given made-up numbers.
+  voxel), or below the float32 rounding of the values (ROUNDING_GRADIENT * max |value|, see
+  min_gradient): no direction, so no surface; such pixels are flagged, never given made-up numbers.
+- The measure shown reads |k| * min(spacing) <= ZERO_CURVATURE (|K| against its square) as 0, so
+  that float noise on flat surfaces is neither stretched by the linear normalisation nor drawn
+  as contour speckle (shaders/curvature/measure.glsl).
 - Measures: k1, k2, gaussian (K), mean (H), curvedness sqrt((k1^2 + k2^2) / 2) and shape index
   (2/pi) atan2(k1 + k2, k1 - k2). Normalisation to [0, 1] for the colour map (seed 001 sec. 5.3),
   with kmax = max(max k, 0), kmin = min(min k, 0) over the image:
@@ -42,6 +46,8 @@ SAMPLE_DERIVATIVES = ("forward", "central", "filtered")  # need voxel samples
 CURVATURES = ("k1", "k2", "gaussian", "mean", "curvedness", "shape_index")
 NORMALIZATIONS = ("linear", "exponential")
 MIN_GRADIENT = 1e-6  # |grad f| * min(spacing) at or below this (normalised intensity): undefined
+ROUNDING_GRADIENT = 1e-5  # ... or at or below this times the largest |value| (float32 rounding)
+ZERO_CURVATURE = 1e-3  # |k| * min(spacing) at or below this reads as 0 in the shown measure
 GRADIENT_EPSILON = 1e-6  # shading, as the RayCaster: |g| * min(spacing) at or below: unshaded
 REDUCE_BLOCK = 8  # pixels per side reduced by one pass of the min/max reduction
 REDUCE_SHADER = "curvature/range_reduce.frag.glsl"
@@ -108,7 +114,22 @@ def field_uniforms(volume: Volume) -> dict[str, object]:
     return {"voxel_step": tuple(1.0 / dims), "inv_spacing": tuple(1.0 / spacing),
             "intensity_scale": float(scale), "intensity_offset": float(offset),
             "volume_dims": tuple(int(d) for d in volume.dims),
-            "min_gradient": MIN_GRADIENT / float(spacing.min())}
+            "min_gradient": min_gradient(volume), **measure_uniforms(volume)}
+
+
+def min_gradient(volume: Volume) -> float:
+    """|grad f| (normalised intensity per world unit) at or below which curvature is undefined:
+    MIN_GRADIENT per voxel of the smallest spacing, or float32 rounding of the values if that is
+    larger: ROUNDING_GRADIENT times the largest |value| per voxel (a constant volume of 7 has
+    spline derivatives of ~1e-6 from rounding alone, which a range of 1 would not hide)."""
+    lo, hi = volume.value_range
+    rounding = ROUNDING_GRADIENT * max(abs(lo), abs(hi)) / (hi - lo)  # normalised, per voxel
+    return max(MIN_GRADIENT, rounding) / float(min(volume.spacing))
+
+
+def measure_uniforms(volume: Volume) -> dict[str, float]:
+    """Uniforms of shaders/curvature/measure.glsl: the zero-curvature floor in 1/world units."""
+    return {"zero_curvature": ZERO_CURVATURE / float(min(volume.spacing))}
 
 
 def raw_level(volume: Volume, level: float) -> float:
@@ -182,9 +203,10 @@ class RangeReduction:
         self._levels: list[RenderTargets] = []
 
     def run(self, ctx: moderngl.Context, source: Image, defines: dict, processor: str,
-            pairs: bool = False) -> Image:
+            uniforms: dict | None = None, pairs: bool = False) -> Image:
         """Reduce the curvature image ``source``, or with ``pairs`` an image that already holds
-        (min, max, count, 1) per pixel (the CurvatureVolumeRaycaster's range pass)."""
+        (min, max, count, 1) per pixel (the CurvatureVolumeRaycaster's range pass). ``uniforms``:
+        those of measure.glsl (measure_uniforms)."""
         sizes = reduction_sizes(source.size)
         while len(self._levels) < len(sizes):
             self._levels.append(RenderTargets(1))
@@ -196,7 +218,8 @@ class RangeReduction:
             target, = self._levels[level].ensure(ctx, size)
             fullscreen_pass(ctx, program, target, {"source": image},
                             {"source_size": tuple(int(v) for v in image.size),
-                             "reduce_block": REDUCE_BLOCK, "last_pass": level == len(sizes) - 1})
+                             "reduce_block": REDUCE_BLOCK, "last_pass": level == len(sizes) - 1,
+                             **(uniforms or {})})
             image = target
         return image
 
