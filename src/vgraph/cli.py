@@ -72,7 +72,36 @@ def build_parser() -> argparse.ArgumentParser:
     gui.add_argument("network", type=Path, nargs="?", help="a .json network to open")
     gui.add_argument("--plugin", action="append", metavar="MODULE", help="import a plug-in module")
     gui.set_defaults(command=command_gui)
+
+    bench = commands.add_parser("bench", help="benchmarks: curvature accuracy against frame time")
+    bench.set_defaults(command=lambda args: _print_help(bench))
+    benchmarks = bench.add_subparsers(title="benchmarks")
+    accuracy = benchmarks.add_parser(
+        "accuracy", help="curvature error against frame time per function, resolution, data type "
+                         "and derivative mode (docs/accuracy.md)")
+    accuracy.add_argument("--functions", nargs="+", metavar="NAME",
+                          help="implicit functions (default: sphere torus ellipsoid saddle)")
+    accuracy.add_argument("--resolutions", nargs="+", type=int, metavar="N",
+                          help="voxels per axis (default: 32 64 128 256)")
+    accuracy.add_argument("--derivatives", nargs="+", metavar="MODE",
+                          help="forward central filtered tricubic tricubic_fast cpu (default: all)")
+    accuracy.add_argument("--data-types", nargs="+", metavar="TYPE",
+                          help="uint8 uint16 float32 (default: all)")
+    accuracy.add_argument("--repeat", type=int, help="timed frames per case (default: 7)")
+    accuracy.add_argument("--size", type=parse_size, help="image size WxH (default: 256x256)")
+    accuracy.add_argument("--out", type=Path,
+                          help="output folder (default: bench/results/accuracy)")
+    accuracy.add_argument("--quick", action="store_true",
+                          help="a small matrix in seconds (sphere, torus; 32, 64; uint8, float32; "
+                               "forward, central, tricubic, cpu; 128x128; repeat 2); given "
+                               "options still apply")
+    accuracy.set_defaults(command=command_bench_accuracy)
     return parser
+
+
+def _print_help(parser: argparse.ArgumentParser) -> int:
+    parser.print_help(sys.stderr)
+    return EXIT_BAD_INPUT
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -155,3 +184,8 @@ def command_list(args) -> int:
 def command_gui(args) -> int:
     from vgraph.gui.app import run_gui  # imported here so no other command imports Qt
     return run_gui(args.network)
+
+
+def command_bench_accuracy(args) -> int:
+    from vgraph.accuracy_report import command  # imported here: the benchmark needs matplotlib
+    return command(args)
