@@ -25,16 +25,16 @@ Conventions (docs/curvature.md explains each property with pictures):
 from __future__ import annotations
 
 from vgraph import (BoolProperty, CameraProperty, ColorProperty, FloatProperty, Inport,
-                    Invalidation, OptionProperty, Outport, Processor, VectorProperty, VGraphError)
+                    Invalidation, OptionProperty, Outport, Processor, VGraphError)
 from vgraph.gl.curvature import (COLORMAPS, CURVATURES, DERIVATIVES, NORMALIZATIONS,
                                  ColormapTexture, RangeReduction, SkipBlocks, check_volume_kind,
                                  derivative_defines, field_uniforms, level_occupancy,
-                                 measure_defines, measure_uniforms, raw_level, shading_defines,
-                                 shading_uniforms)
+                                 measure_defines, measure_uniforms, raw_level, shading_defines)
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import programs
 from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, VolumeGeometry,
-                                        block_grid_uniforms, linear_sampler, ray_uniforms, vec)
+                                        block_grid_uniforms, lighting_properties, linear_sampler,
+                                        ray_uniforms, shading_uniforms, vec)
 from vgraph.image import Image
 from vgraph.volume import Volume
 
@@ -75,12 +75,7 @@ class CurvatureRaycaster(Processor):
     empty_space_skipping = BoolProperty(True, invalidates=RESOURCES,
                                         doc="skip blocks the surface cannot cross (same image)")
     shading = OptionProperty("blinn_phong", choices=["none", "blinn_phong"], invalidates=RESOURCES)
-    light = OptionProperty("headlight", choices=["headlight", "direction"], invalidates=RESOURCES)
-    light_direction = VectorProperty((1.0, 1.0, 1.0), doc="world-space direction towards the light")
-    ambient = FloatProperty(0.3, min=0.0, max=1.0)
-    diffuse = FloatProperty(0.7, min=0.0, max=1.0)
-    specular = FloatProperty(0.2, min=0.0, max=1.0)
-    shininess = FloatProperty(32.0, min=1.0, max=512.0)
+    light, light_direction, ambient, diffuse, specular, shininess = lighting_properties()
     background = ColorProperty((0.0, 0.0, 0.0, 1.0))
 
     def __init__(self, id: str | None = None, **values):

@@ -20,16 +20,17 @@ from __future__ import annotations
 
 from vgraph import (BoolProperty, CameraProperty, ColorProperty, FloatProperty, Inport,
                     Invalidation, OptionProperty, Outport, Processor, TransferFunctionProperty,
-                    VectorProperty, VGraphError)
+                    VGraphError)
 from vgraph.gl.curvature import (COLORMAPS, CURVATURES, DERIVATIVES, NORMALIZATIONS,
                                  ColormapTexture, RangeReduction, SkipBlocks, check_volume_kind,
                                  derivative_defines, field_uniforms, measure_defines,
-                                 measure_uniforms, shading_defines, shading_uniforms)
+                                 measure_uniforms, shading_defines)
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import programs
 from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, TransferFunctionTexture,
                                         VolumeGeometry, block_grid_uniforms, linear_sampler,
-                                        occupied_blocks, ray_uniforms, vec)
+                                        lighting_properties, occupied_blocks, ray_uniforms,
+                                        shading_uniforms, vec)
 from vgraph.image import Image
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -77,12 +78,7 @@ class CurvatureVolumeRaycaster(Processor):
     empty_space_skipping = BoolProperty(True, invalidates=RESOURCES,
                                         doc="skip blocks where the TF has no opacity (same image)")
     shading = OptionProperty("none", choices=["none", "blinn_phong"], invalidates=RESOURCES)
-    light = OptionProperty("headlight", choices=["headlight", "direction"], invalidates=RESOURCES)
-    light_direction = VectorProperty((1.0, 1.0, 1.0), doc="world-space direction towards the light")
-    ambient = FloatProperty(0.3, min=0.0, max=1.0)
-    diffuse = FloatProperty(0.7, min=0.0, max=1.0)
-    specular = FloatProperty(0.2, min=0.0, max=1.0)
-    shininess = FloatProperty(32.0, min=1.0, max=512.0)
+    light, light_direction, ambient, diffuse, specular, shininess = lighting_properties()
     background = ColorProperty((0.0, 0.0, 0.0, 1.0))
 
     def __init__(self, id: str | None = None, **values):

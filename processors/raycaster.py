@@ -26,13 +26,13 @@ import numpy as np
 
 from vgraph import (BoolProperty, CameraProperty, ColorProperty, FloatProperty, Inport,
                     Invalidation, OptionProperty, Outport, Processor, TransferFunctionProperty,
-                    VectorProperty, VGraphError)
+                    VGraphError)
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import programs
 from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, TransferFunctionTexture,
                                         VolumeGeometry, block_grid_uniforms, block_ranges,
-                                        linear_sampler, occupied_blocks, ray_uniforms,
-                                        skip_radii, vec)
+                                        lighting_properties, linear_sampler, occupied_blocks,
+                                        ray_uniforms, shading_uniforms, skip_radii, vec)
 from vgraph.image import Image
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -45,7 +45,6 @@ MIN_EMPTY_FRACTION = 0.1  # below this share of empty blocks, skipping costs mor
 GRADIENTS = ("none", "forward", "backward", "central", "sobel")
 # Raw texture differences -> normalised intensity per world unit: divide by this many spacings.
 GRADIENT_SPACINGS = {"forward": 1.0, "backward": 1.0, "central": 2.0, "sobel": 32.0}
-GRADIENT_EPSILON = 1e-6  # |g| * min(spacing) at or below this leaves a sample unshaded
 VOLUME_UNIT = 2  # texture unit of the volume (entry, exit, volume, ...: see process())
 
 DEFAULT_TRANSFER_FUNCTION = TransferFunction(points=[
@@ -77,13 +76,7 @@ class RayCaster(Processor):
                               doc="finite differences for shading normals")
     shading = OptionProperty("none", choices=["none", "blinn_phong"], invalidates=RESOURCES,
                              doc="lighting of dvr and iso samples (mip, xray, first_hit: none)")
-    light = OptionProperty("headlight", choices=["headlight", "direction"], invalidates=RESOURCES,
-                           doc="headlight: light from the viewer; direction: light_direction")
-    light_direction = VectorProperty((1.0, 1.0, 1.0), doc="world-space direction towards the light")
-    ambient = FloatProperty(0.3, min=0.0, max=1.0)
-    diffuse = FloatProperty(0.7, min=0.0, max=1.0)
-    specular = FloatProperty(0.2, min=0.0, max=1.0)
-    shininess = FloatProperty(32.0, min=1.0, max=512.0)
+    light, light_direction, ambient, diffuse, specular, shininess = lighting_properties()
     early_termination = FloatProperty(0.99, min=0.01, max=1.0,
                                       doc="dvr stops a ray once its opacity reaches this")
     empty_space_skipping = BoolProperty(True, invalidates=RESOURCES,
@@ -176,16 +169,10 @@ class RayCaster(Processor):
         return uniforms
 
     def _shading_uniforms(self, geometry: VolumeGeometry, scale: float, min_spacing: float) -> dict:
-        light = np.asarray(self.light_direction, dtype=np.float64)
-        if self.light == "direction" and not np.linalg.norm(light) > 0.0:
-            raise VGraphError(f"{self.id}.light_direction must not be zero, got {list(light)}")
         spacings = GRADIENT_SPACINGS.get(self.gradient, 1.0)
         return {"voxel_step": vec(1.0 / geometry.dims),
                 "gradient_scale": vec(scale / (spacings * geometry.spacing)),
-                "gradient_epsilon": GRADIENT_EPSILON / min_spacing,
-                "light_direction": vec(light / max(np.linalg.norm(light), 1e-300)),
-                "ambient": self.ambient, "diffuse": self.diffuse, "specular": self.specular,
-                "shininess": self.shininess}
+                **shading_uniforms(self, min_spacing)}
 
     def _block_texture(self, ctx, volume: Volume):
         """Per-block values for SKIP_EMPTY_SPACE (shaders/raycasting/empty_space.glsl): skip radii

@@ -48,7 +48,6 @@ NORMALIZATIONS = ("linear", "exponential")
 MIN_GRADIENT = 1e-6  # |grad f| * min(spacing) at or below this (normalised intensity): undefined
 ROUNDING_GRADIENT = 1e-5  # ... or at or below this times the largest |value| (float32 rounding)
 ZERO_CURVATURE = 1e-3  # |k| * min(spacing) at or below this reads as 0 in the shown measure
-GRADIENT_EPSILON = 1e-6  # shading, as the RayCaster: |g| * min(spacing) at or below: unshaded
 REDUCE_BLOCK = 8  # pixels per side reduced by one pass of the min/max reduction
 REDUCE_SHADER = "curvature/range_reduce.frag.glsl"
 MIN_EMPTY_FRACTION = 0.1  # as the RayCaster: below this share of empty blocks skipping costs more
@@ -144,18 +143,6 @@ def shading_defines(owner) -> dict[str, bool]:
     if owner.shading == "none":
         return {}
     return {"SHADING_BLINN_PHONG": True, "LIGHT_HEADLIGHT": owner.light == "headlight"}
-
-
-def shading_uniforms(owner, min_spacing: float) -> dict[str, object]:
-    """Uniforms of raycasting/shading.glsl (as the RayCaster sets them: gradients at or below
-    GRADIENT_EPSILON / min(spacing) leave a sample unshaded)."""
-    light = np.asarray(owner.light_direction, dtype=np.float64)
-    if owner.light == "direction" and not np.linalg.norm(light) > 0.0:
-        raise VGraphError(f"{owner.id}.light_direction must not be zero, got {list(light)}")
-    return {"gradient_epsilon": GRADIENT_EPSILON / min_spacing,
-            "light_direction": tuple(float(v) for v in light / max(np.linalg.norm(light), 1e-300)),
-            "ambient": owner.ambient, "diffuse": owner.diffuse, "specular": owner.specular,
-            "shininess": owner.shininess}
 
 
 # --- colour maps ----------------------------------------------------------------------------------

@@ -41,8 +41,10 @@ import numpy as np
 from scipy import ndimage
 
 from vgraph.camera import Camera
+from vgraph.errors import VGraphError
 from vgraph.image import Image
 from vgraph.implicit import UNIT_BOX
+from vgraph.numerics.reference_raycast import GRADIENT_EPSILON
 from vgraph.transfer_function import LUT_SIZE, TransferFunction
 from vgraph.volume import Volume
 
@@ -275,3 +277,30 @@ class RenderTargets:
 def vec(values) -> tuple[float, ...]:
     """A uniform value from a numpy vector (float64 -> Python floats; the GL side is float32)."""
     return tuple(float(v) for v in values)
+
+
+# --- Blinn-Phong lighting, shared by every ray caster ---------------------------------------------
+def lighting_properties():
+    """The light's property declarations, unpacked into a ray caster's class body:
+    ``light, light_direction, ambient, diffuse, specular, shininess = lighting_properties()``.
+    Each class gets its own Property objects, in the place it unpacks them."""
+    from vgraph.properties import FloatProperty, Invalidation, OptionProperty, VectorProperty
+    return (OptionProperty("headlight", choices=["headlight", "direction"],
+                           invalidates=Invalidation.RESOURCES,
+                           doc="headlight: light from the viewer; direction: light_direction"),
+            VectorProperty((1.0, 1.0, 1.0), doc="world-space direction towards the light"),
+            FloatProperty(0.3, min=0.0, max=1.0), FloatProperty(0.7, min=0.0, max=1.0),
+            FloatProperty(0.2, min=0.0, max=1.0), FloatProperty(32.0, min=1.0, max=512.0))
+
+
+def shading_uniforms(owner, min_spacing: float) -> dict[str, object]:
+    """Uniforms of raycasting/shading.glsl from ``owner``'s lighting properties; gradients at or
+    below GRADIENT_EPSILON / min(spacing) leave a sample unshaded, as in the CPU reference."""
+    light = np.asarray(owner.light_direction, dtype=np.float64)
+    if owner.light == "direction" and not np.linalg.norm(light) > 0.0:
+        raise VGraphError(f"{owner.id}.light_direction must not be zero, got {list(light)}")
+    return {"gradient_epsilon": GRADIENT_EPSILON / min_spacing,
+            "light_direction": tuple(float(v) for v in light / max(np.linalg.norm(light), 1e-300)),
+            "ambient": owner.ambient, "diffuse": owner.diffuse, "specular": owner.specular,
+            "shininess": owner.shininess}
+

@@ -255,27 +255,6 @@ class VectorEditor(PropertyEditor):
             spin.setEnabled(value is not None)
 
 
-class DictEditor(PropertyEditor):
-    """Named numbers as one line of JSON ({} means the defaults)."""
-
-    def build(self):
-        self.line = QLineEdit()
-        self.line.editingFinished.connect(self._finished)
-        self.layout_.addWidget(self.line)
-
-    def _finished(self):
-        try:
-            value = json.loads(self.line.text() or "{}")
-        except json.JSONDecodeError as error:
-            self.problem.emit(f"{self.processor.id}.{self.prop.name}: not valid JSON: {error.msg}")
-            return
-        if value != self.processor.property_values[self.prop.name]:
-            self.emit(value)
-
-    def _show(self, value):
-        self.line.setText(json.dumps(value))
-
-
 class ColorEditor(PropertyEditor):
     def build(self):
         self.button = QPushButton()
@@ -372,6 +351,35 @@ class CameraEditor(PropertyEditor):
         self.fov.setValue(value.fov)
 
 
+class JsonEditor(PropertyEditor):
+    """Any value as JSON text: the fallback for property kinds without an editor."""
+
+    blank = ""  # what an empty line means, as JSON text ("": an error)
+
+    def build(self):
+        self.line = QLineEdit()
+        self.line.editingFinished.connect(self._finished)
+        self.layout_.addWidget(self.line)
+
+    def _finished(self):
+        try:
+            value = json.loads(self.line.text() or self.blank)
+        except json.JSONDecodeError as error:
+            self.problem.emit(f"{self.processor.id}.{self.prop.name}: not valid JSON: {error.msg}")
+            return
+        if value != self.prop.to_json(self.processor.property_values[self.prop.name]):
+            self.emit(value)
+
+    def _show(self, value):
+        self.line.setText(json.dumps(self.prop.to_json(value)))
+
+
+class DictEditor(JsonEditor):
+    """Named numbers as one line of JSON ({} means the defaults)."""
+
+    blank = "{}"
+
+
 EDITOR_TYPES: dict[str, type[PropertyEditor]] = {
     "float": FloatEditor, "int": IntEditor, "bool": BoolEditor, "option": OptionEditor,
     "string": StringEditor, "file_path": FilePathEditor, "vector": VectorEditor, "dict": DictEditor,
@@ -387,24 +395,3 @@ def register_editor(kind: str, editor: type[PropertyEditor]) -> None:
 def editor_for(prop: Property, processor: Processor) -> PropertyEditor:
     """The editor for a property; an unknown kind (a plug-in's) falls back to its JSON as text."""
     return EDITOR_TYPES.get(prop.kind, JsonEditor)(prop, processor)
-
-
-class JsonEditor(PropertyEditor):
-    """Any value as JSON text: the fallback for property kinds without an editor."""
-
-    def build(self):
-        self.line = QLineEdit()
-        self.line.editingFinished.connect(self._finished)
-        self.layout_.addWidget(self.line)
-
-    def _finished(self):
-        try:
-            value = json.loads(self.line.text())
-        except json.JSONDecodeError as error:
-            self.problem.emit(f"{self.processor.id}.{self.prop.name}: not valid JSON: {error.msg}")
-            return
-        self.emit(value)
-
-    def _show(self, value):
-        self.line.setText(json.dumps(self.prop.to_json(value)))
-
