@@ -22,3 +22,12 @@ def data_dir() -> Path:
 def gl():
     from vgraph.gl.context import get_context
     return get_context()
+
+
+@pytest.fixture(scope="session")
+def renderer():
+    """One render process for all GUI tests (starting one takes a second or two)."""
+    from vgraph.gui.render_process import RenderProcess
+    process = RenderProcess()
+    yield process
+    process.stop()

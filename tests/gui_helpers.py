@@ -11,11 +11,11 @@ for cls in toy_processors.ALL:
 
 
 @pytest.fixture
-def window(qtbot, tmp_path):
+def window(qtbot, tmp_path, renderer):
     """A shown main window with its own settings file (recent files do not touch the user's)."""
     from vgraph.gui.app import MainWindow
     settings = QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat)
-    main = MainWindow(settings)
+    main = MainWindow(settings, renderer)
     main.show()
     qtbot.waitExposed(main)
     yield main

@@ -23,18 +23,22 @@ def test_editing_a_spin_box_sets_the_property_and_triggers_evaluation(window, qt
     ws = window.workspace
     ws.add_processor("FunctionSelector", (0, 0), id="f")
     ws.add_processor("CubicSplineProcessor", (0, 150), id="spline")
+    ws.add_processor("RayCaster", (200, 150), id="rc")   # not ready (no entry points): not run
     ws.connect("f.volume", "spline.volume")
-    window.evaluation.run()
-    assert ws.network["spline"].outputs["volume"].dims == (64, 64, 64)
+    ws.connect("f.volume", "rc.volume")
+    outcome = window.evaluation.run(wait=True)
+    assert outcome.ran == ["f", "spline"] and outcome.not_ready == ["rc"]
+    voxels = lambda: window.evaluation.last_result.histograms["rc"].sum()  # the TF editor's histogram
+    assert voxels() == 64 ** 3
 
     spin = select(window, "f")["resolution"].spin
-    with qtbot.waitSignal(window.evaluation.finished, timeout=5000) as blocker:
+    with qtbot.waitSignal(window.evaluation.finished, timeout=20000) as blocker:
         spin.lineEdit().selectAll()
         qtbot.keyClicks(spin.lineEdit(), "32")
         qtbot.keyClick(spin.lineEdit(), Qt.Key_Return)
     assert ws.network.get("f.resolution") == 32
     assert blocker.args[0].ran == ["f", "spline"]
-    assert ws.network["spline"].outputs["volume"].dims == (32, 32, 32)
+    assert voxels() == 32 ** 3                                       # the render process has it
     assert window.scene.nodes["spline"].status.state == "evaluated"
 
     ws.undo_stack.undo()

@@ -7,6 +7,7 @@ import subprocess
 import sys
 
 import numpy as np
+import PIL.Image
 from PySide6.QtWidgets import QMessageBox
 
 import vgraph
@@ -46,36 +47,39 @@ def test_saved_network_loads_in_vgraph_and_reopens_to_the_same_file(window, tmp_
     assert loaded.connections == ws.network.connections
     assert loaded.get("f.resolution") == 24 and loaded.get("writer.path") == "out/sphere.npy"
 
-    window.evaluation.run()
-    gui_volume = ws.network["spline"].outputs["volume"].data
-    np.testing.assert_array_equal(loaded.evaluate("spline.volume"), gui_volume)
+    outcome = window.evaluation.run(include_writers=True, wait=True)   # in the render process
+    assert outcome.ran == ["f", "spline", "writer"] and not outcome.failed
+    np.testing.assert_array_equal(loaded.evaluate("spline.volume"), np.load(tmp_path / "out" / "sphere.npy"))
 
     assert window.open_network(saved)
     assert window.save_network_as(tmp_path / "again.json")
     assert (tmp_path / "again.json").read_text() == saved.read_text()
 
 
-def test_run_writers_writes_what_vgraph_run_writes(window, tmp_path):
+def test_run_writers_writes_what_vgraph_run_writes(window, qtbot, tmp_path):
     ws = window.workspace
     build_volume_network(ws, tmp_path)
     window.save_network_as(tmp_path / "net.json")
-    window.evaluation.run()
+    assert window.evaluation.run(wait=True).writers == ["writer"]
     assert not (tmp_path / "out" / "sphere.npy").exists()      # writers wait for the request
-    window.writers_action.trigger()
+    with qtbot.waitSignal(window.evaluation.finished, timeout=20000):
+        window.writers_action.trigger()
     gui_written = np.load(tmp_path / "out" / "sphere.npy")
     assert main(["run", str(tmp_path / "net.json")]) == 0      # the CLI writes the same file
     np.testing.assert_array_equal(np.load(tmp_path / "out" / "sphere.npy"), gui_written)
 
 
 def test_grayscale_network_saved_by_the_gui_renders_the_same_image(window, tmp_path):
-    """Round trip with GL processors: the GUI only edits and saves; the CLI renders both files."""
+    """Round trip with GL processors: the canvas shows what the CLI renders, from either file."""
     assert window.open_network(GRAY)
+    window.evaluation.run(wait=True)
+    shown = window.canvases.views["canvas"].frame()
     assert window.save_network_as(tmp_path / "gray.json")
     document = json.loads((tmp_path / "gray.json").read_text())
     assert [p["id"] for p in document["processors"]] == ["source", "gray", "canvas"]
-    for network, npy in ((GRAY, "original.npy"), (tmp_path / "gray.json", "gui.npy")):
-        assert main(["run", str(network), "--npy", str(tmp_path / npy)]) == 0
-    np.testing.assert_array_equal(np.load(tmp_path / "original.npy"), np.load(tmp_path / "gui.npy"))
+    for network, png in ((GRAY, "original.png"), (tmp_path / "gray.json", "gui.png")):
+        assert main(["run", str(network), "-o", str(tmp_path / png)]) == 0
+        np.testing.assert_array_equal(np.asarray(PIL.Image.open(tmp_path / png)), shown)
 
 
 def test_a_bad_file_opens_a_dialog_naming_the_problems(window, tmp_path, monkeypatch):
@@ -156,46 +160,37 @@ def test_a_processor_error_shows_on_its_node_and_in_the_log_and_the_gui_goes_on(
     assert window.log.messages("info")[-1] == "processor 'frag' evaluates again"
 
 
-GL_GUARD_SCRIPT = """
+GL_FREE_SCRIPT = """
 import json, sys
 from PySide6.QtCore import QSettings
 from PySide6.QtWidgets import QApplication
-import vgraph
 from vgraph.gl import context
 from vgraph.gui.app import MainWindow
-from vgraph.processor import Processor
 
-
-class AsksForGL(Processor):
-    uses_gl = False  # claims to need no GL, but uses it
-
-    def process(self):
-        self.gl.texture((4, 4), 4)
-
-
-vgraph.register(AsksForGL)
-app = QApplication([])
-window = MainWindow(QSettings(sys.argv[2], QSettings.IniFormat))
-assert window.open_network(sys.argv[1])
-window.workspace.add_processor("AsksForGL", (300, 0), id="sneaky")
-outcome = window.evaluation.run()
-print(json.dumps({"deferred": outcome.deferred, "ran": outcome.ran, "failed": outcome.failed,
-                  "node": window.scene.nodes["gray"].status.text, "gl": context.has_context()}))
+if __name__ == "__main__":
+    app = QApplication([])
+    window = MainWindow(QSettings(sys.argv[2], QSettings.IniFormat))
+    assert window.open_network(sys.argv[1])
+    outcome = window.evaluation.run(wait=True)
+    frame = window.canvases.views["canvas"].frame()
+    print(json.dumps({"ran": outcome.ran, "frame": list(frame.shape), "gl": context.has_context(),
+                      "node": window.scene.nodes["gray"].status.state}))
+    window.workspace.undo_stack.setClean()
+    window.close()
 """
 
 
 def test_the_gui_process_creates_no_gl_context(tmp_path):
-    """In a fresh process (as `vgraph gui`): GL processors are deferred to the render process and
-    a processor that uses GL anyway fails on its node instead of creating a context."""
-    done = subprocess.run([sys.executable, "-c", GL_GUARD_SCRIPT, str(GRAY), str(tmp_path / "s.ini")],
+    """In a fresh process (as `vgraph gui`): the render process renders, the GUI holds no GL."""
+    script = tmp_path / "gui_script.py"
+    script.write_text(GL_FREE_SCRIPT)
+    done = subprocess.run([sys.executable, str(script), str(GRAY), str(tmp_path / "s.ini")],
                           capture_output=True, text=True, timeout=120,
                           env={**os.environ, "QT_QPA_PLATFORM": "offscreen"})
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout.strip().splitlines()[-1])
-    assert result["deferred"] == ["source", "gray", "canvas"] and result["ran"] == []
-    assert result["node"] == "needs the renderer"
-    assert "needs OpenGL, which the GUI process does not have" in result["failed"]["sneaky"]
-    assert result["gl"] is False
+    assert result == {"ran": ["source", "gray", "canvas"], "frame": [192, 192, 4], "gl": False,
+                      "node": "evaluated"}
 
 
 def test_vgraph_gui_command_and_lazy_qt_import(monkeypatch, tmp_path):
@@ -203,7 +198,7 @@ def test_vgraph_gui_command_and_lazy_qt_import(monkeypatch, tmp_path):
     args = build_parser().parse_args(["gui", str(GRAY)])
     assert args.network == GRAY
     opened = []
-    monkeypatch.setattr(vgraph.gui.app, "run_gui", lambda path: opened.append(path) or 0)
+    monkeypatch.setattr(vgraph.gui.app, "run_gui", lambda path, **options: opened.append(path) or 0)
     assert main(["gui", str(GRAY)]) == 0 and opened == [GRAY]
     code = "import sys, vgraph.cli; sys.exit('PySide6' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0

@@ -71,6 +71,10 @@ def build_parser() -> argparse.ArgumentParser:
     gui = commands.add_parser("gui", help="open the network editor (PySide6)")
     gui.add_argument("network", type=Path, nargs="?", help="a .json network to open")
     gui.add_argument("--plugin", action="append", metavar="MODULE", help="import a plug-in module")
+    gui.add_argument("--screenshot", type=Path, metavar="OUT.png",
+                     help="wait until the canvases have rendered, save the window as a PNG and exit")
+    gui.add_argument("--select", metavar="ID", help="select this processor (its properties show)")
+    gui.add_argument("--window-size", type=parse_size, metavar="WxH", help="window size in pixels")
     gui.set_defaults(command=command_gui)
 
     bench = commands.add_parser("bench", help="benchmarks: curvature accuracy against frame time")
@@ -183,7 +187,7 @@ def command_list(args) -> int:
 
 def command_gui(args) -> int:
     from vgraph.gui.app import run_gui  # imported here so no other command imports Qt
-    return run_gui(args.network)
+    return run_gui(args.network, screenshot=args.screenshot, select=args.select, size=args.window_size)
 
 
 def command_bench_accuracy(args) -> int:

@@ -1,8 +1,8 @@
 """The main window and ``run_gui`` (``vgraph gui [NETWORK.json]``).
 
-Layout: the network editor in the middle, the processor palette on the left, the property
-inspector on the right, the log at the bottom, messages (such as why a connection is refused) in
-the status bar.
+Layout: the network editor in the middle, the processor palette on the left, the canvases and the
+property inspector on the right, the log at the bottom, messages (such as why a connection is
+refused) in the status bar.
 
 Conventions:
 - The window wires views to the Workspace; it holds no model state of its own.
@@ -10,7 +10,8 @@ Conventions:
   shows on its node and in the log, and anything unexpected goes to the log (``run_gui`` installs
   an exception hook for slots and event handlers).
 - Dialogs go through ``ask_*``/``report_error`` so tests can answer them.
-- No OpenGL here: evaluation goes through ``LiveEvaluation``/``Evaluator``.
+- No OpenGL here: evaluation happens in the render process (``LiveEvaluation``), frames come back
+  as images.
 """
 
 from __future__ import annotations
@@ -23,11 +24,14 @@ from PySide6.QtCore import QSettings, Qt
 from PySide6.QtGui import QAction, QKeySequence
 from PySide6.QtWidgets import QApplication, QDockWidget, QFileDialog, QMainWindow, QMessageBox
 
+from vgraph.atomic import atomic_path
 from vgraph.errors import VGraphError
-from vgraph.gui.evaluator import EvaluationOutcome
+from vgraph.gui.canvases import CanvasDocks
+from vgraph.gui.evaluator import EvaluationOutcome, format_seconds
 from vgraph.gui.inspector import PropertyInspector
 from vgraph.gui.links import LinkDialog
 from vgraph.gui.live_evaluation import LiveEvaluation
+from vgraph.gui.render_process import RenderProcess
 from vgraph.gui.log import LogPanel
 from vgraph.gui.palette import ProcessorPalette
 from vgraph.gui.scene import NetworkScene, NetworkView
@@ -37,24 +41,27 @@ NETWORK_FILTER = "vgraph networks (*.json);;All files (*)"
 
 
 class MainWindow(QMainWindow):
-    def __init__(self, settings: QSettings | None = None):
+    def __init__(self, settings: QSettings | None = None, renderer: RenderProcess | None = None):
         super().__init__()
         self.workspace = Workspace(settings, self)
-        self.scene = NetworkScene(self.workspace, self)
+        self.evaluation = LiveEvaluation(self.workspace, renderer, parent=self)
+        self.scene = NetworkScene(self.workspace, self, status_of=self.evaluation.status_of)
         self.view = NetworkView(self.scene)
         self.setCentralWidget(self.view)
         self.palette = ProcessorPalette()
-        self.inspector = PropertyInspector(self.workspace)
+        self.inspector = PropertyInspector(self.workspace, status_of=self.evaluation.status_of)
         self.log = LogPanel()
         self._dock("Processors", self.palette, Qt.LeftDockWidgetArea)
-        self._dock("Properties", self.inspector, Qt.RightDockWidgetArea)
-        self._dock("Log", self.log, Qt.BottomDockWidgetArea)
-        self.evaluation = LiveEvaluation(self.workspace, parent=self)
+        properties = self._dock("Properties", self.inspector, Qt.RightDockWidgetArea)
+        log = self._dock("Log", self.log, Qt.BottomDockWidgetArea)
+        self.canvases = CanvasDocks(self, self.workspace, self.evaluation, above=properties)
         self.failures: dict[str, str] = {}
         self._build_actions()
         self._build_menus()
         self._wire()
         self.resize(1280, 800)
+        self.resizeDocks([properties], [460], Qt.Horizontal)
+        self.resizeDocks([log], [110], Qt.Vertical)
         self._update_title()
 
     def _dock(self, title: str, widget, area) -> QDockWidget:
@@ -136,7 +143,9 @@ class MainWindow(QMainWindow):
         workspace.recent_files_changed.connect(self._fill_recent_menu)
         workspace.network_replaced.connect(self._network_replaced)
         self.evaluation.finished.connect(self.report_outcome)
-        self.evaluation.crashed.connect(lambda text: self.log.error(f"internal error (please report it):\n{text}"))
+        self.evaluation.histograms.connect(self.inspector.set_histograms)
+        self.evaluation.busy_changed.connect(self._busy_changed)
+        self.evaluation.crashed.connect(self.log.error)
 
     # --- messages and dialogs -------------------------------------------------------------------
     def show_message(self, text: str) -> None:
@@ -255,8 +264,14 @@ class MainWindow(QMainWindow):
         self.failures.clear()
         self.inspector.show_processor(None)
 
+    def _busy_changed(self, busy: bool) -> None:
+        if busy:
+            self.show_message("rendering...")
+
     def report_outcome(self, outcome: EvaluationOutcome) -> None:
         """Log new failures and recoveries (not every evaluation: that would drown the log)."""
+        self.scene.refresh_states()
+        self.inspector.refresh_status()
         network = self.workspace.network
         for pid, reason in outcome.failed.items():
             if self.failures.get(pid) != reason and pid in network:
@@ -266,21 +281,25 @@ class MainWindow(QMainWindow):
                 self.log.info(f"processor '{pid}' evaluates again")
         self.failures = {pid: r for pid, r in self.failures.items() if pid not in outcome.ran}
         self.failures.update(outcome.failed)
-        if outcome.ran or outcome.failed:
-            failed = f", {len(outcome.failed)} failed" if outcome.failed else ""
-            self.show_message(f"evaluated {len(outcome.ran)} processor{'s' * (len(outcome.ran) != 1)}{failed}")
+        failed = f", {len(outcome.failed)} failed" if outcome.failed else ""
+        seconds = self.evaluation.last_result.seconds if self.evaluation.last_result else 0.0
+        self.show_message(f"evaluated {len(outcome.ran)} processor{'s' * (len(outcome.ran) != 1)}"
+                          f"{failed} in {format_seconds(seconds)}")
 
     def closeEvent(self, event) -> None:
         if not self.confirm_discard():
             event.ignore()
             return
-        for view in (self.scene, self.inspector, self.evaluation):
+        for view in (self.scene, self.inspector, self.canvases):
             view.detach()
+        self.evaluation.shutdown()
         event.accept()
 
 
-def run_gui(path: str | Path | None = None) -> int:
-    """Start the GUI (optionally opening a network) and return the exit code."""
+def run_gui(path: str | Path | None = None, screenshot: str | Path | None = None,
+            select: str | None = None, size: tuple[int, int] | None = None) -> int:
+    """Start the GUI (optionally opening a network) and return the exit code. With ``screenshot``:
+    wait until the canvases have rendered, save the whole window as a PNG and exit."""
     app = QApplication.instance() or QApplication([sys.argv[0] if sys.argv else "vgraph"])
     app.setApplicationName("vgraph")
     window = MainWindow()
@@ -292,9 +311,31 @@ def run_gui(path: str | Path | None = None) -> int:
 
     sys.excepthook = log_exception
     try:
+        if size is not None:
+            window.resize(*size)
         window.show()
-        if path is not None:
-            window.open_network(path)
+        if path is not None and not window.open_network(path) and screenshot is not None:
+            return 1
+        if select is not None:
+            window.scene.select_processor(select)
+        if screenshot is not None:
+            return save_screenshot(window, screenshot)
         return app.exec()
     finally:
         sys.excepthook = previous_hook
+
+
+def save_screenshot(window: MainWindow, path: str | Path) -> int:
+    """Evaluate, let the window lay itself out, save it (atomically) and close it."""
+    window.evaluation.run(wait=True)
+    for _ in range(3):
+        QApplication.processEvents()
+    with atomic_path(path, suffix=".png") as temporary:
+        if not window.grab().save(str(temporary), "PNG"):
+            raise VGraphError(f"cannot write the screenshot {path}")
+    for message in window.log.messages("error"):
+        print(f"vgraph gui: {message}", file=sys.stderr)
+    window.workspace.undo_stack.setClean()
+    window.close()
+    print(f"wrote {path}", file=sys.stderr)
+    return 0

@@ -26,9 +26,11 @@ LINK_MARK = " \u2194"  # a two-headed arrow after the label of a linked property
 class PropertyInspector(QWidget):
     status_message = Signal(str)
 
-    def __init__(self, workspace: Workspace, parent=None):
+    def __init__(self, workspace: Workspace, parent=None, status_of=None):
         super().__init__(parent)
         self.workspace = workspace
+        self.status_of = status_of or (lambda pid: processor_status(self.network, self.network[pid]))
+        self.histograms: dict = {}
         self.network: Network | None = None
         self.processor_id: str | None = None
         self.editors: dict[str, PropertyEditor] = {}
@@ -82,12 +84,21 @@ class PropertyInspector(QWidget):
             self.editors[name], self.labels[name] = editor, label
             self.form.addRow(label, editor)
         self._refresh_links()
-        self._refresh_status()
+        self.refresh_status()
+        self.set_histograms(self.histograms)
 
-    def _refresh_status(self) -> None:
+    def refresh_status(self) -> None:
         if self.processor_id is not None:
-            status = processor_status(self.network, self.network[self.processor_id])
+            status = self.status_of(self.processor_id)
             self.status.setText(f"{status.state.replace('_', ' ')}: {status.detail}")
+
+    def set_histograms(self, histograms: dict) -> None:
+        """Histograms of the volumes arriving at processors (from the render process), shown by
+        editors that can use one (the transfer-function editor)."""
+        self.histograms = histograms
+        for editor in self.editors.values():
+            if hasattr(editor, "set_histogram"):
+                editor.set_histogram(histograms.get(self.processor_id))
 
     def _refresh_links(self) -> None:
         processor = self.network[self.processor_id]
@@ -120,8 +131,8 @@ class PropertyInspector(QWidget):
             editor = self.editors.get(details["name"]) if details["processor"].id == self.processor_id else None
             if editor is not None:
                 editor.show_value(details["processor"].property_values[details["name"]])
-            self._refresh_status()  # a change upstream invalidates this processor too
+            self.refresh_status()  # a change upstream invalidates this processor too
         elif event in ("linked", "unlinked"):
             self._refresh_links()
         elif event in ("evaluated", "connected", "disconnected"):
-            self._refresh_status()
+            self.refresh_status()

@@ -31,9 +31,10 @@ STRUCTURE_EVENTS = {"processor_added", "processor_removed", "connected", "discon
 class NetworkScene(QGraphicsScene):
     status_message = Signal(str)
 
-    def __init__(self, workspace: Workspace, parent=None):
+    def __init__(self, workspace: Workspace, parent=None, status_of=None):
         super().__init__(parent)
         self.workspace = workspace
+        self.status_of = status_of or (lambda pid: processor_status(self.network, self.network[pid]))
         self.network: Network | None = None
         self.nodes: dict[str, NodeItem] = {}
         self.edges: dict[Connection, EdgeItem] = {}
@@ -113,7 +114,7 @@ class NetworkScene(QGraphicsScene):
     def refresh_states(self) -> None:
         for pid, node in self.nodes.items():
             if pid in self.network:
-                node.set_status(processor_status(self.network, self.network[pid]))
+                node.set_status(self.status_of(pid))
 
     def sync_positions(self, *_) -> None:
         for pid, node in self.nodes.items():

@@ -1,0 +1,278 @@
+"""The canvas view: shows the frames rendered for one Canvas and turns mouse input into camera edits.
+
+The GUI holds no OpenGL: frames arrive from the render process as uint8 RGBA arrays (H, W, 4),
+row 0 at the TOP, and are drawn scaled to fit the widget, aspect kept, centred on a dark background.
+
+Interaction (on the camera returned by ``camera_property_for``, i.e. the nearest upstream one):
+
+- left drag: trackball rotate, ``Camera.rotate(pi * dx / h, -pi * dy / h)``;
+- right drag: zoom, ``Camera.zoom(exp(-ZOOM_PER_PIXEL * dy))`` (drag up zooms in; 100 px = e^1);
+  a right click without movement opens the context menu instead ("Save Image...");
+- wheel: zoom by ``WHEEL_ZOOM = 1.1`` per 120-unit notch, forward zooms in;
+- middle drag or shift + left drag: pan, ``Camera.pan(dx / h, -dy / h)``, so the scene follows the
+  cursor.
+
+``dx, dy`` are Qt pixels (x right, y DOWN, hence the negated dy: the camera wants y up) measured from
+the press point; ``h`` is the height of the displayed frame (the visible height of the camera maps
+onto it), or of the widget while no frame is shown. Each move is computed from the camera at drag
+start plus the total offset (not by accumulating per-event increments): no drift from rounding, a
+rejected intermediate value cannot leave the drag in a stale state, and a drag back to the press
+point restores the start camera exactly.
+
+Undo: every camera edit goes through ``workspace.set_property(address, camera, merge=key)`` with one
+key per drag (and one per wheel burst), so each gesture is a single undo step. ``interacting``
+emits True just before a gesture's first camera edit and False when it ends (button release, or
+``WHEEL_IDLE_MS`` after the last wheel event), so the renderer can draw coarse frames meanwhile.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+from PySide6.QtCore import QPointF, QRectF, Qt, QTimer, Signal
+from PySide6.QtGui import QColor, QImage, QPainter
+from PySide6.QtWidgets import QFileDialog, QMenu, QWidget
+
+from vgraph.errors import VGraphError
+from vgraph.imagefile import write_png
+from vgraph.properties import CameraProperty
+
+BACKGROUND = QColor(32, 32, 36)
+ZOOM_PER_PIXEL = 0.01      # right drag: factor exp(-k * dy_pixels)
+WHEEL_ZOOM = 1.1           # per 120 units of angleDelta (one notch of a common wheel)
+WHEEL_IDLE_MS = 250        # a wheel burst ends after this long without wheel events
+CLICK_SLOP = 3             # a right press/release closer than this (pixels) is a click (menu)
+NO_CAMERA = "no camera upstream of this canvas"
+_MAX_EXPONENT = 50.0       # keeps exp() and powers finite on absurd drags
+
+
+def camera_property_for(network, canvas_id: str) -> str | None:
+    """'id.name' of the nearest upstream camera property of ``canvas_id`` (breadth-first over
+    predecessors, in connection order), or None."""
+    if canvas_id not in network.graph:
+        return None
+    seen, queue = {canvas_id}, deque([canvas_id])
+    while queue:
+        processor_id = queue.popleft()
+        if processor_id != canvas_id:
+            processor = network[processor_id]
+            for name, prop in processor.properties.items():
+                if isinstance(prop, CameraProperty):
+                    return f"{processor_id}.{name}"
+        for source in network.graph.predecessors(processor_id):
+            if source not in seen:
+                seen.add(source)
+                queue.append(source)
+    return None
+
+
+class CanvasView(QWidget):
+    interacting = Signal(bool)
+    problem = Signal(str)
+
+    _keys = itertools.count(1)  # merge keys, unique across all views
+
+    def __init__(self, workspace, canvas_id: str, parent: QWidget | None = None):
+        super().__init__(parent)
+        self.workspace = workspace
+        self.canvas_id = canvas_id
+        self.is_final = True
+        self._frame: np.ndarray | None = None
+        self._image: QImage | None = None
+        self._message = ""
+        self._drag = None   # dict(mode, button, start, address, camera, key, active) while dragging
+        self._wheel = None  # dict(address, camera, key, delta) during a wheel burst
+        self._wheel_timer = QTimer(self)
+        self._wheel_timer.setSingleShot(True)
+        self._wheel_timer.setInterval(WHEEL_IDLE_MS)
+        self._wheel_timer.timeout.connect(self._end_wheel)
+        # Right drags zoom, so the menu opens on a right click without movement (mouseReleaseEvent).
+        self.setContextMenuPolicy(Qt.PreventContextMenu)
+        self.setMinimumSize(64, 64)
+
+    # --- display --------------------------------------------------------------------------------
+    def show_frame(self, rgba: np.ndarray, final: bool = True) -> None:
+        rgba = np.asarray(rgba)
+        if rgba.ndim != 3 or rgba.shape[2] != 4 or rgba.dtype != np.uint8 or 0 in rgba.shape:
+            raise ValueError(f"canvas frame must be a non-empty uint8 (H, W, 4) array, "
+                             f"got {rgba.dtype} {rgba.shape}")
+        self._frame = np.ascontiguousarray(rgba)
+        height, width = self._frame.shape[:2]
+        # copy(): the QImage must own its pixels, not borrow the array's buffer.
+        self._image = QImage(self._frame.data, width, height, 4 * width, QImage.Format_RGBA8888).copy()
+        self.is_final = bool(final)
+        self.update()
+
+    def frame(self) -> np.ndarray | None:
+        return self._frame
+
+    def set_message(self, text: str) -> None:
+        self._message = text or ""
+        self.update()
+
+    def message(self) -> str:
+        return self._message
+
+    def image_rect(self) -> QRectF:
+        """Where the frame is drawn: scaled to fit, aspect kept, centred (the widget if no frame)."""
+        if self._frame is None:
+            return QRectF(self.rect())
+        height, width = self._frame.shape[:2]
+        scale = min(self.width() / width, self.height() / height)
+        w, h = width * scale, height * scale
+        return QRectF((self.width() - w) / 2.0, (self.height() - h) / 2.0, w, h)
+
+    def paintEvent(self, event) -> None:
+        painter = QPainter(self)
+        painter.fillRect(self.rect(), BACKGROUND)
+        if self._image is not None:
+            painter.setRenderHint(QPainter.SmoothPixmapTransform, True)
+            painter.drawImage(self.image_rect(), self._image)
+        if self._message:
+            box = painter.fontMetrics().boundingRect(self._message).adjusted(-4, -2, 4, 2)
+            box.moveBottomLeft(self.rect().bottomLeft() + QPointF(4, -4).toPoint())
+            painter.fillRect(box, QColor(0, 0, 0, 160))
+            painter.setPen(QColor(230, 230, 230))
+            painter.drawText(box, Qt.AlignCenter, self._message)
+        painter.end()
+
+    # --- camera edits ---------------------------------------------------------------------------
+    def _begin_gesture(self) -> tuple[str, object] | None:
+        """(camera address, its current value), or None after telling the user there is none."""
+        address = camera_property_for(self.workspace.network, self.canvas_id)
+        if address is None:
+            self.set_message(NO_CAMERA)
+            return None
+        return address, self.workspace.network.get(address)
+
+    def _apply(self, gesture: dict, make_camera) -> None:
+        """Set the camera ``make_camera(start camera)`` under the gesture's merge key; errors are
+        shown, never raised (a mouse handler must not throw)."""
+        if not gesture["active"]:
+            gesture["active"] = True
+            self.interacting.emit(True)
+        try:
+            camera = make_camera(gesture["camera"])
+            self.workspace.set_property(gesture["address"], camera, merge=gesture["key"])
+        except (VGraphError, ValueError, ArithmeticError) as error:
+            self.set_message(f"{gesture['address']}: {error}")
+            return
+        if self._message.startswith(gesture["address"] + ":") or self._message == NO_CAMERA:
+            self.set_message("")  # a good value replaces the previous complaint
+
+    def _view_height(self) -> float:
+        return max(self.image_rect().height(), 1.0)
+
+    # --- mouse ----------------------------------------------------------------------------------
+    def mousePressEvent(self, event) -> None:
+        if self._drag is not None:
+            return  # a second button during a drag does not change the gesture
+        button = event.button()
+        if button == Qt.LeftButton:
+            mode = "pan" if event.modifiers() & Qt.ShiftModifier else "rotate"
+        elif button == Qt.MiddleButton:
+            mode = "pan"
+        elif button == Qt.RightButton:
+            mode = "zoom"
+        else:
+            return
+        address = camera_property_for(self.workspace.network, self.canvas_id)
+        if address is None and mode != "zoom":  # a right click may still be for the menu
+            self.set_message(NO_CAMERA)
+        self._drag = {"mode": mode, "button": button, "start": event.position(), "active": False,
+                      "address": address, "key": ("canvas", next(self._keys)),
+                      "camera": None if address is None else self.workspace.network.get(address)}
+        event.accept()
+
+    def mouseMoveEvent(self, event) -> None:
+        drag = self._drag
+        if drag is None:
+            return
+        offset = event.position() - drag["start"]
+        dx, dy = offset.x(), offset.y()
+        if drag["address"] is None:
+            if math.hypot(dx, dy) >= CLICK_SLOP:
+                self.set_message(NO_CAMERA)
+            return
+        h = self._view_height()
+        if drag["mode"] == "rotate":
+            self._apply(drag, lambda c: c.rotate(math.pi * dx / h, -math.pi * dy / h))
+        elif drag["mode"] == "pan":
+            self._apply(drag, lambda c: c.pan(dx / h, -dy / h))
+        else:
+            exponent = float(np.clip(-ZOOM_PER_PIXEL * dy, -_MAX_EXPONENT, _MAX_EXPONENT))
+            self._apply(drag, lambda c: c.zoom(math.exp(exponent)))
+        event.accept()
+
+    def mouseReleaseEvent(self, event) -> None:
+        drag = self._drag
+        if drag is None or event.button() != drag["button"]:
+            return
+        self._drag = None
+        if drag["active"]:
+            self.interacting.emit(False)
+        elif drag["mode"] == "zoom" and (event.position() - drag["start"]).manhattanLength() < CLICK_SLOP:
+            self.context_menu().exec(event.globalPosition().toPoint())
+        event.accept()
+
+    def wheelEvent(self, event) -> None:
+        notches = event.angleDelta().y() / 120.0
+        if notches == 0.0:
+            return
+        if self._wheel is None:
+            start = self._begin_gesture()
+            if start is None:
+                return
+            self._wheel = {"address": start[0], "camera": start[1], "notches": 0.0, "active": False,
+                           "key": ("canvas", next(self._keys))}
+        wheel = self._wheel
+        wheel["notches"] += notches
+        exponent = float(np.clip(wheel["notches"] * math.log(WHEEL_ZOOM), -_MAX_EXPONENT, _MAX_EXPONENT))
+        self._apply(wheel, lambda c: c.zoom(math.exp(exponent)))
+        self._wheel_timer.start()
+        event.accept()
+
+    def _end_wheel(self) -> None:
+        wheel, self._wheel = self._wheel, None
+        if wheel is not None and wheel["active"]:
+            self.interacting.emit(False)
+
+    # --- saving ---------------------------------------------------------------------------------
+    def context_menu(self) -> QMenu:
+        menu = QMenu(self)
+        action = menu.addAction("Save Image...", self.save_image)
+        action.setEnabled(self._frame is not None)
+        return menu
+
+    def ask_save_path(self) -> str:
+        path, _ = QFileDialog.getSaveFileName(self, "Save Image", f"{self.canvas_id}.png",
+                                              "PNG images (*.png)")
+        return path
+
+    def save_image(self, path: str | Path | None = None) -> Path | None:
+        """Write the current frame as an RGBA PNG (atomically); returns the path, or None if there
+        was nothing to save, the dialog was cancelled or writing failed (reported)."""
+        if self._frame is None:
+            return self._report("no image to save yet")
+        if path is None:
+            path = self.ask_save_path()
+            if not path:
+                return None
+        path = Path(path)
+        if not path.suffix:
+            path = path.with_suffix(".png")
+        try:
+            # write_png takes floats in [0, 1]; k / 255 rounds back to exactly k.
+            write_png(path, self._frame.astype(np.float64) / 255.0)
+        except OSError as error:
+            return self._report(f"could not save {path}: {error.strerror or error}")
+        return path
+
+    def _report(self, text: str) -> None:
+        self.set_message(text)
+        self.problem.emit(text)
+        return None

@@ -1,0 +1,104 @@
+"""One dock with a ``CanvasView`` per display processor (a Canvas), following the network.
+
+Conventions:
+- A display gets its dock when it is added (or a network is opened) and loses it when removed;
+  docks of one window are tabbed together, titled "Canvas: <id>".
+- Frames from the render process go to the view of their display; a display that failed or is not
+  ready shows why instead.
+- A drag on any canvas makes the evaluation interactive (reduced resolution) until it ends.
+"""
+
+from __future__ import annotations
+
+from PySide6.QtCore import QObject, Qt
+from PySide6.QtWidgets import QDockWidget, QMainWindow
+
+from vgraph.gui.canvas_view import CanvasView
+from vgraph.gui.evaluator import EvaluationOutcome, is_display
+from vgraph.gui.live_evaluation import LiveEvaluation
+from vgraph.gui.workspace import Workspace
+from vgraph.network import Network
+
+
+class CanvasDocks(QObject):
+    def __init__(self, window: QMainWindow, workspace: Workspace, evaluation: LiveEvaluation,
+                 above: QDockWidget):
+        super().__init__(window)
+        self.window, self.workspace, self.evaluation = window, workspace, evaluation
+        self.above = above  # the first canvas goes above this dock (the inspector)
+        self.network: Network | None = None
+        self.docks: dict[str, QDockWidget] = {}
+        self.views: dict[str, CanvasView] = {}
+        evaluation.frames.connect(self.show_frames)
+        evaluation.finished.connect(self.show_problems)
+        evaluation.busy_changed.connect(self._busy)
+        workspace.network_replaced.connect(self._follow)
+        self._follow(workspace.network)
+
+    def _follow(self, network: Network) -> None:
+        self.detach()
+        for processor_id in list(self.docks):
+            self._remove(processor_id)
+        self.network = network
+        network.subscribe(self._on_event)
+        for processor in network.processors.values():
+            self._on_event("processor_added", processor=processor)
+
+    def detach(self) -> None:
+        if self.network is not None and self._on_event in self.network.listeners:
+            self.network.listeners.remove(self._on_event)
+
+    def _on_event(self, event: str, **details) -> None:
+        if event == "processor_added" and is_display(type(details["processor"])):
+            self._add(details["processor"].id)
+        elif event == "processor_removed" and details["processor"].id in self.docks:
+            self._remove(details["processor"].id)
+
+    def _add(self, processor_id: str) -> None:
+        view = CanvasView(self.workspace, processor_id)
+        view.interacting.connect(self.evaluation.interactive)
+        view.set_message("waiting for the render process")
+        dock = QDockWidget(f"Canvas: {processor_id}", self.window)
+        dock.setObjectName(f"canvas:{processor_id}")
+        dock.setWidget(view)
+        siblings = list(self.docks.values())
+        self.window.addDockWidget(Qt.RightDockWidgetArea, dock)
+        if siblings:
+            self.window.tabifyDockWidget(siblings[-1], dock)
+        else:
+            self.window.splitDockWidget(dock, self.above, Qt.Vertical)
+            height = self.window.height()
+            self.window.resizeDocks([dock, self.above], [height * 3 // 5, height * 2 // 5], Qt.Vertical)
+        dock.show()  # a dock added to a window already shown stays hidden otherwise
+        dock.raise_()
+        self.docks[processor_id], self.views[processor_id] = dock, view
+
+    def _remove(self, processor_id: str) -> None:
+        dock = self.docks.pop(processor_id)
+        self.views.pop(processor_id)
+        self.window.removeDockWidget(dock)
+        dock.deleteLater()
+
+    def show_frames(self, frames: dict, final: bool) -> None:
+        for processor_id, frame in frames.items():
+            if processor_id in self.views:
+                self.views[processor_id].show_frame(frame, final)
+                self.views[processor_id].set_message("" if final else "refining...")
+
+    def show_problems(self, outcome: EvaluationOutcome) -> None:
+        for processor_id, view in self.views.items():
+            if processor_id in outcome.frames:
+                continue
+            status = self.evaluation.status_of(processor_id)
+            if status.state in ("error", "not_ready"):
+                view.set_message(status.detail)
+            elif processor_id in outcome.not_ready:
+                view.set_message("not rendered: a required inport upstream is not connected")
+            else:
+                view.set_message(f"not rendered: {', '.join(outcome.failed) or 'nothing'} failed upstream")
+
+    def _busy(self, busy: bool) -> None:
+        if busy:
+            for view in self.views.values():
+                if view.frame() is None:
+                    view.set_message("rendering...")

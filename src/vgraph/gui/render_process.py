@@ -1,0 +1,196 @@
+"""The render process: a child process that owns the OpenGL context and evaluates for the GUI.
+
+Why a process: moderngl holds the GIL while it renders, so rendering in a thread of the GUI process
+would freeze the window for a whole frame; and the GUI then needs no GL at all, so it runs (and is
+tested) anywhere Qt runs. The GUI sends what to show, the render process sends frames back.
+
+Protocol (pickled objects over a ``multiprocessing`` pipe, one job in flight at a time):
+- GUI -> render process: a ``RenderJob`` (the network as a version-1 document, the modules that
+  define its plug-in processor types, the resolution scale, whether writers run, whether to start
+  from a new network), or ``None`` to stop.
+- render process -> GUI: one ``RenderResult`` per job: what ran or failed, a ``ProcessorStatus`` per
+  processor, frames for the displays, histograms for the transfer-function editors.
+The render process keeps its network between jobs (``mirror`` applies each document as a diff), so
+unchanged processors keep their textures and outputs.
+
+``RenderProcess`` is the GUI's handle (no Qt): ``submit`` a job, ``poll``/``wait`` for the result.
+If the process dies (a driver crash), the result says so and the next job starts a new one.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import time
+import traceback
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vgraph.errors import VGraphError
+from vgraph.gui.evaluator import EvaluationOutcome, ProcessorStatus, evaluate_view, histograms, processor_status
+from vgraph.gui.mirror import mirror
+from vgraph.network import Network
+from vgraph.registry import registry
+
+BUILTIN_PACKAGE = "vgraph.processors"
+
+
+@dataclass
+class RenderJob:
+    version: int
+    document: dict
+    base_dir: str | None = None
+    plugins: tuple[str, ...] = ()
+    scale: float = 1.0
+    include_writers: bool = False
+    fresh: bool = False        # start from a new network (another file was opened)
+
+
+@dataclass
+class RenderResult:
+    version: int
+    scale: float = 1.0
+    outcome: EvaluationOutcome = field(default_factory=EvaluationOutcome)
+    statuses: dict[str, ProcessorStatus] = field(default_factory=dict)
+    histograms: dict[str, np.ndarray] = field(default_factory=dict)
+    seconds: float = 0.0
+    error: str | None = None   # the job as a whole failed (its network could not be built, a crash)
+
+
+def plugin_modules(network: Network) -> tuple[str, ...]:
+    """The modules the render process must import to know every processor type in ``network``."""
+    modules = {type(p).__module__ for p in network.processors.values()}
+    return tuple(sorted(m for m in modules if m != BUILTIN_PACKAGE and not m.startswith(BUILTIN_PACKAGE + ".")))
+
+
+# --- the render process's side ---------------------------------------------------------------------
+class RenderServer:
+    """Holds the mirrored network and turns jobs into results."""
+
+    def __init__(self):
+        self.network: Network | None = None
+        self.imported: set[str] = set()
+
+    def handle(self, job: RenderJob) -> RenderResult:
+        start = time.perf_counter()
+        result = RenderResult(job.version, job.scale)
+        try:
+            self._import_plugins(job.plugins)
+            if job.fresh:
+                self.network = None
+            self.network = mirror(self.network, job.document, job.base_dir)
+        except VGraphError as error:
+            self.network = None  # half-applied: rebuild from the next document
+            result.error = str(error)
+            return result
+        try:
+            result.outcome = evaluate_view(self.network, job.scale, job.include_writers)
+            result.statuses = {pid: processor_status(self.network, p) for pid, p in self.network.processors.items()}
+            result.histograms = histograms(self.network)
+        except Exception:  # a bug below the evaluator: report it, keep serving
+            result.error = "internal error in the render process (please report it):\n" + traceback.format_exc()
+        result.seconds = time.perf_counter() - start
+        return result
+
+    def _import_plugins(self, modules) -> None:
+        for module in modules:
+            if module in self.imported:
+                continue
+            if module in ("__main__", "__mp_main__"):
+                raise VGraphError("processor types defined in a script's __main__ cannot be used by the "
+                                  "render process: define them in an importable module (a plug-in)")
+            registry.load_plugin(module)
+            self.imported.add(module)
+
+
+def serve(connection) -> None:
+    """The render process's main loop."""
+    server = RenderServer()
+    while True:
+        try:
+            job = connection.recv()
+        except (EOFError, OSError):
+            return
+        if job is None:
+            return
+        connection.send(server.handle(job))
+
+
+# --- the GUI's side ------------------------------------------------------------------------------
+class RenderProcess:
+    """Starts the render process on first use; one job in flight at a time."""
+
+    def __init__(self):
+        self._process = None
+        self._connection = None
+        self.job: RenderJob | None = None   # the job in flight
+
+    @property
+    def busy(self) -> bool:
+        return self.job is not None
+
+    def submit(self, job: RenderJob) -> None:
+        if self.busy:
+            raise VGraphError("the render process is still working on the previous job")
+        if self._process is None or not self._process.is_alive():
+            self._start()
+        self.job = job
+        try:
+            self._connection.send(job)
+        except (OSError, ValueError):
+            pass  # the process died: poll() reports it
+
+    def poll(self) -> RenderResult | None:
+        """The result of the job in flight if it is ready."""
+        if not self.busy:
+            return None
+        try:
+            if not self._connection.poll():
+                if self._process.is_alive():
+                    return None
+                raise EOFError
+            result = self._connection.recv()
+        except (EOFError, OSError):
+            self._process.join(timeout=1.0)
+            result = RenderResult(self.job.version, self.job.scale,
+                                  error=f"the render process stopped unexpectedly (exit code "
+                                        f"{self._process.exitcode}); the next change starts a new one")
+            self._discard()
+        self.job = None
+        return result
+
+    def wait(self, timeout: float = 120.0) -> RenderResult:
+        deadline = time.monotonic() + timeout
+        while self.busy:
+            result = self.poll()
+            if result is not None:
+                return result
+            if time.monotonic() > deadline:
+                raise VGraphError(f"the render process gave no result within {timeout:.0f} s")
+            self._connection.poll(0.05)
+        raise VGraphError("no job was submitted")
+
+    def _start(self) -> None:
+        self._discard()
+        context = multiprocessing.get_context("spawn")
+        self._connection, child = context.Pipe()
+        self._process = context.Process(target=serve, args=(child,), name="vgraph-render", daemon=True)
+        self._process.start()
+        child.close()
+
+    def _discard(self) -> None:
+        if self._connection is not None:
+            self._connection.close()
+        if self._process is not None and self._process.is_alive():
+            self._process.terminate()
+        self._process = self._connection = None
+
+    def stop(self) -> None:
+        if self._process is not None and self._process.is_alive():
+            try:
+                self._connection.send(None)
+                self._process.join(timeout=5)
+            except (OSError, ValueError):
+                pass
+        self._discard()
+        self.job = None
