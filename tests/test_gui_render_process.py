@@ -1,0 +1,117 @@
+"""The render process and the mirror that keeps its network in step with the GUI's (no Qt here)."""
+
+import os
+import signal
+
+import numpy as np
+import pytest
+
+import toy_processors
+import vgraph
+from vgraph.errors import NetworkFileError
+from vgraph.fileformat import network_document
+from vgraph.gui.mirror import mirror
+from vgraph.gui.render_process import RenderJob, RenderServer, plugin_modules
+from vgraph.network import Network
+
+from conftest import REPO
+
+for cls in toy_processors.ALL:
+    vgraph.register(cls)
+
+
+def summing_network() -> Network:
+    network = Network()
+    for pid, value in (("a", 1.0), ("b", 2.0), ("c", 4.0)):
+        network.add("Number", id=pid, value=value)
+    network.add("Sum", id="sum")
+    network.add("Collect", id="sink")
+    for pid in "ab":
+        network.connect(f"{pid}.value", "sum.values")
+    network.connect("sum.value", "sink.value")
+    return network
+
+
+def test_mirror_applies_a_document_as_the_smallest_change():
+    gui = summing_network()
+    copy = mirror(None, network_document(gui))
+    copy.update()
+    kept = {pid: copy[pid] for pid in copy.processors}
+
+    gui.set("b.value", 3.0)
+    gui.connect("c.value", "sum.values")
+    gui.add("Number", id="d")
+    gui.link("a.value", "d.value")
+    mirror(copy, network_document(gui))
+    assert network_document(copy) == network_document(gui)
+    assert all(copy[pid] is processor for pid, processor in kept.items())  # same objects
+    report = copy.update()
+    assert report.ids == ["b", "c", "sum", "sink"]   # a stayed valid: only what changed runs again
+    assert copy["sum"].outputs["value"] == 8.0
+
+    gui.remove("c")
+    gui.remove("d")
+    mirror(copy, network_document(gui))
+    assert network_document(copy) == network_document(gui) and "c" not in copy
+
+
+def test_mirror_keeps_the_order_of_connections_into_one_inport():
+    gui = summing_network()
+    copy = mirror(None, network_document(gui))
+    gui.disconnect("a.value", "sum.values")
+    gui.connect("a.value", "sum.values")   # now b first, then a
+    mirror(copy, network_document(gui))
+    assert [c.source for c in copy.inputs_of("sum", "values")] == ["b", "a"]
+
+
+def test_a_type_change_replaces_the_processor_and_problems_name_the_field():
+    gui = summing_network()
+    copy = mirror(None, network_document(gui))
+    document = network_document(gui)
+    document["processors"][0]["type"] = "Fragile"     # same id, another type
+    document["processors"][1]["properties"]["value"] = 1e9
+    with pytest.raises(NetworkFileError) as error:
+        mirror(copy, document)
+    assert "processors[1].properties.value" in str(error.value)
+    assert type(copy["a"]).__name__ == "Fragile"
+
+
+def test_the_server_renders_frames_statuses_and_histograms():
+    network = vgraph.load(REPO / "networks" / "raycast_sphere.json")
+    server = RenderServer()
+    document, base = network_document(network), str(network.base_dir)
+    full = server.handle(RenderJob(1, document, base, plugin_modules(network)))
+    assert full.error is None and full.outcome.ran == ["source", "eep", "rc", "canvas"]
+    width, height = network.get("canvas.size")
+    assert full.outcome.frames["canvas"].shape == (height, width, 4)
+    np.testing.assert_array_equal(full.outcome.frames["canvas"],
+                                  vgraph.imagefile.to_uint8(network.evaluate("canvas")))
+    assert full.statuses["rc"].state == "evaluated"
+    assert full.histograms["rc"].sum() == np.prod(server.network["source"].outputs["volume"].data.shape)
+
+    coarse = server.handle(RenderJob(2, document, base, scale=0.25))
+    assert coarse.outcome.frames["canvas"].shape == (height // 4, width // 4, 4)
+    assert coarse.outcome.ran == ["eep", "rc", "canvas"]             # the volume stays loaded
+
+
+def test_plugins_are_imported_by_module_and_main_modules_are_refused():
+    network = summing_network()
+    assert plugin_modules(network) == ("toy_processors",)
+    assert plugin_modules(vgraph.load(REPO / "networks" / "raycast_sphere.json")) == ()
+    result = RenderServer().handle(RenderJob(1, network_document(network), plugins=("__main__",)))
+    assert "cannot be used by the render process" in result.error
+    result = RenderServer().handle(RenderJob(1, network_document(network), plugins=("no_such_module_x",)))
+    assert "no_such_module_x" in result.error
+
+
+def test_a_render_process_that_dies_mid_job_is_reported_and_replaced(renderer):
+    network = vgraph.load(REPO / "networks" / "raycast_sphere.json")
+    job = lambda version: RenderJob(version, network_document(network), str(network.base_dir), fresh=True)
+    renderer.submit(job(1))
+    assert renderer.wait().error is None
+    renderer.submit(job(2))                       # loads the volume again and renders: ~0.1 s or more
+    os.kill(renderer._process.pid, signal.SIGKILL)
+    crashed = renderer.wait()
+    assert crashed.version == 2 and "the render process stopped unexpectedly" in crashed.error
+    renderer.submit(job(3))
+    assert renderer.wait().outcome.frames["canvas"].shape[:2] == (512, 512)   # a new one took over
