@@ -14,38 +14,18 @@ from __future__ import annotations
 import argparse
 import time
 
-from vgraph import Network
 from vgraph.camera import Camera
-from vgraph.numerics.bspline import prefilter
 from vgraph.implicit import sample
-from vgraph import Outport, Processor, Volume
+from vgraph.numerics.bspline import prefilter
+from vgraph.testing import ray_caster_network
 
 CAMERA = Camera.looking_at_box((-0.8, -0.8, -0.25), (0.8, 0.8, 0.25), direction=(-0.3, -0.5, -1.0))
 
 
-class Given(Processor):
-    """Outputs a fixed volume (so the prefilter is not timed)."""
-
-    outports = [Outport("volume", Volume)]
-
-    def __init__(self, id=None, volume=None, **values):
-        super().__init__(id, **values)
-        self.volume = volume
-
-    def process(self):
-        return self.volume
-
-
 def frame_seconds(volume, size, repeat, processor="CurvatureRaycaster",
                   **properties) -> tuple[float, float]:
-    net = Network()
-    net.add(Given(id="src", volume=volume))
-    net.add("EntryExitPoints", id="eep", camera=CAMERA)
-    net.add(processor, id="cr", **properties)
-    net.link("eep.camera", "cr.camera")
-    for a, b in (("src.volume", "eep.volume"), ("src.volume", "cr.volume"),
-                 ("eep.entry", "cr.entry"), ("eep.exit", "cr.exit")):
-        net.connect(a, b)
+    # A given volume, not FunctionSelector -> CubicSplineProcessor: the prefilter is not timed.
+    net = ray_caster_network(volume, CAMERA, processor, id="cr", **properties)
     net.evaluate("cr.image", size=(size, size))  # compile, upload
     best = float("inf")
     for k in range(repeat):

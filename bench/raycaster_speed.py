@@ -19,10 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from vgraph import Network, Outport, Processor
+from vgraph import Network
 from vgraph.camera import Camera
 from vgraph.implicit import sample
 from vgraph.numerics.reference_raycast import volume_box
+from vgraph.testing import ray_caster_network
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
@@ -46,21 +47,7 @@ SCENES = {
 
 
 def network(volume: Volume, camera: Camera) -> Network:
-    class BenchVolume(Processor):
-        outports = [Outport("volume", Volume)]
-
-        def process(self):
-            return volume
-
-    net = Network()
-    net.add(BenchVolume, id="source")
-    net.add("EntryExitPoints", id="eep", camera=camera)
-    net.add("RayCaster", id="rc", camera=camera, sampling_rate=1.0)
-    net.link("eep.camera", "rc.camera")
-    for a, b in (("source.volume", "eep.volume"), ("source.volume", "rc.volume"),
-                 ("eep.entry", "rc.entry"), ("eep.exit", "rc.exit")):
-        net.connect(a, b)
-    return net
+    return ray_caster_network(volume, camera, "RayCaster", id="rc", sampling_rate=1.0)
 
 
 def time_frames(net: Network, size, repeat: int) -> list[float]:

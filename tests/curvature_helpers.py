@@ -7,13 +7,11 @@ import re
 
 import numpy as np
 
-from vgraph import Network
 from vgraph.camera import Camera
 from vgraph.gl.curvature import colormap_table
 from vgraph.numerics.bspline import evaluate, prefilter
 from vgraph.numerics.finite_differences import gradient_at, hessian_at, trilinear
-
-from test_entry_exit_points import GivenVolume
+from vgraph.testing import ray_caster_network
 
 TORUS_CAMERA = Camera.looking_at_box((-0.8, -0.8, -0.25), (0.8, 0.8, 0.25), direction=(-0.3, -0.5, -1.0))
 
@@ -26,15 +24,7 @@ def coefficients_of(samples):
 
 def curvature_network(volume, camera, processor="CurvatureRaycaster", **properties):
     """GivenVolume -> EntryExitPoints -> curvature ray caster 'cr', cameras linked."""
-    network = Network()
-    network.add(GivenVolume(id="src", volume=volume))
-    network.add("EntryExitPoints", id="eep", camera=camera)
-    network.add(processor, id="cr", **properties)
-    network.link("eep.camera", "cr.camera")
-    for source, target in (("src.volume", "eep.volume"), ("src.volume", "cr.volume"),
-                           ("eep.entry", "cr.entry"), ("eep.exit", "cr.exit")):
-        network.connect(source, target)
-    return network
+    return ray_caster_network(volume, camera, processor, id="cr", **properties)
 
 
 def render(volume, camera, size, outputs=("curvature", "position"), **properties):

@@ -4,38 +4,18 @@ float64 on Camera.rays), near- and far-plane capping, anisotropic boxes, jitter,
 import numpy as np
 import pytest
 
-from vgraph import Network, Outport, Processor, VGraphError
+from vgraph import Network, VGraphError
 from vgraph.camera import Camera
+from vgraph.testing import GivenVolume, ray_caster_network
 from vgraph.volume import Volume
 
 SPACING = (0.5, 0.4, 1.0)
 ORIGIN = (-3.0, -2.0, -4.0)
 
 
-class GivenVolume(Processor):
-    """Outputs the volume it was made with (the tests' volume source)."""
-
-    outports = [Outport("volume", Volume)]
-
-    def __init__(self, id=None, volume=None, **values):
-        super().__init__(id, **values)
-        self.volume = volume
-
-    def process(self):
-        return self.volume
-
-
 def rendering_network(volume, camera, **raycaster):
-    """GivenVolume -> EntryExitPoints -> RayCaster, cameras linked as in every example network."""
-    network = Network()
-    network.add(GivenVolume(id="src", volume=volume))
-    network.add("EntryExitPoints", id="eep", camera=camera)
-    network.add("RayCaster", id="rc", **raycaster)
-    network.link("eep.camera", "rc.camera")
-    for source, target in (("src.volume", "eep.volume"), ("src.volume", "rc.volume"),
-                           ("eep.entry", "rc.entry"), ("eep.exit", "rc.exit")):
-        network.connect(source, target)
-    return network
+    """GivenVolume -> EntryExitPoints -> RayCaster 'rc', cameras linked (vgraph.testing)."""
+    return ray_caster_network(volume, camera, "RayCaster", id="rc", **raycaster)
 
 
 def random_volume(shape=(10, 12, 16), spacing=SPACING, origin=ORIGIN, seed=0):

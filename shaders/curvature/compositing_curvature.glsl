@@ -25,15 +25,10 @@ Result march(Ray ray) {
 #else
     vec2 kmin_kmax = vec2(0.0);
 #endif
-#ifdef SKIP_EMPTY_SPACE
-    BlockWalk walk = block_walk(ray);
-#endif
-    int i = 0;
-    while (i < ray.samples) {
-#ifdef SKIP_EMPTY_SPACE
-        if (skipped_empty_region(walk, i, ray.samples)) continue;
-#endif
-        vec3 t = sample_point(ray, float(i));
+    March cursor = start_march(ray);
+    while (cursor.i < ray.samples) {
+        if (skip_empty_space(cursor, ray)) continue;
+        vec3 t = sample_point(ray, float(cursor.i));
         vec4 classified = classify(march_value(t) * intensity_scale + intensity_offset);
         result.taken++;
         if (classified.a > 0.0) {
@@ -57,7 +52,7 @@ Result march(Ray ray) {
 #endif
 #endif
             if (result.depth_sample < 0.0) {
-                result.depth_sample = float(i);
+                result.depth_sample = float(cursor.i);
             }
             float weight = (1.0 - sum.a) * alpha;
             sum += vec4(weight * rgb, weight);
@@ -65,7 +60,7 @@ Result march(Ray ray) {
                 break;
             }
         }
-        ++i;
+        ++cursor.i;
     }
 #ifdef RANGE_PASS
     result.color = vec4(range, 1.0);

@@ -15,7 +15,7 @@
 //   gradient   (internal) gradient in normalised intensity per world unit, alpha 1 where hit
 #include "raycasting/ray.glsl"
 #include "raycasting/volume_sampling.glsl"
-#include "raycasting/empty_space.glsl"
+#include "raycasting/march.glsl"
 #include "curvature/field_fd.glsl"
 #include "curvature/field_tricubic.glsl"
 #include "curvature/iso_hit.glsl"

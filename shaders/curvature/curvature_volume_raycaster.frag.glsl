@@ -13,7 +13,7 @@
 #include "raycasting/ray.glsl"
 #include "raycasting/volume_sampling.glsl"
 #include "raycasting/transfer_function.glsl"
-#include "raycasting/empty_space.glsl"
+#include "raycasting/march.glsl"
 #include "raycasting/shading.glsl"
 #include "curvature/field_fd.glsl"
 #include "curvature/field_tricubic.glsl"

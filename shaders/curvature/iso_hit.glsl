@@ -131,31 +131,26 @@ Hit find_hit(Ray ray) {
     vec3 span = ray.step;
     float previous = 0.0, value = 0.0;
     bool have_previous = false;
-#ifdef SKIP_EMPTY_SPACE
-    BlockWalk walk = block_walk(ray);
     bool check_skip = true;
-#endif
-    int i = 0;
-    while (i < ray.samples) {
-#ifdef SKIP_EMPTY_SPACE
-        if (check_skip && skipped_empty_region(walk, i, ray.samples)) {
-            i -= 1;  // resume on the last skipped sample, without checking it again
+    March cursor = start_march(ray);
+    while (cursor.i < ray.samples) {
+        if (check_skip && skip_empty_space(cursor, ray)) {
+            cursor.i -= 1;  // resume on the last skipped sample, without checking it again
             have_previous = false;
             check_skip = false;
             continue;
         }
         check_skip = true;
-#endif
-        value = march_value(sample_point(ray, float(i))) - raw_level;
+        value = march_value(sample_point(ray, float(cursor.i))) - raw_level;
         hit.taken++;
         if (have_previous && (value >= 0.0) != (previous >= 0.0)) {
             hit.found = true;
-            origin = sample_point(ray, float(i - 1));
+            origin = sample_point(ray, float(cursor.i - 1));
             break;
         }
         previous = value;
         have_previous = true;
-        ++i;
+        ++cursor.i;
     }
     // The stretch between the last sample and the exit point (shorter than one step).
     vec3 last = sample_point(ray, float(ray.samples - 1));

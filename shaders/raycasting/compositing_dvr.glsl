@@ -9,15 +9,10 @@ uniform float early_termination;
 Result march(Ray ray) {
     Result result = empty_result();
     vec4 sum = vec4(0.0);
-#ifdef SKIP_EMPTY_SPACE
-    BlockWalk walk = block_walk(ray);
-#endif
-    int i = 0;
-    while (i < ray.samples) {
-#ifdef SKIP_EMPTY_SPACE
-        if (skipped_empty_region(walk, i, ray.samples)) continue;
-#endif
-        vec3 t = sample_point(ray, float(i));
+    March cursor = start_march(ray);
+    while (cursor.i < ray.samples) {
+        if (skip_empty_space(cursor, ray)) continue;
+        vec3 t = sample_point(ray, float(cursor.i));
         float raw = raw_sample(t);
         vec4 color = classify(raw * intensity_scale + intensity_offset);
         result.taken++;
@@ -27,7 +22,7 @@ Result march(Ray ray) {
             color.rgb = shade(color.rgb, gradient(t, raw), -ray.direction);
 #endif
             if (result.depth_sample < 0.0) {
-                result.depth_sample = float(i);
+                result.depth_sample = float(cursor.i);
             }
             float weight = (1.0 - sum.a) * alpha;
             sum += vec4(weight * color.rgb, weight);
@@ -35,7 +30,7 @@ Result march(Ray ray) {
                 break;
             }
         }
-        ++i;
+        ++cursor.i;
     }
     result.color = sum;
     return result;

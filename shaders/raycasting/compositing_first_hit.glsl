@@ -4,22 +4,17 @@
 #ifdef COMPOSITING_FIRST_HIT
 Result march(Ray ray) {
     Result result = empty_result();
-#ifdef SKIP_EMPTY_SPACE
-    BlockWalk walk = block_walk(ray);
-#endif
-    int i = 0;
-    while (i < ray.samples) {
-#ifdef SKIP_EMPTY_SPACE
-        if (skipped_empty_region(walk, i, ray.samples)) continue;
-#endif
-        vec3 t = sample_point(ray, float(i));
+    March cursor = start_march(ray);
+    while (cursor.i < ray.samples) {
+        if (skip_empty_space(cursor, ray)) continue;
+        vec3 t = sample_point(ray, float(cursor.i));
         result.taken++;
         if (classify(intensity(t)).a > 0.0) {
             result.color = vec4(t, 1.0);
-            result.depth_sample = float(i);
+            result.depth_sample = float(cursor.i);
             return result;
         }
-        ++i;
+        ++cursor.i;
     }
     return result;
 }

@@ -29,17 +29,13 @@ Result march(Ray ray) {
     Result result = empty_result();
     float previous = 0.0;
     bool have_previous = false;  // false after a skip: the sample before was not evaluated
-#ifdef SKIP_EMPTY_SPACE
-    BlockWalk walk = block_walk(ray);
-#endif
-    int i = 0;
-    while (i < ray.samples) {
-#ifdef SKIP_EMPTY_SPACE
-        if (skipped_empty_region(walk, i, ray.samples)) {
+    March cursor = start_march(ray);
+    while (cursor.i < ray.samples) {
+        if (skip_empty_space(cursor, ray)) {
             have_previous = false;
             continue;
         }
-#endif
+        int i = cursor.i;
         float value = intensity(sample_point(ray, float(i)));
         result.taken++;
         if (value >= iso_level) {
@@ -60,7 +56,7 @@ Result march(Ray ray) {
         }
         previous = value;
         have_previous = true;
-        ++i;
+        ++cursor.i;
     }
     return result;
 }

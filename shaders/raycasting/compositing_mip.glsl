@@ -7,25 +7,23 @@ Result march(Ray ray) {
     Result result = empty_result();
     float best = 0.0;  // intensities are clamped to [0, 1], so 0 is neutral
     int best_sample = 0;
+    March cursor = start_march(ray);
+    while (cursor.i < ray.samples && best < 1.0) {  // nothing exceeds 1 after clamping
 #ifdef SKIP_EMPTY_SPACE
-    BlockWalk walk = block_walk(ray);
-#endif
-    int i = 0;
-    while (i < ray.samples && best < 1.0) {  // nothing exceeds 1 after clamping
-#ifdef SKIP_EMPTY_SPACE
-        ivec3 block = block_of(walk, i);
+        // Not skip_empty_space(): here a block's value is its maximum (empty_space.glsl).
+        ivec3 block = block_of(cursor.walk, cursor.i);
         if (block_value(block) <= best) {
-            i = next_sample_outside(walk, i, block, 1.0, ray.samples);
+            cursor.i = next_sample_outside(cursor.walk, cursor.i, block, 1.0, ray.samples);
             continue;
         }
 #endif
-        float value = intensity(sample_point(ray, float(i)));
+        float value = intensity(sample_point(ray, float(cursor.i)));
         result.taken++;
         if (value > best) {
             best = value;
-            best_sample = i;
+            best_sample = cursor.i;
         }
-        ++i;
+        ++cursor.i;
     }
     vec4 color = classify(min(best, 1.0));
     result.color = vec4(color.rgb * color.a, color.a);

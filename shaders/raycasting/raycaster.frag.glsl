@@ -12,7 +12,7 @@
 #include "raycasting/transfer_function.glsl"
 #include "raycasting/gradients.glsl"
 #include "raycasting/shading.glsl"
-#include "raycasting/empty_space.glsl"
+#include "raycasting/march.glsl"
 #include "raycasting/compositing_dvr.glsl"
 #include "raycasting/compositing_mip.glsl"
 #include "raycasting/compositing_iso.glsl"

@@ -1,0 +1,44 @@
+// The loop head of every mode that marches sample by sample (compositing dvr, mip, iso, first_hit,
+// the curvature compositing and the curvature hit search): the samples i = 0 .. ray.samples - 1 of
+// ray.glsl in order and, with SKIP_EMPTY_SPACE, the walk over the blocks of empty_space.glsl that
+// jumps over empty regions. A mode writes
+//
+//     March cursor = start_march(ray);
+//     while (cursor.i < ray.samples) {
+//         if (skip_empty_space(cursor, ray)) continue;  // cursor.i has moved past an empty region
+//         ... evaluate sample cursor.i (break or return when done) ...
+//         ++cursor.i;
+//     }
+//
+// Without SKIP_EMPTY_SPACE a March is only the index and skip_empty_space() is the literal false,
+// which the compiler removes: the loop is a plain march.
+#include "raycasting/ray.glsl"
+#include "raycasting/empty_space.glsl"
+
+struct March {
+    int i;           // the sample to evaluate next
+#ifdef SKIP_EMPTY_SPACE
+    BlockWalk walk;  // for modes with their own rule on the block values (mip)
+#endif
+};
+
+March start_march(Ray ray) {
+    March cursor;
+    cursor.i = 0;
+#ifdef SKIP_EMPTY_SPACE
+    cursor.walk = block_walk(ray);
+#endif
+    return cursor;
+}
+
+// Where sample cursor.i lies in an empty region (block value k >= 1, see empty_space.glsl), move
+// cursor.i past it and return true; otherwise return false.
+#ifdef SKIP_EMPTY_SPACE
+bool skip_empty_space(inout March cursor, Ray ray) {
+    return skipped_empty_region(cursor.walk, cursor.i, ray.samples);
+}
+#else
+// A literal `false`, not a function returning it: Mesa then compiles exactly the plain loop (with a
+// function the tricubic CurvatureVolumeRaycaster's colours moved by a float rounding, 4e-7).
+#define skip_empty_space(cursor, ray) false
+#endif
