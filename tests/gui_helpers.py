@@ -2,6 +2,8 @@
 
 import pytest
 from PySide6.QtCore import QPointF, QSettings, Qt
+from PySide6.QtGui import QMouseEvent
+from PySide6.QtWidgets import QApplication
 
 import toy_processors
 import vgraph
@@ -40,3 +42,10 @@ def drag(qtbot, window, start: QPointF, end: QPointF, steps: int = 4, release: b
 
 def port_position(window, processor_id: str, direction: str, name: str) -> QPointF:
     return window.scene.nodes[processor_id].port(direction, name).scenePos()
+
+
+def send_mouse(view, kind, pos, button, buttons, modifiers=Qt.NoModifier):
+    # Explicit buttons: QTest.mouseMove does not reliably report held buttons.
+    point = QPointF(*pos)
+    event = QMouseEvent(kind, point, view.mapToGlobal(point), button, buttons, modifiers)
+    QApplication.sendEvent(view, event)

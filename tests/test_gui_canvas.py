@@ -7,7 +7,7 @@ import numpy as np
 import PIL.Image
 import pytest
 from PySide6.QtCore import QEvent, QPoint, QPointF, QSettings, Qt
-from PySide6.QtGui import QImage, QMouseEvent, QWheelEvent
+from PySide6.QtGui import QImage, QWheelEvent
 from PySide6.QtWidgets import QApplication
 
 from vgraph.gui import canvas_view
@@ -15,6 +15,8 @@ from vgraph.gui.canvas_view import CanvasView, camera_property_for
 from vgraph.network import Network
 
 from vgraph.gui.workspace import Workspace
+
+from gui_helpers import send_mouse
 
 SIZE = (200, 160)  # widget width, height
 
@@ -42,13 +44,6 @@ def make_view(qtbot, ws, canvas_id="canvas"):
     view.show()
     qtbot.waitExposed(view)
     return view
-
-
-def send_mouse(view, kind, pos, button, buttons, modifiers=Qt.NoModifier):
-    # Explicit buttons: QTest.mouseMove does not reliably report held buttons.
-    point = QPointF(*pos)
-    event = QMouseEvent(kind, point, view.mapToGlobal(point), button, buttons, modifiers)
-    QApplication.sendEvent(view, event)
 
 
 def drag(view, start, end, button=Qt.LeftButton, modifiers=Qt.NoModifier, steps=5):

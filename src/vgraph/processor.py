@@ -43,9 +43,6 @@ class Processor:
     outports: ClassVar[list[Outport]] = []
     properties: ClassVar[dict[str, Property]] = {}
     renders_at_size: ClassVar[bool] = False  # output depends on the requested image size
-    # Whether process() uses GL. None: it does when a port carries Image (a GPU texture). The GUI
-    # runs GL processors in its render process, never in the window's process.
-    uses_gl: ClassVar[bool | None] = None
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

@@ -28,7 +28,7 @@ PORT_RADIUS = 6.0
 KNOWN_TYPE_COLORS = {"Volume": "#2f6fd6", "Image": "#2e9e4f", "Geometry": "#e08a1e",
                      "float": "#8a63c9", "int": "#8a63c9", "str": "#8c8c8c"}
 STATE_COLORS = {"evaluated": "#2e9e4f", "error": "#d23c3c", "invalid": "#d9a21b",
-                "deferred": "#7a8aa6", "not_ready": "#b5b5b5", "writer": "#7a8aa6"}
+                "not_ready": "#b5b5b5", "writer": "#7a8aa6"}
 HIGHLIGHT_COMPATIBLE, HIGHLIGHT_REFUSED = "#22c55e", "#9ca3af"
 
 

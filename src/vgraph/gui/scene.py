@@ -18,7 +18,7 @@ from PySide6.QtWidgets import QGraphicsScene, QGraphicsView
 from vgraph.errors import VGraphError
 from vgraph.gui.evaluator import processor_status
 from vgraph.gui.interactions import ConnectInteraction
-from vgraph.gui.items import EdgeItem, LinkItem, NodeItem, PortItem
+from vgraph.gui.items import NODE_HEIGHT, NODE_WIDTH, EdgeItem, LinkItem, NodeItem, PortItem
 from vgraph.gui.workspace import Workspace
 from vgraph.network import Connection, Link, Network
 
@@ -150,11 +150,13 @@ class NetworkScene(QGraphicsScene):
         self.nodes[processor_id].setSelected(True)
 
     def free_position(self, around: QPointF) -> tuple[float, float]:
-        """A spot near ``around`` that no node occupies (for processors added by click)."""
-        x, y = around.x(), around.y()
-        taken = {(round(n.x()), round(n.y())) for n in self.nodes.values()}
-        while any(abs(x - tx) < 30 and abs(y - ty) < 30 for tx, ty in taken):
-            x, y = x + 30, y + 30
+        """The first spot at or below ``around`` where a node overlaps no other (for processors
+        added by click): processors added one after another line up downwards, as data flows."""
+        x, y = around.x() - NODE_WIDTH / 2, around.y() - NODE_HEIGHT / 2
+        margin = 24.0
+        while any(abs(x - n.x()) < NODE_WIDTH + margin and abs(y - n.y()) < NODE_HEIGHT + margin
+                  for n in self.nodes.values()):
+            y += NODE_HEIGHT + 2 * margin
         return x, y
 
     # --- mouse ----------------------------------------------------------------------------------
