@@ -91,7 +91,7 @@ def test_camera_reset_restores_the_declared_default(window):
     assert editor.vectors["position"][2].value() == pytest.approx(default.position[2], abs=1e-4)
 
 
-def test_option_bool_dict_and_points_editors(window):
+def test_option_bool_dict_and_vector_editors(window):
     ws = window.workspace
     ws.add_processor("FunctionSelector", (0, 0), id="f")
     ws.add_processor("RayCaster", (250, 0), id="rc")
@@ -104,9 +104,8 @@ def test_option_bool_dict_and_points_editors(window):
     rc = select(window, "rc")
     rc["empty_space_skipping"].check.setChecked(False)
     assert ws.network.get("rc.empty_space_skipping") is False
-    rc["transfer_function"].text.setPlainText("[0, 0, 0, 0, 0]\n[1, 1, 0.5, 0, 1]")
-    rc["transfer_function"].apply.click()
-    assert ws.network.get("rc.transfer_function").points == [(0, 0, 0, 0, 0), (1, 1, 0.5, 0, 1)]
+    rc["light_direction"].spins[0].setValue(-1.0)
+    assert ws.network.get("rc.light_direction")[0] == -1.0
 
 
 def test_colour_and_file_editors_use_their_dialogs(window, monkeypatch, tmp_path):
@@ -159,7 +158,7 @@ def test_every_built_in_property_gets_an_editor_that_shows_its_value(window):
 
 
 def test_register_editor_replaces_the_editor_of_a_kind(window, monkeypatch):
-    class Marked(editors.TransferFunctionPointsEditor):
+    class Marked(editors.JsonEditor):
         pass
 
     monkeypatch.setitem(editors.EDITOR_TYPES, "transfer_function", Marked)

@@ -52,17 +52,21 @@ class MainWindow(QMainWindow):
         self.inspector = PropertyInspector(self.workspace, status_of=self.evaluation.status_of)
         self.log = LogPanel()
         self._dock("Processors", self.palette, Qt.LeftDockWidgetArea)
-        properties = self._dock("Properties", self.inspector, Qt.RightDockWidgetArea)
-        log = self._dock("Log", self.log, Qt.BottomDockWidgetArea)
-        self.canvases = CanvasDocks(self, self.workspace, self.evaluation, above=properties)
+        self.properties_dock = self._dock("Properties", self.inspector, Qt.RightDockWidgetArea)
+        self.log_dock = self._dock("Log", self.log, Qt.BottomDockWidgetArea)
+        self.canvases = CanvasDocks(self, self.workspace, self.evaluation, above=self.properties_dock)
         self.failures: dict[str, str] = {}
         self._build_actions()
         self._build_menus()
         self._wire()
-        self.resize(1280, 800)
-        self.resizeDocks([properties], [460], Qt.Horizontal)
-        self.resizeDocks([log], [110], Qt.Vertical)
+        self.arrange(1280, 800)
         self._update_title()
+
+    def arrange(self, width: int, height: int) -> None:
+        """Size the window and give the right column (canvases, inspector) a third of it."""
+        self.resize(width, height)
+        self.resizeDocks([self.properties_dock], [width * 9 // 25], Qt.Horizontal)
+        self.resizeDocks([self.log_dock], [100], Qt.Vertical)
 
     def _dock(self, title: str, widget, area) -> QDockWidget:
         dock = QDockWidget(title, self)
@@ -312,7 +316,7 @@ def run_gui(path: str | Path | None = None, screenshot: str | Path | None = None
     sys.excepthook = log_exception
     try:
         if size is not None:
-            window.resize(*size)
+            window.arrange(*size)
         window.show()
         if path is not None and not window.open_network(path) and screenshot is not None:
             return 1

@@ -68,7 +68,7 @@ class CanvasDocks(QObject):
         else:
             self.window.splitDockWidget(dock, self.above, Qt.Vertical)
             height = self.window.height()
-            self.window.resizeDocks([dock, self.above], [height * 3 // 5, height * 2 // 5], Qt.Vertical)
+            self.window.resizeDocks([dock, self.above], [height // 2, height // 2], Qt.Vertical)
         dock.show()  # a dock added to a window already shown stays hidden otherwise
         dock.raise_()
         self.docks[processor_id], self.views[processor_id] = dock, view

@@ -6,9 +6,8 @@ Conventions:
   drag, so a drag becomes one undo step (and the next drag another). Editors do not validate: the inspector sends the value through the workspace,
   which validates and reports a rejection, and then shows the current value again.
 - ``problem(str)`` reports input an editor cannot even turn into a value (e.g. malformed JSON).
-- ``EDITOR_TYPES`` maps a property kind to its editor; ``register_editor`` replaces one. This is the
-  hook for richer editors (the transfer-function editor with a histogram plugs in here; for now a
-  transfer function is edited as its list of points in JSON).
+- ``EDITOR_TYPES`` maps a property kind to its editor; ``register_editor`` adds or replaces one
+  (the transfer-function editor, in its own module, registers itself this way).
 """
 
 from __future__ import annotations
@@ -20,7 +19,7 @@ from pathlib import Path
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (QCheckBox, QColorDialog, QComboBox, QDoubleSpinBox, QFileDialog,
-                               QGridLayout, QHBoxLayout, QLabel, QLineEdit, QPlainTextEdit, QPushButton,
+                               QGridLayout, QHBoxLayout, QLabel, QLineEdit, QPushButton, QSizePolicy,
                                QSlider, QSpinBox, QToolButton, QVBoxLayout, QWidget)
 
 from vgraph.camera import Camera
@@ -82,6 +81,14 @@ def spin_value(spin, exact):
     if exact is None or isinstance(spin, QSpinBox):
         return spin.value()
     return exact if abs(spin.value() - exact) <= 0.51 * 10.0 ** -spin.decimals() else spin.value()
+
+
+def narrow(spin):
+    """Let a spin box of a vector shrink below the width of its widest value (+-1e9), so three
+    fit side by side in the inspector."""
+    spin.setMinimumWidth(64)
+    spin.setSizePolicy(QSizePolicy.Ignored, QSizePolicy.Fixed)
+    return spin
 
 
 def _bounded(prop) -> bool:
@@ -225,6 +232,7 @@ class VectorEditor(PropertyEditor):
                 spin.setDecimals(4)
             spin.setKeyboardTracking(False)
             spin.valueChanged.connect(self._changed)
+            narrow(spin)
             self.spins.append(spin)
             self.layout_.addWidget(spin)
         self.auto = None
@@ -277,31 +285,6 @@ class ColorEditor(PropertyEditor):
         self.button.setStyleSheet(f"background-color: {color.name()}; color: {ink};")
 
 
-class TransferFunctionPointsEditor(PropertyEditor):
-    """The simple editor: one [position, r, g, b, a] point per line, applied with the button."""
-
-    def build(self):
-        box = QVBoxLayout()
-        self.text = QPlainTextEdit()
-        self.text.setMaximumHeight(110)
-        self.apply = QPushButton("Apply")
-        self.apply.clicked.connect(self._apply)
-        box.addWidget(self.text)
-        box.addWidget(self.apply, 0, Qt.AlignRight)
-        self.layout_.addLayout(box)
-
-    def _apply(self):
-        try:
-            points = json.loads("[" + ",".join(l for l in self.text.toPlainText().splitlines() if l.strip()) + "]")
-        except json.JSONDecodeError as error:
-            self.problem.emit(f"{self.processor.id}.{self.prop.name}: not valid JSON: {error.msg}")
-            return
-        self.emit({"points": points})
-
-    def _show(self, value):
-        self.text.setPlainText("\n".join(json.dumps([round(v, 6) for v in p]) for p in value.points))
-
-
 class CameraEditor(PropertyEditor):
     """Projection, position, focus, up and field of view, and a Reset to the declared default."""
 
@@ -334,7 +317,7 @@ class CameraEditor(PropertyEditor):
         spin.setDecimals(4)
         spin.setKeyboardTracking(False)
         spin.valueChanged.connect(self._changed)
-        return spin
+        return narrow(spin)
 
     def _changed(self, *_):
         current: Camera = self.processor.property_values[self.prop.name]
@@ -383,7 +366,7 @@ class DictEditor(JsonEditor):
 EDITOR_TYPES: dict[str, type[PropertyEditor]] = {
     "float": FloatEditor, "int": IntEditor, "bool": BoolEditor, "option": OptionEditor,
     "string": StringEditor, "file_path": FilePathEditor, "vector": VectorEditor, "dict": DictEditor,
-    "color": ColorEditor, "transfer_function": TransferFunctionPointsEditor, "camera": CameraEditor,
+    "color": ColorEditor, "camera": CameraEditor,
 }
 
 

@@ -15,6 +15,7 @@ from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QFormLayout, QLabel, QScrollArea, QVBoxLayout, QWidget
 
 from vgraph.errors import VGraphError
+from vgraph.gui import transfer_function_editor  # noqa: F401  (registers the TF editor)
 from vgraph.gui.editors import PropertyEditor, editor_for
 from vgraph.gui.evaluator import processor_status
 from vgraph.gui.workspace import Workspace

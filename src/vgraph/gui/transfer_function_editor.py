@@ -1,0 +1,345 @@
+"""The graphical transfer-function editor: control points over the volume's histogram.
+
+After the TF editors of seeds 000 (fig. 4.4) and 003 (ch. 3): the histogram of the volume as grey
+bars in the background (linear or log scale), the opacity curve as a polyline through the control
+points, each point a circle filled with its colour, and the resulting colour gradient (RGB with
+alpha over a checkerboard) as a strip along the bottom.
+
+Conventions:
+- Plot coordinates: x = normalised intensity in [0, 1], left -> right; y = opacity in [0, 1],
+  bottom -> top of the curve area (``TransferFunctionPlot.curve_rect``). The strip is below it.
+- Mouse: left-drag moves a point (x clamped between its neighbours, both in [0, 1]); a
+  double-click on empty space adds a point (colour of the TF there, opacity = mouse y); a
+  double-click on a point asks for its colour; right-click or Delete removes a point (never the last).
+- Each drag emits with one merge key of its own, so a drag is one undo step; every other edit emits
+  with ``merge=None``. Emitted values are rounded to 6 decimals to keep saved networks readable.
+- The histogram (``set_histogram``) holds counts per equal bin over normalised intensity, as
+  ``Volume.histogram()[0]`` gives; the application delivers it when the render process has one.
+"""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import numpy as np
+from PySide6.QtCore import QEvent, QPointF, QRectF, Qt, Signal
+from PySide6.QtGui import QBrush, QColor, QImage, QPainter, QPen, QPixmap, QPolygonF
+from PySide6.QtWidgets import (QCheckBox, QColorDialog, QComboBox, QFileDialog, QHBoxLayout, QPushButton,
+                               QVBoxLayout, QWidget)
+
+from vgraph.errors import VGraphError
+from vgraph.gui.editors import PropertyEditor, register_editor
+from vgraph.transfer_function import PRESETS, TransferFunction
+
+MARGIN = 7          # px around the curve area: room for the circles of points at the edges
+STRIP_HEIGHT = 12   # px of the colour gradient strip
+STRIP_GAP = 4
+RADIUS = 5          # px of a control point's circle
+PICK_DISTANCE = RADIUS + 3
+DECIMALS = 6
+JSON_FILTER = "Transfer functions (*.json);;All files (*)"
+
+_drag_numbers = itertools.count(1)  # unique over all plots: a new editor never merges into an old drag
+
+
+def _rounded(point) -> tuple:
+    return tuple(round(float(v), DECIMALS) for v in point)
+
+
+class TransferFunctionPlot(QWidget):
+    """Paints a transfer function over a histogram and edits its control points with the mouse."""
+
+    changed = Signal(object, object)    # TransferFunction, merge key (None: a separate undo step)
+    color_requested = Signal(int)       # index of a double-clicked point
+
+    BACKGROUND = QColor(255, 255, 255)
+    BAR_COLOR = QColor(200, 200, 200)
+    CURVE_COLOR = QColor(40, 40, 40)
+    SELECTED_COLOR = QColor(255, 140, 0)
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        self.transfer_function = TransferFunction(points=[(0.0, 0.0, 0.0, 0.0, 0.0)])
+        self.counts: np.ndarray | None = None
+        self.log_scale = False
+        self.selected: int | None = None
+        self._drag: tuple[int, int] | None = None   # (point index, drag number) while dragging
+        self.setMinimumSize(220, 200)
+        self.setFocusPolicy(Qt.StrongFocus)          # Delete reaches the plot after a click
+        self.setMouseTracking(False)
+
+    # --- state ----------------------------------------------------------------------------------
+    @property
+    def points(self) -> list[tuple]:
+        return list(self.transfer_function.points)
+
+    def set_transfer_function(self, transfer_function: TransferFunction) -> None:
+        self.transfer_function = transfer_function
+        if self.selected is not None and self.selected >= len(transfer_function.points):
+            self.selected = None
+        self.update()
+
+    def set_histogram(self, counts) -> None:
+        self.counts = None if counts is None else np.asarray(counts, dtype=np.float64).ravel()
+        self.update()
+
+    def set_log_scale(self, on: bool) -> None:
+        self.log_scale = bool(on)
+        self.update()
+
+    def _commit(self, points: list, merge=None) -> None:
+        """Show the edited points at once and report them."""
+        self.transfer_function = TransferFunction(points=[_rounded(p) for p in points])
+        self.update()
+        self.changed.emit(self.transfer_function, merge)
+
+    # --- coordinates ----------------------------------------------------------------------------
+    def curve_rect(self) -> QRectF:
+        return QRectF(MARGIN, MARGIN, self.width() - 2 * MARGIN,
+                      self.height() - 2 * MARGIN - STRIP_HEIGHT - STRIP_GAP)
+
+    def strip_rect(self) -> QRectF:
+        area = self.curve_rect()
+        return QRectF(area.left(), area.bottom() + STRIP_GAP, area.width(), STRIP_HEIGHT)
+
+    def to_pixel(self, position: float, opacity: float) -> QPointF:
+        area = self.curve_rect()
+        return QPointF(area.left() + position * area.width(), area.bottom() - opacity * area.height())
+
+    def from_pixel(self, pixel: QPointF) -> tuple[float, float]:
+        """(position, opacity) under a pixel, clamped to [0, 1]."""
+        area = self.curve_rect()
+        position = (pixel.x() - area.left()) / area.width()
+        opacity = (area.bottom() - pixel.y()) / area.height()
+        return float(np.clip(position, 0.0, 1.0)), float(np.clip(opacity, 0.0, 1.0))
+
+    def point_at(self, pixel: QPointF) -> int | None:
+        """The index of the nearest point within PICK_DISTANCE pixels, else None."""
+        distances = [np.hypot(*(self.to_pixel(p[0], p[4]) - pixel).toTuple()) for p in self.points]
+        nearest = int(np.argmin(distances))
+        return nearest if distances[nearest] <= PICK_DISTANCE else None
+
+    # --- editing --------------------------------------------------------------------------------
+    def move_point(self, index: int, position: float, opacity: float, merge=None) -> None:
+        points = self.points
+        low = points[index - 1][0] if index > 0 else 0.0
+        high = points[index + 1][0] if index + 1 < len(points) else 1.0
+        points[index] = (min(max(position, low), high), *points[index][1:4], opacity)
+        self._commit(points, merge)
+
+    def add_point(self, position: float, opacity: float) -> int:
+        """Insert a point with the TF's colour at ``position``; returns its index."""
+        r, g, b, _ = self.transfer_function(position)
+        points = self.points
+        index = int(np.searchsorted([p[0] for p in points], position, side="right"))
+        points.insert(index, (position, r, g, b, opacity))
+        self.selected = index
+        self._commit(points)
+        return index
+
+    def remove_point(self, index: int) -> None:
+        if len(self.points) > 1:
+            points = self.points
+            del points[index]
+            self.selected = None
+            self._commit(points)
+
+    def set_point_color(self, index: int, rgb) -> None:
+        points = self.points
+        points[index] = (points[index][0], *rgb, points[index][4])
+        self._commit(points)
+
+    # --- events ---------------------------------------------------------------------------------
+    def mousePressEvent(self, event):
+        hit = self.point_at(event.position())
+        if event.button() == Qt.LeftButton:
+            self.selected = hit
+            self._drag = (hit, next(_drag_numbers)) if hit is not None else None
+            self.update()
+        elif event.button() == Qt.RightButton and hit is not None:
+            self.remove_point(hit)
+
+    def mouseMoveEvent(self, event):
+        if self._drag is not None and event.buttons() & Qt.LeftButton:
+            index, number = self._drag
+            if index < len(self.points):
+                self.move_point(index, *self.from_pixel(event.position()), merge=(id(self), number))
+
+    def mouseReleaseEvent(self, event):
+        if event.button() == Qt.LeftButton:
+            self._drag = None
+
+    def mouseDoubleClickEvent(self, event):
+        if event.button() != Qt.LeftButton:
+            return
+        hit = self.point_at(event.position())
+        if hit is None:
+            self.add_point(*self.from_pixel(event.position()))
+        else:
+            self.selected = hit
+            self.color_requested.emit(hit)
+
+    def event(self, event):
+        # Delete also deletes processors (a window shortcut): on the plot it means the point.
+        if event.type() == QEvent.ShortcutOverride and event.key() in (Qt.Key_Delete, Qt.Key_Backspace):
+            event.accept()
+            return True
+        return super().event(event)
+
+    def keyPressEvent(self, event):
+        if event.key() in (Qt.Key_Delete, Qt.Key_Backspace) and self.selected is not None:
+            self.remove_point(self.selected)
+        else:
+            super().keyPressEvent(event)
+
+    # --- painting -------------------------------------------------------------------------------
+    def paintEvent(self, event):
+        painter = QPainter(self)
+        painter.fillRect(self.rect(), self.palette().window())
+        area = self.curve_rect()
+        painter.fillRect(area, self.BACKGROUND)
+        self._paint_histogram(painter, area)
+        self._paint_strip(painter, self.strip_rect())
+        painter.setRenderHint(QPainter.Antialiasing)
+        self._paint_curve(painter, area)
+        painter.setPen(QPen(QColor(120, 120, 120)))
+        painter.setBrush(Qt.NoBrush)
+        painter.drawRect(area)
+        painter.end()
+
+    def histogram_heights(self) -> np.ndarray | None:
+        """Bar heights as fractions of the curve area (log1p on the log scale: empty bins stay empty)."""
+        if self.counts is None or self.counts.size == 0 or self.counts.max() <= 0:
+            return None
+        values = np.log1p(self.counts) if self.log_scale else self.counts
+        return values / values.max()
+
+    def _paint_histogram(self, painter: QPainter, area: QRectF) -> None:
+        heights = self.histogram_heights()
+        if heights is None:
+            painter.setPen(QColor(170, 170, 170))
+            painter.drawText(area, Qt.AlignCenter, "no histogram yet")
+            return
+        edges = area.left() + np.linspace(0.0, 1.0, heights.size + 1) * area.width()
+        for left, right, height in zip(edges[:-1], edges[1:], heights):
+            if height > 0:
+                top = area.bottom() - height * area.height()
+                painter.fillRect(QRectF(left, top, right - left, area.bottom() - top), self.BAR_COLOR)
+
+    def _paint_strip(self, painter: QPainter, strip: QRectF) -> None:
+        painter.fillRect(strip, QBrush(_checkerboard()))
+        width = max(int(strip.width()), 1)
+        rgba = self.transfer_function((np.arange(width) + 0.5) / width)
+        pixels = np.ascontiguousarray(np.round(rgba * 255).astype(np.uint8))
+        image = QImage(pixels.data, width, 1, 4 * width, QImage.Format_RGBA8888).copy()  # own the bytes
+        painter.drawImage(strip, image)
+
+    def _paint_curve(self, painter: QPainter, area: QRectF) -> None:
+        points = self.points
+        # Below the first point and above the last the end values hold: flat ends to the borders.
+        curve = [self.to_pixel(0.0, points[0][4])] + [self.to_pixel(p[0], p[4]) for p in points] \
+            + [self.to_pixel(1.0, points[-1][4])]
+        painter.setPen(QPen(self.CURVE_COLOR, 1.5))
+        painter.drawPolyline(QPolygonF(curve))
+        for index, (position, r, g, b, opacity) in enumerate(points):
+            centre = self.to_pixel(position, opacity)
+            painter.setPen(QPen(self.CURVE_COLOR, 1.0))
+            painter.setBrush(QColor.fromRgbF(r, g, b))
+            painter.drawEllipse(centre, RADIUS, RADIUS)
+            if index == self.selected:   # a ring around it: the fill keeps showing the colour
+                painter.setPen(QPen(self.SELECTED_COLOR, 2.0))
+                painter.setBrush(Qt.NoBrush)
+                painter.drawEllipse(centre, RADIUS + 3, RADIUS + 3)
+
+
+def _checkerboard(cell: int = 4) -> QPixmap:
+    pixmap = QPixmap(2 * cell, 2 * cell)
+    pixmap.fill(QColor(255, 255, 255))
+    painter = QPainter(pixmap)
+    painter.fillRect(0, 0, cell, cell, QColor(190, 190, 190))
+    painter.fillRect(cell, cell, cell, cell, QColor(190, 190, 190))
+    painter.end()
+    return pixmap
+
+
+class TransferFunctionEditor(PropertyEditor):
+    """The plot, and below it presets, Load/Save of TF files and the histogram's log scale."""
+
+    def build(self):
+        self.plot = TransferFunctionPlot()
+        self.plot.changed.connect(lambda tf, merge: self.emit(tf, merge))
+        self.plot.color_requested.connect(self.choose_color)
+        self.presets = QComboBox()
+        self.presets.addItem("Presets...")
+        self.presets.addItems(list(PRESETS))
+        self.presets.currentIndexChanged.connect(self._preset_chosen)
+        self.load_button = QPushButton("Load...")
+        self.load_button.clicked.connect(self.load)
+        self.save_button = QPushButton("Save...")
+        self.save_button.clicked.connect(self.save)
+        self.log_scale = QCheckBox("log")
+        self.log_scale.setToolTip("histogram on a logarithmic scale")
+        self.log_scale.toggled.connect(self.plot.set_log_scale)
+        row = QHBoxLayout()
+        for widget in (self.presets, self.load_button, self.save_button, self.log_scale):
+            row.addWidget(widget)
+        column = QVBoxLayout()
+        column.addWidget(self.plot, 1)
+        column.addLayout(row)
+        self.layout_.addLayout(column)
+
+    def _show(self, value: TransferFunction):
+        self.plot.set_transfer_function(value)
+
+    def set_histogram(self, counts) -> None:
+        """Counts per equal bin over normalised intensity (``Volume.histogram()[0]``), or None."""
+        self.plot.set_histogram(counts)
+
+    def _preset_chosen(self, index: int) -> None:
+        if index > 0:
+            self.emit(PRESETS[self.presets.itemText(index)])
+            self.presets.setCurrentIndex(0)   # the combo is a menu: it shows no current preset
+
+    def choose_color(self, index: int) -> None:
+        r, g, b = self.plot.points[index][1:4]
+        color = QColorDialog.getColor(QColor.fromRgbF(r, g, b), self, f"{self.prop.label}: point {index}")
+        if color.isValid():
+            self.plot.set_point_color(index, (color.redF(), color.greenF(), color.blueF()))
+
+    # --- files ----------------------------------------------------------------------------------
+    def _start_dir(self) -> str:
+        network = self.processor.network
+        return str(network.base_dir) if network is not None and network.base_dir is not None else ""
+
+    def ask_load_path(self) -> str:
+        path, _ = QFileDialog.getOpenFileName(self, "Load transfer function", self._start_dir(), JSON_FILTER)
+        return path
+
+    def ask_save_path(self) -> str:
+        path, _ = QFileDialog.getSaveFileName(self, "Save transfer function", self._start_dir(), JSON_FILTER)
+        return path
+
+    def load(self) -> None:
+        path = self.ask_load_path()
+        if not path:
+            return
+        try:
+            transfer_function = TransferFunction.load(path)
+        except VGraphError as error:
+            self.problem.emit(str(error))
+            return
+        self.emit(transfer_function)
+
+    def save(self) -> None:
+        path = self.ask_save_path()
+        if not path:
+            return
+        path = Path(path) if Path(path).suffix else Path(path).with_suffix(".json")
+        try:
+            self.processor.property_values[self.prop.name].save(path)
+        except OSError as error:
+            self.problem.emit(f"{path}: cannot save the transfer function: {error.strerror or error}")
+
+
+register_editor("transfer_function", TransferFunctionEditor)
