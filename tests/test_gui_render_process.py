@@ -11,7 +11,7 @@ import vgraph
 from vgraph.errors import NetworkFileError
 from vgraph.fileformat import network_document
 from vgraph.gui.mirror import mirror
-from vgraph.gui.render_process import RenderJob, RenderServer, plugin_modules
+from vgraph.gui.render_process import RenderJob, RenderProcess, RenderServer, plugin_modules
 from vgraph.network import Network
 
 from conftest import REPO
@@ -104,7 +104,9 @@ def test_plugins_are_imported_by_module_and_main_modules_are_refused():
     assert "no_such_module_x" in result.error
 
 
-def test_a_render_process_that_dies_mid_job_is_reported_and_replaced(renderer):
+def test_a_render_process_that_dies_mid_job_is_reported_and_replaced():
+    # A process of its own, so the other tests keep the shared, warm one.
+    renderer = RenderProcess()
     network = vgraph.load(REPO / "networks" / "raycast_sphere.json")
     job = lambda version: RenderJob(version, network_document(network), str(network.base_dir), fresh=True)
     renderer.submit(job(1))
@@ -115,3 +117,4 @@ def test_a_render_process_that_dies_mid_job_is_reported_and_replaced(renderer):
     assert crashed.version == 2 and "the render process stopped unexpectedly" in crashed.error
     renderer.submit(job(3))
     assert renderer.wait().outcome.frames["canvas"].shape[:2] == (512, 512)   # a new one took over
+    renderer.stop()

@@ -20,11 +20,13 @@ If the process dies (a driver crash), the result says so and the next job starts
 from __future__ import annotations
 
 import multiprocessing
+import threading
 import time
 import traceback
 from dataclasses import dataclass, field
 
 import numpy as np
+from tqdm import tqdm
 
 from vgraph.errors import VGraphError
 from vgraph.gui.evaluator import EvaluationOutcome, ProcessorStatus, evaluate_view, histograms, processor_status
@@ -105,6 +107,9 @@ class RenderServer:
 
 def serve(connection) -> None:
     """The render process's main loop."""
+    # Progress bars here need no inter-process lock; tqdm's default one is a semaphore that Python
+    # reports as leaked whenever a render process is killed.
+    tqdm.set_lock(threading.RLock())
     server = RenderServer()
     while True:
         try:
