@@ -202,3 +202,19 @@ def test_vgraph_gui_command_and_lazy_qt_import(monkeypatch, tmp_path):
     assert main(["gui", str(GRAY)]) == 0 and opened == [GRAY]
     code = "import sys, vgraph.cli; sys.exit('PySide6' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+def test_screenshot_saves_the_rendered_window_and_exits(tmp_path, qtbot, capsys):
+    out = tmp_path / "shot.png"
+    network = REPO / "networks" / "raycast_sphere.json"
+    assert main(["gui", str(network), "--select", "rc", "--window-size", "900x700", "--screenshot", str(out)]) == 0
+    shot = np.asarray(PIL.Image.open(out).convert("RGB")).astype(int)
+    assert shot.shape == (700, 900, 3)
+    canvas = vgraph.imagefile.to_uint8(vgraph.load(network).evaluate("canvas"))[..., :3].astype(int)
+    # the rendered sphere is in the window: its brightest colour appears in the screenshot
+    brightest = canvas.reshape(-1, 3)[canvas.sum(axis=2).argmax()]
+    assert (np.abs(shot - brightest).sum(axis=2) <= 3).any()
+
+    assert main(["gui", str(network), "--select", "nope", "--screenshot", str(tmp_path / "no.png")]) == 2
+    assert "no processor with id 'nope'" in capsys.readouterr().err
+    assert not (tmp_path / "no.png").exists()

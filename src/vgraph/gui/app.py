@@ -321,12 +321,16 @@ def run_gui(path: str | Path | None = None, screenshot: str | Path | None = None
         if path is not None and not window.open_network(path) and screenshot is not None:
             return 1
         if select is not None:
+            window.workspace.network[select]  # names the ids if there is no such processor
             window.scene.select_processor(select)
         if screenshot is not None:
             return save_screenshot(window, screenshot)
         return app.exec()
     finally:
         sys.excepthook = previous_hook
+        if screenshot is not None and window.isVisible():  # it failed halfway: do not leave it open
+            window.workspace.undo_stack.setClean()
+            window.close()
 
 
 def save_screenshot(window: MainWindow, path: str | Path) -> int:
