@@ -217,4 +217,8 @@ def test_screenshot_saves_the_rendered_window_and_exits(tmp_path, qtbot, capsys)
 
     assert main(["gui", str(network), "--select", "nope", "--screenshot", str(tmp_path / "no.png")]) == 2
     assert "no processor with id 'nope'" in capsys.readouterr().err
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"format": "vgraph-network", "version": 1, "processors": [{"id": "x", "type": "Nope"}]}')
+    assert main(["gui", str(bad), "--screenshot", str(tmp_path / "no.png")]) == 2   # no dialog waits
+    assert "processors[0].type: unknown processor type 'Nope'" in capsys.readouterr().err
     assert not (tmp_path / "no.png").exists()

@@ -318,8 +318,11 @@ def run_gui(path: str | Path | None = None, screenshot: str | Path | None = None
         if size is not None:
             window.arrange(*size)
         window.show()
-        if path is not None and not window.open_network(path) and screenshot is not None:
-            return 1
+        if path is not None and screenshot is not None:
+            window.workspace.open(path)  # a bad file: an error on stderr, not a dialog nobody answers
+            window.view.fit_network()
+        elif path is not None:
+            window.open_network(path)
         if select is not None:
             window.workspace.network[select]  # names the ids if there is no such processor
             window.scene.select_processor(select)
