@@ -150,6 +150,7 @@ class MainWindow(QMainWindow):
         self.evaluation.histograms.connect(self.inspector.set_histograms)
         self.evaluation.busy_changed.connect(self._busy_changed)
         self.evaluation.crashed.connect(self.log.error)
+        self.canvases.problem.connect(self.log.error)
 
     # --- messages and dialogs -------------------------------------------------------------------
     def show_message(self, text: str) -> None:

@@ -10,7 +10,7 @@ Conventions:
 
 from __future__ import annotations
 
-from PySide6.QtCore import QObject, Qt
+from PySide6.QtCore import QObject, Qt, Signal
 from PySide6.QtWidgets import QDockWidget, QMainWindow
 
 from vgraph.gui.canvas_view import CanvasView
@@ -21,6 +21,8 @@ from vgraph.network import Network
 
 
 class CanvasDocks(QObject):
+    problem = Signal(str)  # a canvas could not do what was asked (e.g. save its image)
+
     def __init__(self, window: QMainWindow, workspace: Workspace, evaluation: LiveEvaluation,
                  above: QDockWidget):
         super().__init__(window)
@@ -57,6 +59,7 @@ class CanvasDocks(QObject):
     def _add(self, processor_id: str) -> None:
         view = CanvasView(self.workspace, processor_id)
         view.interacting.connect(self.evaluation.interactive)
+        view.problem.connect(self.problem)
         view.set_message("waiting for the render process")
         dock = QDockWidget(f"Canvas: {processor_id}", self.window)
         dock.setObjectName(f"canvas:{processor_id}")
