@@ -27,14 +27,14 @@ from __future__ import annotations
 from vgraph import (BoolProperty, CameraProperty, ColorProperty, FloatProperty, Inport,
                     Invalidation, OptionProperty, Outport, Processor, VGraphError)
 from vgraph.gl.curvature import (COLORMAPS, CURVATURES, DERIVATIVES, NORMALIZATIONS,
-                                 ColormapTexture, RangeReduction, SkipBlocks, check_volume_kind,
+                                 ColormapTexture, RangeReduction, check_volume_kind,
                                  derivative_defines, field_uniforms, level_occupancy,
                                  measure_defines, measure_uniforms, raw_level, shading_defines)
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import programs
-from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, VolumeGeometry,
+from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, SkipBlocks, VolumeGeometry,
                                         block_grid_uniforms, lighting_properties, linear_sampler,
-                                        ray_uniforms, shading_uniforms, vec)
+                                        radii_if_worthwhile, ray_uniforms, shading_uniforms, vec)
 from vgraph.image import Image
 from vgraph.volume import Volume
 
@@ -121,7 +121,8 @@ class CurvatureRaycaster(Processor):
         textures = {"entry_points": entry, "exit_points": exit, "volume": volume.texture(ctx)}
         blocks = None
         if self.empty_space_skipping:
-            blocks = self._blocks.texture(ctx, volume, self.level, level_occupancy(self.level))
+            blocks = self._blocks.texture(ctx, volume, self.level, lambda low, high:
+                                          radii_if_worthwhile(level_occupancy(self.level)(low, high)))
         if blocks is not None:
             textures["blocks"] = blocks
         program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, SURFACE_SHADER,

@@ -22,15 +22,15 @@ from vgraph import (BoolProperty, CameraProperty, ColorProperty, FloatProperty, 
                     Invalidation, OptionProperty, Outport, Processor, TransferFunctionProperty,
                     VGraphError)
 from vgraph.gl.curvature import (COLORMAPS, CURVATURES, DERIVATIVES, NORMALIZATIONS,
-                                 ColormapTexture, RangeReduction, SkipBlocks, check_volume_kind,
+                                 ColormapTexture, RangeReduction, check_volume_kind,
                                  derivative_defines, field_uniforms, measure_defines,
                                  measure_uniforms, shading_defines)
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import programs
-from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, TransferFunctionTexture,
-                                        VolumeGeometry, block_grid_uniforms, linear_sampler,
-                                        lighting_properties, occupied_blocks, ray_uniforms,
-                                        shading_uniforms, vec)
+from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, SkipBlocks,
+                                        TransferFunctionTexture, VolumeGeometry, block_grid_uniforms,
+                                        linear_sampler, lighting_properties, occupied_blocks,
+                                        radii_if_worthwhile, ray_uniforms, shading_uniforms, vec)
 from vgraph.image import Image
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -114,7 +114,8 @@ class CurvatureVolumeRaycaster(Processor):
         blocks = None
         if self.empty_space_skipping:
             blocks = self._blocks.texture(ctx, volume, self.transfer_function,
-                                          lambda low, high: occupied_blocks(low, high, self._lut.alpha))
+                                          lambda low, high: radii_if_worthwhile(
+                                              occupied_blocks(low, high, self._lut.alpha)))
         if blocks is not None:
             textures["blocks"] = blocks
         uniforms = self._uniforms(volume, entry.size)

@@ -22,17 +22,15 @@ Conventions (docs/rendering.md explains each property with pictures):
 
 from __future__ import annotations
 
-import numpy as np
-
 from vgraph import (BoolProperty, CameraProperty, ColorProperty, FloatProperty, Inport,
                     Invalidation, OptionProperty, Outport, Processor, TransferFunctionProperty,
                     VGraphError)
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import programs
-from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, TransferFunctionTexture,
-                                        VolumeGeometry, block_grid_uniforms, block_ranges,
+from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, SkipBlocks,
+                                        TransferFunctionTexture, VolumeGeometry, block_grid_uniforms,
                                         lighting_properties, linear_sampler, occupied_blocks,
-                                        ray_uniforms, shading_uniforms, skip_radii, vec)
+                                        radii_if_worthwhile, ray_uniforms, shading_uniforms, vec)
 from vgraph.image import Image
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -41,7 +39,6 @@ FRAGMENT_SHADER = "raycasting/raycaster.frag.glsl"
 COMPOSITING = ("dvr", "mip", "iso", "first_hit", "xray")
 SHADED_MODES = ("dvr", "iso")
 SKIPPING = {"dvr": "opacity", "first_hit": "opacity", "iso": "level", "mip": "maximum"}
-MIN_EMPTY_FRACTION = 0.1  # below this share of empty blocks, skipping costs more than it saves
 GRADIENTS = ("none", "forward", "backward", "central", "sobel")
 # Raw texture differences -> normalised intensity per world unit: divide by this many spacings.
 GRADIENT_SPACINGS = {"forward": 1.0, "backward": 1.0, "central": 2.0, "sobel": 32.0}
@@ -87,9 +84,7 @@ class RayCaster(Processor):
         super().__init__(id, **values)
         self._targets = RenderTargets(2)
         self._lut = TransferFunctionTexture()
-        self._blocks = None  # R32F texture of per-block values for empty-space skipping
-        self._blocks_key = None
-        self._blocks_worthwhile = False
+        self._blocks = SkipBlocks()
 
     # --- shader ---------------------------------------------------------------------------------
     def shader_defines(self, skipping: bool | None = None) -> dict[str, bool]:
@@ -175,31 +170,14 @@ class RayCaster(Processor):
                 **shading_uniforms(self, min_spacing)}
 
     def _block_texture(self, ctx, volume: Volume):
-        """Per-block values for SKIP_EMPTY_SPACE (shaders/raycasting/empty_space.glsl): skip radii
-        from the occupancy under the current TF (dvr, first_hit) or iso level (iso), or the block
-        maxima (mip). Rebuilt only when what they depend on changes. None when skipping does not
-        pay: fewer than MIN_EMPTY_FRACTION of the blocks are empty (every sample would pay for the
-        block look-up and none would be saved)."""
+        """Per-block values for SKIP_EMPTY_SPACE: skip radii from the occupancy under the current TF
+        (dvr, first_hit) or iso level (iso), or the block maxima (mip); None when skipping does
+        not pay."""
         kind = SKIPPING[self.compositing]
-        depends = {"opacity": self.transfer_function, "level": self.iso_level, "maximum": None}[kind]
-        key = (ctx, volume, kind, depends)
-        if self._blocks_key is None or not all(a is b or a == b for a, b in zip(key, self._blocks_key)):
-            block_min, block_max = block_ranges(volume)
-            if kind == "maximum":
-                values = block_max
-            else:
-                occupied = (occupied_blocks(block_min, block_max, self._lut.alpha) if kind == "opacity"
-                            else block_max >= self.iso_level)
-                values = skip_radii(occupied) if 1.0 - occupied.mean() >= MIN_EMPTY_FRACTION else None
-            self._blocks_key, self._blocks_worthwhile = key, values is not None
-            if values is not None:
-                self._upload_blocks(ctx, values)
-        return self._blocks if self._blocks_worthwhile else None
-
-    def _upload_blocks(self, ctx, values: np.ndarray) -> None:
-        size = values.shape[::-1]
-        if self._blocks is None or self._blocks.ctx is not ctx or self._blocks.size != size:
-            if self._blocks is not None and self._blocks.ctx is ctx:
-                self._blocks.release()
-            self._blocks = ctx.texture3d(size, 1, dtype="f4")
-        self._blocks.write(np.ascontiguousarray(values, dtype=np.float32).tobytes())
+        if kind == "maximum":
+            return self._blocks.texture(ctx, volume, kind, lambda low, high: high)
+        if kind == "opacity":
+            return self._blocks.texture(ctx, volume, (kind, self.transfer_function), lambda low, high:
+                                        radii_if_worthwhile(occupied_blocks(low, high, self._lut.alpha)))
+        return self._blocks.texture(ctx, volume, (kind, self.iso_level),
+                                    lambda low, high: radii_if_worthwhile(high >= self.iso_level))

@@ -17,7 +17,7 @@ from vgraph.numerics.bspline import evaluate
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
-from curvature_helpers import TORUS_CAMERA, coefficients_of, curvature_network, render
+from curvature_helpers import TORUS_CAMERA, coefficients_of, curvature_network
 from test_entry_exit_points import rendering_network
 
 SIZE = (64, 64)

@@ -37,7 +37,7 @@ import numpy as np
 from vgraph.errors import VGraphError
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import programs
-from vgraph.gl.volume_rendering import RenderTargets, block_ranges, skip_radii
+from vgraph.gl.volume_rendering import RenderTargets
 from vgraph.image import Image
 from vgraph.volume import Volume
 
@@ -50,7 +50,6 @@ ROUNDING_GRADIENT = 1e-5  # ... or at or below this times the largest |value| (f
 ZERO_CURVATURE = 1e-3  # |k| * min(spacing) at or below this reads as 0 in the shown measure
 REDUCE_BLOCK = 8  # pixels per side reduced by one pass of the min/max reduction
 REDUCE_SHADER = "curvature/range_reduce.frag.glsl"
-MIN_EMPTY_FRACTION = 0.1  # as the RayCaster: below this share of empty blocks skipping costs more
 LEVEL_EPSILON = 1e-6  # normalised: block ranges this close to the level count as crossing it
 
 # Colour maps: control points in [0, 1], evenly spaced, linearly interpolated (JET is analytic).
@@ -228,37 +227,3 @@ def level_occupancy(level: float):
     (min < level + eps and max >= level - eps). Blocks wholly on one side cannot, and neighbouring
     blocks share a voxel margin, so a region of such blocks never hides a crossing."""
     return lambda low, high: (low < level + LEVEL_EPSILON) & (high >= level - LEVEL_EPSILON)
-
-
-class SkipBlocks:
-    """Skip radii (empty_space.glsl) from an occupancy rule over the per-block value ranges of
-    vgraph.gl.volume_rendering.block_ranges, rebuilt when the volume or what the rule depends on
-    changes. For B-spline coefficients the ranges bound the spline too: it is a convex combination
-    of its 4^3 coefficients (weights >= 0, summing to 1), which the ranges' one-voxel margin just
-    covers; where float rounding puts a sample in the neighbouring block, the coefficient outside
-    the margin has weight ~1e-19. ``texture`` is None when under MIN_EMPTY_FRACTION of the blocks
-    are empty (skipping would not pay)."""
-
-    def __init__(self):
-        self._texture = None
-        self._key = None
-        self._worthwhile = False
-
-    def texture(self, ctx: moderngl.Context, volume: Volume, depends, occupancy):
-        """``occupancy(block_min, block_max) -> bool array``; ``depends`` is what it depends on."""
-        key = (ctx, volume, depends)
-        if self._key is None or not all(a is b or a == b for a, b in zip(key, self._key)):
-            self._key = key
-            occupied = occupancy(*block_ranges(volume))
-            self._worthwhile = 1.0 - occupied.mean() >= MIN_EMPTY_FRACTION
-            if self._worthwhile:
-                self._upload(ctx, skip_radii(occupied))
-        return self._texture if self._worthwhile else None
-
-    def _upload(self, ctx: moderngl.Context, values: np.ndarray) -> None:
-        size = values.shape[::-1]
-        if self._texture is None or self._texture.ctx is not ctx or self._texture.size != size:
-            if self._texture is not None and self._texture.ctx is ctx:
-                self._texture.release()
-            self._texture = ctx.texture3d(size, 1, dtype="f4")
-        self._texture.write(np.ascontiguousarray(values, dtype=np.float32).tobytes())

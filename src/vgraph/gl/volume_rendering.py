@@ -51,6 +51,7 @@ from vgraph.volume import Volume
 BOX_EPSILON = 1e-5  # relative growth of the rasterised box (float32 version of the reference's)
 PROXY_MARGIN = 0.01  # relative growth of the box EntryExitPoints rasterises (coverage only)
 BLOCK = 8  # voxels per empty-space block along each axis
+MIN_EMPTY_FRACTION = 0.1  # below this share of empty blocks, skipping costs more than it saves
 
 # A view of the implicit functions' box [-1, 1]^3 (where the FunctionSelector puts its volumes).
 DEFAULT_CAMERA = Camera.looking_at_box(*UNIT_BOX, direction=(-0.45, -0.35, -1.0))
@@ -230,6 +231,47 @@ def skip_radii(occupied: np.ndarray) -> np.ndarray:
     if not occupied.any():
         return np.full(occupied.shape, float(max(occupied.shape)), dtype=np.float32)
     return ndimage.distance_transform_cdt(~occupied, metric="chessboard").astype(np.float32)
+
+
+def radii_if_worthwhile(occupied: np.ndarray) -> np.ndarray | None:
+    """skip_radii, or None when under MIN_EMPTY_FRACTION of the blocks are empty: every sample would
+    pay for the block look-up and hardly any would be saved."""
+    return skip_radii(occupied) if 1.0 - occupied.mean() >= MIN_EMPTY_FRACTION else None
+
+
+class SkipBlocks:
+    """The R32F texture of per-block values for SKIP_EMPTY_SPACE (shaders/raycasting/empty_space.glsl),
+    rebuilt only when the volume or what the values depend on changes. For B-spline coefficients
+    the block ranges bound the spline too: it is a convex combination of its 4^3 coefficients
+    (weights >= 0, summing to 1), which the ranges' one-voxel margin just covers; where float
+    rounding puts a sample in the neighbouring block, the coefficient outside the margin has
+    weight ~1e-19."""
+
+    def __init__(self):
+        self._texture = None
+        self._key = None
+        self._values_exist = False
+
+    def texture(self, ctx: moderngl.Context, volume: Volume, depends, values):
+        """``values(block_min, block_max)`` -> float array per block (skip radii, or the maxima for
+        MIP), or None when skipping does not pay; ``depends`` is what ``values`` depends on.
+        Returns the texture, or None."""
+        key = (ctx, volume, depends)
+        if self._key is None or not all(a is b or a == b for a, b in zip(key, self._key)):
+            self._key = key
+            block_values = values(*block_ranges(volume))
+            self._values_exist = block_values is not None
+            if self._values_exist:
+                self._upload(ctx, block_values)
+        return self._texture if self._values_exist else None
+
+    def _upload(self, ctx: moderngl.Context, values: np.ndarray) -> None:
+        size = values.shape[::-1]
+        if self._texture is None or self._texture.ctx is not ctx or self._texture.size != size:
+            if self._texture is not None and self._texture.ctx is ctx:
+                self._texture.release()
+            self._texture = ctx.texture3d(size, 1, dtype="f4")
+        self._texture.write(np.ascontiguousarray(values, dtype=np.float32).tobytes())
 
 
 def block_grid_uniforms(volume: Volume) -> dict[str, object]:
