@@ -48,27 +48,16 @@ def main() -> None:
     coefficients = samples.with_data(prefilter(samples.data), is_spline_coefficients=True,
                                      declared_range=samples.value_range)
     print(f"torus {args.resolution}^3 float32, {args.size} x {args.size}, best of {args.repeat}\n")
-    print("CurvatureRaycaster\n")
-    print("| derivatives | linear s | exponential s | linear, no skipping s | samples per covered pixel |")
-    print("|---|---|---|---|---|")
-    for mode in ("forward", "central", "filtered", "tricubic", "tricubic_fast"):
-        volume = coefficients if mode.startswith("tricubic") else samples
-        linear, taken = frame_seconds(volume, args.size, args.repeat, derivatives=mode)
-        exponential, _ = frame_seconds(volume, args.size, args.repeat, derivatives=mode,
-                                       normalization="exponential")
-        plain, _ = frame_seconds(volume, args.size, args.repeat, derivatives=mode,
-                                 empty_space_skipping=False)
-        print(f"| {mode} | {linear:.3f} | {exponential:.3f} | {plain:.3f} | {taken:.1f} |")
-    print("\nCurvatureVolumeRaycaster\n")
-    print("| derivatives | linear s | exponential s | linear, no skipping s | samples per covered pixel |")
-    print("|---|---|---|---|---|")
-    for mode in ("forward", "central", "filtered", "tricubic", "tricubic_fast"):
-        volume = coefficients if mode.startswith("tricubic") else samples
-        runs = [frame_seconds(volume, args.size, args.repeat, "CurvatureVolumeRaycaster",
-                              derivatives=mode, **extra)
-                for extra in ({}, {"normalization": "exponential"}, {"empty_space_skipping": False})]
-        print(f"| {mode} | {runs[0][0]:.3f} | {runs[1][0]:.3f} | {runs[2][0]:.3f} | {runs[0][1]:.1f} |")
-
+    for processor in ("CurvatureRaycaster", "CurvatureVolumeRaycaster"):
+        print(f"{processor}\n")
+        print("| derivatives | linear s | exponential s | linear, no skipping s | samples per covered pixel |")
+        print("|---|---|---|---|---|")
+        for mode in ("forward", "central", "filtered", "tricubic", "tricubic_fast"):
+            volume = coefficients if mode.startswith("tricubic") else samples
+            runs = [frame_seconds(volume, args.size, args.repeat, processor, derivatives=mode, **extra)
+                    for extra in ({}, {"normalization": "exponential"}, {"empty_space_skipping": False})]
+            print(f"| {mode} | {runs[0][0]:.3f} | {runs[1][0]:.3f} | {runs[2][0]:.3f} | {runs[0][1]:.1f} |")
+        print()
 
 if __name__ == "__main__":
     main()

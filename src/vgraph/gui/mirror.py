@@ -62,7 +62,7 @@ def _remove_stale_connections(network: Network, entries) -> None:
     wanted = [_connection(e) for e in entries]
     for connection in network.connections:
         into_same_inport = [c for c in wanted if (c.target, c.inport) == (connection.target, connection.inport)]
-        present = [c for c in network.inputs_of(connection.target, connection.inport)]
+        present = network.inputs_of(connection.target, connection.inport)
         if connection not in wanted or present != into_same_inport[:len(present)]:
             network.disconnect(connection)
 
