@@ -16,5 +16,8 @@ class FunctionSelector(Processor):
     data_type = OptionProperty("float32", choices=list(DATA_TYPES), doc="how the samples are stored")
     parameters = DictProperty({}, doc="the function's parameters by name; missing ones take their defaults")
 
+    def check(self) -> None:
+        make_function(self.function, **self.parameters)
+
     def process(self) -> Volume:
         return sample(make_function(self.function, **self.parameters), self.resolution, self.data_type)

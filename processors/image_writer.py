@@ -3,6 +3,7 @@
 from pathlib import Path
 
 from vgraph import FilePathProperty, Inport, Processor, VGraphError
+from vgraph.atomic import check_output_path
 from vgraph.image import Image
 from vgraph.imagefile import write_png
 
@@ -12,7 +13,7 @@ class ImageWriter(Processor):
 
     category = "Output"
     inports = [Inport("image", Image)]
-    path = FilePathProperty("out.png", filters=("*.png",), doc="where the PNG is written")
+    path = FilePathProperty("out.png", filters=("*.png",), writes=True, doc="where the PNG is written")
 
     def process(self, image: Image) -> None:
         if not self.path:
@@ -20,5 +21,5 @@ class ImageWriter(Processor):
         path = self.resolve_path(self.path)
         if Path(path).suffix.lower() != ".png":
             raise VGraphError(f"{self.id}.path: '{self.path}' must end in .png")
-        path.parent.mkdir(parents=True, exist_ok=True)  # batch jobs write into fresh folders
+        check_output_path(path, create_folder=True)  # batch jobs write into fresh folders
         write_png(path, image.to_numpy())

@@ -210,8 +210,8 @@ def test_dragging_a_type_from_the_palette_drops_it_where_released(window):
     mime = palette.tree.mimeData([item])
     drop_at = QPointF(window.view.mapFromScene(QPointF(120, 80)))
     viewport = window.view.viewport()
-    for event_type in (QDragEnterEvent, QDragMoveEvent):
-        event = event_type(drop_at, Qt.CopyAction, mime, Qt.LeftButton, Qt.NoModifier)
+    for event_type in (QDragEnterEvent, QDragMoveEvent):  # these take integer positions
+        event = event_type(drop_at.toPoint(), Qt.CopyAction, mime, Qt.LeftButton, Qt.NoModifier)
         QApplication.sendEvent(viewport, event)
         assert event.isAccepted()
     QApplication.sendEvent(viewport, QDropEvent(drop_at, Qt.CopyAction, mime, Qt.LeftButton, Qt.NoModifier))

@@ -9,8 +9,8 @@ Scripts meet vgraph through a few names::
     net.save("mine.json")
 """
 
-from vgraph.errors import (CycleError, NetworkFileError, PortError, ProcessorError, PropertyError,
-                           ShaderError, VGraphError, VolumeFileError)
+from vgraph.errors import (CycleError, NetworkFileError, OutputFileError, PortError, ProcessorError, PropertyError,
+                           ShaderError, VGraphError, VolumeFileError, WritePathError)
 from vgraph.network import Network
 from vgraph.ports import Inport, Outport
 from vgraph.processor import Processor
@@ -23,10 +23,11 @@ from vgraph.volume import Volume
 __version__ = "0.1.0"
 
 
-def load(path) -> Network:
-    """Load a saved .json network (raises NetworkFileError naming the JSON path of each problem)."""
+def load(path, allow_write=()) -> Network:
+    """Load a saved .json network (raises NetworkFileError naming the JSON path of each problem).
+    Its writers may write inside the file's folder and the folders in ``allow_write``."""
     from vgraph.fileformat import load_network
-    return load_network(path)
+    return load_network(path, allow_write)
 
 
 def register(processor_class):
@@ -39,5 +40,5 @@ __all__ = [
     "Invalidation", "BoolProperty", "CameraProperty", "ColorProperty", "DictProperty", "FilePathProperty",
     "FloatProperty", "IntProperty", "OptionProperty", "StringProperty", "TransferFunctionProperty",
     "VectorProperty", "VGraphError", "NetworkFileError", "PortError", "CycleError", "ProcessorError",
-    "PropertyError", "ShaderError", "VolumeFileError",
+    "OutputFileError", "PropertyError", "ShaderError", "VolumeFileError", "WritePathError",
 ]

@@ -56,11 +56,13 @@ def build_parser() -> argparse.ArgumentParser:
                      help="change a property before evaluating; VALUE is JSON where it parses")
     run.add_argument("--profile", type=Path, help="write which processors ran and their times")
     run.add_argument("--plugin", action="append", metavar="MODULE", help="import a plug-in module")
+    add_allow_write(run)
     run.set_defaults(command=command_run)
 
     validate = commands.add_parser("validate", help="check a network file")
     validate.add_argument("network", type=Path)
     validate.add_argument("--plugin", action="append", metavar="MODULE")
+    add_allow_write(validate)
     validate.set_defaults(command=command_validate)
 
     listing = commands.add_parser("list", help="list the processor types")
@@ -103,6 +105,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def add_allow_write(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--allow-write", action="append", default=[], type=Path, metavar="DIR",
+                        help="let the network's writers write into DIR too (by default only inside "
+                             "the network file's folder); repeatable")
+
+
 def _print_help(parser: argparse.ArgumentParser) -> int:
     parser.print_help(sys.stderr)
     return EXIT_BAD_INPUT
@@ -127,12 +135,15 @@ def parse_assignment(text: str) -> tuple[str, object]:
 
 
 def command_run(args) -> int:
-    from vgraph.atomic import atomic_path, write_text_atomic
+    from vgraph.atomic import atomic_path, check_output_path, write_text_atomic
     from vgraph.image import Image
     from vgraph.imagefile import write_png
     from vgraph.scheduler import default_target, to_numpy
 
-    network = vgraph.load(args.network)
+    for output in (args.output, args.npy, args.profile):
+        if output is not None:
+            check_output_path(output)  # refuse before a long evaluation, not after
+    network = vgraph.load(args.network, allow_write=args.allow_write)
     for assignment in args.set:
         network.set(*parse_assignment(assignment))
     wants_output = args.output or args.npy
@@ -156,7 +167,7 @@ def command_run(args) -> int:
 
 
 def command_validate(args) -> int:
-    network = vgraph.load(args.network)
+    network = vgraph.load(args.network, allow_write=args.allow_write)
     for processor in network.processors.values():
         for inport in processor.inports:
             if not inport.optional and not network.inputs_of(processor.id, inport.name):
@@ -186,7 +197,10 @@ def command_list(args) -> int:
 
 
 def command_gui(args) -> int:
+    from vgraph.atomic import check_output_path
     from vgraph.gui.app import run_gui  # imported here so no other command imports Qt
+    if args.screenshot is not None:
+        check_output_path(args.screenshot)
     return run_gui(args.network, screenshot=args.screenshot, select=args.select, size=args.window_size)
 
 

@@ -39,6 +39,15 @@ class NetworkFileError(VGraphError):
         super().__init__("\n".join(lines))
 
 
+class WritePathError(NetworkFileError):
+    """A network file asks a writer to write outside the file's own folder. ``paths`` lists
+    (processor id, resolved path) pairs; loading again with those folders allowed accepts them."""
+
+    def __init__(self, file: str, problems: list[tuple[str, str]], paths: list):
+        self.paths = paths
+        super().__init__(file, problems)
+
+
 class VolumeFileError(VGraphError):
     """A volume file could not be read. Names the file and, where known, the header field."""
 
@@ -48,6 +57,16 @@ class VolumeFileError(VGraphError):
         self.reason = reason
         place = f"{self.file} [{field}]" if field else self.file
         super().__init__(f"{place}: {reason}")
+
+
+class OutputFileError(VGraphError):
+    """A result could not be written (missing or read-only folder, full disk, a folder in the way).
+    Names the file; an existing file of that name is left as it was."""
+
+    def __init__(self, file, reason: str):
+        self.file = str(file)
+        self.reason = reason
+        super().__init__(f"cannot write {self.file}: {reason}")
 
 
 class ShaderError(VGraphError):

@@ -7,26 +7,35 @@
 
 Loading either returns a complete Network or raises NetworkFileError listing every problem with
 its JSON path (``processors[2].properties.level``) and reason; it never changes an existing network.
-Older versions are upgraded by the chain in ``MIGRATIONS`` before validation.
+Older versions are upgraded by the chain in ``MIGRATIONS`` before validation; a migration refuses
+fields it does not know, so a mislabelled file is an error rather than an empty network.
+
+A file is read only if it is a regular file of at most ``MAX_FILE_BYTES`` nested at most
+``MAX_NESTING`` deep. Writer paths (``FilePathProperty(writes=True)``) from a file must resolve inside
+the file's folder or a folder given in ``allow_write`` (``WritePathError`` otherwise): a network
+received from someone else cannot overwrite the user's files.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import stat
 from pathlib import Path
 from typing import Annotated, Any, Callable, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StringConstraints, ValidationError
 
 from vgraph.atomic import write_text_atomic
-from vgraph.errors import NetworkFileError, VGraphError
+from vgraph.errors import NetworkFileError, VGraphError, WritePathError
 from vgraph.network import Network
 from vgraph.properties import FilePathProperty
 from vgraph.registry import registry
 
 FORMAT = "vgraph-network"
 CURRENT_VERSION = 1
+MAX_FILE_BYTES = 64 * 2**20   # the largest shipped network is a few kB
+MAX_NESTING = 64              # the deepest legitimate value (a camera in a property) is 4 levels
 
 ProcessorId = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")]
 Address = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*\.[a-z][a-z0-9_]*$")]
@@ -62,6 +71,9 @@ class NetworkDocument(_Strict):
 
 
 # --- migrations -----------------------------------------------------------------------------------
+VERSION_0_FIELDS = {"format", "version", "description", "nodes", "edges", "links"}
+
+
 def _from_version_0(document: dict) -> dict:
     """Version 0, the pre-release draft: processors keyed by id under "nodes", connections and
     links as "a.out -> b.in" strings under "edges" and "links"."""
@@ -69,6 +81,10 @@ def _from_version_0(document: dict) -> dict:
         source, _, target = str(text).partition("->")
         return {"from": source.strip(), "to": target.strip()}
 
+    unknown = sorted(set(document) - VERSION_0_FIELDS)
+    if unknown:
+        raise ValueError(f"version 0 files have no field {', '.join(map(repr, unknown))} (they have "
+                         f"{', '.join(sorted(VERSION_0_FIELDS))}): is 'version' right?")
     nodes = document.get("nodes", {})
     if not isinstance(nodes, dict):
         raise ValueError("'nodes' must be an object keyed by processor id")
@@ -98,31 +114,72 @@ def migrate(document: dict) -> dict:
 
 
 # --- loading --------------------------------------------------------------------------------------
-def load_network(path: str | Path) -> Network:
+def load_network(path: str | Path, allow_write=()) -> Network:
+    """Read, migrate, validate and build a network file. ``allow_write``: folders (besides the
+    file's own) that its writers may write into."""
     path = Path(path)
     document = parse_document(read_json(path), str(path))
-    return build_network(document, str(path), base_dir=path.resolve().parent)
+    network = build_network(document, str(path), base_dir=path.resolve().parent)
+    check_write_paths(network, str(path), allow_write)
+    return network
 
 
 def read_json(path: Path):
     def reject_constant(name):
         raise ValueError(f"{name} is not allowed in a network file")
+    text = _read_text(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        data = json.loads(text, parse_constant=reject_constant)
+    except json.JSONDecodeError as error:
+        raise NetworkFileError(str(path), [("", f"not valid JSON: {error.msg} at line {error.lineno} "
+                                                f"column {error.colno}")]) from None
+    except RecursionError:
+        data = None  # reported as too deep below
+    except ValueError as error:
+        raise NetworkFileError(str(path), [("", str(error))]) from None
+    if data is None and text.strip() != "null" or nesting_depth(data) > MAX_NESTING:
+        raise NetworkFileError(str(path), [("", f"nested more than {MAX_NESTING} levels deep")])
+    return data
+
+
+def _read_text(path: Path) -> str:
+    try:
+        info = path.stat()
+        if not stat.S_ISREG(info.st_mode):
+            raise NetworkFileError(str(path), [("", "not a regular file")])
+        if info.st_size > MAX_FILE_BYTES:
+            raise NetworkFileError(str(path), [("", f"{info.st_size} bytes is larger than a network "
+                                                    f"file can be ({MAX_FILE_BYTES} bytes)")])
+        with open(path, "rb") as file:  # the size may have grown since stat()
+            data = file.read(MAX_FILE_BYTES + 1)
+        if len(data) > MAX_FILE_BYTES:
+            raise NetworkFileError(str(path), [("", f"larger than a network file can be "
+                                                    f"({MAX_FILE_BYTES} bytes)")])
+        return data.decode("utf-8")
     except FileNotFoundError:
         raise NetworkFileError(str(path), [("", "file not found")]) from None
     except (OSError, UnicodeDecodeError) as error:
         raise NetworkFileError(str(path), [("", f"cannot read the file: {error}")]) from None
-    try:
-        return json.loads(text, parse_constant=reject_constant)
-    except json.JSONDecodeError as error:
-        raise NetworkFileError(str(path), [("", f"not valid JSON: {error.msg} at line {error.lineno} "
-                                                f"column {error.colno}")]) from None
-    except ValueError as error:
-        raise NetworkFileError(str(path), [("", str(error))]) from None
+
+
+def nesting_depth(data) -> int:
+    """How deeply lists and objects nest in ``data`` (a scalar is 0), without recursion."""
+    deepest, stack = 0, [(data, 1)]
+    while stack:
+        value, depth = stack.pop()
+        children = value.values() if isinstance(value, dict) else value if isinstance(value, list) else None
+        if children is None:
+            continue
+        deepest = max(deepest, depth)
+        if depth > MAX_NESTING:
+            break
+        stack.extend((child, depth + 1) for child in children)
+    return deepest
 
 
 def parse_document(data, file: str = "<network>") -> NetworkDocument:
+    if nesting_depth(data) > MAX_NESTING:
+        raise NetworkFileError(file, [("", f"nested more than {MAX_NESTING} levels deep")])
     if not isinstance(data, dict):
         raise NetworkFileError(file, [("", f"expected a JSON object, got {type(data).__name__}")])
     if data.get("format") != FORMAT:
@@ -163,6 +220,10 @@ def build_network(document: NetworkDocument, file: str = "<network>", base_dir=N
                 processor.set_property(name, value)
             except VGraphError as error:
                 problems.append((f"{where}.properties.{name}", getattr(error, "reason", str(error))))
+        try:
+            processor.check()
+        except VGraphError as error:
+            problems.append((f"{where}.properties", str(error)))
         processor.position = entry.position
         network.add(processor)
     for kind, entries, make in (("connections", document.connections, network.connect),
@@ -176,6 +237,27 @@ def build_network(document: NetworkDocument, file: str = "<network>", base_dir=N
     if problems:
         raise NetworkFileError(file, problems)
     return network
+
+
+def check_write_paths(network: Network, file: str, allow_write=()) -> None:
+    """Refuse writer paths that resolve outside the network's folder and the allowed folders."""
+    allowed = [Path(folder).expanduser().resolve() for folder in allow_write]
+    if network.base_dir is not None:
+        allowed.append(network.base_dir.resolve())
+    problems, paths = [], []
+    for index, processor in enumerate(network.processors.values()):
+        for name, prop in processor.properties.items():
+            value = processor.property_values[name]
+            if not (isinstance(prop, FilePathProperty) and prop.writes and value):
+                continue
+            target = processor.resolve_path(value).resolve()
+            if not any(target.is_relative_to(folder) for folder in allowed):
+                paths.append((processor.id, target))
+                problems.append((f"processors[{index}].properties.{name}",
+                                 f"{processor.id} ({processor.type_name}) would write {target}, outside "
+                                 f"the network's folder; allow it with --allow-write {target.parent}"))
+    if problems:
+        raise WritePathError(file, problems, paths)
 
 
 # --- saving ---------------------------------------------------------------------------------------

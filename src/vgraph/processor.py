@@ -131,6 +131,10 @@ class Processor:
     def initialize(self) -> None:
         """Called once, just before the first process(); never for processors not evaluated."""
 
+    def check(self) -> None:
+        """Refuse property values that are impossible together (raise VGraphError naming the
+        property); called when a network file is loaded, so ``validate`` catches what ``run`` would."""
+
     def build_resources(self) -> None:
         """Called before process() when a RESOURCES-level property changed (and the first time)."""
 

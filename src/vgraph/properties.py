@@ -141,16 +141,20 @@ class StringProperty(Property):
 
 class FilePathProperty(StringProperty):
     """A path; relative paths are resolved against the network file's folder when used.
-    ``filters`` are the file patterns a file dialog offers, e.g. ("*.png", "*.jpg")."""
+    ``filters`` are the file patterns a file dialog offers, e.g. ("*.png", "*.jpg"). ``writes``
+    marks an output path: one that comes from a network file must stay inside the file's folder
+    unless the user allows more (docs/reliability.md)."""
 
     kind = "file_path"
 
-    def __init__(self, default: str = "", *, filters: tuple[str, ...] = ("*",), **kw):
+    def __init__(self, default: str = "", *, filters: tuple[str, ...] = ("*",), writes: bool = False,
+                 **kw):
         self.filters = tuple(filters)
+        self.writes = writes
         super().__init__(default, **kw)
 
     def describe(self) -> dict:
-        return super().describe() | {"filters": list(self.filters)}
+        return super().describe() | {"filters": list(self.filters), "writes": self.writes}
 
 
 class VectorProperty(Property):

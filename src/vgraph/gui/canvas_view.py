@@ -37,7 +37,7 @@ from PySide6.QtCore import QPointF, QRectF, Qt, QTimer, Signal
 from PySide6.QtGui import QColor, QImage, QPainter
 from PySide6.QtWidgets import QFileDialog, QMenu, QWidget
 
-from vgraph.errors import VGraphError
+from vgraph.errors import OutputFileError, VGraphError
 from vgraph.imagefile import write_png
 from vgraph.properties import CameraProperty
 
@@ -268,8 +268,8 @@ class CanvasView(QWidget):
         try:
             # write_png takes floats in [0, 1]; k / 255 rounds back to exactly k.
             write_png(path, self._frame.astype(np.float64) / 255.0)
-        except OSError as error:
-            return self._report(f"could not save {path}: {error.strerror or error}")
+        except OutputFileError as error:
+            return self._report(f"could not save {path}: {error.reason}")
         return path
 
     def _report(self, text: str) -> None:
