@@ -88,3 +88,30 @@ def test_the_painter_calls_themselves_keep_none_alive(qtbot):
         assert none_references_lost(lambda: painter.drawRoundedRect(QRectF(1, 1, 9, 9), 3, 3), calls) < SLACK
     finally:
         painter.end()
+
+
+def test_a_few_hundred_scripted_user_actions_leave_the_window_working(window):
+    """The loop of bench/gui_soak.py, bounded: edits, drags, reconnections with undo/redo,
+    trackball drags and TF point drags, with the render process catching up now and then."""
+    from vgraph.fileformat import network_document
+    from vgraph.gui.scripted_user import ScriptedUser
+    open_evaluated(window, "raycast_sphere.json")
+    original = network_document(window.workspace.network)
+    user = ScriptedUser(window)
+    before = sys.getrefcount(None)
+
+    for _ in range(200):
+        user.do_next()
+        if user.actions_done % 20 == 0:
+            assert user.settle()
+    assert user.settle()
+
+    assert window.log.messages("error") == [] and window.log.messages("warning") == []
+    assert before - sys.getrefcount(None) < SLACK
+    assert user.frames >= 10
+    assert window.canvases.views["canvas"].is_final
+    document = network_document(window.workspace.network)
+    assert document["connections"] == original["connections"]   # the loop puts back what it takes
+    assert document["links"] == original["links"]
+    window.workspace.undo_stack.undo()                           # and the undo history still works
+    assert window.evaluation.run(wait=True) is not None

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import sys
 import traceback
+from contextlib import contextmanager
 from pathlib import Path
 
 from PySide6.QtCore import QSettings, Qt
@@ -308,6 +309,32 @@ def run_gui(path: str | Path | None = None, screenshot: str | Path | None = None
     app = QApplication.instance() or QApplication([sys.argv[0] if sys.argv else "vgraph"])
     app.setApplicationName("vgraph")
     window = MainWindow()
+    try:
+        with log_exceptions(window):
+            if size is not None:
+                window.arrange(*size)
+            window.show()
+            if path is not None and screenshot is not None:
+                window.workspace.open(path)  # a bad file: an error on stderr, not a dialog nobody answers
+                window.view.fit_network()
+            elif path is not None:
+                window.open_network(path)
+            if select is not None:
+                window.workspace.network[select]  # names the ids if there is no such processor
+                window.scene.select_processor(select)
+            if screenshot is not None:
+                return save_screenshot(window, screenshot)
+            return app.exec()
+    finally:
+        if screenshot is not None and window.isVisible():  # it failed halfway: do not leave it open
+            window.workspace.undo_stack.setClean()
+            window.close()
+
+
+@contextmanager
+def log_exceptions(window: MainWindow):
+    """Send exceptions that escape slots and event handlers to the window's log: Qt would only
+    print them, and the user would not know that something failed."""
     previous_hook = sys.excepthook
 
     def log_exception(kind, value, trace):
@@ -316,25 +343,9 @@ def run_gui(path: str | Path | None = None, screenshot: str | Path | None = None
 
     sys.excepthook = log_exception
     try:
-        if size is not None:
-            window.arrange(*size)
-        window.show()
-        if path is not None and screenshot is not None:
-            window.workspace.open(path)  # a bad file: an error on stderr, not a dialog nobody answers
-            window.view.fit_network()
-        elif path is not None:
-            window.open_network(path)
-        if select is not None:
-            window.workspace.network[select]  # names the ids if there is no such processor
-            window.scene.select_processor(select)
-        if screenshot is not None:
-            return save_screenshot(window, screenshot)
-        return app.exec()
+        yield
     finally:
         sys.excepthook = previous_hook
-        if screenshot is not None and window.isVisible():  # it failed halfway: do not leave it open
-            window.workspace.undo_stack.setClean()
-            window.close()
 
 
 def save_screenshot(window: MainWindow, path: str | Path) -> int:

@@ -91,6 +91,10 @@ class LiveEvaluation(QObject):
         elif self.renderer.busy:
             self.renderer.wait()
 
+    def idle(self) -> bool:
+        """Nothing waits to be sent and no job is in flight: the views show the current state."""
+        return not self._wanted and not self.timer.isActive() and not self.renderer.busy
+
     def status_of(self, processor_id: str) -> ProcessorStatus:
         status = self.statuses.get(processor_id)
         return status if status is not None else processor_status(self.network, self.network[processor_id])

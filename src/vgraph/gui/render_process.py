@@ -134,6 +134,11 @@ class RenderProcess:
     def busy(self) -> bool:
         return self.job is not None
 
+    @property
+    def pid(self) -> int | None:
+        """The render process's id (None before the first job and after ``stop``)."""
+        return self._process.pid if self._process is not None else None
+
     def submit(self, job: RenderJob) -> None:
         if self.busy:
             raise VGraphError("the render process is still working on the previous job")
