@@ -1,4 +1,4 @@
-"""The GUI survives long use: painting does not eat Python's ``None``.
+"""The GUI survives long use and a render process that hangs or dies.
 
 PySide6-Essentials 6.12.0 on Python 3.11 dropped one reference to ``None`` on every
 ``QPainter.fillRect`` / ``drawRoundedRect`` call; after a few thousand calls Python freed ``None``
@@ -8,10 +8,13 @@ references. Only a loss is a failure: Python 3.11's ``None`` is freed when its c
 while extra references are harmless (6.11 adds a few per QPainter opened on a new paint device).
 """
 
+import os
+import signal
 import sys
 
 import numpy as np
-from PySide6.QtCore import QRectF
+import pytest
+from PySide6.QtCore import QRectF, Qt
 from PySide6.QtGui import QColor, QImage, QPainter
 
 from gui_helpers import window  # noqa: F401  (a fixture)
@@ -115,3 +118,92 @@ def test_a_few_hundred_scripted_user_actions_leave_the_window_working(window):
     assert document["links"] == original["links"]
     window.workspace.undo_stack.undo()                           # and the undo history still works
     assert window.evaluation.run(wait=True) is not None
+
+
+# --- the render-process watchdog ------------------------------------------------------------------
+@pytest.fixture
+def lone_window(qtbot, tmp_path):
+    """A window with a render process of its own: these tests stop and kill it."""
+    from PySide6.QtCore import QSettings
+    from vgraph.gui.app import MainWindow
+    from vgraph.gui.render_process import RenderProcess
+    renderer = RenderProcess()
+    main = MainWindow(QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat), renderer)
+    main.show()
+    qtbot.waitExposed(main)
+    open_evaluated(main, "raycast_sphere.json")
+    main.workspace.set_property("canvas.size", [64, 64])   # quick frames
+    main.evaluation.run(wait=True)
+    yield main
+    main.workspace.undo_stack.setClean()
+    main.close()
+    renderer.stop()   # kills it even when stopped (SIGSTOP)
+
+
+def process_exists(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def log_has(window, level: str, text: str) -> bool:
+    return any(text in message for message in window.log.messages(level))
+
+
+def renders_a_frame_after_a_change(window, qtbot, rate: float) -> None:
+    with qtbot.waitSignal(window.evaluation.frames, timeout=60000):
+        window.workspace.set_property("rc.sampling_rate", rate)
+    window.evaluation.run(wait=True)
+    assert window.evaluation.last_result.error is None
+    assert window.canvases.views["canvas"].frame().shape == (64, 64, 4)
+
+
+def test_a_stuck_render_process_is_reported_and_cancel_replaces_it(lone_window, qtbot):
+    window, evaluation = lone_window, lone_window.evaluation
+    evaluation.stall_min_seconds, evaluation.stall_factor = 0.3, 3.0
+    assert evaluation.stall_limit() == max(0.3, 3.0 * evaluation.renderer.typical_seconds())
+    stuck = evaluation.renderer.pid
+    os.kill(stuck, signal.SIGSTOP)   # as a hung driver would: alive, silent
+    window.workspace.set_property("rc.sampling_rate", 2.0)
+
+    qtbot.waitUntil(lambda: log_has(window, "warning", "working on one frame for"), timeout=30000)
+    assert "Network > Cancel Rendering" in window.log.messages("warning")[0]
+    assert window.cancel_button.isVisible() and window.cancel_action.isEnabled()
+    assert "rendering for" in window.statusBar().currentMessage()
+
+    qtbot.mouseClick(window.cancel_button, Qt.LeftButton)
+    assert log_has(window, "warning", "cancelled a frame after") and log_has(window, "warning", f"(pid {stuck})")
+    assert log_has(window, "info", f"started a new render process (pid {evaluation.renderer.pid})")
+    assert evaluation.renderer.pid != stuck and not process_exists(stuck)
+    assert not window.cancel_button.isVisible() and evaluation.idle()
+    renders_a_frame_after_a_change(window, qtbot, 1.5)
+    assert window.log.messages("error") == []
+
+
+def test_a_render_process_killed_while_idle_is_reported_and_replaced(lone_window, qtbot):
+    window = lone_window
+    killed = window.evaluation.renderer.pid
+    os.kill(killed, signal.SIGKILL)
+
+    qtbot.waitUntil(lambda: log_has(window, "error", "stopped unexpectedly while idle"), timeout=10000)
+    assert log_has(window, "error", "exit code -9 (SIGKILL)")
+    new = window.evaluation.renderer.pid
+    assert new != killed and log_has(window, "info", f"started a new render process (pid {new})")
+    renders_a_frame_after_a_change(window, qtbot, 1.5)
+    assert len(window.log.messages("error")) == 1
+
+
+def test_a_render_process_that_dies_with_a_job_is_reported_and_replaced(lone_window, qtbot):
+    window = lone_window
+    dying = window.evaluation.renderer.pid
+    os.kill(dying, signal.SIGSTOP)   # so the job is surely in flight when it dies
+    window.workspace.set_property("rc.sampling_rate", 2.0)
+    qtbot.waitUntil(lambda: window.evaluation.renderer.busy, timeout=5000)
+    os.kill(dying, signal.SIGKILL)
+
+    qtbot.waitUntil(lambda: log_has(window, "error", "stopped unexpectedly (exit code -9 (SIGKILL))"),
+                    timeout=10000)
+    assert log_has(window, "info", f"started a new render process (pid {window.evaluation.renderer.pid})")
+    renders_a_frame_after_a_change(window, qtbot, 1.5)

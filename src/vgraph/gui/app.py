@@ -23,7 +23,8 @@ from pathlib import Path
 
 from PySide6.QtCore import QSettings, Qt
 from PySide6.QtGui import QAction, QKeySequence
-from PySide6.QtWidgets import QApplication, QDockWidget, QFileDialog, QMainWindow, QMessageBox
+from PySide6.QtWidgets import (QApplication, QDockWidget, QFileDialog, QMainWindow, QMessageBox,
+                               QPushButton)
 
 from vgraph.atomic import atomic_path
 from vgraph.errors import VGraphError
@@ -112,6 +113,13 @@ class MainWindow(QMainWindow):
         self.evaluate_action = self._action("&Evaluate Now", self.evaluation.run, "F5")
         self.writers_action = self._action("Run &Writers", lambda: self.evaluation.run(include_writers=True),
                                            "Ctrl+R")
+        self.cancel_action = self._action("&Cancel Rendering", self.cancel_rendering)
+        self.cancel_action.setEnabled(False)
+        self.cancel_button = QPushButton("Cancel rendering")
+        self.cancel_button.setToolTip("stop the render process and start a new one")
+        self.cancel_button.clicked.connect(self.cancel_rendering)
+        self.cancel_button.hide()
+        self.statusBar().addPermanentWidget(self.cancel_button)
 
     def _build_menus(self) -> None:
         bar = self.menuBar()
@@ -134,7 +142,7 @@ class MainWindow(QMainWindow):
         for dock in self.findChildren(QDockWidget):
             view_menu.addAction(dock.toggleViewAction())
         network_menu = bar.addMenu("&Network")
-        network_menu.addActions([self.evaluate_action, self.writers_action])
+        network_menu.addActions([self.evaluate_action, self.writers_action, self.cancel_action])
         self._fill_recent_menu(self.workspace.recent_files())
 
     def _wire(self) -> None:
@@ -151,6 +159,9 @@ class MainWindow(QMainWindow):
         self.evaluation.histograms.connect(self.inspector.set_histograms)
         self.evaluation.busy_changed.connect(self._busy_changed)
         self.evaluation.crashed.connect(self.log.error)
+        self.evaluation.warning.connect(self.log.warning)
+        self.evaluation.info.connect(self.log.info)
+        self.evaluation.stalled.connect(self._stalled)
         self.canvases.problem.connect(self.log.error)
 
     # --- messages and dialogs -------------------------------------------------------------------
@@ -271,8 +282,19 @@ class MainWindow(QMainWindow):
         self.inspector.show_processor(None)
 
     def _busy_changed(self, busy: bool) -> None:
+        self.cancel_action.setEnabled(busy)
         if busy:
             self.show_message("rendering...")
+        else:
+            self.cancel_button.hide()
+
+    def _stalled(self, seconds: float) -> None:
+        self.show_message(f"rendering for {seconds:.0f} s...")
+        self.cancel_button.show()
+
+    def cancel_rendering(self) -> None:
+        if self.evaluation.cancel():
+            self.show_message("rendering cancelled: the next change renders again")
 
     def report_outcome(self, outcome: EvaluationOutcome) -> None:
         """Log new failures and recoveries (not every evaluation: that would drown the log)."""

@@ -15,6 +15,16 @@ Conventions:
 - Nothing that goes wrong escapes: processor failures are in the outcome; a job that fails as a
   whole (an unknown plug-in, a crashed render process) is reported through ``crashed``.
 - ``run(wait=True)`` blocks until the current state is evaluated (scripts, ``--screenshot``, tests).
+
+The watchdog (``check_renderer``, every ``WATCHDOG_MS``) is what keeps the window honest about
+the render process, which it cannot see otherwise:
+- a job running longer than ``stall_limit()`` (``STALL_MIN_SECONDS``, or ``STALL_FACTOR`` times
+  the median of the recent jobs if that is longer) is reported once through ``warning`` and then
+  every tick through ``stalled(seconds)``; ``cancel()`` kills that process and starts a new one.
+  After a cancel nothing is sent until the next change, so a network that hangs the render
+  process does not hang it again at once;
+- a render process found dead, busy or idle, is reported through ``crashed`` with its exit code
+  and replaced at once; every replacement is reported through ``info`` with the new process id.
 """
 
 from __future__ import annotations
@@ -23,9 +33,10 @@ import traceback
 
 from PySide6.QtCore import QObject, QTimer, Signal
 
+from vgraph.errors import VGraphError
 from vgraph.fileformat import network_document
-from vgraph.gui.evaluator import EvaluationOutcome, ProcessorStatus, processor_status
-from vgraph.gui.render_process import RenderJob, RenderProcess, RenderResult, plugin_modules
+from vgraph.gui.evaluator import EvaluationOutcome, ProcessorStatus, format_seconds, processor_status
+from vgraph.gui.render_process import RenderJob, RenderProcess, RenderResult, describe_exit, plugin_modules
 from vgraph.gui.workspace import Workspace
 from vgraph.network import Network
 
@@ -34,6 +45,9 @@ TRIGGER_EVENTS = {"processor_added", "processor_removed", "connected", "disconne
 DELAY_MS = 30
 POLL_MS = 10
 INTERACTIVE_SCALE = 0.25
+WATCHDOG_MS = 1000
+STALL_MIN_SECONDS = 10.0    # no job is called stuck sooner (loading a large volume takes a while)
+STALL_FACTOR = 10.0         # ... nor before it took this many times as long as recent jobs
 
 
 class LiveEvaluation(QObject):
@@ -42,9 +56,15 @@ class LiveEvaluation(QObject):
     histograms = Signal(dict)   # processor id -> histogram counts of its volume
     crashed = Signal(str)       # a job failed as a whole, with the reason
     busy_changed = Signal(bool)
+    warning = Signal(str)       # a job takes far too long; a job was cancelled
+    info = Signal(str)          # a new render process took over
+    stalled = Signal(float)     # seconds the overdue job has been running (each watchdog tick)
 
-    def __init__(self, workspace: Workspace, renderer: RenderProcess | None = None, parent=None):
+    def __init__(self, workspace: Workspace, renderer: RenderProcess | None = None, parent=None,
+                 stall_min_seconds: float = STALL_MIN_SECONDS, stall_factor: float = STALL_FACTOR):
         super().__init__(parent)
+        self.stall_min_seconds, self.stall_factor = stall_min_seconds, stall_factor
+        self._stall_reported = False
         self.workspace = workspace
         self.renderer = renderer or RenderProcess()
         self._owns_renderer = renderer is None
@@ -59,6 +79,9 @@ class LiveEvaluation(QObject):
         self._wanted = False        # a change waits for the render process to be free
         self.timer = self._timer(DELAY_MS, self._send)
         self.poller = self._timer(POLL_MS, self._poll)
+        self.watchdog = self._timer(WATCHDOG_MS, self.check_renderer)
+        self.watchdog.setSingleShot(False)
+        self.watchdog.start()
         workspace.network_replaced.connect(self._follow)
         self._follow(workspace.network)
 
@@ -86,10 +109,14 @@ class LiveEvaluation(QObject):
         """Stop evaluating; stop the render process if it is ours (a shared one is left idle)."""
         self.detach()
         self.poller.stop()
+        self.watchdog.stop()
         if self._owns_renderer:
             self.renderer.stop()
         elif self.renderer.busy:
-            self.renderer.wait()
+            try:
+                self.renderer.wait(timeout=self.stall_limit())
+            except VGraphError:
+                self.renderer.cancel()  # a stuck job must not keep the window from closing
 
     def idle(self) -> bool:
         """Nothing waits to be sent and no job is in flight: the views show the current state."""
@@ -130,6 +157,7 @@ class LiveEvaluation(QObject):
         self.timer.stop()
         if not self._wanted or self.renderer.busy:
             return
+        self._replace_if_dead("")
         try:
             job = RenderJob(self.version, network_document(self.network),
                             str(self.network.base_dir) if self.network.base_dir else None,
@@ -138,6 +166,7 @@ class LiveEvaluation(QObject):
             self.crashed.emit(traceback.format_exc())
             return
         self._wanted = self._include_writers = self._fresh = False
+        self._stall_reported = False
         self.renderer.submit(job)
         self.busy_changed.emit(True)
         self.poller.start()
@@ -156,6 +185,8 @@ class LiveEvaluation(QObject):
         if result.error:
             self._fresh = True  # the render process starts over with the next job
             self.crashed.emit(result.error)
+            if self.renderer.pid is None:   # it died with the job: a new one, ready for the next
+                self._replace()
         else:
             self.statuses = dict(result.statuses)
             self.last_outcome = result.outcome
@@ -168,3 +199,55 @@ class LiveEvaluation(QObject):
             self._send()
         if not self.renderer.busy:
             self.busy_changed.emit(False)
+
+    # --- the watchdog ---------------------------------------------------------------------------
+    def stall_limit(self) -> float:
+        """Seconds after which the job in flight is reported as overdue."""
+        typical = self.renderer.typical_seconds()
+        return max(self.stall_min_seconds, self.stall_factor * typical if typical else 0.0)
+
+    def check_renderer(self) -> None:
+        """Report an overdue job; report and replace a render process that died while idle (one
+        that dies with a job is found by the poller and reported with that job)."""
+        if self.renderer.busy:
+            seconds = self.renderer.elapsed()
+            if seconds > self.stall_limit():
+                self._report_stall(seconds)
+        else:
+            self._replace_if_dead(" while idle")
+
+    def _report_stall(self, seconds: float) -> None:
+        if not self._stall_reported:
+            self._stall_reported = True
+            typical = self.renderer.typical_seconds()
+            usual = f", recent ones took {format_seconds(typical)}" if typical else ""
+            self.warning.emit(f"the render process has been working on one frame for "
+                              f"{format_seconds(seconds)}{usual}; it may be stuck: "
+                              f"Network > Cancel Rendering stops it")
+        self.stalled.emit(seconds)
+
+    def _replace_if_dead(self, when: str) -> None:
+        code = self.renderer.died()
+        if code is not None:
+            self.crashed.emit(f"the render process stopped unexpectedly{when} ({describe_exit(code)})")
+            self._replace()
+
+    def _replace(self) -> None:
+        self.renderer.start()
+        self._fresh = True
+        self.info.emit(f"started a new render process (pid {self.renderer.pid})")
+
+    def cancel(self) -> bool:
+        """Give up the frame in flight: kill the render process and start a new one (False if
+        there was nothing to cancel)."""
+        if not self.renderer.busy:
+            return False
+        seconds, pid = self.renderer.elapsed(), self.renderer.pid
+        self.poller.stop()
+        self.renderer.cancel()
+        self._wanted = self._stall_reported = False
+        self.warning.emit(f"cancelled a frame after {format_seconds(seconds)}: "
+                          f"stopped the render process (pid {pid})")
+        self._replace()
+        self.busy_changed.emit(False)
+        return True

@@ -14,15 +14,19 @@ The render process keeps its network between jobs (``mirror`` applies each docum
 unchanged processors keep their textures and outputs.
 
 ``RenderProcess`` is the GUI's handle (no Qt): ``submit`` a job, ``poll``/``wait`` for the result.
-If the process dies (a driver crash), the result says so and the next job starts a new one.
+If the process dies (a driver crash), the result says so with its exit code and the next job
+starts a new one; a job that never finishes (a stopped or stuck process) can be ``cancel``led.
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import signal
+import statistics
 import threading
 import time
 import traceback
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,6 +39,7 @@ from vgraph.network import Network
 from vgraph.registry import registry
 
 BUILTIN_PACKAGE = "vgraph.processors"
+RECENT_JOBS = 20   # how many recent jobs say how long a job usually takes
 
 
 @dataclass
@@ -122,13 +127,31 @@ def serve(connection) -> None:
 
 
 # --- the GUI's side ------------------------------------------------------------------------------
+def describe_exit(code: int | None) -> str:
+    """'exit code 1', or for a process killed by a signal 'exit code -9 (SIGKILL)'."""
+    if code is not None and code < 0:
+        try:
+            return f"exit code {code} ({signal.Signals(-code).name})"
+        except ValueError:
+            pass
+    return f"exit code {code}"
+
+
 class RenderProcess:
-    """Starts the render process on first use; one job in flight at a time."""
+    """Starts the render process on first use; one job in flight at a time.
+
+    For the GUI's watchdog (``LiveEvaluation``): ``elapsed()`` is how long the job in flight has
+    been running, ``typical_seconds()`` the median of the last ``RECENT_JOBS`` jobs, ``died()`` the
+    exit code of a process that ended by itself, ``cancel()`` kills the process of a job that does
+    not finish and ``start()`` puts a new one in its place."""
 
     def __init__(self):
         self._process = None
         self._connection = None
         self.job: RenderJob | None = None   # the job in flight
+        self.job_started = 0.0              # time.monotonic() when it was sent
+        self.recent_seconds: deque[float] = deque(maxlen=RECENT_JOBS)
+        self.starts = 0                     # processes started so far
 
     @property
     def busy(self) -> bool:
@@ -139,12 +162,25 @@ class RenderProcess:
         """The render process's id (None before the first job and after ``stop``)."""
         return self._process.pid if self._process is not None else None
 
+    def elapsed(self) -> float:
+        return time.monotonic() - self.job_started if self.busy else 0.0
+
+    def typical_seconds(self) -> float | None:
+        return statistics.median(self.recent_seconds) if self.recent_seconds else None
+
+    def died(self) -> int | None:
+        """The exit code if the render process ended without being asked to (else None)."""
+        if self._process is None or self._process.is_alive():
+            return None
+        return self._process.exitcode
+
     def submit(self, job: RenderJob) -> None:
         if self.busy:
             raise VGraphError("the render process is still working on the previous job")
         if self._process is None or not self._process.is_alive():
-            self._start()
+            self.start()
         self.job = job
+        self.job_started = time.monotonic()
         try:
             self._connection.send(job)
         except (OSError, ValueError):
@@ -160,11 +196,11 @@ class RenderProcess:
                     return None
                 raise EOFError
             result = self._connection.recv()
+            self.recent_seconds.append(self.elapsed())
         except (EOFError, OSError):
             self._process.join(timeout=1.0)
-            result = RenderResult(self.job.version, self.job.scale,
-                                  error=f"the render process stopped unexpectedly (exit code "
-                                        f"{self._process.exitcode}); the next change starts a new one")
+            result = RenderResult(self.job.version, self.job.scale, error=(
+                f"the render process stopped unexpectedly ({describe_exit(self._process.exitcode)})"))
             self._discard()
         self.job = None
         return result
@@ -180,19 +216,28 @@ class RenderProcess:
             self._connection.poll(0.05)
         raise VGraphError("no job was submitted")
 
-    def _start(self) -> None:
+    def start(self) -> None:
+        """Start a new render process (ending the current one, if any)."""
         self._discard()
         context = multiprocessing.get_context("spawn")
         self._connection, child = context.Pipe()
         self._process = context.Process(target=serve, args=(child,), name="vgraph-render", daemon=True)
         self._process.start()
         child.close()
+        self.starts += 1
+
+    def cancel(self) -> None:
+        """Give up the job in flight: its process is killed (``start`` or the next job makes a new one)."""
+        self._discard()
+        self.job = None
 
     def _discard(self) -> None:
         if self._connection is not None:
             self._connection.close()
-        if self._process is not None and self._process.is_alive():
-            self._process.terminate()
+        if self._process is not None:
+            if self._process.is_alive():
+                self._process.kill()   # SIGKILL: a stopped (SIGSTOP) process ignores SIGTERM
+            self._process.join(timeout=5)  # reaped, so no zombie is left behind
         self._process = self._connection = None
 
     def stop(self) -> None:
