@@ -27,7 +27,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import NonFiniteVoxelsWarning
+from vgraph.io._common import NonFiniteVoxelsWarning, file_problem, regular_file
 from vgraph.io.dicom_series import read_dicom_series
 from vgraph.io.metaimage import read_metaimage
 from vgraph.io.nifti import read_nifti
@@ -41,7 +41,7 @@ from vgraph.io.writers import WRITABLE_EXTENSIONS, write_volume
 from vgraph.volume import Volume
 
 __all__ = ["read_volume", "write_volume", "SUPPORTED_EXTENSIONS", "WRITABLE_EXTENSIONS",
-           "FILE_FILTERS", "NonFiniteVoxelsWarning", "VolumeFileError"]
+           "FILE_FILTERS", "NonFiniteVoxelsWarning", "VolumeFileError", "file_problem"]
 
 _READERS = {
     ".dat": read_qvis,
@@ -80,8 +80,7 @@ def read_volume(path, *, raw: dict | None = None) -> Volume:
         return read_raw(path, raw)
     if path.is_dir():
         return read_dicom_series(path)
-    if not path.exists():
-        raise VolumeFileError(path, "file does not exist")
+    regular_file(path)  # before anything opens it: a FIFO would block, /dev/zero never end
     ext = extension_of(path)
     if ext == ".raw":
         return read_raw(path)

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import math
 import os
+import resource
+import stat
 import warnings
 from pathlib import Path
 
@@ -25,6 +27,9 @@ from vgraph.volume import Volume
 # Reads above this size show a tqdm bar (which tqdm itself hides when stderr is not a terminal).
 PROGRESS_THRESHOLD_BYTES = 64 * 2**20
 _CHUNK_BYTES = 16 * 2**20
+# Text headers (.dat, .nhdr, .mhd, the NRRD data file LIST) are small; a "header" beyond this is
+# a data file opened by mistake, and reading it whole (or one endless line of it) would eat memory.
+MAX_HEADER_BYTES = 8 * 2**20
 
 
 class NonFiniteVoxelsWarning(UserWarning):
@@ -87,8 +92,14 @@ def pad_to_3d(shape_xyz, file, field: str) -> tuple[int, int, int]:
 
 # --- memory --------------------------------------------------------------------------------------
 def available_memory() -> int | None:
-    """Bytes of memory a new allocation can use: MemAvailable from /proc/meminfo, else the free
-    physical pages, else None (unknown: the check is skipped)."""
+    """Bytes of memory a new allocation can use: MemAvailable from /proc/meminfo (else the free
+    physical pages), lowered to the address space left under RLIMIT_AS when the process has
+    one; None when unknown (the check is then skipped)."""
+    limits = [n for n in (_physical_memory_available(), _address_space_left()) if n is not None]
+    return min(limits) if limits else None
+
+
+def _physical_memory_available() -> int | None:
     try:
         with open("/proc/meminfo") as meminfo:
             for line in meminfo:
@@ -100,6 +111,22 @@ def available_memory() -> int | None:
         return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (ValueError, OSError, AttributeError):
         return None
+
+
+def _address_space_left() -> int | None:
+    """Under RLIMIT_AS an allocation beyond the limit fails with MemoryError however much
+    physical memory is free, so the headroom below the limit counts as the available memory."""
+    soft, _hard = resource.getrlimit(resource.RLIMIT_AS)
+    if soft == resource.RLIM_INFINITY:
+        return None
+    try:
+        with open("/proc/self/status") as status:
+            for line in status:
+                if line.startswith("VmSize:"):
+                    return max(0, soft - int(line.split()[1]) * 1024)
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
 
 
 def format_bytes(n: float) -> str:
@@ -119,13 +146,74 @@ def check_memory(file, needed_bytes: int, field: str | None = None) -> None:
                                     f"is available", field)
 
 
-# --- raw bytes -----------------------------------------------------------------------------------
-def existing_file(path, referenced_by, field: str) -> Path:
-    """A data file named in a header; a missing one is reported against the header's field."""
+# --- files and headers ---------------------------------------------------------------------------
+_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISSOCK, "a socket"))
+
+
+def file_problem(path) -> str | None:
+    """Why ``path`` cannot be read as a file ('does not exist', 'is not a regular file (a FIFO)',
+    'cannot be read: Permission denied'), or None. Checked before opening: opening a FIFO blocks
+    until a writer appears, and /dev/zero never ends."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return "does not exist"
+    except OSError as exc:  # permission denied on a parent folder, a name too long, a loop
+        return f"cannot be read: {exc.strerror}"
+    except ValueError as exc:  # a NUL character in a name taken from a header
+        return f"cannot be read: {exc}"
+    if not stat.S_ISREG(mode):
+        kind = next((name for test, name in _KINDS if test(mode)), "not a file")
+        return f"is not a regular file ({kind})"
+    if not os.access(path, os.R_OK):
+        return "cannot be read: Permission denied"
+    return None
+
+
+def regular_file(path, referenced_by=None, field: str | None = None) -> Path:
+    """``path`` if it is a readable regular file. A data file named in a header
+    (``referenced_by``) is reported against the header and its field."""
     path = Path(path)
-    if not path.is_file():
-        raise VolumeFileError(referenced_by, f"data file {str(path)!r} does not exist", field)
-    return path
+    problem = file_problem(path)
+    if problem is None:
+        return path
+    if referenced_by is None:
+        raise VolumeFileError(path, "file " + problem, field)
+    raise VolumeFileError(referenced_by, f"data file {str(path)!r} {problem}", field)
+
+
+def read_header_bytes(path, limit: int = MAX_HEADER_BYTES) -> bytes:
+    """The whole of a file that is only a header (.dat), refused when it is larger than a header
+    can be."""
+    size = regular_file(path).stat().st_size
+    if size > limit:
+        raise VolumeFileError(path, f"a {format_bytes(size)} file is not a header (the limit is "
+                                    f"{format_bytes(limit)}): is this the data file?", "header")
+    try:
+        return Path(path).read_bytes()
+    except OSError as exc:
+        raise VolumeFileError(path, f"cannot read header: {exc.strerror}", "header") from exc
+
+
+def header_lines(fh, path, limit: int = MAX_HEADER_BYTES):
+    """Lines (bytes, with their line ends) from an open file until the header budget is spent;
+    each line is read with a length cap, so a binary file without line ends costs at most
+    ``limit`` bytes."""
+    used = 0
+    while True:
+        line = fh.readline(limit - used + 1)
+        if not line:
+            return
+        used += len(line)
+        if used > limit:
+            raise VolumeFileError(path, f"the header is longer than {format_bytes(limit)} (or has "
+                                        f"no end): not a header, or a damaged one", "header")
+        yield line
+
+
+# --- raw bytes -----------------------------------------------------------------------------------
 
 
 def read_raw_array(path, dtype: np.dtype, count: int, *, offset: int = 0,
@@ -149,7 +237,7 @@ def read_raw_array(path, dtype: np.dtype, count: int, *, offset: int = 0,
     check_memory(path, needed, size_field)
     out = np.empty(count, dtype=dtype)
     _read_into(path, start, out.view(np.uint8), needed)
-    return to_native(out)
+    return to_native(out, copy=False)
 
 
 def _data_start(path, blame, actual: int, needed: int, offset: int, allow_trailing: bool,
@@ -189,11 +277,13 @@ def _read_into(path, start: int, target: np.ndarray, nbytes: int) -> None:
             bar.update(got)
 
 
-def to_native(array: np.ndarray) -> np.ndarray:
-    """The same values in native byte order (textures and numpy ufuncs expect it)."""
+def to_native(array: np.ndarray, copy: bool = True) -> np.ndarray:
+    """The same values in native byte order (textures and numpy ufuncs expect it). ``copy=False``
+    swaps a buffer the reader owns in place, so a big-endian file does not need twice the memory."""
     if array.dtype.byteorder in ("=", "|") or array.dtype.isnative:
         return array
-    return array.byteswap().view(array.dtype.newbyteorder("="))
+    swapped = array.byteswap(inplace=not copy)
+    return swapped.view(array.dtype.newbyteorder("="))
 
 
 # --- numpy dtypes from header words --------------------------------------------------------------
@@ -201,7 +291,7 @@ def raw_dtype(name, endianness: str, file, field: str) -> np.dtype:
     """A numpy dtype from a name such as 'uint16' / 'float32' / '<u2' and 'little' | 'big'."""
     try:
         dtype = np.dtype(name)
-    except TypeError:
+    except (TypeError, ValueError, SyntaxError, KeyError):
         raise VolumeFileError(file, f"unknown data type {name!r}", field) from None
     if dtype.kind not in "uif" or dtype.itemsize > 8:
         raise VolumeFileError(file, f"unsupported data type {dtype} (need integer or float)", field)

@@ -21,6 +21,7 @@ Without ImagePositionPatient the slices are sorted by InstanceNumber, with a war
 
 from __future__ import annotations
 
+import math
 import os
 import warnings
 from collections import defaultdict
@@ -28,27 +29,39 @@ from pathlib import Path
 
 import numpy as np
 import pydicom
-from pydicom.errors import InvalidDicomError
+import pydicom.filereader
+from pydicom.uid import DeflatedExplicitVRLittleEndian
 from tqdm import tqdm
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import check_memory, check_origin, check_spacing, make_volume
+from vgraph.io._common import (check_memory, check_origin, check_spacing, make_volume,
+                               regular_file)
+from vgraph.io._values import rescaled
+from vgraph.io._inflate import check_inflates_within, file_pieces
 from vgraph.volume import Volume
 
 _SAME_ACROSS_SLICES = ("Rows", "Columns", "BitsAllocated", "PixelRepresentation", "SamplesPerPixel")
+# pydicom inflates a deflated data set whole, in one call, before it parses anything; a slice
+# (even 8192 x 8192 x 16 bits with its header) is far below this, a deflate bomb far above.
+MAX_DEFLATED_BYTES = 256 * 2**20
+# Elements above this size are left in the file while the headers of a folder are scanned.
+_DEFER_BYTES = 2**20
 
 
 def read_dicom_series(path) -> Volume:
     path = Path(path)
-    folder, wanted_series = (path, None) if path.is_dir() else (path.parent, _series_of(path))
+    if path.is_dir():
+        folder, wanted_series = path, None
+    else:
+        folder, wanted_series = regular_file(path).parent, _series_of(path)
     slices = _image_headers(folder)
     if not slices:
         raise VolumeFileError(folder, "no DICOM image files found in the folder", "folder")
     series = _pick_series(folder, slices, wanted_series)
     _check_consistent(series)
-    first = series[0][1]
-    if int(first.get("NumberOfFrames", 1) or 1) > 1:
-        raise VolumeFileError(series[0][0], "multi-frame DICOM files are not supported",
+    first_file, first = series[0]
+    if _integer(first_file, first, "NumberOfFrames", 1) > 1:
+        raise VolumeFileError(first_file, "multi-frame DICOM files are not supported",
                               "NumberOfFrames")
     ordered, z_spacing, origin = _sort_slices(series)
     spacing = check_spacing((*_pixel_spacing(ordered[0]), z_spacing), ordered[0][0], "PixelSpacing")
@@ -57,10 +70,37 @@ def read_dicom_series(path) -> Volume:
                        "ImagePositionPatient"), declared_range=declared)
 
 
+# --- reading files -------------------------------------------------------------------------------
+def _dataset(file: Path, headers_only: bool) -> pydicom.Dataset:
+    """pydicom's reading of one file, after the check that a deflated data set stays small."""
+    _check_deflated_size(file)
+    if headers_only:
+        return pydicom.dcmread(file, stop_before_pixels=True, defer_size=_DEFER_BYTES)
+    return pydicom.dcmread(file)
+
+
+def _check_deflated_size(file: Path) -> None:
+    try:
+        with open(file, "rb") as fh:
+            pydicom.filereader.read_preamble(fh, False)
+            # pydicom's own meta reader (private, but stable since pydicom 1.0): it leaves the
+            # file at the start of the data set, which is where the deflated stream begins
+            meta = pydicom.filereader._read_file_meta_info(fh)
+            start = fh.tell()
+    except Exception:  # not DICOM, or no file meta: dcmread reports it, nothing is inflated
+        return
+    if meta.get("TransferSyntaxUID") == DeflatedExplicitVRLittleEndian:
+        check_inflates_within(file_pieces(file, start, file, "TransferSyntaxUID"), "deflate",
+                              MAX_DEFLATED_BYTES, file, "TransferSyntaxUID",
+                              what="the deflated data set")
+
+
 def _series_of(file: Path) -> str | None:
     try:
-        return str(pydicom.dcmread(file, stop_before_pixels=True).get("SeriesInstanceUID", ""))
-    except (InvalidDicomError, OSError, ValueError) as exc:
+        return str(_dataset(file, headers_only=True).get("SeriesInstanceUID", ""))
+    except VolumeFileError:
+        raise
+    except Exception as exc:  # pydicom raises many types for damaged files
         raise VolumeFileError(file, f"not a readable DICOM file: {exc}", "header") from exc
 
 
@@ -71,12 +111,42 @@ def _image_headers(folder: Path) -> list[tuple[Path, pydicom.Dataset]]:
         if name.startswith(".") or not file.is_file():
             continue
         try:
-            ds = pydicom.dcmread(file, stop_before_pixels=True)
-        except (InvalidDicomError, OSError, ValueError, EOFError, TypeError):
+            ds = _dataset(file, headers_only=True)
+        except VolumeFileError:
+            raise
+        except Exception:
             continue  # not DICOM (a licence, a CSV ...): a series folder may hold such files
         if "Rows" in ds and "Columns" in ds:
             found.append((file, ds))
     return found
+
+
+# --- header values -------------------------------------------------------------------------------
+def _numbers(file: Path, ds, field: str, count: int | None = None) -> tuple[float, ...] | None:
+    """A field as finite numbers (None when absent); anything else is refused with its name."""
+    value = ds.get(field)
+    if value is None or value == "":
+        return None
+    items = value if isinstance(value, (list, tuple, pydicom.multival.MultiValue)) else [value]
+    try:
+        numbers = tuple(float(v) for v in items)
+    except (TypeError, ValueError, OverflowError):
+        raise VolumeFileError(file, f"expected numbers, got {value!r}", field) from None
+    if (count is not None and len(numbers) != count) or not all(map(math.isfinite, numbers)):
+        raise VolumeFileError(file, f"expected {count or 'some'} finite numbers, got {value!r}",
+                              field)
+    return numbers
+
+
+def _integer(file: Path, ds, field: str, default: int | None = None) -> int:
+    numbers = _numbers(file, ds, field, 1)
+    if numbers is None:
+        if default is None:
+            raise VolumeFileError(file, "required field is missing", field)
+        return default
+    if numbers[0] != int(numbers[0]):
+        raise VolumeFileError(file, f"expected an integer, got {numbers[0]}", field)
+    return int(numbers[0])
 
 
 def _pick_series(folder, slices, wanted):
@@ -99,34 +169,34 @@ def _pick_series(folder, slices, wanted):
 def _check_consistent(series) -> None:
     first_file, first = series[0]
     for field in _SAME_ACROSS_SLICES + ("PixelSpacing", "ImageOrientationPatient"):
-        expected = _as_tuple(first.get(field))
+        expected = _numbers(first_file, first, field)
         for file, ds in series[1:]:
-            value = _as_tuple(ds.get(field))
+            value = _numbers(file, ds, field)
             if value != expected and not _close(value, expected):
                 raise VolumeFileError(file, f"{value} differs from {expected} in "
                                             f"{first_file.name}: slices of one volume must agree",
                                       field)
-    if int(first.get("SamplesPerPixel", 1)) != 1:
+    if _integer(first_file, first, "SamplesPerPixel", 1) != 1:
         raise VolumeFileError(first_file, "only single-sample (grey) images are supported",
                               "SamplesPerPixel")
 
 
 def _sort_slices(series):
     """Slices sorted along the normal, the z spacing and the first slice's position."""
-    if all("ImagePositionPatient" in ds and "ImageOrientationPatient" in ds for _, ds in series):
-        orientation = np.array(series[0][1].ImageOrientationPatient, dtype=float)
+    orientation = _numbers(*series[0], "ImageOrientationPatient", 6)
+    positions = [_numbers(file, ds, "ImagePositionPatient", 3) for file, ds in series]
+    if orientation is not None and all(p is not None for p in positions):
         normal = np.cross(orientation[:3], orientation[3:])
-        positions = [np.array(ds.ImagePositionPatient, dtype=float) for _, ds in series]
-        order = np.argsort([p @ normal for p in positions], kind="stable")
+        distances = [float(np.dot(p, normal)) for p in positions]
+        order = np.argsort(distances, kind="stable")
         ordered = [series[i] for i in order]
-        distances = np.array([positions[i] @ normal for i in order])
-        z_spacing = _uniform_step(ordered, distances) if len(ordered) > 1 \
+        z_spacing = _uniform_step(ordered, np.array(distances)[order]) if len(ordered) > 1 \
             else _single_slice_thickness(ordered[0])
-        return ordered, z_spacing, tuple(positions[order[0]])
+        return ordered, z_spacing, positions[order[0]]
     warnings.warn(f"{series[0][0].parent}: slices lack ImagePositionPatient/ImageOrientationPatient; "
                   f"sorted by InstanceNumber, spacing from SpacingBetweenSlices/SliceThickness",
                   UserWarning, stacklevel=3)
-    ordered = sorted(series, key=lambda item: int(item[1].get("InstanceNumber", 0) or 0))
+    ordered = sorted(series, key=lambda item: _integer(*item, "InstanceNumber", 0))
     return ordered, _single_slice_thickness(ordered[0]), (0.0, 0.0, 0.0)
 
 
@@ -151,55 +221,61 @@ def _uniform_step(ordered, distances: np.ndarray) -> float:
 
 
 def _single_slice_thickness(item) -> float:
-    _, ds = item
+    file, ds = item
     for field in ("SpacingBetweenSlices", "SliceThickness"):
-        value = ds.get(field)
-        if value not in (None, "") and float(value) > 0:
-            return float(value)
+        value = _numbers(file, ds, field, 1)
+        if value is not None and value[0] > 0:
+            return value[0]
     return 1.0
 
 
 def _pixel_spacing(item) -> tuple[float, float]:
     file, ds = item
     for field in ("PixelSpacing", "ImagerPixelSpacing"):
-        value = ds.get(field)
+        value = _numbers(file, ds, field)
         if value is not None and len(value) == 2:
-            row_spacing, column_spacing = (float(v) for v in value)
+            row_spacing, column_spacing = value
             return column_spacing, row_spacing
     warnings.warn(f"{file}: no PixelSpacing; using 1 x 1", UserWarning, stacklevel=4)
     return 1.0, 1.0
 
 
 def _read_pixels(folder, ordered):
+    """The stored values of every slice, then (if any slice rescales) the rescaled values."""
     rescale = [_rescale(file, ds) for file, ds in ordered]
     scaled = any(r != (1.0, 0.0) for r in rescale)
     first_file, first = ordered[0]
-    rows, columns = int(first.Rows), int(first.Columns)
-    stored_itemsize = int(first.BitsAllocated + 7) // 8
-    out_dtype = np.dtype(np.float32) if scaled else None
+    rows, columns = _integer(first_file, first, "Rows"), _integer(first_file, first, "Columns")
+    allocated = _integer(first_file, first, "BitsAllocated")
+    if allocated not in (8, 16, 32) or min(rows, columns) < 1:
+        raise VolumeFileError(first_file, f"need 8, 16 or 32 bits allocated and at least one row "
+                                          f"and column, got {allocated} bits, {rows} x {columns}",
+                              "Rows/Columns/BitsAllocated")
     count = rows * columns * len(ordered)
-    check_memory(folder, count * (stored_itemsize + (4 if scaled else 0)), "Rows/Columns")
-    data = None
+    check_memory(folder, count * (allocated // 8 + (8 if scaled else 0)), "Rows/Columns")
+    stored = None
     for index, (file, _) in enumerate(tqdm(ordered, desc=f"reading {folder.name}", unit="slice",
                                            leave=False, disable=None if len(ordered) > 20 else True)):
         pixels = _slice_pixels(file)
-        if data is None:
-            data = np.empty((len(ordered), rows, columns), dtype=out_dtype or pixels.dtype)
         if pixels.shape != (rows, columns):
             raise VolumeFileError(file, f"pixel array has shape {pixels.shape}, expected "
                                         f"{(rows, columns)}", "Rows/Columns")
-        slope, inter = rescale[index]
-        data[index] = pixels.astype(np.float64) * slope + inter if scaled else pixels
-    return data, _declared_range(first, rescale)
+        if stored is None:
+            stored = np.empty((len(ordered), rows, columns), dtype=pixels.dtype)
+        stored[index] = pixels
+    data = rescaled(stored, *zip(*rescale)) if scaled else stored
+    return data, _declared_range(first_file, first, allocated, rescale)
 
 
 def _slice_pixels(file: Path) -> np.ndarray:
     try:
-        return pydicom.dcmread(file).pixel_array
+        return _dataset(file, headers_only=False).pixel_array
+    except VolumeFileError:
+        raise
     except Exception as exc:  # pydicom raises a range of types for missing codecs or bad data
         syntax = "?"
         try:
-            syntax = str(pydicom.dcmread(file, stop_before_pixels=True).file_meta.TransferSyntaxUID)
+            syntax = str(pydicom.filereader.read_file_meta_info(file).TransferSyntaxUID)
         except Exception:
             pass
         raise VolumeFileError(file, f"cannot decode pixel data (transfer syntax {syntax}): {exc}",
@@ -207,34 +283,22 @@ def _slice_pixels(file: Path) -> np.ndarray:
 
 
 def _rescale(file, ds) -> tuple[float, float]:
-    try:
-        slope = float(ds.get("RescaleSlope", 1.0) or 1.0)
-        inter = float(ds.get("RescaleIntercept", 0.0) or 0.0)
-    except (TypeError, ValueError) as exc:
-        raise VolumeFileError(file, f"bad rescale value: {exc}", "RescaleSlope/RescaleIntercept")
-    if not (np.isfinite(slope) and np.isfinite(inter)) or slope == 0:
+    slope = (_numbers(file, ds, "RescaleSlope", 1) or (1.0,))[0]
+    inter = (_numbers(file, ds, "RescaleIntercept", 1) or (0.0,))[0]
+    if slope == 0:
         raise VolumeFileError(file, f"slope {slope}, intercept {inter} do not map values",
-                              "RescaleSlope/RescaleIntercept")
+                              "RescaleSlope")
     return slope, inter
 
 
-def _declared_range(first, rescale):
-    bits, allocated = int(first.get("BitsStored", 0) or 0), int(first.BitsAllocated)
+def _declared_range(file, first, allocated: int, rescale):
+    bits = _integer(file, first, "BitsStored", 0)
     if not 0 < bits < allocated:
         return None
-    signed = int(first.get("PixelRepresentation", 0)) == 1
+    signed = _integer(file, first, "PixelRepresentation", 0) == 1
     lo, hi = (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1) if signed else (0, 2 ** bits - 1)
     ends = [v * slope + inter for slope, inter in rescale for v in (lo, hi)]
     return (float(min(ends)), float(max(ends)))
-
-
-def _as_tuple(value):
-    if value is None:
-        return None
-    try:
-        return tuple(float(v) for v in value)
-    except TypeError:
-        return (float(value),)
 
 
 def _close(a, b) -> bool:

@@ -10,7 +10,8 @@ Header ``Key = value`` fields read (keys as MetaIO writes them):
   Offset / Origin / Position     origin
   ElementByteOrderMSB / BinaryDataByteOrderMSB   True = big-endian
   ElementNumberOfChannels        must be 1
-  CompressedData                 True = zlib stream
+  CompressedData                 True = zlib stream; it must decompress to exactly the bytes
+                                 DimSize and ElementType describe
   HeaderSize                     bytes to skip in the data file (-1: data are the last bytes)
   ElementMin / ElementMax        the declared value range, when both are given
   ElementDataFile                file name relative to the header, or LOCAL (data follow the
@@ -22,15 +23,15 @@ A raw data file must hold exactly the described bytes unless HeaderSize is given
 
 from __future__ import annotations
 
-import zlib
 from pathlib import Path
 
 import numpy as np
 
 from vgraph.errors import VolumeFileError
 from vgraph.io._common import (check_dims, check_memory, check_origin, check_spacing,
-                               existing_file, make_volume, parse_numbers, read_raw_array,
-                               to_native)
+                               header_lines, make_volume, parse_numbers, read_raw_array,
+                               regular_file, to_native)
+from vgraph.io._inflate import file_pieces, inflate_into
 from vgraph.volume import Volume
 
 ELEMENT_TYPES = {
@@ -42,7 +43,7 @@ _TRUE = ("true", "1", "yes")
 
 
 def read_metaimage(path) -> Volume:
-    path = Path(path)
+    path = regular_file(path)
     fields, data_offset = parse_header(path)
     if "ElementDataFile" not in fields:
         raise VolumeFileError(path, "required field is missing", "ElementDataFile")
@@ -71,7 +72,7 @@ def parse_header(path: Path) -> tuple[dict[str, str], int]:
     fields: dict[str, str] = {}
     try:
         with open(path, "rb") as fh:
-            for number, raw_line in enumerate(iter(fh.readline, b""), start=1):
+            for number, raw_line in enumerate(header_lines(fh, path), start=1):
                 line = raw_line.decode("latin-1").strip()
                 if not line:
                     continue
@@ -84,7 +85,7 @@ def parse_header(path: Path) -> tuple[dict[str, str], int]:
                     break
             offset = fh.tell()
     except OSError as exc:
-        raise VolumeFileError(path, f"cannot read header: {exc.strerror}") from exc
+        raise VolumeFileError(path, f"cannot read header: {exc.strerror}", "header") from exc
     return fields, offset
 
 
@@ -105,10 +106,12 @@ def _dtype(fields: dict, path: Path) -> np.dtype:
 
 def _read_data(path: Path, fields: dict, data_offset: int, dtype: np.dtype, count: int):
     name = fields["ElementDataFile"]
+    if not name:
+        raise VolumeFileError(path, "no file name", "ElementDataFile")
     if name.split()[0].upper() == "LIST" or "%" in name:
         raise VolumeFileError(path, f"multi-file data ({name!r}) are not supported", "ElementDataFile")
     local = name.upper() == "LOCAL"
-    data_file = path if local else existing_file(path.parent / name, path, "ElementDataFile")
+    data_file = path if local else regular_file(path.parent / name, path, "ElementDataFile")
     header_size = parse_numbers(fields["HeaderSize"], path, "HeaderSize", 1, int)[0] \
         if "HeaderSize" in fields else None
     if fields.get("CompressedData", "False").lower() in _TRUE:
@@ -124,18 +127,11 @@ def _read_data(path: Path, fields: dict, data_offset: int, dtype: np.dtype, coun
 
 
 def _read_compressed(path, data_file, start, dtype, count) -> np.ndarray:
-    needed = count * dtype.itemsize
-    check_memory(path, needed + Path(data_file).stat().st_size, "DimSize")
-    with open(data_file, "rb") as fh:
-        fh.seek(start)
-        try:
-            payload = zlib.decompress(fh.read())
-        except zlib.error as exc:
-            raise VolumeFileError(path, f"cannot decompress the data: {exc}", "CompressedData") from exc
-    if len(payload) != needed:
-        raise VolumeFileError(path, f"decompressed data hold {len(payload)} bytes, expected "
-                                    f"{needed}", "DimSize")
-    return to_native(np.frombuffer(payload, dtype=dtype).copy())
+    check_memory(path, count * dtype.itemsize, "DimSize")
+    out = np.empty(count, dtype=dtype)
+    inflate_into(out.view(np.uint8), file_pieces(data_file, start, path, "ElementDataFile"), "zlib",
+                 path, "DimSize", codec_field="CompressedData")
+    return to_native(out, copy=False)
 
 
 def _spacing(fields: dict, path: Path, ndims: int):

@@ -18,50 +18,113 @@ except in files vgraph wrote itself (descrip "vgraph volume"), where they carry 
 
 from __future__ import annotations
 
+import io
 import warnings
-import zlib
 from pathlib import Path
 
 import nibabel as nib
 import numpy as np
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import check_memory, check_origin, make_volume, pad_to_3d, to_native
+from vgraph.io._common import (MAX_HEADER_BYTES, check_memory, check_origin, make_volume,
+                               pad_to_3d, read_raw_array, regular_file, to_native)
+from vgraph.io._values import rescaled
+from vgraph.io._inflate import file_pieces, inflate_into, inflated_prefix
 from vgraph.volume import Volume
 
 WRITER_TAG = "vgraph volume"
+# sizeof_hdr -> (header class, byte offset and type of vox_offset)
+_HEADERS = {348: (nib.Nifti1Header, 108, "f4"), 540: (nib.Nifti2Header, 168, "i8")}
 
 
 def read_nifti(path) -> Volume:
-    path = Path(path)
-    if not path.is_file():
-        raise VolumeFileError(path, "file does not exist")
-    try:
-        image = nib.load(str(path))
-    except Exception as exc:  # nibabel raises many types for a bad header (ImageFileError, ValueError, EOFError...)
-        raise VolumeFileError(path, f"not a readable NIfTI file: {exc}", "header") from exc
-    if not isinstance(image, (nib.Nifti1Image, nib.Nifti2Image)):
-        raise VolumeFileError(path, f"expected a NIfTI image, nibabel found {type(image).__name__}",
-                              "header")
-    header = image.header
-    dims = pad_to_3d(header.get_data_shape(), path, "dim")
-    stored = np.dtype(header.get_data_dtype())
+    path = regular_file(path)
+    gzipped = path.name.lower().endswith(".gz")
+    header = _header(path, gzipped)
+    dims = pad_to_3d(_checked(path, "dim", header.get_data_shape), path, "dim")
+    stored = np.dtype(_checked(path, "datatype", header.get_data_dtype))
     if stored.kind not in "uif" or stored.fields is not None:
         raise VolumeFileError(path, f"unsupported datatype {stored} (scalar integer or float only)",
                               "datatype")
-    slope, inter = _scaling(image)
-    scaled = not (slope == 1.0 and inter == 0.0)
-    out_dtype = _scaled_dtype(stored) if scaled else stored
+    slope, inter = _scaling(header, path)
     count = dims[0] * dims[1] * dims[2]
-    # stored array + its [z, y, x] copy (+ the scaled result)
-    check_memory(path, count * (2 * stored.itemsize + (out_dtype.itemsize if scaled else 0)), "dim")
-    data_xyz = _unscaled_data(image, path)
-    data = np.ascontiguousarray(to_native(data_xyz).reshape(dims, order="F").T)
-    if scaled:
-        data = (data.astype(np.float64) * slope + inter).astype(out_dtype, copy=False)
+    # the stored array + its [z, y, x] copy (+ the scaled result, float64 at most)
+    check_memory(path, count * (2 * stored.itemsize + (8 if (slope, inter) != (1, 0) else 0)), "dim")
+    flat = _stored_values(path, gzipped, header.get_data_offset(), stored, count)
+    data = np.ascontiguousarray(flat.reshape(dims, order="F").T)
+    if (slope, inter) != (1.0, 0.0):
+        data = rescaled(data, slope, inter)
+    affine = _checked(path, "qform/sform", header.get_best_affine)
     return make_volume(data, path, spacing=_spacing(header, path),
-                       origin=check_origin(image.affine[:3, 3], path, "qoffset/srow"),
+                       origin=check_origin(affine[:3, 3], path, "qoffset/srow"),
                        declared_range=_declared_range(header))
+
+
+def _header(path: Path, gzipped: bool):
+    """The header (and extensions), parsed by nibabel from at most MAX_HEADER_BYTES read here:
+    nibabel would read an extension of any declared size, from a stream of any length."""
+    start = _leading_bytes(path, gzipped, 544)
+    klass, vox_offset = _kind_and_offset(start, path)
+    size = max(min(vox_offset, MAX_HEADER_BYTES), 352 if klass is nib.Nifti1Header else 544)
+    if vox_offset > MAX_HEADER_BYTES:
+        raise VolumeFileError(path, f"the data start at byte {vox_offset}, beyond the "
+                                    f"{MAX_HEADER_BYTES} bytes a header (with extensions) may take",
+                              "vox_offset")
+    blob = _leading_bytes(path, gzipped, size)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # nibabel warns about fields it fixes; we report errors
+        header = _checked(path, "header", lambda: klass.from_fileobj(io.BytesIO(blob)))
+    magic = bytes(header["magic"])
+    if magic[:3] not in (b"n+1", b"n+2"):
+        raise VolumeFileError(path, f"not a single-file NIfTI image (magic {magic!r})", "magic")
+    return header
+
+
+def _leading_bytes(path: Path, gzipped: bool, size: int) -> bytes:
+    """Up to ``size`` bytes from the start of the (decompressed) file."""
+    if gzipped:
+        return inflated_prefix(file_pieces(path, 0, path, "header"), "gzip", size, path, "header")
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(size)
+    except OSError as exc:
+        raise VolumeFileError(path, f"cannot read the header: {exc.strerror}", "header") from exc
+
+
+def _kind_and_offset(start: bytes, path: Path):
+    """The header class (NIfTI-1 or -2, by sizeof_hdr in either byte order) and vox_offset."""
+    for order in "<>":
+        if len(start) >= 4 and int(np.frombuffer(start[:4], order + "i4")[0]) in _HEADERS:
+            klass, at, kind = _HEADERS[int(np.frombuffer(start[:4], order + "i4")[0])]
+            if len(start) < at + 8:
+                break
+            value = float(np.frombuffer(start[at:at + 8], order + kind, count=1)[0])
+            if not np.isfinite(value) or value < 0:
+                raise VolumeFileError(path, f"must be a byte offset, got {value}", "vox_offset")
+            return klass, int(value)
+    raise VolumeFileError(path, f"not a NIfTI file (the first {min(len(start), 4)} bytes are no "
+                                f"NIfTI-1 or NIfTI-2 header size)", "sizeof_hdr")
+
+
+def _checked(path: Path, field: str, compute):
+    """A value nibabel derives from the header; nibabel raises many types for a bad header
+    (HeaderDataError, ValueError, TypeError, IndexError...)."""
+    try:
+        return compute()
+    except Exception as exc:
+        raise VolumeFileError(path, f"not a readable NIfTI header: {exc}", field) from exc
+
+
+def _stored_values(path: Path, gzipped: bool, offset: int, stored: np.dtype, count: int):
+    """The ``count`` stored values after ``offset``, flat, native byte order; a .nii.gz stream
+    must end where they do."""
+    if not gzipped:
+        return read_raw_array(path, stored, count, offset=offset, allow_trailing=True,
+                              size_field="dim")
+    out = np.empty(count, dtype=stored)
+    inflate_into(out.view(np.uint8), file_pieces(path, 0, path, "dim"), "gzip", path, "dim",
+                 skip=offset)
+    return to_native(out, copy=False)
 
 
 def _declared_range(header):
@@ -72,29 +135,14 @@ def _declared_range(header):
     return (lo, hi) if np.isfinite(lo) and np.isfinite(hi) and lo < hi else None
 
 
-def _scaling(image) -> tuple[float, float]:
-    """nibabel moves scl_slope/scl_inter into the data proxy and clears them in image.header."""
-    slope = getattr(image.dataobj, "slope", 1.0)
-    inter = getattr(image.dataobj, "inter", 0.0)
-    slope = 1.0 if slope is None or not np.isfinite(slope) or slope == 0 else float(slope)
-    inter = 0.0 if inter is None or not np.isfinite(inter) else float(inter)
-    return slope, inter
-
-
-def _scaled_dtype(stored: np.dtype) -> np.dtype:
-    small = (stored.kind in "ui" and stored.itemsize <= 2) or stored == np.float32
-    return np.dtype(np.float32 if small else np.float64)
-
-
-def _unscaled_data(image, path: Path) -> np.ndarray:
-    try:
-        return np.asanyarray(image.dataobj.get_unscaled())
-    except (OSError, EOFError, ValueError, zlib.error) as exc:  # truncated or corrupt data
-        raise VolumeFileError(path, f"cannot read the voxel data: {exc}", "dim") from exc
+def _scaling(header, path: Path) -> tuple[float, float]:
+    """scl_slope / scl_inter; nibabel reads a zero or non-finite slope as 'no scaling'."""
+    slope, inter = _checked(path, "scl_inter", header.get_slope_inter)
+    return (1.0, 0.0) if slope is None else (float(slope), float(inter or 0.0))
 
 
 def _spacing(header, path: Path) -> tuple[float, float, float]:
-    zooms = [abs(float(z)) for z in header.get_zooms()[:3]]
+    zooms = [abs(float(z)) for z in _checked(path, "pixdim", header.get_zooms)[:3]]
     zooms += [1.0] * (3 - len(zooms))
     if not all(np.isfinite(zooms)):
         raise VolumeFileError(path, f"spacing must be finite, got {zooms}", "pixdim")

@@ -7,26 +7,22 @@ Header fields read (http://teem.sourceforge.net/nrrd/format.html):
              axis vector; the orientation itself is not applied), space origin (origin),
   min / max  (the declared value range; the key/value ``vgraph value range:=lo hi`` written by
              vgraph's own writer takes precedence).
-pynrrd parses the header. Raw data (attached, detached or multi-file) are read here with exact
-size checks: without an explicit ``byte skip`` a data file must hold exactly the described bytes.
-Compressed single-file data (gzip, bzip2) and ASCII go through pynrrd; multi-file data may be raw
-or gzip/bzip2.
+pynrrd parses the header; the data are read by nrrd_data.py with exact size checks (without an
+explicit ``byte skip`` a raw data file must hold exactly the described bytes; a compressed stream
+must decompress to exactly them).
 """
 
 from __future__ import annotations
 
-import bz2
-import gzip
-import re
-import zlib
 from pathlib import Path
 
 import nrrd
 import numpy as np
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import (check_memory, check_origin, check_spacing, existing_file,
-                               make_volume, pad_to_3d, read_raw_array, to_native)
+from vgraph.io._common import (check_origin, check_spacing, header_lines, make_volume, pad_to_3d,
+                               regular_file)
+from vgraph.io.nrrd_data import MAX_DATA_FILES, read_data
 from vgraph.volume import Volume
 
 VALUE_RANGE_KEY = "vgraph value range"
@@ -43,18 +39,12 @@ _TYPES = {
     "f4": ("float",), "f8": ("double",),
 }
 _TYPE_CODES = {name: code for code, names in _TYPES.items() for name in names}
-_PATTERN = re.compile(r"^(\S*%\S*)\s+(-?\d+)\s+(-?\d+)\s+(-?\d+)(?:\s+(\d+))?$")
-_COMPRESSED = {"gzip": gzip.decompress, "gz": gzip.decompress, "bzip2": bz2.decompress,
-               "bz2": bz2.decompress}
 
 
 def read_nrrd(path) -> Volume:
-    path = Path(path)
+    path = regular_file(path)
     lines, data_offset, listed_files = _split_header(path)
-    try:
-        header = nrrd.read_header(lines)
-    except (nrrd.NRRDError, ValueError) as exc:
-        raise VolumeFileError(path, f"invalid NRRD header: {exc}", "header") from exc
+    header = _parsed_header(lines, path)
     for field in ("dimension", "sizes", "type", "encoding"):
         if field not in header:
             raise VolumeFileError(path, "required field is missing", field)
@@ -64,9 +54,18 @@ def read_nrrd(path) -> Volume:
     dims = pad_to_3d(header["sizes"], path, "sizes")
     dtype = _dtype(header, path)
     count = dims[0] * dims[1] * dims[2]
-    flat = _read_data(path, header, dtype, count, data_offset, listed_files)
-    return make_volume(flat.reshape(dims[::-1]), path, spacing=_spacing(header, path),
-                       origin=_origin(header, path), declared_range=_declared_range(header, path))
+    spacing, origin = _spacing(header, path), _origin(header, path)
+    declared = _declared_range(header, path)
+    flat = read_data(path, header, dtype, count, data_offset, listed_files)
+    return make_volume(flat.reshape(dims[::-1]), path, spacing=spacing, origin=origin,
+                       declared_range=declared)
+
+
+def _parsed_header(lines: list[str], path: Path) -> dict:
+    try:
+        return nrrd.read_header(lines)
+    except Exception as exc:  # pynrrd raises NRRDError, ValueError, IndexError... for bad text
+        raise VolumeFileError(path, f"invalid NRRD header: {exc}", "header") from exc
 
 
 def _split_header(path: Path) -> tuple[list[str], int, list[str] | None]:
@@ -78,12 +77,15 @@ def _split_header(path: Path) -> tuple[list[str], int, list[str] | None]:
             if not fh.read(4) == b"NRRD":
                 raise VolumeFileError(path, "not a NRRD file (no 'NRRD000x' magic line)", "magic")
             fh.seek(0)
-            for raw_line in fh:
+            for raw_line in header_lines(fh, path):
                 line = raw_line.decode("latin-1").rstrip("\r\n")
                 if not line.strip():
                     break
                 if listed is not None:
                     listed.append(line.strip())
+                    if len(listed) > MAX_DATA_FILES:
+                        raise VolumeFileError(path, f"lists more than {MAX_DATA_FILES} data files",
+                                              "data file")
                     continue
                 if not line.startswith("#") and ":" not in line and lines:
                     raise VolumeFileError(path, f"header line {len(lines) + 1} is not "
@@ -95,7 +97,7 @@ def _split_header(path: Path) -> tuple[list[str], int, list[str] | None]:
                     listed = []
             offset = fh.tell()
     except OSError as exc:
-        raise VolumeFileError(path, f"cannot read header: {exc.strerror}") from exc
+        raise VolumeFileError(path, f"cannot read header: {exc.strerror}", "header") from exc
     return lines, offset, listed
 
 
@@ -104,110 +106,13 @@ def _dtype(header: dict, path: Path) -> np.dtype:
     if code is None:
         raise VolumeFileError(path, f"unsupported type {header['type']!r}", "type")
     dtype = np.dtype(code)
-    if dtype.itemsize > 1 and header["encoding"] not in ("ascii", "ASCII", "text", "txt"):
+    if dtype.itemsize > 1 and str(header["encoding"]).lower() not in ("ascii", "text", "txt"):
         endian = header.get("endian")
         if endian not in ("little", "big"):
             raise VolumeFileError(path, f"endian must be 'little' or 'big' for {header['type']} "
                                         f"data, got {endian!r}", "endian")
         dtype = dtype.newbyteorder("<" if endian == "little" else ">")
     return dtype
-
-
-def _read_data(path, header, dtype, count, data_offset, listed_files) -> np.ndarray:
-    data_file = header.get("data file", header.get("datafile"))
-    if data_file is not None:
-        files, subdim = _data_files(path, data_file, listed_files, header["dimension"])
-        if len(files) > 1 or subdim is not None:
-            return _read_multi_file(path, header, dtype, count, files, subdim)
-    encoding = header["encoding"]
-    explicit_skip = "byte skip" in header or "byteskip" in header
-    byte_skip = header.get("byte skip", header.get("byteskip", 0))
-    line_skip = header.get("line skip", header.get("lineskip", 0))
-    if encoding == "raw" and line_skip == 0:
-        source = path if data_file is None else files[0]
-        start = (0 if data_file is not None else data_offset) + max(byte_skip, 0)
-        return read_raw_array(source, dtype, count, offset=-1 if byte_skip == -1 else start,
-                              allow_trailing=explicit_skip, size_field="sizes",
-                              header=None if data_file is None else path)
-    return _read_with_pynrrd(path, header, dtype, count, data_offset)
-
-
-def _data_files(path: Path, value: str, listed: list[str] | None, dimension: int):
-    """Data file paths (relative to the header's folder) and the sub-dimension per file."""
-    if listed is not None:  # data file: LIST [subdim]
-        parts = value.split()
-        subdim = int(parts[1]) if len(parts) > 1 else dimension - 1
-        names = listed
-    else:
-        match = _PATTERN.match(value.strip())
-        if match is None:
-            return [existing_file(path.parent / value, path, "data file")], None
-        pattern, first, last, step, sub = match.groups()
-        first, last, step = int(first), int(last), int(step)
-        if step == 0 or (last - first) * step < 0:
-            raise VolumeFileError(path, f"file number range {first}..{last} step {step} is empty",
-                                  "data file")
-        try:
-            names = [pattern % i for i in range(first, last + (1 if step > 0 else -1), step)]
-        except (TypeError, ValueError) as exc:
-            raise VolumeFileError(path, f"bad file name pattern {pattern!r}: {exc}", "data file")
-        subdim = int(sub) if sub else dimension - 1
-    if not 1 <= subdim <= dimension:
-        raise VolumeFileError(path, f"sub-dimension must be in 1..{dimension}, got {subdim}",
-                              "data file")
-    return [existing_file(path.parent / name, path, "data file") for name in names], subdim
-
-
-def _read_multi_file(path, header, dtype, count, files, subdim) -> np.ndarray:
-    sizes = [int(s) for s in header["sizes"]]
-    per_file = int(np.prod(sizes[:subdim]))
-    if per_file * len(files) != count:
-        raise VolumeFileError(path, f"{len(files)} data files of {per_file} values each do not make "
-                                    f"up the {count} values of sizes {sizes}", "data file")
-    check_memory(path, count * dtype.itemsize, "sizes")
-    explicit_skip = "byte skip" in header or "byteskip" in header
-    byte_skip = header.get("byte skip", header.get("byteskip", 0))
-    encoding = header["encoding"]
-    if encoding != "raw" and encoding not in _COMPRESSED:
-        raise VolumeFileError(path, f"encoding {encoding!r} is not supported for multi-file data",
-                              "encoding")
-    out = np.empty(count, dtype=dtype.newbyteorder("="))
-    for index, file in enumerate(files):
-        if encoding == "raw":
-            part = read_raw_array(file, dtype, per_file, offset=byte_skip,
-                                  allow_trailing=explicit_skip, size_field="sizes", header=path)
-        else:
-            part = _decompressed_part(path, file, encoding, dtype, per_file, byte_skip)
-        out[index * per_file:(index + 1) * per_file] = part
-    return out
-
-
-def _decompressed_part(path, file, encoding, dtype, per_file, byte_skip) -> np.ndarray:
-    try:
-        payload = _COMPRESSED[encoding](Path(file).read_bytes())
-    except (OSError, EOFError, ValueError) as exc:
-        raise VolumeFileError(path, f"cannot decompress data file {str(file)!r}: {exc}",
-                              "encoding") from exc
-    start = len(payload) - per_file * dtype.itemsize if byte_skip == -1 else byte_skip
-    payload = payload[start:]
-    if len(payload) < per_file * dtype.itemsize:
-        raise VolumeFileError(path, f"data file {str(file)!r} is truncated: expected "
-                                    f"{per_file * dtype.itemsize} bytes after decompression, "
-                                    f"found {len(payload)}", "sizes")
-    return to_native(np.frombuffer(payload, dtype=dtype, count=per_file))
-
-
-def _read_with_pynrrd(path, header, dtype, count, data_offset) -> np.ndarray:
-    check_memory(path, count * dtype.itemsize + path.stat().st_size, "sizes")
-    try:
-        with open(path, "rb") as fh:
-            fh.seek(data_offset)
-            data = nrrd.read_data(header, fh, str(path), index_order="C")
-    except (nrrd.NRRDError, OSError, EOFError, ValueError, zlib.error) as exc:
-        field = "sizes" if "Size of the data" in str(exc) else "encoding"  # pynrrd's count check
-        raise VolumeFileError(path, f"cannot read {header['encoding']} data (truncated or corrupt? "
-                                    f"sizes describe {count} values): {exc}", field) from exc
-    return to_native(np.asarray(data)).reshape(-1)
 
 
 def _spacing(header: dict, path: Path) -> tuple[float, float, float]:

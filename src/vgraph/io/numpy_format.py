@@ -9,54 +9,60 @@ vgraph: ``data`` plus optional ``spacing`` (x, y, z), ``origin`` (x, y, z) and `
 
 from __future__ import annotations
 
+import math
+import struct
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import check_memory, check_origin, check_spacing, make_volume
+from vgraph.io._common import (check_memory, check_origin, check_spacing, make_volume,
+                               read_raw_array, regular_file, to_native)
 from vgraph.volume import Volume
 
 METADATA_KEYS = ("spacing", "origin", "value_range")
+# What a damaged archive or member raises from zipfile, zlib and numpy's header parser.
+_ARCHIVE_ERRORS = (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, OSError, EOFError,
+                   ValueError, NotImplementedError, struct.error)
+_READ_CHUNK = 16 * 2**20
 
 
 def read_npy(path) -> Volume:
-    path = Path(path)
-    shape, dtype, data_offset = _npy_header(path, path)
+    path = regular_file(path)
+    try:
+        with open(path, "rb") as fh:
+            shape, fortran, dtype, data_offset = _npy_header(fh, path, "header")
+    except OSError as exc:
+        raise VolumeFileError(path, f"cannot read the file: {exc.strerror}", "header") from exc
     _check_shape_dtype(path, "shape", shape, dtype)
-    needed = int(np.prod(shape)) * dtype.itemsize
-    actual = path.stat().st_size - data_offset
-    if actual != needed:
-        problem = "truncated" if actual < needed else "larger than its header describes"
-        raise VolumeFileError(path, f"file is {problem}: shape {shape} {dtype} needs {needed} data "
-                                    f"bytes, found {actual}", "shape")
-    check_memory(path, needed, "shape")
-    array = _load(path, lambda: np.load(path, allow_pickle=False))
-    return make_volume(_as_zyx(array, path, "shape"), path)
+    flat = read_raw_array(path, dtype, math.prod(shape), offset=data_offset, size_field="shape")
+    return make_volume(_as_zyx(flat, shape, fortran), path)
 
 
 def read_npz(path) -> Volume:
-    path = Path(path)
-    key, others = _npz_data_key(path)
-    with zipfile.ZipFile(path) as archive, archive.open(key + ".npy") as member:
-        shape, dtype, _ = _npy_header(member, path)
-    _check_shape_dtype(path, key, shape, dtype)
-    check_memory(path, int(np.prod(shape)) * dtype.itemsize, key)
-    with np.load(path, allow_pickle=False) as archive:
-        array = _load(path, lambda: archive[key], key)
-        meta = {name: _load(path, lambda: archive[name], name) for name in others}
+    """The data member is read by streaming it out of the archive: its npy header says how many
+    bytes to expect, the zip directory must agree, and nothing beyond them is inflated."""
+    path = regular_file(path)
+    try:
+        with zipfile.ZipFile(path) as archive:
+            key, others = _npz_data_key(archive, path)
+            array = _member_array(archive, key, path)
+            meta = {name: _member_array(archive, name, path, metadata=True) for name in others}
+    except _ARCHIVE_ERRORS as exc:
+        raise VolumeFileError(path, f"not a readable .npz archive: {type(exc).__name__}: {exc}",
+                              "archive") from exc
     spacing = check_spacing(meta["spacing"], path, "spacing") if "spacing" in meta else (1, 1, 1)
     origin = check_origin(meta["origin"], path, "origin") if "origin" in meta else (0, 0, 0)
     declared = None
     if "value_range" in meta:
-        lo, hi = (float(v) for v in np.ravel(meta["value_range"])[:2])
+        lo, hi = (float(v) for v in (list(meta["value_range"]) + [np.nan, np.nan])[:2])
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise VolumeFileError(path, f"need finite low < high, got {meta['value_range']}",
                                   "value_range")
         declared = (lo, hi)
-    return make_volume(_as_zyx(array, path, key), path, spacing=spacing, origin=origin,
-                       declared_range=declared)
+    return make_volume(array, path, spacing=spacing, origin=origin, declared_range=declared)
 
 
 def write_npy(volume: Volume, fh) -> None:
@@ -69,36 +75,67 @@ def write_npz(volume: Volume, fh) -> None:
                         spacing=np.array(volume.spacing), origin=np.array(volume.origin), **extra)
 
 
-def _npz_data_key(path: Path) -> tuple[str, list[str]]:
-    try:
-        with zipfile.ZipFile(path) as archive:
-            keys = [n[:-4] for n in archive.namelist() if n.endswith(".npy")]
-    except (zipfile.BadZipFile, OSError) as exc:
-        raise VolumeFileError(path, f"not a readable .npz archive: {exc}", "archive") from exc
+def _npz_data_key(archive: zipfile.ZipFile, path: Path) -> tuple[str, list[str]]:
+    keys = [n[:-4] for n in archive.namelist() if n.endswith(".npy")]
     present_meta = [k for k in METADATA_KEYS if k in keys]
     arrays = [k for k in keys if k not in METADATA_KEYS]
     if "data" in arrays:
         return "data", present_meta
     if len(arrays) == 1:
         return arrays[0], present_meta
-    raise VolumeFileError(path, f"expected one array or a 'data' key, found keys {keys}", "keys")
+    raise VolumeFileError(path, f"expected one array or a 'data' key, found keys {keys[:20]}",
+                          "keys")
 
 
-def _npy_header(fh_or_path, path: Path):
+def _member_array(archive: zipfile.ZipFile, key: str, path: Path, metadata: bool = False):
+    """One .npy member: the data as a [z, y, x] array, or a metadata vector of a few numbers."""
+    info = archive.getinfo(key + ".npy")
+    if info.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED):
+        # zipfile inflates bzip2 and LZMA members without an output limit; numpy writes neither
+        raise VolumeFileError(path, f"member compression method {info.compress_type} is not "
+                                    f"supported (numpy writes stored or deflated members)", key)
+    with archive.open(info) as member:
+        shape, fortran, dtype, header_size = _npy_header(member, path, key)
+        count = math.prod(shape)
+        if metadata:
+            _check_metadata(path, key, shape, dtype)
+        else:
+            _check_shape_dtype(path, key, shape, dtype)
+        needed = count * dtype.itemsize
+        if info.file_size != header_size + needed:
+            raise VolumeFileError(path, f"the member holds {info.file_size - header_size} data "
+                                        f"bytes but its header declares {needed} (shape {shape} "
+                                        f"{dtype})", key)
+        check_memory(path, needed, key)
+        flat = np.empty(count, dtype=dtype)
+        _fill_from(member, flat.view(np.uint8), path, key)
+    flat = to_native(flat, copy=False)
+    return flat if metadata else _as_zyx(flat, shape, fortran)
+
+
+def _fill_from(member, target: np.ndarray, path: Path, key: str) -> None:
+    view, done = memoryview(target), 0
+    while done < len(view):
+        chunk = member.read(min(_READ_CHUNK, len(view) - done))
+        if not chunk:
+            raise VolumeFileError(path, f"the member ends after {done} of {len(view)} data bytes",
+                                  key)
+        view[done:done + len(chunk)] = chunk
+        done += len(chunk)
+    if member.read(1):  # also where zipfile checks the member's CRC
+        raise VolumeFileError(path, "the member holds more data than its header declares", key)
+
+
+def _npy_header(fh, path: Path, field: str):
+    """(shape, fortran order, dtype, header size) of an open .npy stream."""
     try:
-        opened = fh_or_path if hasattr(fh_or_path, "read") else open(fh_or_path, "rb")
-        try:
-            version = np.lib.format.read_magic(opened)
-            read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                           else np.lib.format.read_array_header_2_0)  # 2.0 and 3.0 share a layout
-            shape, _fortran, dtype = read_header(opened)
-            offset = opened.tell()
-        finally:
-            if opened is not fh_or_path:
-                opened.close()
-    except (ValueError, OSError, EOFError) as exc:
-        raise VolumeFileError(path, f"not a readable .npy header: {exc}", "header") from exc
-    return tuple(int(s) for s in shape), np.dtype(dtype), offset
+        version = np.lib.format.read_magic(fh)
+        read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                       else np.lib.format.read_array_header_2_0)  # 2.0 and 3.0 share a layout
+        shape, fortran, dtype = read_header(fh)
+        return tuple(int(s) for s in shape), bool(fortran), np.dtype(dtype), fh.tell()
+    except (ValueError, EOFError, TypeError, SyntaxError) as exc:
+        raise VolumeFileError(path, f"not a readable .npy header: {exc}", field) from exc
 
 
 def _check_shape_dtype(path, field, shape, dtype) -> None:
@@ -106,16 +143,17 @@ def _check_shape_dtype(path, field, shape, dtype) -> None:
         raise VolumeFileError(path, f"unsupported dtype {dtype} (need integer or float)", field)
     if len(shape) not in (2, 3):
         raise VolumeFileError(path, f"expected a [z, y, x] array, got shape {shape}", field)
-    if 0 in shape:
-        raise VolumeFileError(path, f"zero-size dimension in shape (z, y, x) = {shape}", field)
+    if min(shape) <= 0:
+        raise VolumeFileError(path, f"every dimension must be at least 1, got shape (z, y, x) = "
+                                    f"{shape}", field)
 
 
-def _load(path, loader, field=None):
-    try:
-        return loader()
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
-        raise VolumeFileError(path, f"cannot read the array: {exc}", field) from exc
+def _check_metadata(path, key, shape, dtype) -> None:
+    if dtype.kind not in "uif" or dtype.itemsize > 8 or len(shape) != 1 or not 1 <= shape[0] <= 3:
+        raise VolumeFileError(path, f"expected a vector of up to 3 numbers, got shape {shape} "
+                                    f"{dtype}", key)
 
 
-def _as_zyx(array: np.ndarray, path, field) -> np.ndarray:
+def _as_zyx(flat: np.ndarray, shape: tuple, fortran: bool) -> np.ndarray:
+    array = flat.reshape(shape[::-1]).T if fortran else flat.reshape(shape)
     return array[np.newaxis] if array.ndim == 2 else array

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import (check_dims, check_spacing, existing_file, make_volume,
-                               parse_numbers, read_raw_array)
+from vgraph.io._common import (check_dims, check_spacing, make_volume, parse_numbers,
+                               read_header_bytes, read_raw_array, regular_file)
 from vgraph.volume import Volume
 
 # Format word -> (dtype, declared value range or None)
@@ -55,7 +55,7 @@ def read_qvis(path) -> Volume:
                                     f"got {fields['objectmodel']!r}", "ObjectModel")
     order = _byte_order(fields, path)
     type_code, declared = FORMATS[fmt]
-    data_file = existing_file(path.parent / fields["objectfilename"], path, "ObjectFileName")
+    data_file = regular_file(path.parent / fields["objectfilename"], path, "ObjectFileName")
     flat = read_raw_array(data_file, np.dtype(order + type_code), dims[0] * dims[1] * dims[2],
                           size_field="Resolution", header=path)
     return make_volume(flat.reshape(dims[::-1]), path, spacing=spacing, declared_range=declared)
@@ -63,10 +63,7 @@ def read_qvis(path) -> Volume:
 
 def parse_dat(path: Path) -> dict[str, str]:
     """Lower-cased key -> value text. Lines without a colon are refused (not a .dat file)."""
-    try:
-        text = path.read_text(encoding="latin-1")
-    except OSError as exc:
-        raise VolumeFileError(path, f"cannot read header: {exc.strerror}") from exc
+    text = read_header_bytes(path).decode("latin-1")
     fields = {}
     for number, line in enumerate(text.splitlines(), start=1):
         line = line.strip()

@@ -23,7 +23,7 @@ import numpy as np
 
 from vgraph.errors import VolumeFileError
 from vgraph.io._common import (check_dims, check_origin, check_spacing, make_volume, raw_dtype,
-                               read_raw_array)
+                               read_raw_array, regular_file)
 from vgraph.volume import Volume
 
 _KEYS = {"dims", "dtype", "endianness", "spacing", "origin", "offset"}
@@ -35,8 +35,7 @@ def read_raw(path, description: dict | None = None) -> Volume:
     if description is None:
         description = description_from_name(path)
     dims, dtype, spacing, origin, offset = _checked_description(description, path)
-    if not path.is_file():
-        raise VolumeFileError(path, "file does not exist")
+    regular_file(path)
     count = dims[0] * dims[1] * dims[2]
     flat = read_raw_array(path, dtype, count, offset=0 if offset is None else offset,
                           allow_trailing=offset is not None, size_field="dims")
@@ -69,7 +68,7 @@ def _checked_description(description: dict, path: Path):
         dims = check_dims([int(d) for d in description["dims"]], path, "dims")
         spacing = check_spacing(description.get("spacing", (1, 1, 1)), path, "spacing")
         origin = check_origin(description.get("origin", (0, 0, 0)), path, "origin")
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise VolumeFileError(path, f"dims, spacing and origin must be 3 numbers each ({exc})",
                               "raw") from None
     dtype = raw_dtype(description["dtype"], description.get("endianness", "little"), path, "dtype")

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import check_dims, check_memory, check_spacing, make_volume
+from vgraph.io._common import check_dims, check_memory, check_spacing, make_volume, regular_file
 from vgraph.volume import Volume
 
 _NUMBER = re.compile(rb"\s*([-+0-9.eE]+)")
@@ -49,6 +49,8 @@ class _Cursor:
         self.pos += 1
 
     def take(self, n: int, field: str) -> bytes:
+        if n < 0:
+            raise VolumeFileError(self.path, f"a negative byte count {n} at byte {self.pos}", field)
         if self.pos + n > len(self.blob):
             raise VolumeFileError(self.path, f"file is truncated: needs {n} bytes at byte "
                                              f"{self.pos}, {len(self.blob) - self.pos} left", field)
@@ -58,11 +60,12 @@ class _Cursor:
 
 
 def read_slc(path) -> Volume:
-    path = Path(path)
+    path = regular_file(path)
+    check_memory(path, path.stat().st_size, "header")  # the file is read whole
     try:
         cursor = _Cursor(path.read_bytes(), path)
     except OSError as exc:
-        raise VolumeFileError(path, f"cannot read file: {exc.strerror}") from exc
+        raise VolumeFileError(path, f"cannot read file: {exc.strerror}", "header") from exc
     if cursor.number(int, "magic") != 11111:
         raise VolumeFileError(path, "not an SLC file (magic number 11111 missing)", "magic")
     dims = check_dims([cursor.number(int, "dimensions") for _ in range(3)], path, "dimensions")

@@ -9,39 +9,37 @@ Attributes read:
              appended), offset
 Binary data are base64 with the block header encoded separately from the data (what VTK
 writes); appended data may be raw or base64. Compressed data: header = [number of blocks, block
-size, last block size, compressed size of each block], then the zlib/LZMA blocks.
+size, last block size, compressed size of each block], then the zlib/LZMA blocks. The header's
+sizes must add up to what WholeExtent needs before any block is inflated, and each block must
+inflate to exactly its declared size (a few bytes of zlib can stand for gigabytes).
 """
 
 from __future__ import annotations
 
 import base64
 import binascii
-import lzma
 import math
 import xml.etree.ElementTree as ET
-import zlib
 from pathlib import Path
 
 import numpy as np
 
 from vgraph.errors import VolumeFileError
 from vgraph.io._common import (check_dims, check_memory, check_origin, check_spacing,
-                               make_volume, parse_numbers, to_native)
+                               make_volume, parse_numbers, regular_file, to_native)
+from vgraph.io._inflate import inflate_into, memory_pieces
+from vgraph.io._values import ascii_values
 from vgraph.volume import Volume
 
 _TYPES = {"Int8": "i1", "UInt8": "u1", "Int16": "i2", "UInt16": "u2", "Int32": "i4",
           "UInt32": "u4", "Int64": "i8", "UInt64": "u8", "Float32": "f4", "Float64": "f8"}
-_DECOMPRESSORS = {None: None, "vtkZLibDataCompressor": zlib.decompress,
-                  "vtkLZMADataCompressor": lzma.decompress}
+_COMPRESSORS = {None: None, "vtkZLibDataCompressor": "zlib", "vtkLZMADataCompressor": "lzma"}
 
 
 def read_vti(path) -> Volume:
-    path = Path(path)
-    try:
-        blob = path.read_bytes()
-    except OSError as exc:
-        raise VolumeFileError(path, f"cannot read file: {exc.strerror}") from exc
-    xml_text, appended = _split_appended(blob)
+    path = regular_file(path)
+    blob = _file_bytes(path)
+    xml_text, appended = _split_appended(blob, path)
     try:
         root = ET.fromstring(xml_text)
     except ET.ParseError as exc:
@@ -62,24 +60,30 @@ def read_vti(path) -> Volume:
     array = _scalar_array(pieces[0], path)
     dtype = _dtype(root, array, path)
     count = dims[0] * dims[1] * dims[2]
-    check_memory(path, 2 * count * dtype.itemsize, "WholeExtent")
-    raw = _array_bytes(root, array, appended, path)
-    if len(raw) != count * dtype.itemsize:
-        raise VolumeFileError(path, f"array {array.get('Name')!r} holds {len(raw)} bytes, "
-                                    f"expected {count * dtype.itemsize} for extent {extent}",
-                              "DataArray")
-    flat = to_native(np.frombuffer(raw, dtype=dtype).copy())
+    check_memory(path, count * dtype.itemsize, "WholeExtent")
+    flat = _array_values(root, array, appended, dtype, count, path)
     return make_volume(flat.reshape(dims[::-1]), path, spacing=spacing, origin=origin)
 
 
-def _split_appended(blob: bytes) -> tuple[bytes, bytes | None]:
+def _file_bytes(path: Path) -> bytes:
+    check_memory(path, path.stat().st_size, "VTKFile")  # the XML is parsed from memory
+    try:
+        return path.read_bytes()
+    except OSError as exc:
+        raise VolumeFileError(path, f"cannot read file: {exc.strerror}", "VTKFile") from exc
+
+
+def _split_appended(blob: bytes, path: Path) -> tuple[bytes, bytes | None]:
     """Appended raw data are not XML: cut them out (the part after '_' up to the closing tag)."""
     start = blob.find(b"<AppendedData")
     if start < 0:
         return blob, None
-    underscore = blob.index(b"_", blob.index(b">", start)) + 1
+    close = blob.find(b">", start)
+    underscore = blob.find(b"_", close + 1) if close >= 0 else -1
     end = blob.rfind(b"</AppendedData>")
-    return blob[:blob.index(b">", start) + 1] + blob[end:], blob[underscore:end]
+    if underscore < 0 or end < underscore:
+        raise VolumeFileError(path, "no '_' before the data or no closing tag", "AppendedData")
+    return blob[:close + 1] + blob[end:], blob[underscore + 1:end]
 
 
 def _scalar_array(piece, path: Path):
@@ -89,11 +93,24 @@ def _scalar_array(piece, path: Path):
         raise VolumeFileError(path, "no point-data array", "PointData")
     name = point_data.get("Scalars")
     array = next((a for a in arrays if a.get("Name") == name), arrays[0])
-    if int(array.get("NumberOfComponents", "1")) != 1:
-        raise VolumeFileError(path, f"array {array.get('Name')!r} has "
-                                    f"{array.get('NumberOfComponents')} components; only scalars "
-                                    f"are supported", "NumberOfComponents")
+    components = _attribute_int(array, "NumberOfComponents", 1, path)
+    if components != 1:
+        raise VolumeFileError(path, f"array {array.get('Name')!r} has {components} components; "
+                                    f"only scalars are supported", "NumberOfComponents")
     return array
+
+
+def _attribute_int(element, name: str, default: int, path: Path) -> int:
+    text = element.get(name)
+    if text is None:
+        return default
+    try:
+        value = int(text)
+    except ValueError:
+        raise VolumeFileError(path, f"expected an integer, got {text!r}", name) from None
+    if value < 0:
+        raise VolumeFileError(path, f"must not be negative, got {value}", name)
+    return value
 
 
 def _dtype(root, array, path: Path) -> np.dtype:
@@ -104,52 +121,98 @@ def _dtype(root, array, path: Path) -> np.dtype:
     return np.dtype(order + _TYPES[name])
 
 
-def _array_bytes(root, array, appended: bytes | None, path: Path) -> bytes:
+def _array_values(root, array, appended: bytes | None, dtype: np.dtype, count: int,
+                  path: Path) -> np.ndarray:
     fmt = array.get("format", "ascii")
     if fmt == "ascii":
-        dtype = _dtype(root, array, path)
-        return np.array((array.text or "").split(), dtype=dtype).tobytes()
+        return ascii_values([array.text or ""], dtype, count, path, "DataArray")
+    compressor = root.get("compressor")
+    if compressor not in _COMPRESSORS:
+        raise VolumeFileError(path, f"unsupported compressor {compressor!r}", "compressor")
     header_dtype = np.dtype(("<" if root.get("byte_order") != "BigEndian" else ">")
                             + ("u8" if root.get("header_type") == "UInt64" else "u4"))
-    compressor = root.get("compressor")
-    if compressor not in _DECOMPRESSORS:
-        raise VolumeFileError(path, f"unsupported compressor {compressor!r}", "compressor")
+    stream = _stream(fmt, root, array, appended, path)
+    out = np.empty(count, dtype=dtype)
+    try:
+        if _COMPRESSORS[compressor] is None:
+            _read_plain(stream, header_dtype, out.view(np.uint8), path)
+        else:
+            _read_blocks(stream, header_dtype, _COMPRESSORS[compressor], out.view(np.uint8), path)
+    except (binascii.Error, ValueError) as exc:  # bad base64
+        raise VolumeFileError(path, f"cannot decode array data: {exc}", "DataArray") from exc
+    return to_native(out, copy=False)
+
+
+def _stream(fmt: str, root, array, appended: bytes | None, path: Path):
     if fmt == "binary":
-        stream = _Base64Stream((array.text or "").strip().encode(), path)
-    elif fmt == "appended" and appended is not None:
+        return _Base64Stream((array.text or "").strip().encode())
+    if fmt == "appended" and appended is not None:
         encoding = root.find("AppendedData")
         encoded = encoding is not None and encoding.get("encoding") == "base64"
-        offset = int(array.get("offset", "0"))
-        stream = _Base64Stream(appended[offset:].strip(), path) if encoded \
-            else _RawStream(appended[offset:], path)
-    else:
-        raise VolumeFileError(path, f"unsupported DataArray format {fmt!r}", "format")
-    try:
-        return _decode(stream, header_dtype, _DECOMPRESSORS[compressor])
-    except (zlib.error, lzma.LZMAError, binascii.Error, ValueError) as exc:
-        raise VolumeFileError(path, f"cannot decode array data: {exc}", "DataArray") from exc
+        offset = _attribute_int(array, "offset", 0, path)
+        return _Base64Stream(appended[offset:].strip()) if encoded else _RawStream(appended[offset:])
+    raise VolumeFileError(path, f"unsupported DataArray format {fmt!r}", "format")
 
 
-def _decode(stream, header_dtype: np.dtype, decompress) -> bytes:
+def _read_plain(stream, header_dtype: np.dtype, target: np.ndarray, path: Path) -> None:
+    """Uncompressed: [byte count][data]; the count must be what the extent needs."""
+    head = np.frombuffer(stream.peek_header(header_dtype.itemsize), header_dtype)
+    declared = int(head[0]) if len(head) else None
+    if declared != len(target):
+        raise VolumeFileError(path, f"the array declares {declared} bytes, the extent needs "
+                                    f"{len(target)}", "DataArray")
+    raw = stream.read_joint(header_dtype.itemsize, len(target))
+    if len(raw) != len(target):
+        raise VolumeFileError(path, f"the array holds {len(raw)} bytes, expected {len(target)}: "
+                                    f"truncated", "DataArray")
+    target[:] = np.frombuffer(raw, np.uint8)
+
+
+def _read_blocks(stream, header_dtype: np.dtype, method: str, target: np.ndarray,
+                 path: Path) -> None:
+    """Compressed: [blocks, block size, last block size, compressed size of each block], then
+    the blocks. The uncompressed sizes must add up to what the extent needs before anything is
+    inflated, and each block must inflate to exactly its size."""
     size = header_dtype.itemsize
-    if decompress is None:  # one stream: [byte count][data]
-        return stream.read_joint(size, header_dtype)
-    first = np.frombuffer(stream.peek_header(3 * size), header_dtype)
-    blocks = int(first[0])
+    first = [int(v) for v in np.frombuffer(stream.peek_header(3 * size), header_dtype)]
+    if len(first) < 3:
+        raise VolumeFileError(path, "the compression header is truncated", "DataArray")
+    blocks, block_size, last_size = first
+    sizes = _block_sizes(blocks, block_size, last_size, len(target), path)
     header = np.frombuffer(stream.read_header((3 + blocks) * size), header_dtype)
-    data = stream.read_data(int(header[3:].sum()))
-    out, pos = [], 0
-    for compressed in header[3:]:
-        out.append(decompress(data[pos:pos + int(compressed)]))
-        pos += int(compressed)
-    return b"".join(out)
+    compressed = [int(v) for v in header[3:]]
+    if len(compressed) != blocks:
+        raise VolumeFileError(path, "the compression header is truncated", "DataArray")
+    data = stream.read_data(sum(compressed))
+    if len(data) < sum(compressed):
+        raise VolumeFileError(path, f"the compressed blocks hold {len(data)} bytes, the header "
+                                    f"declares {sum(compressed)}: truncated", "DataArray")
+    source = target_pos = 0
+    for index, (packed, unpacked) in enumerate(zip(compressed, sizes)):
+        inflate_into(target[target_pos:target_pos + unpacked],
+                     memory_pieces(data[source:source + packed]), method, path, "DataArray",
+                     what=f"block {index}", codec_field="compressor")
+        source, target_pos = source + packed, target_pos + unpacked
+
+
+def _block_sizes(blocks: int, block_size: int, last_size: int, needed: int, path: Path):
+    """The uncompressed size of each block, checked against the bytes the extent needs."""
+    if block_size <= 0 or blocks != math.ceil(needed / block_size):
+        raise VolumeFileError(path, f"the compression header declares {blocks} blocks of "
+                                    f"{block_size} bytes; the extent needs {needed} bytes",
+                              "DataArray")
+    last = needed - (blocks - 1) * block_size
+    if last_size != last and not (last_size == 0 and last == block_size):
+        raise VolumeFileError(path, f"the last block declares {last_size} bytes; the extent "
+                                    f"leaves {last}", "DataArray")
+    return [block_size] * (blocks - 1) + [last]
 
 
 class _Base64Stream:
     """Compressed data: VTK encodes the block header and the blocks as two separate base64
     strings, back to back. Uncompressed data: the byte count and the data are one string."""
 
-    def __init__(self, text: bytes, path: Path):
+    def __init__(self, text: bytes):
         self.text, self.header_chars = b"".join(text.split()), 0
 
     def peek_header(self, nbytes: int) -> bytes:
@@ -163,15 +226,13 @@ class _Base64Stream:
         chars = self.text[self.header_chars:self.header_chars + 4 * math.ceil(nbytes / 3)]
         return base64.b64decode(chars)[:nbytes]
 
-    def read_joint(self, size: int, header_dtype: np.dtype) -> bytes:
-        head = base64.b64decode(self.text[:4 * math.ceil(size / 3)])[:size]
-        nbytes = int(np.frombuffer(head, header_dtype)[0])
+    def read_joint(self, size: int, nbytes: int) -> bytes:
         decoded = base64.b64decode(self.text[:4 * math.ceil((size + nbytes) / 3)])
         return decoded[size:size + nbytes]
 
 
 class _RawStream:
-    def __init__(self, blob: bytes, path: Path):
+    def __init__(self, blob: bytes):
         self.blob, self.pos = blob, 0
 
     def peek_header(self, nbytes: int) -> bytes:
@@ -184,6 +245,5 @@ class _RawStream:
     def read_data(self, nbytes: int) -> bytes:
         return self.blob[self.pos:self.pos + nbytes]
 
-    def read_joint(self, size: int, header_dtype: np.dtype) -> bytes:
-        nbytes = int(np.frombuffer(self.blob[:size], header_dtype)[0])
+    def read_joint(self, size: int, nbytes: int) -> bytes:
         return self.blob[size:size + nbytes]
