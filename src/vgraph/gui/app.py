@@ -23,13 +23,14 @@ from pathlib import Path
 
 from PySide6.QtCore import QSettings, Qt
 from PySide6.QtGui import QAction, QKeySequence
-from PySide6.QtWidgets import (QApplication, QDockWidget, QFileDialog, QMainWindow, QMessageBox,
-                               QPushButton)
+from PySide6.QtWidgets import QApplication, QDockWidget, QMainWindow, QMessageBox, QPushButton
 
 from vgraph.atomic import atomic_path
 from vgraph.errors import VGraphError
+from vgraph.gui.autosave import Autosave
 from vgraph.gui.canvases import CanvasDocks
 from vgraph.gui.evaluator import EvaluationOutcome, format_seconds
+from vgraph.gui.file_actions import FileActions
 from vgraph.gui.inspector import PropertyInspector
 from vgraph.gui.links import LinkDialog
 from vgraph.gui.live_evaluation import LiveEvaluation
@@ -39,14 +40,12 @@ from vgraph.gui.palette import ProcessorPalette
 from vgraph.gui.scene import NetworkScene, NetworkView
 from vgraph.gui.workspace import Workspace
 
-NETWORK_FILTER = "vgraph networks (*.json);;All files (*)"
-
-
-class MainWindow(QMainWindow):
+class MainWindow(FileActions, QMainWindow):
     def __init__(self, settings: QSettings | None = None, renderer: RenderProcess | None = None):
         super().__init__()
         self.workspace = Workspace(settings, self)
         self.evaluation = LiveEvaluation(self.workspace, renderer, parent=self)
+        self.autosave = Autosave(self.workspace, self.workspace.settings, self)
         self.scene = NetworkScene(self.workspace, self, status_of=self.evaluation.status_of)
         self.view = NetworkView(self.scene)
         self.setCentralWidget(self.view)
@@ -172,81 +171,11 @@ class MainWindow(QMainWindow):
         self.log.error(message)
         QMessageBox.critical(self, title, message)
 
-    def ask_save_changes(self) -> QMessageBox.StandardButton:
-        return QMessageBox.question(
-            self, "Unsaved changes", f"Save the changes to {self._file_name()}?",
-            QMessageBox.Save | QMessageBox.Discard | QMessageBox.Cancel, QMessageBox.Save)
-
-    def ask_open_path(self) -> str:
-        path, _ = QFileDialog.getOpenFileName(self, "Open network", self._start_dir(), NETWORK_FILTER)
-        return path
-
-    def ask_save_path(self) -> str:
-        path, _ = QFileDialog.getSaveFileName(self, "Save network as", self._start_dir(), NETWORK_FILTER)
-        return path
-
-    def _start_dir(self) -> str:
-        return str(self.workspace.path.parent) if self.workspace.path else ""
-
-    def _file_name(self) -> str:
-        return self.workspace.path.name if self.workspace.path else "the untitled network"
-
     def _update_title(self, *_) -> None:
         self.setWindowTitle(f"{self.workspace.display_name()}[*] - vgraph")
         self.setWindowModified(self.workspace.is_modified())
 
-    # --- workspace actions ----------------------------------------------------------------------
-    def confirm_discard(self) -> bool:
-        """True when the current network may be replaced (saved, discarded, or unmodified)."""
-        if not self.workspace.is_modified():
-            return True
-        answer = self.ask_save_changes()
-        if answer == QMessageBox.Save:
-            return self.save_network()
-        return answer == QMessageBox.Discard
-
-    def new_network(self) -> None:
-        if self.confirm_discard():
-            self.workspace.new()
-            self.log.info("new network")
-
-    def open_network(self, path: str | Path | None = None) -> bool:
-        if not self.confirm_discard():
-            return False
-        path = path or self.ask_open_path()
-        if not path:
-            return False
-        try:
-            self.workspace.open(path)
-        except VGraphError as error:
-            self.report_error("Cannot open network", f"Cannot open {path}:\n{error}")
-            return False
-        self.log.info(f"opened {path}")
-        self.view.fit_network()
-        return True
-
-    def save_network(self) -> bool:
-        if self.workspace.path is None:
-            return self.save_network_as()
-        return self._save(self.workspace.path)
-
-    def save_network_as(self, path: str | Path | None = None) -> bool:
-        path = path or self.ask_save_path()
-        if not path:
-            return False
-        path = Path(path)
-        return self._save(path if path.suffix else path.with_suffix(".json"))
-
-    def _save(self, path: Path) -> bool:
-        try:
-            self.workspace.save_as(path)
-        except (OSError, VGraphError) as error:
-            self.report_error("Cannot save network", f"Cannot save {path}:\n{error}")
-            return False
-        self.inspector.show_processor(self.inspector.processor_id)  # paths may be re-expressed
-        self.log.info(f"saved {path}")
-        return True
-
+    # --- editing -------------------------------------------------------------------------------
     def add_processor(self, type_name: str):
         center = self.view.mapToScene(self.view.viewport().rect().center())
         try:
@@ -320,6 +249,8 @@ class MainWindow(QMainWindow):
             return
         for view in (self.scene, self.inspector, self.canvases):
             view.detach()
+        self.autosave.stop()
+        self.autosave.remove()   # a clean exit: the changes were saved or discarded on purpose
         self.evaluation.shutdown()
         event.accept()
 
@@ -341,6 +272,8 @@ def run_gui(path: str | Path | None = None, screenshot: str | Path | None = None
                 window.view.fit_network()
             elif path is not None:
                 window.open_network(path)
+            else:
+                window.offer_recovery(window.autosave.newest_orphan())
             if select is not None:
                 window.workspace.network[select]  # names the ids if there is no such processor
                 window.scene.select_processor(select)

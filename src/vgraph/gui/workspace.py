@@ -154,6 +154,11 @@ class Workspace(QObject):
         self._replace(network, path)
         self.add_recent_file(path)
 
+    def restore(self, network: Network, path: Path | None) -> None:
+        """Put a recovered network (an autosave) in place as unsaved changes to ``path``."""
+        self._replace(network, path)
+        self.undo_stack.resetClean()   # nothing to undo, yet not what the file holds
+
     def save(self) -> None:
         if self.path is None:
             raise ValueError("the network has no file yet; use save_as")

@@ -1,0 +1,135 @@
+"""The window's file handling: New, Open, Save, Save As, and what they ask first.
+
+A mixin of ``MainWindow`` (it uses the window's workspace, log, view, inspector and autosave), so
+the window keeps one place per concern while tests answer its dialogs on the window itself
+(``ask_*`` methods, monkeypatched).
+
+Conventions:
+- Replacing the network (New, Open) first asks about unsaved changes (``confirm_discard``).
+- Opening a network that has an autosave left by a crash, newer than the file, offers to restore
+  it (``offer_recovery``); see ``autosave.py``.
+- A file that cannot be read opens nothing and shows every problem; a failed save keeps the file.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from PySide6.QtWidgets import QFileDialog, QMessageBox
+
+from vgraph.errors import VGraphError
+from vgraph.gui.autosave import FoundAutosave
+
+NETWORK_FILTER = "vgraph networks (*.json);;All files (*)"
+
+
+class FileActions:
+    # --- dialogs (tests answer them by replacing these methods) -------------------------------
+    def ask_save_changes(self) -> QMessageBox.StandardButton:
+        return QMessageBox.question(
+            self, "Unsaved changes", f"Save the changes to {self._file_name()}?",
+            QMessageBox.Save | QMessageBox.Discard | QMessageBox.Cancel, QMessageBox.Save)
+
+    def ask_recover(self, found: FoundAutosave) -> str:
+        """'restore', 'discard' or 'later'."""
+        name = found.original.name if found.original else "an untitled network"
+        when = time.strftime("%Y-%m-%d %H:%M", time.localtime(found.saved))
+        box = QMessageBox(QMessageBox.Question, "Recover unsaved changes",
+                          f"vgraph did not close normally and kept unsaved changes to {name} "
+                          f"(autosaved {when}). Restore them?", parent=self)
+        buttons = {box.addButton("Restore", QMessageBox.AcceptRole): "restore",
+                   box.addButton("Discard", QMessageBox.DestructiveRole): "discard",
+                   box.addButton("Later", QMessageBox.RejectRole): "later"}
+        box.exec()
+        return buttons.get(box.clickedButton(), "later")
+
+    def ask_open_path(self) -> str:
+        path, _ = QFileDialog.getOpenFileName(self, "Open network", self._start_dir(), NETWORK_FILTER)
+        return path
+
+    def ask_save_path(self) -> str:
+        path, _ = QFileDialog.getSaveFileName(self, "Save network as", self._start_dir(), NETWORK_FILTER)
+        return path
+
+    def _start_dir(self) -> str:
+        return str(self.workspace.path.parent) if self.workspace.path else ""
+
+    def _file_name(self) -> str:
+        return self.workspace.path.name if self.workspace.path else "the untitled network"
+
+    # --- workspace actions ----------------------------------------------------------------------
+    def confirm_discard(self) -> bool:
+        """True when the current network may be replaced (saved, discarded, or unmodified)."""
+        if not self.workspace.is_modified():
+            return True
+        answer = self.ask_save_changes()
+        if answer == QMessageBox.Save:
+            return self.save_network()
+        return answer == QMessageBox.Discard
+
+    def new_network(self) -> None:
+        if self.confirm_discard():
+            self.workspace.new()
+            self.log.info("new network")
+
+    def open_network(self, path: str | Path | None = None) -> bool:
+        if not self.confirm_discard():
+            return False
+        path = path or self.ask_open_path()
+        if not path:
+            return False
+        try:
+            self.workspace.open(path)
+        except VGraphError as error:
+            self.report_error("Cannot open network", f"Cannot open {path}:\n{error}")
+            return False
+        self.log.info(f"opened {path}")
+        self.view.fit_network()
+        self.offer_recovery(self.autosave.find_for(Path(path)))
+        return True
+
+    def offer_recovery(self, found: FoundAutosave | None) -> bool:
+        """Ask whether to restore an autosave left by a crash; True if it was restored."""
+        if found is None:
+            return False
+        answer = self.ask_recover(found)
+        if answer == "discard":
+            found.path.unlink(missing_ok=True)
+            self.log.info(f"discarded the autosave {found.path}")
+            return False
+        if answer != "restore":
+            return False   # "later": it is offered again next time
+        try:
+            network = found.network()
+        except VGraphError as error:
+            self.report_error("Cannot restore the autosave", f"Cannot restore {found.path}:\n{error}")
+            return False
+        self.workspace.restore(network, found.original)
+        found.path.unlink(missing_ok=True)
+        self.autosave.write()   # protected again at once, under this window's name
+        self.view.fit_network()
+        self.log.info(f"restored unsaved changes to {self.workspace.display_name()} from {found.path}")
+        return True
+
+    def save_network(self) -> bool:
+        if self.workspace.path is None:
+            return self.save_network_as()
+        return self._save(self.workspace.path)
+
+    def save_network_as(self, path: str | Path | None = None) -> bool:
+        path = path or self.ask_save_path()
+        if not path:
+            return False
+        path = Path(path)
+        return self._save(path if path.suffix else path.with_suffix(".json"))
+
+    def _save(self, path: Path) -> bool:
+        try:
+            self.workspace.save_as(path)
+        except (OSError, VGraphError) as error:
+            self.report_error("Cannot save network", f"Cannot save {path}:\n{error}")
+            return False
+        self.inspector.show_processor(self.inspector.processor_id)  # paths may be re-expressed
+        self.log.info(f"saved {path}")
+        return True
