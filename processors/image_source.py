@@ -2,11 +2,23 @@
 
 from __future__ import annotations
 
+import struct
+import warnings
+import zlib
+
 import numpy as np
 import PIL.Image
 
 from vgraph import FilePathProperty, Outport, Processor, VGraphError
 from vgraph.image import Image
+from vgraph.io import file_problem
+
+# 8192 x 8192: an RGBA texture of 256 MiB. Larger pictures are refused from their header, before
+# a pixel is decoded (PIL itself only warns up to twice its own limit of about 89 million).
+MAX_PIXELS = 8192 * 8192
+# What PIL raises for damaged files besides OSError (its plug-ins use SyntaxError for bad chunks).
+_DAMAGED = (OSError, SyntaxError, ValueError, EOFError, IndexError, struct.error, zlib.error,
+            PIL.UnidentifiedImageError)
 
 
 class ImageSource(Processor):
@@ -23,13 +35,29 @@ class ImageSource(Processor):
 def read_image_file(processor_id: str, value: str, path) -> np.ndarray:
     if not value:
         raise VGraphError(f"{processor_id}.path: no image file chosen")
+    problem = file_problem(path)  # before opening: a FIFO would block
+    if problem is not None:
+        problem = "not found" if problem == "does not exist" else problem
+        raise VGraphError(f"{path}: file {problem} ({processor_id}.path)")
     try:
-        with PIL.Image.open(path) as picture:
+        with warnings.catch_warnings():  # PIL warns about sizes that _check_pixel_count refuses
+            warnings.simplefilter("ignore", PIL.Image.DecompressionBombWarning)
+            picture = PIL.Image.open(path)
+        with picture:
+            _check_pixel_count(picture.size, path, processor_id)
             picture.load()
             if picture.mode.startswith("I;16") or picture.mode == "I":
                 return np.asarray(picture).astype(np.uint16)  # 16-bit grey keeps its precision
             return np.asarray(picture.convert("RGBA"))
-    except FileNotFoundError:
-        raise VGraphError(f"{path}: file not found ({processor_id}.path)") from None
-    except (OSError, PIL.UnidentifiedImageError, ValueError) as error:
-        raise VGraphError(f"{path}: not a readable PNG or JPEG image ({processor_id}.path): {error}") from None
+    except PIL.Image.DecompressionBombError as error:  # raised by open() beyond 2x PIL's limit
+        raise VGraphError(f"{path}: image too large ({processor_id}.path): {error}") from None
+    except _DAMAGED as error:
+        raise VGraphError(f"{path}: not a readable PNG or JPEG image ({processor_id}.path): "
+                          f"{error}") from None
+
+
+def _check_pixel_count(size, path, processor_id: str) -> None:
+    width, height = size
+    if width * height > MAX_PIXELS:
+        raise VGraphError(f"{path}: image too large ({processor_id}.path): {width} x {height} = "
+                          f"{width * height} pixels, the limit is {MAX_PIXELS} (8192 x 8192)")
