@@ -169,3 +169,23 @@ def test_the_interval_comes_from_the_settings_and_zero_turns_autosave_off(qtbot,
     assert Autosave(Workspace(settings), settings).timer.interval() == 5_000
     settings.setValue(INTERVAL_KEY, 0)
     assert not Autosave(Workspace(settings), settings).timer.isActive()
+
+
+@pytest.mark.parametrize("button, answer", [("Restore", "restore"), ("Discard", "discard"), ("Later", "later")])
+def test_the_recovery_dialog_names_the_network_and_maps_its_buttons(window, tmp_path, button, answer):
+    from PySide6.QtCore import QTimer
+    from PySide6.QtWidgets import QApplication
+    network_file = tmp_path / "net.json"
+    build_and_save(window, network_file)
+    window.workspace.set_property("a.value", 7.0)
+    found = read_autosave(crash(window))
+    shown = []
+
+    def click():
+        box = QApplication.activeModalWidget()
+        shown.append(box.text())
+        next(b for b in box.buttons() if b.text() == button).click()
+
+    QTimer.singleShot(0, click)
+    assert window.ask_recover(found) == answer
+    assert "net.json" in shown[0]

@@ -9,6 +9,9 @@ Conventions:
 - Opening a network that has an autosave left by a crash, newer than the file, offers to restore
   it (``offer_recovery``); see ``autosave.py``.
 - A file that cannot be read opens nothing and shows every problem; a failed save keeps the file.
+- A file whose writers would write outside its folder (``WritePathError``) opens only if the user
+  allows it (``ask_allow_writes``, naming each processor and path); it is then loaded again with
+  those paths' folders allowed. Cancel leaves the open network as it was.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from pathlib import Path
 
 from PySide6.QtWidgets import QFileDialog, QMessageBox
 
-from vgraph.errors import VGraphError
+from vgraph.errors import VGraphError, WritePathError
 from vgraph.gui.autosave import FoundAutosave
 
 NETWORK_FILTER = "vgraph networks (*.json);;All files (*)"
@@ -43,6 +46,18 @@ class FileActions:
                    box.addButton("Later", QMessageBox.RejectRole): "later"}
         box.exec()
         return buttons.get(box.clickedButton(), "later")
+
+    def ask_allow_writes(self, path: Path, writes: list[tuple[str, Path]]) -> bool:
+        """Whether the writers of ``path`` may write where the file says, outside its folder."""
+        listed = "\n".join(f"  {processor_id}: {target}" for processor_id, target in writes)
+        box = QMessageBox(QMessageBox.Warning, "Allow writing outside the network's folder?",
+                          f"{path.name} has writers that would write outside its folder "
+                          f"({path.resolve().parent}):\n\n{listed}\n\nA network from someone else "
+                          f"could overwrite your files this way. Allow these writes?", parent=self)
+        allow = box.addButton("Allow", QMessageBox.AcceptRole)
+        box.setDefaultButton(box.addButton(QMessageBox.Cancel))
+        box.exec()
+        return box.clickedButton() is allow
 
     def ask_open_path(self) -> str:
         path, _ = QFileDialog.getOpenFileName(self, "Open network", self._start_dir(), NETWORK_FILTER)
@@ -77,16 +92,28 @@ class FileActions:
         if not self.confirm_discard():
             return False
         path = path or self.ask_open_path()
-        if not path:
-            return False
-        try:
-            self.workspace.open(path)
-        except VGraphError as error:
-            self.report_error("Cannot open network", f"Cannot open {path}:\n{error}")
+        if not path or not self._open(Path(path)):
             return False
         self.log.info(f"opened {path}")
         self.view.fit_network()
         self.offer_recovery(self.autosave.find_for(Path(path)))
+        return True
+
+    def _open(self, path: Path) -> bool:
+        """Load ``path``; writers that would write outside its folder need the user's consent."""
+        try:
+            try:
+                self.workspace.open(path)
+            except WritePathError as refused:
+                if not self.ask_allow_writes(path, refused.paths):
+                    self.log.info(f"did not open {path}: its writers would write outside its folder")
+                    return False
+                self.workspace.open(path, allow_write=sorted({str(target.parent) for _, target in refused.paths}))
+                self.log.warning(f"{path}: allowed writing outside its folder to "
+                                 + ", ".join(str(target) for _, target in refused.paths))
+        except VGraphError as error:
+            self.report_error("Cannot open network", f"Cannot open {path}:\n{error}")
+            return False
         return True
 
     def offer_recovery(self, found: FoundAutosave | None) -> bool:

@@ -147,10 +147,12 @@ class Workspace(QObject):
     def new(self) -> None:
         self._replace(Network(), None)
 
-    def open(self, path: str | Path) -> None:
-        """Load a network (NetworkFileError on a bad file; the open network is then untouched)."""
+    def open(self, path: str | Path, allow_write=()) -> None:
+        """Load a network (NetworkFileError on a bad file; the open network is then untouched).
+        Its writers may write only inside its folder and the folders in ``allow_write``
+        (WritePathError names the others)."""
         path = Path(path)
-        network = load_network(path)
+        network = load_network(path, allow_write)
         self._replace(network, path)
         self.add_recent_file(path)
 
