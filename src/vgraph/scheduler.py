@@ -16,6 +16,7 @@ import networkx as nx
 import numpy as np
 
 from vgraph.errors import ProcessorError, VGraphError
+from vgraph.gl.context import collect_garbage
 from vgraph.network import Network, split_address
 from vgraph.processor import Processor
 from vgraph.properties import Invalidation
@@ -65,6 +66,7 @@ def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None) 
                 report.evaluated.append(_run(network, processor))
     finally:
         report.total_seconds = time.perf_counter() - start
+        collect_garbage()  # outputs replaced in this evaluation free their GL memory now
     return report
 
 

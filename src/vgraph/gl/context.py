@@ -11,6 +11,11 @@ Conventions:
   ``set_context``. vgraph never releases a context it did not create.
 - Caches keyed by context (compiled programs, vertex arrays) register a callback with ``on_release``
   so they forget a context when it is released or replaced.
+- GL objects are freed when nothing references them any more: the context runs in moderngl's
+  "context_gc" mode (objects whose Python wrapper dies are queued) and the scheduler calls
+  ``collect_garbage()`` after every evaluation, so an output replaced by a new one (a plug-in that
+  makes a new Image in each process()) costs no memory. (moderngl's default mode never frees them;
+  its "auto" mode frees them from ``__del__``, at moments when a context may not be current.)
 """
 
 from __future__ import annotations
@@ -38,7 +43,7 @@ def get_context() -> moderngl.Context:
     global _context, _owned
     with _lock:
         if _context is None:
-            _context = _create_standalone_context()
+            _context = _collecting(_create_standalone_context())
             _owned = True
         return _context
 
@@ -52,7 +57,28 @@ def set_context(ctx: moderngl.Context | None) -> None:
         if ctx is _context:
             return
         _drop_current_context()
-        _context, _owned = ctx, False
+        _context, _owned = (_collecting(ctx) if ctx is not None else None), False
+
+
+def collect_garbage() -> int:
+    """Free the GL objects of the shared context whose Python wrappers are gone; returns how many."""
+    with _lock:
+        ctx = _context
+        if ctx is None or ctx.gc_mode != "context_gc":
+            return 0
+        freed = 0
+        while ctx.objects:
+            handle = ctx.objects.popleft()
+            if hasattr(handle, "release"):  # objects released explicitly are queued as invalid ones
+                handle.release()
+                freed += 1
+        return freed
+
+
+def _collecting(ctx: moderngl.Context) -> moderngl.Context:
+    if ctx.gc_mode is None:  # an owner that chose a mode keeps it
+        ctx.gc_mode = "context_gc"
+    return ctx
 
 
 def release_context() -> None:

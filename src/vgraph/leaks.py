@@ -1,0 +1,62 @@
+"""Leak checks: live GL textures and resident memory over many evaluations of a network.
+
+A network evaluated again and again (a slider dragged in the GUI, a batch job over parameters) must
+hold a constant number of GL objects and a constant amount of memory once every processor has run.
+``repeated_evaluations`` re-runs one processor and everything downstream of it per evaluation,
+taking the processors in turn, so every processor runs many times whatever its cost; the test suite
+runs it on every shipped network and bench/leak_check.py runs it for longer.
+
+Textures are counted by the GL itself (``glIsTexture`` over the names in use), so GL objects whose
+Python wrappers are gone, the leaks that matter, are counted too.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from vgraph.network import Network
+
+# Texture names are small integers handed out from 1 and reused; scan well past the newest one.
+_NAME_MARGIN = 4096
+
+
+@dataclass
+class LeakSample:
+    evaluation: int
+    textures: int
+    resident_mb: float
+
+
+def live_gl_textures(ctx) -> int:
+    """How many texture names are alive on ``ctx`` (which must be current, as vgraph's is)."""
+    from OpenGL import GL
+    probe = ctx.texture((1, 1), 4)
+    newest = probe.glo
+    probe.release()
+    return sum(1 for name in range(1, newest + _NAME_MARGIN) if GL.glIsTexture(name))
+
+
+def resident_mb() -> float:
+    """This process's resident memory in MiB (Linux /proc; 0 where unknown)."""
+    try:
+        with open("/proc/self/statm") as statm:
+            pages = int(statm.read().split()[1])
+    except (OSError, ValueError, IndexError):
+        return 0.0
+    import os
+    return pages * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def repeated_evaluations(network: Network, count: int, size=(48, 48), every: int = 50,
+                         targets=()) -> list[LeakSample]:
+    """Evaluate ``count`` times, re-running processor ``i % n`` and its downstream at the i-th
+    evaluation; sample textures and memory every ``every`` evaluations (and after the last)."""
+    from vgraph.gl.context import get_context
+    order = list(network.processors)
+    samples = []
+    for i in range(count):
+        network.invalidate_downstream(order[i % len(order)])
+        network.update(*targets, size=size)
+        if (i + 1) % every == 0 or i + 1 == count:
+            samples.append(LeakSample(i + 1, live_gl_textures(get_context()), resident_mb()))
+    return samples
