@@ -26,6 +26,10 @@ class CubicSplineProcessor(Processor):
         if volume.is_spline_coefficients:
             raise VGraphError("the input already holds B-spline coefficients: remove one of the two "
                               "CubicSplineProcessors")
+        if volume.texture_is_normalized:
+            # float32 coefficients cannot hold these values: filter the normalised intensities
+            # (the prefilter is linear, so that is the same spline in other units).
+            volume = volume.with_data(volume.normalized(volume.data), declared_range=(0.0, 1.0))
         return volume.with_data(self._coefficients(volume), is_spline_coefficients=True,
                                 declared_range=volume.value_range)
 

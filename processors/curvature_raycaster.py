@@ -34,7 +34,8 @@ from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import programs
 from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, SkipBlocks, VolumeGeometry,
                                         block_grid_uniforms, lighting_properties, linear_sampler,
-                                        radii_if_worthwhile, ray_uniforms, shading_uniforms, vec)
+                                        radii_if_worthwhile, ray_uniforms, shading_uniforms, vec,
+                                        crossed_by)
 from vgraph.image import Image
 from vgraph.volume import Volume
 
@@ -96,6 +97,10 @@ class CurvatureRaycaster(Processor):
     def color_defines(self) -> dict[str, bool]:
         """Defines of pass 2: the measure, the normalisation and the shading."""
         return {**measure_defines(self.curvature, self.normalization), **shading_defines(self)}
+
+    def visible_content(self) -> str | None:
+        volume = self.inputs.get("volume")
+        return crossed_by(volume, self.level) if volume is not None else None
 
     # --- evaluation -----------------------------------------------------------------------------
     def process(self, volume: Volume, entry: Image, exit: Image) -> dict:

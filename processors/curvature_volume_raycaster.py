@@ -30,7 +30,8 @@ from vgraph.gl.shaders import programs
 from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, SkipBlocks,
                                         TransferFunctionTexture, VolumeGeometry, block_grid_uniforms,
                                         linear_sampler, lighting_properties, occupied_blocks,
-                                        radii_if_worthwhile, ray_uniforms, shading_uniforms, vec)
+                                        radii_if_worthwhile, ray_uniforms, shading_uniforms, vec,
+                                        visible_under)
 from vgraph.image import Image
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -100,6 +101,10 @@ class CurvatureVolumeRaycaster(Processor):
         if not range_pass:
             defines.update(shading_defines(self))
         return defines
+
+    def visible_content(self) -> str | None:
+        volume = self.inputs.get("volume")
+        return visible_under(volume, self.transfer_function) if volume is not None else None
 
     def process(self, volume: Volume, entry: Image, exit: Image) -> dict:
         check_volume_kind(volume, self.derivatives, f"CurvatureVolumeRaycaster '{self.id}'")

@@ -30,7 +30,8 @@ from vgraph.gl.shaders import programs
 from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, SkipBlocks,
                                         TransferFunctionTexture, VolumeGeometry, block_grid_uniforms,
                                         lighting_properties, linear_sampler, occupied_blocks,
-                                        radii_if_worthwhile, ray_uniforms, shading_uniforms, vec)
+                                        radii_if_worthwhile, ray_uniforms, shading_uniforms, vec,
+                                        crossed_by, visible_under)
 from vgraph.image import Image
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -102,6 +103,14 @@ class RayCaster(Processor):
             defines.update({"SHADING_BLINN_PHONG": True, f"GRADIENT_{self.gradient.upper()}": True,
                             "LIGHT_HEADLIGHT": self.light == "headlight"})
         return defines
+
+    def visible_content(self) -> str | None:
+        volume = self.inputs.get("volume")
+        if volume is None:
+            return None
+        if self.compositing == "iso":
+            return crossed_by(volume, self.iso_level)
+        return visible_under(volume, self.transfer_function)
 
     def build_resources(self) -> None:
         if self.shading != "none" and self.gradient == "none":

@@ -1,6 +1,7 @@
 """VolumeSource: a volume from a file or a DICOM folder (formats: docs/volumes.md)."""
 
 from vgraph import FilePathProperty, IntProperty, OptionProperty, Outport, Processor, VectorProperty, VGraphError
+from vgraph.camera import MAX_COORDINATE
 from vgraph.io import SUPPORTED_EXTENSIONS, read_volume
 from vgraph.volume import Volume
 
@@ -14,9 +15,9 @@ class VolumeSource(Processor):
     outports = [Outport("volume", Volume)]
     path = FilePathProperty("", filters=tuple(f"*{e}" for e in SUPPORTED_EXTENSIONS),
                             doc="the volume file, or a folder holding one DICOM series")
-    spacing = VectorProperty(None, size=3, min=1e-12, optional=True,
+    spacing = VectorProperty(None, size=3, min=1.0 / MAX_COORDINATE, max=MAX_COORDINATE, optional=True,
                              doc="voxel spacing (x, y, z) in world units; empty: from the file")
-    origin = VectorProperty(None, size=3, optional=True,
+    origin = VectorProperty(None, size=3, min=-MAX_COORDINATE, max=MAX_COORDINATE, optional=True,
                             doc="world position (x, y, z) of voxel (0, 0, 0); empty: from the file")
     value_range = VectorProperty(None, size=2, optional=True,
                                  doc="stored values mapped to intensities 0 and 1; empty: from the file or type")

@@ -46,6 +46,10 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 Vec3 = tuple[float, float, float]
 
+# Beyond this magnitude the float32 matrices and ray uniforms of the GL side overflow or lose the
+# scene entirely; world coordinates and lengths of a camera are refused past it.
+MAX_COORDINATE = 1e15
+
 # Near and far planes of framing() leave this relative margin around the box's bounding sphere.
 _CLIP_MARGIN = 1e-3
 
@@ -57,16 +61,20 @@ class Camera(BaseModel):
     position: Vec3 = (0.0, 0.0, 3.0)
     focus: Vec3 = (0.0, 0.0, 0.0)
     up: Vec3 = (0.0, 1.0, 0.0)
-    fov: float = Field(30.0, gt=0.0, lt=180.0)
-    parallel_scale: float = Field(1.0, gt=0.0)
-    near: float = Field(0.01, gt=0.0)
-    far: float = Field(100.0, gt=0.0)
+    fov: float = Field(30.0, gt=0.0, lt=180.0, allow_inf_nan=False)
+    parallel_scale: float = Field(1.0, gt=0.0, le=MAX_COORDINATE, allow_inf_nan=False)
+    near: float = Field(0.01, gt=0.0, le=MAX_COORDINATE, allow_inf_nan=False)
+    far: float = Field(100.0, gt=0.0, le=MAX_COORDINATE, allow_inf_nan=False)
 
     @model_validator(mode="after")
     def _check_geometry(self) -> "Camera":
         for name in ("position", "focus", "up"):
-            if not all(np.isfinite(getattr(self, name))):
-                raise ValueError(f"{name} must be finite, got {list(getattr(self, name))}")
+            values = getattr(self, name)
+            if not all(np.isfinite(values)):
+                raise ValueError(f"{name} must be finite, got {list(values)}")
+            if max(abs(v) for v in values) > MAX_COORDINATE:
+                raise ValueError(f"{name} must lie within +-{MAX_COORDINATE:g} (float32 GL matrices "
+                                 f"overflow beyond), got {list(values)}")
         view = np.subtract(self.focus, self.position)
         if np.linalg.norm(view) == 0.0:
             raise ValueError("position and focus must differ")

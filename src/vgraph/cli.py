@@ -157,13 +157,21 @@ def command_run(args) -> int:
         image = network.output(target)
         if not isinstance(image, Image):
             raise VGraphError(f"{target} holds {type(image).__name__}, not an image: use --npy")
-        write_png(args.output, image.to_numpy())
+        write_png(args.output, warned_if_blank(network, target, image.to_numpy()))
     if args.npy:
         with atomic_path(args.npy, suffix=".npy") as temporary:
-            np.save(temporary, to_numpy(network.output(target)))
+            np.save(temporary, warned_if_blank(network, target, to_numpy(network.output(target))))
     ran = ", ".join(report.ids) or "nothing (all valid)"
     print(f"evaluated {ran} in {report.total_seconds:.3f} s", file=sys.stderr)
     return EXIT_OK
+
+
+def warned_if_blank(network, target: str, pixels: np.ndarray) -> np.ndarray:
+    from vgraph.scheduler import blank_image_warning
+    warning = blank_image_warning(network, target, pixels) if pixels.ndim == 3 else None
+    if warning:
+        print(f"vgraph: warning: {warning}", file=sys.stderr)
+    return pixels
 
 
 def command_validate(args) -> int:

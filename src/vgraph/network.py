@@ -9,6 +9,7 @@ are told of every change as ``callback(event, **details)``.
 from __future__ import annotations
 
 import itertools
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -233,10 +234,14 @@ class Network:
     def evaluate(self, target: str | None = None, size: tuple[int, int] | None = None):
         """Evaluate one target and return its data as numpy: an image as float32 (H, W, 4) with
         row 0 at the top, a volume as its [z, y, x] array."""
-        from vgraph.scheduler import default_target, to_numpy
+        from vgraph.scheduler import BlankImageWarning, blank_image_warning, default_target, to_numpy
         target = target or default_target(self)
         self.update(target, size=size)
-        return to_numpy(self.output(target))
+        array = to_numpy(self.output(target))
+        warning = blank_image_warning(self, target, array)
+        if warning:
+            warnings.warn(BlankImageWarning(warning), stacklevel=2)
+        return array
 
     def save(self, path: str | Path) -> None:
         from vgraph.fileformat import save_network

@@ -135,6 +135,12 @@ class Processor:
         """Refuse property values that are impossible together (raise VGraphError naming the
         property); called when a network file is loaded, so ``validate`` catches what ``run`` would."""
 
+    def visible_content(self) -> str | None:
+        """What the inputs of the last process() should make visible, in words ("12% of the voxels
+        are visible under the transfer function"), or None when nothing or unknown. A renderer that
+        says so and still produced a uniform image is reported (``scheduler.blank_image_warning``)."""
+        return None
+
     def build_resources(self) -> None:
         """Called before process() when a RESOURCES-level property changed (and the first time)."""
 

@@ -182,6 +182,26 @@ def _checked_size(size) -> tuple[int, int]:
     return width, height
 
 
+class BlankImageWarning(UserWarning):
+    """A renderer produced a uniform image although its inputs have something visible."""
+
+
+def blank_image_warning(network: Network, target: str, pixels: np.ndarray) -> str | None:
+    """A warning when ``pixels`` (the image at ``target``) are all one colour although a renderer
+    it comes from says its inputs have visible content; None otherwise."""
+    if pixels.ndim != 3 or pixels.size == 0 or not np.all(pixels == pixels[:1, :1]):
+        return None
+    processor_id = _target_processor(network, target)
+    for pid in (processor_id, *nx.ancestors(network.graph, processor_id)):
+        processor = network.processors[pid]
+        content = processor.visible_content()
+        if content:
+            return (f"{pid} ({processor.type_name}) rendered an empty image although {content}: "
+                    f"is the volume in view (camera position, near and far) and is its value "
+                    f"range right?")
+    return None
+
+
 def to_numpy(data):
     if data is None:
         raise VGraphError("the target holds no data (was it evaluated? is its input connected?)")

@@ -7,6 +7,12 @@ Conventions (docs/volumes.md says the same for users):
 - ``value_range`` maps stored values to normalised intensities in [0, 1], the unit of every
   transfer-function position and iso level. Unless declared: uint8 -> [0, 255], uint16 -> [0, 65535],
   anything else -> [min, max] of the finite values.
+- Textures hold the stored values (R16 normalised for 8 and 16 bit, R32F otherwise) unless float32
+  cannot carry them: values beyond +-1e30 (float64 data up to 1.8e308, float32 near its limit) or
+  a range narrower than 1e-30 (subnormal data). Those volumes are uploaded as normalised
+  intensities computed in float64, and ``texture_scale_offset()`` says so with (1, 0).
+- A volume wider than the GL's 3D texture limit on any axis is refused when it is uploaded, naming
+  the limit (the out-of-core path will split such volumes into bricks).
 - A volume of cubic B-spline coefficients (``is_spline_coefficients``) holds no samples; consumers
   that need one kind refuse the other.
 """
@@ -19,6 +25,7 @@ from functools import cached_property
 
 import numpy as np
 
+from vgraph.camera import MAX_COORDINATE
 from vgraph.errors import VGraphError
 
 Vec3 = tuple[float, float, float]
@@ -30,6 +37,10 @@ _DEFAULT_INTEGER_RANGES = {np.dtype(np.uint8): (0.0, 255.0), np.dtype(np.uint16)
 # filters 8-bit textures with 8-bit weights, errors up to 0.007, while R16 filters exactly enough
 # and was measured no slower.
 _TEXTURE_FORMATS = {np.dtype(np.uint8): ("nu2", 255.0), np.dtype(np.uint16): ("nu2", 65535.0)}
+# float32 keeps ~7 digits from 1.2e-38 to 3.4e38; values and ranges inside these bounds leave room
+# for the shaders' arithmetic (scale, offset, differences) without overflow or subnormals.
+FLOAT32_SAFE = 1e30
+_SLAB_VOXELS = 2**22  # normalising in float64 slab by slab bounds the temporary memory
 
 
 @dataclass(eq=False)
@@ -97,7 +108,9 @@ class Volume:
         if finite.size == 0:
             return (0.0, 1.0)
         lo, hi = float(finite.min()), float(finite.max())
-        return (lo, hi) if hi > lo else (lo, lo + 1.0)  # a constant volume still maps somewhere
+        if hi > lo:
+            return (lo, hi)
+        return (lo, lo + max(1.0, abs(lo) * 1e-6))  # a constant volume still maps somewhere
 
     def normalized(self, values) -> np.ndarray:
         """Stored values -> normalised intensities (not clamped)."""
@@ -109,9 +122,18 @@ class Volume:
         in normalised intensity."""
         key = ("histogram", bins)
         if key not in self.__dict__:
+            # Binned in normalised float64 units, slab by slab: bins of a range such as
+            # [3.4e38, 3.4e38 + 3e32] are not representable in the data's own float32.
+            # Values a float32 rounding outside the range (a declared range computed in float64)
+            # still count in the end bins.
             lo, hi = self.value_range
-            values = self.data[np.isfinite(self.data)] if self.nonfinite_count else self.data
-            counts, _ = np.histogram(values, bins=bins, range=(lo, hi))
+            rounding = np.finfo(np.float32).eps * max(abs(lo), abs(hi)) / (hi - lo)
+            counts = np.zeros(bins, dtype=np.int64)
+            flat = self.data.reshape(-1)
+            for start in range(0, flat.size, _SLAB_VOXELS):
+                slab = self.normalized(flat[start:start + _SLAB_VOXELS])
+                inside = slab[(slab >= -rounding) & (slab <= 1.0 + rounding)]
+                counts += np.histogram(np.clip(inside, 0.0, 1.0), bins=bins, range=(0.0, 1.0))[0]
             self.__dict__[key] = (counts, np.linspace(0.0, 1.0, bins + 1))
         return self.__dict__[key]
 
@@ -140,16 +162,34 @@ class Volume:
 
     def texture_scale_offset(self) -> tuple[float, float]:
         """(scale, offset) with normalised intensity = texture sample * scale + offset."""
+        if self.texture_is_normalized:
+            return 1.0, 0.0
         lo, hi = self.value_range
         full_scale = _TEXTURE_FORMATS.get(self.data.dtype, (None, 1.0))[1]
         return full_scale / (hi - lo), -lo / (hi - lo)
 
+    @property
+    def texture_is_normalized(self) -> bool:
+        """Whether the texture holds normalised intensities (float32 cannot carry the values)."""
+        if self.data.dtype in _TEXTURE_FORMATS:
+            return False
+        lo, hi = self.value_range
+        return max(abs(lo), abs(hi)) > FLOAT32_SAFE or hi - lo < 1.0 / FLOAT32_SAFE
+
     def _upload(self, ctx):
+        limit = ctx.info["GL_MAX_3D_TEXTURE_SIZE"]
+        if max(self.dims) > limit:
+            where = f" from {self.source}" if self.source else ""
+            raise VGraphError(f"volume{where}: {' x '.join(map(str, self.dims))} voxels is larger than "
+                              f"this GL's 3D texture limit of {limit} per axis (GL_MAX_3D_TEXTURE_SIZE); "
+                              f"crop or downsample it")
         gl_dtype, _ = _TEXTURE_FORMATS.get(self.data.dtype, ("f4", 1.0))
         data = self.data
         if data.dtype == np.uint8:
             data = data.astype(np.uint16) * np.uint16(257)
-        if gl_dtype == "f4":
+        elif self.texture_is_normalized:
+            data = self._normalized_float32()
+        elif gl_dtype == "f4":
             data = data.astype(np.float32, copy=False)
             if self.nonfinite_count:
                 lo, hi = self.value_range
@@ -158,6 +198,16 @@ class Volume:
                                 dtype=gl_dtype, alignment=1)
         texture.repeat_x = texture.repeat_y = texture.repeat_z = False
         return texture
+
+    def _normalized_float32(self) -> np.ndarray:
+        """(value - lo) / (hi - lo) in float64, stored as float32; NaN -> 0, +-Inf -> 1 / 0."""
+        lo, hi = self.value_range
+        flat = self.data.reshape(-1)
+        out = np.empty(flat.size, dtype=np.float32)
+        for start in range(0, flat.size, _SLAB_VOXELS):
+            slab = (flat[start:start + _SLAB_VOXELS].astype(np.float64) - lo) / (hi - lo)
+            out[start:start + _SLAB_VOXELS] = np.nan_to_num(slab, nan=0.0, posinf=1.0, neginf=0.0)
+        return out.reshape(self.data.shape)
 
     def with_data(self, data: np.ndarray, **changes) -> "Volume":
         """A new volume on the same grid with other voxel values."""
@@ -176,6 +226,9 @@ def _vec3(value, name: str, where: str, positive: bool = False) -> Vec3:
         raise VGraphError(f"volume{where}: {name} must be three finite numbers (x, y, z), got {value!r}")
     if positive and min(vec) <= 0:
         raise VGraphError(f"volume{where}: {name} must be positive, got {vec}")
+    if max(abs(v) for v in vec) > MAX_COORDINATE or positive and min(vec) < 1.0 / MAX_COORDINATE:
+        raise VGraphError(f"volume{where}: {name} {vec} is outside what GL's float32 world "
+                          f"coordinates hold (magnitudes {1 / MAX_COORDINATE:g} to {MAX_COORDINATE:g})")
     return vec
 
 

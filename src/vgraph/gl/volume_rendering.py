@@ -321,6 +321,23 @@ def vec(values) -> tuple[float, ...]:
     return tuple(float(v) for v in values)
 
 
+# --- what a ray caster should show -----------------------------------------------------------------
+def visible_under(volume: Volume, transfer_function, bins: int = 256) -> str | None:
+    """Which share of the voxels the transfer function gives any opacity (bins of the histogram
+    against the LUT's largest opacity in each bin), in words; None if none."""
+    counts, _ = volume.histogram(bins)
+    alpha = transfer_function.lut()[:, 3]
+    bin_alpha = alpha[:len(alpha) // bins * bins].reshape(bins, -1).max(axis=1)
+    share = counts[bin_alpha > 0].sum() / max(counts.sum(), 1)
+    return f"{share:.0%} of the voxels are visible under the transfer function" if share > 0 else None
+
+
+def crossed_by(volume: Volume, level: float) -> str | None:
+    """Whether the volume's values cross the normalised ``level`` (an iso-surface exists)."""
+    low, high = block_ranges(volume)
+    return f"the volume's values cross the iso level {level:g}" if low.min() < level < high.max() else None
+
+
 # --- Blinn-Phong lighting, shared by every ray caster ---------------------------------------------
 def lighting_properties():
     """The light's property declarations, unpacked into a ray caster's class body:
@@ -339,8 +356,10 @@ def shading_uniforms(owner, min_spacing: float) -> dict[str, object]:
     """Uniforms of raycasting/shading.glsl from ``owner``'s lighting properties; gradients at or
     below GRADIENT_EPSILON / min(spacing) leave a sample unshaded, as in the CPU reference."""
     light = np.asarray(owner.light_direction, dtype=np.float64)
-    if owner.light == "direction" and not np.linalg.norm(light) > 0.0:
+    largest = np.abs(light).max()
+    if owner.light == "direction" and not largest > 0.0:
         raise VGraphError(f"{owner.id}.light_direction must not be zero, got {list(light)}")
+    light = light / largest if largest > 0.0 else light  # scaled first: |(1e308,)*3| overflows
     return {"gradient_epsilon": GRADIENT_EPSILON / min_spacing,
             "light_direction": tuple(float(v) for v in light / max(np.linalg.norm(light), 1e-300)),
             "ambient": owner.ambient, "diffuse": owner.diffuse, "specular": owner.specular,

@@ -1,0 +1,138 @@
+"""Values at the edges of what numbers and the GL can hold: refused with a named error, or rendered
+as the same scene at ordinary magnitudes. Before, a camera `far` of 1e999 or a float64 volume beyond
+float32 rendered black with exit 0, and a constant volume at 3.4e38 raised ZeroDivisionError."""
+
+import json
+
+import numpy as np
+import pytest
+
+import vgraph
+from vgraph.camera import Camera
+from vgraph.cli import main
+from vgraph.gl.context import get_context
+from vgraph.scheduler import BlankImageWarning
+from vgraph.testing import ray_caster_network
+from vgraph.volume import Volume
+from conftest import REPO
+
+N = 24
+CAMERA = Camera(position=(11.5, 11.5, 60.0), focus=(11.5, 11.5, 11.5))
+
+
+def ball() -> np.ndarray:
+    z, y, x = np.mgrid[0:N, 0:N, 0:N]
+    radius = np.sqrt((x - 11.5) ** 2 + (y - 11.5) ** 2 + (z - 11.5) ** 2)
+    return np.clip(1.0 - radius / 12.0, 0.0, 1.0).astype(np.float32)
+
+
+def render(data, mode: str, camera=CAMERA) -> np.ndarray:
+    network = ray_caster_network(Volume(data), camera, compositing=mode)
+    return network.evaluate("rc.image", size=(48, 48))
+
+
+EXTREMES = {
+    "float32 near its maximum": lambda b: b * np.float32(3.0e38),
+    "float32 subnormal": lambda b: (b.astype(np.float64) * 1e-40).astype(np.float32),
+    "float64 beyond float32": lambda b: b.astype(np.float64) * 1e300,
+    "float64 with a huge offset": lambda b: b.astype(np.float64) * 1e300 - 5e299,
+}
+
+
+@pytest.mark.parametrize("mode", ["dvr", "mip", "iso"])
+@pytest.mark.parametrize("name", list(EXTREMES))
+def test_extreme_magnitudes_render_like_ordinary_ones(name, mode):
+    expected = render(ball(), mode)
+    image = render(EXTREMES[name](ball()), mode)
+    # Subnormal float32 keeps ~17 bits of the ball's values; the others keep all of float32's.
+    assert np.abs(image - expected).max() < (1e-4 if "subnormal" in name else 2e-6)
+    assert image[..., :3].max() > 0.1
+
+
+def test_a_constant_volume_at_the_float32_limit_renders_without_error():
+    image = render(np.full((N, N, N), 3.4e38, np.float32), "dvr")
+    assert np.isfinite(image).all()
+
+
+@pytest.mark.parametrize("field, value, reason", [
+    ("far", json.loads("1e999"), "finite"),
+    ("parallel_scale", "Infinity", "finite"),
+    ("near", float("nan"), "finite"),
+    ("position", (1e300, 1e300, 1e300), "must lie within"),
+    ("focus", (0.0, 0.0, -1e16), "must lie within"),
+])
+def test_camera_values_that_are_not_finite_or_representable_are_refused(field, value, reason):
+    with pytest.raises(vgraph.PropertyError, match=rf"eep\.camera.*{field}|{reason}") as error:
+        vgraph.Network().add("EntryExitPoints", id="eep", camera={**CAMERA.model_dump(), field: value})
+    assert reason in str(error.value)
+
+
+def test_a_network_file_with_an_infinite_camera_far_is_refused_naming_the_field(tmp_path):
+    text = (REPO / "networks" / "raycast_sphere.json").read_text()
+    document = json.loads(text)
+    document["processors"][1]["properties"]["camera"]["far"] = 1.0
+    path = tmp_path / "far.json"
+    path.write_text(json.dumps(document).replace('"far": 1.0', '"far": 1e999'))
+    assert main(["validate", str(path)]) == 2
+    with pytest.raises(vgraph.NetworkFileError, match=r"processors\[1\]\.properties\.camera.*finite"):
+        vgraph.load(path)
+
+
+def test_a_huge_light_direction_lights_like_a_unit_one():
+    def shaded(direction):
+        network = ray_caster_network(Volume(ball()), CAMERA, compositing="iso", shading="blinn_phong",
+                                     light="direction", light_direction=direction)
+        return network.evaluate("rc.image", size=(48, 48))
+    assert np.abs(shaded((1e308, 1e308, 1e308)) - shaded((1.0, 1.0, 1.0))).max() < 1e-6
+
+
+@pytest.mark.parametrize("field, value", [("spacing", (1e308, 1.0, 1.0)), ("spacing", (1e-20, 1.0, 1.0)),
+                                          ("origin", (0.0, 0.0, 1e20))])
+def test_volume_geometry_outside_float32_world_coordinates_is_refused(field, value):
+    with pytest.raises(vgraph.VGraphError, match=f"{field}.*outside what GL's float32"):
+        Volume(ball(), **{field: value})
+
+
+def test_a_volume_wider_than_the_gl_texture_limit_is_refused_naming_the_limit():
+    limit = get_context().info["GL_MAX_3D_TEXTURE_SIZE"]
+    volume = Volume(np.zeros((4, 4, limit + 1), np.uint8), source="long.raw")
+    network = ray_caster_network(volume, CAMERA)
+    with pytest.raises(vgraph.ProcessorError, match=rf"long.raw: {limit + 1} x 4 x 4 voxels .* limit of "
+                                                    rf"{limit} per axis \(GL_MAX_3D_TEXTURE_SIZE\)") as error:
+        network.update("rc.image", size=(16, 16))
+    assert not error.value.internal  # exit code 2: bad input, not a bug
+
+
+def test_an_empty_render_of_visible_content_warns_naming_the_renderer():
+    away = Camera(position=(11.5, 11.5, 60.0), focus=(11.5, 11.5, 100.0))
+    network = ray_caster_network(Volume(ball()), away)
+    with pytest.warns(BlankImageWarning, match=r"rc \(RayCaster\) rendered an empty image although "
+                                               r"\d+% of the voxels are visible"):
+        network.evaluate("rc.image", size=(32, 32))
+
+
+def test_an_empty_render_of_an_empty_scene_does_not_warn(recwarn):
+    network = ray_caster_network(Volume(np.zeros((N, N, N), np.float32)), CAMERA)
+    network.evaluate("rc.image", size=(32, 32))
+    assert not [w for w in recwarn if issubclass(w.category, BlankImageWarning)]
+
+
+def test_vgraph_run_warns_on_stderr_when_the_camera_looks_away(tmp_path, capsys):
+    away = '{"position": [0, 0, -300], "focus": [0, 0, -400]}'
+    assert main(["run", str(REPO / "networks" / "raycast_sphere.json"), "-o", str(tmp_path / "a.png"),
+                 "--set", f"eep.camera={away}"]) == 0
+    assert "vgraph: warning: rc (RayCaster) rendered an empty image" in capsys.readouterr().err
+
+
+def test_b_spline_coefficients_of_values_beyond_float32_give_the_ordinary_curvature_image():
+    def curvature(data):
+        network = ray_caster_network(Volume(data), CAMERA, processor="CurvatureRaycaster", level=0.5)
+        network.add("CubicSplineProcessor", id="spline")
+        for connection in network.connections_of("src"):
+            network.disconnect(connection)
+            network.connect("spline.volume", f"{connection.target}.{connection.inport}")
+        network.connect("src.volume", "spline.volume")
+        return network.evaluate("rc.curvature", size=(48, 48))
+    expected, image = curvature(ball()), curvature(ball().astype(np.float64) * 1e300)
+    assert np.isfinite(image).all() and (image[..., 3] == 1.0).sum() > 100
+    np.testing.assert_allclose(image, expected, atol=1e-3 * np.abs(expected).max())
