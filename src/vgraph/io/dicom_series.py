@@ -97,7 +97,7 @@ def _check_deflated_size(file: Path) -> None:
 
 def _series_of(file: Path) -> str | None:
     try:
-        return str(_dataset(file, headers_only=True).get("SeriesInstanceUID", ""))
+        return str(_value(file, _dataset(file, headers_only=True), "SeriesInstanceUID") or "")
     except VolumeFileError:
         raise
     except Exception as exc:  # pydicom raises many types for damaged files
@@ -122,9 +122,17 @@ def _image_headers(folder: Path) -> list[tuple[Path, pydicom.Dataset]]:
 
 
 # --- header values -------------------------------------------------------------------------------
+def _value(file: Path, ds, field: str):
+    """A field's value; pydicom decodes values when first read and raises for damaged ones."""
+    try:
+        return ds.get(field)
+    except Exception as exc:
+        raise VolumeFileError(file, f"cannot decode the value: {exc}", field) from exc
+
+
 def _numbers(file: Path, ds, field: str, count: int | None = None) -> tuple[float, ...] | None:
     """A field as finite numbers (None when absent); anything else is refused with its name."""
-    value = ds.get(field)
+    value = _value(file, ds, field)
     if value is None or value == "":
         return None
     items = value if isinstance(value, (list, tuple, pydicom.multival.MultiValue)) else [value]
@@ -152,7 +160,7 @@ def _integer(file: Path, ds, field: str, default: int | None = None) -> int:
 def _pick_series(folder, slices, wanted):
     groups = defaultdict(list)
     for file, ds in slices:
-        groups[str(ds.get("SeriesInstanceUID", ""))].append((file, ds))
+        groups[str(_value(file, ds, "SeriesInstanceUID") or "")].append((file, ds))
     if wanted is not None:
         if not groups.get(wanted):
             raise VolumeFileError(folder, f"no image files of series {wanted!r} in the folder",

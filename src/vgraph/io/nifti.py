@@ -19,6 +19,7 @@ except in files vgraph wrote itself (descrip "vgraph volume"), where they carry 
 from __future__ import annotations
 
 import io
+import logging
 import warnings
 from pathlib import Path
 
@@ -33,6 +34,9 @@ from vgraph.io._inflate import file_pieces, inflate_into, inflated_prefix
 from vgraph.volume import Volume
 
 WRITER_TAG = "vgraph volume"
+_FIXES_LOG = logging.getLogger(__name__ + ".fixes")
+_FIXES_LOG.addHandler(logging.NullHandler())
+_FIXES_LOG.propagate = False
 # sizeof_hdr -> (header class, byte offset and type of vox_offset)
 _HEADERS = {348: (nib.Nifti1Header, 108, "f4"), 540: (nib.Nifti2Header, 168, "i8")}
 
@@ -72,8 +76,10 @@ def _header(path: Path, gzipped: bool):
                               "vox_offset")
     blob = _leading_bytes(path, gzipped, size)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # nibabel warns about fields it fixes; we report errors
-        header = _checked(path, "header", lambda: klass.from_fileobj(io.BytesIO(blob)))
+        warnings.simplefilter("ignore")
+        header = _checked(path, "header", lambda: klass.from_fileobj(io.BytesIO(blob), check=False))
+        # nibabel fixes what it can (logging each fix, here to nowhere) and raises for the rest
+        _checked(path, "header", lambda: header.check_fix(logger=_FIXES_LOG))
     magic = bytes(header["magic"])
     if magic[:3] not in (b"n+1", b"n+2"):
         raise VolumeFileError(path, f"not a single-file NIfTI image (magic {magic!r})", "magic")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import struct
+import tokenize
 import zipfile
 import zlib
 from pathlib import Path
@@ -134,7 +135,8 @@ def _npy_header(fh, path: Path, field: str):
                        else np.lib.format.read_array_header_2_0)  # 2.0 and 3.0 share a layout
         shape, fortran, dtype = read_header(fh)
         return tuple(int(s) for s in shape), bool(fortran), np.dtype(dtype), fh.tell()
-    except (ValueError, EOFError, TypeError, SyntaxError) as exc:
+    except (ValueError, EOFError, TypeError, SyntaxError, tokenize.TokenError) as exc:
+        # numpy parses the header dict with Python's tokenizer and literal_eval
         raise VolumeFileError(path, f"not a readable .npy header: {exc}", field) from exc
 
 

@@ -1,0 +1,209 @@
+"""Fuzz the volume readers, ImageSource and the network loader for minutes, with time and memory
+limits per case.
+
+    .venv/bin/python bench/fuzz.py --minutes 40 [--target all | networks | nrrd,nhdr | ...]
+    .venv/bin/python bench/fuzz.py --replay nrrd 1234        # one case again, in this process
+
+Cases come from vgraph.io.fuzz_cases: valid files of every format built from scratch and the
+shipped networks, mutated (bit flips, truncations, header line edits, numbers replaced by
+extremes, JSON documents edited). The only allowed outcomes are success and a VGraphError. Each
+case runs in a worker process whose address space is limited (RLIMIT_AS: its size at start +
+--address-space-mb), so a reader that allocates what a header claims fails instead of taking the
+machine. A case is a failure when it raises anything else (MemoryError included), takes more
+than --max-seconds, raises the worker's peak resident memory by more than --max-memory-mb, hangs
+(killed after --kill-seconds) or kills the worker. Targets take turns, one case each, until the
+time is up. Printed per target: cases run, outcomes by error type, failures; each failure is
+saved under bench/results/fuzz/<target>/<seed>/ (the files, case.txt, traceback.txt).
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+import random
+import resource
+import shutil
+import sys
+import tempfile
+import time
+import traceback
+from collections import Counter, defaultdict
+from pathlib import Path
+
+from vgraph.io.fuzz_cases import TARGETS, make_case, run_case
+
+RESULTS = Path(__file__).resolve().parent / "results" / "fuzz"
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    if args.replay:
+        return replay(*args.replay)
+    targets = TARGETS if args.target == "all" else tuple(args.target.split(","))
+    unknown = set(targets) - set(TARGETS)
+    if unknown:
+        sys.exit(f"unknown target(s) {sorted(unknown)}; known: all, {', '.join(TARGETS)}")
+    counts, failures = fuzz(targets, args)
+    report(targets, counts, failures, args)
+    return 1 if failures else 0
+
+
+def parse_args(argv):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--minutes", type=float, default=1.0)
+    parser.add_argument("--target", default="all", help=f"all or a comma list of {', '.join(TARGETS)}")
+    parser.add_argument("--seed", type=int, default=None, help="first seed (default: from the clock)")
+    parser.add_argument("--max-seconds", type=float, default=3.0)
+    parser.add_argument("--max-memory-mb", type=float, default=300.0)
+    parser.add_argument("--address-space-mb", type=float, default=2048.0)
+    parser.add_argument("--kill-seconds", type=float, default=30.0)
+    parser.add_argument("--replay", nargs=2, metavar=("TARGET", "SEED"))
+    return parser.parse_args(argv)
+
+
+# --- the worker ----------------------------------------------------------------------------------
+def worker(connection, address_space_bytes: int) -> None:
+    """Runs cases sent as (target, seed, folder); answers (outcome, seconds, peak MB, traceback)."""
+    limit = _status_kb("VmSize") * 1024 + address_space_bytes
+    resource.setrlimit(resource.RLIMIT_AS, (limit, resource.RLIM_INFINITY))
+    while (job := connection.recv()) is not None:
+        target, seed, folder = job
+        case = make_case(target, random.Random(seed))
+        _reset_peak_memory()
+        idle_kb = _status_kb("VmRSS")
+        start = time.perf_counter()
+        try:
+            outcome, details = run_case(case, Path(folder)), None
+        except BaseException as error:  # MemoryError and RecursionError are failures too
+            outcome, details = f"raised {type(error).__name__}", traceback.format_exc()
+        seconds = time.perf_counter() - start
+        connection.send((outcome, seconds, (_status_kb("VmHWM") - idle_kb) / 1024, details))
+
+
+def _status_kb(key: str) -> int:
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith(key + ":"):
+                return int(line.split()[1])
+    return 0
+
+
+def _reset_peak_memory() -> None:
+    """Linux resets VmHWM to the current resident size when 5 is written to clear_refs."""
+    try:
+        with open("/proc/self/clear_refs", "w") as clear:
+            clear.write("5")
+    except OSError:
+        pass
+
+
+class Worker:
+    def __init__(self, address_space_bytes: int):
+        context = multiprocessing.get_context("fork")
+        self.connection, child = context.Pipe()
+        self.process = context.Process(target=worker, args=(child, address_space_bytes), daemon=True)
+        self.process.start()
+
+    def run(self, target: str, seed: int, folder: Path, kill_seconds: float):
+        """(outcome, seconds, peak MB, details); outcome 'hung' or 'worker died' when it did."""
+        self.connection.send((target, seed, str(folder)))
+        if not self.connection.poll(kill_seconds):
+            self.stop()
+            return "hung", kill_seconds, 0.0, f"no answer within {kill_seconds} s; killed"
+        try:
+            return self.connection.recv()
+        except (EOFError, ConnectionResetError):
+            self.process.join(5)
+            return "worker died", 0.0, 0.0, f"exit code {self.process.exitcode}"
+
+    def stop(self) -> None:
+        if self.process.is_alive():
+            self.process.kill()
+        self.process.join(5)
+
+    def close(self) -> None:
+        if self.process.is_alive():
+            self.connection.send(None)
+            self.process.join(5)
+        self.stop()
+
+
+# --- the loop ------------------------------------------------------------------------------------
+def fuzz(targets, args):
+    counts: dict[str, Counter] = defaultdict(Counter)
+    failures: list[tuple[str, int, str, Path]] = []
+    seed = args.seed if args.seed is not None else int(time.time())
+    deadline = time.monotonic() + 60 * args.minutes
+    address_space = int(args.address_space_mb * 2**20)
+    current = Worker(address_space)
+    with tempfile.TemporaryDirectory(prefix="vgraph-fuzz-") as scratch:
+        while time.monotonic() < deadline:
+            for target in targets:
+                seed += 1
+                folder = Path(scratch) / f"{target}-{seed}"
+                folder.mkdir()
+                outcome, seconds, peak_mb, details = current.run(target, seed, folder,
+                                                                 args.kill_seconds)
+                problem = judge(outcome, seconds, peak_mb, args)
+                if problem:
+                    counts[target]["FAILED"] += 1
+                    failures.append((target, seed, problem, save(target, seed, folder, problem,
+                                                                 details)))
+                else:
+                    counts[target][outcome] += 1
+                if not current.process.is_alive():
+                    current = Worker(address_space)
+                shutil.rmtree(folder, ignore_errors=True)
+    current.close()
+    return counts, failures
+
+
+def judge(outcome: str, seconds: float, peak_mb: float, args) -> str | None:
+    if outcome in ("hung", "worker died") or outcome.startswith("raised "):
+        return outcome
+    if seconds > args.max_seconds:
+        return f"slow: {seconds:.1f} s ({outcome})"
+    if peak_mb > args.max_memory_mb:
+        return f"memory: peak +{peak_mb:.0f} MB ({outcome})"
+    return None
+
+
+def save(target: str, seed: int, folder: Path, problem: str, details: str | None) -> Path:
+    place = RESULTS / target / str(seed)
+    shutil.rmtree(place, ignore_errors=True)
+    shutil.copytree(folder, place, symlinks=True)
+    case = make_case(target, random.Random(seed))
+    (place / "case.txt").write_text(f"target: {target}\nseed: {seed}\nentry: {case.entry!r}\n"
+                                    f"raw: {case.raw!r}\nproblem: {problem}\n"
+                                    f"replay: .venv/bin/python bench/fuzz.py --replay {target} {seed}\n")
+    (place / "traceback.txt").write_text(details or problem)
+    return place
+
+
+def report(targets, counts, failures, args) -> None:
+    total = sum(sum(c.values()) for c in counts.values())
+    print(f"fuzzed {total} cases in {args.minutes:g} min (limits: {args.max_seconds:g} s, "
+          f"+{args.max_memory_mb:g} MB resident, {args.address_space_mb:g} MB address space)")
+    for target in targets:
+        outcomes = counts[target]
+        listing = ", ".join(f"{name} {n}" for name, n in sorted(outcomes.items()) if name != "FAILED")
+        print(f"  {target:10s} {sum(outcomes.values()):7d} cases: {listing}; "
+              f"failures {outcomes['FAILED']}")
+    for target, seed, problem, place in failures:
+        last = (place / "traceback.txt").read_text().strip().splitlines()[-1:]
+        print(f"FAIL {target} seed {seed}: {problem}: {last[0] if last else ''} -> {place}")
+
+
+def replay(target: str, seed: str) -> int:
+    """One case again, in this process, with the full traceback."""
+    case = make_case(target, random.Random(int(seed)))
+    with tempfile.TemporaryDirectory() as folder:
+        start = time.perf_counter()
+        outcome = run_case(case, Path(folder))
+    print(f"{target} seed {seed}: {outcome} in {time.perf_counter() - start:.2f} s "
+          f"(peak resident {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
