@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 import vgraph
 from vgraph import NetworkFileError
+from vgraph.cli import main
 from vgraph.fileformat import CURRENT_VERSION, load_network, network_document
 
 from conftest import REPO
@@ -131,6 +132,66 @@ def test_save_is_atomic_and_keeps_the_old_file_on_failure(tmp_path, monkeypatch)
 def test_malformed_input_names_the_json_path_and_reason(tmp_path, document, path, reason):
     found = problems(tmp_path, document)
     assert any(p.startswith(path) and re.search(reason, r) for p, r in found), found
+
+
+def test_a_version_0_label_on_a_version_1_body_is_refused_not_emptied(tmp_path):
+    """It used to validate as "valid (0 processors)", and load + save wrote an empty network."""
+    path = write(tmp_path, broken(lambda d: d.update(version=0)))
+    before = path.read_text()
+    with pytest.raises(NetworkFileError, match="version: version 0 files have no field 'connections'"):
+        vgraph.load(path)
+    assert main(["validate", str(path)]) == 2
+    assert path.read_text() == before
+
+
+def test_load_and_save_never_drop_a_processor_connection_or_link(tmp_path):
+    for source in sorted((REPO / "networks").glob("*.json")):
+        document = json.loads(source.read_text())
+        network = vgraph.load(source)
+        network.save(tmp_path / source.name)
+        saved = json.loads((tmp_path / source.name).read_text())
+        for part in ("processors", "connections", "links"):
+            assert len(saved[part]) == len(document[part]), (source.name, part)
+
+
+def nested(depth: int):
+    value = 1
+    for _ in range(depth):
+        value = [value]
+    return value
+
+
+@pytest.mark.parametrize("name, make, reason", [
+    ("fifo.json", lambda p: os.mkfifo(p), "not a regular file"),
+    ("folder.json", lambda p: p.mkdir(), "not a regular file"),
+    ("huge.json", lambda p: p.write_bytes(b" " * (64 * 2**20 + 1)), "67108865 bytes is larger than a network file can be"),
+    ("deep.json", lambda p: p.write_text("[" * 100_000 + "]" * 100_000), "nested more than 64 levels"),
+    ("deep_value.json", lambda p: p.write_text(json.dumps(
+        broken(lambda d: d["processors"][0]["properties"].update(value=nested(70))))),
+     "nested more than 64 levels"),
+    ("binary.json", lambda p: p.write_bytes(b"\xff\xfe\x00garbage"), "cannot read the file"),
+])
+def test_files_that_are_not_networks_are_refused_before_reading_them_whole(tmp_path, name, make, reason):
+    path = tmp_path / name
+    make(path)
+    with pytest.raises(NetworkFileError, match=rf"{name}: \(top level\): {reason}"):
+        vgraph.load(path)
+    assert main(["validate", str(path)]) == 2
+
+
+def test_dev_zero_is_not_read_as_a_network():
+    with pytest.raises(NetworkFileError, match=r"/dev/zero: \(top level\): not a regular file"):
+        vgraph.load("/dev/zero")
+
+
+def test_validate_checks_what_run_would_refuse(tmp_path, capsys):
+    document = json.loads((REPO / "networks" / "raycast_sphere.json").read_text())
+    source = next(p for p in document["processors"] if p["type"] == "FunctionSelector")
+    source["properties"].update(function="sphere", parameters={"radius": -1})
+    path = write(tmp_path, document)
+    assert main(["validate", str(path)]) == 2
+    assert re.search(r"processors\[\d\]\.properties: function 'sphere', parameter 'radius': must be in",
+                     capsys.readouterr().err)
 
 
 def test_missing_file_is_named(tmp_path):
