@@ -129,3 +129,9 @@ def test_temporary_files_of_a_live_writer_are_left_alone(tmp_path):
             np.save(other, np.zeros(2))
         assert ours.exists()
     assert target.read_bytes() == b"in progress"
+
+
+def test_a_nul_byte_in_a_writer_path_from_a_file_names_the_property(tmp_path):
+    network = network_writing_to(tmp_path, "a\0b.nrrd")
+    with pytest.raises(vgraph.NetworkFileError, match=r"processors\[\d\]\.properties\.path: .*NUL byte"):
+        vgraph.load(network)

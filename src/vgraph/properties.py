@@ -13,7 +13,7 @@ from __future__ import annotations
 from enum import IntEnum
 from typing import Annotated, Literal
 
-from pydantic import BeforeValidator, Field, StrictBool, StrictInt, TypeAdapter, ValidationError
+from pydantic import AfterValidator, BeforeValidator, Field, StrictBool, StrictInt, TypeAdapter, ValidationError
 
 from vgraph.camera import Camera
 from vgraph.errors import PropertyError
@@ -153,8 +153,17 @@ class FilePathProperty(StringProperty):
         self.writes = writes
         super().__init__(default, **kw)
 
+    def _value_type(self):
+        return Annotated[str, AfterValidator(_no_nul_byte)]
+
     def describe(self) -> dict:
         return super().describe() | {"filters": list(self.filters), "writes": self.writes}
+
+
+def _no_nul_byte(path: str) -> str:
+    if "\0" in path:
+        raise ValueError("a file path cannot contain a NUL byte")
+    return path
 
 
 class VectorProperty(Property):
