@@ -14,7 +14,7 @@ import sys
 
 import numpy as np
 import pytest
-from PySide6.QtCore import QRectF, Qt
+from PySide6.QtCore import QPointF, QRectF, Qt
 from PySide6.QtGui import QColor, QImage, QPainter
 
 from gui_helpers import window  # noqa: F401  (a fixture)
@@ -207,3 +207,30 @@ def test_a_render_process_that_dies_with_a_job_is_reported_and_replaced(lone_win
                     timeout=10000)
     assert log_has(window, "info", f"started a new render process (pid {window.evaluation.renderer.pid})")
     renders_a_frame_after_a_change(window, qtbot, 1.5)
+
+
+def test_a_long_drag_is_one_undo_step_and_frees_what_each_move_made(window, qtbot):
+    """PySide6 keeps every undo command that QUndoStack.push merges away alive forever: each
+    mouse move of a drag leaked one, with its transfer function (80 KB per drag in the soak)."""
+    import gc
+    from vgraph.gui.commands import SetProperty
+    open_evaluated(window, "raycast_sphere.json")
+    window.scene.select_processor("rc")
+    plot = window.inspector.editors["transfer_function"].plot
+    stack, original = window.workspace.undo_stack, window.workspace.network.get("rc.transfer_function")
+    steps = stack.count()
+    position, *_, opacity = plot.points[1]
+    start = plot.to_pixel(position, opacity)
+    qtbot.mousePress(plot, Qt.LeftButton, pos=start.toPoint())
+    for i in range(1, 301):
+        qtbot.mouseMove(plot, (start + QPointF(0, -(i % 50))).toPoint())
+        if i == 150:
+            assert window.autosave.write_if_needed() is not None
+    assert window.autosave._dirty          # moves merged after the autosave still count as changes
+    qtbot.mouseRelease(plot, Qt.LeftButton, pos=(start + QPointF(0, -20)).toPoint())
+
+    assert stack.count() == steps + 1      # the whole drag: one undo step
+    gc.collect()
+    assert sum(isinstance(o, SetProperty) for o in gc.get_objects()) <= stack.count()
+    stack.undo()
+    assert window.workspace.network.get("rc.transfer_function") == original

@@ -12,6 +12,7 @@ Conventions:
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from pathlib import Path
 
 from PySide6.QtCore import QObject, QSettings, Signal
@@ -41,6 +42,7 @@ class Workspace(QObject):
         self.network = Network()
         self.path: Path | None = None
         self.undo_stack = QUndoStack(self)
+        self._macro_depth = 0
         self.auto_link_cameras = True
 
     # --- state ----------------------------------------------------------------------------------
@@ -55,8 +57,33 @@ class Workspace(QObject):
         """Apply ``command`` (raises VGraphError if the network refuses it), then push it."""
         command.apply()
         command.applied_once()
-        self.undo_stack.push(command)
+        if not self._merged_into_last(command):
+            self.undo_stack.push(command)
         return command
+
+    def _merged_into_last(self, command: NetworkCommand) -> bool:
+        """Merge a continuing edit (the next mouse move of a drag) into the last command under
+        the rules of QUndoStack.push, but here: PySide6 never frees a command that push merges
+        away, so every move of a drag leaked one, with its values (a transfer function, a camera)."""
+        stack = self.undo_stack
+        if (command.id() == -1 or self._macro_depth or stack.index() == 0
+                or stack.index() != stack.count() or stack.index() == stack.cleanIndex()):
+            return False   # push decides (and then never merges, except after an undo)
+        last = stack.command(stack.index() - 1)
+        if last is None or last.id() != command.id() or not last.mergeWith(command):
+            return False
+        stack.indexChanged.emit(stack.index())   # as push does after a merge: views follow it
+        return True
+
+    @contextmanager
+    def _macro(self, text: str):
+        self._macro_depth += 1
+        self.undo_stack.beginMacro(text)
+        try:
+            yield
+        finally:
+            self.undo_stack.endMacro()
+            self._macro_depth -= 1
 
     def add_processor(self, type_name: str, position=(0.0, 0.0), id: str | None = None) -> Processor:
         cls = registry.get(type_name)
@@ -65,13 +92,10 @@ class Workspace(QObject):
         processor = cls(id=id or free_id(self.network, cls.type_name))
         processor.position = (float(position[0]), float(position[1]))
         leaders = self._camera_leaders(processor) if self.auto_link_cameras else []
-        self.undo_stack.beginMacro(f"Add {processor.id} ({cls.type_name})")
-        try:
+        with self._macro(f"Add {processor.id} ({cls.type_name})"):
             self.execute(AddProcessor(self.network, processor))
             for leader, follower in leaders:
                 self.execute(LinkProperties(self.network, leader, follower, bidirectional=True))
-        finally:
-            self.undo_stack.endMacro()
         return processor
 
     def _camera_leaders(self, processor: Processor) -> list[tuple[str, str]]:
@@ -90,8 +114,7 @@ class Workspace(QObject):
         count = len(processor_ids) + len(connections) + len(links)
         if not count:
             return
-        self.undo_stack.beginMacro(f"Delete {count} item{'s' if count > 1 else ''}")
-        try:
+        with self._macro(f"Delete {count} item{'s' if count > 1 else ''}"):
             for link in links:
                 if link in self.network.links:
                     self.execute(Unlink(self.network, link))
@@ -101,8 +124,6 @@ class Workspace(QObject):
             for pid in processor_ids:
                 if pid in self.network:
                     self.execute(RemoveProcessor(self.network, pid))
-        finally:
-            self.undo_stack.endMacro()
 
     def connect(self, source: str, target: str) -> Connection:
         (src, out), (dst, inp) = split_address(source), split_address(target)
