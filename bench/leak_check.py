@@ -16,17 +16,9 @@ from pathlib import Path
 from tqdm import tqdm
 
 import vgraph
-from vgraph.leaks import repeated_evaluations
+from vgraph.leaks import repeated_evaluations, writers_redirected
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def with_writers_in(network, folder: Path):
-    for processor in network.processors.values():
-        prop = processor.properties.get("path")
-        if prop is not None and getattr(prop, "writes", False):
-            processor.path = str(folder / f"{processor.id}{Path(processor.path).suffix}")
-    return network
 
 
 def main() -> None:
@@ -42,7 +34,7 @@ def main() -> None:
           f"{'RSS MiB first/peak/last':>24s}")
     with tempfile.TemporaryDirectory() as scratch:
         for path in tqdm(sorted((REPO / "networks").glob("*.json")), desc="networks", leave=False):
-            network = with_writers_in(vgraph.load(path), Path(scratch))
+            network = writers_redirected(vgraph.load(path), Path(scratch))
             start = time.perf_counter()
             samples = repeated_evaluations(network, args.evaluations, every=args.every)
             seconds = time.perf_counter() - start

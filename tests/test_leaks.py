@@ -5,14 +5,12 @@ Grayscale re-evaluated 300 times grew by 170 MB and a chain of 50 leaked 2000 te
 
 import gc
 import warnings
-from pathlib import Path
 
 import pytest
 
 import vgraph
-from vgraph.fileformat import network_document
 from vgraph.gl.context import collect_garbage, get_context
-from vgraph.leaks import live_gl_textures, repeated_evaluations
+from vgraph.leaks import live_gl_textures, repeated_evaluations, writers_redirected
 from conftest import REPO
 
 NETWORKS = sorted((REPO / "networks").glob("*.json"))
@@ -38,19 +36,11 @@ def assert_flat(samples):
     assert late - early < RESIDENT_SLACK_MB, samples
 
 
-def with_writers_in(network, folder: Path):
-    for processor in network.processors.values():
-        prop = processor.properties.get("path")
-        if prop is not None and getattr(prop, "writes", False):
-            processor.path = str(folder / f"{processor.id}{Path(processor.path).suffix or '.png'}")
-    return network
-
-
 @pytest.mark.parametrize("path", NETWORKS, ids=[p.stem for p in NETWORKS])
 def test_shipped_network_holds_constant_textures_and_memory(path, tmp_path, data_dir):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        network = with_writers_in(vgraph.load(path), tmp_path)
+        network = writers_redirected(vgraph.load(path), tmp_path)
         assert_flat(repeated_evaluations(network, EVALUATIONS, every=50))
 
 

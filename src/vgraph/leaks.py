@@ -12,7 +12,9 @@ Python wrappers are gone, the leaks that matter, are counted too.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+from pathlib import Path
 
 from vgraph.network import Network
 
@@ -43,8 +45,17 @@ def resident_mb() -> float:
             pages = int(statm.read().split()[1])
     except (OSError, ValueError, IndexError):
         return 0.0
-    import os
     return pages * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def writers_redirected(network: Network, folder) -> Network:
+    """The network with every writer writing into ``folder`` instead (same names and suffixes), so
+    a leak check does not rewrite the files the network normally writes."""
+    for processor in network.processors.values():
+        prop = processor.properties.get("path")
+        if prop is not None and getattr(prop, "writes", False):
+            processor.path = str(Path(folder) / f"{processor.id}{Path(processor.path).suffix}")
+    return network
 
 
 def repeated_evaluations(network: Network, count: int, size=(48, 48), every: int = 50,
