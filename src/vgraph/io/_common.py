@@ -30,6 +30,7 @@ _CHUNK_BYTES = 16 * 2**20
 # Text headers (.dat, .nhdr, .mhd, the NRRD data file LIST) are small; a "header" beyond this is
 # a data file opened by mistake, and reading it whole (or one endless line of it) would eat memory.
 MAX_HEADER_BYTES = 8 * 2**20
+MAX_HEADER_LINE = 2**20
 
 
 class NonFiniteVoxelsWarning(UserWarning):
@@ -200,13 +201,17 @@ def read_header_bytes(path, limit: int = MAX_HEADER_BYTES) -> bytes:
 def header_lines(fh, path, limit: int = MAX_HEADER_BYTES):
     """Lines (bytes, with their line ends) from an open file until the header budget is spent;
     each line is read with a length cap, so a binary file without line ends costs at most
-    ``limit`` bytes."""
+    MAX_HEADER_LINE bytes."""
     used = 0
     while True:
-        line = fh.readline(limit - used + 1)
+        line = fh.readline(MAX_HEADER_LINE + 1)
         if not line:
             return
         used += len(line)
+        if len(line) > MAX_HEADER_LINE:
+            raise VolumeFileError(path, f"a header line is longer than "
+                                        f"{format_bytes(MAX_HEADER_LINE)}: not a header, or a "
+                                        f"damaged one", "header")
         if used > limit:
             raise VolumeFileError(path, f"the header is longer than {format_bytes(limit)} (or has "
                                         f"no end): not a header, or a damaged one", "header")
