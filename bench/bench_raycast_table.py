@@ -1,6 +1,6 @@
 """Seed 000 table 4.2 redone: frames per second of the GL ray caster at 128^2 .. 1024^2 for an
 opaque and a fully transparent transfer function, with the CPU reference ray caster beside it and
-the GL / CPU speed ratio (seed 000 ch. 4.2.4 found its GPU ~3000x faster than its CPU).
+the GL / CPU speed ratio (Inácio 2009 ch. 4.2.4 found its GPU ~3000x faster than its CPU).
 
     .venv/bin/python bench/bench_raycast_table.py [--volume bonsai|torus]
         [--sizes 128 256 512 1024] [--repeat 5] [--cpu-sizes 128 256 512 1024]
@@ -186,7 +186,7 @@ def plot(results: dict, args, paths: list[Path], title: str) -> None:
     for (camera, tf_name), fps in SEED_TABLE.items():
         if camera == args.cameras[0]:
             ax.plot(SEED_SIZES, fps, ":", color="grey", marker="x" if tf_name == "opaque" else "+",
-                    label=f"seed 000 GeForce 9800M, {tf_name} ({camera})")
+                    label=f"Inácio 2009 GeForce 9800M, {tf_name} ({camera})")
     ax.set_xscale("log", base=2)
     ax.set_yscale("log")
     ax.set_xticks(SEED_SIZES, [f"{s}²" for s in SEED_SIZES])

@@ -1,4 +1,4 @@
-"""CubicSplineProcessor (seed 001, ch. 3.1-3.2 and 5.2): samples -> cubic B-spline coefficients."""
+"""CubicSplineProcessor (Cabral 2010, ch. 3.1-3.2 and 5.2): samples -> cubic B-spline coefficients."""
 
 import warnings
 

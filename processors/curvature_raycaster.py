@@ -1,4 +1,4 @@
-"""CurvatureRaycaster (seed 001 sec. 5.3-5.4): an iso-surface coloured by its curvature.
+"""CurvatureRaycaster (Cabral 2010 sec. 5.3-5.4): an iso-surface coloured by its curvature.
 
 Conventions (docs/curvature.md explains each property with pictures):
 - One inport `volume` takes what the derivative mode needs: voxel SAMPLES for the finite-difference

@@ -1,4 +1,4 @@
-"""CurvatureVolumeRaycaster (seed 001 sec. 5.5): direct volume rendering coloured by curvature.
+"""CurvatureVolumeRaycaster (Cabral 2010 sec. 5.5): direct volume rendering coloured by curvature.
 
 Conventions (docs/curvature.md explains each property):
 - Opacity comes from the scalar transfer function of each sample's normalised intensity (only its

@@ -1,4 +1,4 @@
-"""EntryExitPoints (seed 000 ch. 4.2.2, Krueger & Westermann 2003): where each pixel's view ray
+"""EntryExitPoints (Inácio 2009 ch. 4.2.2, Krueger & Westermann 2003): where each pixel's view ray
 enters and leaves the volume's box, as two images for the ray casters.
 
 Conventions (vgraph.gl.volume_rendering has the long form):

@@ -1,4 +1,4 @@
-"""FunctionSelector (seed 001, ch. 5.1): a volume sampled from an implicit function, no file."""
+"""FunctionSelector (Cabral 2010, ch. 5.1): a volume sampled from an implicit function, no file."""
 
 from vgraph import DictProperty, IntProperty, OptionProperty, Outport, Processor
 from vgraph.implicit import DATA_TYPES, FUNCTIONS, RESOLUTION_RANGE, make_function, sample

@@ -1,4 +1,4 @@
-"""Grayscale (seed 001, ch. 4.4.2): luminance mixed with the original colour."""
+"""Grayscale (Cabral 2010, ch. 4.4.2): luminance mixed with the original colour."""
 
 from vgraph import FloatProperty, Inport, Outport, Processor
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass

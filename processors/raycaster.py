@@ -1,4 +1,4 @@
-"""RayCaster (seed 000 ch. 4.2-4.3): GPU ray casting between the EntryExitPoints images.
+"""RayCaster (Inácio 2009 ch. 4.2-4.3): GPU ray casting between the EntryExitPoints images.
 
 Conventions (docs/rendering.md explains each property with pictures):
 - The optical model is the CPU reference's (vgraph.numerics.reference_raycast): samples every

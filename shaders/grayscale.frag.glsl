@@ -1,5 +1,5 @@
 #version 330
-// Grayscale (seed 001, code 4.5): luminance 0.30 R + 0.59 G + 0.11 B, mixed with the original
+// Grayscale (Cabral 2010, code 4.5): luminance 0.30 R + 0.59 G + 0.11 B, mixed with the original
 // colour by `saturation` (0 = grey, 1 = unchanged). Alpha is kept.
 uniform sampler2D image;
 uniform float saturation;

@@ -211,7 +211,7 @@ def test_radii_from_one_voxel_to_beyond_the_volume():
 
 
 def test_quantised_data_gives_noisier_but_finite_curvature():
-    """The torus in float32, uint16 and uint8 (seed 001 ch. 6): quantisation steps become
+    """The torus in float32, uint16 and uint8 (Cabral 2010 ch. 6): quantisation steps become
     curvature noise. Medians measured (tricubic / central / filtered): float32 2.8e-4 / 1.7e-3 /
     2.4e-3, uint16 5.2e-3 / 2.4e-3 / 2.7e-3, uint8 1.5 / 0.36 / 0.11: the interpolating spline
     passes through every quantised sample and shows the steps most, the smoothing filter least."""

@@ -1,4 +1,4 @@
-// Compositing of the CurvatureVolumeRaycaster (seed 001 sec. 5.5): front-to-back direct volume
+// Compositing of the CurvatureVolumeRaycaster (Cabral 2010 sec. 5.5): front-to-back direct volume
 // rendering (the RayCaster's dvr: C += (1 - A) a' rgb, A += (1 - A) a', early termination), where
 // the opacity a' comes from the scalar transfer function of the sample's normalised intensity
 // (march_value(); opacity-corrected for the sampling rate) and the colour from the normalised

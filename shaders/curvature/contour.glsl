@@ -1,4 +1,4 @@
-// The zero-curvature contour (seed 001: JET with the zero contour in black). The distance in pixels
+// The zero-curvature contour (Cabral 2010: JET with the zero contour in black). The distance in pixels
 // from a pixel to the zero of the measure is estimated to first order as |k| / |grad k|, with the
 // screen-space gradient from the neighbouring pixels of the curvature image (central differences,
 // one-sided at the surface's edge, 0 where no neighbour has a defined curvature). The contour is

@@ -1,5 +1,5 @@
 #version 330
-// CurvatureRaycaster, pass 1 (seed 001 sec. 5.4): the iso-surface at `level` between the
+// CurvatureRaycaster, pass 1 (Cabral 2010 sec. 5.4): the iso-surface at `level` between the
 // EntryExitPoints images, its curvature from the selected derivative mode, and what the colour
 // pass needs. Composed from the RayCaster's parts (ray set-up, volume sampling, empty-space
 // skipping) and the curvature parts; the defines choose exactly one field (DERIVATIVES_FORWARD,

@@ -1,5 +1,5 @@
 #version 330
-// CurvatureVolumeRaycaster (seed 001 sec. 5.5): direct volume rendering between the EntryExitPoints
+// CurvatureVolumeRaycaster (Cabral 2010 sec. 5.5): direct volume rendering between the EntryExitPoints
 // images with opacity from the transfer function and colour from curvature
 // (compositing_curvature.glsl). Composed from the RayCaster's parts (ray set-up, volume sampling,
 // transfer function, empty-space skipping, shading) and the curvature parts; the defines choose

@@ -9,7 +9,7 @@
 //             (19 fetches)
 //   filtered  1/4 central(p) + 3/4 mean of central(p + d) over the 8 diagonal neighbours
 //             d in {-1, +1}^3 voxels, for gradient and Hessian alike (Voreen's
-//             calcGradientFiltered, seed 001 "trilinear"; 171 fetches)
+//             calcGradientFiltered, Cabral 2010 "trilinear"; 171 fetches)
 // in voxel units, then divided by the spacings and scaled to normalised intensity.
 // Steps of exactly one voxel keep the fractional position inside the voxel cell, so the
 // trilinear interpolation error cancels from the differences (to first order).

@@ -1,5 +1,5 @@
 // Principal curvatures of the level set through a point from the gradient g and Hessian of the
-// field (Kindlmann et al. 2003; seed 001 listing 5.1 and sec. 3.6), the GLSL twin of
+// field (Kindlmann et al. 2003; Cabral 2010 listing 5.1 and sec. 3.6), the GLSL twin of
 // vgraph.numerics.curvature.kindlmann:
 //   n = -g / |g| (outward: the interior is brighter), P = I - n n^T, G = -P H P / |g|,
 //   T = trace G, F = |G|_Frobenius, k1,2 = (T +- sqrt(2 F^2 - T^2)) / 2, K = k1 k2, H = (k1 + k2) / 2.

@@ -1,4 +1,4 @@
-// Curvature -> [0, 1] for the colour map (seed 001 sec. 5.3), zero curvature at 0.5:
+// Curvature -> [0, 1] for the colour map (Cabral 2010 sec. 5.3), zero curvature at 0.5:
 //   NORMALIZATION_LINEAR       k >= 0: 0.5 + 0.5 k / kmax     k < 0: 0.5 - 0.5 k / kmin
 //   NORMALIZATION_EXPONENTIAL  k >= 0: 1 - exp(-k t) / 2      k < 0: exp(k t) / 2
 // with kmax = max(max k, 0) and kmin = min(min k, 0) over the image (range = (kmin, kmax), from

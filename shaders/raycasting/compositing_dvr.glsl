@@ -1,4 +1,4 @@
-// COMPOSITING_DVR: direct volume rendering, front-to-back (seed 000 eq. 2.3-2.4):
+// COMPOSITING_DVR: direct volume rendering, front-to-back (Inacio 2009 eq. 2.3-2.4):
 // C += (1 - A) a' rgb, A += (1 - A) a' with a' the opacity-corrected TF alpha, shaded colour where
 // SHADING_BLINN_PHONG (only samples with a' > 0 are shaded: the others add nothing). The ray stops
 // once A >= early_termination. Depth: the first sample with a' > 0. With SKIP_EMPTY_SPACE, regions

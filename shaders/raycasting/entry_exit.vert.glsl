@@ -1,5 +1,5 @@
 #version 330
-// EntryExitPoints (seed 000 ch. 4.2.2, Krueger & Westermann 2003): the volume's box as the 12
+// EntryExitPoints (Inacio 2009 ch. 4.2.2, Krueger & Westermann 2003): the volume's box as the 12
 // triangles of a unit cube (counter-clockwise seen from outside) scaled into world space, grown
 // by a margin so that every pixel whose ray meets the box gets a fragment whatever the
 // rasteriser's rounding. The fragments compute their points exactly (entry_exit_point.glsl).

@@ -1,5 +1,5 @@
 // A ray of the RayCaster: from its entry to its exit point (texture coordinates, read from the
-// EntryExitPoints images), with samples every `step_length` world units (seed 000 ch. 4.1.2:
+// EntryExitPoints images), with samples every `step_length` world units (Inacio 2009 ch. 4.1.2:
 // sampling in world space, so anisotropic spacing is sampled correctly). Sample i is at
 // start + i * step, i = 0 .. samples - 1, with samples = floor(length / step_length + 1e-3) + 1:
 // the first sample lies on the entry point and, when the length is a whole number of steps, the

@@ -1,5 +1,5 @@
 #version 330
-// RayCaster (seed 000 ch. 4.2.3): one ray per pixel between the EntryExitPoints images, composed
+// RayCaster (Inacio 2009 ch. 4.2.3): one ray per pixel between the EntryExitPoints images, composed
 // from small parts; the defines the RayCaster chooses from its properties select the compositing
 // mode (exactly one COMPOSITING_*), INTERPOLATION_NEAREST, SHADING_BLINN_PHONG with one GRADIENT_*
 // and LIGHT_HEADLIGHT, and SKIP_EMPTY_SPACE. Code for features that are off is not compiled.

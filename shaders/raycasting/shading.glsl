@@ -1,4 +1,4 @@
-// Blinn-Phong shading (seed 000 ch. 4.3) with the gradient as normal, two-sided, white light:
+// Blinn-Phong shading (Inacio 2009 ch. 4.3) with the gradient as normal, two-sided, white light:
 // rgb' = clamp(ambient * rgb + diffuse * max(n.L, 0) * rgb + specular * max(n.H, 0)^shininess)
 // with n turned towards the viewer. LIGHT_HEADLIGHT: L = V = H (the CPU reference's model); else
 // L = light_direction (world, unit, towards the light) and H = normalize(L + V). Where the gradient

@@ -1,4 +1,4 @@
-// Classification by the 1D transfer function (seed 000 ch. 4.2.1): a 4096-entry RGBA32F LUT with
+// Classification by the 1D transfer function (Inacio 2009 ch. 4.2.1): a 4096-entry RGBA32F LUT with
 // linear filtering. Entry i (intensity i / 4095) sits at texture coordinate (i + 0.5) / 4096;
 // clamp-to-edge clamps intensities outside [0, 1] to the end entries.
 uniform sampler2D transfer_function;

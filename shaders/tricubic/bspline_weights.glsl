@@ -8,7 +8,7 @@
 // - Boundary: whole-sample mirror (scipy mode 'mirror'), c[-k] = c[k], c[n-1+k] = c[n-1-k],
 //   period 2n - 2. An axis of length 1 is constant.
 
-// B3(t + 1), B3(t), B3(t - 1), B3(t - 2) (seed 001 eq. 3.3). The middle two use the symmetric
+// B3(t + 1), B3(t), B3(t - 1), B3(t - 2) (Cabral 2010 eq. 3.3). The middle two use the symmetric
 // forms 2/3 - t^2 (2 - t) / 2, which lose less to rounding than the expanded cubic near t = 1.
 vec4 bspline_weights(float t) {
     float s = 1.0 - t;

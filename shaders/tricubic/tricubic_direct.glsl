@@ -1,4 +1,4 @@
-// Tricubic B-spline evaluation by the direct sum (seed 001 eq. 3.10, listing 5.2
+// Tricubic B-spline evaluation by the direct sum (Cabral 2010 eq. 3.10, listing 5.2
 // interpolate_tricubic): f(p) = sum c[k, j, i] B3(x - i) B3(y - j) B3(z - k) over the 4 x 4 x 4
 // coefficients around p, read with texelFetch (no filtering, so the filter state of the sampler
 // is irrelevant) and weighted in float32. Derivatives replace B3 by B3' or B3'' in the factor of

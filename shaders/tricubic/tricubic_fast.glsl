@@ -1,5 +1,5 @@
 // Tricubic B-spline evaluation from trilinear texture fetches (Sigg & Hadwiger, GPU Gems 2
-// ch. 20; seed 001 listing 5.2 interpolate_tricubic_fast), extended to first and second
+// ch. 20; Cabral 2010 listing 5.2 interpolate_tricubic_fast), extended to first and second
 // derivatives. The sampler MUST filter linearly (vgraph.gl.volume_rendering.linear_sampler).
 //
 // Along one axis a cubic B-spline sum w0 c[b-1] + w1 c[b] + w2 c[b+1] + w3 c[b+2] is two linear

@@ -1,5 +1,5 @@
 """Reports of ``vgraph bench accuracy``: CSV, markdown tables, the error-against-time plot, the
-seed 001 figures 6.1 (derivative modes) and 6.4 (8/16/32 bit) with their numbers, and the command.
+Cabral 2010 figures 6.1 (derivative modes) and 6.4 (8/16/32 bit) with their numbers, and the command.
 
 Files written to --out (default bench/results/accuracy/):
   accuracy.csv       one row per case (vgraph.accuracy.Result.row: errors, hits, times)

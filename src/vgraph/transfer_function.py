@@ -3,7 +3,7 @@
 JSON form: ``{"points": [[position, r, g, b, a], ...]}``, position in [0, 1] of the volume's value
 range, colour in [0, 1], and ``a`` the opacity of one sample at sampling rate 1 (one sample per
 voxel); renderers correct it for other step lengths. Below the first point and above the last the
-end values hold. Sampled into a 4096-entry float LUT (seed 000) for the GPU and the CPU reference.
+end values hold. Sampled into a 4096-entry float LUT (Inácio 2009) for the GPU and the CPU reference.
 ``TransferFunction.save``/``load`` write and read that JSON as a file; ``PRESETS`` are named starting
 points for CT, MRI and implicit-surface (SDF) volumes.
 """
@@ -102,7 +102,7 @@ def _tf(*points) -> TransferFunction:
     return TransferFunction(points=list(points))
 
 
-# Named starting points, positions in normalised intensity. The CT ones follow seed 000 fig. 4.4:
+# Named starting points, positions in normalised intensity. The CT ones follow Inácio 2009 fig. 4.4:
 # similar colours, opacity makes the difference, and a dark tone just below the structure keeps an
 # unshaded rendering from looking like a flat silhouette.
 PRESETS: dict[str, TransferFunction] = {

@@ -16,7 +16,7 @@ Conventions (docs/curvature.md explains them for users):
   that float noise on flat surfaces is neither stretched by the linear normalisation nor drawn
   as contour speckle (shaders/curvature/measure.glsl).
 - Measures: k1, k2, gaussian (K), mean (H), curvedness sqrt((k1^2 + k2^2) / 2) and shape index
-  (2/pi) atan2(k1 + k2, k1 - k2). Normalisation to [0, 1] for the colour map (seed 001 sec. 5.3),
+  (2/pi) atan2(k1 + k2, k1 - k2). Normalisation to [0, 1] for the colour map (Cabral 2010 sec. 5.3),
   with kmax = max(max k, 0), kmin = min(min k, 0) over the image:
     linear       k >= 0: 0.5 + 0.5 k / kmax      k < 0: 0.5 - 0.5 k / kmin
     exponential  k >= 0: 1 - exp(-k t) / 2       k < 0: exp(k t) / 2      (t: attenuation, world units)

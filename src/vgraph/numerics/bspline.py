@@ -10,7 +10,7 @@ Conventions
   derivatives keep their sign just outside the grid).
 - An axis of length 1 is constant: its coefficients equal the data (scipy does the same).
 
-Prefilter (seed 001, sec. 3.1-3.2): with the pole z = sqrt(3) - 2 and gain 6 per axis,
+Prefilter (Cabral 2010, sec. 3.1-3.2): with the pole z = sqrt(3) - 2 and gain 6 per axis,
     causal      o[k] = g[k] + z o[k-1],   o[0] = sum_k z^k g_mirrored[k]
     anticausal  c[k] = z (c[k+1] - o[k]), c[n-1] = z / (z^2 - 1) (o[n-1] + z o[n-2])
 computed in float64 and rounded once to float32. The recursions run over whole 2D slabs at a time

@@ -7,7 +7,7 @@ Conventions
   outward normal is n = -g/|g|, and a sphere of radius r has k1 = k2 = +1/r; a cylinder of radius R
   has k1 = 1/R, k2 = 0; a saddle has k1 > 0 > k2. Flip the field (f -> -f) for data whose interior
   is darker.
-- Formulas (seed 001 sec. 3.6): P = I - n n^T, G = -P H P / |g| (the geometry tensor; the seed's
+- Formulas (Cabral 2010 sec. 3.6): P = I - n n^T, G = -P H P / |g| (the geometry tensor; the seed's
   GLSL listing drops the minus sign, its text keeps it), T = trace G, F = |G|_Frobenius,
   k1,2 = (T +- sqrt(2F^2 - T^2)) / 2 with k1 >= k2, K = k1 k2 (Gaussian), H = (k1 + k2) / 2 (mean).
   The Hessian is symmetrised first, (H + H^T) / 2, so finite-difference Hessians are fine.

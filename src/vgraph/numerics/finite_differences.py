@@ -17,7 +17,7 @@ Conventions
     central   (f(p + h) - f(p - h)) / (2 s)
     filtered  1/4 central(p) + 3/4 * mean of central(p + d) over the 8 diagonal neighbours
               d in {-h, +h}^3: a smoothed central difference (the idea of Voreen's
-              calcGradientFiltered, seed 001 fig. 6.1(c) "weighting the values of neighbouring voxels")
+              calcGradientFiltered, Cabral 2010 fig. 6.1(c) "weighting the values of neighbouring voxels")
   At arbitrary points f is the trilinear interpolant, so on voxel centres the point versions equal
   the grid versions. Hessian: second central differences, mixed terms from the four diagonal samples.
 - Everything is computed in float64. Non-finite points give NaN.

@@ -1,7 +1,7 @@
 """CPU reference ray caster (numpy, vectorised over rays). The GL ray caster copies this model;
 tests compare the two images pixel by pixel.
 
-Optical model (seed 000 ch. 2.4 and 4.1-4.3), in this order:
+Optical model (Inácio 2009 ch. 2.4 and 4.1-4.3), in this order:
 
 1. Rays: ``Camera.rays(W, H)`` - one per pixel centre, row 0 at the top, origin on the near plane
    (ray parameter t = 0), unit direction, t in world units. The far plane is at
@@ -25,7 +25,7 @@ Optical model (seed 000 ch. 2.4 and 4.1-4.3), in this order:
 5. Classification: the TF's 4096-entry LUT (``TransferFunction.lut()``) with LINEAR interpolation
    between entries, intensity clamped to [0, 1]: ``x = v * 4095``, entries floor(x) and floor(x)+1
    (= a GL 1D texture, linear filter, clamp-to-edge, coordinate ``0.5/4096 + v * 4095/4096``).
-6. Optional shading (``shading=Shading(...)``, seed 000 ch. 4.3, Blinn-Phong with a headlight):
+6. Optional shading (``shading=Shading(...)``, Inácio 2009 ch. 4.3, Blinn-Phong with a headlight):
    gradient by central differences of the reconstructed field one voxel away along each axis,
    ``g_k = (f(p + h_k e_k) - f(p - h_k e_k)) / (2 h_k)``, ``h = spacing`` (normalised intensity per
    world unit). ``L = V = H = -direction``; two-sided: ``c = |dot(g / |g|, L)|``;
