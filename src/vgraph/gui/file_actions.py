@@ -100,20 +100,26 @@ class FileActions:
         return True
 
     def _open(self, path: Path) -> bool:
-        """Load ``path``; writers that would write outside its folder need the user's consent."""
+        """Load ``path``; a file that cannot be read is reported. False if nothing was opened."""
         try:
-            try:
-                self.workspace.open(path)
-            except WritePathError as refused:
-                if not self.ask_allow_writes(path, refused.paths):
-                    self.log.info(f"did not open {path}: its writers would write outside its folder")
-                    return False
-                self.workspace.open(path, allow_write=sorted({str(target.parent) for _, target in refused.paths}))
-                self.log.warning(f"{path}: allowed writing outside its folder to "
-                                 + ", ".join(str(target) for _, target in refused.paths))
+            return self._load_with_consent(path)
         except VGraphError as error:
             self.report_error("Cannot open network", f"Cannot open {path}:\n{error}")
             return False
+
+    def _load_with_consent(self, path: Path) -> bool:
+        """Writers that would write outside the file's folder need the user's consent."""
+        try:
+            self.workspace.open(path)
+            return True
+        except WritePathError as refused:
+            writes = refused.paths
+        if not self.ask_allow_writes(path, writes):
+            self.log.info(f"did not open {path}: its writers would write outside its folder")
+            return False
+        self.workspace.open(path, allow_write=sorted({str(target.parent) for _, target in writes}))
+        self.log.warning(f"{path}: allowed writing outside its folder to "
+                         + ", ".join(str(target) for _, target in writes))
         return True
 
     def offer_recovery(self, found: FoundAutosave | None) -> bool:
