@@ -10,6 +10,10 @@ Conventions:
   shows on its node and in the log, and anything unexpected goes to the log (``run_gui`` installs
   an exception hook for slots and event handlers).
 - Dialogs go through ``ask_*``/``report_error`` so tests can answer them.
+- File handling (New, Open with crash recovery and write-path consent, Save) is the
+  ``FileActions`` mixin; ``Autosave`` keeps unsaved changes aside while the window is open.
+- The render process is watched (``LiveEvaluation``): an overdue frame shows a "Cancel rendering"
+  button in the status bar (and Network > Cancel Rendering); restarts and deaths go to the log.
 - No OpenGL here: evaluation happens in the render process (``LiveEvaluation``), frames come back
   as images.
 """
