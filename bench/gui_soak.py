@@ -192,8 +192,12 @@ def main(argv=None) -> int:
     lost = samples[0].none_refs - min(s.none_refs for s in samples)
     total_actions = sum(s.actions for s in samples)
     total_frames = sum(s.frames for s in samples)
+    base = samples[1] if len(samples) > 2 else samples[0]   # the first minute warms caches up
+    growth = {name: getattr(samples[-1], name) - getattr(base, name) for name in ("gui_rss_mb", "render_rss_mb")}
     print(f"{args.minutes:g} min: {total_actions} actions, {total_frames} frames, "
-          f"{len(problems)} errors, None lost {max(lost, 0)} references; wrote {stem}.csv and .png")
+          f"{len(problems)} errors, None lost {max(lost, 0)} references; RSS since minute {base.minute:g}: GUI "
+          f"{growth['gui_rss_mb']:+.1f} MB, render {growth['render_rss_mb']:+.1f} MB; "
+          f"wrote {stem}.csv and .png")
     for message in problems:
         print(f"error: {message}", file=sys.stderr)
     return 0 if not problems and lost < NONE_SLACK and kept_up else 1
