@@ -38,7 +38,7 @@ RESULTS = Path(__file__).resolve().parent / "results" / "fuzz"
 def main(argv=None) -> int:
     args = parse_args(argv)
     if args.replay:
-        return replay(*args.replay)
+        return replay(*args.replay, int(args.address_space_mb * 2**20))
     targets = TARGETS if args.target == "all" else tuple(args.target.split(","))
     unknown = set(targets) - set(TARGETS)
     if unknown:
@@ -64,8 +64,7 @@ def parse_args(argv):
 # --- the worker ----------------------------------------------------------------------------------
 def worker(connection, address_space_bytes: int) -> None:
     """Runs cases sent as (target, seed, folder); answers (outcome, seconds, peak MB, traceback)."""
-    limit = _status_kb("VmSize") * 1024 + address_space_bytes
-    resource.setrlimit(resource.RLIMIT_AS, (limit, resource.RLIM_INFINITY))
+    limit_address_space(address_space_bytes)
     while (job := connection.recv()) is not None:
         target, seed, folder = job
         case = make_case(target, random.Random(seed))
@@ -78,6 +77,11 @@ def worker(connection, address_space_bytes: int) -> None:
             outcome, details = f"raised {type(error).__name__}", traceback.format_exc()
         seconds = time.perf_counter() - start
         connection.send((outcome, seconds, (_status_kb("VmHWM") - idle_kb) / 1024, details))
+
+
+def limit_address_space(extra_bytes: int) -> None:
+    limit = _status_kb("VmSize") * 1024 + extra_bytes
+    resource.setrlimit(resource.RLIMIT_AS, (limit, resource.RLIM_INFINITY))
 
 
 def _status_kb(key: str) -> int:
@@ -194,9 +198,11 @@ def report(targets, counts, failures, args) -> None:
         print(f"FAIL {target} seed {seed}: {problem}: {last[0] if last else ''} -> {place}")
 
 
-def replay(target: str, seed: str) -> int:
-    """One case again, in this process, with the full traceback."""
+def replay(target: str, seed: str, address_space_bytes: int) -> int:
+    """One case again, in this process (under the same address-space limit), with the full
+    traceback."""
     case = make_case(target, random.Random(int(seed)))
+    limit_address_space(address_space_bytes)
     with tempfile.TemporaryDirectory() as folder:
         start = time.perf_counter()
         outcome = run_case(case, Path(folder))

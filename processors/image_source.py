@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import io
+import os
 import struct
 import warnings
 import zlib
@@ -16,6 +18,10 @@ from vgraph.io import file_problem
 # 8192 x 8192: an RGBA texture of 256 MiB. Larger pictures are refused from their header, before
 # a pixel is decoded (PIL itself only warns up to twice its own limit of about 89 million).
 MAX_PIXELS = 8192 * 8192
+# PIL reads a chunk of the length a PNG chunk header claims with one file.read(n), which
+# allocates n bytes (up to 2 GiB) before it finds the file shorter: PIL gets the file from memory,
+# where a read past the end costs nothing. No picture within MAX_PIXELS needs a larger file.
+MAX_FILE_BYTES = 1 * 2**30
 # What PIL raises for damaged files besides OSError (its plug-ins use SyntaxError for bad chunks).
 _DAMAGED = (OSError, SyntaxError, ValueError, EOFError, IndexError, struct.error, zlib.error,
             PIL.UnidentifiedImageError)
@@ -40,9 +46,10 @@ def read_image_file(processor_id: str, value: str, path) -> np.ndarray:
         problem = "not found" if problem == "does not exist" else problem
         raise VGraphError(f"{path}: file {problem} ({processor_id}.path)")
     try:
+        content = _file_content(path, processor_id)
         with warnings.catch_warnings():  # PIL warns about sizes that _check_pixel_count refuses
             warnings.simplefilter("ignore", PIL.Image.DecompressionBombWarning)
-            picture = PIL.Image.open(path)
+            picture = PIL.Image.open(io.BytesIO(content))
         with picture:
             _check_pixel_count(picture.size, path, processor_id)
             picture.load()
@@ -54,6 +61,15 @@ def read_image_file(processor_id: str, value: str, path) -> np.ndarray:
     except _DAMAGED as error:
         raise VGraphError(f"{path}: not a readable PNG or JPEG image ({processor_id}.path): "
                           f"{error}") from None
+
+
+def _file_content(path, processor_id: str) -> bytes:
+    size = os.path.getsize(path)
+    if size > MAX_FILE_BYTES:
+        raise VGraphError(f"{path}: image file too large ({processor_id}.path): {size} bytes, the "
+                          f"limit is {MAX_FILE_BYTES}")
+    with open(path, "rb") as fh:
+        return fh.read()
 
 
 def _check_pixel_count(size, path, processor_id: str) -> None:

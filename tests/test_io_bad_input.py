@@ -91,6 +91,15 @@ def corrupt_npz() -> bytes:
     return bytes(blob)
 
 
+def encrypted_npz() -> bytes:
+    buffer = io.BytesIO()
+    np.savez(buffer, data=np.zeros((2, 2, 2), np.uint8))
+    blob = bytearray(buffer.getvalue())
+    for signature, flags_at in ((b"PK\x03\x04", 6), (b"PK\x01\x02", 8)):  # local, central
+        blob[blob.find(signature) + flags_at] |= 1
+    return bytes(blob)
+
+
 def vti(array: str, tail: str = "") -> bytes:
     return (f'<VTKFile type="ImageData" version="1.0"><ImageData WholeExtent="0 1 0 0 0 0">'
             f'<Piece Extent="0 1 0 0 0 0"><PointData Scalars="a">{array}</PointData></Piece>'
@@ -104,6 +113,7 @@ def npy_with_header(header: str) -> bytes:
 
 DAMAGED = [
     ("bad.npz", corrupt_npz(), "archive", ["Error -3 while decompressing"]),
+    ("secret.npz", encrypted_npz(), "data", ["encrypted"]),
     ("a.vti", vti('<DataArray type="Float32" Name="a" format="ascii">1 x</DataArray>'),
      "DataArray", ["not a list of float32 values"]),
     ("c.vti", vti('<DataArray type="UInt8" Name="a" NumberOfComponents="x" format="ascii">1 2'

@@ -184,6 +184,12 @@ def test_npz_bzip2_member_is_refused_before_inflating(tmp_path):
     refused(path, "data", "compression method 12 is not supported")
 
 
+def test_npy_header_length_cannot_make_numpy_reserve_gigabytes(tmp_path):
+    path = tmp_path / "h.npy"  # a version 2 header claiming to be 4 GiB long
+    path.write_bytes(b"\x93NUMPY\x02\x00" + struct.pack("<I", 2**32 - 16) + b"{}" + bytes(100))
+    refused(path, "header", "not a readable .npy header")
+
+
 def test_deflated_dicom_inflating_past_the_limit_is_refused(tmp_path, monkeypatch):
     import pydicom
     from pydicom.dataset import Dataset, FileMetaDataset

@@ -9,6 +9,7 @@ vgraph: ``data`` plus optional ``spacing`` (x, y, z), ``origin`` (x, y, z) and `
 
 from __future__ import annotations
 
+import io
 import math
 import struct
 import tokenize
@@ -28,6 +29,9 @@ METADATA_KEYS = ("spacing", "origin", "value_range")
 _ARCHIVE_ERRORS = (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, OSError, EOFError,
                    ValueError, NotImplementedError, struct.error)
 _READ_CHUNK = 16 * 2**20
+# numpy refuses headers above 10000 bytes, but only after reading as many bytes as the header's
+# length field says (up to 4 GiB, allocated up front): it gets this much at most, in memory.
+_MAX_NPY_HEADER = 65536
 
 
 def read_npy(path) -> Volume:
@@ -95,8 +99,11 @@ def _member_array(archive: zipfile.ZipFile, key: str, path: Path, metadata: bool
         # zipfile inflates bzip2 and LZMA members without an output limit; numpy writes neither
         raise VolumeFileError(path, f"member compression method {info.compress_type} is not "
                                     f"supported (numpy writes stored or deflated members)", key)
+    if info.flag_bits & 0x1:
+        raise VolumeFileError(path, "the member is encrypted", key)
     with archive.open(info) as member:
         shape, fortran, dtype, header_size = _npy_header(member, path, key)
+        member.seek(header_size)  # back to the data, after the bytes _npy_header took
         count = math.prod(shape)
         if metadata:
             _check_metadata(path, key, shape, dtype)
@@ -128,13 +135,15 @@ def _fill_from(member, target: np.ndarray, path: Path, key: str) -> None:
 
 
 def _npy_header(fh, path: Path, field: str):
-    """(shape, fortran order, dtype, header size) of an open .npy stream."""
+    """(shape, fortran order, dtype, header size) of an open .npy stream, parsed by numpy from
+    its first bytes only."""
     try:
-        version = np.lib.format.read_magic(fh)
+        start = io.BytesIO(fh.read(_MAX_NPY_HEADER))
+        version = np.lib.format.read_magic(start)
         read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
                        else np.lib.format.read_array_header_2_0)  # 2.0 and 3.0 share a layout
-        shape, fortran, dtype = read_header(fh)
-        return tuple(int(s) for s in shape), bool(fortran), np.dtype(dtype), fh.tell()
+        shape, fortran, dtype = read_header(start)
+        return tuple(int(s) for s in shape), bool(fortran), np.dtype(dtype), start.tell()
     except (ValueError, EOFError, TypeError, SyntaxError, tokenize.TokenError) as exc:
         # numpy parses the header dict with Python's tokenizer and literal_eval
         raise VolumeFileError(path, f"not a readable .npy header: {exc}", field) from exc
