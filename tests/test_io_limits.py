@@ -246,3 +246,21 @@ def test_available_memory_counts_the_address_space_limit(tmp_path, monkeypatch):
     path = tmp_path / "v.raw"
     path.write_bytes(bytes(2 * 10**6))
     refused(path, "dims", "too large for memory", raw={"dims": (1000, 1000, 2), "dtype": "uint8"})
+
+
+def test_a_dicom_element_longer_than_its_file_reserves_nothing(tmp_path):
+    from pydicom.dataset import Dataset, FileMetaDataset
+    from pydicom.uid import ExplicitVRLittleEndian
+    meta = FileMetaDataset()
+    meta.MediaStorageSOPClassUID, meta.MediaStorageSOPInstanceUID = "1.2.3", "1.2.3.4"
+    meta.TransferSyntaxUID = ExplicitVRLittleEndian
+    ds = Dataset()
+    ds.file_meta, ds.Rows, ds.Columns, ds.BitsAllocated = meta, 2, 2, 8
+    ds.add_new(0x00291010, "OB", b"12345678")  # a private element after Rows and Columns
+    ds.PixelData = bytes(4)
+    path = tmp_path / "long.dcm"
+    ds.save_as(path, enforce_file_format=True)
+    blob = path.read_bytes()
+    at = blob.index(b"\x29\x00\x10\x10OB\x00\x00") + 8  # its 4-byte length: claim ~4 GiB
+    path.write_bytes(blob[:at] + struct.pack("<I", 2**32 - 16) + blob[at + 4:])
+    refused(path, "PixelData", "cannot decode pixel data")

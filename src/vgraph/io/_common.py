@@ -11,6 +11,7 @@ Conventions kept by every reader (docs/volumes.md says the same for users):
 
 from __future__ import annotations
 
+import io
 import math
 import os
 import resource
@@ -183,6 +184,22 @@ def regular_file(path, referenced_by=None, field: str | None = None) -> Path:
     if referenced_by is None:
         raise VolumeFileError(path, "file " + problem, field)
     raise VolumeFileError(referenced_by, f"data file {str(path)!r} {problem}", field)
+
+
+class _CappedReader(io.BufferedReader):
+    """A binary file whose read(n) asks for no more than what is left of it. Python's read(n)
+    allocates n bytes before reading, and libraries (zipfile, pydicom) pass lengths taken from a
+    possibly damaged header: a 4 GiB length in a 1 KiB file would reserve 4 GiB."""
+
+    def read(self, size=-1):
+        if size is not None and size > 0:
+            size = min(size, max(os.fstat(self.fileno()).st_size - self.tell(), 0)) or 1
+        return super().read(size)
+
+
+def open_capped(path) -> io.BufferedReader:
+    """``path`` opened for reading by a library that trusts lengths in the file."""
+    return _CappedReader(io.FileIO(path, "rb"))
 
 
 def read_header_bytes(path, limit: int = MAX_HEADER_BYTES) -> bytes:

@@ -35,7 +35,7 @@ from tqdm import tqdm
 
 from vgraph.errors import VolumeFileError
 from vgraph.io._common import (check_memory, check_origin, check_spacing, make_volume,
-                               regular_file)
+                               open_capped, regular_file)
 from vgraph.io._values import rescaled
 from vgraph.io._inflate import check_inflates_within, file_pieces
 from vgraph.volume import Volume
@@ -74,14 +74,15 @@ def read_dicom_series(path) -> Volume:
 def _dataset(file: Path, headers_only: bool) -> pydicom.Dataset:
     """pydicom's reading of one file, after the check that a deflated data set stays small."""
     _check_deflated_size(file)
-    if headers_only:
-        return pydicom.dcmread(file, stop_before_pixels=True, defer_size=_DEFER_BYTES)
-    return pydicom.dcmread(file)
+    with open_capped(file) as fh:
+        if headers_only:
+            return pydicom.dcmread(fh, stop_before_pixels=True, defer_size=_DEFER_BYTES)
+        return pydicom.dcmread(fh)
 
 
 def _check_deflated_size(file: Path) -> None:
     try:
-        with open(file, "rb") as fh:
+        with open_capped(file) as fh:
             pydicom.filereader.read_preamble(fh, False)
             # pydicom's own meta reader (private, but stable since pydicom 1.0): it leaves the
             # file at the start of the data set, which is where the deflated stream begins

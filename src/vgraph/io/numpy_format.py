@@ -21,7 +21,7 @@ import numpy as np
 
 from vgraph.errors import VolumeFileError
 from vgraph.io._common import (check_memory, check_origin, check_spacing, make_volume,
-                               read_raw_array, regular_file, to_native)
+                               open_capped, read_raw_array, regular_file, to_native)
 from vgraph.volume import Volume
 
 METADATA_KEYS = ("spacing", "origin", "value_range")
@@ -51,7 +51,7 @@ def read_npz(path) -> Volume:
     bytes to expect, the zip directory must agree, and nothing beyond them is inflated."""
     path = regular_file(path)
     try:
-        with zipfile.ZipFile(path) as archive:
+        with open_capped(path) as fh, zipfile.ZipFile(fh) as archive:
             key, others = _npz_data_key(archive, path)
             array = _member_array(archive, key, path)
             meta = {name: _member_array(archive, name, path, metadata=True) for name in others}
