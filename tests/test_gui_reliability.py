@@ -235,3 +235,21 @@ def test_a_long_drag_is_one_undo_step_and_frees_what_each_move_made(window, qtbo
     assert sum(isinstance(o, SetProperty) and o.network is network for o in gc.get_objects()) <= stack.count()
     stack.undo()
     assert window.workspace.network.get("rc.transfer_function") == original
+
+
+def test_the_undo_history_keeps_the_last_steps_only(qtbot, tmp_path):
+    """A long session must not grow without bound: the oldest steps are dropped."""
+    from PySide6.QtCore import QSettings
+    from vgraph.gui.workspace import UNDO_LIMIT, Workspace
+    workspace = Workspace(QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat))
+    workspace.add_processor("Number", (0, 0), id="n")
+    workspace.undo_stack.setClean()
+    edits = UNDO_LIMIT + 5
+    for i in range(1, edits + 1):
+        workspace.set_property("n.value", i / 100)
+    stack = workspace.undo_stack
+    assert stack.count() == UNDO_LIMIT
+    while stack.canUndo():
+        stack.undo()
+    assert workspace.network.get("n.value") == 5 / 100   # back to before the oldest step kept
+    assert workspace.is_modified()                       # the saved state is out of reach

@@ -4,7 +4,9 @@ Conventions:
 - Every edit method builds a command (``commands.py``) and runs it through ``execute``: the command
   is applied once (a refused edit raises VGraphError and changes nothing) and then pushed.
 - ``network_replaced`` is emitted when New/Open put a different Network in place; views rebuild.
-- "Modified" means the undo stack is not at its clean index (set when saved or opened).
+- "Modified" means the undo stack is not at its clean index (set when saved or opened). The
+  stack keeps the last ``UNDO_LIMIT`` steps; once the saved state has dropped out of it, undo
+  cannot get back to "unmodified" (the title keeps its ``*``).
 - Recent files live in a QSettings (injected, so tests use their own file); most recent first.
 - Auto-linked cameras: a processor added with a camera property gets it linked both ways to the
   first camera property already in the network (Voreen's default), in the same undo step.
@@ -29,6 +31,7 @@ from vgraph.registry import registry
 
 RECENT_FILES_KEY = "recent_files"
 MAX_RECENT_FILES = 8
+UNDO_LIMIT = 1000   # steps kept: the history would otherwise grow with every edit of a long session
 
 
 class Workspace(QObject):
@@ -42,6 +45,7 @@ class Workspace(QObject):
         self.network = Network()
         self.path: Path | None = None
         self.undo_stack = QUndoStack(self)
+        self.undo_stack.setUndoLimit(UNDO_LIMIT)
         self._macro_depth = 0
         self.auto_link_cameras = True
 
