@@ -148,7 +148,14 @@ def _mutate_document(rng, document: dict) -> int | None:
     """One edit of the document in place; returns a nesting depth when it planted a deep list."""
     places = list(_places(document))
     container, key = rng.choice(places) if places else (document, "format")
-    kind = rng.randrange(8)
+    kind = rng.randrange(9)
+    processors = document.get("processors")
+    properties = [p["properties"] for p in (processors if isinstance(processors, list) else [])
+                  if isinstance(p, dict) and isinstance(p.get("properties"), dict) and p["properties"]]
+    if kind == 8 and properties:  # a property value of any type: each property checks its own
+        container = rng.choice(properties)
+        container[rng.choice(sorted(container))] = rng.choice(JSON_EXTREMES)
+        return None
     if kind == 0 and isinstance(container, dict) and key in container:
         del container[key]
     elif kind == 1:
@@ -157,10 +164,8 @@ def _mutate_document(rng, document: dict) -> int | None:
         document["version"] = rng.choice((0, 2, -1, "1", 1.0, True, None, 10**20, 1))
     elif kind == 3 and isinstance(container, dict):
         container[rng.choice(("unknown", "x", "id", "type", "bidirectional"))] = rng.choice(JSON_EXTREMES)
-    elif kind == 4 and document.get("processors"):
-        processors = document["processors"]
-        if isinstance(processors, list) and processors:
-            processors.append(json.loads(json.dumps(rng.choice(processors))))  # a duplicate id
+    elif kind == 4 and isinstance(processors, list) and processors:
+        processors.append(json.loads(json.dumps(rng.choice(processors))))  # a duplicate id
     elif kind == 5:
         container[key] = "__DEEP__"
         return rng.choice((10, 100, 1000, 100000))
