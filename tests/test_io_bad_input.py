@@ -6,12 +6,10 @@ import io
 import os
 import random
 import struct
-import zipfile
 from pathlib import Path
 
 import nibabel as nib
 import numpy as np
-import pydicom
 import pytest
 
 from vgraph.errors import VolumeFileError

@@ -204,7 +204,7 @@ def test_deflated_dicom_inflating_past_the_limit_is_refused(tmp_path, monkeypatc
     path = tmp_path / "bomb.dcm"
     ds.save_as(path, enforce_file_format=True)
     assert path.stat().st_size < 2**20
-    error = refused(path, "TransferSyntaxUID", "deflated data set decompress to more than 1048576")
+    refused(path, "TransferSyntaxUID", "deflated data set decompress to more than 1048576")
     assert pydicom.dcmread(path).Rows == 2  # a valid file: only the limit refuses it
 
 

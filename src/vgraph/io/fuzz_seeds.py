@@ -57,7 +57,7 @@ def qvis(rng) -> Case:
              "float64": "DOUBLE"}
     values = volume_values(rng)
     order = _order(rng)
-    lines = [f"ObjectFileName: v.raw", "TaggedFileName: ---",
+    lines = ["ObjectFileName: v.raw", "TaggedFileName: ---",
              "Resolution: {} {} {}".format(*values.shape[::-1]),
              f"SliceThickness: {rng.uniform(0.1, 3):.3f} 1 {rng.uniform(0.1, 3):.3f}",
              f"Format: {words[values.dtype.name]}", "ObjectModel: I"]

@@ -1,4 +1,9 @@
-"""NIfTI-1/2 volumes (.nii, .nii.gz), read with nibabel.
+"""NIfTI-1/2 volumes (.nii, .nii.gz): nibabel parses the header, the data are read here.
+
+nibabel is given at most MAX_HEADER_BYTES of header and extensions (its own loader would read an
+extension of any size it is told, from a stream of any length), and the voxel data are read with
+an exact size: a .nii.gz stream must decompress to exactly vox_offset + the data, a .nii file
+may have bytes after the data.
 
 Header fields used:
   dim          voxel counts (x, y, z[, t = 1]); a 4th axis longer than 1 is refused
@@ -11,7 +16,8 @@ reoriented to RAS and the rotation part of the affine is not applied. Byte order
 native (big-endian files load fine).
 Scaling: with slope 1 and intercept 0 (or unset) the stored integer dtype is kept. Otherwise the
 values are computed in float64 as stored * slope + intercept and kept as float32 when the stored
-type has at most 16 bits or is float32 (float32 holds those exactly to ~7 digits), else as float64.
+type has at most 16 bits or is float32 (float32 holds those exactly to ~7 digits) and every
+result lies within float32's range, else as float64.
 cal_min / cal_max are display windows, not value ranges: they are ignored (declared_range None),
 except in files vgraph wrote itself (descrip "vgraph volume"), where they carry the value range.
 """
@@ -29,8 +35,8 @@ import numpy as np
 from vgraph.errors import VolumeFileError
 from vgraph.io._common import (MAX_HEADER_BYTES, check_memory, check_origin, make_volume,
                                pad_to_3d, read_raw_array, regular_file, to_native)
-from vgraph.io._values import rescaled
 from vgraph.io._inflate import file_pieces, inflate_into, inflated_prefix
+from vgraph.io._values import rescaled
 from vgraph.volume import Volume
 
 WRITER_TAG = "vgraph volume"
@@ -67,14 +73,13 @@ def read_nifti(path) -> Volume:
 def _header(path: Path, gzipped: bool):
     """The header (and extensions), parsed by nibabel from at most MAX_HEADER_BYTES read here:
     nibabel would read an extension of any declared size, from a stream of any length."""
-    start = _leading_bytes(path, gzipped, 544)
-    klass, vox_offset = _kind_and_offset(start, path)
-    size = max(min(vox_offset, MAX_HEADER_BYTES), 352 if klass is nib.Nifti1Header else 544)
+    klass, vox_offset = _kind_and_offset(_leading_bytes(path, gzipped, 544), path)
     if vox_offset > MAX_HEADER_BYTES:
         raise VolumeFileError(path, f"the data start at byte {vox_offset}, beyond the "
                                     f"{MAX_HEADER_BYTES} bytes a header (with extensions) may take",
                               "vox_offset")
-    blob = _leading_bytes(path, gzipped, size)
+    # at least the header and the 4-byte extension flag (nibabel fixes a vox_offset below that)
+    blob = _leading_bytes(path, gzipped, max(vox_offset, klass.template_dtype.itemsize + 4))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         header = _checked(path, "header", lambda: klass.from_fileobj(io.BytesIO(blob), check=False))
@@ -100,10 +105,9 @@ def _leading_bytes(path: Path, gzipped: bool, size: int) -> bytes:
 def _kind_and_offset(start: bytes, path: Path):
     """The header class (NIfTI-1 or -2, by sizeof_hdr in either byte order) and vox_offset."""
     for order in "<>":
-        if len(start) >= 4 and int(np.frombuffer(start[:4], order + "i4")[0]) in _HEADERS:
-            klass, at, kind = _HEADERS[int(np.frombuffer(start[:4], order + "i4")[0])]
-            if len(start) < at + 8:
-                break
+        sizeof_hdr = int(np.frombuffer(start[:4], order + "i4")[0]) if len(start) >= 4 else None
+        if sizeof_hdr in _HEADERS and len(start) >= _HEADERS[sizeof_hdr][1] + 8:
+            klass, at, kind = _HEADERS[sizeof_hdr]
             value = float(np.frombuffer(start[at:at + 8], order + kind, count=1)[0])
             if not np.isfinite(value) or value < 0:
                 raise VolumeFileError(path, f"must be a byte offset, got {value}", "vox_offset")
