@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +37,17 @@ _PATTERN = re.compile(r"^(\S*%\S*)\s+(-?\d+)\s+(-?\d+)\s+(-?\d+)(?:\s+(\d+))?$")
 # One integer conversion with an optional zero flag and a width below 100 (``%d``, ``%03d``):
 # Python's % would also take ``%.1000000000d`` and build a gigabyte name.
 _NUMBER_FORMAT = re.compile(r"%0?\d{0,2}[diu]")
-_SEARCH_CHUNK = 2**20
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """How the values lie in each data file."""
+    encoding: str          # raw, gzip, bzip2 or ascii
+    dtype: np.dtype        # in the file's byte order
+    values: int            # values per data file
+    byte_skip: int
+    line_skip: int
+    explicit_skip: bool    # a byte skip was given: trailing bytes are allowed
 
 
 def read_data(path: Path, header: dict, dtype: np.dtype, count: int, data_offset: int,
@@ -51,16 +62,12 @@ def read_data(path: Path, header: dict, dtype: np.dtype, count: int, data_offset
     else:
         files, per_file = _data_files(path, str(data_file), listed_files, header, count)
         sources = [(file, 0) for file in files]
-
-    def part(file, start):
-        return _read_part(path, file, start, encoding, dtype, per_file, byte_skip, line_skip,
-                          explicit_skip)
-
+    layout = _Layout(encoding, dtype, per_file, byte_skip, line_skip, explicit_skip)
     if len(sources) == 1:
-        return part(*sources[0])
+        return _read_part(path, *sources[0], layout)
     out = np.empty(count, dtype=dtype.newbyteorder("="))
     for index, (file, start) in enumerate(sources):
-        out[index * per_file:(index + 1) * per_file] = part(file, start)
+        out[index * per_file:(index + 1) * per_file] = _read_part(path, file, start, layout)
     return out
 
 
@@ -161,20 +168,22 @@ def _numbered_names(pattern: str, first: int, step: int, number: int, path: Path
 
 
 # --- one data file -------------------------------------------------------------------------------
-def _read_part(header_path, file, start, encoding, dtype, count, byte_skip, line_skip,
-               explicit_skip) -> np.ndarray:
+def _read_part(header_path, file, start: int, layout: _Layout) -> np.ndarray:
+    """The values of one data file (or of the attached data, from ``start``), native order."""
     blame = None if file == header_path else header_path
-    start = _after_lines(file, start, line_skip, header_path)
-    if encoding == "raw":
-        return read_raw_array(file, dtype, count, offset=-1 if byte_skip == -1 else start + byte_skip,
-                              allow_trailing=explicit_skip, size_field="sizes", header=blame)
-    what = "the data" if blame is None else f"data file {str(file)!r}"
-    if encoding == "ascii":
-        return ascii_values(_skipped(file_pieces(file, start, header_path, "data file"), byte_skip),
-                            dtype, count, header_path, "sizes")
-    out = np.empty(count, dtype=dtype)
-    inflate_into(out.view(np.uint8), file_pieces(file, start, header_path, "data file"), encoding,
-                 header_path, "sizes", skip=byte_skip, what=what, codec_field="encoding")
+    start = _after_lines(file, start, layout.line_skip, header_path)
+    if layout.encoding == "raw":
+        offset = -1 if layout.byte_skip == -1 else start + layout.byte_skip
+        return read_raw_array(file, layout.dtype, layout.values, offset=offset,
+                              allow_trailing=layout.explicit_skip, size_field="sizes", header=blame)
+    pieces = file_pieces(file, start, header_path, "data file")
+    if layout.encoding == "ascii":
+        return ascii_values(_skipped(pieces, layout.byte_skip), layout.dtype, layout.values,
+                            header_path, "sizes")
+    out = np.empty(layout.values, dtype=layout.dtype)
+    inflate_into(out.view(np.uint8), pieces, layout.encoding, header_path, "sizes",
+                 skip=layout.byte_skip, codec_field="encoding",
+                 what="the data" if blame is None else f"data file {str(file)!r}")
     return to_native(out, copy=False)
 
 
