@@ -10,6 +10,7 @@ Each property says what a change invalidates: ``Invalidation.OUTPUT`` (run proce
 
 from __future__ import annotations
 
+import os
 from enum import IntEnum
 from typing import Annotated, Literal
 
@@ -154,15 +155,20 @@ class FilePathProperty(StringProperty):
         super().__init__(default, **kw)
 
     def _value_type(self):
-        return Annotated[str, AfterValidator(_no_nul_byte)]
+        return Annotated[str, AfterValidator(_valid_file_name)]
 
     def describe(self) -> dict:
         return super().describe() | {"filters": list(self.filters), "writes": self.writes}
 
 
-def _no_nul_byte(path: str) -> str:
+def _valid_file_name(path: str) -> str:
     if "\0" in path:
         raise ValueError("a file path cannot contain a NUL byte")
+    try:
+        os.fsencode(path)
+    except UnicodeEncodeError as error:
+        raise ValueError(f"a file path must be text this system can use as a file name "
+                         f"({error.reason} at character {error.start})") from None
     return path
 
 
