@@ -53,10 +53,9 @@ def test_random_bytes_under_every_extension(extension, content):
             pass
 
 
-@pytest.mark.xfail(strict=False, reason="src/vgraph/fileformat.py check_write_paths: Path.resolve() "
-                                        "raises UnicodeEncodeError for a lone surrogate in a writer's "
-                                        "path; not this module's to fix (reported)")
 def test_a_writer_path_that_is_not_encodable_is_a_network_file_error(tmp_path):
+    """Found by the network fuzzing (UnicodeEncodeError from the write-path check); fixed in
+    FilePathProperty (commit 93d1865)."""
     import vgraph
     path = tmp_path / "n.json"
     path.write_text('{"format": "vgraph-network", "version": 1, "processors": [{"id": "w", '
