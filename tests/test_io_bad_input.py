@@ -2,6 +2,7 @@
 field: files that are not regular files, library exceptions on damaged files, truncation, wrong
 magic, non-UTF-8 headers and absurd header numbers. (Size limits: test_io_limits.py.)"""
 
+import gzip
 import io
 import os
 import random
@@ -127,6 +128,11 @@ DAMAGED = [
     ("n.slc", b"11111\n2 2 2 8\n1 1 1\n0 0 0 0\n-4 1 X", "icon", ["negative byte count"]),
     ("s.nhdr", b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 x\nencoding: raw\n", "header",
      ["invalid NRRD header"]),
+    ("p.nhdr", b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n"  # int() limit
+               b"data file: q%d " + b"9" * 5000 + b" 1 1\n", "data file", ["out of range"]),
+    ("b.nrrd", b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: gzip\n"  # ssize_t
+               b"byte skip: 9223372036854775807\n\n" + gzip.compress(bytes(8)), "sizes",
+     ["fewer than"]),
 ]
 
 

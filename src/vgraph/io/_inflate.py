@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import bz2
 import lzma
+import sys
 import zlib
 from collections.abc import Iterable, Iterator
 
@@ -116,7 +117,8 @@ def _inflated(pieces, method: str, limit: int, file, field: str, what: str) -> I
                     if magic is None or data[:len(magic)] != magic[:len(data[:len(magic)])]:
                         return  # trailing bytes that start no new member
                     decompressor, ended = new(), False
-                out = decompressor.decompress(data, limit - produced + 1)
+                # a C ssize_t: a limit beyond it (a huge skip) cannot be reached anyway
+                out = decompressor.decompress(data, min(limit - produced + 1, sys.maxsize))
                 produced += len(out)
                 if out:
                     yield out  # even the piece that passes the limit: a prefix reader wants it

@@ -117,11 +117,17 @@ def _data_files(path: Path, value: str, listed: list[str] | None, header: dict, 
             return [regular_file(path.parent / value, path, "data file")], count
         pattern, first, last, step, sub = match.groups()
         subdim = _subdim(sub, dimension, path)
-        first, last, step = int(first), int(last), int(step)
+        first, last, step = (_pattern_number(text, path) for text in (first, last, step))
         number = _range_length(first, last, step, path)
         per_file = _check_file_count(number, subdim, header, count, path)
         names = _numbered_names(pattern, first, step, number, path)
     return [regular_file(path.parent / name, path, "data file") for name in names], per_file
+
+
+def _pattern_number(text: str, path: Path) -> int:
+    if len(text) > 18:  # Python refuses to convert more than 4300 digits, and no range needs 19
+        raise VolumeFileError(path, f"file number {text[:20]}... is out of range", "data file")
+    return int(text)
 
 
 def _subdim(text: str | None, dimension: int, path: Path) -> int:
