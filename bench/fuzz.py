@@ -23,6 +23,7 @@ import multiprocessing
 import random
 import resource
 import shutil
+import signal
 import sys
 import tempfile
 import time
@@ -43,8 +44,11 @@ def main(argv=None) -> int:
     unknown = set(targets) - set(TARGETS)
     if unknown:
         sys.exit(f"unknown target(s) {sorted(unknown)}; known: all, {', '.join(TARGETS)}")
+    # an interrupted run (Ctrl-C, kill) still reports what it did
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    start = time.monotonic()
     counts, failures = fuzz(targets, args)
-    report(targets, counts, failures, args)
+    report(targets, counts, failures, args, (time.monotonic() - start) / 60)
     return 1 if failures else 0
 
 
@@ -64,6 +68,7 @@ def parse_args(argv):
 # --- the worker ----------------------------------------------------------------------------------
 def worker(connection, address_space_bytes: int) -> None:
     """Runs cases sent as (target, seed, folder); answers (outcome, seconds, peak MB, traceback)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
     limit_address_space(address_space_bytes)
     while (job := connection.recv()) is not None:
         target, seed, folder = job
@@ -136,30 +141,40 @@ class Worker:
 def fuzz(targets, args):
     counts: dict[str, Counter] = defaultdict(Counter)
     failures: list[tuple[str, int, str, Path]] = []
+    try:
+        _run_cases(targets, args, counts, failures)
+    except KeyboardInterrupt:
+        print("interrupted: the counts below are those of the cases finished", flush=True)
+    return counts, failures
+
+
+def _run_cases(targets, args, counts, failures) -> None:
+    """Targets in turn, one case each, until the time is up; fills counts and failures."""
     seed = args.seed if args.seed is not None else int(time.time())
     deadline = time.monotonic() + 60 * args.minutes
     address_space = int(args.address_space_mb * 2**20)
     current = Worker(address_space)
     with tempfile.TemporaryDirectory(prefix="vgraph-fuzz-") as scratch:
-        while time.monotonic() < deadline:
-            for target in targets:
-                seed += 1
-                folder = Path(scratch) / f"{target}-{seed}"
-                folder.mkdir()
-                outcome, seconds, peak_mb, details = current.run(target, seed, folder,
-                                                                 args.kill_seconds)
-                problem = judge(outcome, seconds, peak_mb, args)
-                if problem:
-                    counts[target]["FAILED"] += 1
-                    failures.append((target, seed, problem, save(target, seed, folder, problem,
-                                                                 details)))
-                else:
-                    counts[target][outcome] += 1
-                if not current.process.is_alive():
-                    current = Worker(address_space)
-                shutil.rmtree(folder, ignore_errors=True)
-    current.close()
-    return counts, failures
+        try:
+            while time.monotonic() < deadline:
+                for target in targets:
+                    seed += 1
+                    folder = Path(scratch) / f"{target}-{seed}"
+                    folder.mkdir()
+                    outcome, seconds, peak_mb, details = current.run(target, seed, folder,
+                                                                     args.kill_seconds)
+                    problem = judge(outcome, seconds, peak_mb, args)
+                    if problem:
+                        counts[target]["FAILED"] += 1
+                        failures.append((target, seed, problem,
+                                         save(target, seed, folder, problem, details)))
+                    else:
+                        counts[target][outcome] += 1
+                    if not current.process.is_alive():
+                        current = Worker(address_space)
+                    shutil.rmtree(folder, ignore_errors=True)
+        finally:
+            current.close()
 
 
 def judge(outcome: str, seconds: float, peak_mb: float, args) -> str | None:
@@ -184,9 +199,9 @@ def save(target: str, seed: int, folder: Path, problem: str, details: str | None
     return place
 
 
-def report(targets, counts, failures, args) -> None:
+def report(targets, counts, failures, args, minutes: float) -> None:
     total = sum(sum(c.values()) for c in counts.values())
-    print(f"fuzzed {total} cases in {args.minutes:g} min (limits: {args.max_seconds:g} s, "
+    print(f"fuzzed {total} cases in {minutes:.1f} min (limits: {args.max_seconds:g} s, "
           f"+{args.max_memory_mb:g} MB resident, {args.address_space_mb:g} MB address space)")
     for target in targets:
         outcomes = counts[target]

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import bz2
 import lzma
+import os
 import sys
 import zlib
 from collections.abc import Iterable, Iterator
@@ -91,6 +92,10 @@ def file_pieces(path, start: int, blame, field: str) -> Iterator[bytes]:
     """The bytes of ``path`` from ``start`` on, in chunks."""
     try:
         with open(path, "rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            if start > size:  # a header offset beyond the file (seek would overflow past 2**63)
+                raise VolumeFileError(blame, f"the data would start at byte {start}, after the "
+                                             f"end of {str(path)!r} ({size} bytes)", field)
             fh.seek(start)
             while chunk := fh.read(INPUT_CHUNK_BYTES):
                 yield chunk
