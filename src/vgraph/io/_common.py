@@ -1,10 +1,12 @@
-"""Shared pieces of the volume readers: header-value parsing, the memory check, exact-size raw
-reading with progress, and turning a [z, y, x] array into a checked ``Volume``.
+"""Shared pieces of the volume readers: header-value parsing, the memory check, the checks that
+a file is a readable regular file and a header a header, exact-size raw reading with progress,
+and turning a [z, y, x] array into a checked ``Volume``.
 
 Conventions kept by every reader (docs/volumes.md says the same for users):
 - arrays come back indexed [z, y, x] in native byte order, x fastest (the file's order);
 - spacing and origin are (x, y, z);
-- a reader either returns a complete Volume or raises ``VolumeFileError``; nothing half-loaded;
+- a reader either returns a complete Volume or raises ``VolumeFileError``; nothing half-loaded,
+  and no size from a file is trusted before it is checked (see the Limits in docs/volumes.md);
 - float volumes with NaN/Inf voxels load, but a ``NonFiniteVoxelsWarning`` names the file and
   the counts.
 """

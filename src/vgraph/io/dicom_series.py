@@ -13,10 +13,14 @@ an image (DICOMDIR, reports) are skipped.
             rotation in ImageOrientationPatient is not applied: axes are column, row, slice.
   values    RescaleSlope / RescaleIntercept per slice. If every slice has slope 1 and intercept 0
             the stored dtype (e.g. uint16) is kept; otherwise stored * slope + intercept is computed
-            in float64 and stored as float32 (DICOM pixels have at most 16 bits here).
+            in float64 and kept as float32, or as float64 for 32-bit stored values or results
+            beyond float32's range.
   range     BitsStored < BitsAllocated declares the range (e.g. 12-bit unsigned -> [0, 4095]),
             rescaled like the values; otherwise None.
 Without ImagePositionPatient the slices are sorted by InstanceNumber, with a warning.
+Damaged files: pydicom reads through a file whose reads stop at its end (element lengths are not
+trusted), a deflated data set may inflate to at most MAX_DEFLATED_BYTES, and header values are
+read through _numbers/_integer, which name the field of anything that is not finite numbers.
 """
 
 from __future__ import annotations
@@ -36,8 +40,8 @@ from tqdm import tqdm
 from vgraph.errors import VolumeFileError
 from vgraph.io._common import (check_memory, check_origin, check_spacing, make_volume,
                                open_capped, regular_file)
-from vgraph.io._values import rescaled
 from vgraph.io._inflate import check_inflates_within, file_pieces
+from vgraph.io._values import rescaled
 from vgraph.volume import Volume
 
 _SAME_ACROSS_SLICES = ("Rows", "Columns", "BitsAllocated", "PixelRepresentation", "SamplesPerPixel")
