@@ -9,9 +9,10 @@ when a network is opened, ``newest_orphan`` at start-up without one).
 
 Where: one folder per user, ``autosave_folder(settings)``: the QSettings key ``autosave/folder``
 if set; else beside the settings file when the settings are an INI file (tests and portable
-set-ups: their autosaves stay with their settings); else ``QStandardPaths.AppDataLocation``/
-``autosave`` (on Linux ``~/.local/share/vgraph/vgraph/autosave``). Not beside the network:
-its folder may be read-only or under version control, and an untitled network has none.
+set-ups: their autosaves stay with their settings); else the per-user data folder
+(``QStandardPaths.GenericDataLocation``) ``/vgraph/autosave``: on Linux
+``~/.local/share/vgraph/autosave``. Not beside the network: its folder may be read-only or under
+version control, and an untitled network has none.
 
 An autosave file is JSON: ``{"format": "vgraph-autosave", "version": 1, "original": path or
 null, "base_dir": folder that relative file paths in the network are relative to, "pid": the
@@ -47,7 +48,9 @@ def autosave_folder(settings: QSettings) -> Path:
         return Path(str(chosen))
     if settings.format() == QSettings.IniFormat:
         return Path(settings.fileName()).parent / "autosave"
-    return Path(QStandardPaths.writableLocation(QStandardPaths.AppDataLocation)) / "autosave"
+    # The generic location plus our name, not AppDataLocation: that one follows the running
+    # program's name, and a script that opens the window would look elsewhere than `vgraph gui`.
+    return Path(QStandardPaths.writableLocation(QStandardPaths.GenericDataLocation)) / "vgraph" / "autosave"
 
 
 def autosave_name(original: Path | None, pid: int) -> str:
