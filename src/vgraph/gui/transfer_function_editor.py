@@ -1,6 +1,6 @@
 """The graphical transfer-function editor: control points over the volume's histogram.
 
-After the TF editors of seeds 000 (fig. 4.4) and 003 (ch. 3): the histogram of the volume as grey
+After the TF editors of Inácio 2009 (fig. 4.4) and Monsalve 2016 (ch. 3): the histogram of the volume as grey
 bars in the background (linear or log scale), the opacity curve as a polyline through the control
 points, each point a circle filled with its colour, and the resulting colour gradient (RGB with
 alpha over a checkerboard) as a strip along the bottom.
