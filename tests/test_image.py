@@ -88,3 +88,14 @@ def test_bad_sizes_are_rejected(ctx):
         Image.empty(ctx, (0, 4))
     with pytest.raises(VGraphError, match="width, height"):
         Image.empty(ctx, 5)
+
+
+def test_releasing_the_bound_image_leaves_no_gl_error(ctx):
+    """moderngl re-binds the framebuffer it last bound after making the next one: if that one was
+    released, GL_INVALID_OPERATION stayed pending and was blamed on whatever came next."""
+    ctx.error  # start clean
+    image = Image.empty(ctx, (3, 2))
+    image.framebuffer.use()
+    image.release()
+    Image.empty(ctx, (3, 2)).release()
+    assert ctx.error == "GL_NO_ERROR"

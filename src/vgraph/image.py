@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from vgraph.errors import VGraphError
+from vgraph.gl.context import bind_default_framebuffer
 
 _NORMALISED_MAX = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}
 
@@ -67,6 +68,7 @@ class Image:
     def release(self) -> None:
         """Free the GPU memory now (instead of when moderngl's garbage collection gets to it)."""
         if self._framebuffer is not None:
+            bind_default_framebuffer(self.ctx)
             self._framebuffer.release()
             self._framebuffer = None
         if self.texture is not None:

@@ -32,6 +32,7 @@ class LeakSample:
 def live_gl_textures(ctx) -> int:
     """How many texture names are alive on ``ctx`` (which must be current, as vgraph's is)."""
     from OpenGL import GL
+    ctx.error  # reading clears it: PyOpenGL would blame glIsTexture for an older error
     probe = ctx.texture((1, 1), 4)
     newest = probe.glo
     probe.release()

@@ -67,12 +67,20 @@ def collect_garbage() -> int:
         if ctx is None or ctx.gc_mode != "context_gc":
             return 0
         freed = 0
+        if ctx.objects:
+            bind_default_framebuffer(ctx)  # a queued framebuffer may be the bound one
         while ctx.objects:
             handle = ctx.objects.popleft()
             if hasattr(handle, "release"):  # objects released explicitly are queued as invalid ones
                 handle.release()
                 freed += 1
         return freed
+
+
+def bind_default_framebuffer(ctx: moderngl.Context) -> None:
+    """Bind framebuffer 0 before a framebuffer is released: moderngl restores the binding it last
+    made after creating the next one, and binding a deleted name is GL_INVALID_OPERATION."""
+    ctx.detect_framebuffer(0).use()
 
 
 def _collecting(ctx: moderngl.Context) -> moderngl.Context:

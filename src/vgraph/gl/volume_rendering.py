@@ -42,6 +42,7 @@ from scipy import ndimage
 
 from vgraph.camera import Camera
 from vgraph.errors import VGraphError
+from vgraph.gl.context import bind_default_framebuffer
 from vgraph.image import Image
 from vgraph.implicit import UNIT_BOX
 from vgraph.numerics.reference_raycast import GRADIENT_EPSILON
@@ -312,6 +313,7 @@ class RenderTargets:
             if image.texture is not None:
                 image.release()
         if self.framebuffer is not None:
+            bind_default_framebuffer(self.framebuffer.ctx)
             self.framebuffer.release()
         self.images, self.framebuffer = [], None
 
