@@ -12,6 +12,7 @@ bench/fuzz.py for minutes with time and memory limits.
 
 from __future__ import annotations
 
+import copy
 import gzip
 import io
 import json
@@ -144,6 +145,11 @@ def _as_version_0(document: dict) -> dict:
             "edges": [f"{c['from']} -> {c['to']}" for c in document.get("connections", [])]}
 
 
+def _json_extreme(rng):
+    """A copy: the same list planted twice could end up inside itself (and the constants changed)."""
+    return copy.deepcopy(rng.choice(JSON_EXTREMES))
+
+
 def _mutate_document(rng, document: dict) -> int | None:
     """One edit of the document in place; returns a nesting depth when it planted a deep list."""
     places = list(_places(document))
@@ -154,16 +160,16 @@ def _mutate_document(rng, document: dict) -> int | None:
                   if isinstance(p, dict) and isinstance(p.get("properties"), dict) and p["properties"]]
     if kind == 8 and properties:  # a property value of any type: each property checks its own
         container = rng.choice(properties)
-        container[rng.choice(sorted(container))] = rng.choice(JSON_EXTREMES)
+        container[rng.choice(sorted(container))] = _json_extreme(rng)
         return None
     if kind == 0 and isinstance(container, dict) and key in container:
         del container[key]
     elif kind == 1:
-        container[key] = rng.choice(JSON_EXTREMES)
+        container[key] = _json_extreme(rng)
     elif kind == 2:
         document["version"] = rng.choice((0, 2, -1, "1", 1.0, True, None, 10**20, 1))
     elif kind == 3 and isinstance(container, dict):
-        container[rng.choice(("unknown", "x", "id", "type", "bidirectional"))] = rng.choice(JSON_EXTREMES)
+        container[rng.choice(("unknown", "x", "id", "type", "bidirectional"))] = _json_extreme(rng)
     elif kind == 4 and isinstance(processors, list) and processors:
         processors.append(json.loads(json.dumps(rng.choice(processors))))  # a duplicate id
     elif kind == 5:
@@ -232,8 +238,8 @@ def _mutate_description(rng, description: dict) -> None:
     if choice < 0.2:
         description.pop(key, None)
     elif choice < 0.6:
-        description[key] = rng.choice(JSON_EXTREMES + ((1, 1), (2, 2, -2), (1e30, 1, 1),
-                                                       (np.nan, 1, 1), "complex64", "bool", "V8"))
+        description[key] = copy.deepcopy(rng.choice(JSON_EXTREMES + (
+            (1, 1), (2, 2, -2), (1e30, 1, 1), (np.nan, 1, 1), "complex64", "bool", "V8")))
     else:
         description[key] = [rng.choice((0, -1, 10**12, 1.5, float("nan"))) for _ in range(3)]
 
