@@ -168,7 +168,7 @@ def command_run(args) -> int:
 
 def warned_if_blank(network, target: str, pixels: np.ndarray) -> np.ndarray:
     from vgraph.scheduler import blank_image_warning
-    warning = blank_image_warning(network, target, pixels) if pixels.ndim == 3 else None
+    warning = blank_image_warning(network, target, pixels)
     if warning:
         print(f"vgraph: warning: {warning}", file=sys.stderr)
     return pixels
