@@ -253,3 +253,17 @@ def test_the_undo_history_keeps_the_last_steps_only(qtbot, tmp_path):
         stack.undo()
     assert workspace.network.get("n.value") == 5 / 100   # back to before the oldest step kept
     assert workspace.is_modified()                       # the saved state is out of reach
+
+
+def test_an_empty_frame_of_visible_content_is_a_warning_in_the_log_once(window):
+    from conftest import REPO
+    assert window.open_network(REPO / "networks" / "raycast_sphere.json")
+    window.evaluation.run(wait=True)
+    assert not [m for m in window.log.messages("warning") if "empty image" in m]
+    away = {**window.workspace.network.get("eep.camera").model_dump(), "focus": [0.0, 0.0, 50.0],
+            "position": [0.0, 0.0, 40.0]}
+    window.workspace.set_property("eep.camera", away)
+    window.evaluation.run(wait=True)
+    window.evaluation.run(wait=True)
+    warnings = [m for m in window.log.messages("warning") if "empty image" in m]
+    assert len(warnings) == 1 and warnings[0].startswith("rc (RayCaster) rendered an empty image")

@@ -61,6 +61,7 @@ class MainWindow(FileActions, QMainWindow):
         self.log_dock = self._dock("Log", self.log, Qt.BottomDockWidgetArea)
         self.canvases = CanvasDocks(self, self.workspace, self.evaluation, above=self.properties_dock)
         self.failures: dict[str, str] = {}
+        self.blank_warnings: dict[str, str] = {}  # display id -> the empty-image warning logged
         self._build_actions()
         self._build_menus()
         self._wire()
@@ -242,6 +243,10 @@ class MainWindow(FileActions, QMainWindow):
                 self.log.info(f"processor '{pid}' evaluates again")
         self.failures = {pid: r for pid, r in self.failures.items() if pid not in outcome.ran}
         self.failures.update(outcome.failed)
+        for display, warning in outcome.blank.items():
+            if self.blank_warnings.get(display) != warning:
+                self.log.warning(warning)
+        self.blank_warnings = dict(outcome.blank)
         failed = f", {len(outcome.failed)} failed" if outcome.failed else ""
         seconds = self.evaluation.last_result.seconds if self.evaluation.last_result else 0.0
         self.show_message(f"evaluated {len(outcome.ran)} processor{'s' * (len(outcome.ran) != 1)}"

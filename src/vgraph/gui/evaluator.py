@@ -29,6 +29,7 @@ from vgraph.imagefile import to_uint8
 from vgraph.network import Network
 from vgraph.processor import Processor
 from vgraph.properties import FilePathProperty, Invalidation, TransferFunctionProperty
+from vgraph.scheduler import blank_image_warning
 from vgraph.volume import Volume
 
 
@@ -51,6 +52,7 @@ class EvaluationOutcome:
     not_ready: list[str] = field(default_factory=list)     # required inports unconnected upstream
     writers: list[str] = field(default_factory=list)       # writers left for an explicit run
     frames: dict[str, np.ndarray] = field(default_factory=dict)  # display id -> (H, W, 4) uint8
+    blank: dict[str, str] = field(default_factory=dict)    # display id -> why its frame should not be empty
 
 
 def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = False) -> EvaluationOutcome:
@@ -74,7 +76,11 @@ def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = 
             outcome.failed[error.processor_id] = error.reason
             continue
         if display:
-            outcome.frames[target] = to_uint8(network.output(target).to_numpy())
+            pixels = network.output(target).to_numpy()
+            outcome.frames[target] = to_uint8(pixels)
+            warning = blank_image_warning(network, target, pixels)
+            if warning:
+                outcome.blank[target] = warning
     return outcome
 
 
