@@ -136,3 +136,9 @@ def test_b_spline_coefficients_of_values_beyond_float32_give_the_ordinary_curvat
     expected, image = curvature(ball()), curvature(ball().astype(np.float64) * 1e300)
     assert np.isfinite(image).all() and (image[..., 3] == 1.0).sum() > 100
     np.testing.assert_allclose(image, expected, atol=1e-3 * np.abs(expected).max())
+
+
+def test_a_flat_depth_image_is_no_reason_to_warn(recwarn):
+    network = ray_caster_network(Volume(ball()), Camera(position=(11.5, 11.5, 60.0), focus=(11.5, 11.5, 100.0)))
+    network.evaluate("rc.depth", size=(16, 16))
+    assert not [w for w in recwarn if issubclass(w.category, BlankImageWarning)]

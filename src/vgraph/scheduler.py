@@ -187,10 +187,13 @@ class BlankImageWarning(UserWarning):
 
 
 def blank_image_warning(network: Network, target: str, pixels: np.ndarray) -> str | None:
-    """A warning when ``pixels`` (the image at ``target``) are all one colour although a renderer
-    it comes from says its inputs have visible content; None otherwise."""
+    """A warning when ``pixels`` (the colour image at ``target``: an ``image`` outport or a sink)
+    are all one colour although a renderer it comes from says its inputs have visible content;
+    None otherwise."""
     if pixels.ndim != 3 or pixels.size == 0 or not np.all(pixels == pixels[:1, :1]):
         return None
+    if "." in target and split_address(target)[1] != "image":
+        return None  # depth, positions, curvature values: flat is no sign of a wrong view
     processor_id = _target_processor(network, target)
     for pid in (processor_id, *nx.ancestors(network.graph, processor_id)):
         processor = network.processors[pid]
