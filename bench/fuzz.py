@@ -72,7 +72,11 @@ def worker(connection, address_space_bytes: int) -> None:
     limit_address_space(address_space_bytes)
     while (job := connection.recv()) is not None:
         target, seed, folder = job
-        case = make_case(target, random.Random(seed))
+        try:
+            case = make_case(target, random.Random(seed))
+        except Exception:  # a bug of the fuzzer itself: reported, and the run goes on
+            connection.send(("generator failed", 0.0, 0.0, traceback.format_exc()))
+            continue
         _reset_peak_memory()
         idle_kb = _status_kb("VmRSS")
         start = time.perf_counter()
@@ -150,7 +154,8 @@ def fuzz(targets, args):
 
 def _run_cases(targets, args, counts, failures) -> None:
     """Targets in turn, one case each, until the time is up; fills counts and failures."""
-    seed = args.seed if args.seed is not None else int(time.time())
+    # runs started a second apart draw from seed ranges a thousand apart: they do not overlap
+    seed = args.seed if args.seed is not None else int(time.time() * 1000)
     deadline = time.monotonic() + 60 * args.minutes
     address_space = int(args.address_space_mb * 2**20)
     current = Worker(address_space)
@@ -178,7 +183,7 @@ def _run_cases(targets, args, counts, failures) -> None:
 
 
 def judge(outcome: str, seconds: float, peak_mb: float, args) -> str | None:
-    if outcome in ("hung", "worker died") or outcome.startswith("raised "):
+    if outcome in ("hung", "worker died", "generator failed") or outcome.startswith("raised "):
         return outcome
     if seconds > args.max_seconds:
         return f"slow: {seconds:.1f} s ({outcome})"
@@ -191,9 +196,13 @@ def save(target: str, seed: int, folder: Path, problem: str, details: str | None
     place = RESULTS / target / str(seed)
     shutil.rmtree(place, ignore_errors=True)
     shutil.copytree(folder, place, symlinks=True)
-    case = make_case(target, random.Random(seed))
-    (place / "case.txt").write_text(f"target: {target}\nseed: {seed}\nentry: {case.entry!r}\n"
-                                    f"raw: {case.raw!r}\nproblem: {problem}\n"
+    try:
+        case = make_case(target, random.Random(seed))
+        entry, raw = case.entry, case.raw
+    except Exception:  # the generator failed: the traceback says where
+        entry = raw = "(no case: the generator failed)"
+    (place / "case.txt").write_text(f"target: {target}\nseed: {seed}\nentry: {entry!r}\n"
+                                    f"raw: {raw!r}\nproblem: {problem}\n"
                                     f"replay: .venv/bin/python bench/fuzz.py --replay {target} {seed}\n")
     (place / "traceback.txt").write_text(details or problem)
     return place
