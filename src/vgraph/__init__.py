@@ -10,7 +10,7 @@ Scripts meet vgraph through a few names::
 """
 
 from vgraph.errors import (CycleError, NetworkFileError, OutputFileError, PortError, ProcessorError, PropertyError,
-                           ShaderError, VGraphError, VolumeFileError, WritePathError)
+                           ShaderError, VGraphError, VGraphWarning, VolumeFileError, WritePathError)
 from vgraph.network import Network
 from vgraph.ports import Inport, Outport
 from vgraph.processor import Processor
@@ -40,5 +40,5 @@ __all__ = [
     "Invalidation", "BoolProperty", "CameraProperty", "ColorProperty", "DictProperty", "FilePathProperty",
     "FloatProperty", "IntProperty", "OptionProperty", "StringProperty", "TransferFunctionProperty",
     "VectorProperty", "VGraphError", "NetworkFileError", "PortError", "CycleError", "ProcessorError",
-    "OutputFileError", "PropertyError", "ShaderError", "VolumeFileError", "WritePathError",
+    "OutputFileError", "PropertyError", "ShaderError", "VGraphWarning", "VolumeFileError", "WritePathError",
 ]

@@ -12,6 +12,11 @@ class VGraphError(Exception):
     """Bad input of any kind: a file, a network, a property value, a port connection."""
 
 
+class VGraphWarning(UserWarning):
+    """Something works but is probably not what the user wants (a flat volume, an empty image).
+    The CLI prints these as ``vgraph: warning: ...``; the GUI shows them in its log."""
+
+
 class PropertyError(VGraphError, ValueError):
     """A property value was rejected. Names processor and property."""
 

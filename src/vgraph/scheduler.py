@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import networkx as nx
 import numpy as np
 
-from vgraph.errors import ProcessorError, VGraphError
+from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
 from vgraph.gl.context import collect_garbage
 from vgraph.network import Network, split_address
 from vgraph.processor import Processor
@@ -182,7 +182,7 @@ def _checked_size(size) -> tuple[int, int]:
     return width, height
 
 
-class BlankImageWarning(UserWarning):
+class BlankImageWarning(VGraphWarning):
     """A renderer produced a uniform image although its inputs have something visible."""
 
 
