@@ -32,7 +32,7 @@ from vgraph.gl.curvature import (COLORMAPS, CURVATURES, DERIVATIVES, NORMALIZATI
                                  measure_defines, measure_uniforms, raw_level, shading_defines)
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import programs
-from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, SkipBlocks, VolumeGeometry,
+from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, SkipBlocks, VolumeGeometry, view_camera,
                                         block_grid_uniforms, lighting_properties, linear_sampler,
                                         radii_if_worthwhile, ray_uniforms, shading_uniforms, vec,
                                         crossed_by)
@@ -144,14 +144,15 @@ class CurvatureRaycaster(Processor):
     def _surface_uniforms(self, volume: Volume, size) -> dict:
         geometry = VolumeGeometry.of(volume)
         to_world_scale, to_world_offset = geometry.texture_to_world
-        rays = ray_uniforms(self.camera, size)
+        camera = self.view_camera = view_camera(self.camera, volume, size)
+        rays = ray_uniforms(camera, size)
         return {"texture_to_world_scale": vec(to_world_scale),
                 "texture_to_world_offset": vec(to_world_offset),
                 "step_length": float(geometry.spacing.min()) / self.sampling_rate,
                 "raw_level": raw_level(volume, self.level),
-                "view_projection": self.camera.view_projection(size[0] / size[1]),
+                "view_projection": camera.view_projection(size[0] / size[1]),
                 "viewport_size": (float(size[0]), float(size[1])),
-                "view_forward": vec(self.camera.basis()[2]),
+                "view_forward": vec(camera.basis()[2]),
                 "near_centre": rays["near_centre"], "near_right": rays["near_right"],
                 "near_up": rays["near_up"],
                 **field_uniforms(volume), **block_grid_uniforms(volume)}
@@ -160,8 +161,9 @@ class CurvatureRaycaster(Processor):
         uniforms = {"background": tuple(self.background),
                     "undefined_color": tuple(self.undefined_color),
                     "attenuation": self.attenuation, "contour_width": self.contour_width,
-                    "eye": vec(self.camera.position), "view_forward": vec(self.camera.basis()[2]),
-                    "perspective": self.camera.projection == "perspective",
+                    "eye": vec(self.view_camera.position),
+                    "view_forward": vec(self.view_camera.basis()[2]),
+                    "perspective": self.view_camera.projection == "perspective",
                     **measure_uniforms(volume)}
         if self.shading != "none":
             uniforms.update(shading_uniforms(self, float(min(volume.spacing))))

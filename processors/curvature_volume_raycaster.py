@@ -27,7 +27,7 @@ from vgraph.gl.curvature import (COLORMAPS, CURVATURES, DERIVATIVES, NORMALIZATI
                                  measure_uniforms, shading_defines)
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import programs
-from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, SkipBlocks,
+from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, SkipBlocks, view_camera,
                                         TransferFunctionTexture, VolumeGeometry, block_grid_uniforms,
                                         linear_sampler, lighting_properties, occupied_blocks,
                                         radii_if_worthwhile, ray_uniforms, shading_uniforms, vec,
@@ -146,7 +146,8 @@ class CurvatureVolumeRaycaster(Processor):
         geometry = VolumeGeometry.of(volume)
         min_spacing = float(geometry.spacing.min())
         to_world_scale, to_world_offset = geometry.texture_to_world
-        rays = ray_uniforms(self.camera, size)
+        camera = self.view_camera = view_camera(self.camera, volume, size)
+        rays = ray_uniforms(camera, size)
         uniforms = {"texture_to_world_scale": vec(to_world_scale),
                     "texture_to_world_offset": vec(to_world_offset),
                     "step_length": min_spacing / self.sampling_rate,
@@ -155,9 +156,9 @@ class CurvatureVolumeRaycaster(Processor):
                     "background": tuple(self.background),
                     "undefined_color": tuple(self.undefined_color),
                     "attenuation": self.attenuation,
-                    "view_projection": self.camera.view_projection(size[0] / size[1]),
+                    "view_projection": camera.view_projection(size[0] / size[1]),
                     "viewport_size": (float(size[0]), float(size[1])),
-                    "view_forward": vec(self.camera.basis()[2]),
+                    "view_forward": vec(camera.basis()[2]),
                     "near_centre": rays["near_centre"], "near_right": rays["near_right"],
                     "near_up": rays["near_up"],
                     **field_uniforms(volume), **block_grid_uniforms(volume)}

@@ -15,9 +15,10 @@ Conventions (vgraph.gl.volume_rendering has the long form):
   near-plane capping (where the near plane cuts the box, e.g. a camera inside the volume, the ray
   starts on the near plane, as Camera.rays does).
 - Rays are those of Camera.rays: one per pixel centre, row 0 at the top after Image.to_numpy().
-- The default camera frames the implicit functions' box [-1, 1]^3. While the camera still has its
-  default value, each volume that arrives is framed (frame_volume(): Camera.framing, keeping the
-  view direction), so a volume from a file shows without setting a camera first.
+- The default camera fits the data (Camera.fit_to_data: each volume that arrives is framed, keeping
+  the view direction) and chooses near/far from the volume's box every frame, so a volume from a
+  file shows without setting a camera first; a stored camera stays as stored. ``view_camera`` is
+  the concrete camera of the last frame; frame_volume() stores a framed camera.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from vgraph import CameraProperty, FloatProperty, Inport, Outport, Processor, VG
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass, set_uniform
 from vgraph.gl.shaders import programs
 from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, VolumeGeometry, plane_cuts_box, plane_frame,
-                                        ray_uniforms, vec)
+                                        ray_uniforms, vec, view_camera)
 from vgraph.image import Image
 from vgraph.volume import Volume
 
@@ -64,8 +65,8 @@ class EntryExitPoints(Processor):
     outports = [Outport("entry", Image), Outport("exit", Image)]
     renders_at_size = True
 
-    camera = CameraProperty(DEFAULT_CAMERA, doc="the view; link it to the ray caster's camera. While "
-                                                "it is the default, each volume is framed")
+    camera = CameraProperty(DEFAULT_CAMERA, doc="the view; link it to the ray caster's camera. By "
+                                                "default it fits whatever volume arrives")
     jitter = FloatProperty(0.0, min=0.0, max=4.0,
                            doc="move entry points along their ray by a per-pixel pseudo-random "
                                "fraction of this many voxels (smallest spacing); 0 = off. About "
@@ -77,30 +78,31 @@ class EntryExitPoints(Processor):
         self._cube: tuple | None = None  # (ctx, vertex buffer, {program: vertex array})
 
     def process(self, volume: Volume) -> dict:
-        if self.camera == DEFAULT_CAMERA:
-            self.frame_volume(volume)  # an untouched camera shows whatever volume arrives
         ctx = self.gl
         size = self.render_size
+        self.view_camera = view_camera(self.camera, volume, size)
         (entry,), (exit_points,) = self._entry.ensure(ctx, size), self._exit.ensure(ctx, size)
-        uniforms = self._uniforms(volume, size)
+        uniforms = self._uniforms(volume, size, self.view_camera)
         self._draw(ctx, exit_points, "front", {}, uniforms, "far")
         self._draw(ctx, entry, "back", {"ENTRY": True}, uniforms, "near", exit_points)
         return {"entry": entry, "exit": exit_points}
 
     def frame_volume(self, volume: Volume | None = None) -> None:
-        """Move the camera so the volume's box fills the view (keeping direction and up; see
-        Camera.framing). Uses the last volume received unless one is given."""
+        """Store a camera that frames the volume's box (keeping direction and up; see
+        Camera.framing) with near/far enclosing it. Uses the last volume received unless one is
+        given."""
         volume = volume if volume is not None else self.inputs.get("volume")
         if volume is None:
             raise VGraphError(f"{self.id}: frame_volume() needs a volume: evaluate the network "
                               "first or pass one")
         width, height = self.render_size
-        framed = self.camera.framing(*VolumeGeometry.of(volume).box, width / height)
+        fitting = self.camera.model_copy(update={"fit_to_data": True, "near": None, "far": None})
+        framed = fitting.resolved(*VolumeGeometry.of(volume).box, width / height)
         if framed != self.camera:
             self.camera = framed  # a linked ray caster's camera follows
 
     # --- drawing --------------------------------------------------------------------------------
-    def _uniforms(self, volume: Volume, size) -> dict:
+    def _uniforms(self, volume: Volume, size, camera) -> dict:
         geometry = VolumeGeometry.of(volume)
         box_min, box_max = geometry.box
         hit_min, hit_max = self._hit_box = geometry.grown_box()
@@ -111,14 +113,14 @@ class EntryExitPoints(Processor):
                 "hit_box_min": vec(hit_min), "hit_box_max": vec(hit_max),
                 "proxy_min": vec(proxy_min), "proxy_max": vec(proxy_max),
                 "proxy_size": vec(proxy_max - proxy_min),
-                "view_projection": self.camera.view_projection(size[0] / size[1]),
-                "near_to_far": self.camera.far - self.camera.near,
+                "view_projection": camera.view_projection(size[0] / size[1]),
+                "near_to_far": camera.far - camera.near,
                 "world_to_texture_scale": vec(scale), "world_to_texture_offset": vec(offset),
                 "texture_box_min": vec(texture_min), "texture_box_max": vec(texture_max),
                 "texture_to_world_scale": vec(geometry.texture_to_world[0]),
                 "jitter": float(self.jitter * geometry.spacing.min()),
                 "viewport_size": (float(size[0]), float(size[1])),
-                **ray_uniforms(self.camera, size)}
+                **ray_uniforms(camera, size)}
 
     def _draw(self, ctx, target: Image, culled: str, defines: dict, uniforms: dict, plane: str,
               exit_points: Image | None = None) -> None:
@@ -140,9 +142,9 @@ class EntryExitPoints(Processor):
             self._cube_vertex_array(ctx, faces).render(moderngl.TRIANGLES)
         finally:
             ctx.disable(moderngl.CULL_FACE)
-        if not plane_cuts_box(self.camera, plane, *self._hit_box):
+        if not plane_cuts_box(self.view_camera, plane, *self._hit_box):
             return  # the full-screen capping pass would change no pixel
-        centre, right, up = plane_frame(self.camera, target.size, plane)
+        centre, right, up = plane_frame(self.view_camera, target.size, plane)
         cap = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, CAP_SHADER, defines, processor=self.id)
         fullscreen_pass(ctx, cap, target, textures,
                         {**uniforms, "cap_centre": vec(centre), "cap_right": vec(right),

@@ -31,7 +31,7 @@ from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, SkipBlock
                                         TransferFunctionTexture, VolumeGeometry, block_grid_uniforms,
                                         lighting_properties, linear_sampler, occupied_blocks,
                                         radii_if_worthwhile, ray_uniforms, shading_uniforms, vec,
-                                        crossed_by, visible_under)
+                                        crossed_by, view_camera, visible_under)
 from vgraph.image import Image
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -152,7 +152,8 @@ class RayCaster(Processor):
         min_spacing = float(geometry.spacing.min())
         scale, offset = volume.texture_scale_offset()
         to_world_scale, to_world_offset = geometry.texture_to_world
-        rays = ray_uniforms(self.camera, size)
+        camera = self.view_camera = view_camera(self.camera, volume, size)
+        rays = ray_uniforms(camera, size)
         uniforms = {
             "texture_to_world_scale": vec(to_world_scale),
             "texture_to_world_offset": vec(to_world_offset),
@@ -162,9 +163,9 @@ class RayCaster(Processor):
             "volume_dims": tuple(int(d) for d in volume.dims),
             "early_termination": self.early_termination, "iso_level": self.iso_level,
             "background": tuple(self.background),
-            "view_projection": self.camera.view_projection(size[0] / size[1]),
+            "view_projection": camera.view_projection(size[0] / size[1]),
             "viewport_size": (float(size[0]), float(size[1])),
-            "view_forward": vec(self.camera.basis()[2]),
+            "view_forward": vec(camera.basis()[2]),
             "near_centre": rays["near_centre"], "near_right": rays["near_right"],
             "near_up": rays["near_up"],
             **block_grid_uniforms(volume)}

@@ -176,7 +176,8 @@ def test_pan_moves_the_scene_by_fractions_of_the_view_height(projection):
 def test_json_round_trip_keeps_the_form():
     camera = oblique().rotate(0.2, 0.1).pan(0.1, 0.0).zoom(1.5)
     data = json.loads(camera.model_dump_json())
-    assert set(data) == {"projection", "position", "focus", "up", "fov", "parallel_scale", "near", "far"}
+    assert set(data) == {"projection", "position", "focus", "up", "fov", "parallel_scale", "near", "far",
+                         "fit_to_data"}
     assert Camera.model_validate_json(camera.model_dump_json()) == camera
     with pytest.raises(ValidationError):
         camera.fov = 10.0  # frozen
@@ -212,3 +213,53 @@ def test_helpers_reject_bad_arguments():
         camera.rotate(math.nan, 0.0)
     with pytest.raises(ValueError, match="box_max"):
         camera.framing([1, 1, 1], [0, 0, 0])
+
+
+# --- automatic parts: fit to data, near/far from the box, named views ------------------------------
+MM_BOX = ([0.0, 0.0, 0.0], [255.0, 255.0, 180.0])  # a head measured in mm
+
+
+def test_automatic_planes_enclose_the_box_from_wherever_the_camera_stands():
+    camera = Camera(position=(127.5, 127.5, 700.0), focus=(127.5, 127.5, 90.0))  # no planes given
+    assert camera.near is None and camera.far is None
+    with pytest.raises(ValueError, match="automatic"):
+        camera.view_projection(1.0)
+    resolved = camera.resolved(*MM_BOX)
+    centre, radius = np.mean(MM_BOX, axis=0), np.linalg.norm(np.subtract(*MM_BOX[::-1])) / 2
+    depth = np.linalg.norm(centre - camera.position)
+    assert resolved.near < depth - radius < depth + radius < resolved.far  # far 100 used to clip it
+    assert resolved.position == camera.position and not resolved.fit_to_data
+
+
+def test_explicit_planes_are_kept_and_automatic_ones_never_cross_them():
+    camera = Camera(position=(0.0, 0.0, 500.0), near=1.0)
+    assert camera.resolved(*MM_BOX).near == 1.0
+    deep = Camera(position=(0.0, 0.0, 500.0), near=5000.0).resolved(*MM_BOX)
+    assert deep.near == 5000.0 < deep.far
+
+
+def test_fit_to_data_frames_each_box_keeping_the_direction():
+    camera = Camera(position=(0.0, 0.0, 3.0), fit_to_data=True)
+    small, large = camera.resolved([-1, -1, -1], [1, 1, 1]), camera.resolved(*MM_BOX)
+    for resolved, box in ((small, ([-1, -1, -1], [1, 1, 1])), (large, MM_BOX)):
+        assert np.allclose(resolved.focus, np.mean(box, axis=0))
+        assert np.allclose(resolved.basis()[2], camera.basis()[2])
+    assert large.distance > 100 * small.distance
+
+
+@pytest.mark.parametrize("name, towards_eye", [("front", (0, 1, 0)), ("anterior", (0, 1, 0)),
+                                                ("back", (0, -1, 0)), ("left", (-1, 0, 0)),
+                                                ("right", (1, 0, 0)), ("top", (0, 0, 1)),
+                                                ("superior", (0, 0, 1)), ("bottom", (0, 0, -1)),
+                                                ("iso", (1, 1, 1))])
+def test_named_views_look_from_their_side_and_fit_the_data(name, towards_eye):
+    camera = oblique().viewed_from(name)
+    assert camera.fit_to_data and camera.near is None
+    resolved = camera.resolved(*MM_BOX)
+    assert np.allclose(-resolved.basis()[2], np.asarray(towards_eye) / np.linalg.norm(towards_eye))
+    assert np.allclose(resolved.focus, np.mean(MM_BOX, axis=0))
+
+
+def test_an_unknown_view_lists_the_names():
+    with pytest.raises(ValueError, match="front, back, left, right, top, bottom, iso, anterior"):
+        oblique().viewed_from("sideways")

@@ -172,14 +172,19 @@ def test_frame_volume_fits_the_box_into_the_view():
         Network().add("EntryExitPoints", id="lonely").frame_volume()
 
 
-def test_the_default_camera_frames_each_volume_and_the_link_carries_it():
+def test_the_default_camera_frames_each_volume_it_receives():
     from vgraph.gl.volume_rendering import DEFAULT_CAMERA
     network = rendering_network(random_volume(), DEFAULT_CAMERA)  # a box far from [-1, 1]^3
     network.evaluate("rc.image", size=(32, 32))
-    framed = network["eep"].camera
-    assert framed != DEFAULT_CAMERA and network["rc"].camera == framed
+    assert network["eep"].camera == DEFAULT_CAMERA  # the property stays "fit to data"
+    framed = network["eep"].view_camera
+    assert not framed.fit_to_data and network["rc"].view_camera == framed
     hit = network.evaluate("eep.entry", size=(32, 32))[..., 3] > 0
+    assert hit.sum() > 200 and not (hit[0].any() or hit[-1].any())
+    network["src"].volume = random_volume(spacing=(10.0, 10.0, 10.0))
+    network.invalidate_downstream("src")
+    hit = network.evaluate("eep.entry", size=(32, 32))[..., 3] > 0  # a 10x larger volume: framed again
     assert hit.sum() > 200 and not (hit[0].any() or hit[-1].any())
     network.set("eep.camera", OUTSIDE)  # a camera the user chose stays
     network.evaluate("rc.image", size=(32, 32))
-    assert network["eep"].camera == OUTSIDE == network["rc"].camera
+    assert network["eep"].camera == OUTSIDE == network["rc"].camera == network["rc"].view_camera

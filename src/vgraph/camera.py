@@ -3,10 +3,19 @@
 JSON form (world units)::
 
     {"projection": "perspective", "position": [x, y, z], "focus": [x, y, z], "up": [x, y, z],
-     "fov": 30, "parallel_scale": 1, "near": 0.01, "far": 100}
+     "fov": 30, "parallel_scale": 1, "near": null, "far": null, "fit_to_data": false}
 
 ``fov`` is the vertical field of view in degrees (perspective); ``parallel_scale`` is half the
 height of the view in world units (orthographic), as in VTK.
+
+Automatic parts (the renderers apply them every frame through ``resolved(box_min, box_max,
+aspect)``, against the box of the data they draw):
+- ``near``/``far`` None (the default): planes enclosing the data's bounding sphere from where the
+  camera stands, as VTK's ResetCameraClippingRange; a number is kept as given.
+- ``fit_to_data`` True: the camera keeps its direction and up and frames whatever data arrives
+  (``framing``). The processors' default cameras do this; a stored camera (False) stays as stored.
+- ``viewed_from(name)``: a named view (``VIEW_NAMES``: front, back, left, right, top, bottom, iso
+  and the medical aliases anterior, posterior, superior, inferior) that fits the data.
 
 Conventions (the GL renderers and the CPU reference ray caster all rely on them):
 
@@ -63,8 +72,9 @@ class Camera(BaseModel):
     up: Vec3 = (0.0, 1.0, 0.0)
     fov: float = Field(30.0, gt=0.0, lt=180.0, allow_inf_nan=False)
     parallel_scale: float = Field(1.0, gt=0.0, le=MAX_COORDINATE, allow_inf_nan=False)
-    near: float = Field(0.01, gt=0.0, le=MAX_COORDINATE, allow_inf_nan=False)
-    far: float = Field(100.0, gt=0.0, le=MAX_COORDINATE, allow_inf_nan=False)
+    near: float | None = Field(None, gt=0.0, le=MAX_COORDINATE, allow_inf_nan=False)
+    far: float | None = Field(None, gt=0.0, le=MAX_COORDINATE, allow_inf_nan=False)
+    fit_to_data: bool = False
 
     @model_validator(mode="after")
     def _check_geometry(self) -> "Camera":
@@ -80,7 +90,7 @@ class Camera(BaseModel):
             raise ValueError("position and focus must differ")
         if np.linalg.norm(np.cross(view, self.up)) <= 1e-12 * np.linalg.norm(view) * max(np.linalg.norm(self.up), 1e-300):
             raise ValueError("up must not be parallel to the viewing direction (or zero)")
-        if not self.near < self.far:
+        if self.near is not None and self.far is not None and not self.near < self.far:
             raise ValueError(f"near ({self.near}) must be smaller than far ({self.far})")
         return self
 
@@ -102,6 +112,13 @@ class Camera(BaseModel):
             return self.parallel_scale
         return self.distance * math.tan(math.radians(self.fov) / 2.0)
 
+    def planes(self) -> tuple[float, float]:
+        """(near, far); ValueError while either is automatic (None): resolved() sets them."""
+        if self.near is None or self.far is None:
+            raise ValueError("this camera's near and far planes are automatic (None): use "
+                             "camera.resolved(box_min, box_max, aspect) to get the camera for a box")
+        return self.near, self.far
+
     # --- matrices -------------------------------------------------------------------------------
     def view_matrix(self) -> np.ndarray:
         """World -> eye coordinates (gluLookAt): the eye at the origin looking down -z."""
@@ -114,7 +131,7 @@ class Camera(BaseModel):
     def projection_matrix(self, aspect: float) -> np.ndarray:
         """Eye -> clip coordinates with OpenGL conventions (gluPerspective / glOrtho)."""
         aspect = _check_aspect(aspect)
-        n, f = self.near, self.far
+        n, f = self.planes()
         matrix = np.zeros((4, 4))
         if self.projection == "perspective":
             cot = 1.0 / math.tan(math.radians(self.fov) / 2.0)
@@ -147,11 +164,11 @@ class Camera(BaseModel):
             # Point on the plane at depth 1 in front of the eye; the near plane is `near` times it.
             to_plane = (forward + (ndc_x[None, :, None] * tan_half * aspect) * right
                         + (ndc_y[:, None, None] * tan_half) * true_up)
-            origins = eye + self.near * to_plane
+            origins = eye + self.planes()[0] * to_plane
             directions = to_plane / np.linalg.norm(to_plane, axis=-1, keepdims=True)
         else:
             s = self.parallel_scale
-            origins = (eye + self.near * forward + (ndc_x[None, :, None] * s * aspect) * right
+            origins = (eye + self.planes()[0] * forward + (ndc_x[None, :, None] * s * aspect) * right
                        + (ndc_y[:, None, None] * s) * true_up)
             directions = np.broadcast_to(forward, origins.shape).copy()
         return origins, directions
@@ -159,7 +176,8 @@ class Camera(BaseModel):
     def far_distance(self, directions: np.ndarray) -> np.ndarray:
         """Ray parameter of the far plane for rays from rays() with these unit directions."""
         _, _, forward = self.basis()
-        return (self.far - self.near) / (np.asarray(directions) @ forward)
+        near, far = self.planes()
+        return (far - near) / (np.asarray(directions) @ forward)
 
     # --- interaction ----------------------------------------------------------------------------
     def rotate(self, dx: float, dy: float) -> "Camera":
@@ -184,10 +202,12 @@ class Camera(BaseModel):
             return self._replace(parallel_scale=self.parallel_scale / factor)
         _, _, forward = self.basis()
         new_distance = self.distance / factor
+        position = np.asarray(self.focus) - new_distance * forward
+        if self.near is None or self.far is None:  # automatic planes follow by themselves
+            return self._replace(position=_vec(position))
         shift = new_distance - self.distance  # the camera moves by -shift along forward
         far = max(self.far + shift, self.far * 1e-3)  # stays positive in odd set-ups
         near = max(self.near + shift, far * 1e-4)
-        position = np.asarray(self.focus) - new_distance * forward
         return self._replace(position=_vec(position), near=near, far=far)
 
     def pan(self, dx: float, dy: float) -> "Camera":
@@ -230,6 +250,40 @@ class Camera(BaseModel):
         near = (depth - radius) * (1.0 - _CLIP_MARGIN)
         return self._replace(near=max(near, far * 1e-4), far=far)
 
+    def resolved(self, box_min, box_max, aspect: float = 1.0) -> "Camera":
+        """The concrete camera a renderer uses for a box: framed when ``fit_to_data``, automatic
+        near/far planes enclosing the box from where the camera stands (explicit ones are kept).
+        The result is a stored camera (fit_to_data False, both planes set); every renderer of a
+        view resolves the same camera against the same box, so their rays agree."""
+        camera = self.framing(box_min, box_max, aspect) if self.fit_to_data else self
+        near, far = self.near, self.far
+        if near is None or far is None:
+            auto_near, auto_far = camera._automatic_planes(box_min, box_max)
+            near = auto_near if near is None else near
+            far = auto_far if far is None else far
+            if near >= far:  # an explicit plane beyond the automatic other one
+                far, near = (near * 2.0, near) if self.far is None else (far, far * 1e-4)
+        return camera._replace(near=near, far=far, fit_to_data=False)
+
+    def _automatic_planes(self, box_min, box_max) -> tuple[float, float]:
+        clipped = self._replace(near=None, far=None).with_clipping_range(box_min, box_max)
+        if clipped.far is not None:
+            return clipped.near, clipped.far
+        # The box is behind the camera: nothing shows, any planes do.
+        scale = self.distance + _bounding_sphere(box_min, box_max)[1]
+        return scale * 1e-4, scale
+
+    def viewed_from(self, name: str) -> "Camera":
+        """This camera turned to a named view (VIEWS, or a medical alias in VIEW_ALIASES), framing
+        the data (fit_to_data) with automatic near/far; projection and fov are kept."""
+        key = VIEW_ALIASES.get(name, name)
+        if key not in VIEWS:
+            raise ValueError(f"unknown view '{name}'; choose one of {', '.join(VIEW_NAMES)}")
+        towards_eye, up = (np.asarray(v, dtype=np.float64) for v in VIEWS[key])
+        position = np.asarray(self.focus) + _unit(towards_eye) * self.distance
+        return self._replace(position=_vec(position), up=_vec(up), near=None, far=None,
+                             fit_to_data=True)
+
     @classmethod
     def looking_at_box(cls, box_min, box_max, direction=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0),
                        projection: str = "perspective", aspect: float = 1.0, **fields) -> "Camera":
@@ -242,6 +296,22 @@ class Camera(BaseModel):
     def _replace(self, **changes) -> "Camera":
         # Re-validated construction (model_copy(update=...) would skip the validators).
         return type(self)(**{**self.model_dump(), **changes})
+
+
+# Named views: (direction from the focus towards the eye, up), in world axes. World axes are the
+# volume's index axes (nothing is reoriented), read as x to the right, y to the front and z up, as in
+# RAS-ordered medical volumes: "front" looks at the data from +y, "top" from +z with the front up.
+VIEWS: dict[str, tuple[Vec3, Vec3]] = {
+    "front": ((0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+    "back": ((0.0, -1.0, 0.0), (0.0, 0.0, 1.0)),
+    "left": ((-1.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+    "right": ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+    "top": ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0)),
+    "bottom": ((0.0, 0.0, -1.0), (0.0, 1.0, 0.0)),
+    "iso": ((1.0, 1.0, 1.0), (0.0, 0.0, 1.0)),
+}
+VIEW_ALIASES = {"anterior": "front", "posterior": "back", "superior": "top", "inferior": "bottom"}
+VIEW_NAMES = (*VIEWS, *VIEW_ALIASES)
 
 
 # --- helpers ------------------------------------------------------------------------------------

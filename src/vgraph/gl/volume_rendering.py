@@ -55,7 +55,15 @@ BLOCK = 8  # voxels per empty-space block along each axis
 MIN_EMPTY_FRACTION = 0.1  # below this share of empty blocks, skipping costs more than it saves
 
 # A view of the implicit functions' box [-1, 1]^3 (where the FunctionSelector puts its volumes).
-DEFAULT_CAMERA = Camera.looking_at_box(*UNIT_BOX, direction=(-0.45, -0.35, -1.0))
+# It frames whatever volume arrives (fit_to_data) with automatic near/far planes.
+DEFAULT_CAMERA = Camera(**{**Camera.looking_at_box(*UNIT_BOX, direction=(-0.45, -0.35, -1.0)).model_dump(),
+                           "near": None, "far": None, "fit_to_data": True})
+
+
+def view_camera(camera: Camera, volume: Volume, size) -> Camera:
+    """The concrete camera that renders ``volume`` at ``size`` (Camera.resolved on its box): every
+    processor of one view resolves the same camera, so entry points and ray casters agree."""
+    return camera.resolved(*VolumeGeometry.of(volume).box, size[0] / size[1])
 
 
 # --- geometry -------------------------------------------------------------------------------------

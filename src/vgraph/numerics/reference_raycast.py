@@ -88,6 +88,7 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
     ``return_samples=True`` also the int32 (H, W) number of samples each ray took."""
     width, height, background = _check_arguments(volume, size, mode, sampling_rate,
                                                  early_termination, background)
+    camera = camera.resolved(*volume_box(volume), width / height)  # as the GL renderers do
     origins, directions = camera.rays(width, height)
     origins, directions = origins.reshape(-1, 3), directions.reshape(-1, 3)
     t_entry, t_exit = _clip_to_box(origins, directions, *volume_box(volume),
