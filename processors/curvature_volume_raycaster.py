@@ -114,7 +114,7 @@ class CurvatureVolumeRaycaster(Processor):
         ctx = self.gl
         image, depth = self._targets.ensure(ctx, entry.size)
         textures = {"entry_points": entry, "exit_points": exit, "volume": volume.texture(ctx),
-                    "transfer_function": self._lut.update(ctx, self.transfer_function),
+                    "transfer_function": self._lut.update(ctx, self.transfer_function, volume),
                     "colormap": self._colormap.update(ctx, self.colormap)}
         blocks = None
         if self.empty_space_skipping:

@@ -61,7 +61,8 @@ class RayCaster(Processor):
 
     camera = CameraProperty(DEFAULT_CAMERA, doc="link it to the EntryExitPoints camera")
     transfer_function = TransferFunctionProperty(
-        DEFAULT_TRANSFER_FUNCTION, doc="RGBA over normalised intensity; alpha per sample at rate 1")
+        DEFAULT_TRANSFER_FUNCTION, doc="RGBA over normalised intensity, data values or percentiles "
+                                       "(a preset name or TF file also works); alpha per sample at rate 1")
     sampling_rate = FloatProperty(1.0, min=0.05, max=16.0,
                                   doc="samples per voxel of the smallest spacing (world-space step)")
     compositing = OptionProperty("dvr", choices=list(COMPOSITING), invalidates=RESOURCES,
@@ -128,7 +129,7 @@ class RayCaster(Processor):
         image, depth = self._targets.ensure(ctx, entry.size)
         textures = {"entry_points": entry, "exit_points": exit,
                     "volume": volume.texture(ctx),
-                    "transfer_function": self._lut.update(ctx, self.transfer_function)}
+                    "transfer_function": self._lut.update(ctx, self.transfer_function, volume)}
         blocks = None
         if self.empty_space_skipping and self.compositing in SKIPPING:
             blocks = self._block_texture(ctx, volume)

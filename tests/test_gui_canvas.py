@@ -10,6 +10,7 @@ from PySide6.QtCore import QEvent, QPoint, QPointF, QSettings, Qt
 from PySide6.QtGui import QImage, QWheelEvent
 from PySide6.QtWidgets import QApplication
 
+from vgraph.camera import Camera
 from vgraph.gui import canvas_view
 from vgraph.gui.canvas_view import CanvasView, camera_property_for
 from vgraph.network import Network
@@ -25,6 +26,9 @@ SIZE = (200, 160)  # widget width, height
 def ws(qtbot, tmp_path):
     """A workspace alone (the view needs nothing else), with its own settings file."""
     return Workspace(QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat))
+
+
+STORED = Camera(position=(0.5, 0.4, 4.0), near=0.5, far=10.0)
 
 
 def build_raycasting(ws):
@@ -166,6 +170,7 @@ def test_middle_and_shift_left_drag_pan_with_the_scene_following_the_mouse(ws, q
     build_raycasting(ws)
     view = make_view(qtbot, ws)
     view.show_frame(np.full((50, 100, 4), 255, np.uint8), final=True)  # drawn 200 x 100
+    ws.set_property("rc.camera", STORED)
     original = ws.network.get("rc.camera")
 
     drag(view, (100, 80), (130, 60), button=Qt.MiddleButton)
@@ -177,6 +182,28 @@ def test_middle_and_shift_left_drag_pan_with_the_scene_following_the_mouse(ws, q
 
     drag(view, (100, 80), (90, 80), modifiers=Qt.ShiftModifier)
     assert_camera(ws.network.get("rc.camera"), expected.pan(-10 / 100, 0.0))
+
+
+def test_a_camera_fitting_the_data_rotates_fitting_and_zooms_from_the_last_frame(ws, qtbot):
+    build_raycasting(ws)
+    fitting = ws.network.get("rc.camera")
+    assert fitting.fit_to_data
+    shown = fitting.resolved([0, 0, 0], [200, 200, 100], 2.0)  # what the render process framed
+    view = CanvasView(ws, "canvas", view_cameras=lambda: {"rc.camera": shown, "eep.camera": shown})
+    qtbot.addWidget(view)
+    view.resize(*SIZE)
+    view.show_frame(np.full((50, 100, 4), 255, np.uint8), final=True)
+    drag(view, (100, 80), (130, 80))
+    assert_camera(ws.network.get("rc.camera"), fitting.rotate(math.pi * 30 / 100, 0.0))
+    assert ws.network.get("rc.camera").fit_to_data    # it keeps fitting whatever arrives
+    drag(view, (100, 80), (100, 40), button=Qt.RightButton)
+    zoomed = ws.network.get("rc.camera")
+    assert not zoomed.fit_to_data and zoomed.near is None      # stored now, planes still automatic
+    assert zoomed.distance == pytest.approx(shown.distance / math.exp(canvas_view.ZOOM_PER_PIXEL * 40))
+    view.set_view("top")
+    assert ws.network.get("rc.camera") == zoomed.viewed_from("top")
+    view.fit_to_data()
+    assert ws.network.get("rc.camera").fit_to_data
 
 
 def test_a_canvas_without_camera_only_says_so(ws, qtbot):

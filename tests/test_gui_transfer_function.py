@@ -10,7 +10,7 @@ from PySide6.QtGui import QColor
 from PySide6.QtWidgets import QColorDialog
 
 from vgraph.gui import transfer_function_editor as tfe
-from vgraph.transfer_function import PRESETS, TransferFunction
+from vgraph.transfer_function import PRESETS, TransferFunction, ValueScale
 
 from gui_helpers import window  # noqa: F401  (a fixture)
 
@@ -132,9 +132,28 @@ def test_double_click_on_a_point_asks_for_its_colour(window, editor, qtbot, monk
 
 
 def test_presets_set_the_function(window, editor):
-    editor.presets.setCurrentText("bone (CT)")
-    assert tf(window) == PRESETS["bone (CT)"] and editor.presets.currentIndex() == 0
-    assert editor.plot.transfer_function == PRESETS["bone (CT)"]
+    editor.presets.setCurrentText("ct-bone")
+    assert tf(window) == PRESETS["ct-bone"] and editor.presets.currentIndex() == 0
+    assert editor.plot.transfer_function == PRESETS["ct-bone"]
+
+
+def test_a_tf_in_hounsfield_units_is_edited_in_hounsfield_units(qtbot):
+    plot = tfe.TransferFunctionPlot()
+    qtbot.addWidget(plot)
+    plot.resize(300, 200)
+    emitted = []
+    plot.changed.connect(lambda value, merge: emitted.append(value))
+    plot.set_transfer_function(PRESETS["ct-bone"])
+    assert not plot.editable and plot.point_at(plot.to_pixel(0.5, 0.25)) is None  # no scale yet
+    plot.set_value_scale(ValueScale((-1000.0, 1000.0), tuple(np.linspace(-1000, 1000, 101))))
+    assert plot.editable
+    np.testing.assert_allclose(plot.display_positions(), [0.0, 0.575, 0.65, 0.85, 2.0])
+    plot.move_point(2, 0.75, 0.5)              # bone's start point dragged to 500 HU
+    edited = emitted[-1]
+    assert edited.space == "data" and edited.points[2] == pytest.approx((500.0, 0.55, 0.4, 0.3, 0.5))
+    assert edited.points[:2] + edited.points[3:] == PRESETS["ct-bone"].points[:2] + PRESETS["ct-bone"].points[3:]
+    index = plot.add_point(0.25, 0.0)           # -500 HU, between -1000 and 150
+    assert index == 1 and emitted[-1].points[1][0] == pytest.approx(-500.0)
 
 
 def test_save_then_load_round_trips_and_a_bad_file_is_reported(window, editor, qtbot, tmp_path, monkeypatch):

@@ -215,7 +215,7 @@ def build_network(document: NetworkDocument, file: str = "<network>", base_dir=N
             continue
         for name, value in entry.properties.items():
             try:
-                processor.set_property(name, value)
+                processor.set_property(name, value, base_dir)
             except VGraphError as error:
                 problems.append((f"{where}.properties.{name}", getattr(error, "reason", str(error))))
         try:

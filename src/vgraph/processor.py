@@ -96,14 +96,17 @@ class Processor:
                 "ports": ports, "properties": [p.describe() for p in cls.properties.values()]}
 
     # --- properties -----------------------------------------------------------------------------
-    def set_property(self, name: str, value) -> None:
-        """Validate and store a value; invalidate what the property says; follow links."""
+    def set_property(self, name: str, value, base_dir=None) -> None:
+        """Validate and store a value; invalidate what the property says; follow links. File names
+        inside the value (a TF file) are relative to ``base_dir``, by default the network's folder."""
         prop = self.properties.get(name)
         if prop is None:
             known = ", ".join(self.properties) or "none"
             raise PropertyError(f"{self.id}.{name}",
                                 f"{self.type_name} has no property '{name}' (its properties: {known})")
-        value = prop.validate(value, f"{self.id}.{name}")
+        if base_dir is None and self.network is not None:
+            base_dir = self.network.base_dir
+        value = prop.validate(value, f"{self.id}.{name}", base_dir)
         if value == self.property_values[name]:
             return
         self.property_values[name] = value

@@ -14,12 +14,13 @@ import os
 from enum import IntEnum
 from typing import Annotated, Literal
 
-from pydantic import AfterValidator, BeforeValidator, Field, StrictBool, StrictInt, TypeAdapter, ValidationError
+from pydantic import (AfterValidator, BeforeValidator, Field, StrictBool, StrictInt, TypeAdapter, ValidationError,
+                      ValidationInfo)
 
 from vgraph.camera import Camera
 from vgraph.errors import PropertyError
 from vgraph.ports import SNAKE_CASE
-from vgraph.transfer_function import TransferFunction
+from vgraph.transfer_function import TransferFunction, preset_or_file
 
 
 class Invalidation(IntEnum):
@@ -70,10 +71,11 @@ class Property:
     def _value_type(self):
         raise NotImplementedError
 
-    def validate(self, value, where: str):
-        """The value as stored, or PropertyError naming ``where`` and the reason."""
+    def validate(self, value, where: str, base_dir=None):
+        """The value as stored, or PropertyError naming ``where`` and the reason. ``base_dir`` is
+        the folder relative file names in the value are read from (the network file's)."""
         try:
-            return self._adapter.validate_python(value)
+            return self._adapter.validate_python(value, context={"base_dir": base_dir})
         except ValidationError as error:
             reasons = "; ".join(_describe(e) for e in error.errors())
             raise PropertyError(where, f"invalid value {value!r}: {reasons}") from None
@@ -216,10 +218,19 @@ class ColorProperty(Property):
 
 
 class TransferFunctionProperty(Property):
+    """A TransferFunction; a string value names a preset (transfer_function.PRESETS) or a TF file,
+    which is read when the value is set (the stored value is the TF itself)."""
+
     kind = "transfer_function"
 
     def _value_type(self):
-        return TransferFunction
+        return Annotated[TransferFunction, BeforeValidator(_preset_or_file)]
+
+
+def _preset_or_file(value, info: ValidationInfo):
+    if isinstance(value, str):
+        return preset_or_file(value, (info.context or {}).get("base_dir"))
+    return value
 
 
 class CameraProperty(Property):

@@ -1,20 +1,34 @@
-"""1D transfer functions: piecewise-linear RGBA over normalised intensity.
+"""1D transfer functions: piecewise-linear RGBA over a volume's values.
 
-JSON form: ``{"points": [[position, r, g, b, a], ...]}``, position in [0, 1] of the volume's value
-range, colour in [0, 1], and ``a`` the opacity of one sample at sampling rate 1 (one sample per
-voxel); renderers correct it for other step lengths. Below the first point and above the last the
-end values hold. Sampled into a 4096-entry float LUT (Inácio 2009) for the GPU and the CPU reference.
-``TransferFunction.save``/``load`` write and read that JSON as a file; ``PRESETS`` are named starting
-points for CT, MRI and implicit-surface (SDF) volumes.
+JSON form: ``{"space": "normalized", "points": [[position, r, g, b, a], ...]}``, colour in [0, 1]
+and ``a`` the opacity of one sample at sampling rate 1 (one sample per voxel); renderers correct it
+for other step lengths. ``space`` says what a position means (Inviwo's relative and absolute TFs,
+ParaView's data-range presets):
+
+- ``normalized`` (the default, and the only one a file may omit ``space`` for): a fraction in
+  [0, 1] of the volume's value range (Volume.value_range: min..max, a declared range or the
+  VolumeSource window), so one TF fits any data scaled alike;
+- ``data``: a value in the volume's own units (Hounsfield units for CT), so "bone at 300 HU"
+  means that on every CT;
+- ``percentile``: a percentage in [0, 100] of the volume's finite voxels (Volume.percentiles),
+  for data without absolute units such as MRI.
+
+Below the first point and above the last the end values hold. Renderers work on
+``for_volume(volume)``: the same TF with normalised positions for that volume's value range,
+clipped to [0, 1], sampled into a 4096-entry float LUT (Inácio 2009). ``PRESETS`` are named starting
+points; a transfer-function property also accepts a preset's name or a TF file's path as its value
+(``properties.TransferFunctionProperty``). ``save``/``load`` write and read the JSON form.
 """
 
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from vgraph.atomic import write_text_atomic
 from vgraph.errors import VGraphError
@@ -24,9 +38,14 @@ LUT_SIZE = 4096
 Point = tuple[float, float, float, float, float]
 
 
+Space = Literal["normalized", "data", "percentile"]
+POSITION_LIMITS = {"normalized": (0.0, 1.0), "percentile": (0.0, 100.0), "data": (-1e30, 1e30)}
+
+
 class TransferFunction(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
+    space: Space = "normalized"
     points: list[Point] = Field(min_length=1)
 
     @field_validator("points", mode="before")
@@ -38,18 +57,43 @@ class TransferFunction(BaseModel):
                 raise ValueError(f"point {index} needs 5 numbers [position, r, g, b, a], got {list(point)}")
         return points
 
-    @field_validator("points")
-    @classmethod
-    def _check_points(cls, points: list[Point]) -> list[Point]:
-        for index, point in enumerate(points):
+    @model_validator(mode="after")
+    def _check_points(self) -> "TransferFunction":
+        low, high = POSITION_LIMITS[self.space]
+        for index, point in enumerate(self.points):
             if not all(np.isfinite(point)):
                 raise ValueError(f"point {index} has a non-finite number: {list(point)}")
-            if not all(0.0 <= v <= 1.0 for v in point):
-                raise ValueError(f"point {index} must have position, r, g, b, a in [0, 1]: {list(point)}")
-        positions = [p[0] for p in points]
+            if not all(0.0 <= v <= 1.0 for v in point[1:]):
+                raise ValueError(f"point {index} must have r, g, b, a in [0, 1]: {list(point)}")
+            if not low <= point[0] <= high:
+                raise ValueError(f"point {index}: a {self.space} position must lie in "
+                                 f"[{low:g}, {high:g}], got {point[0]}")
+        positions = [p[0] for p in self.points]
         if positions != sorted(positions):
             raise ValueError(f"point positions must be non-decreasing, got {positions}")
-        return points
+        return self
+
+    def for_volume(self, volume) -> "TransferFunction":
+        """This TF with normalised positions for ``volume``'s value range (itself if normalised):
+        data values and percentiles are mapped through the range, and the part outside [0, 1] is
+        cut off with the TF's values at 0 and 1 as new end points."""
+        if self.space == "normalized":
+            return self
+        positions = np.array([p[0] for p in self.points])
+        if self.space == "percentile":
+            positions = np.asarray(volume.percentiles(positions), dtype=np.float64)
+        low, high = volume.value_range
+        return self.normalized_at((positions - low) / (high - low))
+
+    def normalized_at(self, positions) -> "TransferFunction":
+        """A normalised TF with our points' colours at these normalised positions (one per point,
+        non-decreasing, any real number), cut to [0, 1]."""
+        table = np.asarray(self.points, dtype=np.float64)
+        table[:, 0] = np.maximum.accumulate(np.asarray(positions, dtype=np.float64))  # rounding must not unsort them
+        ends = _interpolate(table, np.array([0.0, 1.0]))
+        inside = table[(table[:, 0] > 0.0) & (table[:, 0] < 1.0)]
+        points = [(0.0, *ends[0]), *map(tuple, inside), (1.0, *ends[1])]
+        return TransferFunction(points=[tuple(float(v) for v in p) for p in points])
 
     @classmethod
     def ramp(cls, low: float, high: float, color=(1.0, 1.0, 1.0), opacity: float = 1.0):
@@ -59,7 +103,7 @@ class TransferFunction(BaseModel):
 
     @classmethod
     def load(cls, path: str | Path) -> "TransferFunction":
-        """Read ``{"points": [...]}``; VGraphError naming the file and the problem otherwise."""
+        """Read the JSON form; VGraphError naming the file and the problem otherwise."""
         path = Path(path)
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
@@ -77,48 +121,120 @@ class TransferFunction(BaseModel):
     def save(self, path: str | Path) -> None:
         """Write the JSON form atomically (a failed write leaves an existing file as it was)."""
         points = [[float(v) for v in point] for point in self.points]  # repr floats: exact round trip
-        text = '{"points": [\n' + ",\n".join("  " + json.dumps(p) for p in points) + "\n]}\n"
+        space = "" if self.space == "normalized" else f'"space": "{self.space}", '
+        text = "{" + space + '"points": [\n' + ",\n".join("  " + json.dumps(p) for p in points) + "\n]}\n"
         write_text_atomic(path, text)
 
     def lut(self, size: int = LUT_SIZE) -> np.ndarray:
         """(size, 4) float32 RGBA; entry i is the TF at normalised intensity i / (size - 1)."""
-        table = np.asarray(self.points, dtype=np.float64)
-        x = np.linspace(0.0, 1.0, size)
-        # np.interp needs strictly increasing positions; a step (two points at one position) is
-        # kept by nudging the second one up by an amount far below one LUT entry.
-        positions = table[:, 0] + np.arange(len(table)) * 1e-12
-        channels = [np.interp(x, positions, table[:, c]) for c in range(1, 5)]
-        return np.stack(channels, axis=1).astype(np.float32)
+        return self(np.linspace(0.0, 1.0, size)).astype(np.float32)
 
     def __call__(self, intensity) -> np.ndarray:
         """Exact RGBA at normalised intensities (any shape) -> shape + (4,)."""
-        table = np.asarray(self.points, dtype=np.float64)
-        positions = table[:, 0] + np.arange(len(table)) * 1e-12
+        self._require_normalized()
         x = np.clip(np.asarray(intensity, dtype=np.float64), 0.0, 1.0)
-        return np.stack([np.interp(x, positions, table[:, c]) for c in range(1, 5)], axis=-1)
+        return _interpolate(np.asarray(self.points, dtype=np.float64), x)
+
+    def _require_normalized(self) -> None:
+        if self.space != "normalized":
+            raise ValueError(f"this transfer function's positions are {self.space} values: "
+                             f"use tf.for_volume(volume) to evaluate it for a volume")
+
+
+@dataclass(frozen=True)
+class ValueScale:
+    """A volume's values as an editor needs them to show a TF in data units or percentiles over
+    the histogram's normalised axis: the value range and the data values at 0, 1, ..., 100 %."""
+
+    value_range: tuple[float, float]
+    percentiles: tuple[float, ...]
+
+    @classmethod
+    def of(cls, volume) -> "ValueScale":
+        table = np.asarray(volume.percentiles(np.arange(101.0)), dtype=np.float64)
+        return cls(tuple(map(float, volume.value_range)), tuple(map(float, table)))
+
+    def to_normalized(self, positions, space: Space) -> np.ndarray:
+        positions = np.asarray(positions, dtype=np.float64)
+        if space == "normalized":
+            return positions
+        if space == "percentile":
+            positions = np.interp(positions, np.arange(101.0), self.percentiles)
+        low, high = self.value_range
+        return (positions - low) / (high - low)
+
+    def from_normalized(self, x, space: Space) -> np.ndarray:
+        x = np.asarray(x, dtype=np.float64)
+        if space == "normalized":
+            return x
+        low, high = self.value_range
+        values = low + x * (high - low)
+        if space == "data":
+            return values
+        return np.interp(values, self.percentiles, np.arange(101.0))
+
+
+def _interpolate(table: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """RGBA of the piecewise-linear table [position, r, g, b, a] at positions x."""
+    # np.interp needs strictly increasing positions; a step (two points at one position) is
+    # kept by nudging the second one up by an amount far below one LUT entry.
+    positions = table[:, 0].copy()
+    for i in range(1, len(positions)):
+        if positions[i] <= positions[i - 1]:
+            positions[i] = positions[i - 1] + 1e-12 * max(1.0, abs(positions[i - 1]))
+    return np.stack([np.interp(x, positions, table[:, c]) for c in range(1, 5)], axis=-1)
 
 
 def _tf(*points) -> TransferFunction:
     return TransferFunction(points=list(points))
 
 
-# Named starting points, positions in normalised intensity. The CT ones follow Inácio 2009 fig. 4.4:
-# similar colours, opacity makes the difference, and a dark tone just below the structure keeps an
-# unshaded rendering from looking like a flat silhouette.
+def _data(*points) -> TransferFunction:
+    return TransferFunction(space="data", points=list(points))
+
+
+def _percentile(*points) -> TransferFunction:
+    return TransferFunction(space="percentile", points=list(points))
+
+
+# Named starting points. The CT ones are in Hounsfield units (air -1000, fat about -100, soft tissue
+# 20-80, bone from about 300) and follow Inácio 2009 fig. 4.4: similar colours, opacity makes the
+# difference, and a dark tone just below the structure keeps an unshaded rendering from looking
+# like a flat silhouette. MRI has no absolute unit, so its preset is placed by percentiles (about
+# half of a head scan's voxels are background).
 PRESETS: dict[str, TransferFunction] = {
-    "grayscale ramp": _tf((0.0, 0.0, 0.0, 0.0, 0.0), (1.0, 1.0, 1.0, 1.0, 1.0)),
-    "bone (CT)": _tf((0.0, 0.0, 0.0, 0.0, 0.0), (0.42, 0.25, 0.12, 0.08, 0.0),
-                     (0.5, 0.55, 0.4, 0.3, 0.25), (0.7, 0.95, 0.9, 0.8, 0.8), (1.0, 1.0, 1.0, 1.0, 0.95)),
-    "soft tissue (CT)": _tf((0.0, 0.0, 0.0, 0.0, 0.0), (0.12, 0.35, 0.12, 0.08, 0.0),
-                            (0.22, 0.85, 0.5, 0.4, 0.04), (0.38, 0.9, 0.65, 0.55, 0.04),
-                            (0.48, 0.95, 0.9, 0.85, 0.5), (1.0, 1.0, 1.0, 1.0, 0.8)),
-    "brain (MRI)": _tf((0.0, 0.0, 0.0, 0.0, 0.0), (0.18, 0.2, 0.2, 0.35, 0.0),
-                       (0.35, 0.55, 0.55, 0.8, 0.03), (0.6, 0.95, 0.8, 0.7, 0.15), (1.0, 1.0, 1.0, 0.9, 0.5)),
-    "hot metal": _tf((0.0, 0.0, 0.0, 0.0, 0.0), (0.33, 0.75, 0.0, 0.0, 0.1),
+    "grayscale": _tf((0.0, 0.0, 0.0, 0.0, 0.0), (1.0, 1.0, 1.0, 1.0, 1.0)),
+    "ct-bone": _data((-1000.0, 0.0, 0.0, 0.0, 0.0), (150.0, 0.25, 0.12, 0.08, 0.0),
+                     (300.0, 0.55, 0.4, 0.3, 0.25), (700.0, 0.95, 0.9, 0.8, 0.8),
+                     (3000.0, 1.0, 1.0, 1.0, 0.95)),
+    "ct-soft-tissue": _data((-1000.0, 0.0, 0.0, 0.0, 0.0), (-300.0, 0.35, 0.12, 0.08, 0.0),
+                            (-50.0, 0.85, 0.5, 0.4, 0.04), (80.0, 0.9, 0.65, 0.55, 0.04),
+                            (300.0, 0.95, 0.9, 0.85, 0.5), (3000.0, 1.0, 1.0, 1.0, 0.8)),
+    "mri-brain": _percentile((0.0, 0.0, 0.0, 0.0, 0.0), (50.0, 0.2, 0.2, 0.35, 0.0),
+                             (75.0, 0.55, 0.55, 0.8, 0.03), (95.0, 0.95, 0.8, 0.7, 0.15),
+                             (100.0, 1.0, 1.0, 0.9, 0.5)),
+    "hot-metal": _tf((0.0, 0.0, 0.0, 0.0, 0.0), (0.33, 0.75, 0.0, 0.0, 0.1),
                      (0.66, 1.0, 0.8, 0.0, 0.4), (1.0, 1.0, 1.0, 1.0, 0.8)),
     "rainbow": _tf((0.0, 0.25, 0.0, 0.6, 0.0), (0.25, 0.0, 0.4, 1.0, 0.1), (0.5, 0.0, 0.8, 0.2, 0.2),
                    (0.75, 1.0, 0.8, 0.0, 0.4), (1.0, 0.9, 0.0, 0.0, 0.6)),
     # Implicit surfaces: an opaque shell around the default iso level 0.5, empty elsewhere.
-    "iso shell (SDF)": _tf((0.0, 0.0, 0.0, 0.0, 0.0), (0.46, 0.2, 0.5, 0.9, 0.0),
-                           (0.5, 0.9, 0.95, 1.0, 0.9), (0.54, 0.2, 0.5, 0.9, 0.0), (1.0, 0.0, 0.0, 0.0, 0.0)),
+    "sdf-iso-shell": _tf((0.0, 0.0, 0.0, 0.0, 0.0), (0.46, 0.2, 0.5, 0.9, 0.0),
+                         (0.5, 0.9, 0.95, 1.0, 0.9), (0.54, 0.2, 0.5, 0.9, 0.0), (1.0, 0.0, 0.0, 0.0, 0.0)),
 }
+
+
+def preset_or_file(text: str, base_dir: str | Path | None = None) -> TransferFunction:
+    """The preset named ``text``, or the TF in the file at that path (relative to ``base_dir``
+    if given, else to the current folder); ValueError saying which it is neither."""
+    if text in PRESETS:
+        return PRESETS[text]
+    path = Path(text).expanduser()
+    if base_dir is not None and not path.is_absolute():
+        path = Path(base_dir) / path
+    if not path.is_file():
+        raise ValueError(f"'{text}' is neither a preset ({', '.join(PRESETS)}) nor a "
+                         f"transfer-function file")
+    try:
+        return TransferFunction.load(path)
+    except VGraphError as error:
+        raise ValueError(str(error)) from None

@@ -166,8 +166,9 @@ _samplers: "weakref.WeakKeyDictionary[moderngl.Context, object]" = weakref.WeakK
 
 
 class TransferFunctionTexture:
-    """The TF's 4096-entry LUT as a 4096 x 1 RGBA32F texture with linear filtering, rewritten only
-    when the TF changes. Entry i sits at texture coordinate (i + 0.5) / 4096, so intensity v is
+    """The TF's 4096-entry LUT for a volume (TransferFunction.for_volume: TFs in data units or
+    percentiles land on the volume's value range) as a 4096 x 1 RGBA32F texture with linear
+    filtering, rewritten only when the resolved TF changes. Entry i sits at texture coordinate (i + 0.5) / 4096, so intensity v is
     looked up at v * 4095 / 4096 + 0.5 / 4096 (clamp-to-edge clamps v to [0, 1])."""
 
     def __init__(self):
@@ -175,7 +176,8 @@ class TransferFunctionTexture:
         self.transfer_function: TransferFunction | None = None
         self.alpha: np.ndarray | None = None
 
-    def update(self, ctx: moderngl.Context, transfer_function: TransferFunction):
+    def update(self, ctx: moderngl.Context, transfer_function: TransferFunction, volume: Volume):
+        transfer_function = transfer_function.for_volume(volume)
         if self.texture is None or self.texture.ctx is not ctx:
             self.texture = ctx.texture((LUT_SIZE, 1), 4, dtype="f4")
             self.texture.repeat_x = self.texture.repeat_y = False
@@ -336,7 +338,7 @@ def visible_under(volume: Volume, transfer_function, bins: int = 256) -> str | N
     """Which share of the voxels the transfer function gives any opacity (bins of the histogram
     against the LUT's largest opacity in each bin), in words; None if none."""
     counts, _ = volume.histogram(bins)
-    alpha = transfer_function.lut()[:, 3]
+    alpha = transfer_function.for_volume(volume).lut()[:, 3]
     bin_alpha = alpha[:len(alpha) // bins * bins].reshape(bins, -1).max(axis=1)
     share = counts[bin_alpha > 0].sum() / max(counts.sum(), 1)
     return f"{share:.0%} of the voxels are visible under the transfer function" if share > 0 else None

@@ -161,6 +161,7 @@ class MainWindow(FileActions, QMainWindow):
         workspace.network_replaced.connect(self._network_replaced)
         self.evaluation.finished.connect(self.report_outcome)
         self.evaluation.histograms.connect(self.inspector.set_histograms)
+        self.evaluation.value_scales.connect(self.inspector.set_value_scales)
         self.evaluation.busy_changed.connect(self._busy_changed)
         self.evaluation.crashed.connect(self.log.error)
         self.evaluation.warning.connect(self.log.warning)

@@ -11,6 +11,9 @@ Interaction (on the camera returned by ``camera_property_for``, i.e. the nearest
 - wheel: zoom by ``WHEEL_ZOOM = 1.1`` per 120-unit notch, forward zooms in;
 - middle drag or shift + left drag: pan, ``Camera.pan(dx / h, -dy / h)``, so the scene follows the
   cursor.
+- a camera that fits the data (``Camera.fit_to_data``) keeps fitting while it rotates; zoom and pan
+  start from the camera of the last frame (``view_cameras``, from the render process) and store it,
+  so the view does not jump. The context menu's View entries set a named view or fit to the data.
 
 ``dx, dy`` are Qt pixels (x right, y DOWN, hence the negated dy: the camera wants y up) measured from
 the press point; ``h`` is the height of the displayed frame (the visible height of the camera maps
@@ -37,6 +40,7 @@ from PySide6.QtCore import QPointF, QRectF, Qt, QTimer, Signal
 from PySide6.QtGui import QColor, QImage, QPainter
 from PySide6.QtWidgets import QFileDialog, QMenu, QWidget
 
+from vgraph.camera import VIEWS
 from vgraph.errors import OutputFileError, VGraphError
 from vgraph.imagefile import write_png
 from vgraph.properties import CameraProperty
@@ -76,9 +80,10 @@ class CanvasView(QWidget):
 
     _keys = itertools.count(1)  # merge keys, unique across all views
 
-    def __init__(self, workspace, canvas_id: str, parent: QWidget | None = None):
+    def __init__(self, workspace, canvas_id: str, parent: QWidget | None = None, view_cameras=dict):
         super().__init__(parent)
         self.workspace = workspace
+        self.view_cameras = view_cameras  # () -> {'id.camera': concrete camera of the last frame}
         self.canvas_id = canvas_id
         self.is_final = True
         self._frame: np.ndarray | None = None
@@ -147,7 +152,16 @@ class CanvasView(QWidget):
         if address is None:
             self.set_message(NO_CAMERA)
             return None
-        return address, self.workspace.network.get(address)
+        return address, self._start_camera(address, "zoom")
+
+    def _start_camera(self, address: str, mode: str):
+        """The camera a gesture starts from: a fitting camera rotates as it is (it keeps fitting),
+        but zooms and pans from what the last frame showed, as a stored camera."""
+        camera = self.workspace.network.get(address)
+        shown = self.view_cameras().get(address)
+        if mode == "rotate" or not camera.fit_to_data or shown is None:
+            return camera
+        return shown.model_copy(update={"near": camera.near, "far": camera.far})
 
     def _apply(self, gesture: dict, make_camera) -> None:
         """Set the camera ``make_camera(start camera)`` under the gesture's merge key; errors are
@@ -185,7 +199,7 @@ class CanvasView(QWidget):
             self.set_message(NO_CAMERA)
         self._drag = {"mode": mode, "button": button, "start": event.position(), "active": False,
                       "address": address, "key": ("canvas", next(self._keys)),
-                      "camera": None if address is None else self.workspace.network.get(address)}
+                      "camera": None if address is None else self._start_camera(address, mode)}
         event.accept()
 
     def mouseMoveEvent(self, event) -> None:
@@ -246,7 +260,28 @@ class CanvasView(QWidget):
         menu = QMenu(self)
         action = menu.addAction("Save Image...", self.save_image)
         action.setEnabled(self._frame is not None)
+        views = menu.addMenu("View")
+        views.addAction("Fit to Data", self.fit_to_data)
+        for name in VIEWS:
+            views.addAction(name.capitalize(), lambda name=name: self.set_view(name))
+        views.setEnabled(camera_property_for(self.workspace.network, self.canvas_id) is not None)
         return menu
+
+    def set_view(self, name: str) -> None:
+        """Turn the camera to a named view (Camera.viewed_from) that fits the data; one undo step."""
+        self._set_camera(lambda camera: camera.viewed_from(name))
+
+    def fit_to_data(self) -> None:
+        """Let the camera frame the data again, keeping its direction (and choose near/far)."""
+        self._set_camera(lambda camera: camera.model_copy(
+            update={"fit_to_data": True, "near": None, "far": None}))
+
+    def _set_camera(self, make_camera) -> None:
+        start = self._begin_gesture()
+        if start is not None:
+            gesture = {"address": start[0], "camera": self.workspace.network.get(start[0]),
+                       "key": None, "active": True}
+            self._apply(gesture, make_camera)
 
     def ask_save_path(self) -> str:
         path, _ = QFileDialog.getSaveFileName(self, "Save Image", f"{self.canvas_id}.png",

@@ -57,7 +57,7 @@ class CanvasDocks(QObject):
             self._remove(details["processor"].id)
 
     def _add(self, processor_id: str) -> None:
-        view = CanvasView(self.workspace, processor_id)
+        view = CanvasView(self.workspace, processor_id, view_cameras=lambda: self.evaluation.view_cameras)
         view.interacting.connect(self.evaluation.interactive)
         view.problem.connect(self.problem)
         view.set_message("waiting for the render process")

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import networkx as nx
 import numpy as np
 
+from vgraph.camera import Camera
 from vgraph.errors import ProcessorError
 from vgraph.image import Image
 from vgraph.imagefile import to_uint8
@@ -30,6 +31,7 @@ from vgraph.network import Network
 from vgraph.processor import Processor
 from vgraph.properties import FilePathProperty, Invalidation, TransferFunctionProperty
 from vgraph.scheduler import blank_image_warning
+from vgraph.transfer_function import ValueScale
 from vgraph.volume import Volume
 
 
@@ -103,7 +105,16 @@ def display_size(processor: Processor, scale: float) -> tuple[int, int]:
 def histograms(network: Network) -> dict[str, np.ndarray]:
     """For each processor with a transfer function: the histogram (256 bins over the value range)
     of the volume arriving at its first connected volume inport, for the TF editor."""
-    found = {}
+    return {pid: volume.histogram()[0] for pid, volume in _classified_volumes(network)}
+
+
+def value_scales(network: Network) -> dict[str, ValueScale]:
+    """For the same processors: the ValueScale of that volume (TFs in data units, percentiles)."""
+    return {pid: ValueScale.of(volume) for pid, volume in _classified_volumes(network)}
+
+
+def _classified_volumes(network: Network):
+    """(processor id, volume) for each processor with a transfer function and a volume arrived."""
     for processor in network.processors.values():
         if not any(isinstance(p, TransferFunctionProperty) for p in processor.properties.values()):
             continue
@@ -111,9 +122,15 @@ def histograms(network: Network) -> dict[str, np.ndarray]:
             sources = network.inputs_of(processor.id, inport.name) if issubclass(inport.data_type, Volume) else []
             volume = network[sources[0].source].outputs.get(sources[0].outport) if sources else None
             if isinstance(volume, Volume) and volume.data.size:
-                found[processor.id] = volume.histogram()[0]
+                yield processor.id, volume
                 break
-    return found
+
+
+def view_cameras(network: Network) -> dict[str, Camera]:
+    """'id.camera' -> the concrete camera of the last frame, for processors that resolved one
+    (a camera that fits the data or chooses its near/far needs it to zoom and pan from)."""
+    return {f"{pid}.camera": processor.view_camera for pid, processor in network.processors.items()
+            if isinstance(getattr(processor, "view_camera", None), Camera) and "camera" in processor.properties}
 
 
 # --- what a node shows --------------------------------------------------------------------------

@@ -32,6 +32,7 @@ class PropertyInspector(QWidget):
         self.workspace = workspace
         self.status_of = status_of or (lambda pid: processor_status(self.network, self.network[pid]))
         self.histograms: dict = {}
+        self.value_scales: dict = {}
         self.network: Network | None = None
         self.processor_id: str | None = None
         self.editors: dict[str, PropertyEditor] = {}
@@ -87,6 +88,7 @@ class PropertyInspector(QWidget):
         self._refresh_links()
         self.refresh_status()
         self.set_histograms(self.histograms)
+        self.set_value_scales(self.value_scales)
 
     def refresh_status(self) -> None:
         if self.processor_id is not None:
@@ -100,6 +102,13 @@ class PropertyInspector(QWidget):
         for editor in self.editors.values():
             if hasattr(editor, "set_histogram"):
                 editor.set_histogram(histograms.get(self.processor_id))
+
+    def set_value_scales(self, scales: dict) -> None:
+        """Value scales of the same volumes, for TFs in data units or percentiles."""
+        self.value_scales = scales
+        for editor in self.editors.values():
+            if hasattr(editor, "set_value_scale"):
+                editor.set_value_scale(scales.get(self.processor_id))
 
     def _refresh_links(self) -> None:
         processor = self.network[self.processor_id]

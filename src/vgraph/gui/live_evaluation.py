@@ -54,6 +54,7 @@ class LiveEvaluation(QObject):
     finished = Signal(object)   # an EvaluationOutcome
     frames = Signal(dict, bool)  # display id -> uint8 RGBA frame, final
     histograms = Signal(dict)   # processor id -> histogram counts of its volume
+    value_scales = Signal(dict)  # processor id -> ValueScale of its volume
     crashed = Signal(str)       # a job failed as a whole, with the reason
     busy_changed = Signal(bool)
     warning = Signal(str)       # a job takes far too long; a job was cancelled
@@ -72,6 +73,7 @@ class LiveEvaluation(QObject):
         self.last_outcome: EvaluationOutcome | None = None
         self.last_result: RenderResult | None = None
         self.statuses: dict[str, ProcessorStatus] = {}
+        self.view_cameras: dict = {}  # 'id.camera' -> the concrete camera of the last frame
         self.version = 0            # counts changes; a result is current when it carries the latest
         self.scale = 1.0
         self._include_writers = False
@@ -192,7 +194,9 @@ class LiveEvaluation(QObject):
             self.last_outcome = result.outcome
             final = result.scale == 1.0 and result.version == self.version
             self.frames.emit(result.outcome.frames, final)
+            self.view_cameras = dict(result.view_cameras)
             self.histograms.emit(result.histograms)
+            self.value_scales.emit(result.value_scales)
             self.finished.emit(result.outcome)
         if self._wanted or (result.scale < 1.0 and self.scale == 1.0):
             self._wanted = True

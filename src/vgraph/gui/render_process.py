@@ -9,7 +9,8 @@ Protocol (pickled objects over a ``multiprocessing`` pipe, one job in flight at 
   define its plug-in processor types, the resolution scale, whether writers run, whether to start
   from a new network), or ``None`` to stop.
 - render process -> GUI: one ``RenderResult`` per job: what ran or failed, a ``ProcessorStatus`` per
-  processor, frames for the displays, histograms for the transfer-function editors.
+  processor, frames for the displays, histograms and value scales for the transfer-function
+  editors, the concrete cameras of the last frame (for zooming a camera that fits the data).
 The render process keeps its network between jobs (``mirror`` applies each document as a diff), so
 unchanged processors keep their textures and outputs.
 
@@ -33,7 +34,8 @@ import numpy as np
 from tqdm import tqdm
 
 from vgraph.errors import VGraphError
-from vgraph.gui.evaluator import EvaluationOutcome, ProcessorStatus, evaluate_view, histograms, processor_status
+from vgraph.gui.evaluator import (EvaluationOutcome, ProcessorStatus, evaluate_view, histograms, processor_status,
+                                  value_scales, view_cameras)
 from vgraph.gui.mirror import mirror
 from vgraph.network import Network
 from vgraph.registry import registry
@@ -60,6 +62,8 @@ class RenderResult:
     outcome: EvaluationOutcome = field(default_factory=EvaluationOutcome)
     statuses: dict[str, ProcessorStatus] = field(default_factory=dict)
     histograms: dict[str, np.ndarray] = field(default_factory=dict)
+    value_scales: dict = field(default_factory=dict)
+    view_cameras: dict = field(default_factory=dict)
     seconds: float = 0.0
     error: str | None = None   # the job as a whole failed (its network could not be built, a crash)
 
@@ -94,6 +98,8 @@ class RenderServer:
             result.outcome = evaluate_view(self.network, job.scale, job.include_writers)
             result.statuses = {pid: processor_status(self.network, p) for pid, p in self.network.processors.items()}
             result.histograms = histograms(self.network)
+            result.value_scales = value_scales(self.network)
+            result.view_cameras = view_cameras(self.network)
         except Exception:  # a bug below the evaluator: report it, keep serving
             result.error = "internal error in the render process (please report it):\n" + traceback.format_exc()
         result.seconds = time.perf_counter() - start

@@ -8,6 +8,11 @@ alpha over a checkerboard) as a strip along the bottom.
 Conventions:
 - Plot coordinates: x = normalised intensity in [0, 1], left -> right; y = opacity in [0, 1],
   bottom -> top of the curve area (``TransferFunctionPlot.curve_rect``). The strip is below it.
+- A TF in data units or percentiles is shown on the same axis through the volume's ValueScale
+  (``set_value_scale``; the application delivers it with the histogram) and edited in its own
+  space: a moved or added point gets the data value or percentile under the mouse, the other
+  points keep theirs exactly. Points beyond the value range sit on the plot's edge. Until a scale
+  arrives such a TF is shown but not editable.
 - Mouse: left-drag moves a point (x clamped between its neighbours, both in [0, 1]); a
   double-click on empty space adds a point (colour of the TF there, opacity = mouse y); a
   double-click on a point asks for its colour; right-click or Delete removes a point (never the last).
@@ -30,7 +35,7 @@ from PySide6.QtWidgets import (QCheckBox, QColorDialog, QComboBox, QFileDialog, 
 
 from vgraph.errors import VGraphError
 from vgraph.gui.editors import PropertyEditor, register_editor
-from vgraph.transfer_function import PRESETS, TransferFunction
+from vgraph.transfer_function import PRESETS, TransferFunction, ValueScale
 
 MARGIN = 7          # px around the curve area: room for the circles of points at the edges
 STRIP_HEIGHT = 12   # px of the colour gradient strip
@@ -62,6 +67,7 @@ class TransferFunctionPlot(QWidget):
         super().__init__(parent)
         self.transfer_function = TransferFunction(points=[(0.0, 0.0, 0.0, 0.0, 0.0)])
         self.counts: np.ndarray | None = None
+        self.scale: ValueScale | None = None
         self.log_scale = False
         self.selected: int | None = None
         self._drag: tuple[int, int] | None = None   # (point index, drag number) while dragging
@@ -84,13 +90,37 @@ class TransferFunctionPlot(QWidget):
         self.counts = None if counts is None else np.asarray(counts, dtype=np.float64).ravel()
         self.update()
 
+    def set_value_scale(self, scale: ValueScale | None) -> None:
+        self.scale = scale
+        self.update()
+
+    @property
+    def editable(self) -> bool:
+        return self.transfer_function.space == "normalized" or self.scale is not None
+
+    def display_positions(self) -> np.ndarray:
+        """The points' positions on the normalised axis (not clamped); needs ``editable``."""
+        positions = np.array([p[0] for p in self.points])
+        space = self.transfer_function.space
+        return positions if space == "normalized" else self.scale.to_normalized(positions, space)
+
+    def display_function(self) -> TransferFunction:
+        """The TF over the normalised axis, as the renderers see it."""
+        return self.transfer_function.normalized_at(self.display_positions())
+
+    def _position_at(self, x: float) -> float:
+        """The TF-space position at normalised x."""
+        return float(self.scale.from_normalized(x, self.transfer_function.space)) \
+            if self.transfer_function.space != "normalized" else x
+
     def set_log_scale(self, on: bool) -> None:
         self.log_scale = bool(on)
         self.update()
 
     def _commit(self, points: list, merge=None) -> None:
         """Show the edited points at once and report them."""
-        self.transfer_function = TransferFunction(points=[_rounded(p) for p in points])
+        self.transfer_function = TransferFunction(space=self.transfer_function.space,
+                                                  points=[_rounded(p) for p in points])
         self.update()
         self.changed.emit(self.transfer_function, merge)
 
@@ -105,6 +135,7 @@ class TransferFunctionPlot(QWidget):
 
     def to_pixel(self, position: float, opacity: float) -> QPointF:
         area = self.curve_rect()
+        position = min(max(position, 0.0), 1.0)  # points beyond the value range sit on the edge
         return QPointF(area.left() + position * area.width(), area.bottom() - opacity * area.height())
 
     def from_pixel(self, pixel: QPointF) -> tuple[float, float]:
@@ -116,24 +147,34 @@ class TransferFunctionPlot(QWidget):
 
     def point_at(self, pixel: QPointF) -> int | None:
         """The index of the nearest point within PICK_DISTANCE pixels, else None."""
-        distances = [np.hypot(*(self.to_pixel(p[0], p[4]) - pixel).toTuple()) for p in self.points]
+        if not self.editable:
+            return None
+        distances = [np.hypot(*(self.to_pixel(x, p[4]) - pixel).toTuple())
+                     for x, p in zip(self.display_positions(), self.points)]
         nearest = int(np.argmin(distances))
         return nearest if distances[nearest] <= PICK_DISTANCE else None
 
     # --- editing --------------------------------------------------------------------------------
     def move_point(self, index: int, position: float, opacity: float, merge=None) -> None:
-        points = self.points
-        low = points[index - 1][0] if index > 0 else 0.0
-        high = points[index + 1][0] if index + 1 < len(points) else 1.0
-        points[index] = (min(max(position, low), high), *points[index][1:4], opacity)
+        """Move point ``index`` to normalised ``position`` (kept between its neighbours)."""
+        points, shown = self.points, self.display_positions()
+        low = shown[index - 1] if index > 0 else 0.0
+        high = shown[index + 1] if index + 1 < len(points) else 1.0
+        position = self._position_at(min(max(position, low), high))
+        # The order holds in the TF's own space too (a percentile table can round a hair across).
+        if index > 0:
+            position = max(position, points[index - 1][0])
+        if index + 1 < len(points):
+            position = min(position, points[index + 1][0])
+        points[index] = (position, *points[index][1:4], opacity)
         self._commit(points, merge)
 
     def add_point(self, position: float, opacity: float) -> int:
-        """Insert a point with the TF's colour at ``position``; returns its index."""
-        r, g, b, _ = self.transfer_function(position)
+        """Insert a point with the TF's colour at normalised ``position``; returns its index."""
+        r, g, b, _ = self.display_function()(position)
         points = self.points
-        index = int(np.searchsorted([p[0] for p in points], position, side="right"))
-        points.insert(index, (position, r, g, b, opacity))
+        index = int(np.searchsorted(self.display_positions(), position, side="right"))
+        points.insert(index, (self._position_at(position), r, g, b, opacity))
         self.selected = index
         self._commit(points)
         return index
@@ -171,7 +212,7 @@ class TransferFunctionPlot(QWidget):
             self._drag = None
 
     def mouseDoubleClickEvent(self, event):
-        if event.button() != Qt.LeftButton:
+        if event.button() != Qt.LeftButton or not self.editable:
             return
         hit = self.point_at(event.position())
         if hit is None:
@@ -200,9 +241,15 @@ class TransferFunctionPlot(QWidget):
         area = self.curve_rect()
         painter.fillRect(area, self.BACKGROUND)
         self._paint_histogram(painter, area)
-        self._paint_strip(painter, self.strip_rect())
-        painter.setRenderHint(QPainter.Antialiasing)
-        self._paint_curve(painter, area)
+        if self.editable:
+            self._paint_strip(painter, self.strip_rect())
+            painter.setRenderHint(QPainter.Antialiasing)
+            self._paint_curve(painter, area)
+        else:
+            painter.setPen(QColor(90, 90, 90))
+            painter.drawText(area, Qt.AlignCenter | Qt.TextWordWrap,
+                             f"positions in {self.transfer_function.space} values:\n"
+                             "shown once the volume has been evaluated")
         painter.setPen(QPen(QColor(120, 120, 120)))
         painter.setBrush(Qt.NoBrush)
         painter.drawRect(area)
@@ -230,13 +277,13 @@ class TransferFunctionPlot(QWidget):
     def _paint_strip(self, painter: QPainter, strip: QRectF) -> None:
         painter.fillRect(strip, QBrush(_checkerboard()))
         width = max(int(strip.width()), 1)
-        rgba = self.transfer_function((np.arange(width) + 0.5) / width)
+        rgba = self.display_function()((np.arange(width) + 0.5) / width)
         pixels = np.ascontiguousarray(np.round(rgba * 255).astype(np.uint8))
         image = QImage(pixels.data, width, 1, 4 * width, QImage.Format_RGBA8888).copy()  # own the bytes
         painter.drawImage(strip, image)
 
     def _paint_curve(self, painter: QPainter, area: QRectF) -> None:
-        points = self.points
+        points = [(x, *p[1:]) for x, p in zip(self.display_positions(), self.points)]
         # Below the first point and above the last the end values hold: flat ends to the borders.
         curve = [self.to_pixel(0.0, points[0][4])] + [self.to_pixel(p[0], p[4]) for p in points] \
             + [self.to_pixel(1.0, points[-1][4])]
@@ -295,6 +342,10 @@ class TransferFunctionEditor(PropertyEditor):
     def set_histogram(self, counts) -> None:
         """Counts per equal bin over normalised intensity (``Volume.histogram()[0]``), or None."""
         self.plot.set_histogram(counts)
+
+    def set_value_scale(self, scale: ValueScale | None) -> None:
+        """The volume's ValueScale (for TFs in data units or percentiles), or None."""
+        self.plot.set_value_scale(scale)
 
     def _preset_chosen(self, index: int) -> None:
         if index > 0:

@@ -96,7 +96,7 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
     step = min(volume.spacing) / sampling_rate
     counts = sample_counts(t_entry, t_exit, step)
     sampler = VolumeSampler(volume)
-    lut = transfer_function.lut().astype(np.float64)
+    lut = transfer_function.for_volume(volume).lut().astype(np.float64)
 
     rgba = np.empty((len(origins), 4))
     taken = np.zeros(len(origins), dtype=np.int32)
