@@ -31,6 +31,7 @@ from vgraph.errors import NetworkFileError, VGraphError, WritePathError
 from vgraph.network import Network
 from vgraph.properties import FilePathProperty
 from vgraph.registry import registry
+from vgraph.volume_network import is_volume_path, volume_network
 
 FORMAT = "vgraph-network"
 CURRENT_VERSION = 1
@@ -116,8 +117,11 @@ def migrate(document: dict) -> dict:
 # --- loading --------------------------------------------------------------------------------------
 def load_network(path: str | Path, allow_write=()) -> Network:
     """Read, migrate, validate and build a network file. ``allow_write``: folders (besides the
-    file's own) that its writers may write into."""
+    file's own) that its writers may write into. A volume file (or DICOM folder) instead of a
+    network gives the standard rendering network around it (vgraph.volume_network)."""
     path = Path(path)
+    if is_volume_path(path):
+        return volume_network(path)
     document = parse_document(read_json(path), str(path))
     network = build_network(document, str(path), base_dir=path.resolve().parent)
     check_write_paths(network, str(path), allow_write)

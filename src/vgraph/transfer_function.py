@@ -201,8 +201,12 @@ def _percentile(*points) -> TransferFunction:
 # 20-80, bone from about 300) and follow Inácio 2009 fig. 4.4: similar colours, opacity makes the
 # difference, and a dark tone just below the structure keeps an unshaded rendering from looking
 # like a flat silhouette. MRI has no absolute unit, so its preset is placed by percentiles (about
-# half of a head scan's voxels are background).
+# half of a head scan's voxels are background), as is "auto", the first look at unknown data.
 PRESETS: dict[str, TransferFunction] = {
+    # Any data set, units unknown: the densest 40 % of the voxels, opaque only in the top percent.
+    "auto": _percentile((0.0, 0.0, 0.0, 0.0, 0.0), (60.0, 0.3, 0.15, 0.1, 0.0),
+                        (90.0, 0.85, 0.6, 0.45, 0.08), (99.0, 1.0, 0.95, 0.9, 0.6),
+                        (100.0, 1.0, 1.0, 1.0, 0.9)),
     "grayscale": _tf((0.0, 0.0, 0.0, 0.0, 0.0), (1.0, 1.0, 1.0, 1.0, 1.0)),
     "ct-bone": _data((-1000.0, 0.0, 0.0, 0.0, 0.0), (150.0, 0.25, 0.12, 0.08, 0.0),
                      (300.0, 0.55, 0.4, 0.3, 0.25), (700.0, 0.95, 0.9, 0.8, 0.8),

@@ -23,8 +23,12 @@ from PySide6.QtWidgets import QFileDialog, QMessageBox
 
 from vgraph.errors import VGraphError, WritePathError
 from vgraph.gui.autosave import FoundAutosave
+from vgraph.io import SUPPORTED_EXTENSIONS
 
 NETWORK_FILTER = "vgraph networks (*.json);;All files (*)"
+# Open also takes a volume file: it opens as a new network around it (vgraph.volume_network).
+OPEN_FILTER = ("vgraph networks or volumes (*.json " + " ".join(f"*{e}" for e in SUPPORTED_EXTENSIONS)
+               + ");;" + NETWORK_FILTER)
 
 
 class FileActions:
@@ -60,7 +64,7 @@ class FileActions:
         return box.clickedButton() is allow
 
     def ask_open_path(self) -> str:
-        path, _ = QFileDialog.getOpenFileName(self, "Open network", self._start_dir(), NETWORK_FILTER)
+        path, _ = QFileDialog.getOpenFileName(self, "Open network or volume", self._start_dir(), OPEN_FILTER)
         return path
 
     def ask_save_path(self) -> str:

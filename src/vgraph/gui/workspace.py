@@ -22,6 +22,7 @@ from PySide6.QtGui import QUndoStack
 
 from vgraph.errors import PropertyError, VGraphError
 from vgraph.fileformat import load_network, save_network
+from vgraph.volume_network import is_volume_path
 from vgraph.gui.commands import (AddProcessor, Connect, Disconnect, LinkProperties, MoveProcessors,
                                  NetworkCommand, RemoveProcessor, SetProperty, Unlink, free_id)
 from vgraph.network import Connection, Link, Network, split_address
@@ -178,7 +179,8 @@ class Workspace(QObject):
         (WritePathError names the others)."""
         path = Path(path)
         network = load_network(path, allow_write)
-        self._replace(network, path)
+        # A volume file opens as a new, untitled network around it: saving must not write over it.
+        self._replace(network, None if is_volume_path(path) else path)
         self.add_recent_file(path)
 
     def restore(self, network: Network, path: Path | None) -> None:
