@@ -15,9 +15,11 @@ def test_geometry_follows_the_conventions():
 
 
 @pytest.mark.parametrize("data, declared, expected", [
-    (np.array([[[3, 9]]], np.uint8), None, (0, 255)),
-    (np.array([[[3, 9]]], np.uint16), None, (0, 65535)),
+    # min..max for every type: a type's full scale ([0, 65535]) made 12-bit scans render black
+    (np.array([[[3, 9]]], np.uint8), None, (3, 9)),
+    (np.array([[[3, 9]]], np.uint16), None, (3, 9)),
     (np.array([[[3, 9]]], np.uint16), (0, 4095), (0, 4095)),
+    (np.zeros((2, 2, 2), np.uint8), None, (0, 1)),
     (np.array([[[-3, 9]]], np.int16), None, (-3, 9)),
     (np.array([[[0.5, np.nan, 2.0, np.inf]]], np.float32), None, (0.5, 2.0)),
     (np.full((2, 2, 2), 7.0), None, (7.0, 8.0)),  # constant: still a usable range
@@ -94,3 +96,92 @@ def test_consumers_refuse_the_wrong_kind_with_what_to_do():
         coefficients.require_samples("RayCaster 'rc'")
     with pytest.raises(VGraphError, match="insert a CubicSplineProcessor"):
         samples.require_coefficients("CurvatureRaycaster 'c'")
+
+
+def twelve_bit_with_an_outlier(shape=(24, 32, 40)) -> np.ndarray:
+    """The acceptance case of the value-range rule: 12-bit content (0..1500) in uint16 with one
+    outlier voxel of 30393, as a scanner writes a metal artefact or a calibration marker."""
+    data = np.random.default_rng(7).integers(0, 1501, size=shape).astype(np.uint16)
+    data[3, 4, 5] = 30393
+    return data
+
+
+def test_a_twelve_bit_scan_in_uint16_maps_its_own_range_not_the_type_range():
+    volume = Volume(twelve_bit_with_an_outlier())
+    assert volume.value_range == (0.0, 30393.0)
+    bulk = volume.normalized(volume.data[volume.data <= 1500])
+    assert bulk.max() == pytest.approx(1500 / 30393)  # was 1500 / 65535 with the type's range
+    low, high = volume.percentiles([0.5, 99.5])
+    assert 0 <= low <= 10 and 1490 <= high <= 1500  # the bulk, without the outlier
+
+
+PERCENTS = [0, 0.5, 1, 5, 25, 33.3, 50, 75, 95, 99, 99.5, 100]
+
+
+@pytest.mark.parametrize("dtype, low, high", [(np.uint8, 0, 255), (np.uint16, 0, 4095),
+                                              (np.int16, -1024, 3071), (np.int8, -128, 127)])
+def test_percentiles_of_integer_data_equal_numpy(dtype, low, high):
+    data = np.random.default_rng(1).integers(low, high + 1, size=(20, 30, 40)).astype(dtype)
+    np.testing.assert_allclose(Volume(data).percentiles(PERCENTS), np.percentile(data, PERCENTS),
+                               rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("make", [
+    lambda r: r.normal(size=(20, 30, 40)).astype(np.float32),
+    lambda r: r.normal(size=(20, 30, 40)) * 1e300,                  # float64 beyond float32
+    lambda r: r.uniform(-1, 1, size=(20, 30, 40)) * 1.7e308,        # max - min overflows float64
+    lambda r: r.integers(-2**31, 2**31 - 1, size=(20, 30, 40)).astype(np.int32),  # > 65536 values
+    lambda r: r.exponential(size=(20, 30, 40)).astype(np.float32) ** 4,  # skewed: a long tail
+], ids=["float32", "float64-1e300", "float64-near-max", "int32-wide", "skewed"])
+def test_percentiles_are_within_a_65536th_of_the_range(make):
+    data = make(np.random.default_rng(2))
+    got = Volume(data).percentiles(PERCENTS)
+    expected = np.percentile(data, PERCENTS)
+    width = (float(data.max()) / 65536 - float(data.min()) / 65536)  # no overflow near 1.8e308
+    assert np.all(np.abs(got - expected) <= width)
+    assert got[0] == data.min() and got[-1] == data.max()  # the ends are exact
+
+
+def test_percentiles_ignore_nonfinite_voxels_and_work_slab_by_slab(monkeypatch):
+    data = np.random.default_rng(3).normal(size=(16, 16, 16)).astype(np.float32)
+    data[0, 0, :6] = [np.nan, np.inf, -np.inf, np.nan, np.inf, -np.inf]
+    finite = data[np.isfinite(data)]
+    whole = Volume(data.copy()).percentiles(PERCENTS)
+    monkeypatch.setattr("vgraph.volume._SLAB_VOXELS", 1000)  # 5 slabs, one partial
+    sliced = Volume(data.copy())
+    np.testing.assert_array_equal(sliced.percentiles(PERCENTS), whole)
+    assert sliced.value_range == (float(finite.min()), float(finite.max()))
+    width = (finite.max() - finite.min()) / 65536
+    assert np.all(np.abs(whole - np.percentile(finite, PERCENTS)) <= width)
+
+
+def test_percentiles_are_computed_once_per_volume(monkeypatch):
+    volume = Volume(twelve_bit_with_an_outlier())
+    volume.percentiles([50])
+    monkeypatch.setattr(Volume, "_slabs", lambda self: pytest.fail("the data were read again"))
+    assert volume.percentiles(np.array([[10, 90]])).shape == (1, 2)  # shaped like the input
+
+
+@pytest.mark.parametrize("data, expected", [
+    (np.full((2, 2, 2), 7.5), [7.5, 7.5, 7.5]),                          # constant
+    (np.full((2, 2, 2), 200, np.uint8), [200, 200, 200]),
+    (np.full((2, 2, 2), np.nan), [0.0, 0.5, 1.0]),                       # nothing finite: the range
+])
+def test_percentiles_of_degenerate_volumes(data, expected):
+    with np.errstate(invalid="ignore"):
+        np.testing.assert_array_equal(Volume(data).percentiles([0, 50, 100]), expected)
+
+
+@pytest.mark.parametrize("percents", [[-1], [100.5], [np.nan], [50, 101]])
+def test_percentiles_outside_0_to_100_are_refused_naming_the_source(percents):
+    with pytest.raises(VGraphError, match=r"volume from scan.raw: percentiles must lie in \[0, 100\]"):
+        Volume(np.zeros((2, 2, 2)), source="scan.raw").percentiles(percents)
+
+
+def test_time_steps_are_kept_by_with_data_and_checked():
+    volume = Volume(np.zeros((2, 2, 2)), time_steps=5)
+    assert volume.with_data(np.ones((2, 2, 2))).time_steps == 5
+    assert Volume(np.zeros((2, 2, 2))).time_steps == 1
+    for bad in (0, -1, 2.5, True):
+        with pytest.raises(VGraphError, match="time_steps must be a positive integer"):
+            Volume(np.zeros((2, 2, 2)), time_steps=bad)

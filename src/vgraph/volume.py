@@ -5,8 +5,13 @@ Conventions (docs/volumes.md says the same for users):
 - ``spacing`` and ``origin`` are (x, y, z) in world units. Voxel (i, j, k) = data[k, j, i] has its
   centre at origin + (i, j, k) * spacing.
 - ``value_range`` maps stored values to normalised intensities in [0, 1], the unit of every
-  transfer-function position and iso level. Unless declared: uint8 -> [0, 255], uint16 -> [0, 65535],
-  anything else -> [min, max] of the finite values.
+  transfer-function position and iso level: the ``declared_range`` (stated by the file or the user)
+  if any, else [min, max] of the finite values for EVERY dtype. A type's full scale is not a value
+  range: 12-bit scans stored as uint16 over [0, 65535] rendered black. A constant volume still
+  gets a usable range [v, v + max(1, |v| 1e-6)].
+- ``percentiles(percents)`` gives data values at percentiles of the finite voxels (for transfer
+  functions placed in percent and the robust window), from one cached pass over the data.
+- ``time_steps`` is the number of time points of the file the volume is one time point of.
 - Textures hold the stored values (R16 normalised for 8 and 16 bit, R32F otherwise) unless float32
   cannot carry them: values beyond +-1e30 (float64 data up to 1.8e308, float32 near its limit) or
   a range narrower than 1e-30 (subnormal data). Those volumes are uploaded as normalised
@@ -30,8 +35,6 @@ from vgraph.errors import VGraphError
 
 Vec3 = tuple[float, float, float]
 
-_DEFAULT_INTEGER_RANGES = {np.dtype(np.uint8): (0.0, 255.0), np.dtype(np.uint16): (0.0, 65535.0)}
-
 # Texture formats by dtype: (moderngl dtype, full-scale value of a normalised sample). uint8 is
 # uploaded as R16 holding value * 257 (so a sample is still value / 255): llvmpipe, like many GPUs,
 # filters 8-bit textures with 8-bit weights, errors up to 0.007, while R16 filters exactly enough
@@ -41,6 +44,9 @@ _TEXTURE_FORMATS = {np.dtype(np.uint8): ("nu2", 255.0), np.dtype(np.uint16): ("n
 # for the shaders' arithmetic (scale, offset, differences) without overflow or subnormals.
 FLOAT32_SAFE = 1e30
 _SLAB_VOXELS = 2**22  # normalising in float64 slab by slab bounds the temporary memory
+# Bins of the histogram behind percentiles(): accurate to (max - min) / 65536, exact for integer
+# data spanning fewer values (one bin per integer), and 512 KiB of counts whatever the volume.
+PERCENTILE_BINS = 65536
 
 
 @dataclass(eq=False)
@@ -51,6 +57,7 @@ class Volume:
     declared_range: tuple[float, float] | None = None
     is_spline_coefficients: bool = False
     source: str = ""  # where the data came from, for messages
+    time_steps: int = 1  # time points in the file this volume is one of (4D files)
     _textures: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
@@ -71,6 +78,11 @@ class Volume:
                 raise VGraphError(f"volume{where}: value_range must be finite with low < high, "
                                   f"got {self.declared_range}")
             self.declared_range = (lo, hi)
+        if isinstance(self.time_steps, bool) or not isinstance(self.time_steps, (int, np.integer)) \
+                or self.time_steps < 1:
+            raise VGraphError(f"volume{where}: time_steps must be a positive integer, "
+                              f"got {self.time_steps!r}")
+        self.time_steps = int(self.time_steps)
         weakref.finalize(self, _release_all, self._textures)
 
     # --- geometry -------------------------------------------------------------------------------
@@ -99,18 +111,60 @@ class Volume:
         return int(self.data.size - np.count_nonzero(np.isfinite(self.data)))
 
     @cached_property
+    def finite_extremes(self) -> tuple | None:
+        """(min, max) of the finite voxels as numpy scalars of the data's type (exact for 64-bit
+        integers), or None when no voxel is finite. Slab by slab: a mask of a big float volume
+        would cost as much memory as the volume."""
+        if not self.nonfinite_count:
+            return self.data.min(), self.data.max()
+        lo = hi = None
+        for slab in self._slabs():
+            finite = slab[np.isfinite(slab)]
+            if finite.size:
+                lo = finite.min() if lo is None else min(lo, finite.min())
+                hi = finite.max() if hi is None else max(hi, finite.max())
+        return None if lo is None else (lo, hi)
+
+    @cached_property
     def value_range(self) -> tuple[float, float]:
         if self.declared_range is not None:
             return self.declared_range
-        if self.data.dtype in _DEFAULT_INTEGER_RANGES:
-            return _DEFAULT_INTEGER_RANGES[self.data.dtype]
-        finite = self.data[np.isfinite(self.data)] if self.nonfinite_count else self.data
-        if finite.size == 0:
+        if self.finite_extremes is None:
             return (0.0, 1.0)
-        lo, hi = float(finite.min()), float(finite.max())
+        lo, hi = (float(v) for v in self.finite_extremes)
         if hi > lo:
             return (lo, hi)
         return (lo, lo + max(1.0, abs(lo) * 1e-6))  # a constant volume still maps somewhere
+
+    def percentiles(self, percents) -> np.ndarray:
+        """Data values at ``percents`` (each in [0, 100]) of the finite voxels, as np.percentile's
+        default (linear) method gives them: exact for integer data spanning at most
+        PERCENTILE_BINS values, otherwise within (max - min) / PERCENTILE_BINS. The histogram
+        behind it is built once per volume, slab by slab. A volume without finite voxels maps
+        percents linearly onto its value range."""
+        p = np.asarray(percents, dtype=np.float64)
+        if not (np.all(np.isfinite(p)) and np.all((p >= 0) & (p <= 100))):
+            where = f" from {self.source}" if self.source else ""
+            raise VGraphError(f"volume{where}: percentiles must lie in [0, 100], got {percents!r}")
+        if self.finite_extremes is None:
+            lo, hi = self.value_range
+            return lo + p / 100.0 * (hi - lo)
+        ranks = self._rank_table()
+        position = p / 100.0 * (ranks.count - 1)  # np.percentile's 'linear': between order stats
+        below = np.floor(position)
+        above = np.minimum(below + 1, ranks.count - 1)
+        low, high = ranks.value_at(below), ranks.value_at(above)
+        return low + (position - below) * (high - low)
+
+    def _rank_table(self) -> "_RankTable":
+        if "_ranks" not in self.__dict__:
+            self.__dict__["_ranks"] = _RankTable.of(self)
+        return self.__dict__["_ranks"]
+
+    def _slabs(self):
+        flat = self.data.reshape(-1)
+        for start in range(0, flat.size, _SLAB_VOXELS):
+            yield flat[start:start + _SLAB_VOXELS]
 
     def normalized(self, values) -> np.ndarray:
         """Stored values -> normalised intensities (not clamped)."""
@@ -129,9 +183,8 @@ class Volume:
             lo, hi = self.value_range
             rounding = np.finfo(np.float32).eps * max(abs(lo), abs(hi)) / (hi - lo)
             counts = np.zeros(bins, dtype=np.int64)
-            flat = self.data.reshape(-1)
-            for start in range(0, flat.size, _SLAB_VOXELS):
-                slab = self.normalized(flat[start:start + _SLAB_VOXELS])
+            for stored in self._slabs():
+                slab = self.normalized(stored)
                 inside = slab[(slab >= -rounding) & (slab <= 1.0 + rounding)]
                 counts += np.histogram(np.clip(inside, 0.0, 1.0), bins=bins, range=(0.0, 1.0))[0]
             self.__dict__[key] = (counts, np.linspace(0.0, 1.0, bins + 1))
@@ -212,9 +265,82 @@ class Volume:
     def with_data(self, data: np.ndarray, **changes) -> "Volume":
         """A new volume on the same grid with other voxel values."""
         fields = dict(spacing=self.spacing, origin=self.origin, declared_range=self.declared_range,
-                      is_spline_coefficients=self.is_spline_coefficients, source=self.source)
+                      is_spline_coefficients=self.is_spline_coefficients, source=self.source,
+                      time_steps=self.time_steps)
         fields.update(changes)
         return Volume(data, **fields)
+
+
+@dataclass(frozen=True)
+class _RankTable:
+    """Cumulative counts of a fine histogram of the finite voxels, from which the k-th smallest
+    value (an order statistic) is found: exactly when every bin holds one integer value, else
+    by spreading a bin's voxels evenly over its width (error below one bin)."""
+
+    lo: float
+    hi: float
+    exact: bool        # one bin per integer value lo, lo + 1, ...
+    cumulative: np.ndarray
+    count: int         # finite voxels
+
+    @classmethod
+    def of(cls, volume: Volume) -> "_RankTable":
+        lo, hi = volume.finite_extremes
+        data_type = volume.data.dtype
+        exact = data_type.kind in "ui" and int(hi) - int(lo) < PERCENTILE_BINS or hi == lo
+        bins = int(hi) - int(lo) + 1 if exact else PERCENTILE_BINS
+        counts = np.zeros(bins, dtype=np.int64)
+        for slab in volume._slabs():
+            if exact and data_type == np.uint64:  # in its own type: uint64 beyond 2**63
+                index = (slab - lo).astype(np.intp)
+            elif exact and data_type.kind in "ui":  # int64: a narrower signed type would wrap
+                index = slab.astype(np.int64) - int(lo)
+            elif exact:  # a constant float volume: one bin
+                index = np.zeros(np.count_nonzero(slab == lo), dtype=np.intp)
+            else:
+                index = _bin_index(slab[np.isfinite(slab)] if volume.nonfinite_count else slab,
+                                   float(lo), float(hi))
+            counts += np.bincount(index, minlength=bins)
+        cumulative = np.cumsum(counts)
+        return cls(float(lo), float(hi), bool(exact), cumulative, int(cumulative[-1]))
+
+    def value_at(self, rank: np.ndarray) -> np.ndarray:
+        """The rank-th smallest finite value (rank 0 .. count - 1, as floats holding integers)."""
+        rank = np.asarray(rank, dtype=np.float64)
+        bins = np.searchsorted(self.cumulative, rank, side="right")  # first bin with cum > rank
+        if self.exact:
+            return self.lo + bins.astype(np.float64)
+        before = np.where(bins > 0, self.cumulative[np.maximum(bins - 1, 0)], 0)
+        inside = self.cumulative[bins] - before
+        fraction = (bins + (rank - before + 0.5) / inside) / PERCENTILE_BINS
+        values = np.clip(_from_unit(fraction, self.lo, self.hi), self.lo, self.hi)
+        # the smallest and largest values are known exactly
+        return np.where(rank <= 0, self.lo, np.where(rank >= self.count - 1, self.hi, values))
+
+
+def _bin_index(values: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    unit = _to_unit(values.astype(np.float64), lo, hi)
+    return np.minimum((unit * PERCENTILE_BINS).astype(np.intp), PERCENTILE_BINS - 1)
+
+
+def _to_unit(values, lo: float, hi: float):
+    """(v - lo) / (hi - lo) in float64, also when hi - lo overflows (float64 data near 1.8e308):
+    then computed on values divided by the larger magnitude."""
+    with np.errstate(over="ignore"):
+        span = hi - lo
+    if np.isfinite(span):
+        return (values - lo) / span
+    scale = max(abs(lo), abs(hi))
+    return (values / scale - lo / scale) / (hi / scale - lo / scale)
+
+
+def _from_unit(unit, lo: float, hi: float):
+    with np.errstate(over="ignore"):
+        span = hi - lo
+    if np.isfinite(span):
+        return lo + unit * span
+    scale = max(abs(lo), abs(hi))
+    return (lo / scale + unit * (hi / scale - lo / scale)) * scale
 
 
 def _vec3(value, name: str, where: str, positive: bool = False) -> Vec3:

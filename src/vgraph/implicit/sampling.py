@@ -4,7 +4,8 @@ Sampling puts ``resolution`` voxel centres per axis exactly on the function's wo
 (origin = box min, spacing = (max - min) / (resolution - 1)) and maps f so that the surface f = 0
 sits at normalised intensity 0.5 in every data type. With m = max |f| over the sampled grid:
 float32 stores f itself with value range (-m, m); uint8 / uint16 store
-round((f / 2m + 0.5) * full_scale) with the default range [0, full_scale]. A normalised iso level L
+round((f / 2m + 0.5) * full_scale) and declare the range [0, full_scale] (the default, min..max
+of the data, would move the surface off 0.5 wherever the samples miss one end of the scale). A normalised iso level L
 is the level set f = (2L - 1) m; the map has positive scale, so level-set curvature is unchanged.
 """
 
@@ -101,6 +102,6 @@ def sample(function: ImplicitFunction | str, resolution: int, data_type: str = "
                 out[k0:k1] = np.clip(np.rint(value_to_level(f, m) * full_scale), 0, full_scale)
     params = ", ".join(f"{k}={v}" for k, v in fn.parameters().items())
     return SampledVolume(out, spacing=tuple((hi - lo) / (n - 1)), origin=tuple(lo),
-                         declared_range=(-m, m) if full_scale is None else None,
+                         declared_range=(-m, m) if full_scale is None else (0.0, full_scale),
                          source=f"function {fn.name}({params}) {n}^3 {data_type}",
                          function=fn, value_scale=m)
