@@ -128,7 +128,8 @@ def test_dicom_series_sorted_by_position_equals_pydicom(data, target):
     assert_geometry(volume, (3, 512, 512), np.uint16, (0.9765625, 0.9765625, 12.0),
                     (-250, -250, -12))
     np.testing.assert_array_equal(volume.data, reference)
-    assert volume.declared_range == (0.0, 4095.0)  # BitsStored 12 of 16
+    # BitsStored 12 of 16 is the storage's width, not a value range: min..max of 0..346
+    assert volume.declared_range is None and volume.value_range == (0.0, 346.0)
     assert volume.source == str(data / target)
 
 
@@ -236,7 +237,8 @@ def test_qvis_reads_relative_data_file_and_spacing(tmp_path):
     np.testing.assert_array_equal(volume.data.ravel(), np.arange(24))
     (tmp_path / "w.raw").write_bytes(np.arange(24, dtype="<u2").tobytes())
     volume = read_volume(write_dat(tmp_path, ObjectFileName="w.raw", Format="USHORT_12"))
-    assert volume.data.dtype == np.uint16 and volume.value_range == (0.0, 4095.0)
+    # USHORT_12 is a storage width, not a value range: min..max
+    assert volume.data.dtype == np.uint16 and volume.value_range == (0.0, 23.0)
 
 
 @pytest.mark.parametrize("change, field, words", [
@@ -393,7 +395,8 @@ def test_dicom_rescale_gives_float32(data, tmp_path):
     _, reference = dicom_reference(tmp_path)
     assert volume.data.dtype == np.float32
     np.testing.assert_array_equal(volume.data, reference * 0.5 - 100)
-    assert volume.declared_range == (-100.0, 4095 * 0.5 - 100)
+    assert volume.declared_range is None
+    assert volume.value_range == (float(reference.min()) * 0.5 - 100, reference.max() * 0.5 - 100)
 
 
 def test_dicom_folder_errors(data, tmp_path):

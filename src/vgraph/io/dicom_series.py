@@ -15,8 +15,9 @@ an image (DICOMDIR, reports) are skipped.
             the stored dtype (e.g. uint16) is kept; otherwise stored * slope + intercept is computed
             in float64 and kept as float32, or as float64 for 32-bit stored values or results
             beyond float32's range.
-  range     BitsStored < BitsAllocated declares the range (e.g. 12-bit unsigned -> [0, 4095]),
-            rescaled like the values; otherwise None.
+  range     none declared: BitsStored is the storage's width, not the data's range (the MR
+            scout holds 0..346 in 12 bits; mapped over [0, 4095] it rendered nearly black), so
+            the value range is the data's min..max like any other volume's.
 Without ImagePositionPatient the slices are sorted by InstanceNumber, with a warning.
 Damaged files: pydicom reads through a file whose reads stop at its end (element lengths are not
 trusted), a deflated data set may inflate to at most MAX_DEFLATED_BYTES, and header values are
@@ -69,9 +70,9 @@ def read_dicom_series(path) -> Volume:
                               "NumberOfFrames")
     ordered, z_spacing, origin = _sort_slices(series)
     spacing = check_spacing((*_pixel_spacing(ordered[0]), z_spacing), ordered[0][0], "PixelSpacing")
-    data, declared = _read_pixels(folder, ordered)
+    data = _read_pixels(folder, ordered)
     return make_volume(data, path, spacing=spacing, origin=check_origin(origin, ordered[0][0],
-                       "ImagePositionPatient"), declared_range=declared)
+                       "ImagePositionPatient"))
 
 
 # --- reading files -------------------------------------------------------------------------------
@@ -276,8 +277,7 @@ def _read_pixels(folder, ordered):
         if stored is None:
             stored = np.empty((len(ordered), rows, columns), dtype=pixels.dtype)
         stored[index] = pixels
-    data = rescaled(stored, *zip(*rescale)) if scaled else stored
-    return data, _declared_range(first_file, first, allocated, rescale)
+    return rescaled(stored, *zip(*rescale)) if scaled else stored
 
 
 def _slice_pixels(file: Path) -> np.ndarray:
@@ -302,16 +302,6 @@ def _rescale(file, ds) -> tuple[float, float]:
         raise VolumeFileError(file, f"slope {slope}, intercept {inter} do not map values",
                               "RescaleSlope")
     return slope, inter
-
-
-def _declared_range(file, first, allocated: int, rescale):
-    bits = _integer(file, first, "BitsStored", 0)
-    if not 0 < bits < allocated:
-        return None
-    signed = _integer(file, first, "PixelRepresentation", 0) == 1
-    lo, hi = (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1) if signed else (0, 2 ** bits - 1)
-    ends = [v * slope + inter for slope, inter in rescale for v in (lo, hi)]
-    return (float(min(ends)), float(max(ends)))
 
 
 def _close(a, b) -> bool:

@@ -8,8 +8,10 @@ A .dat file is ``Key: value`` lines; keys are matched case-insensitively:
                                  DOUBLE)                                         required
   ObjectModel:    I              only scalar intensity ('I') volumes are read
   Endianness:     LITTLE         optional (QVis files are little-endian)
-Other keys (TaggedFileName, NbrTags, ObjectType, GridType, ...) are ignored. ``USHORT_12`` data
-declare the value range [0, 4095]. The raw file must hold exactly the described bytes.
+Other keys (TaggedFileName, NbrTags, ObjectType, GridType, ...) are ignored. ``USHORT_12`` is
+read as uint16 and declares no value range: 12 bits is the storage's width, not the data's range
+(an MR scan of 0..400 mapped over [0, 4095] renders nearly black), so the range is min..max like
+any other type's. The raw file must hold exactly the described bytes.
 """
 
 from __future__ import annotations
@@ -23,12 +25,10 @@ from vgraph.io._common import (check_dims, check_spacing, make_volume, parse_num
                                read_header_bytes, read_raw_array, regular_file)
 from vgraph.volume import Volume
 
-# Format word -> (dtype, declared value range or None)
+# Format word -> dtype
 FORMATS = {
-    "UCHAR": ("u1", None), "CHAR": ("i1", None),
-    "USHORT": ("u2", None), "USHORT_12": ("u2", (0.0, 4095.0)), "SHORT": ("i2", None),
-    "UINT": ("u4", None), "INT": ("i4", None),
-    "FLOAT": ("f4", None), "DOUBLE": ("f8", None),
+    "UCHAR": "u1", "CHAR": "i1", "USHORT": "u2", "USHORT_12": "u2", "SHORT": "i2",
+    "UINT": "u4", "INT": "i4", "FLOAT": "f4", "DOUBLE": "f8",
 }
 _ENDIAN_WORDS = {"LITTLE": "<", "LITTLE_ENDIAN": "<", "BIG": ">", "BIG_ENDIAN": ">"}
 
@@ -54,11 +54,11 @@ def read_qvis(path) -> Volume:
         raise VolumeFileError(path, f"only scalar intensity volumes (ObjectModel: I) are supported, "
                                     f"got {fields['objectmodel']!r}", "ObjectModel")
     order = _byte_order(fields, path)
-    type_code, declared = FORMATS[fmt]
+    type_code = FORMATS[fmt]
     data_file = regular_file(path.parent / fields["objectfilename"], path, "ObjectFileName")
     flat = read_raw_array(data_file, np.dtype(order + type_code), dims[0] * dims[1] * dims[2],
                           size_field="Resolution", header=path)
-    return make_volume(flat.reshape(dims[::-1]), path, spacing=spacing, declared_range=declared)
+    return make_volume(flat.reshape(dims[::-1]), path, spacing=spacing)
 
 
 def parse_dat(path: Path) -> dict[str, str]:
