@@ -118,3 +118,18 @@ def test_a_render_process_that_dies_mid_job_is_reported_and_replaced():
     renderer.submit(job(3))
     assert renderer.wait().outcome.frames["canvas"].shape[:2] == (512, 512)   # a new one took over
     renderer.stop()
+
+
+def test_the_server_reports_warnings_value_scales_and_the_cameras_it_framed(tmp_path):
+    """A 1-slice volume warns (the GUI logs it); a fitting camera's frame is sent back (zooming
+    starts from it) with the value scale a TF in data units is edited over."""
+    import nrrd
+    nrrd.write(str(tmp_path / "slice.nrrd"), np.arange(48, dtype=np.uint16).reshape(6, 8, 1))
+    network = vgraph.load(tmp_path / "slice.nrrd")
+    server = RenderServer()
+    result = server.handle(RenderJob(1, network_document(network), str(tmp_path)))
+    assert result.error is None
+    assert any("one voxel thick" in warning for warning in result.outcome.warnings)
+    shown = result.view_cameras["eep.camera"]
+    assert not shown.fit_to_data and shown.near is not None and result.view_cameras["rc.camera"] == shown
+    assert result.value_scales["rc"].value_range == (0.0, 47.0)

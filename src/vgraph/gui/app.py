@@ -244,6 +244,8 @@ class MainWindow(FileActions, QMainWindow):
                 self.log.info(f"processor '{pid}' evaluates again")
         self.failures = {pid: r for pid, r in self.failures.items() if pid not in outcome.ran}
         self.failures.update(outcome.failed)
+        for warning in outcome.warnings:
+            self.log.warning(warning)
         for display, warning in outcome.blank.items():
             if self.blank_warnings.get(display) != warning:
                 self.log.warning(warning)

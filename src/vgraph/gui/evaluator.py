@@ -18,13 +18,15 @@ Conventions:
 
 from __future__ import annotations
 
+import warnings
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import networkx as nx
 import numpy as np
 
 from vgraph.camera import Camera
-from vgraph.errors import ProcessorError
+from vgraph.errors import ProcessorError, VGraphWarning
 from vgraph.image import Image
 from vgraph.imagefile import to_uint8
 from vgraph.network import Network
@@ -55,6 +57,7 @@ class EvaluationOutcome:
     writers: list[str] = field(default_factory=list)       # writers left for an explicit run
     frames: dict[str, np.ndarray] = field(default_factory=dict)  # display id -> (H, W, 4) uint8
     blank: dict[str, str] = field(default_factory=dict)    # display id -> why its frame should not be empty
+    warnings: list[str] = field(default_factory=list)      # VGraphWarnings of the processors that ran
 
 
 def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = False) -> EvaluationOutcome:
@@ -71,7 +74,8 @@ def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = 
             continue
         display = is_display(type(network[target]))
         try:
-            report = network.update(target, size=display_size(network[target], scale) if display else None)
+            with _collected_warnings(outcome.warnings):
+                report = network.update(target, size=display_size(network[target], scale) if display else None)
             outcome.ran.extend(report.ids)
         except ProcessorError as error:
             outcome.ran.extend(network.last_evaluation.ids)
@@ -84,6 +88,22 @@ def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = 
             if warning:
                 outcome.blank[target] = warning
     return outcome
+
+
+@contextmanager
+def _collected_warnings(messages: list[str]):
+    """Append the VGraphWarnings raised inside to ``messages`` (the GUI logs them); other
+    warnings go where they would have gone."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", VGraphWarning)
+        try:
+            yield
+        finally:
+            for warning in caught:
+                if issubclass(warning.category, VGraphWarning):
+                    messages.append(str(warning.message))
+                else:
+                    warnings.showwarning(warning.message, warning.category, warning.filename, warning.lineno)
 
 
 def ready_processors(network: Network, order: list[str]) -> set[str]:
