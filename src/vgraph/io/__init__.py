@@ -1,6 +1,6 @@
 """Reading and writing volume files.
 
-    read_volume(path, *, raw=None) -> Volume
+    read_volume(path, *, raw=None, time_step=0) -> Volume
     write_volume(volume, path) -> Path
 
 Formats (by extension; a folder is a DICOM series):
@@ -17,9 +17,11 @@ Writing: .npy, .npz, .nrrd, .nii, .nii.gz (writers.py), atomically.
 
 Every reader returns a Volume with data [z, y, x] in native byte order (file order, x fastest;
 nothing is reoriented), spacing and origin (x, y, z), declared_range where the header states one,
-and source = str(path). Any problem with the input raises VolumeFileError naming the file and the
-header field; float NaN/Inf voxels load with a NonFiniteVoxelsWarning. docs/volumes.md has the
-details per format.
+source = str(path) and time_steps. Files with a time axis (4D NIfTI, NRRD whose last axis has
+kind ``time``, 4D MetaImage, NumPy [t, z, y, x]) give the time point ``time_step``; asking any
+file for one it does not hold raises TimeStepError. Any problem with the input raises
+VolumeFileError naming the file and the header field; float NaN/Inf voxels load with a
+NonFiniteVoxelsWarning. docs/volumes.md has the details per format.
 """
 
 from __future__ import annotations
@@ -27,7 +29,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import NonFiniteVoxelsWarning, file_problem, regular_file
+from vgraph.io._common import (NonFiniteVoxelsWarning, TimeStepError, check_time_step,
+                               file_problem, regular_file)
 from vgraph.io.dicom_series import read_dicom_series
 from vgraph.io.metaimage import read_metaimage
 from vgraph.io.nifti import read_nifti
@@ -41,7 +44,8 @@ from vgraph.io.writers import WRITABLE_EXTENSIONS, write_volume
 from vgraph.volume import Volume
 
 __all__ = ["read_volume", "write_volume", "SUPPORTED_EXTENSIONS", "WRITABLE_EXTENSIONS",
-           "FILE_FILTERS", "NonFiniteVoxelsWarning", "VolumeFileError", "file_problem"]
+           "FILE_FILTERS", "NonFiniteVoxelsWarning", "TimeStepError", "VolumeFileError",
+           "file_problem"]
 
 _READERS = {
     ".dat": read_qvis,
@@ -54,6 +58,8 @@ _READERS = {
     ".slc": read_slc, ".vti": read_vti,
 }
 SUPPORTED_EXTENSIONS: tuple[str, ...] = tuple(_READERS)
+# Readers that know a time axis take time_step; every other file holds one time point.
+_TIME_READERS = {read_nifti, read_nrrd, read_metaimage, read_npy, read_npz}
 
 # For GUI file dialogs: (label, extensions). A DICOM series is opened by picking one of its files.
 FILE_FILTERS: tuple[tuple[str, tuple[str, ...]], ...] = (
@@ -69,25 +75,34 @@ FILE_FILTERS: tuple[tuple[str, tuple[str, ...]], ...] = (
 )
 
 
-def read_volume(path, *, raw: dict | None = None) -> Volume:
-    """Load a volume file, or a DICOM series folder.
+def read_volume(path, *, raw: dict | None = None, time_step: int = 0) -> Volume:
+    """Load a volume file, or a DICOM series folder; of a file with a time axis, the time point
+    ``time_step`` (0 = the first).
 
     ``raw`` describes a headerless raw file: {'dims': (x, y, z), 'dtype': 'uint16',
     'endianness': 'little' | 'big', 'spacing': (x, y, z), 'origin': (x, y, z), 'offset': bytes}.
     Given, it forces raw reading whatever the extension."""
     path = Path(path)
+    reader = _reader_for(path, raw)
+    if reader in _TIME_READERS:
+        return reader(path, time_step=time_step)
+    check_time_step(path, time_step, 1)  # before reading a file that cannot hold it
+    return reader(path)
+
+
+def _reader_for(path: Path, raw: dict | None):
     if raw is not None:
-        return read_raw(path, raw)
+        return lambda p: read_raw(p, raw)
     if path.is_dir():
-        return read_dicom_series(path)
+        return read_dicom_series
     regular_file(path)  # before anything opens it: a FIFO would block, /dev/zero never end
     ext = extension_of(path)
     if ext == ".raw":
-        return read_raw(path)
+        return read_raw
     if ext in _READERS:
-        return _READERS[ext](path)
+        return _READERS[ext]
     if _looks_like_dicom(path):
-        return read_dicom_series(path)
+        return read_dicom_series
     raise VolumeFileError(path, f"unknown volume file type {path.suffix or '(no extension)'!r}; "
                                 f"supported: {', '.join(SUPPORTED_EXTENSIONS)}, a DICOM folder, or "
                                 f"raw={{...}} for headerless data", "extension")

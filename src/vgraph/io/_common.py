@@ -8,7 +8,10 @@ Conventions kept by every reader (docs/volumes.md says the same for users):
 - a reader either returns a complete Volume or raises ``VolumeFileError``; nothing half-loaded,
   and no size from a file is trusted before it is checked (see the Limits in docs/volumes.md);
 - float volumes with NaN/Inf voxels load, but a ``NonFiniteVoxelsWarning`` names the file and
-  the counts.
+  the counts;
+- a file with a time axis (4D NIfTI, NRRD with a ``time`` kind, 4D MetaImage, NumPy [t, z, y, x])
+  gives one time point per read, read alone where the format allows (the volume records how many
+  there are in ``time_steps``); asking for one the file does not have raises ``TimeStepError``.
 """
 
 from __future__ import annotations
@@ -39,6 +42,26 @@ MAX_HEADER_LINE = 2**20
 class NonFiniteVoxelsWarning(UserWarning):
     """A float volume holds NaN or +-Inf voxels. It was loaded; value ranges, histograms and
     textures skip or clamp those voxels."""
+
+
+class TimeStepError(VolumeFileError):
+    """The time point asked for is not in the file; ``time_steps`` is how many it holds (so that
+    VolumeSource can name its own property and the count)."""
+
+    def __init__(self, file, time_step, time_steps: int):
+        self.time_step, self.time_steps = time_step, time_steps
+        held = "1 time point (0)" if time_steps == 1 else \
+            f"{time_steps} time points (0 .. {time_steps - 1})"
+        super().__init__(file, f"time step {time_step} is out of range: the file holds {held}",
+                         "time step")
+
+
+def check_time_step(file, time_step, time_steps: int) -> int:
+    """``time_step`` as an int if the file holds it, before any data are read."""
+    if isinstance(time_step, bool) or not isinstance(time_step, (int, np.integer)) \
+            or not 0 <= time_step < time_steps:
+        raise TimeStepError(file, time_step, time_steps)
+    return int(time_step)
 
 
 # --- header values -------------------------------------------------------------------------------
@@ -242,13 +265,15 @@ def header_lines(fh, path, limit: int = MAX_HEADER_BYTES):
 
 def read_raw_array(path, dtype: np.dtype, count: int, *, offset: int = 0,
                    allow_trailing: bool = False, size_field: str | None = None,
-                   header=None) -> np.ndarray:
+                   header=None, window: tuple[int, int] | None = None) -> np.ndarray:
     """``count`` elements of ``dtype`` (any byte order) from ``path``, returned in native order.
 
     The data start ``offset`` bytes into the file (-1: they are the last bytes of the file, as
     with NRRD byte skip -1 or MetaImage HeaderSize -1). The file must end exactly where the data
     end unless ``allow_trailing`` (an explicit header size was given). ``header`` is the file to
-    blame in messages (the .dat/.nhdr/.mhd), if it is not the data file itself."""
+    blame in messages (the .dat/.nhdr/.mhd), if it is not the data file itself. ``window`` =
+    (first, number) reads only those of the ``count`` elements (one time point of several); the
+    file is still checked to hold all of them."""
     dtype = np.dtype(dtype)
     needed = count * dtype.itemsize
     blame = header if header is not None else path
@@ -258,9 +283,10 @@ def read_raw_array(path, dtype: np.dtype, count: int, *, offset: int = 0,
         raise VolumeFileError(blame, f"cannot read data file {str(path)!r}: {exc.strerror}",
                               size_field) from exc
     start = _data_start(path, blame, actual, needed, offset, allow_trailing, size_field)
-    check_memory(path, needed, size_field)
-    out = np.empty(count, dtype=dtype)
-    _read_into(path, start, out.view(np.uint8), needed)
+    first, number = (0, count) if window is None else window
+    check_memory(path, number * dtype.itemsize, size_field)
+    out = np.empty(number, dtype=dtype)
+    _read_into(path, start + first * dtype.itemsize, out.view(np.uint8), number * dtype.itemsize)
     return to_native(out, copy=False)
 
 
@@ -327,7 +353,7 @@ def raw_dtype(name, endianness: str, file, field: str) -> np.dtype:
 
 # --- the result ----------------------------------------------------------------------------------
 def make_volume(data_zyx: np.ndarray, file, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0),
-                declared_range=None) -> Volume:
+                declared_range=None, time_steps: int = 1) -> Volume:
     """Wrap a loaded [z, y, x] array; warn about (but keep) NaN/Inf voxels."""
     data = np.ascontiguousarray(to_native(np.asarray(data_zyx)))
     nonfinite = 0
@@ -342,7 +368,7 @@ def make_volume(data_zyx: np.ndarray, file, *, spacing=(1.0, 1.0, 1.0), origin=(
                 f"and histogram and clamped in textures"), stacklevel=3)
     try:
         volume = Volume(data, spacing=spacing, origin=origin, declared_range=declared_range,
-                        source=str(file))
+                        source=str(file), time_steps=time_steps)
     except VGraphError as exc:  # e.g. an unsupported dtype the header check did not foresee
         raise VolumeFileError(file, str(exc)) from exc
     volume.__dict__["nonfinite_count"] = nonfinite  # prime the cached property: counted already

@@ -40,22 +40,30 @@ class _TooLong(Exception):
 
 
 def inflate_into(target, pieces: Iterable[bytes], method: str, file, field: str, *, skip: int = 0,
-                 what: str = "the data", codec_field: str | None = None) -> None:
+                 what: str = "the data", codec_field: str | None = None,
+                 partial: bool = False) -> None:
     """Fill ``target`` (a writable buffer, e.g. a uint8 array) with the stream ``pieces``
     decompress to, after discarding its first ``skip`` bytes; the stream must hold exactly
-    ``skip + len(target)`` bytes. Size errors name ``field`` (the header field declaring the
-    size), a corrupt stream ``codec_field`` (default: the same)."""
+    ``skip + len(target)`` bytes. With ``partial`` it holds more (the later time points of a 4D
+    file): inflating stops once ``target`` is full, so reading time point 0 of a long series
+    costs one volume. Size errors name ``field`` (the header field declaring the size), a
+    corrupt stream ``codec_field`` (default: the same)."""
     view = memoryview(target).cast("B")
     expected = skip + len(view)
     done = 0
     try:
-        for data in _inflated(pieces, method, expected, file, codec_field or field, what):
+        for data in _inflated(pieces, method, expected, file, codec_field or field, what,
+                              partial=partial):
             if done + len(data) > expected:
-                raise _TooLong
+                if not partial:
+                    raise _TooLong
+                data = data[:expected - done]
             start = max(skip - done, 0)
             if start < len(data):
                 view[done + start - skip:done + len(data) - skip] = data[start:]
             done += len(data)
+            if partial and done >= expected:
+                return
     except _TooLong:
         raise VolumeFileError(file, f"{what} decompress to more than the {expected} bytes the "
                                     f"header declares", field) from None
@@ -110,8 +118,10 @@ def memory_pieces(blob) -> Iterator[bytes]:
         yield view[start:start + INPUT_CHUNK_BYTES]
 
 
-def _inflated(pieces, method: str, limit: int, file, field: str, what: str) -> Iterator[bytes]:
-    """Decompressed output, piece by piece; raises _TooLong once it has passed ``limit`` bytes."""
+def _inflated(pieces, method: str, limit: int, file, field: str, what: str,
+              partial: bool = False) -> Iterator[bytes]:
+    """Decompressed output, piece by piece; raises _TooLong once it has passed ``limit`` bytes
+    (with ``partial`` the caller stops reading at ``limit`` instead)."""
     new, magic = _METHODS[method]
     decompressor, ended, produced = new(), False, 0
     try:
@@ -127,7 +137,9 @@ def _inflated(pieces, method: str, limit: int, file, field: str, what: str) -> I
                 produced += len(out)
                 if out:
                     yield out  # even the piece that passes the limit: a prefix reader wants it
-                if produced > limit:
+                if produced > limit or (partial and produced >= limit):
+                    if partial:  # never ask for more: max_length 0 would mean 'unlimited'
+                        return
                     raise _TooLong
                 ended = decompressor.eof
                 data = decompressor.unused_data if ended else b""

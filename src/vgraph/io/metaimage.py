@@ -1,8 +1,9 @@
 """MetaImage volumes (ITK/VTK): .mhd text header + data file, or .mha with the data attached.
 
 Header ``Key = value`` fields read (keys as MetaIO writes them):
-  NDims                          2 or 3
-  DimSize                        x y z voxel counts
+  NDims                          2, 3 or 4 (the 4th axis is time, as in ITK's 4D images: one time
+                                 point is read, the volume's time_steps counts them)
+  DimSize                        x y z [t] voxel counts
   ElementType                    MET_UCHAR, MET_CHAR, MET_USHORT, MET_SHORT, MET_UINT, MET_INT,
                                  MET_LONG (4 bytes), MET_ULONG, MET_LONG_LONG, MET_ULONG_LONG,
                                  MET_FLOAT, MET_DOUBLE
@@ -29,8 +30,8 @@ import numpy as np
 
 from vgraph.errors import VolumeFileError
 from vgraph.io._common import (check_dims, check_memory, check_origin, check_spacing,
-                               header_lines, make_volume, parse_numbers, read_raw_array,
-                               regular_file, to_native)
+                               check_time_step, header_lines, make_volume, parse_numbers,
+                               read_raw_array, regular_file, to_native)
 from vgraph.io._inflate import file_pieces, inflate_into
 from vgraph.volume import Volume
 
@@ -42,17 +43,22 @@ ELEMENT_TYPES = {
 _TRUE = ("true", "1", "yes")
 
 
-def read_metaimage(path) -> Volume:
+def read_metaimage(path, time_step: int = 0) -> Volume:
     path = regular_file(path)
     fields, data_offset = parse_header(path)
     if "ElementDataFile" not in fields:
         raise VolumeFileError(path, "required field is missing", "ElementDataFile")
     ndims = parse_numbers(fields.get("NDims", "3"), path, "NDims", 1, int)[0]
-    if ndims not in (2, 3):
-        raise VolumeFileError(path, f"only 2D and 3D images are supported, got NDims = {ndims}",
-                              "NDims")
+    if ndims not in (2, 3, 4):
+        raise VolumeFileError(path, f"only 2D, 3D and 3D + time images are supported, got "
+                                    f"NDims = {ndims}", "NDims")
     sizes = parse_numbers(_required(fields, "DimSize", path), path, "DimSize", ndims, int)
-    dims = check_dims(sizes + [1] * (3 - ndims), path, "DimSize")
+    dims = check_dims(sizes[:3] + [1] * (3 - ndims), path, "DimSize")
+    time_steps = sizes[3] if ndims == 4 else 1
+    if time_steps < 1:
+        raise VolumeFileError(path, f"the time axis must hold at least 1 point, got {time_steps}",
+                              "DimSize")
+    time_step = check_time_step(path, time_step, time_steps)
     channels = parse_numbers(fields.get("ElementNumberOfChannels", "1"), path,
                              "ElementNumberOfChannels", 1, int)[0]
     if channels != 1:
@@ -62,9 +68,10 @@ def read_metaimage(path) -> Volume:
         raise VolumeFileError(path, "ASCII MetaImage data are not supported", "BinaryData")
     dtype = _dtype(fields, path)
     count = dims[0] * dims[1] * dims[2]
-    flat = _read_data(path, fields, data_offset, dtype, count)
+    flat = _read_data(path, fields, data_offset, dtype, count, time_step, time_steps)
     return make_volume(flat.reshape(dims[::-1]), path, spacing=_spacing(fields, path, ndims),
-                       origin=_origin(fields, path, ndims), declared_range=_range(fields, path))
+                       origin=_origin(fields, path, ndims), declared_range=_range(fields, path),
+                       time_steps=time_steps)
 
 
 def parse_header(path: Path) -> tuple[dict[str, str], int]:
@@ -104,7 +111,9 @@ def _dtype(fields: dict, path: Path) -> np.dtype:
     return np.dtype((">" if msb.lower() in _TRUE else "<") + ELEMENT_TYPES[name])
 
 
-def _read_data(path: Path, fields: dict, data_offset: int, dtype: np.dtype, count: int):
+def _read_data(path: Path, fields: dict, data_offset: int, dtype: np.dtype, count: int,
+               time_step: int = 0, time_steps: int = 1):
+    """The ``count`` values of one time point; the data file must hold all of them."""
     name = fields["ElementDataFile"]
     if not name:
         raise VolumeFileError(path, "no file name", "ElementDataFile")
@@ -116,37 +125,40 @@ def _read_data(path: Path, fields: dict, data_offset: int, dtype: np.dtype, coun
         if "HeaderSize" in fields else None
     if fields.get("CompressedData", "False").lower() in _TRUE:
         start = data_offset if local else max(header_size or 0, 0)
-        return _read_compressed(path, data_file, start, dtype, count)
+        return _read_compressed(path, data_file, start, dtype, count, time_step, time_steps)
     if local:
         offset = data_offset + (header_size or 0) if header_size != -1 else -1
     else:
         offset = 0 if header_size is None else header_size
-    return read_raw_array(data_file, dtype, count, offset=offset,
+    return read_raw_array(data_file, dtype, count * time_steps, offset=offset,
                           allow_trailing=header_size is not None, size_field="DimSize",
-                          header=None if local else path)
+                          header=None if local else path, window=(time_step * count, count))
 
 
-def _read_compressed(path, data_file, start, dtype, count) -> np.ndarray:
+def _read_compressed(path, data_file, start, dtype, count, time_step, time_steps) -> np.ndarray:
+    """One time point of a zlib stream; inflating stops after it."""
     check_memory(path, count * dtype.itemsize, "DimSize")
     out = np.empty(count, dtype=dtype)
     inflate_into(out.view(np.uint8), file_pieces(data_file, start, path, "ElementDataFile"), "zlib",
-                 path, "DimSize", codec_field="CompressedData")
+                 path, "DimSize", codec_field="CompressedData",
+                 skip=time_step * count * dtype.itemsize, partial=time_step < time_steps - 1)
     return to_native(out, copy=False)
 
 
 def _spacing(fields: dict, path: Path, ndims: int):
+    """(x, y, z); a 4D image's 4th value (the time step) is not a length."""
     for key in ("ElementSpacing", "ElementSize"):
         if key in fields:
-            values = parse_numbers(fields[key], path, key, ndims)
-            return check_spacing(values + [1.0] * (3 - ndims), path, key)
+            values = parse_numbers(fields[key], path, key, ndims)[:3]
+            return check_spacing(values + [1.0] * (3 - len(values)), path, key)
     return (1.0, 1.0, 1.0)
 
 
 def _origin(fields: dict, path: Path, ndims: int):
     for key in ("Offset", "Origin", "Position"):
         if key in fields:
-            values = parse_numbers(fields[key], path, key, ndims)
-            return check_origin(values + [0.0] * (3 - ndims), path, key)
+            values = parse_numbers(fields[key], path, key, ndims)[:3]
+            return check_origin(values + [0.0] * (3 - len(values)), path, key)
     return (0.0, 0.0, 0.0)
 
 

@@ -6,7 +6,9 @@ an exact size: a .nii.gz stream must decompress to exactly vox_offset + the data
 may have bytes after the data.
 
 Header fields used:
-  dim          voxel counts (x, y, z[, t = 1]); a 4th axis longer than 1 is refused
+  dim          voxel counts (x, y, z[, t]); the 4th axis is time: one time point is read (only
+               its bytes, from a .nii; inflating stops after it in a .nii.gz) and the volume's
+               time_steps says how many there are. A 5th axis (vectors, tensors) is refused.
   datatype     stored type (uint8 ... float64; complex and RGB are refused)
   pixdim[1:4]  spacing (x, y, z) = nibabel's zooms; a zero pixdim is replaced by 1 with a warning
   sform/qform  origin = translation column of nibabel's affine (sform if set, else qform)
@@ -33,8 +35,8 @@ import nibabel as nib
 import numpy as np
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import (MAX_HEADER_BYTES, check_memory, check_origin, make_volume,
-                               pad_to_3d, read_raw_array, regular_file, to_native)
+from vgraph.io._common import (MAX_HEADER_BYTES, check_memory, check_origin, check_time_step,
+                               make_volume, pad_to_3d, read_raw_array, regular_file, to_native)
 from vgraph.io._inflate import file_pieces, inflate_into, inflated_prefix
 from vgraph.io._values import rescaled
 from vgraph.volume import Volume
@@ -47,11 +49,12 @@ _FIXES_LOG.propagate = False
 _HEADERS = {348: (nib.Nifti1Header, 108, "f4"), 540: (nib.Nifti2Header, 168, "i8")}
 
 
-def read_nifti(path) -> Volume:
+def read_nifti(path, time_step: int = 0) -> Volume:
     path = regular_file(path)
     gzipped = path.name.lower().endswith(".gz")
     header = _header(path, gzipped)
-    dims = pad_to_3d(_checked(path, "dim", header.get_data_shape), path, "dim")
+    dims, time_steps = _dims_and_time(_checked(path, "dim", header.get_data_shape), path)
+    time_step = check_time_step(path, time_step, time_steps)
     stored = np.dtype(_checked(path, "datatype", header.get_data_dtype))
     if stored.kind not in "uif" or stored.fields is not None:
         raise VolumeFileError(path, f"unsupported datatype {stored} (scalar integer or float only)",
@@ -60,14 +63,32 @@ def read_nifti(path) -> Volume:
     count = dims[0] * dims[1] * dims[2]
     # the stored array + its [z, y, x] copy (+ the scaled result, float64 at most)
     check_memory(path, count * (2 * stored.itemsize + (8 if (slope, inter) != (1, 0) else 0)), "dim")
-    flat = _stored_values(path, gzipped, header.get_data_offset(), stored, count)
+    flat = _stored_values(path, gzipped, header.get_data_offset(), stored, count,
+                          time_step, time_steps)
     data = np.ascontiguousarray(flat.reshape(dims, order="F").T)
     if (slope, inter) != (1.0, 0.0):
         data = rescaled(data, slope, inter)
     affine = _checked(path, "qform/sform", header.get_best_affine)
     return make_volume(data, path, spacing=_spacing(header, path),
                        origin=check_origin(affine[:3, 3], path, "qoffset/srow"),
-                       declared_range=_declared_range(header))
+                       declared_range=_declared_range(header), time_steps=time_steps)
+
+
+def _dims_and_time(shape, path: Path) -> tuple[tuple[int, int, int], int]:
+    """(x, y, z) voxel counts and the number of time points (dim[4]); trailing axes of size 1
+    carry nothing, a 5th axis longer than 1 (vector or tensor data) is refused."""
+    shape = [int(s) for s in shape]
+    while len(shape) > 3 and shape[-1] == 1:
+        shape.pop()
+    if len(shape) > 4:
+        raise VolumeFileError(path, f"expected a 3D volume or a time series of them, got "
+                                    f"{len(shape)} axes with sizes {tuple(shape)} (vector or "
+                                    f"tensor data are not supported)", "dim")
+    time_steps = shape.pop() if len(shape) == 4 else 1
+    if time_steps < 1:
+        raise VolumeFileError(path, f"the time axis must hold at least 1 point, got {time_steps}",
+                              "dim")
+    return pad_to_3d(shape, path, "dim"), time_steps
 
 
 def _header(path: Path, gzipped: bool):
@@ -125,15 +146,19 @@ def _checked(path: Path, field: str, compute):
         raise VolumeFileError(path, f"not a readable NIfTI header: {exc}", field) from exc
 
 
-def _stored_values(path: Path, gzipped: bool, offset: int, stored: np.dtype, count: int):
-    """The ``count`` stored values after ``offset``, flat, native byte order; a .nii.gz stream
-    must end where they do."""
+def _stored_values(path: Path, gzipped: bool, offset: int, stored: np.dtype, count: int,
+                   time_step: int, time_steps: int):
+    """The ``count`` stored values of time point ``time_step`` (of ``time_steps`` stored one
+    after the other from ``offset``), flat, native byte order. A .nii must hold every time point;
+    a .nii.gz stream must end where the last one does, which is checked only when reading it:
+    inflating stops after the time point asked for."""
     if not gzipped:
-        return read_raw_array(path, stored, count, offset=offset, allow_trailing=True,
-                              size_field="dim")
+        return read_raw_array(path, stored, count * time_steps, offset=offset, allow_trailing=True,
+                              size_field="dim", window=(time_step * count, count))
     out = np.empty(count, dtype=stored)
     inflate_into(out.view(np.uint8), file_pieces(path, 0, path, "dim"), "gzip", path, "dim",
-                 skip=offset)
+                 skip=offset + time_step * count * stored.itemsize,
+                 partial=time_step < time_steps - 1)
     return to_native(out, copy=False)
 
 

@@ -51,23 +51,31 @@ class _Layout:
 
 
 def read_data(path: Path, header: dict, dtype: np.dtype, count: int, data_offset: int,
-              listed_files: list[str] | None) -> np.ndarray:
-    """The ``count`` values of ``dtype`` the header describes, flat, in native byte order."""
+              listed_files: list[str] | None, *, first: int = 0,
+              total: int | None = None) -> np.ndarray:
+    """``count`` values of ``dtype`` from value ``first`` on of the ``total`` (default: count)
+    the header describes, flat, in native byte order. Only the data files holding them are
+    read (one time point of a 4D file), and of those only the bytes needed where the encoding
+    allows (raw: a seek; compressed: inflating stops after them)."""
+    total = count if total is None else total
     encoding = _encoding(header, path)
     byte_skip, line_skip, explicit_skip = _skips(header, path, encoding)
     check_memory(path, count * dtype.itemsize, "sizes")
     data_file = header.get("data file", header.get("datafile"))
     if data_file is None:
-        sources, per_file = [(path, data_offset)], count
+        sources, per_file = [(path, data_offset)], total
     else:
-        files, per_file = _data_files(path, str(data_file), listed_files, header, count)
+        files, per_file = _data_files(path, str(data_file), listed_files, header, total)
         sources = [(file, 0) for file in files]
     layout = _Layout(encoding, dtype, per_file, byte_skip, line_skip, explicit_skip)
-    if len(sources) == 1:
-        return _read_part(path, *sources[0], layout)
+    wanted = range(first // per_file, (first + count - 1) // per_file + 1)
+    if len(wanted) == 1 and per_file == count:
+        return _read_part(path, *sources[wanted[0]], layout)
     out = np.empty(count, dtype=dtype.newbyteorder("="))
-    for index, (file, start) in enumerate(sources):
-        out[index * per_file:(index + 1) * per_file] = _read_part(path, file, start, layout)
+    for index in wanted:
+        lo, hi = max(first, index * per_file), min(first + count, (index + 1) * per_file)
+        out[lo - first:hi - first] = _read_part(path, *sources[index], layout,
+                                                skip=lo - index * per_file, take=hi - lo)
     return out
 
 
@@ -174,22 +182,27 @@ def _numbered_names(pattern: str, first: int, step: int, number: int, path: Path
 
 
 # --- one data file -------------------------------------------------------------------------------
-def _read_part(header_path, file, start: int, layout: _Layout) -> np.ndarray:
-    """The values of one data file (or of the attached data, from ``start``), native order."""
+def _read_part(header_path, file, start: int, layout: _Layout, skip: int = 0,
+               take: int | None = None) -> np.ndarray:
+    """Values ``skip`` .. ``skip + take`` of one data file (or of the attached data, from
+    ``start``), native order; by default all of them."""
+    take = layout.values - skip if take is None else take
     blame = None if file == header_path else header_path
     start = _after_lines(file, start, layout.line_skip, header_path)
     if layout.encoding == "raw":
         offset = -1 if layout.byte_skip == -1 else start + layout.byte_skip
         return read_raw_array(file, layout.dtype, layout.values, offset=offset,
-                              allow_trailing=layout.explicit_skip, size_field="sizes", header=blame)
+                              allow_trailing=layout.explicit_skip, size_field="sizes", header=blame,
+                              window=(skip, take))
     pieces = file_pieces(file, start, header_path, "data file")
-    if layout.encoding == "ascii":
+    if layout.encoding == "ascii":  # text cannot be skipped unparsed; ascii files are small
         return ascii_values(_skipped(pieces, layout.byte_skip), layout.dtype, layout.values,
-                            header_path, "sizes")
-    out = np.empty(layout.values, dtype=layout.dtype)
+                            header_path, "sizes")[skip:skip + take]
+    out = np.empty(take, dtype=layout.dtype)
     inflate_into(out.view(np.uint8), pieces, layout.encoding, header_path, "sizes",
-                 skip=layout.byte_skip, codec_field="encoding",
-                 what="the data" if blame is None else f"data file {str(file)!r}")
+                 skip=layout.byte_skip + skip * layout.dtype.itemsize, codec_field="encoding",
+                 what="the data" if blame is None else f"data file {str(file)!r}",
+                 partial=skip + take < layout.values)
     return to_native(out, copy=False)
 
 

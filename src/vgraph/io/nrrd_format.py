@@ -1,7 +1,9 @@
 """NRRD volumes: attached (.nrrd) and detached (.nhdr) headers, parsed with pynrrd.
 
 Header fields read (http://teem.sourceforge.net/nrrd/format.html):
-  dimension, sizes (x y z; a 2D image is one slice), type, endian, encoding, byte skip, line skip,
+  dimension, sizes (x y z; a 2D image is one slice; a last axis whose ``kinds`` entry is
+             ``time`` holds time points: one is read, the volume's time_steps counts them),
+  kinds      (only to find a time axis), type, endian, encoding, byte skip, line skip,
   data file  (one file; ``name.%d <min> <max> <step> [<subdim>]``; or ``LIST [<subdim>]`` with one
              file name per following line), spacings or space directions (spacing = length of each
              axis vector; the orientation itself is not applied), space origin (origin),
@@ -20,8 +22,8 @@ import nrrd
 import numpy as np
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import (check_origin, check_spacing, header_lines, make_volume, pad_to_3d,
-                               regular_file)
+from vgraph.io._common import (check_origin, check_spacing, check_time_step, header_lines,
+                               make_volume, pad_to_3d, regular_file)
 from vgraph.io.nrrd_data import MAX_DATA_FILES, read_data
 from vgraph.volume import Volume
 
@@ -41,7 +43,7 @@ _TYPES = {
 _TYPE_CODES = {name: code for code, names in _TYPES.items() for name in names}
 
 
-def read_nrrd(path) -> Volume:
+def read_nrrd(path, time_step: int = 0) -> Volume:
     path = regular_file(path)
     lines, data_offset, listed_files = _split_header(path)
     header = _parsed_header(lines, path)
@@ -51,14 +53,33 @@ def read_nrrd(path) -> Volume:
     if len(header["sizes"]) != header["dimension"]:
         raise VolumeFileError(path, f"dimension is {header['dimension']} but sizes lists "
                                     f"{len(header['sizes'])} values", "sizes")
-    dims = pad_to_3d(header["sizes"], path, "sizes")
+    dims, time_steps = _dims_and_time(header, path)
+    time_step = check_time_step(path, time_step, time_steps)
     dtype = _dtype(header, path)
     count = dims[0] * dims[1] * dims[2]
     spacing, origin = _spacing(header, path), _origin(header, path)
     declared = _declared_range(header, path)
-    flat = read_data(path, header, dtype, count, data_offset, listed_files)
+    flat = read_data(path, header, dtype, count, data_offset, listed_files,
+                     first=time_step * count, total=count * time_steps)
     return make_volume(flat.reshape(dims[::-1]), path, spacing=spacing, origin=origin,
-                       declared_range=declared)
+                       declared_range=declared, time_steps=time_steps)
+
+
+def _dims_and_time(header: dict, path: Path) -> tuple[tuple[int, int, int], int]:
+    """(x, y, z) voxel counts and the number of time points: the last axis is time when its
+    ``kinds`` entry says so (the only way a NRRD tells time from a 4th spatial or vector axis)."""
+    sizes = [int(s) for s in header["sizes"]]
+    kinds = [str(k).lower() for k in header.get("kinds", [])]
+    if len(sizes) in (3, 4) and len(kinds) == len(sizes) and kinds[-1] == "time":
+        return pad_to_3d(sizes[:-1], path, "sizes"), max(sizes[-1], 1)
+    while len(sizes) > 3 and sizes[-1] == 1:  # trailing axes of size 1 carry nothing
+        sizes.pop()
+    if len(sizes) > 3:
+        raise VolumeFileError(path, f"expected a 3D scalar volume, got {len(sizes)} axes with "
+                                    f"sizes {tuple(sizes)}; a 4th axis is read as time when "
+                                    f"'kinds' marks it so (e.g. kinds: domain domain domain time)",
+                              "sizes")
+    return pad_to_3d(sizes, path, "sizes"), 1
 
 
 def _parsed_header(lines: list[str], path: Path) -> dict:

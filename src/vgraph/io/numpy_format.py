@@ -1,7 +1,9 @@
 """NumPy volumes: .npy (one array) and .npz (an archive).
 
 Arrays are indexed [z, y, x] (x fastest), the Volume order, so nothing is transposed. A 2D array
-[y, x] is one slice. A .npy file carries no geometry: spacing (1, 1, 1), origin (0, 0, 0).
+[y, x] is one slice. A 4D array is [t, z, y, x], time slowest as the axis order implies: one time
+point is read (from a C-ordered array only its bytes; a Fortran-ordered one is read whole) and
+the volume's time_steps counts them. A .npy file carries no geometry: spacing (1, 1, 1), origin (0, 0, 0).
 A .npz archive holds either a single array (any key, e.g. ``arr_0``) or the keys written by
 vgraph: ``data`` plus optional ``spacing`` (x, y, z), ``origin`` (x, y, z) and ``value_range``
 (lo, hi). Pickled (object) arrays are refused.
@@ -20,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import (check_memory, check_origin, check_spacing, make_volume,
-                               open_capped, read_raw_array, regular_file, to_native)
+from vgraph.io._common import (check_memory, check_origin, check_spacing, check_time_step,
+                               make_volume, open_capped, read_raw_array, regular_file, to_native)
 from vgraph.volume import Volume
 
 METADATA_KEYS = ("spacing", "origin", "value_range")
@@ -34,7 +36,7 @@ _READ_CHUNK = 16 * 2**20
 _MAX_NPY_HEADER = 65536
 
 
-def read_npy(path) -> Volume:
+def read_npy(path, time_step: int = 0) -> Volume:
     path = regular_file(path)
     try:
         with open(path, "rb") as fh:
@@ -42,18 +44,27 @@ def read_npy(path) -> Volume:
     except OSError as exc:
         raise VolumeFileError(path, f"cannot read the file: {exc.strerror}", "header") from exc
     _check_shape_dtype(path, "shape", shape, dtype)
-    flat = read_raw_array(path, dtype, math.prod(shape), offset=data_offset, size_field="shape")
-    return make_volume(_as_zyx(flat, shape, fortran), path)
+    time_steps = shape[0] if len(shape) == 4 else 1
+    time_step = check_time_step(path, time_step, time_steps)
+    if fortran and time_steps > 1:  # time varies fastest on disk: read whole, then pick
+        flat = read_raw_array(path, dtype, math.prod(shape), offset=data_offset, size_field="shape")
+        array = _as_zyx(flat, shape, fortran)[time_step]
+    else:
+        count = math.prod(shape[-3:]) if time_steps > 1 else math.prod(shape)
+        flat = read_raw_array(path, dtype, count * time_steps, offset=data_offset,
+                              size_field="shape", window=(time_step * count, count))
+        array = _as_zyx(flat, shape[-3:] if time_steps > 1 else shape, fortran)
+    return make_volume(array, path, time_steps=time_steps)
 
 
-def read_npz(path) -> Volume:
+def read_npz(path, time_step: int = 0) -> Volume:
     """The data member is read by streaming it out of the archive: its npy header says how many
     bytes to expect, the zip directory must agree, and nothing beyond them is inflated."""
     path = regular_file(path)
     try:
         with open_capped(path) as fh, zipfile.ZipFile(fh) as archive:
             key, others = _npz_data_key(archive, path)
-            array = _member_array(archive, key, path)
+            array, time_steps = _member_array(archive, key, path, time_step=time_step)
             meta = {name: _member_array(archive, name, path, metadata=True) for name in others}
     except _ARCHIVE_ERRORS as exc:
         raise VolumeFileError(path, f"not a readable .npz archive: {type(exc).__name__}: {exc}",
@@ -67,7 +78,8 @@ def read_npz(path) -> Volume:
             raise VolumeFileError(path, f"need finite low < high, got {meta['value_range']}",
                                   "value_range")
         declared = (lo, hi)
-    return make_volume(array, path, spacing=spacing, origin=origin, declared_range=declared)
+    return make_volume(array, path, spacing=spacing, origin=origin, declared_range=declared,
+                       time_steps=time_steps)
 
 
 def write_npy(volume: Volume, fh) -> None:
@@ -92,8 +104,11 @@ def _npz_data_key(archive: zipfile.ZipFile, path: Path) -> tuple[str, list[str]]
                           "keys")
 
 
-def _member_array(archive: zipfile.ZipFile, key: str, path: Path, metadata: bool = False):
-    """One .npy member: the data as a [z, y, x] array, or a metadata vector of a few numbers."""
+def _member_array(archive: zipfile.ZipFile, key: str, path: Path, metadata: bool = False,
+                  time_step: int = 0):
+    """One .npy member: the data as a [z, y, x] array of time point ``time_step`` and the number
+    of time points, or a metadata vector of a few numbers. Of a C-ordered 4D array only the bytes
+    up to the end of that time point are inflated."""
     info = archive.getinfo(key + ".npy")
     if info.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED):
         # zipfile inflates bzip2 and LZMA members without an output limit; numpy writes neither
@@ -104,24 +119,46 @@ def _member_array(archive: zipfile.ZipFile, key: str, path: Path, metadata: bool
     with archive.open(info) as member:
         shape, fortran, dtype, header_size = _npy_header(member, path, key)
         member.seek(header_size)  # back to the data, after the bytes _npy_header took
-        count = math.prod(shape)
         if metadata:
             _check_metadata(path, key, shape, dtype)
         else:
             _check_shape_dtype(path, key, shape, dtype)
-        needed = count * dtype.itemsize
+        needed = math.prod(shape) * dtype.itemsize
         if info.file_size != header_size + needed:
             raise VolumeFileError(path, f"the member holds {info.file_size - header_size} data "
                                         f"bytes but its header declares {needed} (shape {shape} "
                                         f"{dtype})", key)
-        check_memory(path, needed, key)
+        time_steps = shape[0] if len(shape) == 4 and not metadata else 1
+        time_step = check_time_step(path, time_step, time_steps)
+        whole = time_steps == 1 or fortran  # Fortran order: time varies fastest, read it all
+        count = math.prod(shape) if whole else math.prod(shape[1:])
+        check_memory(path, count * dtype.itemsize, key)
+        if not whole:
+            _discard(member, time_step * count * dtype.itemsize, path, key)
         flat = np.empty(count, dtype=dtype)
-        _fill_from(member, flat.view(np.uint8), path, key)
+        _fill_from(member, flat.view(np.uint8), path, key,
+                   last=whole or time_step == time_steps - 1)
     flat = to_native(flat, copy=False)
-    return flat if metadata else _as_zyx(flat, shape, fortran)
+    if metadata:
+        return flat
+    if whole:
+        array = _as_zyx(flat, shape, fortran)
+        return (array[time_step] if time_steps > 1 else array), time_steps
+    return _as_zyx(flat, shape[1:], False), time_steps
 
 
-def _fill_from(member, target: np.ndarray, path: Path, key: str) -> None:
+def _discard(member, nbytes: int, path: Path, key: str) -> None:
+    """Skip the earlier time points of a 4D member (zip members cannot seek cheaply)."""
+    while nbytes > 0:
+        chunk = member.read(min(_READ_CHUNK, nbytes))
+        if not chunk:
+            raise VolumeFileError(path, "the member ends before the time point asked for", key)
+        nbytes -= len(chunk)
+
+
+def _fill_from(member, target: np.ndarray, path: Path, key: str, last: bool = True) -> None:
+    """Fill ``target`` from the member; unless more (later time points) follows, the member
+    must end there."""
     view, done = memoryview(target), 0
     while done < len(view):
         chunk = member.read(min(_READ_CHUNK, len(view) - done))
@@ -130,7 +167,7 @@ def _fill_from(member, target: np.ndarray, path: Path, key: str) -> None:
                                   key)
         view[done:done + len(chunk)] = chunk
         done += len(chunk)
-    if member.read(1):  # also where zipfile checks the member's CRC
+    if last and member.read(1):  # also where zipfile checks the member's CRC
         raise VolumeFileError(path, "the member holds more data than its header declares", key)
 
 
@@ -152,8 +189,9 @@ def _npy_header(fh, path: Path, field: str):
 def _check_shape_dtype(path, field, shape, dtype) -> None:
     if dtype.kind not in "uif" or dtype.itemsize > 8:
         raise VolumeFileError(path, f"unsupported dtype {dtype} (need integer or float)", field)
-    if len(shape) not in (2, 3):
-        raise VolumeFileError(path, f"expected a [z, y, x] array, got shape {shape}", field)
+    if len(shape) not in (2, 3, 4):
+        raise VolumeFileError(path, f"expected a [z, y, x] (or [t, z, y, x]) array, got shape "
+                                    f"{shape}", field)
     if min(shape) <= 0:
         raise VolumeFileError(path, f"every dimension must be at least 1, got shape (z, y, x) = "
                                     f"{shape}", field)
