@@ -56,9 +56,13 @@ def test_percentile_positions_follow_the_data():
     data = np.concatenate([np.zeros(500), np.linspace(100, 200, 500)]).reshape(10, 10, 10)
     tf = TransferFunction(space="percentile", points=[(40.0, 0, 0, 0, 0), (75.0, 1, 1, 1, 1)])
     resolved = tf.for_volume(Volume(data))
-    assert resolved.points[0] == (0.0, 0.0, 0.0, 0.0, 0.0)  # the 40th percentile is the zeros
-    expected = np.percentile(data, 75) / 200.0
-    assert resolved.points[1][0] == pytest.approx(expected, abs=1e-4)
+    positions = [p[0] for p in resolved.points]
+    # The 40th percentile is among the zeros (to the histogram's resolution, 200 / 65536) ...
+    assert positions[0] == 0.0 and positions[1] == pytest.approx(0.0, abs=200 / 65536 / 200)
+    # ... the 75th is np.percentile's.
+    assert positions[-1] == 1.0 and resolved.points[-1][1:] == (1.0, 1.0, 1.0, 1.0)
+    assert resolved(np.percentile(data, 75) / 200.0)[3] == pytest.approx(1.0, abs=1e-4)
+    assert resolved(np.percentile(data, 57.5) / 200.0)[3] == pytest.approx(0.5, abs=1e-3)
     with pytest.raises(ValueError, match="for_volume"):
         tf(0.5)
 
@@ -83,7 +87,7 @@ def test_a_property_takes_a_preset_name_or_a_file_relative_to_the_network(tmp_pa
     network.set("rc.transfer_function", "mine.json")
     assert network.get("rc.transfer_function") == PRESETS["rainbow"]
     with pytest.raises(PropertyError, match="rc.transfer_function: .*'bone' is neither a preset "
-                                            r"\(grayscale, ct-bone"):
+                                            r"\(auto, grayscale, ct-bone"):
         network.set("rc.transfer_function", "bone")
 
 
