@@ -217,8 +217,7 @@ class Layout:
     """Pixel geometry relative to the bar's top-left corner, then shifted into the corner."""
     bar: tuple[int, int, int, int]          # x, y, width, height
     ticks: list[tuple[float, float, float, float]]  # line end points
-    texts: list[tuple[float, float, str, str]]      # x, y, anchor, text
-    font: ImageFont.FreeTypeFont
+    texts: list[tuple[ImageFont.FreeTypeFont, float, float, str, str]]  # font, x, y, anchor, text
     line_width: int
     padding: int
 
@@ -229,17 +228,16 @@ def layout(bar: ColorBar, width: int, height: int, labels: list[str], title: str
     vertical = bar.orientation == "vertical"
     length = round(bar.length * (height if vertical else width))
     for _ in range(2):
-        parts = _parts(bar, short, max(2, length), labels, title)
+        parts = _parts(bar, width, short, max(2, length), labels, title)
         x0, y0, x1, y1 = _extent(parts)
         room = (height if vertical else width) - 2 * (_margin(short) + parts.padding)
         excess = (y1 - y0 if vertical else x1 - x0) - room
         if excess <= 0:
             break
         length -= math.ceil(excess)
-    dx = (width - _margin(short) - parts.padding - x1 if bar.corner.endswith("right")
-          else _margin(short) + parts.padding - x0)
-    dy = (_margin(short) + parts.padding - y0 if bar.corner.startswith("top")
-          else height - _margin(short) - parts.padding - y1)
+    inset = _margin(short) + parts.padding
+    dx = width - inset - x1 if bar.corner.endswith("right") else inset - x0
+    dy = inset - y0 if bar.corner.startswith("top") else height - inset - y1
     return _shifted(parts, round(dx), round(dy))
 
 
@@ -247,39 +245,49 @@ def _margin(short: int) -> int:
     return max(2, round(0.03 * short))
 
 
-def _parts(bar: ColorBar, short: int, length: int, labels: list[str], title: str) -> Layout:
+def _fitting_font(text: str, size: int, room: float) -> ImageFont.FreeTypeFont:
+    """The default font at ``size`` pixels, smaller (down to 8) while ``text`` is wider than ``room``."""
+    font = ImageFont.load_default(size=size)
+    while size > 8 and font.getlength(text) > room:
+        size -= 1
+        font = ImageFont.load_default(size=size)
+    return font
+
+
+def _parts(bar: ColorBar, width: int, short: int, length: int, labels: list[str], title: str) -> Layout:
     font_px = max(10, round(bar.font_size * short))  # smaller is unreadable
     font = ImageFont.load_default(size=font_px)
     thick = max(2, round(bar.thickness * short))
     tick, gap = max(2, font_px // 3), max(2, font_px // 4)
     n = len(labels)
     ticks, texts = [], []
+    title_font = _fitting_font(title, font_px, width - 2 * (_margin(short) + gap))
     if bar.orientation == "vertical":
         size = (thick, length)
         for i, label in enumerate(labels):  # low values at the bottom
             y = (length - 1) * (1 - i / (n - 1)) + 0.5
             ticks.append((thick, y, thick + tick, y))
-            texts.append((thick + tick + gap, y, "lm", label))
+            texts.append((font, thick + tick + gap, y, "lm", label))
         label_right = thick + tick + gap + max(font.getlength(t) for t in labels)
         if title:
             right = bar.corner.endswith("right")
-            texts.append((label_right if right else 0, -gap, "rd" if right else "ld", title))
+            texts.append((title_font, label_right if right else 0, -gap, "rd" if right else "ld", title))
     else:
         size = (length, thick)
         for i, label in enumerate(labels):
             x = (length - 1) * i / (n - 1) + 0.5
             ticks.append((x, thick, x, thick + tick))
-            texts.append((x, thick + tick + gap, "mt", label))
+            texts.append((font, x, thick + tick + gap, "mt", label))
         if title:
-            texts.append((length / 2, -gap, "md", title))
-    return Layout((0, 0, *size), ticks, texts, font, max(1, font_px // 12), gap)
+            texts.append((title_font, length / 2, -gap, "md", title))
+    return Layout((0, 0, *size), ticks, texts, max(1, font_px // 12), gap)
 
 
 def _extent(parts: Layout) -> tuple[float, float, float, float]:
     x, y, w, h = parts.bar
     boxes = [(x, y, x + w, y + h)] + [(a, b, c + 1, d + 1) for a, b, c, d in parts.ticks]
-    for tx, ty, anchor, text in parts.texts:
-        left, top, right, bottom = parts.font.getbbox(text, anchor=anchor)
+    for font, tx, ty, anchor, text in parts.texts:
+        left, top, right, bottom = font.getbbox(text, anchor=anchor)
         boxes.append((tx + left, ty + top, tx + right, ty + bottom))
     return (min(b[0] for b in boxes), min(b[1] for b in boxes),
             max(b[2] for b in boxes), max(b[3] for b in boxes))
@@ -288,8 +296,8 @@ def _extent(parts: Layout) -> tuple[float, float, float, float]:
 def _shifted(parts: Layout, dx: int, dy: int) -> Layout:
     x, y, w, h = parts.bar
     return Layout((x + dx, y + dy, w, h), [(a + dx, b + dy, c + dx, d + dy) for a, b, c, d in parts.ticks],
-                  [(tx + dx, ty + dy, anchor, text) for tx, ty, anchor, text in parts.texts],
-                  parts.font, parts.line_width, parts.padding)
+                  [(font, tx + dx, ty + dy, anchor, text) for font, tx, ty, anchor, text in parts.texts],
+                  parts.line_width, parts.padding)
 
 
 def draw_overlay(bar: ColorBar, width: int, height: int, scale: Scale, colors) -> tuple[np.ndarray, Layout]:
@@ -308,8 +316,8 @@ def draw_overlay(bar: ColorBar, width: int, height: int, scale: Scale, colors) -
     draw = ImageDraw.Draw(mask)
     for line in parts.ticks:
         draw.line(line, fill=255, width=parts.line_width)
-    for x, y, anchor, text in parts.texts:
-        draw.text((x, y), text, fill=255, font=parts.font, anchor=anchor)
+    for font, x, y, anchor, text in parts.texts:
+        draw.text((x, y), text, fill=255, font=font, anchor=anchor)
     text = np.zeros_like(overlay)
     text[..., :3] = bar.text_color[:3]
     text[..., 3] = bar.text_color[3] * np.asarray(mask, dtype=np.float32) / 255.0
