@@ -1,8 +1,17 @@
-"""VolumeSource: a volume from a file or a DICOM folder (formats: docs/volumes.md)."""
+"""VolumeSource: a volume from a file or a DICOM folder (formats and the value-range rule:
+docs/volumes.md).
 
-from vgraph import FilePathProperty, IntProperty, OptionProperty, Outport, Processor, VectorProperty, VGraphError
+The value range a volume gets, first match wins: the ``value_range`` property; the ``robust``
+window (percentiles of the data, for scans whose few outlier voxels would squeeze the bulk into
+a sliver of [0, 1]); a range the file declares; the data's own min..max.
+"""
+
+import warnings
+
+from vgraph import (FilePathProperty, IntProperty, OptionProperty, Outport, Processor, PropertyError,
+                    VectorProperty, VGraphError, VGraphWarning)
 from vgraph.camera import MAX_COORDINATE
-from vgraph.io import SUPPORTED_EXTENSIONS, read_volume
+from vgraph.io import SUPPORTED_EXTENSIONS, TimeStepError, read_volume
 from vgraph.volume import Volume
 
 RAW_TYPES = ["uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64"]
@@ -15,22 +24,45 @@ class VolumeSource(Processor):
     outports = [Outport("volume", Volume)]
     path = FilePathProperty("", filters=tuple(f"*{e}" for e in SUPPORTED_EXTENSIONS),
                             doc="the volume file, or a folder holding one DICOM series")
+    time_step = IntProperty(0, min=0, doc="of a file with a time axis (4D NIfTI, ...): the time "
+                                          "point to read, 0 = the first")
     spacing = VectorProperty(None, size=3, min=1.0 / MAX_COORDINATE, max=MAX_COORDINATE, optional=True,
                              doc="voxel spacing (x, y, z) in world units; empty: from the file")
     origin = VectorProperty(None, size=3, min=-MAX_COORDINATE, max=MAX_COORDINATE, optional=True,
                             doc="world position (x, y, z) of voxel (0, 0, 0); empty: from the file")
     value_range = VectorProperty(None, size=2, optional=True,
-                                 doc="stored values mapped to intensities 0 and 1; empty: from the file or type")
+                                 doc="stored values mapped to intensities 0 and 1; empty: by the window")
+    window = OptionProperty("full", choices=["full", "robust"],
+                            doc="the value range when none is given: full = the range the file "
+                                "declares, else the data's min..max; robust = the window_percentiles "
+                                "of the data (outliers clipped)")
+    window_percentiles = VectorProperty((0.5, 99.5), size=2, min=0, max=100,
+                                        doc="low and high percentile of the robust window")
     raw_dims = VectorProperty(None, size=3, min=1, integer=True, optional=True,
                               doc="for a headerless raw file: voxels (x, y, z)")
     raw_dtype = OptionProperty("uint8", choices=RAW_TYPES, doc="for a headerless raw file: voxel type")
     raw_endianness = OptionProperty("little", choices=["little", "big"], doc="for a headerless raw file")
     raw_offset = IntProperty(0, min=-1, doc="for a headerless raw file: header bytes to skip (-1: data at the end)")
 
+    def check(self) -> None:
+        low, high = self.window_percentiles
+        if not low < high:
+            raise PropertyError(f"{self.id}.window_percentiles",
+                                f"the low percentile must be below the high one, got ({low:g}, {high:g})")
+
     def process(self) -> Volume:
+        self.check()
         if not self.path:
             raise VGraphError(f"{self.id}.path: no volume file chosen")
-        volume = read_volume(self.resolve_path(self.path), raw=self._raw_description())
+        try:
+            volume = read_volume(self.resolve_path(self.path), raw=self._raw_description(),
+                                 time_step=self.time_step)
+        except TimeStepError as error:
+            count = error.time_steps
+            held = "1 time point (0)" if count == 1 else f"{count} time points (0 .. {count - 1})"
+            raise PropertyError(f"{self.id}.time_step", f"time step {error.time_step} is out of "
+                                f"range: {error.file} holds {held}") from None
+        self._warn_if_flat(volume)
         return self._with_overrides(volume)
 
     def _raw_description(self) -> dict | None:
@@ -40,11 +72,37 @@ class VolumeSource(Processor):
                 "offset": self.raw_offset}
 
     def _with_overrides(self, volume: Volume) -> Volume:
-        if self.spacing is None and self.origin is None and self.value_range is None:
+        value_range = self.value_range or self._robust_window(volume)
+        if self.spacing is None and self.origin is None and value_range is None:
             return volume
         try:
             return volume.with_data(volume.data, spacing=self.spacing or volume.spacing,
                                     origin=self.origin or volume.origin,
-                                    declared_range=self.value_range or volume.declared_range)
+                                    declared_range=value_range or volume.declared_range)
         except VGraphError as error:
             raise VGraphError(f"{self.id}: the overrides do not fit the volume: {error}") from None
+
+    def _robust_window(self, volume: Volume) -> tuple[float, float] | None:
+        if self.window != "robust":
+            return None
+        low, high = (float(v) for v in volume.percentiles(self.window_percentiles))
+        if low < high:
+            return (low, high)
+        # More voxels than the band between the percentiles share one value (a mostly empty
+        # scan): a window of width zero maps nothing, so the full range stays.
+        warnings.warn(VGraphWarning(
+            f"{self.id}.window_percentiles: the {self.window_percentiles[0]:g}th and "
+            f"{self.window_percentiles[1]:g}th percentiles of {volume.source} are both {low:g}; "
+            f"using the full value range {volume.value_range} instead"), stacklevel=2)
+        return None
+
+    def _warn_if_flat(self, volume: Volume) -> None:
+        """A volume one voxel thick spans a box of zero thickness along that axis: face-on it is
+        a flat plane, from the side nothing at all, which looks like a broken renderer."""
+        flat = [axis for axis, size in zip("xyz", volume.dims) if size == 1]
+        if flat:
+            warnings.warn(VGraphWarning(
+                f"{self.id}: {volume.source} is one voxel thick along {' and '.join(flat)} "
+                f"({' x '.join(map(str, volume.dims))} voxels): its box has zero thickness there, "
+                f"so it renders as a flat plane seen face-on and as nothing from the side"),
+                stacklevel=2)
