@@ -65,6 +65,18 @@ class Image:
         flat = np.frombuffer(self._live_texture().read(), dtype=np.float32)
         return flat.reshape(height, width, 4)[::-1].copy()
 
+    def _repr_png_(self) -> bytes:
+        """PNG bytes of the pixels, 8-bit RGBA as ``vgraph run -o`` writes them: Jupyter and IPython
+        show an Image inline through this."""
+        import io
+
+        import PIL.Image
+
+        from vgraph.imagefile import to_uint8
+        buffer = io.BytesIO()
+        PIL.Image.fromarray(to_uint8(self.to_numpy())).save(buffer, format="PNG")
+        return buffer.getvalue()
+
     def release(self) -> None:
         """Free the GPU memory now (instead of when moderngl's garbage collection gets to it)."""
         if self._framebuffer is not None:

@@ -243,6 +243,20 @@ class Network:
             warnings.warn(BlankImageWarning(warning), stacklevel=2)
         return array
 
+    def _repr_png_(self) -> bytes | None:
+        """Jupyter shows a network as its picture: the default target (the Canvas) evaluated as
+        ``vgraph run`` does, as PNG bytes; None (no picture, the text repr) when the network has no
+        image output. Errors of the evaluation propagate, so the notebook shows them."""
+        from vgraph.image import Image
+        from vgraph.scheduler import default_target
+        try:
+            target = default_target(self)
+        except VGraphError:
+            return None
+        self.update(target)
+        image = self.output(target)
+        return image._repr_png_() if isinstance(image, Image) else None
+
     def save(self, path: str | Path) -> None:
         from vgraph.fileformat import save_network
         save_network(self, path)
