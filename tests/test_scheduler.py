@@ -116,3 +116,36 @@ def test_every_evaluation_records_times(net):
     assert all(r.seconds >= 0 for r in report.evaluated)
     assert report.total_seconds >= sum(r.seconds for r in report.evaluated) * 0.5
     assert report.to_json()["evaluated"][0].keys() == {"id", "type", "seconds"}
+
+
+def test_the_report_of_a_failed_evaluation_names_the_failure_and_what_ran_before(net):
+    net.set("fragile.fail", 1)
+    with pytest.raises(ProcessorError):
+        net.update("out")
+    report = net.last_evaluation
+    assert report.ids == ["a", "b", "sum"]
+    failed = report.failed
+    assert (failed.id, failed.type, failed.error) == ("fragile", "Fragile", "ZeroDivisionError: deliberate failure")
+    assert 0 <= failed.seconds <= report.total_seconds
+    assert report.to_json()["failed"] == {"id": "fragile", "type": "Fragile", "seconds": failed.seconds,
+                                          "error": "ZeroDivisionError: deliberate failure"}
+    net.set("fragile.fail", 0)
+    assert net.update("out").failed is None and net.last_evaluation.to_json()["failed"] is None
+
+
+def test_an_unconnected_inport_is_recorded_as_the_failure(net):
+    net.disconnect("sum.value", "fragile.value")
+    with pytest.raises(ProcessorError):
+        net.update("out")
+    assert net.last_evaluation.failed.error == "inport 'value' (float) is not connected"
+
+
+def test_target_type_is_known_before_evaluating(net):
+    from vgraph.image import Image
+    from vgraph.scheduler import target_type
+    assert target_type(net, "sum.value") is float and target_type(net, "out") is float
+    image_net = Network()
+    image_net.add("Canvas", id="canvas")
+    assert target_type(image_net, "canvas") is Image
+    with pytest.raises(vgraph.VGraphError, match="has no outport 'nope'"):
+        target_type(net, "sum.nope")

@@ -3,8 +3,9 @@
 ``evaluate(network, targets, size)`` runs, in topological order, only the processors the targets
 depend on, and of those only the invalid ones. Processors outside the targets' ancestors are never
 initialised, so they compile no shader and upload no texture. Every evaluation is recorded (which
-processors ran, in order, and how long each took). A failure inside a processor becomes a
-ProcessorError naming its id and type; the processor stays invalid and the network usable.
+processors ran, in order, and how long each took; on a failure also the processor that failed, its
+time and its error). A failure inside a processor becomes a ProcessorError naming its id and type;
+the processor stays invalid and the network usable.
 """
 
 from __future__ import annotations
@@ -32,16 +33,27 @@ class EvaluationRecord:
 
 
 @dataclass
+class FailureRecord(EvaluationRecord):
+    error: str  # the ProcessorError's reason, e.g. "ZeroDivisionError: division by zero"
+
+
+@dataclass
 class EvaluationReport:
-    evaluated: list[EvaluationRecord] = field(default_factory=list)
+    evaluated: list[EvaluationRecord] = field(default_factory=list)  # finished, in order
     total_seconds: float = 0.0
+    failed: FailureRecord | None = None  # the processor whose failure ended the evaluation
 
     @property
     def ids(self) -> list[str]:
+        """The processors that finished, in order (not the one that failed)."""
         return [record.id for record in self.evaluated]
 
     def to_json(self) -> dict:
-        return {"evaluated": [vars(r) for r in self.evaluated], "total_seconds": self.total_seconds}
+        """``{"evaluated": [{"id", "type", "seconds"}], "failed": null or {"id", "type",
+        "seconds", "error"}, "total_seconds"}`` (what ``vgraph run --profile`` writes)."""
+        return {"evaluated": [vars(r) for r in self.evaluated],
+                "failed": vars(self.failed) if self.failed else None,
+                "total_seconds": self.total_seconds}
 
 
 def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None) -> EvaluationReport:
@@ -63,7 +75,12 @@ def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None) 
         for pid in order:
             processor = network.processors[pid]
             if processor.invalid_level != Invalidation.VALID:
-                report.evaluated.append(_run(network, processor))
+                try:
+                    report.evaluated.append(_run(network, processor))
+                except ProcessorError as error:
+                    report.failed = FailureRecord(pid, processor.type_name, processor.last_seconds or 0.0,
+                                                  error.reason)
+                    raise
     finally:
         report.total_seconds = time.perf_counter() - start
         collect_garbage()  # outputs replaced in this evaluation free their GL memory now
@@ -141,11 +158,23 @@ def _target_processor(network: Network, target: str) -> str:
     return processor_id
 
 
+def target_type(network: Network, target: str) -> type | None:
+    """The data type ``target`` carries, as its port declares it (an outport's, or the one inport
+    of a sink), known before evaluating; None when the sink has no single, single-connection inport."""
+    processor = network[_target_processor(network, target)]
+    if "." in target:
+        return processor.outport(split_address(target)[1]).data_type
+    inports = processor.inports
+    return inports[0].data_type if len(inports) == 1 and not inports[0].multiple else None
+
+
 def target_data(network: Network, target: str):
     if "." in target:
         processor_id, port = split_address(target)
         return network[processor_id].outputs.get(port)
     sink = network[target]
+    if getattr(sink, "shown", None) is not None:
+        return sink.shown  # a sink that shows something else than it received (the Canvas, resampled)
     if len(sink.inports) != 1:
         raise VGraphError(f"'{target}' is not a sink with one inport; name a port as ID.PORT")
     return sink.inputs.get(sink.inports[0].name)
