@@ -32,7 +32,7 @@ def gray_network(path=WHEEL, saturation=0.0):
 @pytest.mark.parametrize("saturation", [0.0, 0.3, 1.0])
 def test_grayscale_pixels_equal_the_formula(saturation):
     original = np.asarray(PIL.Image.open(WHEEL).convert("RGBA")).astype(np.float32) / 255
-    result = gray_network(saturation=saturation).evaluate("canvas")
+    result = gray_network(saturation=saturation).evaluate("canvas", size=original.shape[1::-1])  # not resampled
     assert result.shape == original.shape
     np.testing.assert_allclose(result, reference_gray(original, saturation), atol=2e-6)
 

@@ -49,7 +49,8 @@ def plugin_network(tmp_path, invert_alpha=False):
         "processors": [
             {"id": "source", "type": "ImageSource", "properties": {"path": str(WHEEL_IMAGE)}},
             {"id": "invert", "type": "Invert", "properties": {"invert_alpha": invert_alpha}},
-            {"id": "canvas", "type": "Canvas"}],
+            {"id": "canvas", "type": "Canvas",  # the picture's size: shown as it is, not resampled
+             "properties": {"size": list(PIL.Image.open(WHEEL_IMAGE).size)}}],
         "connections": [{"from": "source.image", "to": "invert.image"},
                         {"from": "invert.image", "to": "canvas.image"}]}
     path = tmp_path / "invert.json"
