@@ -189,7 +189,10 @@ class CameraOrbit:
         """Azimuth about each camera's up axis, then elevation about its right axis, in degrees
         (Camera.rotate: positive azimuth turns the scene as a drag to the right does)."""
         for address, camera in self.start.items():
-            self.network.set(address, camera.rotate(math.radians(azimuth), math.radians(elevation)))
+            if azimuth == 0.0 and elevation == 0.0:  # exactly the start: rotate() would
+                self.network.set(address, camera)    # orthonormalise up (frame 0 = vgraph run)
+            else:
+                self.network.set(address, camera.rotate(math.radians(azimuth), math.radians(elevation)))
 
     def restore(self) -> None:
         for address, camera in self.start.items():
