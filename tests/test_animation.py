@@ -3,7 +3,6 @@ is `vgraph run`'s image, a full orbit comes back to the start, linked cameras tu
 over integer properties, and errors before anything is rendered."""
 
 import argparse
-import json
 
 import imageio.v2 as imageio2
 import imageio.v3 as iio

@@ -377,20 +377,24 @@ def add_parser(commands) -> argparse.ArgumentParser:
 
 def command_animate(args) -> int:
     import vgraph
-    from vgraph.cli import EXIT_OK, parse_assignment
-    from vgraph.errors import VGraphWarning
+    from vgraph import cli
     Output.of(args.output).check(args.size)  # refuse before a long evaluation, not after
     network = vgraph.load(args.network, allow_write=args.allow_write)
     for assignment in args.set:
-        network.set(*parse_assignment(assignment))
-    with warnings.catch_warnings():
-        warnings.simplefilter("always", VGraphWarning)
-        warnings.showwarning = _print_warning
-        count = animate(network, args.output, orbit=args.orbit, frames=args.frames, over=args.over,
-                        fps=args.fps, size=args.size, target=args.port, progress=not args.quiet)
+        _set_from_command_line(network, assignment)
+    # A blank first frame warns (BlankImageWarning); vgraph.cli.main prints it as one line.
+    count = animate(network, args.output, orbit=args.orbit, frames=args.frames, over=args.over,
+                    fps=args.fps, size=args.size, target=args.port, progress=not args.quiet)
     print(f"wrote {count} frames to {args.output}", file=sys.stderr)
-    return EXIT_OK
+    return cli.EXIT_OK
 
 
-def _print_warning(message, category, *args, **kwargs) -> None:
-    print(f"vgraph: warning: {message}", file=sys.stderr)
+def _set_from_command_line(network: Network, text: str) -> None:
+    """``--set`` exactly as ``vgraph run`` applies it (relative file paths from the current folder
+    where cli.py has that rule, plain JSON values before)."""
+    from vgraph import cli
+    setter = getattr(cli, "set_from_command_line", None)
+    if setter is not None:
+        setter(network, text)
+    else:
+        network.set(*cli.parse_assignment(text))
