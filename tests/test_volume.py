@@ -142,6 +142,11 @@ def test_percentiles_are_within_a_65536th_of_the_range(make):
     assert got[0] == data.min() and got[-1] == data.max()  # the ends are exact
 
 
+def test_percentiles_between_the_ends_of_float64_do_not_overflow():
+    volume = Volume(np.array([[[-1.7e308, 1.7e308]]]))
+    np.testing.assert_array_equal(volume.percentiles([0, 50, 100]), [-1.7e308, 0.0, 1.7e308])
+
+
 def test_percentiles_ignore_nonfinite_voxels_and_work_slab_by_slab(monkeypatch):
     data = np.random.default_rng(3).normal(size=(16, 16, 16)).astype(np.float32)
     data[0, 0, :6] = [np.nan, np.inf, -np.inf, np.nan, np.inf, -np.inf]

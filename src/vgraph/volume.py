@@ -154,7 +154,9 @@ class Volume:
         below = np.floor(position)
         above = np.minimum(below + 1, ranks.count - 1)
         low, high = ranks.value_at(below), ranks.value_at(above)
-        return low + (position - below) * (high - low)
+        fraction = position - below
+        # weighted, not low + f (high - low): that difference overflows for data near +-1.8e308
+        return low * (1.0 - fraction) + high * fraction
 
     def _rank_table(self) -> "_RankTable":
         if "_ranks" not in self.__dict__:
