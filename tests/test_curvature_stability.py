@@ -253,7 +253,8 @@ def test_levels_outside_the_data_give_no_surface():
     """uint8 data in [0, 100] of the declared [0, 255]: level 0.9 lies above every value, level 0
     at or below every value (everything counts as inside): no crossing, no hit, the background."""
     values = (sample("sphere", 32, "uint8").data.astype(np.float64) * 100 / 255).round()
-    volume = Volume(values.astype(np.uint8), spacing=(2 / 31,) * 3, origin=(-1.0,) * 3)
+    volume = Volume(values.astype(np.uint8), spacing=(2 / 31,) * 3, origin=(-1.0,) * 3,
+                    declared_range=(0.0, 255.0))
     for level in (0.9, 0.0):
         result = outputs(volume, derivatives="central", level=level)
         assert not result["position"][..., 3].any(), level
