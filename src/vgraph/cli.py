@@ -1,7 +1,8 @@
 """The ``vgraph`` command (also ``python -m vgraph``).
 
 Exit codes: 0 ok, 2 bad input (a file, a network, a value), 1 internal failure. Messages go to
-stderr; results to files named by the options (and listings to stdout).
+stderr; results to files named by the options (and listings to stdout). Warnings of vgraph's own
+(``VGraphWarning``) print as one line ``vgraph: warning: <message>``; others as Python shows them.
 """
 
 from __future__ import annotations
@@ -10,12 +11,15 @@ import argparse
 import json
 import sys
 import traceback
+import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
-import numpy as np
-
 import vgraph
-from vgraph.errors import ProcessorError, VGraphError
+from vgraph.camera import VIEW_NAMES
+from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
+from vgraph.network import split_address
+from vgraph.transfer_function import PRESETS
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -27,9 +31,10 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
     try:
-        for module in getattr(args, "plugin", None) or []:
-            vgraph.registry.load_plugin(module)
-        return args.command(args)
+        with vgraph_warnings_as_lines():
+            for module in getattr(args, "plugin", None) or []:
+                vgraph.registry.load_plugin(module)
+            return args.command(args)
     except VGraphError as error:
         print(f"vgraph: error: {error}", file=sys.stderr)
         return EXIT_INTERNAL if isinstance(error, ProcessorError) and error.internal else EXIT_BAD_INPUT
@@ -41,6 +46,24 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERNAL
 
 
+@contextmanager
+def vgraph_warnings_as_lines():
+    """Show VGraphWarnings (and subclasses such as BlankImageWarning) as ``vgraph: warning: ...``
+    on stderr, one line each; other warnings as Python shows them. Filters (-W) still apply."""
+    with warnings.catch_warnings():
+        python_way = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, VGraphWarning):
+                text = " ".join(str(message).split("\n"))
+                print(f"vgraph: warning: {text}", file=file or sys.stderr)
+            else:
+                python_way(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        yield
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="vgraph", description="Node-graph volume visualization.")
     parser.add_argument("--version", action="version", version=f"vgraph {vgraph.__version__}")
@@ -48,13 +71,22 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = commands.add_parser("run", help="evaluate a network and write its output")
     run.add_argument("network", type=Path, help="the .json network")
-    run.add_argument("-o", "--output", type=Path, help="write the image as an 8-bit PNG")
-    run.add_argument("--npy", type=Path, help="write the data as .npy (image: float32 H x W x 4)")
+    run.add_argument("-o", "--output", type=Path, metavar="OUT.png", help="write the image as an 8-bit PNG")
+    run.add_argument("--data", action="append", default=[], type=Path, metavar="OUT",
+                     help="write the data; the extension chooses the format: .npy, .npz (image: "
+                          "float32 H x W x 4; volume: .npz keeps spacing and origin), .nrrd, .nii, "
+                          ".nii.gz (volumes); repeatable")
+    run.add_argument("--npy", type=Path, metavar="OUT.npy", help="deprecated: --data OUT.npy")
     run.add_argument("--port", help="the port to evaluate, ID.PORT (default: the Canvas)")
-    run.add_argument("--size", type=parse_size, help="image size WxH (default: the Canvas size)")
+    run.add_argument("--size", type=parse_size, metavar="WxH",
+                     help="size of the image written (default: the Canvas size); renderers draw at it")
+    run.add_argument("--view", choices=VIEW_NAMES, metavar="NAME",
+                     help=f"turn every camera to a named view framing the data: {', '.join(VIEW_NAMES)}")
     run.add_argument("--set", action="append", default=[], metavar="ID.PROPERTY=VALUE",
-                     help="change a property before evaluating; VALUE is JSON where it parses")
-    run.add_argument("--profile", type=Path, help="write which processors ran and their times")
+                     help="change a property before evaluating (after --view); VALUE is JSON where it "
+                          "parses; a relative file path is relative to the current folder")
+    run.add_argument("--profile", type=Path, metavar="PROFILE.json",
+                     help="write which processors ran and their times, and the one that failed")
     run.add_argument("--plugin", action="append", metavar="MODULE", help="import a plug-in module")
     add_allow_write(run)
     run.set_defaults(command=command_run)
@@ -134,44 +166,87 @@ def parse_assignment(text: str) -> tuple[str, object]:
         return address.strip(), value  # a bare string such as a file name
 
 
-def command_run(args) -> int:
-    from vgraph.atomic import atomic_path, check_output_path, write_text_atomic
-    from vgraph.image import Image
-    from vgraph.imagefile import write_png
-    from vgraph.scheduler import default_target, to_numpy
+def set_from_command_line(network, text: str) -> None:
+    """Apply one ``--set``. A relative file path typed on the command line means the current
+    folder, as for any command (in the .json file it means the file's folder): file path values,
+    and a transfer function given as the name of an existing file, are made absolute first."""
+    address, value = parse_assignment(text)
+    processor_id, name = split_address(address, "property")
+    prop = network[processor_id].properties.get(name)  # None: network.set names the known ones
+    kind = prop.kind if prop is not None else None
+    if kind == "file_path":
+        raw = text.partition("=")[2]
+        value = value if isinstance(value, str) else raw  # a file named 42 or null is still a name
+        value = _from_cwd(value) if value else value
+    elif kind == "transfer_function" and isinstance(value, str) and value not in PRESETS:
+        candidate = Path(value).expanduser()
+        if value and not candidate.is_absolute() and candidate.is_file():
+            value = str(Path.cwd() / candidate)  # a preset name stays a name
+    network.set(address, value)
 
-    for output in (args.output, args.npy, args.profile):
-        if output is not None:
-            check_output_path(output)  # refuse before a long evaluation, not after
+
+def _from_cwd(value: str) -> str:
+    path = Path(value).expanduser()
+    return value if path.is_absolute() else str(Path.cwd() / path)
+
+
+def set_view(network, name: str) -> None:
+    """Turn every camera property of the network to ``camera.viewed_from(name)`` (the same loop
+    docs/cli.md shows for scripts, so a script gets the same image)."""
+    turned = 0
+    for processor in network.processors.values():
+        for prop_name, prop in processor.properties.items():
+            if prop.kind == "camera":
+                address = f"{processor.id}.{prop_name}"
+                network.set(address, network.get(address).viewed_from(name))
+                turned += 1
+    if not turned:
+        warnings.warn(VGraphWarning(f"--view {name}: the network has no camera to turn"), stacklevel=2)
+
+
+def command_run(args) -> int:
+    from vgraph.atomic import check_output_path, write_text_atomic
+    from vgraph.cli_output import check_formats, requested_outputs, write_outputs
+    from vgraph.scheduler import blank_image_warning, default_target, target_type
+
+    outputs = requested_outputs(args)  # refused before a long evaluation, not after
+    if args.profile is not None:
+        check_output_path(args.profile)
     network = vgraph.load(args.network, allow_write=args.allow_write)
+    if args.view:
+        set_view(network, args.view)
     for assignment in args.set:
-        network.set(*parse_assignment(assignment))
-    wants_output = args.output or args.npy
-    target = args.port or (default_target(network) if wants_output else None)
+        set_from_command_line(network, assignment)
+    target = args.port or (default_target(network) if outputs else None)
+    if outputs:
+        check_formats(outputs, target, target_type(network, target))
     try:
         report = network.update(*([target] if args.port else []), size=args.size)
     finally:
         if args.profile and network.last_evaluation is not None:
             write_text_atomic(args.profile, json.dumps(network.last_evaluation.to_json(), indent=2) + "\n")
-    if args.output:
-        image = network.output(target)
-        if not isinstance(image, Image):
-            raise VGraphError(f"{target} holds {type(image).__name__}, not an image: use --npy")
-        write_png(args.output, warned_if_blank(network, target, image.to_numpy()))
-    if args.npy:
-        with atomic_path(args.npy, suffix=".npy") as temporary:
-            np.save(temporary, warned_if_blank(network, target, to_numpy(network.output(target))))
+    if outputs:
+        write_outputs(outputs, target, network.output(target),
+                      lambda pixels: blank_image_warning(network, target, pixels))
+    else:
+        say_nothing_was_written(network, report, profile=args.profile)
     ran = ", ".join(report.ids) or "nothing (all valid)"
     print(f"evaluated {ran} in {report.total_seconds:.3f} s", file=sys.stderr)
     return EXIT_OK
 
 
-def warned_if_blank(network, target: str, pixels: np.ndarray) -> np.ndarray:
-    from vgraph.scheduler import blank_image_warning
-    warning = blank_image_warning(network, target, pixels)
-    if warning:
-        print(f"vgraph: warning: {warning}", file=sys.stderr)
-    return pixels
+def say_nothing_was_written(network, report, profile: Path | None) -> None:
+    """``vgraph run NET`` without -o or --data: the result stays unwritten, which should not go
+    unnoticed. The network's own writers (sinks with a file path they write) did write."""
+    writers = [f"{pid} -> {network[pid].resolve_path(network.get(f'{pid}.{name}'))}"
+               for pid in report.ids for name, prop in network[pid].properties.items()
+               if prop.kind == "file_path" and getattr(prop, "writes", False) and not network[pid].outports]
+    wrote = f"only the network's writers wrote ({'; '.join(writers)})" if writers else \
+        "no result written (only the profile)" if profile else "nothing written"
+    has_canvas = any(p.type_name == "Canvas" for p in network.processors.values())
+    port = "" if has_canvas else "choose a port with --port ID.PORT and "
+    print(f"vgraph: {wrote}: no -o or --data given; {port}write the image with -o OUT.png, the "
+          f"data with --data OUT.npz (or .npy; volumes also .nrrd, .nii, .nii.gz)", file=sys.stderr)
 
 
 def command_validate(args) -> int:
@@ -198,10 +273,49 @@ def command_list(args) -> int:
             for port in (*cls.inports, *cls.outports):
                 print(f"      {port.direction:3s} {port.name}: {port.type_name}")
             for prop in cls.properties.values():
-                print(f"      property {prop.name} ({prop.kind}) = {prop.to_json(prop.default)!r}")
+                print(f"      property {property_text(prop)}")
     for origin, reason in vgraph.registry.failed_plugins.items():
         print(f"plug-in {origin} failed to load: {reason}", file=sys.stderr)
     return EXIT_OK
+
+
+def property_text(prop) -> str:
+    """One line of ``vgraph list``: name, kind with its choices or range, default, e.g.
+    ``compositing (option: dvr|mip) = 'dvr'``, ``sampling_rate (float 0.05..16) = 1.0``."""
+    kind = prop.kind
+    if kind == "option":
+        kind = f"option: {'|'.join(prop.choices)}"
+    elif kind in ("float", "int"):
+        kind = f"{kind} {_range_text(prop.min, prop.max)}".rstrip()
+    elif kind == "vector":
+        number = "int" if prop.integer else "float"
+        kind = f"{prop.size} {number}s {_range_text(prop.min, prop.max)}".rstrip()
+        kind += ", or None" if prop.optional else ""
+    elif kind == "file_path":
+        kind = f"file_path{', written' if prop.writes else ''}: {' '.join(prop.filters)}"
+    elif kind == "color":
+        kind = "color: RGBA 0..1"
+    return f"{prop.name} ({kind}) = {_default_text(prop)}"
+
+
+def _range_text(low, high) -> str:
+    number = lambda v: f"{v:g}" if isinstance(v, float) else str(v)  # noqa: E731
+    if low is not None and high is not None:
+        return f"{number(low)}..{number(high)}"
+    return f">= {number(low)}" if low is not None else f"<= {number(high)}" if high is not None else ""
+
+
+def _default_text(prop) -> str:
+    value = prop.to_json(prop.default)
+    if prop.kind == "camera":
+        planes = ", automatic near/far" if value.get("near") is None and value.get("far") is None else ""
+        where = "frames the data" if value.get("fit_to_data") else f"at {value.get('position')}"
+        return f"{value.get('projection')} camera, fov {value.get('fov'):g}, {where}{planes}"
+    if prop.kind == "transfer_function" and isinstance(value, dict) and "points" in value:
+        space = f", {value['space']}" if value.get("space") else ""
+        return f"{len(value['points'])} points{space} (--json lists them)"
+    text = repr(value)
+    return text if len(text) <= 80 else text[:76] + " ..."
 
 
 def command_gui(args) -> int:

@@ -1,0 +1,141 @@
+"""What ``vgraph run`` writes: ``-o`` (8-bit PNG), ``--data`` (the format follows the extension)
+and the deprecated ``--npy``. Everything that can be refused without evaluating (a path that
+cannot be written, an unknown extension, a format the target's data type has no writer for) is
+refused before the network is evaluated. Every file is written atomically.
+
+    target carries   -o OUT.png   --data .npy            .npz                         .nrrd .nii .nii.gz
+    Image            8-bit RGBA   float32 H x W x 4      key "image": float32 H x W x 4   refused
+    Volume           refused      values [z, y, x] only  data, spacing, origin,       values, spacing, origin
+                                                          value_range (if declared)    (io.write_volume)
+    arrays, numbers  refused      the array              key "data"                   refused
+"""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from vgraph.atomic import atomic_path, check_output_path
+from vgraph.errors import VGraphError
+from vgraph.image import Image
+from vgraph.io import WRITABLE_EXTENSIONS, write_volume
+from vgraph.io.writers import writable_extension
+from vgraph.volume import Volume
+
+IMAGE_FORMATS = (".npy", ".npz")
+VOLUME_FORMATS = WRITABLE_EXTENSIONS  # .npy .npz .nrrd .nii .nii.gz
+DATA_FORMATS_TEXT = ".npy or .npz (images, volumes), .nrrd, .nii or .nii.gz (volumes)"
+
+
+@dataclass(frozen=True)
+class Output:
+    option: str  # "-o", "--data" or "--npy", for messages
+    path: Path
+    format: str  # ".png", ".npy", ".npz", ".nrrd", ".nii" or ".nii.gz"
+
+    def __str__(self) -> str:
+        return f"{self.option} {self.path}"
+
+
+def requested_outputs(args) -> list[Output]:
+    """The outputs the options ask for, each checked (folder exists, not a folder, a known
+    extension for --data); VGraphError (exit 2) otherwise."""
+    outputs = []
+    if args.output is not None:
+        outputs.append(Output("-o", args.output, ".png"))
+    for path in args.data:
+        extension = writable_extension(Path(path))
+        if extension is None:
+            raise VGraphError(f"--data {path}: the extension chooses the format: {DATA_FORMATS_TEXT}")
+        outputs.append(Output("--data", path, extension))
+    if args.npy is not None:
+        print(f"vgraph: warning: --npy is deprecated; use --data {args.npy} (a .npz or .nrrd "
+              f"keeps a volume's spacing)", file=sys.stderr)
+        outputs.append(Output("--npy", args.npy, ".npy"))
+    for output in outputs:
+        check_output_path(output.path)  # refuse before a long evaluation, not after
+    return outputs
+
+
+def check_formats(outputs: list[Output], target: str, data_type: type | None) -> None:
+    """Refuse, before evaluating, outputs the target's declared data type cannot go to."""
+    for output in outputs:
+        problem = _format_problem(output, data_type)
+        if problem:
+            raise VGraphError(f"{output}: {target} carries {_type_name(data_type)}; {problem}")
+
+
+def _format_problem(output: Output, data_type: type | None) -> str | None:
+    if data_type is None:
+        return None  # not known before evaluating: write_outputs checks the data itself
+    if output.format == ".png":
+        return None if issubclass(data_type, Image) else \
+            f"-o writes images only: use --data OUT.npz ({DATA_FORMATS_TEXT})"
+    if output.format == ".npy" or output.format == ".npz" and not issubclass(data_type, Volume):
+        return None
+    if issubclass(data_type, Volume):
+        return None if output.format in VOLUME_FORMATS else f"use {DATA_FORMATS_TEXT}"
+    return f"{output.format} holds volumes only: use .npy or .npz" + \
+        (" (or -o OUT.png)" if issubclass(data_type, Image) else "")
+
+
+def write_outputs(outputs: list[Output], target: str, data, blank_warning) -> None:
+    """Write ``data`` (what ``target`` holds after evaluating) to every output. ``blank_warning``
+    (pixels -> message or None) is asked once about an image that is written."""
+    if data is None:
+        raise VGraphError(f"{target} holds no data (was it evaluated? is its input connected?)")
+    check_formats(outputs, target, type(data))
+    if isinstance(data, Image) and outputs:
+        pixels = data.to_numpy()
+        message = blank_warning(pixels)
+        if message:
+            from vgraph.scheduler import BlankImageWarning
+            warnings.warn(BlankImageWarning(message), stacklevel=2)
+    for output in outputs:
+        if isinstance(data, Image):
+            _write_image(output, pixels)
+        elif isinstance(data, Volume) and output.option == "--data":
+            write_volume(data, output.path)  # atomic; the format follows the extension
+            if output.format == ".npy":
+                print(f"vgraph: note: {output.path} holds the voxel values [z, y, x] only, not "
+                      f"the spacing and origin: .npz, .nrrd or .nii.gz keep them", file=sys.stderr)
+        else:
+            _write_array(output, _as_array(data, target))
+
+
+def _write_image(output: Output, pixels: np.ndarray) -> None:
+    if output.format == ".png":
+        from vgraph.imagefile import write_png
+        write_png(output.path, pixels)
+    elif output.format == ".npz":
+        with atomic_path(output.path, suffix=".npz") as temporary:
+            np.savez_compressed(temporary, image=pixels)
+    else:
+        _write_array(output, pixels)
+
+
+def _write_array(output: Output, array: np.ndarray) -> None:
+    with atomic_path(output.path, suffix=output.format) as temporary:
+        if output.format == ".npz":
+            np.savez_compressed(temporary, data=array)
+        else:
+            np.save(temporary, array, allow_pickle=False)
+
+
+def _as_array(data, target: str) -> np.ndarray:
+    from vgraph.scheduler import to_numpy
+    plain = isinstance(data, (int, float, np.number)) and not isinstance(data, bool)
+    array = np.asarray(data) if plain else np.asarray(to_numpy(data))
+    if array.dtype.kind not in "biufc":
+        raise VGraphError(f"{target} holds {type(data).__name__}, which has no array form to write")
+    return array
+
+
+def _type_name(data_type: type | None) -> str:
+    return "data of unknown type" if data_type is None else \
+        ("an image" if issubclass(data_type, Image) else
+         "a volume" if issubclass(data_type, Volume) else data_type.__name__)
