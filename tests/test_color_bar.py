@@ -97,6 +97,30 @@ def test_a_connected_volume_gives_the_labels_its_value_range(grey_png):
     assert texts[0] == format_ticks([low, high])[0] and texts[-1] == format_ticks([low, high])[1]
 
 
+def test_a_transfer_function_in_data_units_is_placed_on_the_value_range(grey_png):
+    tf = TransferFunction(space="data", points=[(100.0, 0.0, 0.0, 1.0, 1.0), (300.0, 1.0, 0.0, 0.0, 1.0)])
+    net = bar_network(grey_png, transfer_function=tf, value_range=[0.0, 400.0])
+    out, _, (x, y, w, h) = bar_pixels(net)
+    values = np.linspace(400.0, 0.0, h)  # top row: the high end
+    red = np.clip((values - 100.0) / 200.0, 0.0, 1.0)
+    np.testing.assert_allclose(out[y:y + h, x + w // 2, 0], red, atol=1e-6)
+    np.testing.assert_allclose(out[y:y + h, x + w // 2, 2], 1.0 - red, atol=1e-6)
+
+
+def test_a_percentile_transfer_function_needs_the_volume(grey_png):
+    tf = TransferFunction(space="percentile", points=[(5.0, 0.0, 0.0, 0.0, 0.0), (95.0, 1.0, 1.0, 1.0, 1.0)])
+    net = bar_network(grey_png, transfer_function=tf)
+    with pytest.raises(vgraph.ProcessorError, match=r"bar\.transfer_function: its positions are "
+                                                     r"percentile values: connect the volume"):
+        net.update("bar.image")
+    net.add("FunctionSelector", id="function", function="sphere", resolution=16)
+    net.connect("function.volume", "bar.volume")
+    out, _, (x, y, w, h) = bar_pixels(net)
+    volume = net["function"].outputs["volume"]
+    expected = tf.for_volume(volume)(np.linspace(1.0, 0.0, h))
+    np.testing.assert_allclose(out[y:y + h, x + w // 2, :3], expected[:, :3], atol=1e-6)
+
+
 def test_show_opacity_puts_the_alpha_over_a_checkerboard(grey_png):
     net = bar_network(grey_png, transfer_function=TF, show_opacity=True, thickness=0.1)
     out, _, (x, y, w, h) = bar_pixels(net)
