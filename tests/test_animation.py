@@ -34,8 +34,7 @@ class SeriesToy(Processor):
     def process(self):
         if self.time_step == self.fail_at:
             raise vgraph.VGraphError("deliberate failure")
-        volume = Volume(np.full((2, 2, 2), self.time_step, np.float32))
-        volume.time_steps = self.steps  # as VolumeSource's volumes carry it
+        volume = Volume(np.full((2, 2, 2), self.time_step, np.float32), time_steps=self.steps)
         grey = np.full((16, 24), self.time_step / 10, np.float32)
         return {"volume": volume, "image": Image.from_numpy(self.gl, grey)}
 
@@ -150,9 +149,7 @@ def test_over_a_range_includes_both_ends_and_can_count_down(vgraph_main, tmp_pat
 
 def test_a_volume_source_time_series(tmp_path):
     """A 4D NIfTI read by VolumeSource: one frame per time step."""
-    nibabel = pytest.importorskip("nibabel")
-    if "time_step" not in vgraph.registry.get("VolumeSource").properties:
-        pytest.skip("VolumeSource has no time_step property yet")
+    import nibabel
     data = np.zeros((16, 16, 16, 3), np.float32)
     for t in range(3):
         data[4:12, 4:12, 4 + t:8 + t, t] = 1.0  # a block moving along z

@@ -33,8 +33,7 @@ class StepsToy(Processor):
     time_step = IntProperty(0, min=0)
 
     def process(self):
-        volume = Volume(np.zeros((2, 2, 2), np.float32))
-        volume.time_steps = 3  # as VolumeSource's volumes carry it
+        volume = Volume(np.zeros((2, 2, 2), np.float32), time_steps=3)
         return {"volume": volume, "image": Image.from_numpy(self.gl, np.full((8, 8), self.time_step / 4))}
 
 
