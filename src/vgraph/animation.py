@@ -381,20 +381,9 @@ def command_animate(args) -> int:
     Output.of(args.output).check(args.size)  # refuse before a long evaluation, not after
     network = vgraph.load(args.network, allow_write=args.allow_write)
     for assignment in args.set:
-        _set_from_command_line(network, assignment)
+        cli.set_from_command_line(network, assignment)  # as vgraph run: paths from the current folder
     # A blank first frame warns (BlankImageWarning); vgraph.cli.main prints it as one line.
     count = animate(network, args.output, orbit=args.orbit, frames=args.frames, over=args.over,
                     fps=args.fps, size=args.size, target=args.port, progress=not args.quiet)
     print(f"wrote {count} frames to {args.output}", file=sys.stderr)
     return cli.EXIT_OK
-
-
-def _set_from_command_line(network: Network, text: str) -> None:
-    """``--set`` exactly as ``vgraph run`` applies it (relative file paths from the current folder
-    where cli.py has that rule, plain JSON values before)."""
-    from vgraph import cli
-    setter = getattr(cli, "set_from_command_line", None)
-    if setter is not None:
-        setter(network, text)
-    else:
-        network.set(*cli.parse_assignment(text))
