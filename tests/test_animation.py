@@ -90,6 +90,14 @@ def test_png_sequence_frame_0_is_exactly_vgraph_runs_image(vgraph_main, tmp_path
     assert np.array_equal(png(tmp_path / "frames" / "frame_0000.png"), png(tmp_path / "run.png"))
 
 
+def test_view_starts_the_orbit_where_vgraph_run_view_looks(vgraph_main, tmp_path):
+    common = ["--size", "48x40", "--view", "left"]
+    assert vgraph_main(["run", str(TORUS), "-o", str(tmp_path / "run.png"), *common]) == 0
+    assert vgraph_main(["animate", str(TORUS), "-o", str(tmp_path / "frames"), "--frames", "2",
+                        "--quiet", *common]) == 0
+    assert np.array_equal(png(tmp_path / "frames" / "frame_0000.png"), png(tmp_path / "run.png"))
+
+
 def test_a_pattern_names_the_frames(vgraph_main, tmp_path):
     pattern = tmp_path / "out" / "turn_{:03d}.png"
     assert vgraph_main(["animate", str(SPHERE), "-o", str(pattern), "--frames", "2", "--size", "32x32",

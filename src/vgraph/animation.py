@@ -347,6 +347,7 @@ def opaque_rgb(pixels: np.ndarray) -> np.ndarray:
 # --- the command ----------------------------------------------------------------------------------
 def add_parser(commands) -> argparse.ArgumentParser:
     """Add ``vgraph animate`` to the subparsers of vgraph.cli.build_parser."""
+    from vgraph.camera import VIEW_NAMES
     from vgraph.cli import add_allow_write, parse_size
     parser = commands.add_parser(
         "animate", help="render a turntable or a sweep over a property as MP4, GIF or PNG frames",
@@ -366,6 +367,8 @@ def add_parser(commands) -> argparse.ArgumentParser:
     parser.add_argument("--fps", type=float, default=DEFAULT_FPS, help="frames per second (default 30)")
     parser.add_argument("--size", type=parse_size, help="image size WxH (default: the Canvas size)")
     parser.add_argument("--port", help="the image port to animate, ID.PORT (default: the Canvas)")
+    parser.add_argument("--view", choices=VIEW_NAMES, metavar="NAME",
+                        help=f"start from a named view framing the data: {', '.join(VIEW_NAMES)}")
     parser.add_argument("--set", action="append", default=[], metavar="ID.PROPERTY=VALUE",
                         help="change a property first; VALUE is JSON where it parses")
     parser.add_argument("--plugin", action="append", metavar="MODULE", help="import a plug-in module")
@@ -380,6 +383,8 @@ def command_animate(args) -> int:
     from vgraph import cli
     Output.of(args.output).check(args.size)  # refuse before a long evaluation, not after
     network = vgraph.load(args.network, allow_write=args.allow_write)
+    if args.view:
+        cli.set_view(network, args.view)  # then --set, in vgraph run's order
     for assignment in args.set:
         cli.set_from_command_line(network, assignment)  # as vgraph run: paths from the current folder
     # A blank first frame warns (BlankImageWarning); vgraph.cli.main prints it as one line.
