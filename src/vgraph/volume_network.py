@@ -28,10 +28,10 @@ def is_volume_path(path: str | Path) -> bool:
     rather than a .json network."""
     from vgraph.io import SUPPORTED_EXTENSIONS
     path = Path(path)
-    if path.is_dir():
-        return True
     name = path.name.lower()
-    return not name.endswith(".json") and any(name.endswith(e) for e in SUPPORTED_EXTENSIONS)
+    if name.endswith(".json"):
+        return False  # a network, even if it is not a file (the loader says what is wrong)
+    return path.is_dir() or any(name.endswith(e) for e in SUPPORTED_EXTENSIONS)
 
 
 def volume_network(path: str | Path) -> Network:
