@@ -16,6 +16,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import vgraph
+from vgraph import animation
 from vgraph.camera import VIEW_NAMES
 from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
 from vgraph.network import split_address
@@ -70,7 +71,8 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(title="commands")
 
     run = commands.add_parser("run", help="evaluate a network and write its output")
-    run.add_argument("network", type=Path, help="the .json network")
+    run.add_argument("network", type=Path, help="the .json network, or a volume file (rendered by the "
+                                                "standard network: docs/own-data.md)")
     run.add_argument("-o", "--output", type=Path, metavar="OUT.png", help="write the image as an 8-bit PNG")
     run.add_argument("--data", action="append", default=[], type=Path, metavar="OUT",
                      help="write the data; the extension chooses the format: .npy, .npz (image: "
@@ -102,8 +104,10 @@ def build_parser() -> argparse.ArgumentParser:
     listing.add_argument("--plugin", action="append", metavar="MODULE")
     listing.set_defaults(command=command_list)
 
+    animation.add_parser(commands)
+
     gui = commands.add_parser("gui", help="open the network editor (PySide6)")
-    gui.add_argument("network", type=Path, nargs="?", help="a .json network to open")
+    gui.add_argument("network", type=Path, nargs="?", help="a .json network or a volume file to open")
     gui.add_argument("--plugin", action="append", metavar="MODULE", help="import a plug-in module")
     gui.add_argument("--screenshot", type=Path, metavar="OUT.png",
                      help="wait until the canvases have rendered, save the window as a PNG and exit")
