@@ -71,7 +71,7 @@ def test_paths_the_user_types_are_the_users_own(tmp_path):
     assert (tmp_path / "typed.nrrd").is_file()
 
 
-@pytest.mark.parametrize("option", ["-o", "--data", "--npy", "--profile"])
+@pytest.mark.parametrize("option", ["-o", "--npy", "--profile"])
 @pytest.mark.parametrize("target, reason", [
     ("missing/x.out", "the folder .* does not exist"),
     (".", "folder"),
