@@ -13,6 +13,7 @@ import vgraph
 from vgraph import IntProperty, Outport, Processor
 from vgraph.image import Image
 from vgraph.imagefile import to_uint8
+from vgraph.transfer_function import PRESETS
 from vgraph.volume import Volume
 
 from conftest import REPO
@@ -113,9 +114,19 @@ def test_viewer_errors_show_in_the_status_line(tmp_path):
     with pytest.raises(vgraph.PropertyError, match="source.nope: ImageSource has no property 'nope'"):
         Viewer(net, properties=["source.nope"])
     sphere = vgraph.load(SPHERE)
-    with pytest.raises(vgraph.VGraphError, match="rc.transfer_function: the Viewer has no widget for a "
-                                                 "transfer_function property"):
-        Viewer(sphere, size=(16, 16), properties=["rc.transfer_function"])
+    with pytest.raises(vgraph.VGraphError, match="rc.camera: the Viewer has no widget for a "
+                                                 "camera property"):
+        Viewer(sphere, size=(16, 16), properties=["rc.camera"])
+
+
+def test_a_transfer_function_is_chosen_among_the_presets_by_name():
+    sphere = vgraph.load(SPHERE)
+    stored = sphere.get("rc.transfer_function")
+    viewer = Viewer(sphere, size=(16, 16), properties=["rc.transfer_function"])
+    menu = viewer.controls["rc.transfer_function"]
+    assert menu.value == stored and [label for label, _ in menu.options][:3] == ["as set", "auto", "grayscale"]
+    menu.value = "hot-metal"
+    assert sphere.get("rc.transfer_function") == PRESETS["hot-metal"]
 
 
 def test_the_example_notebook_runs_and_shows_pictures(tmp_path):

@@ -9,8 +9,8 @@ and needs ipywidgets, the ``notebook`` extra (``pip install 'vgraph[notebook]'``
 Azimuth and elevation orbit every camera (each link group once, vgraph.animation.CameraOrbit)
 from where the cameras were when the Viewer was made. Each chosen property gets the widget its
 declaration calls for: a slider for an int or float property with a range (logarithmic when the
-range spans more than two decades), a dropdown for an option, a checkbox for a bool, a number box
-otherwise. An int property without a maximum on a processor whose volume has time steps (a
+range spans more than two decades), a dropdown for an option or a transfer function (its presets
+by name), a checkbox for a bool, a number box otherwise. An int property without a maximum on a processor whose volume has time steps (a
 VolumeSource's ``time_step``) slides over those steps. Rendering is synchronous, on release of a
 slider; errors show in the status line under the picture instead of being raised.
 """
@@ -30,7 +30,9 @@ from vgraph.animation import CameraOrbit
 from vgraph.errors import VGraphError
 from vgraph.image import Image
 from vgraph.network import Network, split_address
-from vgraph.properties import BoolProperty, FloatProperty, IntProperty, OptionProperty
+from vgraph.properties import (BoolProperty, FloatProperty, IntProperty, OptionProperty,
+                               TransferFunctionProperty)
+from vgraph.transfer_function import PRESETS
 
 SLIDER_STEPS = 200  # a float slider moves in this many steps over its range
 LOG_RANGE = 100.0   # max / min from which a float slider is logarithmic
@@ -100,6 +102,11 @@ def property_widget(network: Network, address: str):
         return widgets.Checkbox(value=value, description=address, indent=False)
     if isinstance(prop, OptionProperty):
         return _slider(widgets.Dropdown, address, value, options=list(prop.choices))
+    if isinstance(prop, TransferFunctionProperty):
+        # The presets by name (a property accepts a name); the value set in the network comes first.
+        shown = [("as set", value)] + [(name, name) for name in PRESETS]
+        return widgets.Dropdown(options=shown, value=value, description=address,
+                                style={"description_width": "initial"})
     if isinstance(prop, IntProperty):
         low = prop.min if prop.min is not None else -INT_LIMIT
         high = prop.max if prop.max is not None else _last_time_step(network, address)
@@ -119,7 +126,7 @@ def property_widget(network: Network, address: str):
         return _slider(widgets.FloatSlider, address, value, min=prop.min, max=prop.max,
                        step=(prop.max - prop.min) / SLIDER_STEPS)
     raise VGraphError(f"{address}: the Viewer has no widget for a {prop.kind} property (it has "
-                      f"them for bool, option, int and float properties)")
+                      f"them for bool, option, int, float and transfer-function properties)")
 
 
 def _last_time_step(network: Network, address: str) -> int | None:

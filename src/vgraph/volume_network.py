@@ -5,7 +5,8 @@ The network is the one a user would wire first (docs/own-data.md)::
 
     VolumeSource 'source' -> EntryExitPoints 'eep' -> RayCaster 'rc' -> Canvas 'canvas'
 
-with the cameras linked both ways, a camera that fits whatever volume arrives (automatic near/far),
+with the cameras linked both ways, a camera that fits whatever volume arrives seen from the front
+(automatic near/far; x right, y front, z up as in RAS-ordered files),
 shaded direct volume rendering and the ``auto`` transfer function, which is placed by percentiles
 (transfer_function.PRESETS) and so shows the densest part of any data set without knowing its
 units. Every property can then be changed by id as in any network (``--set rc.transfer_function=
@@ -44,6 +45,7 @@ def volume_network(path: str | Path) -> Network:
     network.set("rc.transfer_function", "auto")
     network.set("rc.shading", "blinn_phong")
     network.link("eep.camera", "rc.camera", bidirectional=True)
+    network.set("eep.camera", network.get("eep.camera").viewed_from("front"))
     for source, target in WIRES:
         network.connect(source, target)
     return network
