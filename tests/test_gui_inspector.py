@@ -91,6 +91,19 @@ def test_camera_reset_restores_the_declared_default(window):
     assert editor.vectors["position"][2].value() == pytest.approx(default.position[2], abs=1e-4)
 
 
+def test_the_camera_editor_fits_to_data_until_a_position_is_typed(window):
+    ws = window.workspace
+    ws.add_processor("EntryExitPoints", (0, 0), id="eep")
+    editor = select(window, "eep")["camera"]
+    assert editor.fit.isChecked() and ws.network.get("eep.camera").fit_to_data
+    editor.fov.setValue(40.0)                     # the view angle: still fitting
+    assert ws.network.get("eep.camera").fit_to_data and ws.network.get("eep.camera").fov == 40.0
+    editor.vectors["position"][0].setValue(5.0)   # a typed position: stored from now on
+    assert not ws.network.get("eep.camera").fit_to_data and not editor.fit.isChecked()
+    editor.fit.setChecked(True)
+    assert ws.network.get("eep.camera").fit_to_data
+
+
 def test_option_bool_dict_and_vector_editors(window):
     ws = window.workspace
     ws.add_processor("FunctionSelector", (0, 0), id="f")

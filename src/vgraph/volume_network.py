@@ -39,8 +39,8 @@ def volume_network(path: str | Path) -> Network:
     """The standard rendering network for the volume at ``path`` (read when evaluated)."""
     network = Network(base_dir=Path.cwd())
     network.description = f"Shaded volume rendering of {Path(path).name}"
-    for id, type_name in IDS.items():
-        network.add(type_name, id=id)
+    for row, (id, type_name) in enumerate(IDS.items()):
+        network.add(type_name, id=id).position = (0.0, 120.0 * row)  # a column in the editor
     network.set("source.path", str(Path(path).expanduser().resolve()))
     network.set("rc.transfer_function", "auto")
     network.set("rc.shading", "blinn_phong")

@@ -286,7 +286,8 @@ class ColorEditor(PropertyEditor):
 
 
 class CameraEditor(PropertyEditor):
-    """Projection, position, focus, up and field of view, and a Reset to the declared default."""
+    """Projection, position, focus, up and field of view, whether it fits the data, and a Reset to
+    the declared default. Typing a position or focus stores the camera (it stops fitting)."""
 
     VECTORS = ("position", "focus", "up")
 
@@ -309,6 +310,11 @@ class CameraEditor(PropertyEditor):
         self.reset = QPushButton("Reset")
         self.reset.clicked.connect(lambda: self.emit(self.prop.default))
         grid.addWidget(self.reset, 4, 3)
+        self.fit = QCheckBox("fit to data")
+        self.fit.setToolTip("frame whatever volume arrives, keeping the direction; near and far "
+                            "planes follow the data unless set in the .json")
+        self.fit.toggled.connect(self._changed)
+        grid.addWidget(self.fit, 5, 1, 1, 3)
         self.layout_.addLayout(grid)
 
     def _spin(self, low, high) -> QDoubleSpinBox:
@@ -324,6 +330,8 @@ class CameraEditor(PropertyEditor):
         changes = {name: tuple(spin_value(s, exact) for s, exact in zip(spins, getattr(current, name)))
                    for name, spins in self.vectors.items()}
         changes |= {"projection": self.projection.currentText(), "fov": spin_value(self.fov, current.fov)}
+        moved = changes["position"] != current.position or changes["focus"] != current.focus
+        changes["fit_to_data"] = self.fit.isChecked() and not moved
         self.emit(current.model_dump() | changes)
 
     def _show(self, value: Camera):
@@ -332,6 +340,7 @@ class CameraEditor(PropertyEditor):
             for spin, component in zip(spins, getattr(value, name)):
                 spin.setValue(component)
         self.fov.setValue(value.fov)
+        self.fit.setChecked(value.fit_to_data)
 
 
 class JsonEditor(PropertyEditor):
