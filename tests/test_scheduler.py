@@ -64,16 +64,17 @@ def test_setting_the_same_value_invalidates_nothing(net):
     assert net.update("out").ids == []
 
 
-def test_initialize_once_and_resources_rebuilt_only_for_resource_properties(net):
+def test_initialize_once_and_process_again_after_every_change(net):
     net.update("out")
     a = net["a"]
-    assert (a.initialize_count, a.build_count) == (1, 1)
+    assert (a.initialize_count, a.process_count) == (1, 1)
     net.set("a.value", 4.0)
     net.update("out")
-    assert (a.initialize_count, a.build_count) == (1, 1)
     net.set("a.mode", "fancy")
     net.update("out")
-    assert (a.initialize_count, a.build_count) == (1, 2)
+    assert (a.initialize_count, a.process_count) == (1, 3)
+    net.update("out")
+    assert a.process_count == 3  # nothing changed: nothing runs
 
 
 def test_default_targets_are_all_sinks(net):

@@ -1,6 +1,6 @@
 """Small CPU processors for testing the network model and the scheduler without GL."""
 
-from vgraph import FloatProperty, Inport, Invalidation, IntProperty, Outport, Processor, StringProperty
+from vgraph import FloatProperty, Inport, IntProperty, Outport, Processor, StringProperty
 
 
 class Number(Processor):
@@ -8,15 +8,13 @@ class Number(Processor):
     category = "Test"
     outports = [Outport("value", float)]
     value = FloatProperty(1.0, min=-100.0, max=100.0)
-    mode = StringProperty("plain", invalidates=Invalidation.RESOURCES)
+    mode = StringProperty("plain")
 
     def initialize(self):
         self.initialize_count = getattr(self, "initialize_count", 0) + 1
 
-    def build_resources(self):
-        self.build_count = getattr(self, "build_count", 0) + 1
-
     def process(self):
+        self.process_count = getattr(self, "process_count", 0) + 1
         return self.value
 
 
