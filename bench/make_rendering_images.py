@@ -96,7 +96,7 @@ def main() -> None:
           out / "rendering_shading.png")
 
     net = network(resolution=24, data_type="uint8", compositing="iso", shading="blinn_phong")
-    strip([(gradient, panel(net, size, rc__gradient=gradient))
+    strip([(gradient, panel(net, size, rc__derivatives=gradient))
            for gradient in ("forward", "backward", "central", "sobel")],
           out / "rendering_gradients.png")
 

@@ -1,7 +1,7 @@
 """EntryExitPoints (Inácio 2009 ch. 4.2.2, Krueger & Westermann 2003): where each pixel's view ray
 enters and leaves the volume's box, as two images for the ray casters.
 
-Conventions (vgraph.gl.volume_rendering has the long form):
+Conventions (vgraph.gl.raycasting.geometry has the long form):
 - The box is the one spanned by the voxel centres, in world space (dims - 1) * spacing from the
   origin, so anisotropic volumes have their true shape. Its faces, grown by a margin, are
   rasterised to find the pixels the box covers; each fragment then intersects its pixel's ray with
@@ -27,10 +27,11 @@ import moderngl
 import numpy as np
 
 from vgraph import CameraProperty, FloatProperty, Inport, Outport, Processor, VGraphError
-from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass, set_uniform
+from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, bind_textures, fullscreen_pass, set_uniform
 from vgraph.gl.shaders import programs
-from vgraph.gl.volume_rendering import (DEFAULT_CAMERA, RenderTargets, VolumeGeometry, plane_cuts_box, plane_frame,
-                                        ray_uniforms, vec, view_camera)
+from vgraph.gl.raycasting.geometry import (DEFAULT_CAMERA, VolumeGeometry, plane_cuts_box, plane_frame,
+                                           ray_uniforms, vec, view_camera)
+from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
 from vgraph.volume import Volume
 
@@ -103,6 +104,8 @@ class EntryExitPoints(Processor):
 
     # --- drawing --------------------------------------------------------------------------------
     def _uniforms(self, volume: Volume, size, camera) -> dict:
+        """Uniforms of the point computation (entry_exit_point.glsl), and under "faces" and "cap"
+        those of the two ways of drawing it."""
         geometry = VolumeGeometry.of(volume)
         box_min, box_max = geometry.box
         hit_min, hit_max = self._hit_box = geometry.grown_box()
@@ -111,9 +114,9 @@ class EntryExitPoints(Processor):
         texture_min, texture_max = geometry.texture_box
         return {"box_min": vec(box_min), "box_max": vec(box_max),
                 "hit_box_min": vec(hit_min), "hit_box_max": vec(hit_max),
-                "proxy_min": vec(proxy_min), "proxy_max": vec(proxy_max),
-                "proxy_size": vec(proxy_max - proxy_min),
-                "view_projection": camera.view_projection(size[0] / size[1]),
+                "faces": {"proxy_min": vec(proxy_min), "proxy_size": vec(proxy_max - proxy_min),
+                          "view_projection": camera.view_projection(size[0] / size[1])},
+                "cap": {"proxy_min": vec(proxy_min), "proxy_max": vec(proxy_max)},
                 "near_to_far": camera.far - camera.near,
                 "world_to_texture_scale": vec(scale), "world_to_texture_offset": vec(offset),
                 "texture_box_min": vec(texture_min), "texture_box_max": vec(texture_max),
@@ -127,14 +130,14 @@ class EntryExitPoints(Processor):
         """Clear ``target``, rasterise the box's faces that survive culling, then cap with the
         near or far plane."""
         textures = {"exit_points": exit_points} if exit_points is not None else {}
+        uniforms = dict(uniforms)
+        faces_only, cap_only = uniforms.pop("faces"), uniforms.pop("cap")
         target.framebuffer.use()
         target.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
         ctx.viewport = (0, 0, *target.size)
         faces = programs.program(ctx, *FACE_SHADERS, defines, processor=self.id)
-        for unit, (name, image) in enumerate(textures.items()):
-            image.texture.use(location=unit)
-            set_uniform(faces, name, unit)
-        for name, value in uniforms.items():
+        bind_textures(faces, textures)
+        for name, value in {**uniforms, **faces_only}.items():
             set_uniform(faces, name, value)
         ctx.front_face, ctx.cull_face = "ccw", culled
         ctx.enable(moderngl.CULL_FACE)
@@ -147,7 +150,7 @@ class EntryExitPoints(Processor):
         centre, right, up = plane_frame(self.view_camera, target.size, plane)
         cap = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, CAP_SHADER, defines, processor=self.id)
         fullscreen_pass(ctx, cap, target, textures,
-                        {**uniforms, "cap_centre": vec(centre), "cap_right": vec(right),
+                        {**uniforms, **cap_only, "cap_centre": vec(centre), "cap_right": vec(right),
                          "cap_up": vec(up)})
 
     def _cube_vertex_array(self, ctx, program):

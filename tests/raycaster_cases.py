@@ -31,7 +31,7 @@ def ball(dtype: str) -> Volume:
 RAYCASTER = [
     {"compositing": mode} for mode in ("dvr", "mip", "iso", "first_hit", "xray")
 ] + [
-    {"compositing": "dvr", "shading": "blinn_phong", "gradient": g} for g in ("forward", "backward", "central", "sobel")
+    {"compositing": "dvr", "shading": "blinn_phong", "derivatives": g} for g in ("forward", "backward", "central", "sobel")
 ] + [
     {"compositing": "iso", "shading": "blinn_phong", "light": "direction", "light_direction": [1, -2, 0.5]},
     {"compositing": "dvr", "interpolation": "nearest"},

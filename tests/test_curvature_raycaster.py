@@ -132,7 +132,8 @@ def test_empty_space_skipping_changes_no_pixel_only_work(torus, mode):
                                     empty_space_skipping=skipping)
         results[skipping] = [network.evaluate(f"cr.{name}", size=SIZE)
                              for name in ("image", "curvature", "position", "depth")]
-        assert network["cr"].surface_defines(skipping)["SKIP_EMPTY_SPACE"] == skipping
+        (shader, surface), _ = network["cr"].passes
+        assert shader == "curvature/curvature_raycaster.frag.glsl" and surface["SKIP_EMPTY_SPACE"] == skipping
     for on, off in zip(results[True][:3], results[False][:3]):
         np.testing.assert_array_equal(on, off)
     np.testing.assert_array_equal(results[True][3][..., [0, 1, 3]], results[False][3][..., [0, 1, 3]])
@@ -231,14 +232,14 @@ def test_each_derivative_mode_compiles_only_its_own_code(torus):
     texts = {}
     for mode in MODES:
         network = curvature_network(volume_for(mode, torus), TORUS_CAMERA, derivatives=mode,
-                                    level=0.4375)
+                                    iso_level=0.4375)
         before = programs.compile_count
         network.evaluate("cr.curvature", size=(16, 16))
         compiled = programs.compile_count - before
-        network.set("cr.level", 0.5)
+        network.set("cr.iso_level", 0.5)
         network.evaluate("cr.curvature", size=(16, 16))  # a uniform changed: no compile
         assert programs.compile_count - before == compiled
-        defines = network.processors["cr"].surface_defines()
+        defines = network.processors["cr"].passes[0][1]
         texts[mode] = active_source(compose("curvature/curvature_raycaster.frag.glsl", defines).text)
     assert "tricubic_direct_jet_voxel" in texts["tricubic"] and "sample_offset" not in texts["tricubic"]
     assert "tricubic_fast_jet_voxel" in texts["tricubic_fast"]
@@ -254,7 +255,7 @@ def test_program_is_compiled_once_per_define_set(torus):
     network.evaluate("cr.image", size=(16, 16))
     before = programs.compile_count
     for level in (0.45, 0.55):  # uniforms only
-        network.set("cr.level", level)
+        network.set("cr.iso_level", level)
         network.set("cr.attenuation", level)
         network.evaluate("cr.image", size=(16, 16))
     assert programs.compile_count == before

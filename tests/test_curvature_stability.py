@@ -69,7 +69,7 @@ def test_a_constant_volume_has_no_surface_and_only_undefined_samples(mode):
     dvr with that colour in its TF."""
     flat = Volume(np.full((20, 20, 20), 7.0, dtype=np.float32), spacing=(0.1,) * 3, origin=(-1,) * 3)
     volume = volume_for(mode, flat)
-    surface = outputs(volume, derivatives=mode, level=0.5)
+    surface = outputs(volume, derivatives=mode, iso_level=0.5)
     assert not surface["position"][..., 3].any()
     assert np.all(surface["image"] == [0.0, 0.0, 0.0, 1.0])
     fog = [(0.0, 0.2), (1.0, 0.2)]  # the constant is normalised intensity 0
@@ -256,10 +256,10 @@ def test_levels_outside_the_data_give_no_surface():
     volume = Volume(values.astype(np.uint8), spacing=(2 / 31,) * 3, origin=(-1.0,) * 3,
                     declared_range=(0.0, 255.0))
     for level in (0.9, 0.0):
-        result = outputs(volume, derivatives="central", level=level)
+        result = outputs(volume, derivatives="central", iso_level=level)
         assert not result["position"][..., 3].any(), level
         assert np.all(result["image"] == [0.0, 0.0, 0.0, 1.0])
-    assert outputs(volume, derivatives="central", level=0.2)["position"][..., 3].any()
+    assert outputs(volume, derivatives="central", iso_level=0.2)["position"][..., 3].any()
 
 
 def test_grazing_rays_hit_a_surface_point_with_its_curvature():

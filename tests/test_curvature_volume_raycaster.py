@@ -100,12 +100,15 @@ def test_outputs_are_finite_and_the_depth_marks_the_first_visible_sample(torus):
 def test_define_sets_and_recompiles(torus):
     network = volume_network(torus[1], TORUS_CAMERA, derivatives="tricubic_fast")
     processor = network["cr"]
-    assert processor.shader_defines(range_pass=True)["RANGE_PASS"]
-    assert "SHADING_BLINN_PHONG" not in processor.shader_defines(range_pass=True)
-    assert not processor.shader_defines()["OPACITY_CORRECTION"]
-    network.set("cr.sampling_rate", 2.0)
-    assert processor.shader_defines()["OPACITY_CORRECTION"]
+    network.set("cr.shading", "blinn_phong")
     network.evaluate("cr.image", size=(16, 16))
+    (_, range_pass), (_, colour_pass) = processor.passes
+    assert range_pass["RANGE_PASS"] and not colour_pass["RANGE_PASS"]
+    assert "SHADING_BLINN_PHONG" not in range_pass and colour_pass["SHADING_BLINN_PHONG"]
+    assert not colour_pass["OPACITY_CORRECTION"]
+    network.set("cr.sampling_rate", 2.0)
+    network.evaluate("cr.image", size=(16, 16))
+    assert processor.passes[1][1]["OPACITY_CORRECTION"]
     before = programs.compile_count
     network.set("cr.attenuation", 3.0)  # uniforms and textures only
     network.set("cr.colormap", "viridis")

@@ -173,7 +173,7 @@ def test_frame_volume_fits_the_box_into_the_view():
 
 
 def test_the_default_camera_frames_each_volume_it_receives():
-    from vgraph.gl.volume_rendering import DEFAULT_CAMERA
+    from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA
     network = rendering_network(random_volume(), DEFAULT_CAMERA)  # a box far from [-1, 1]^3
     network.evaluate("rc.image", size=(32, 32))
     assert network["eep"].camera == DEFAULT_CAMERA  # the property stays "fit to data"

@@ -126,7 +126,7 @@ def test_vgraph_run_warns_on_stderr_when_the_camera_looks_away(tmp_path, capsys)
 
 def test_b_spline_coefficients_of_values_beyond_float32_give_the_ordinary_curvature_image():
     def curvature(data):
-        network = ray_caster_network(Volume(data), CAMERA, processor="CurvatureRaycaster", level=0.5)
+        network = ray_caster_network(Volume(data), CAMERA, processor="CurvatureRaycaster", iso_level=0.5)
         network.add("CubicSplineProcessor", id="spline")
         for connection in network.connections_of("src"):
             network.disconnect(connection)

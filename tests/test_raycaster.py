@@ -229,9 +229,9 @@ def linear_volume():
     return Volume(f.astype(np.float32), spacing=(0.5, 0.5, 0.25), declared_range=(-5.0, 5.0))
 
 
-@pytest.mark.parametrize("gradient", ["forward", "backward", "central", "sobel"])
+@pytest.mark.parametrize("derivatives", ["forward", "backward", "central", "sobel"])
 @pytest.mark.parametrize("light", ["headlight", "direction"])
-def test_blinn_phong_with_every_gradient_matches_the_formula(gradient, light):
+def test_blinn_phong_with_every_gradient_matches_the_formula(derivatives, light):
     volume = linear_volume()
     level = (-0.75 + 5.0) / 10.0
     tf = TransferFunction(points=[(0.0, 0.6, 0.5, 0.4, 0.0), (level, 0.6, 0.5, 0.4, 0.0),
@@ -240,7 +240,7 @@ def test_blinn_phong_with_every_gradient_matches_the_formula(gradient, light):
                     parallel_scale=3.0, near=1.0, far=40.0)
     light_direction = np.array([0.3, 0.5, 1.0])
     image = render_gl(volume, camera, (24, 24), transfer_function=tf, shading="blinn_phong",
-                      gradient=gradient, light=light, light_direction=tuple(light_direction),
+                      derivatives=derivatives, light=light, light_direction=tuple(light_direction),
                       ambient=0.2, diffuse=0.6, specular=0.4, shininess=8.0)
     normal = LINEAR_GRADIENT / np.linalg.norm(LINEAR_GRADIENT)
     view = np.array([0.0, 0.0, 1.0])
@@ -266,8 +266,8 @@ def test_spline_coefficients_are_refused():
 
 
 def test_shading_without_a_gradient_names_the_fix(torus):
-    with pytest.raises(ProcessorError, match="rc.gradient to central"):
-        render_gl(torus, oblique_camera(torus), shading="blinn_phong", gradient="none")
+    with pytest.raises(ProcessorError, match="rc.derivatives to central"):
+        render_gl(torus, oblique_camera(torus), shading="blinn_phong", derivatives="none")
 
 
 def test_unshaded_mip_compiles_no_gradient_or_shading_code(torus):
@@ -300,7 +300,7 @@ def test_recompiles_only_when_the_define_set_changes(torus):
     # A TF with no transparent range leaves no empty space: skipping (a define) is switched off.
     assert compiles(transfer_function=constant_tf((1, 0, 0), 0.2)) == 1
     assert compiles(transfer_function=COLOURED) == 0
-    assert compiles(gradient="sobel", light="direction") == 0  # shading is off: same defines
+    assert compiles(derivatives="sobel", light="direction") == 0  # shading is off: same defines
     assert compiles(camera=oblique_camera(torus).rotate(0.3, 0.1)) == 0
     assert compiles(compositing="mip") == 1
     assert compiles(compositing="dvr") == 0  # cached
@@ -331,7 +331,7 @@ def test_empty_space_skipping_changes_no_pixel(torus, mode):
 
 
 def test_block_ranges_cover_each_block_with_a_voxel_of_margin():
-    from vgraph.gl.volume_rendering import BLOCK, block_ranges, occupied_blocks, skip_radii
+    from vgraph.gl.raycasting.empty_space import BLOCK, block_ranges, occupied_blocks, skip_radii
     ramp = np.arange(30) / 29.0  # along x, so that blocks have different ranges
     data = (ramp + 0.05 * np.random.default_rng(2).random((21, 17, 30))).astype(np.float32)
     data[3, 4, 5], data[20, 16, 0] = np.nan, np.inf  # uploaded as the range's ends

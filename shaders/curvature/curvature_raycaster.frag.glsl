@@ -14,16 +14,15 @@
 //   depth      the RayCaster's depth output at the hit (else (1, 0, samples, 0))
 //   gradient   (internal) gradient in normalised intensity per world unit, alpha 1 where hit
 #include "raycasting/ray.glsl"
+#include "raycasting/pixel_ray.glsl"
+#include "raycasting/depth_output.glsl"
 #include "raycasting/volume_sampling.glsl"
 #include "raycasting/march.glsl"
 #include "curvature/field_fd.glsl"
 #include "curvature/field_tricubic.glsl"
 #include "curvature/iso_hit.glsl"
 #include "curvature/kindlmann.glsl"
-#include "curvature/hit_outputs.glsl"
 
-uniform sampler2D entry_points;
-uniform sampler2D exit_points;
 uniform float min_gradient;  // |grad f| at or below this (per world unit): undefined
 
 layout(location = 0) out vec4 curvature;
@@ -32,17 +31,14 @@ layout(location = 2) out vec4 depth;
 layout(location = 3) out vec4 gradient;
 
 void main() {
-    ivec2 pixel = ivec2(gl_FragCoord.xy);
-    vec4 entry_point = texelFetch(entry_points, pixel, 0);
-    vec4 exit_point = texelFetch(exit_points, pixel, 0);
     curvature = vec4(0.0);
     position = vec4(0.0);
     gradient = vec4(0.0);
-    depth = vec4(1.0, 0.0, 0.0, 0.0);
-    if (entry_point.a == 0.0 || exit_point.a == 0.0) {
+    depth = no_depth(0);
+    Ray ray;
+    if (!pixel_ray(ray)) {
         return;
     }
-    Ray ray = make_ray(entry_point.xyz, exit_point.xyz);
     Hit hit = find_hit(ray);
     depth.b = float(hit.taken);
     if (!hit.found) {

@@ -11,6 +11,8 @@
 // measure, see compositing_curvature.glsl); `depth` = the RayCaster's depth output at the first
 // sample with opacity > 0 (else (1, 0, samples, 0)).
 #include "raycasting/ray.glsl"
+#include "raycasting/pixel_ray.glsl"
+#include "raycasting/depth_output.glsl"
 #include "raycasting/volume_sampling.glsl"
 #include "raycasting/transfer_function.glsl"
 #include "raycasting/march.glsl"
@@ -20,30 +22,24 @@
 #include "curvature/kindlmann.glsl"
 #include "curvature/measure.glsl"
 #include "curvature/normalization.glsl"
-#include "curvature/hit_outputs.glsl"
 #include "curvature/compositing_curvature.glsl"
 
-uniform sampler2D entry_points;
-uniform sampler2D exit_points;
 uniform vec4 background;
 
 layout(location = 0) out vec4 color;
 layout(location = 1) out vec4 depth;
 
 void main() {
-    ivec2 pixel = ivec2(gl_FragCoord.xy);
-    vec4 entry_point = texelFetch(entry_points, pixel, 0);
-    vec4 exit_point = texelFetch(exit_points, pixel, 0);
-    if (entry_point.a == 0.0 || exit_point.a == 0.0) {
+    Ray ray;
+    if (!pixel_ray(ray)) {
 #ifdef RANGE_PASS
         color = vec4(3.0e38, -3.0e38, 0.0, 1.0);
 #else
         color = background;
 #endif
-        depth = vec4(1.0, 0.0, 0.0, 0.0);
+        depth = no_depth(0);
         return;
     }
-    Ray ray = make_ray(entry_point.xyz, exit_point.xyz);
     Result result = march(ray);
 #ifdef RANGE_PASS
     color = result.color;
@@ -53,5 +49,5 @@ void main() {
 #endif
     depth = result.depth_sample >= 0.0
           ? depth_of(world_point(sample_point(ray, result.depth_sample)), result.taken)
-          : vec4(1.0, 0.0, float(result.taken), 0.0);
+          : no_depth(result.taken);
 }

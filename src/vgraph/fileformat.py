@@ -1,12 +1,12 @@
 """The .json network format: pydantic models, version migrations, load and atomic save.
 
-    {"format": "vgraph-network", "version": 1, "description": "...",
+    {"format": "vgraph-network", "version": 2, "description": "...",
      "processors": [{"id": "src", "type": "FunctionSelector", "properties": {...}, "position": [x, y]}],
      "connections": [{"from": "src.volume", "to": "spline.volume"}],
      "links": [{"from": "eep.camera", "to": "rc.camera", "bidirectional": false}]}
 
 Loading either returns a complete Network or raises NetworkFileError listing every problem with
-its JSON path (``processors[2].properties.level``) and reason; it never changes an existing network.
+its JSON path (``processors[2].properties.iso_level``) and reason; it never changes an existing network.
 Older versions are upgraded by the chain in ``MIGRATIONS`` before validation; a migration refuses
 fields it does not know, so a mislabelled file is an error rather than an empty network.
 
@@ -34,7 +34,7 @@ from vgraph.registry import registry
 from vgraph.volume_network import is_volume_path, volume_network
 
 FORMAT = "vgraph-network"
-CURRENT_VERSION = 1
+CURRENT_VERSION = 2
 MAX_FILE_BYTES = 64 * 2**20   # the largest shipped network is a few kB
 MAX_NESTING = 64              # the deepest legitimate value (a camera in a property) is 4 levels
 
@@ -64,7 +64,7 @@ class LinkEntry(ConnectionEntry):
 
 class NetworkDocument(_Strict):
     format: Literal["vgraph-network"]
-    version: Literal[1]
+    version: Literal[2]
     description: str = ""
     processors: list[ProcessorEntry] = []
     connections: list[ConnectionEntry] = []
@@ -95,7 +95,32 @@ def _from_version_0(document: dict) -> dict:
             "links": [arrow(e) for e in document.get("links", [])]}
 
 
-MIGRATIONS: dict[int, Callable[[dict], dict]] = {0: _from_version_0}
+# Version 2 gave one concept one name: the iso level is `iso_level` and the way derivatives are
+# computed is `derivatives` on every ray caster (version 1 had `level` and `gradient` besides).
+RENAMED_IN_VERSION_2 = {("RayCaster", "gradient"): "derivatives", ("CurvatureRaycaster", "level"): "iso_level"}
+
+
+def _from_version_1(document: dict) -> dict:
+    """Version 1: RayCaster.gradient and CurvatureRaycaster.level under their old names, in the
+    processors' properties and in links. Anything malformed is left for validation to name."""
+    document = json.loads(json.dumps(document))  # a deep copy: the caller's document stays as it was
+    types = {}
+    for entry in document.get("processors") or []:
+        if isinstance(entry, dict) and isinstance(entry.get("properties"), dict):
+            types[entry.get("id")] = entry.get("type")
+            for (type_name, old), new in RENAMED_IN_VERSION_2.items():
+                if entry.get("type") == type_name and old in entry["properties"]:
+                    entry["properties"][new] = entry["properties"].pop(old)
+    for link in document.get("links") or []:
+        for end in ("from", "to") if isinstance(link, dict) else ():
+            pid, _, name = str(link.get(end, "")).partition(".")
+            new = RENAMED_IN_VERSION_2.get((types.get(pid), name))
+            if new is not None:
+                link[end] = f"{pid}.{new}"
+    return {**document, "version": 2}
+
+
+MIGRATIONS: dict[int, Callable[[dict], dict]] = {0: _from_version_0, 1: _from_version_1}
 
 
 def migrate(document: dict) -> dict:
@@ -264,7 +289,7 @@ def check_write_paths(network: Network, file: str, allow_write=()) -> None:
 
 # --- saving ---------------------------------------------------------------------------------------
 def network_document(network: Network, base_dir: Path | None = None) -> dict:
-    """The network as a version-1 document; relative file paths are re-expressed against
+    """The network as a document of the current version; relative file paths are re-expressed against
     ``base_dir`` (the folder the file is saved to) so they keep pointing at the same files."""
     def value_json(processor, name, prop):
         value = processor.property_values[name]

@@ -66,7 +66,7 @@ class Processor:
         self.network: Network | None = None
         self.position: tuple[float, float] = (0.0, 0.0)
         self.property_values = {name: p.default for name, p in self.properties.items()}
-        self.invalid_level = Invalidation.RESOURCES  # nothing built or computed yet
+        self.invalid_level = Invalidation.OUTPUT  # nothing computed yet
         self.initialized = False
         self.outputs: dict[str, object] = {}
         self.inputs: dict[str, object] = {}  # what the last process() received (sinks show it)
@@ -143,9 +143,6 @@ class Processor:
         are visible under the transfer function"), or None when nothing or unknown. A renderer that
         says so and still produced a uniform image is reported (``scheduler.blank_image_warning``)."""
         return None
-
-    def build_resources(self) -> None:
-        """Called before process() when a RESOURCES-level property changed (and the first time)."""
 
     def process(self, **inputs):
         raise NotImplementedError(f"{self.type_name} does not implement process()")

@@ -4,8 +4,10 @@ A declaration such as ``sampling_rate = FloatProperty(1.0, min=0.1, max=16)`` gi
 range, the validation (a pydantic TypeAdapter), the JSON form, the row in ``vgraph list`` and, later,
 the GUI widget. On an instance the attribute reads the current value; assigning validates it.
 
-Each property says what a change invalidates: ``Invalidation.OUTPUT`` (run process() again) or
-``Invalidation.RESOURCES`` (rebuild resources such as the shader's define set, then run again).
+A change invalidates the processor's output (``Invalidation.OUTPUT``: process() runs again). There
+is one level: GL programs are looked up by their define set in process() (compiled once per set),
+so no property needs a rebuild step of its own (docs/architecture.md). ``Invalidation.RESOURCES``
+remains as an alias of OUTPUT for plug-ins that still declare it.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from vgraph.transfer_function import TransferFunction, preset_or_file
 class Invalidation(IntEnum):
     VALID = 0
     OUTPUT = 1
-    RESOURCES = 2
+    RESOURCES = 1  # an alias of OUTPUT (the level was dropped; see the module docstring)
 
 
 def _not_bool(value):

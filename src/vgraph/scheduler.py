@@ -94,8 +94,6 @@ def _run(network: Network, processor: Processor) -> EvaluationRecord:
         if not processor.initialized:
             processor.initialize()
             processor.initialized = True
-        if processor.invalid_level >= Invalidation.RESOURCES:
-            processor.build_resources()
         outputs = _checked_outputs(processor, processor.process(**inputs))
     except Exception as error:
         processor.last_error = _reason(error)

@@ -1,4 +1,5 @@
-"""GL helpers shared by the curvature ray casters (CurvatureRaycaster, CurvatureVolumeRaycaster).
+"""What the curvature ray casters (CurvatureRaycaster, CurvatureVolumeRaycaster) share: their two
+ray-casting components (CurvatureField, CurvatureColoring) and the GPU range reduction.
 
 Conventions (docs/curvature.md explains them for users):
 - Derivative modes and the volume kind they need: ``forward``, ``central`` and ``filtered`` finite
@@ -22,8 +23,8 @@ Conventions (docs/curvature.md explains them for users):
     exponential  k >= 0: 1 - exp(-k t) / 2       k < 0: exp(k t) / 2      (t: attenuation, world units)
   so zero curvature sits at 0.5. Curvedness is never negative and uses the whole map: k / kmax or
   1 - exp(-k t). The shape index is already dimensionless in [-1, 1] and maps to (S + 1) / 2.
-- Colour maps are 256-entry RGBA32F LUT textures with linear filtering (ColormapTexture); entry i at
-  normalised value i / 255.
+- Colour maps are 256-entry RGBA32F LUT textures with linear filtering (textures.LookupTexture);
+  entry i at normalised value i / 255.
 - Linear normalisation needs kmin, kmax of the image: RangeReduction computes them on the GPU by
   passes that each reduce blocks of REDUCE_BLOCK^2 pixels into (min, max) pairs, down to one pixel
   that the colour pass reads as a texture: nothing is read back to the CPU.
@@ -36,9 +37,12 @@ import numpy as np
 
 from vgraph.errors import VGraphError
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
+from vgraph.gl.raycasting.components import Binding, Component, Frame
+from vgraph.gl.raycasting.targets import RenderTargets
+from vgraph.gl.raycasting.textures import LookupTexture
 from vgraph.gl.shaders import programs
-from vgraph.gl.volume_rendering import RenderTargets
 from vgraph.image import Image
+from vgraph.properties import ColorProperty, FloatProperty, OptionProperty
 from vgraph.volume import Volume
 
 DERIVATIVES = ("forward", "central", "filtered", "tricubic", "tricubic_fast")
@@ -50,7 +54,6 @@ ROUNDING_GRADIENT = 1e-5  # ... or at or below this times the largest |value| (f
 ZERO_CURVATURE = 1e-3  # |k| * min(spacing) at or below this reads as 0 in the shown measure
 REDUCE_BLOCK = 8  # pixels per side reduced by one pass of the min/max reduction
 REDUCE_SHADER = "curvature/range_reduce.frag.glsl"
-LEVEL_EPSILON = 1e-6  # normalised: block ranges this close to the level count as crossing it
 
 # Colour maps: control points in [0, 1], evenly spaced, linearly interpolated (JET is analytic).
 # viridis and coolwarm are 17 samples of matplotlib's maps (van der Walt & Smith; Moreland 2009).
@@ -105,14 +108,12 @@ def measure_defines(curvature: str, normalization: str | None = None) -> dict[st
 
 
 def field_uniforms(volume: Volume) -> dict[str, object]:
-    """Uniforms of shaders/curvature/field_*.glsl: voxel step, 1 / spacing, intensity scale."""
+    """Uniforms of shaders/curvature/field_*.glsl besides the volume's sampling: voxel step,
+    1 / spacing and the smallest gradient with a direction."""
     dims = np.array(volume.dims, dtype=np.float64)
     spacing = np.asarray(volume.spacing, dtype=np.float64)
-    scale, offset = volume.texture_scale_offset()
     return {"voxel_step": tuple(1.0 / dims), "inv_spacing": tuple(1.0 / spacing),
-            "intensity_scale": float(scale), "intensity_offset": float(offset),
-            "volume_dims": tuple(int(d) for d in volume.dims),
-            "min_gradient": min_gradient(volume), **measure_uniforms(volume)}
+            "min_gradient": min_gradient(volume)}
 
 
 def min_gradient(volume: Volume) -> float:
@@ -130,20 +131,6 @@ def measure_uniforms(volume: Volume) -> dict[str, float]:
     return {"zero_curvature": ZERO_CURVATURE / float(min(volume.spacing))}
 
 
-def raw_level(volume: Volume, level: float) -> float:
-    """The texture value of a normalised level (the hit search compares raw values: near the level
-    they keep more digits than normalised ones)."""
-    scale, offset = volume.texture_scale_offset()
-    return (level - offset) / scale
-
-
-def shading_defines(owner) -> dict[str, bool]:
-    """Defines of raycasting/shading.glsl from a processor with the RayCaster's light properties."""
-    if owner.shading == "none":
-        return {}
-    return {"SHADING_BLINN_PHONG": True, "LIGHT_HEADLIGHT": owner.light == "headlight"}
-
-
 # --- colour maps ----------------------------------------------------------------------------------
 def colormap_table(name: str, size: int = COLORMAP_SIZE) -> np.ndarray:
     """(size, 4) float32 RGBA of colour map ``name`` at values i / (size - 1), alpha 1."""
@@ -157,25 +144,6 @@ def colormap_table(name: str, size: int = COLORMAP_SIZE) -> np.ndarray:
     else:
         raise VGraphError(f"colormap must be one of {', '.join(COLORMAPS)}, got {name!r}")
     return np.concatenate([rgb, np.ones((size, 1))], axis=1).astype(np.float32)
-
-
-class ColormapTexture:
-    """The colour map as a 256 x 1 RGBA32F texture with linear filtering, rewritten on change."""
-
-    def __init__(self):
-        self.texture = None
-        self.name = None
-
-    def update(self, ctx: moderngl.Context, name: str):
-        if self.texture is None or self.texture.ctx is not ctx:
-            self.texture = ctx.texture((COLORMAP_SIZE, 1), 4, dtype="f4")
-            self.texture.repeat_x = self.texture.repeat_y = False
-            self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            self.name = None
-        if name != self.name:
-            self.texture.write(colormap_table(name).tobytes())
-            self.name = name
-        return self.texture
 
 
 # --- min / max of the curvature image --------------------------------------------------------------
@@ -221,9 +189,52 @@ def reduction_sizes(size) -> list[tuple[int, int]]:
             return sizes
 
 
-# --- empty-space skipping ------------------------------------------------------------------------
-def level_occupancy(level: float):
-    """Blocks that may hold a crossing of ``level``: their range of normalised values straddles it
-    (min < level + eps and max >= level - eps). Blocks wholly on one side cannot, and neighbouring
-    blocks share a voxel margin, so a region of such blocks never hides a crossing."""
-    return lambda low, high: (low < level + LEVEL_EPSILON) & (high >= level - LEVEL_EPSILON)
+# --- components -----------------------------------------------------------------------------------
+class CurvatureField(Component):
+    """Curvature of the level set through a point from the chosen derivatives (Kindlmann et al.
+    2003): finite differences of voxel samples or the tricubic B-spline of coefficients."""
+
+    glsl = ("curvature/field_fd.glsl", "curvature/field_tricubic.glsl", "curvature/kindlmann.glsl")
+
+    @staticmethod
+    def declare():
+        return {"derivatives": OptionProperty("tricubic", choices=list(DERIVATIVES),
+                                              doc="forward, central, filtered differences (voxel samples) "
+                                                  "or tricubic, tricubic_fast (B-spline coefficients)")}
+
+    def bind(self, frame: Frame) -> Binding:
+        derivatives = self.processor.derivatives
+        check_volume_kind(frame.volume, derivatives, f"{self.processor.type_name} '{self.processor.id}'")
+        return Binding(defines=derivative_defines(derivatives), uniforms=field_uniforms(frame.volume))
+
+
+class CurvatureColoring(Component):
+    """A curvature measure, normalised to [0, 1] and looked up in a colour map (Cabral 2010 sec. 5.3)."""
+
+    glsl = ("curvature/measure.glsl", "curvature/normalization.glsl")
+
+    def __init__(self, processor):
+        super().__init__(processor)
+        self.colormap = LookupTexture(COLORMAP_SIZE)
+
+    @staticmethod
+    def declare():
+        return {"curvature": OptionProperty("gaussian", choices=list(CURVATURES), doc="the measure shown"),
+                "normalization": OptionProperty("linear", choices=list(NORMALIZATIONS),
+                                                doc="linear: by the largest and smallest curvature "
+                                                    "shown; exponential: with attenuation"),
+                "attenuation": FloatProperty(1.0, min=1e-6, max=1e6,
+                                             doc="t of the exponential normalisation, in world units"),
+                "colormap": OptionProperty("jet", choices=list(COLORMAPS)),
+                "undefined_color": ColorProperty((0.5, 0.5, 0.5, 1.0),
+                                                 doc="colour where the curvature is undefined")}
+
+    def bind(self, frame: Frame) -> Binding:
+        processor = self.processor
+        name = processor.colormap
+        texture = self.colormap.update(frame.ctx, name, lambda: colormap_table(name))
+        return Binding(defines=measure_defines(processor.curvature, processor.normalization),
+                       textures={"colormap": texture},
+                       uniforms={"attenuation": processor.attenuation,
+                                 "undefined_color": tuple(processor.undefined_color),
+                                 **measure_uniforms(frame.volume)})

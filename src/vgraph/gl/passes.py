@@ -3,9 +3,14 @@
 Conventions:
 - The vertex stage is ``fullscreen.vert.glsl``: one triangle generated from gl_VertexID (no vertex
   buffer), giving ``in vec2 uv`` in [0, 1] with v = 0 at the bottom row (GL convention).
-- Textures are bound to units 0, 1, ... in the order given and their sampler uniforms set to those
-  units. Uniforms the program does not have (unused ones are optimised away by the compiler) are
-  skipped.
+- Textures are bound by name: ``bind_textures`` gives each sampler uniform of the program a unit
+  (0, 1, ... in the order given) and returns the units by name, so nothing depends on where a
+  texture sits in a dict; ``samplers`` of a pass (e.g. the volume's trilinear sampler) are bound to
+  the unit of the texture they are named after for that pass only.
+- Uniforms are set strictly (``set_uniform``): a name that the program's sources do not declare
+  (a misspelt uniform) raises ShaderError naming it and the shader files, unless the caller marks
+  it optional; a declared uniform that the compiler optimised away (not used by this define set)
+  is skipped. Programs not made by ``vgraph.gl.shaders.programs`` are set leniently.
 - numpy uniform values are written in the uniform's own type; a 2D array for a matrix uniform is in
   mathematical (row-major) layout and is transposed to GL's column-major order.
 - The pass uses the context's current enable flags (by default no depth test and no blending).
@@ -16,7 +21,9 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from vgraph.errors import ShaderError
 from vgraph.gl import context as gl_context
+from vgraph.gl.shaders import programs
 from vgraph.image import Image
 
 FULLSCREEN_VERTEX_SHADER = "fullscreen.vert.glsl"
@@ -27,22 +34,45 @@ _vertex_arrays: dict[moderngl.Program, moderngl.VertexArray] = {}
 
 def fullscreen_pass(ctx: moderngl.Context, program: moderngl.Program, target: Image,
                     textures: dict[str, object] | None = None,
-                    uniforms: dict[str, object] | None = None) -> None:
-    """Draw one fullscreen triangle with ``program`` into ``target``."""
+                    uniforms: dict[str, object] | None = None, *,
+                    samplers: dict[str, moderngl.Sampler] | None = None,
+                    optional: frozenset[str] | set[str] = frozenset()) -> None:
+    """Draw one fullscreen triangle with ``program`` into ``target``. ``samplers``: a sampler object
+    per texture name; ``optional``: uniform names the program need not declare."""
     target.framebuffer.use()
     ctx.viewport = (0, 0, *target.size)
-    for unit, (name, texture) in enumerate((textures or {}).items()):
+    units = bind_textures(program, textures or {})
+    for name, value in (uniforms or {}).items():
+        set_uniform(program, name, value, optional=name in optional)
+    for name, sampler in (samplers or {}).items():
+        sampler.use(units[name])
+    try:
+        _vertex_array(ctx, program).render(moderngl.TRIANGLES, vertices=3)
+    finally:
+        for name, sampler in (samplers or {}).items():
+            sampler.clear(units[name])
+
+
+def bind_textures(program: moderngl.Program, textures: dict[str, object]) -> dict[str, int]:
+    """Bind each texture (or Image) to its own unit and point the sampler uniform of that name at
+    it; returns the unit of each name."""
+    units = {}
+    for unit, (name, texture) in enumerate(textures.items()):
         (texture.texture if isinstance(texture, Image) else texture).use(location=unit)
         set_uniform(program, name, unit)
-    for name, value in (uniforms or {}).items():
-        set_uniform(program, name, value)
-    _vertex_array(ctx, program).render(moderngl.TRIANGLES, vertices=3)
+        units[name] = unit
+    return units
 
 
-def set_uniform(program: moderngl.Program, name: str, value) -> bool:
-    """Set a uniform if the program has it; return whether it was set."""
+def set_uniform(program: moderngl.Program, name: str, value, optional: bool = False) -> bool:
+    """Set a uniform; return whether the program uses it. ShaderError if the program's sources do
+    not declare ``name`` at all, unless ``optional`` (see the module docstring)."""
     uniform = program.get(name, None)
     if not isinstance(uniform, moderngl.Uniform):
+        source = programs.source_of(program)
+        if source is not None and name not in source.declared and not optional:
+            raise ShaderError(f"{source.describe()}: no uniform '{name}' is declared; misspelt, or "
+                              f"set for a shader that does not have it?")
         return False
     if isinstance(value, np.ndarray):
         uniform.write(_uniform_bytes(uniform, value))

@@ -267,13 +267,36 @@ def shader_error_from_log(log: str, sources: dict[str, ComposedSource],
 
 # -------------------------------------------------------------------------------------- the cache
 
+_UNIFORM_RE = re.compile(r"^\s*uniform\s+\w+\s+(\w+)", re.M)
+
+
+@dataclass(frozen=True)
+class ProgramSource:
+    """What a compiled program was made from: its shader files (for messages) and the names of the
+    uniforms its sources declare, in any #ifdef branch (the compiler drops the unused ones)."""
+
+    files: tuple[str, ...]
+    processor: str | None
+    declared: frozenset[str]
+
+    def describe(self) -> str:
+        where = f"processor '{self.processor}': " if self.processor else ""
+        return f"{where}{' + '.join(self.files)}"
+
+
 class ProgramCache:
     """Compiled programs per (context, shader names, define set). A program is compiled the first
-    time it is asked for; ``compile_count`` counts compiler invocations (tests use it)."""
+    time it is asked for; ``compile_count`` counts compiler invocations (tests use it).
+    ``source_of(program)`` says what a cached program was made from."""
 
     def __init__(self):
         self._programs: dict[tuple, object] = {}
+        self._sources: dict[int, ProgramSource] = {}  # by id(program), while it is cached
         self.compile_count = 0
+
+    def source_of(self, program) -> ProgramSource | None:
+        """The ProgramSource of a program this cache compiled (None for any other program)."""
+        return self._sources.get(id(program))
 
     def program(self, ctx: moderngl.Context, vertex: str, fragment: str,
                 defines: dict[str, object] | None = None,
@@ -302,7 +325,9 @@ class ProgramCache:
     def clear(self, ctx: moderngl.Context | None = None) -> None:
         """Release and forget the programs of ``ctx`` (all contexts if None)."""
         for key in [k for k in self._programs if ctx is None or k[0] is ctx]:
-            self._programs.pop(key).release()
+            program = self._programs.pop(key)
+            self._sources.pop(id(program), None)
+            program.release()
 
     def forget_context(self, ctx: moderngl.Context) -> None:
         """Drop the programs of a context that is going away."""
@@ -314,9 +339,12 @@ class ProgramCache:
     def _compile(self, build, sources: dict[str, ComposedSource], processor: str | None):
         self.compile_count += 1
         try:
-            return build()
+            program = build()
         except moderngl.Error as exc:
             raise shader_error_from_log(str(exc), sources, processor) from None
+        declared = frozenset(name for source in sources.values() for name in _UNIFORM_RE.findall(source.text))
+        self._sources[id(program)] = ProgramSource(tuple(s.name for s in sources.values()), processor, declared)
+        return program
 
     @staticmethod
     def _define_key(defines, processor) -> tuple[str, ...]:

@@ -26,7 +26,7 @@ import numpy as np
 from vgraph.errors import VGraphError
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, set_uniform
 from vgraph.gl.shaders import programs
-from vgraph.gl.volume_rendering import linear_sampler
+from vgraph.gl.raycasting.textures import linear_sampler
 from vgraph.numerics.bspline import SplineSample
 from vgraph.volume import Volume
 

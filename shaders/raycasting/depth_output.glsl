@@ -1,6 +1,6 @@
-// Per-pixel outputs shared by the curvature ray casters: world position and the depth output of
-// the RayCaster's convention (docs/rendering.md): (window-space depth in [0, 1], distance in world
-// units from the ray's start on the near plane, samples evaluated, 1).
+// The depth output of every ray caster (docs/rendering.md): (window-space depth in [0, 1] of the
+// depth sample, its distance in world units from the ray's start on the near plane, the number of
+// samples evaluated, 1); (1, 0, samples, 0) where there is none. Needs ray.glsl.
 uniform vec3 texture_to_world_offset;  // p = t * texture_to_world_scale + offset (ray.glsl)
 uniform mat4 view_projection;
 uniform vec2 viewport_size;
@@ -17,4 +17,8 @@ vec4 depth_of(vec3 world, int taken) {
     vec2 ndc = gl_FragCoord.xy / viewport_size * 2.0 - 1.0;
     vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
     return vec4(clip.z / clip.w * 0.5 + 0.5, distance(world, origin), float(taken), 1.0);
+}
+
+vec4 no_depth(int taken) {
+    return vec4(1.0, 0.0, float(taken), 0.0);
 }

@@ -1,0 +1,151 @@
+"""Empty-space skipping (docs/conventions.md) and what a ray caster should show.
+
+Skipping works on blocks of ``BLOCK``^3 voxels: block b (per axis) holds the samples whose voxel
+coordinate u = t * dims - 0.5 has floor(u) in [b * BLOCK, (b + 1) * BLOCK); its range is the min and
+max normalised intensity over voxels [b * BLOCK - 1, (b + 1) * BLOCK + 1], which covers every voxel
+such a sample's trilinear (or nearest) reconstruction can touch, with one voxel to spare for
+rounding. A block is occupied when some intensity in its range can contribute (TF opacity > 0, or
+reaching the iso level); empty blocks store their chessboard distance to the nearest occupied block,
+so a ray can jump over whole empty regions (skip_radii).
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import moderngl
+import numpy as np
+from scipy import ndimage
+
+from vgraph.volume import Volume
+
+BLOCK = 8  # voxels per empty-space block along each axis
+MIN_EMPTY_FRACTION = 0.1  # below this share of empty blocks, skipping costs more than it saves
+LEVEL_EPSILON = 1e-6  # normalised: block ranges this close to the level count as crossing it
+
+
+_block_ranges: "weakref.WeakKeyDictionary[Volume, tuple]" = weakref.WeakKeyDictionary()
+
+
+def block_ranges(volume: Volume) -> tuple[np.ndarray, np.ndarray]:
+    """(min, max) normalised intensity per block, float32 arrays [bz, by, bx] (module docstring),
+    computed once per volume. Non-finite voxels count as the texture upload stores them."""
+    cached = _block_ranges.get(volume)
+    if cached is None:
+        data = volume.data
+        if volume.nonfinite_count:
+            lo, hi = volume.value_range
+            data = np.nan_to_num(data, nan=lo, posinf=hi, neginf=lo)  # a copy, same dtype
+        low, high = data, data
+        for axis in range(3):
+            low = _window_reduce(low, axis, np.minimum)
+            high = _window_reduce(high, axis, np.maximum)
+        cached = (volume.normalized(low).astype(np.float32), volume.normalized(high).astype(np.float32))
+        _block_ranges[volume] = cached
+    return cached
+
+
+def _window_reduce(array: np.ndarray, axis: int, reducer) -> np.ndarray:
+    """Reduce ``axis`` to blocks: block b covers indices [b*BLOCK - 1, (b+1)*BLOCK + 1], clamped
+    (clamp-to-edge adds nothing new). Works on views, so a large volume is not copied."""
+    moved = np.moveaxis(array, axis, 0)
+    n = moved.shape[0]
+    blocks = -(-n // BLOCK)
+    parts = [reducer.reduce(moved[max(b * BLOCK - 1, 0):min((b + 1) * BLOCK + 2, n)], axis=0)
+             for b in range(blocks)]
+    return np.moveaxis(np.stack(parts), 0, axis)
+
+
+def occupied_blocks(block_min: np.ndarray, block_max: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """True for blocks where some intensity in the block's range has LUT opacity > 0 (the LUT entry
+    range is widened by one entry on each side for the texture filter's rounding)."""
+    last = len(alpha) - 1
+    lo = np.clip(np.floor(np.clip(block_min, 0.0, 1.0) * last).astype(np.int64) - 1, 0, last)
+    hi = np.clip(np.ceil(np.clip(block_max, 0.0, 1.0) * last).astype(np.int64) + 1, 0, last)
+    count = np.concatenate([[0], np.cumsum(alpha > 0.0)])
+    return count[hi + 1] - count[lo] > 0
+
+
+def skip_radii(occupied: np.ndarray) -> np.ndarray:
+    """float32 per block: 0 where occupied, else k >= 1 such that all blocks within Chebyshev
+    distance k - 1 are empty (k = the chessboard distance to the nearest occupied block; the
+    whole grid's size where none is occupied)."""
+    if occupied.all():
+        return np.zeros(occupied.shape, dtype=np.float32)
+    if not occupied.any():
+        return np.full(occupied.shape, float(max(occupied.shape)), dtype=np.float32)
+    return ndimage.distance_transform_cdt(~occupied, metric="chessboard").astype(np.float32)
+
+
+def radii_if_worthwhile(occupied: np.ndarray) -> np.ndarray | None:
+    """skip_radii, or None when under MIN_EMPTY_FRACTION of the blocks are empty: every sample would
+    pay for the block look-up and hardly any would be saved."""
+    return skip_radii(occupied) if 1.0 - occupied.mean() >= MIN_EMPTY_FRACTION else None
+
+
+class SkipBlocks:
+    """The R32F texture of per-block values for SKIP_EMPTY_SPACE (shaders/raycasting/empty_space.glsl),
+    rebuilt only when the volume or what the values depend on changes. For B-spline coefficients
+    the block ranges bound the spline too: it is a convex combination of its 4^3 coefficients
+    (weights >= 0, summing to 1), which the ranges' one-voxel margin just covers; where float
+    rounding puts a sample in the neighbouring block, the coefficient outside the margin has
+    weight ~1e-19."""
+
+    def __init__(self):
+        self._texture = None
+        self._key = None
+        self._values_exist = False
+
+    def texture(self, ctx: moderngl.Context, volume: Volume, depends, values):
+        """``values(block_min, block_max)`` -> float array per block (skip radii, or the maxima for
+        MIP), or None when skipping does not pay; ``depends`` is what ``values`` depends on.
+        Returns the texture, or None."""
+        key = (ctx, volume, depends)
+        if self._key is None or not all(a is b or a == b for a, b in zip(key, self._key)):
+            self._key = key
+            block_values = values(*block_ranges(volume))
+            self._values_exist = block_values is not None
+            if self._values_exist:
+                self._upload(ctx, block_values)
+        return self._texture if self._values_exist else None
+
+    def _upload(self, ctx: moderngl.Context, values: np.ndarray) -> None:
+        size = values.shape[::-1]
+        if self._texture is None or self._texture.ctx is not ctx or self._texture.size != size:
+            if self._texture is not None and self._texture.ctx is ctx:
+                self._texture.release()
+            self._texture = ctx.texture3d(size, 1, dtype="f4")
+        self._texture.write(np.ascontiguousarray(values, dtype=np.float32).tobytes())
+
+
+def block_grid_uniforms(volume: Volume) -> dict[str, object]:
+    """Texture coordinates -> block coordinates q = t * scale + offset (floor(q) = block index)."""
+    dims = np.array(volume.dims, dtype=np.float64)
+    return {"block_scale": tuple(dims / BLOCK), "block_offset": (-0.5 / BLOCK,) * 3,
+            "block_count": tuple(int(-(-d // BLOCK)) for d in volume.dims)}
+
+
+
+def level_occupancy(level: float):
+    """Blocks that may hold a crossing of ``level``: their range of normalised values straddles it
+    (min < level + eps and max >= level - eps). Blocks wholly on one side cannot, and neighbouring
+    blocks share a voxel margin, so a region of such blocks never hides a crossing."""
+    return lambda low, high: (low < level + LEVEL_EPSILON) & (high >= level - LEVEL_EPSILON)
+
+
+# --- what a ray caster should show -----------------------------------------------------------------
+def visible_under(volume: Volume, transfer_function, bins: int = 256) -> str | None:
+    """Which share of the voxels the transfer function gives any opacity (bins of the histogram
+    against the LUT's largest opacity in each bin), in words; None if none."""
+    counts, _ = volume.histogram(bins)
+    alpha = transfer_function.for_volume(volume).lut()[:, 3]
+    bin_alpha = alpha[:len(alpha) // bins * bins].reshape(bins, -1).max(axis=1)
+    share = counts[bin_alpha > 0].sum() / max(counts.sum(), 1)
+    return f"{share:.0%} of the voxels are visible under the transfer function" if share > 0 else None
+
+
+def crossed_by(volume: Volume, level: float) -> str | None:
+    """Whether the volume's values cross the normalised ``level`` (an iso-surface exists)."""
+    low, high = block_ranges(volume)
+    return f"the volume's values cross the iso level {level:g}" if low.min() < level < high.max() else None
+

@@ -1,0 +1,134 @@
+"""Where a volume is and how the camera's rays meet it: world <-> texture space, the boxes, the
+near and far planes, the ray uniforms, and the concrete camera of a frame.
+
+Conventions (docs/conventions.md has them all):
+
+- Texture space: voxel i along an axis has its centre at texture coordinate (i + 0.5) / dims, where
+  GL samples a 3D texture. A world point p maps to ``t = ((p - origin) / spacing + 0.5) / dims``
+  and back to ``p = origin + (t * dims - 0.5) * spacing`` (VolumeGeometry).
+- The volume's box is the box spanned by the voxel centres, ``[origin, origin + (dims - 1) *
+  spacing]`` (the CPU reference's box), in texture space ``[0.5 / dims, 1 - 0.5 / dims]``. Rays
+  are intersected with it grown by ``BOX_EPSILON * (max |corner| + min spacing)`` on every side
+  (so rays grazing a face count as hits, as in the reference) and the stored coordinates are
+  clamped back into it. EntryExitPoints rasterises a box grown by PROXY_MARGIN of its size only to
+  find the pixels to compute; each fragment intersects its own ray with the box exactly.
+- Camera planes: the pixel centre (ndc_x, ndc_y) lies on the near plane at ``centre + ndc_x * right
+  + ndc_y * up`` (``plane_frame``), the origin of ``Camera.rays``; likewise on the far plane.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from vgraph.camera import Camera
+from vgraph.implicit import UNIT_BOX
+from vgraph.volume import Volume
+
+BOX_EPSILON = 1e-5  # relative growth of the rasterised box (float32 version of the reference's)
+PROXY_MARGIN = 0.01  # relative growth of the box EntryExitPoints rasterises (coverage only)
+
+# A view of the implicit functions' box [-1, 1]^3 (where the FunctionSelector puts its volumes).
+# It frames whatever volume arrives (fit_to_data) with automatic near/far planes.
+DEFAULT_CAMERA = Camera(**{**Camera.looking_at_box(*UNIT_BOX, direction=(-0.45, -0.35, -1.0)).model_dump(),
+                           "near": None, "far": None, "fit_to_data": True})
+
+
+def view_camera(camera: Camera, volume: Volume, size) -> Camera:
+    """The concrete camera that renders ``volume`` at ``size`` (Camera.resolved on its box): every
+    processor of one view resolves the same camera, so entry points and ray casters agree."""
+    return camera.resolved(*VolumeGeometry.of(volume).box, size[0] / size[1])
+
+
+@dataclass(frozen=True)
+class VolumeGeometry:
+    """Where a volume's voxels are: world <-> texture space maps and boxes, float64, (x, y, z)."""
+
+    dims: np.ndarray
+    spacing: np.ndarray
+    origin: np.ndarray
+
+    @classmethod
+    def of(cls, volume: Volume) -> "VolumeGeometry":
+        return cls(np.array(volume.dims, dtype=np.float64),
+                   np.asarray(volume.spacing, dtype=np.float64),
+                   np.asarray(volume.origin, dtype=np.float64))
+
+    @property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """World corners of the box spanned by the voxel centres."""
+        return self.origin, self.origin + (self.dims - 1.0) * self.spacing
+
+    def grown_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The box grown by BOX_EPSILON relative to its coordinates (see the module docstring)."""
+        lo, hi = self.box
+        eps = BOX_EPSILON * (max(np.abs(lo).max(), np.abs(hi).max()) + self.spacing.min())
+        return lo - eps, hi + eps
+
+    def proxy_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The box EntryExitPoints rasterises: grown by PROXY_MARGIN of its size, so that it covers
+        every pixel whose ray meets grown_box() despite the rasteriser's rounding."""
+        lo, hi = self.grown_box()
+        margin = PROXY_MARGIN * (float((hi - lo).max()) + self.spacing.min())
+        return lo - margin, hi + margin
+
+    @property
+    def world_to_texture(self) -> tuple[np.ndarray, np.ndarray]:
+        """(scale, offset) with t = p * scale + offset."""
+        return 1.0 / (self.spacing * self.dims), (0.5 - self.origin / self.spacing) / self.dims
+
+    @property
+    def texture_to_world(self) -> tuple[np.ndarray, np.ndarray]:
+        """(scale, offset) with p = t * scale + offset."""
+        return self.spacing * self.dims, self.origin - 0.5 * self.spacing
+
+    @property
+    def texture_box(self) -> tuple[np.ndarray, np.ndarray]:
+        return 0.5 / self.dims, 1.0 - 0.5 / self.dims
+
+
+def plane_frame(camera: Camera, size, plane: str = "near") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(centre, right, up) of the near or far plane: the pixel centre at (ndc_x, ndc_y) lies at
+    centre + ndc_x * right + ndc_y * up, as in Camera.rays (which starts its rays on the near plane)."""
+    width, height = size
+    aspect = width / height
+    right, true_up, forward = camera.basis()
+    depth = camera.near if plane == "near" else camera.far
+    centre = np.asarray(camera.position, dtype=np.float64) + depth * forward
+    if camera.projection == "perspective":
+        half_height = depth * math.tan(math.radians(camera.fov) / 2.0)
+    else:
+        half_height = camera.parallel_scale
+    return centre, half_height * aspect * right, half_height * true_up
+
+
+def plane_cuts_box(camera: Camera, plane: str, box_min, box_max) -> bool:
+    """Whether the near or far plane passes through the box (only then does it cap any ray)."""
+    corners = np.array([[(box_min, box_max)[(i >> axis) & 1][axis] for axis in range(3)] for i in range(8)])
+    depths = (corners - np.asarray(camera.position)) @ camera.basis()[2]
+    plane_depth = camera.near if plane == "near" else camera.far
+    return bool(depths.min() < plane_depth < depths.max())
+
+
+def ray_uniforms(camera: Camera, size) -> dict[str, tuple[float, ...]]:
+    """Uniforms of the pixel rays (Camera.rays): origin near_centre + x near_right + y near_up and
+    direction direction_centre + x direction_right + y direction_up (not normalised) for the pixel
+    centre at NDC (x, y). Directions are given on their own, not as origin - eye, which would lose
+    digits in float32 when the near plane is close to the eye."""
+    near = plane_frame(camera, size, "near")
+    forward = camera.basis()[2]
+    if camera.projection == "perspective":  # through the near-plane point, from the eye
+        directions = (forward, near[1] / camera.near, near[2] / camera.near)
+    else:
+        directions = (forward, np.zeros(3), np.zeros(3))
+    names = ("near_centre", "near_right", "near_up", "direction_centre", "direction_right",
+             "direction_up")
+    return {name: vec(value) for name, value in zip(names, (*near, *directions))}
+
+
+
+def vec(values) -> tuple[float, ...]:
+    """A uniform value from a numpy vector (float64 -> Python floats; the GL side is float32)."""
+    return tuple(float(v) for v in values)
