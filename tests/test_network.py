@@ -177,3 +177,18 @@ def test_listeners_hear_every_edit(net):
     net.remove("z")
     assert events == ["property_changed", "processor_added", "connected", "disconnected",
                       "processor_removed"]
+
+
+def test_importing_the_model_imports_neither_the_scheduler_nor_the_file_format():
+    import subprocess
+    import sys
+    code = ("import sys, vgraph.network\n"
+            "loaded = [m for m in ('vgraph.scheduler', 'vgraph.fileformat', 'vgraph.services') if m in sys.modules]\n"
+            "assert not loaded, loaded\n"
+            "net = vgraph.network.Network()\n"
+            "net.add('Grayscale', id='g')\n"
+            "assert 'vgraph.scheduler' not in sys.modules\n"
+            "net.update()\n"                     # the bound services import the scheduler on first use
+            "assert 'vgraph.scheduler' in sys.modules\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr

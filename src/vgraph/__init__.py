@@ -12,6 +12,7 @@ Scripts meet vgraph through a few names::
 from vgraph.errors import (CycleError, NetworkFileError, OutputFileError, PortError, ProcessorError, PropertyError,
                            ShaderError, VGraphError, VGraphWarning, VolumeFileError, WritePathError)
 from vgraph.network import Network
+from vgraph.network import bind_services as _bind_services
 from vgraph.ports import Inport, Outport
 from vgraph.processor import Processor
 from vgraph.properties import (BoolProperty, CameraProperty, ColorProperty, DictProperty, FilePathProperty,
@@ -21,6 +22,19 @@ from vgraph.registry import registry
 from vgraph.volume import Volume
 
 __version__ = "0.1.0"
+
+
+class _Services:
+    """network.NetworkServices as ``vgraph.services``, imported when a network is first evaluated or
+    saved: importing the model (``vgraph.network``, which runs this file first) must import neither
+    the scheduler (and with it GL) nor the file format, which both import the model."""
+
+    def __getattr__(self, name):
+        from vgraph import services
+        return getattr(services, name)
+
+
+_bind_services(_Services())
 
 
 def load(path, allow_write=()) -> Network:

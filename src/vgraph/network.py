@@ -4,15 +4,18 @@ networkx MultiDiGraph whose edges are keyed by (outport, inport).
 Edits validate before they change anything. A changed property invalidates its processor and
 everything downstream; links carry the value to the properties that follow it. Listeners (the GUI)
 are told of every change as ``callback(event, **details)``.
+
+Evaluation and saving are not the model's business: ``update``, ``output``, ``evaluate``, ``save``
+and ``_repr_png_`` forward to the ``NetworkServices`` the vgraph package binds (``vgraph.services``,
+docs/architecture.md), so this module imports neither the scheduler nor the file format.
 """
 
 from __future__ import annotations
 
 import itertools
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Protocol
 
 import networkx as nx
 
@@ -38,6 +41,30 @@ class Link:
     source: str  # "id.property"
     target: str
     bidirectional: bool = False
+
+
+class NetworkServices(Protocol):
+    """What a Network does beyond being a model; the vgraph package binds ``vgraph.services``."""
+    def update(self, network: Network, targets: tuple[str, ...], size): ...
+    def output(self, network: Network, target: str): ...
+    def evaluate(self, network: Network, target: str | None, size): ...
+    def picture(self, network: Network) -> bytes | None: ...
+    def save(self, network: Network, path: str | Path) -> None: ...
+
+
+_services: NetworkServices | None = None
+
+
+def bind_services(services: NetworkServices) -> None:
+    """Give every Network its evaluation and saving (done once, by ``vgraph/__init__``)."""
+    global _services
+    _services = services
+
+
+def _bound() -> NetworkServices:
+    if _services is None:  # only if vgraph/__init__ was bypassed: it binds before this module is used
+        raise VGraphError("no evaluation services are bound to vgraph.network (import vgraph)")
+    return _services
 
 
 def split_address(address: str, what: str = "port") -> tuple[str, str]:
@@ -220,50 +247,31 @@ class Network:
         for pid in (processor_id, *nx.descendants(self.graph, processor_id)):
             self.processors[pid].invalidate(level)
 
-    # --- evaluation and files -------------------------------------------------------------------
+    def sinks(self) -> list[Processor]:
+        return [p for p in self.processors.values() if not p.outports]
+
+    # --- evaluation and files (the bound NetworkServices) ----------------------------------------
     def update(self, *targets: str, size: tuple[int, int] | None = None):
         """Evaluate what ``targets`` need ('id.outport' or a sink's id; default: every sink)."""
-        from vgraph.scheduler import evaluate
-        return evaluate(self, targets, size)
+        return _bound().update(self, targets, size)
 
     def output(self, target: str):
         """The data at 'id.outport', or what a sink 'id' received (after update)."""
-        from vgraph.scheduler import target_data
-        return target_data(self, target)
+        return _bound().output(self, target)
 
     def evaluate(self, target: str | None = None, size: tuple[int, int] | None = None):
         """Evaluate one target and return its data as numpy: an image as float32 (H, W, 4) with
         row 0 at the top, a volume as its [z, y, x] array."""
-        from vgraph.scheduler import BlankImageWarning, blank_image_warning, default_target, to_numpy
-        target = target or default_target(self)
-        self.update(target, size=size)
-        array = to_numpy(self.output(target))
-        warning = blank_image_warning(self, target, array)
-        if warning:
-            warnings.warn(BlankImageWarning(warning), stacklevel=2)
-        return array
+        return _bound().evaluate(self, target, size)
 
     def _repr_png_(self) -> bytes | None:
-        """Jupyter shows a network as its picture: the default target (the Canvas) evaluated as
-        ``vgraph run`` does, as PNG bytes; None (no picture, the text repr) when the network has no
-        image output. Errors of the evaluation propagate, so the notebook shows them."""
-        from vgraph.image import Image
-        from vgraph.scheduler import default_target
-        try:
-            target = default_target(self)
-        except VGraphError:
-            return None
-        self.update(target)
-        image = self.output(target)
-        return image._repr_png_() if isinstance(image, Image) else None
+        """Jupyter shows a network as its picture (see ``vgraph.services.picture``)."""
+        return _bound().picture(self)
 
     def save(self, path: str | Path) -> None:
-        from vgraph.fileformat import save_network
-        save_network(self, path)
+        _bound().save(self, path)
 
-    def sinks(self) -> list[Processor]:
-        return [p for p in self.processors.values() if not p.outports]
-
+    # --- listeners ------------------------------------------------------------------------------
     def subscribe(self, callback: Callable) -> None:
         self.listeners.append(callback)
 
