@@ -13,6 +13,7 @@
 #include "raycasting/ray.glsl"
 #include "raycasting/pixel_ray.glsl"
 #include "raycasting/depth_output.glsl"
+#include "raycasting/background.glsl"
 #include "raycasting/volume_sampling.glsl"
 #include "raycasting/transfer_function.glsl"
 #include "raycasting/march.glsl"
@@ -23,8 +24,6 @@
 #include "curvature/measure.glsl"
 #include "curvature/normalization.glsl"
 #include "curvature/compositing_curvature.glsl"
-
-uniform vec4 background;
 
 layout(location = 0) out vec4 color;
 layout(location = 1) out vec4 depth;
@@ -44,10 +43,7 @@ void main() {
 #ifdef RANGE_PASS
     color = result.color;
 #else
-    color = vec4(result.color.rgb + (1.0 - result.color.a) * background.rgb,
-                 result.color.a + (1.0 - result.color.a) * background.a);
+    color = over_background(result.color);
 #endif
-    depth = result.depth_sample >= 0.0
-          ? depth_of(world_point(sample_point(ray, result.depth_sample)), result.taken)
-          : no_depth(result.taken);
+    depth = result_depth(ray, result);
 }

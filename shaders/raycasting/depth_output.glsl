@@ -22,3 +22,10 @@ vec4 depth_of(vec3 world, int taken) {
 vec4 no_depth(int taken) {
     return vec4(1.0, 0.0, float(taken), 0.0);
 }
+
+// The depth output of a compositing Result (ray.glsl) along its ray.
+vec4 result_depth(Ray ray, Result result) {
+    return result.depth_sample >= 0.0
+         ? depth_of(world_point(sample_point(ray, result.depth_sample)), result.taken)
+         : no_depth(result.taken);
+}

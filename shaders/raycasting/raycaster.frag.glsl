@@ -10,6 +10,7 @@
 #include "raycasting/ray.glsl"
 #include "raycasting/pixel_ray.glsl"
 #include "raycasting/depth_output.glsl"
+#include "raycasting/background.glsl"
 #include "raycasting/volume_sampling.glsl"
 #include "raycasting/transfer_function.glsl"
 #include "raycasting/gradients.glsl"
@@ -20,8 +21,6 @@
 #include "raycasting/compositing_iso.glsl"
 #include "raycasting/compositing_first_hit.glsl"
 #include "raycasting/compositing_xray.glsl"
-
-uniform vec4 background;
 
 layout(location = 0) out vec4 color;
 layout(location = 1) out vec4 depth;
@@ -34,9 +33,6 @@ void main() {
         return;
     }
     Result result = march(ray);
-    color = vec4(result.color.rgb + (1.0 - result.color.a) * background.rgb,
-                 result.color.a + (1.0 - result.color.a) * background.a);
-    depth = result.depth_sample >= 0.0
-          ? depth_of(world_point(sample_point(ray, result.depth_sample)), result.taken)
-          : no_depth(result.taken);
+    color = over_background(result.color);
+    depth = result_depth(ray, result);
 }

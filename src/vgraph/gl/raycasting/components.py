@@ -313,6 +313,8 @@ class EmptySpace(Component):
 class Background(Component):
     """The colour under the composited one."""
 
+    glsl = ("raycasting/background.glsl",)
+
     @staticmethod
     def declare():
         return {"background": ColorProperty((0.0, 0.0, 0.0, 1.0))}
