@@ -179,6 +179,78 @@ def test_listeners_hear_every_edit(net):
                       "processor_removed"]
 
 
+def test_unsubscribe_stops_the_events_and_tolerates_a_second_call(net):
+    events = []
+    listener = lambda event, **details: events.append(event)  # noqa: E731
+    net.subscribe(listener)
+    net.set("a.value", 4.0)
+    net.unsubscribe(listener)
+    net.unsubscribe(listener)          # a view may detach twice (network replaced, window closed)
+    net.set("a.value", 5.0)
+    assert events == ["property_changed"]
+
+
+def test_move_emits_moved_once_per_change_and_refuses_nonfinite_positions(net):
+    events = []
+    net.subscribe(lambda event, **details: events.append((event, details.get("position"))))
+    net.move("a", (10, 20))
+    net.move("a", (10.0, 20.0))        # no change, no event
+    assert events == [("moved", (10.0, 20.0))] and net["a"].position == (10.0, 20.0)
+    with pytest.raises(VGraphError, match="finite"):
+        net.move("a", (float("nan"), 0.0))
+
+
+def test_the_processors_mapping_and_the_lists_are_the_models_not_copies_to_edit(net):
+    with pytest.raises(TypeError):
+        net.processors["x"] = net["a"]  # noqa  (read-only: edits go through add/insert/remove)
+    net.links.append("not a link")      # a copy: the network's own list is untouched
+    assert net.links == []
+
+
+def order_of(network):
+    """Everything whose order the file format or the scheduler keeps."""
+    import networkx as nx
+    return (list(network.processors), network.connections, network.links,
+            list(nx.topological_sort(network.graph)), {pid: p.position for pid, p in network.processors.items()})
+
+
+def test_remove_then_restore_puts_processor_connections_and_links_back_at_their_places(net):
+    net.add("Number", id="c", value=4.0)
+    net.connect("c.value", "sum.values")
+    net.connect("b.value", "sum.offset")
+    net.link("a.value", "c.value")
+    net.link("c.mode", "b.mode", bidirectional=True)
+    net.link("a.mode", "b.mode")
+    before = order_of(net)
+    removal = net.remove("b")
+    assert "b" not in net and [c.source for c in net.inputs_of("sum", "values")] == ["a", "c"]
+    assert net.links == [vgraph.network.Link("a.value", "c.value")]
+    net.restore(removal)
+    assert order_of(net) == before
+    assert [c.source for c in net.inputs_of("sum", "values")] == ["a", "b", "c"]
+    assert net.update().ids == ["a", "b", "c", "sum", "out"] and net.output("out") == 10.0  # 2 + 3 + 2 (c follows a), offset 3
+
+
+def test_connect_and_link_at_an_index(net):
+    net.add("Number", id="c")
+    net.connect("c.value", "sum.values", index=0)
+    assert [c.source for c in net.inputs_of("sum", "values")] == ["c", "a", "b"]
+    assert net.connections[0].source == "c"
+    net.link("a.value", "b.value")
+    first = net.link("a.mode", "b.mode", index=0)
+    assert net.links[0] == first
+    with pytest.raises(VGraphError, match="outside"):
+        net.connect("c.value", "sum.offset", index=9)
+    assert not net.inputs_of("sum", "offset")
+
+
+def test_insert_places_a_processor_in_the_order(net):
+    processor = toy_processors.Number(id="first")
+    net.insert(0, processor)
+    assert list(net.processors)[:2] == ["first", "a"] and processor.network is net
+    assert list(net.graph.nodes)[0] == "first"   # the scheduler's order follows
+
+
 def test_importing_the_model_imports_neither_the_scheduler_nor_the_file_format():
     import subprocess
     import sys

@@ -1,9 +1,15 @@
-"""The network: processors (unique ids), typed connections and property links, kept in a
-networkx MultiDiGraph whose edges are keyed by (outport, inport).
+"""The network: processors (unique ids), typed connections and property links.
+
+The model keeps three orders, because the file format keeps them and a ``multiple`` inport gives
+its inputs to ``process()`` in connection order: the processors' order, the connections' order and
+the links' order. Every edit has an ordered form (``insert``, ``connect(..., index=)``,
+``link(..., index=)``) and ``remove`` returns a ``Removal`` that ``restore`` puts back exactly, so
+an undo can restore the network without reaching inside it.
 
 Edits validate before they change anything. A changed property invalidates its processor and
 everything downstream; links carry the value to the properties that follow it. Listeners (the GUI)
-are told of every change as ``callback(event, **details)``.
+are told of every change as ``callback(event, **details)``: processor_added, processor_removed,
+connected, disconnected, linked, unlinked, property_changed, moved, and evaluated (the scheduler).
 
 Evaluation and saving are not the model's business: ``update``, ``output``, ``evaluate``, ``save``
 and ``_repr_png_`` forward to the ``NetworkServices`` the vgraph package binds (``vgraph.services``,
@@ -13,9 +19,11 @@ docs/architecture.md), so this module imports neither the scheduler nor the file
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Protocol
+from types import MappingProxyType
+from typing import Callable, Mapping, Protocol
 
 import networkx as nx
 
@@ -35,12 +43,29 @@ class Connection:
     def __str__(self) -> str:
         return f"{self.source}.{self.outport} -> {self.target}.{self.inport}"
 
+    @property
+    def ends(self) -> tuple[str, str]:
+        """('source.outport', 'target.inport'): the arguments of ``Network.connect``."""
+        return f"{self.source}.{self.outport}", f"{self.target}.{self.inport}"
+
 
 @dataclass(frozen=True)
 class Link:
     source: str  # "id.property"
     target: str
     bidirectional: bool = False
+
+    def touches(self, processor_id: str) -> bool:
+        return processor_id in (self.source.split(".")[0], self.target.split(".")[0])
+
+
+@dataclass(frozen=True)
+class Removal:
+    """What ``Network.remove`` took out, each part with its index in its order at that time."""
+    processor: Processor
+    index: int
+    connections: tuple[tuple[int, Connection], ...]
+    links: tuple[tuple[int, Link], ...]
 
 
 class NetworkServices(Protocol):
@@ -75,71 +100,148 @@ def split_address(address: str, what: str = "port") -> tuple[str, str]:
     return owner, name
 
 
+def _checked_index(index: int | None, length: int) -> int:
+    """An insertion index (None: at the end); out-of-range indices are refused, not clamped,
+    because a wrong index means the caller's record no longer fits the network."""
+    if index is None:
+        return length
+    if not 0 <= index <= length:
+        raise VGraphError(f"index {index} is outside 0..{length}")
+    return index
+
+
 class Network:
     def __init__(self, base_dir: str | Path | None = None):
-        self.graph = nx.MultiDiGraph()
-        self.processors: dict[str, Processor] = {}
-        self.links: list[Link] = []
+        self.graph = nx.MultiDiGraph()  # for the scheduler's graph queries; edges keyed (outport, inport)
+        self._processors: dict[str, Processor] = {}
+        self._connections: list[Connection] = []
+        self._links: list[Link] = []
+        self._listeners: list[Callable] = []
         self.base_dir = Path(base_dir) if base_dir is not None else None
         self.description = ""
-        self.listeners: list[Callable] = []
         self.last_evaluation = None  # an EvaluationReport, set by the scheduler
-        self._sequence = itertools.count()
+
+    @property
+    def processors(self) -> Mapping[str, Processor]:
+        """The processors by id, in order (read-only: edit through add/insert/remove)."""
+        return MappingProxyType(self._processors)
+
+    @property
+    def connections(self) -> list[Connection]:
+        """All connections in their order (a copy)."""
+        return list(self._connections)
+
+    @property
+    def links(self) -> list[Link]:
+        """All property links in their order (a copy)."""
+        return list(self._links)
 
     # --- processors -----------------------------------------------------------------------------
     def add(self, processor: str | type[Processor] | Processor, id: str | None = None,
             **properties) -> Processor:
-        """Add a processor by type name, class or instance, with property values."""
+        """Add a processor by type name, class or instance, with property values, at the end."""
         if isinstance(processor, str):
             processor = registry.get(processor)
         if isinstance(processor, type):
             processor = processor(id=id or self._free_id(processor.type_name), **properties)
         elif properties or id:
             raise VGraphError("pass properties and id when adding by type, not with an instance")
+        return self.insert(len(self._processors), processor)
+
+    def insert(self, index: int, processor: Processor) -> Processor:
+        """Add a processor instance at ``index`` in the processor order."""
+        index = _checked_index(index, len(self._processors))
         if "." in processor.id or not processor.id:
             raise VGraphError(f"processor id '{processor.id}' must be non-empty and contain no '.'")
-        if processor.id in self.processors:
+        if processor.id in self._processors:
             raise VGraphError(f"a processor with id '{processor.id}' already exists")
         processor.network = self
-        self.processors[processor.id] = processor
-        self.graph.add_node(processor.id)
+        if index == len(self._processors):
+            self._processors[processor.id] = processor
+            self.graph.add_node(processor.id)
+        else:
+            items = list(self._processors.items())
+            items.insert(index, (processor.id, processor))
+            self._processors = dict(items)
+            self._rebuild_graph()
         self._emit("processor_added", processor=processor)
         return processor
 
-    def remove(self, processor_id: str) -> None:
+    def remove(self, processor_id: str) -> Removal:
+        """Remove a processor with its connections and links; ``restore`` puts all back."""
         processor = self[processor_id]
-        for connection in self.connections_of(processor_id):
+        removal = Removal(processor, list(self._processors).index(processor_id),
+                          tuple((i, c) for i, c in enumerate(self._connections)
+                                if processor_id in (c.source, c.target)),
+                          tuple((i, l) for i, l in enumerate(self._links) if l.touches(processor_id)))
+        for _, connection in removal.connections:
             self.disconnect(connection)
-        for link in [l for l in self.links if processor_id in (l.source.split(".")[0], l.target.split(".")[0])]:
+        for _, link in removal.links:
             self.unlink(link.source, link.target)
         self.graph.remove_node(processor_id)
-        del self.processors[processor_id]
+        del self._processors[processor_id]
         processor.network = None
         self._emit("processor_removed", processor=processor)
+        return removal
+
+    def restore(self, removal: Removal) -> Processor:
+        """Undo a ``remove``: the processor, its connections and its links at their old places
+        (in ascending index order, so each lands where it was)."""
+        self.insert(removal.index, removal.processor)
+        for index, connection in removal.connections:
+            self.connect(*connection.ends, index=index)
+        for index, link in removal.links:
+            self.link(link.source, link.target, link.bidirectional, index=index)
+        return removal.processor
+
+    def move(self, processor_id: str, position: tuple[float, float]) -> None:
+        """Place a processor in the editor; emits ``moved`` when the position changes."""
+        x, y = (float(v) for v in position)
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise VGraphError(f"position of '{processor_id}' must be finite, got {position!r}")
+        processor = self[processor_id]
+        if tuple(processor.position) != (x, y):
+            processor.position = (x, y)
+            self._emit("moved", processor=processor, position=(x, y))
 
     def __getitem__(self, processor_id: str) -> Processor:
         try:
-            return self.processors[processor_id]
+            return self._processors[processor_id]
         except KeyError:
-            known = ", ".join(self.processors) or "none"
+            known = ", ".join(self._processors) or "none"
             raise VGraphError(f"no processor with id '{processor_id}' (ids: {known})") from None
 
     def __contains__(self, processor_id: str) -> bool:
-        return processor_id in self.processors
+        return processor_id in self._processors
 
     def _free_id(self, type_name: str) -> str:
         stem = type_name[0].lower() + type_name[1:]
-        return next(f"{stem}{i or ''}" for i in itertools.count() if f"{stem}{i or ''}" not in self.processors)
+        return next(f"{stem}{i or ''}" for i in itertools.count() if f"{stem}{i or ''}" not in self._processors)
+
+    def _rebuild_graph(self) -> None:
+        """networkx orders nodes and edges by insertion and topological sorts follow that order:
+        after an insertion in the middle (an undo) the graph follows the model's orders again, so
+        the scheduler runs independent processors in the order it did before."""
+        graph = nx.MultiDiGraph()
+        graph.add_nodes_from(self._processors)
+        graph.add_edges_from((c.source, c.target, (c.outport, c.inport)) for c in self._connections)
+        self.graph = graph
 
     # --- connections ----------------------------------------------------------------------------
-    def connect(self, source: str, target: str) -> Connection:
-        """Connect outport 'a.out' to inport 'b.in'; refused (nothing changes) when the ports are
-        unknown, their data types incompatible, a single inport is taken, or a cycle would close."""
+    def connect(self, source: str, target: str, index: int | None = None) -> Connection:
+        """Connect outport 'a.out' to inport 'b.in', at ``index`` in the connection order (default:
+        last); refused (nothing changes) when the ports are unknown, their data types
+        incompatible, a single inport is taken, or a cycle would close."""
         src_id, out_name = split_address(source)
         dst_id, in_name = split_address(target)
         connection = Connection(src_id, out_name, dst_id, in_name)
         self.check_connection(connection)
-        self.graph.add_edge(src_id, dst_id, key=(out_name, in_name), sequence=next(self._sequence))
+        index = _checked_index(index, len(self._connections))
+        self._connections.insert(index, connection)
+        if index == len(self._connections) - 1:
+            self.graph.add_edge(src_id, dst_id, key=(out_name, in_name))
+        else:
+            self._rebuild_graph()
         self.invalidate_downstream(dst_id)
         self._emit("connected", connection=connection)
         return connection
@@ -156,7 +258,7 @@ class Network:
         if not inport.accepts(outport):
             raise PortError(f"cannot connect {c}: {c.source}.{c.outport} carries {outport.type_name} "
                             f"but {c.target}.{c.inport} takes {inport.type_name}")
-        if self.graph.has_edge(c.source, c.target, key=(c.outport, c.inport)):
+        if c in self._connections:
             raise PortError(f"{c} is already connected")
         taken = self.inputs_of(c.target, c.inport)
         if taken and not inport.multiple:
@@ -169,25 +271,19 @@ class Network:
         if not isinstance(connection, Connection):
             (src, out), (dst, inp) = split_address(connection), split_address(target)
             connection = Connection(src, out, dst, inp)
-        key = (connection.outport, connection.inport)
-        if not self.graph.has_edge(connection.source, connection.target, key=key):
+        if connection not in self._connections:
             raise PortError(f"{connection} is not connected")
-        self.graph.remove_edge(connection.source, connection.target, key=key)
+        self._connections.remove(connection)
+        self.graph.remove_edge(connection.source, connection.target, key=(connection.outport, connection.inport))
         self.invalidate_downstream(connection.target)
         self._emit("disconnected", connection=connection)
 
-    @property
-    def connections(self) -> list[Connection]:
-        """All connections in the order they were made."""
-        edges = sorted(self.graph.edges(keys=True, data="sequence"), key=lambda e: e[3])
-        return [Connection(u, key[0], v, key[1]) for u, v, key, _ in edges]
-
     def inputs_of(self, processor_id: str, inport: str) -> list[Connection]:
-        edges = sorted(self.graph.in_edges(processor_id, keys=True, data="sequence"), key=lambda e: e[3])
-        return [Connection(u, key[0], v, key[1]) for u, v, key, _ in edges if key[1] == inport]
+        """The connections into one inport, in connection order."""
+        return [c for c in self._connections if (c.target, c.inport) == (processor_id, inport)]
 
     def connections_of(self, processor_id: str) -> list[Connection]:
-        return [c for c in self.connections if processor_id in (c.source, c.target)]
+        return [c for c in self._connections if processor_id in (c.source, c.target)]
 
     # --- properties and links -------------------------------------------------------------------
     def set(self, address: str, value) -> None:
@@ -200,26 +296,27 @@ class Network:
         processor_id, name = split_address(address, "property")
         return self[processor_id].property_values[name]
 
-    def link(self, source: str, target: str, bidirectional: bool = False) -> Link:
-        """Make ``target`` follow ``source`` (and the other way round if bidirectional). The target
-        takes the source's value at once."""
+    def link(self, source: str, target: str, bidirectional: bool = False, index: int | None = None) -> Link:
+        """Make ``target`` follow ``source`` (and the other way round if bidirectional), at
+        ``index`` in the link order (default: last). The target takes the source's value at once."""
         src_prop, dst_prop = self._property(source), self._property(target)
         if type(src_prop) is not type(dst_prop):
             raise PropertyError(target, f"cannot link a {src_prop.kind} property ({source}) to a "
                                         f"{dst_prop.kind} property")
-        if source == target or any({l.source, l.target} == {source, target} for l in self.links):
+        if source == target or any({l.source, l.target} == {source, target} for l in self._links):
             raise PropertyError(target, f"{source} and {target} are already linked (or the same)")
+        index = _checked_index(index, len(self._links))
         link = Link(source, target, bidirectional)
         self.set(target, self.get(source))
-        self.links.append(link)
+        self._links.insert(index, link)
         self._emit("linked", link=link)
         return link
 
     def unlink(self, source: str, target: str) -> None:
-        before = len(self.links)
-        self.links = [l for l in self.links if (l.source, l.target) != (source, target)]
-        if len(self.links) == before:
+        found = [l for l in self._links if (l.source, l.target) == (source, target)]
+        if not found:
             raise PropertyError(target, f"no link from {source} to {target}")
+        self._links.remove(found[0])
         self._emit("unlinked", source=source, target=target)
 
     def _property(self, address: str):
@@ -237,7 +334,7 @@ class Network:
         self._emit("property_changed", processor=processor, name=name)
         address = f"{processor.id}.{name}"
         value = processor.property_values[name]
-        for link in self.links:
+        for link in list(self._links):
             follower = link.target if link.source == address else \
                 link.source if link.bidirectional and link.target == address else None
             if follower is not None and self.get(follower) != value:
@@ -245,10 +342,10 @@ class Network:
 
     def invalidate_downstream(self, processor_id: str, level: Invalidation = Invalidation.OUTPUT) -> None:
         for pid in (processor_id, *nx.descendants(self.graph, processor_id)):
-            self.processors[pid].invalidate(level)
+            self._processors[pid].invalidate(level)
 
     def sinks(self) -> list[Processor]:
-        return [p for p in self.processors.values() if not p.outports]
+        return [p for p in self._processors.values() if not p.outports]
 
     # --- evaluation and files (the bound NetworkServices) ----------------------------------------
     def update(self, *targets: str, size: tuple[int, int] | None = None):
@@ -273,8 +370,14 @@ class Network:
 
     # --- listeners ------------------------------------------------------------------------------
     def subscribe(self, callback: Callable) -> None:
-        self.listeners.append(callback)
+        self._listeners.append(callback)
+
+    def unsubscribe(self, callback: Callable) -> None:
+        """Stop telling ``callback``; nothing happens if it was not subscribed (a view may detach
+        both when its network is replaced and when its window closes)."""
+        if callback in self._listeners:
+            self._listeners.remove(callback)
 
     def _emit(self, event: str, **details) -> None:
-        for callback in list(self.listeners):
+        for callback in list(self._listeners):
             callback(event, **details)

@@ -47,8 +47,8 @@ class CanvasDocks(QObject):
             self._on_event("processor_added", processor=processor)
 
     def detach(self) -> None:
-        if self.network is not None and self._on_event in self.network.listeners:
-            self.network.listeners.remove(self._on_event)
+        if self.network is not None:
+            self.network.unsubscribe(self._on_event)
 
     def _on_event(self, event: str, **details) -> None:
         if event == "processor_added" and is_display(type(details["processor"])):

@@ -6,10 +6,10 @@ Conventions:
 - ``Workspace.execute`` applies a command once itself (``apply()``, which raises VGraphError and
   changes nothing when the network refuses the edit) and only then pushes it; QUndoStack's first
   ``redo()`` after that push is therefore skipped. So a refused edit never reaches the stack.
-- Undo restores what the edit disturbed exactly, including orders that the file format keeps:
-  the processors' order, the links' order and the order of connections into a ``multiple`` inport.
-- Node positions are ``Processor.position``; the network emits no event for them, so the scene
-  re-reads positions whenever the undo stack's index changes.
+- Undo restores what the edit disturbed exactly, including the orders the file format keeps (the
+  processors', the connections' and with them each inport's, the links'), through the network's
+  ordered operations: ``restore`` of a ``remove``, ``connect``/``link`` at an index.
+- Node positions change through ``Network.move``, which emits ``moved`` for the scene.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import itertools
 
 from PySide6.QtGui import QUndoCommand
 
-from vgraph.network import Connection, Link, Network
+from vgraph.network import Connection, Link, Network, Removal
 from vgraph.processor import Processor
 
 MERGE_PROPERTY_EDITS = 1001  # QUndoCommand.id() of property edits that merge (slider drags)
@@ -58,30 +58,6 @@ class NetworkCommand(QUndoCommand):
         self.revert()
 
 
-def _address(processor_id: str, name: str) -> str:
-    return f"{processor_id}.{name}"
-
-
-def restore_inport_order(network: Network, target: str, inport: str, order: list[Connection]) -> None:
-    """Put the connections into ``target.inport`` back in their recorded ``order`` (a ``multiple``
-    inport gives its inputs to process() in this order). Recorded connections not present now are
-    left out: undoing several disconnections restores them one by one."""
-    current = network.inputs_of(target, inport)
-    wanted = [c for c in order if c in current] + [c for c in current if c not in order]
-    if current == wanted:
-        return
-    for connection in current:
-        network.disconnect(connection)
-    for c in wanted:
-        network.connect(_address(c.source, c.outport), _address(c.target, c.inport))
-
-
-def restore_link_order(network: Network, order: list[Link]) -> None:
-    """Sort the network's links back into a recorded order (links not recorded go last)."""
-    rank = {link: i for i, link in enumerate(order)}
-    network.links.sort(key=lambda link: rank.get(link, len(rank)))
-
-
 class AddProcessor(NetworkCommand):
     def __init__(self, network: Network, processor: Processor, parent=None):
         super().__init__(network, f"Add {processor.id} ({processor.type_name})", parent)
@@ -95,34 +71,20 @@ class AddProcessor(NetworkCommand):
 
 
 class RemoveProcessor(NetworkCommand):
-    """Removes a processor; child commands first remove its links and connections, so undo puts
-    them back (and the processor keeps its place in the processor order)."""
+    """Removes a processor with its connections and links; undo puts all of them back at their
+    places (``Network.restore``)."""
 
     def __init__(self, network: Network, processor_id: str, parent=None):
         processor = network[processor_id]
         super().__init__(network, f"Remove {processor_id} ({processor.type_name})", parent)
-        self.processor = processor
-        self.order = list(network.processors)
-        # Kept as plain Python parts (not Qt child commands) so their Python state survives.
-        self.parts: list[NetworkCommand] = [
-            *(Unlink(network, link) for link in network.links
-              if processor_id in (link.source.split(".")[0], link.target.split(".")[0])),
-            *(Disconnect(network, c) for c in network.connections_of(processor_id))]
+        self.processor_id = processor_id
+        self.removal: Removal | None = None
 
     def apply(self):
-        for part in self.parts:
-            part.apply()
-        self.network.remove(self.processor.id)
+        self.removal = self.network.remove(self.processor_id)
 
     def revert(self):
-        self.network.add(self.processor)
-        processors = self.network.processors
-        reordered = {pid: processors[pid] for pid in self.order if pid in processors}
-        reordered |= processors  # anything added since keeps its place after them
-        processors.clear()
-        processors.update(reordered)
-        for part in reversed(self.parts):
-            part.revert()
+        self.network.restore(self.removal)
 
 
 class Connect(NetworkCommand):
@@ -131,26 +93,28 @@ class Connect(NetworkCommand):
         self.connection = connection
 
     def apply(self):
-        c = self.connection
-        self.network.connect(_address(c.source, c.outport), _address(c.target, c.inport))
+        self.network.connect(*self.connection.ends)
 
     def revert(self):
         self.network.disconnect(self.connection)
 
 
 class Disconnect(NetworkCommand):
+    """Undo reconnects at the old place in the connection order, which is also the old place in
+    the inport's list (a ``multiple`` inport gives its inputs to process() in that order)."""
+
     def __init__(self, network: Network, connection: Connection, parent=None):
         super().__init__(network, f"Disconnect {connection}", parent)
         self.connection = connection
-        self.inport_order = network.inputs_of(connection.target, connection.inport)
+        self.index: int | None = None
 
     def apply(self):
-        self.network.disconnect(self.connection)
+        order = self.network.connections
+        self.network.disconnect(self.connection)  # refused (nothing recorded) when not connected
+        self.index = order.index(self.connection)
 
     def revert(self):
-        c = self.connection
-        self.network.connect(_address(c.source, c.outport), _address(c.target, c.inport))
-        restore_inport_order(self.network, c.target, c.inport, self.inport_order)
+        self.network.connect(*self.connection.ends, index=self.index)
 
 
 class SetProperty(NetworkCommand):
@@ -190,7 +154,7 @@ class MoveProcessors(NetworkCommand):
 
     def _place(self, positions):
         for pid, xy in positions.items():
-            self.network[pid].position = xy
+            self.network.move(pid, xy)
 
     def apply(self):
         self._place(self.new)
@@ -221,11 +185,12 @@ class Unlink(NetworkCommand):
     def __init__(self, network: Network, link: Link, parent=None):
         super().__init__(network, f"Unlink {link.source} -> {link.target}", parent)
         self.link = link
-        self.order = list(network.links)
+        self.index: int | None = None
 
     def apply(self):
-        self.network.unlink(self.link.source, self.link.target)
+        order = self.network.links
+        self.network.unlink(self.link.source, self.link.target)  # refused when not linked
+        self.index = order.index(self.link)
 
     def revert(self):
-        self.network.link(self.link.source, self.link.target, bidirectional=self.link.bidirectional)
-        restore_link_order(self.network, self.order)
+        self.network.link(self.link.source, self.link.target, self.link.bidirectional, index=self.index)

@@ -62,8 +62,8 @@ class PropertyInspector(QWidget):
         self.show_processor(None)
 
     def detach(self) -> None:
-        if self.network is not None and self._on_event in self.network.listeners:
-            self.network.listeners.remove(self._on_event)
+        if self.network is not None:
+            self.network.unsubscribe(self._on_event)
 
     # --- showing --------------------------------------------------------------------------------
     def show_processor(self, processor_id: str | None) -> None:

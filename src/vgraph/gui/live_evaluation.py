@@ -103,8 +103,8 @@ class LiveEvaluation(QObject):
         self.schedule()
 
     def detach(self) -> None:
-        if self.network is not None and self._on_event in self.network.listeners:
-            self.network.listeners.remove(self._on_event)
+        if self.network is not None:
+            self.network.unsubscribe(self._on_event)
         self.timer.stop()
 
     def shutdown(self) -> None:

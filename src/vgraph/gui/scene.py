@@ -2,10 +2,10 @@
 
 Conventions:
 - The scene builds its items from the network and then follows the network's events
-  (processor_added/removed, connected/disconnected, linked/unlinked, property_changed, evaluated);
-  it never changes the model itself: edits go to the Workspace (undo commands).
-- Node positions are read from ``Processor.position`` whenever the undo stack moves (undo/redo of a
-  move emits no network event); a drag writes them back as one Move command on release.
+  (processor_added/removed, connected/disconnected, linked/unlinked, property_changed, moved,
+  evaluated); it never changes the model itself: edits go to the Workspace (undo commands).
+- Nodes follow ``moved`` events (a move command, its undo and redo); a drag moves the node items
+  itself and writes the positions back as one Move command on release.
 - Drops from the palette carry the processor type name as ``PROCESSOR_MIME_TYPE``.
 """
 
@@ -43,7 +43,6 @@ class NetworkScene(QGraphicsScene):
         self.interaction: ConnectInteraction | None = None
         self.setSceneRect(QRectF(-SCENE_EXTENT / 2, -SCENE_EXTENT / 2, SCENE_EXTENT, SCENE_EXTENT))
         workspace.network_replaced.connect(self.set_network)
-        workspace.undo_stack.indexChanged.connect(self.sync_positions)
         self.set_network(workspace.network)
 
     # --- following the model --------------------------------------------------------------------
@@ -62,8 +61,8 @@ class NetworkScene(QGraphicsScene):
 
     def detach(self) -> None:
         """Stop following the current network (before it is replaced or the window closes)."""
-        if self.network is not None and self._on_event in self.network.listeners:
-            self.network.listeners.remove(self._on_event)
+        if self.network is not None:
+            self.network.unsubscribe(self._on_event)
 
     def _on_event(self, event: str, **details) -> None:
         if event == "processor_added":
@@ -80,6 +79,10 @@ class NetworkScene(QGraphicsScene):
                 self.removeItem(edge)
         elif event in ("linked", "unlinked"):
             self._rebuild_links()
+        elif event == "moved":
+            node = self.nodes.get(details["processor"].id)
+            if node is not None and (node.x(), node.y()) != details["position"]:
+                node.setPos(*details["position"])  # the node's itemChange adjusts its edges
         if event in STRUCTURE_EVENTS or event in ("property_changed", "evaluated"):
             self.refresh_states()
 
@@ -115,11 +118,6 @@ class NetworkScene(QGraphicsScene):
         for pid, node in self.nodes.items():
             if pid in self.network:
                 node.set_status(self.status_of(pid))
-
-    def sync_positions(self, *_) -> None:
-        for pid, node in self.nodes.items():
-            if pid in self.network and tuple(self.network[pid].position) != (node.x(), node.y()):
-                node.setPos(*self.network[pid].position)
 
     def node_moved(self, node: NodeItem) -> None:
         for edge in self.edges.values():
