@@ -259,3 +259,42 @@ def test_context_failure_message_names_packages(monkeypatch):
         gl_context._create_standalone_context()
     text = str(info.value)
     assert "'egl'" in text and "'default'" in text and "libegl1" in text and "libgl1-mesa-dri" in text
+
+
+# --- explicit binding: textures by name, strict uniforms ---------------------------------------------
+def test_a_misspelt_uniform_is_an_error_naming_it_and_the_shader(ctx):
+    from vgraph.gl.passes import set_uniform
+    from vgraph.gl.shaders import programs
+    program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, "grayscale.frag.glsl")
+    assert set_uniform(program, "saturation", 0.5)
+    with pytest.raises(ShaderError, match=r"grayscale\.frag\.glsl: no uniform 'saturaton' is declared"):
+        set_uniform(program, "saturaton", 0.5)
+    assert not set_uniform(program, "saturaton", 0.5, optional=True)  # marked optional: skipped
+
+
+def test_textures_get_units_by_name(ctx):
+    from vgraph.gl.passes import bind_textures
+    from vgraph.gl.shaders import programs
+    program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, "grayscale.frag.glsl")
+    image = Image.empty(ctx, (2, 2))
+    assert bind_textures(program, {"image": image}) == {"image": 0}
+    with pytest.raises(ShaderError, match="no uniform 'picture'"):
+        bind_textures(program, {"image": image, "picture": image})
+
+
+def test_a_component_that_sets_an_undeclared_uniform_fails_the_evaluation(monkeypatch):
+    """The ray casters set uniforms through their components: a typo there is an error naming it,
+    never a silently wrong image."""
+    from vgraph.errors import ProcessorError
+    from vgraph.gl.raycasting.components import Background, Binding
+    from vgraph.network import Network
+    network = Network()
+    network.add("FunctionSelector", id="f", resolution=16)
+    network.add("EntryExitPoints", id="eep")
+    network.add("RayCaster", id="rc")
+    for a, b in (("f.volume", "eep.volume"), ("f.volume", "rc.volume"), ("eep.entry", "rc.entry"),
+                 ("eep.exit", "rc.exit")):
+        network.connect(a, b)
+    monkeypatch.setattr(Background, "bind", lambda self, frame: Binding(uniforms={"backgrund": (0, 0, 0, 1)}))
+    with pytest.raises(ProcessorError, match=r"processor 'rc' \(RayCaster\): .*raycaster\.frag\.glsl: no uniform 'backgrund'"):
+        network.evaluate("rc.image", size=(8, 8))

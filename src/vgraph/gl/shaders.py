@@ -280,8 +280,8 @@ class ProgramSource:
     declared: frozenset[str]
 
     def describe(self) -> str:
-        where = f"processor '{self.processor}': " if self.processor else ""
-        return f"{where}{' + '.join(self.files)}"
+        """The shader files (the processor, if any, is named by the ProcessorError around)."""
+        return " + ".join(self.files)
 
 
 class ProgramCache:
