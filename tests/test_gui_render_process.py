@@ -10,6 +10,7 @@ import toy_processors
 import vgraph
 from vgraph.errors import NetworkFileError
 from vgraph.fileformat import network_document
+from vgraph.gui.changes import PropertySet, append_change, apply_changes, change_of
 from vgraph.gui.mirror import mirror
 from vgraph.gui.render_process import RenderJob, RenderProcess, RenderServer, plugin_modules
 from vgraph.network import Network
@@ -133,3 +134,78 @@ def test_the_server_reports_warnings_value_scales_and_the_cameras_it_framed(tmp_
     shown = result.view_cameras["eep.camera"]
     assert not shown.fit_to_data and shown.near is not None and result.view_cameras["rc.camera"] == shown
     assert result.value_scales["rc"].value_range == (0.0, 47.0)
+
+
+# --- changes instead of documents ---------------------------------------------------------------
+def recorder(network) -> list:
+    """The changes the GUI would send for the edits made on ``network`` from now on."""
+    changes = []
+    network.subscribe(lambda event, **details: (change := change_of(network, event, details))
+                      and append_change(changes, change))
+    return changes
+
+
+def without_positions(document: dict) -> dict:
+    return {**document, "processors": [{k: v for k, v in p.items() if k != "position"}
+                                       for p in document["processors"]]}
+
+
+def test_replayed_changes_give_the_network_a_document_gives():
+    gui = summing_network()
+    copy = mirror(None, network_document(gui))
+    changes = recorder(gui)
+    gui.set("b.value", 3.0)
+    gui.connect("c.value", "sum.values", index=0)
+    gui.add("Number", id="d", value=9.0)
+    gui.link("a.value", "d.value", bidirectional=True)
+    gui.set("d.value", 5.0)                   # follows the link back to a
+    removal = gui.remove("b")
+    gui.restore(removal)                      # an undo: b back at its place, with its connection
+    gui.disconnect("a.value", "sum.values")
+    count = len(changes)
+    gui.move("c", (3.0, 4.0))                 # not sent: nothing renders positions
+    assert len(changes) == count
+    apply_changes(copy, changes)
+    assert without_positions(network_document(copy)) == without_positions(network_document(gui))
+    assert list(copy.graph.nodes) == list(gui.graph.nodes)
+    copy.update()
+    assert copy["sum"].outputs["value"] == 4.0 + 3.0
+
+
+def test_a_slider_drag_sends_its_last_value_but_link_steps_stay_in_order():
+    gui = summing_network()
+    changes = recorder(gui)
+    for value in (1.5, 2.5, 3.5):
+        gui.set("a.value", value)
+    assert changes == [PropertySet("a.value", 3.5)]
+    gui.link("a.value", "b.value")
+    gui.set("a.value", 7.0)
+    assert [type(c).__name__ for c in changes[1:]] == ["PropertySet", "Linked", "PropertySet", "PropertySet"]
+
+
+def test_changes_reach_the_server_and_render_what_the_document_renders():
+    network = vgraph.load(REPO / "networks" / "raycast_sphere.json")
+    base = str(network.base_dir)
+    server = RenderServer()
+    assert server.handle(RenderJob(1, network_document(network), base, stamp=("gui", 1))).error is None
+    changes = recorder(network)
+    network.set("rc.sampling_rate", 1.5)
+    network.set("eep.camera", network.get("eep.camera").rotate(20.0, 10.0))
+    by_changes = server.handle(RenderJob(2, None, base, changes=tuple(changes), stamp=("gui", 2), since=("gui", 1)))
+    assert by_changes.error is None and not by_changes.needs_document
+    assert "source" not in by_changes.outcome.ran                  # the volume stayed loaded
+    by_document = RenderServer().handle(RenderJob(1, network_document(network), base))
+    np.testing.assert_array_equal(by_changes.outcome.frames["canvas"], by_document.outcome.frames["canvas"])
+
+
+def test_the_server_asks_for_a_document_when_changes_cannot_apply():
+    gui = summing_network()
+    server = RenderServer()
+    change = (PropertySet("a.value", 2.0),)
+    assert server.handle(RenderJob(1, None, changes=change)).needs_document          # no network yet
+    assert server.handle(RenderJob(2, network_document(gui), stamp=("gui", 2))).error is None
+    stale = server.handle(RenderJob(3, None, changes=change, stamp=("gui", 3), since=("other", 7)))
+    assert stale.needs_document and server.network is not None   # another sender's changes: untouched
+    failing = server.handle(RenderJob(3, None, changes=(PropertySet("zz.value", 1.0),),
+                                      stamp=("gui", 3), since=("gui", 2)))
+    assert failing.needs_document and failing.error is None and server.network is None

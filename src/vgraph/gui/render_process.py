@@ -5,14 +5,18 @@ would freeze the window for a whole frame; and the GUI then needs no GL at all, 
 tested) anywhere Qt runs. The GUI sends what to show, the render process sends frames back.
 
 Protocol (pickled objects over a ``multiprocessing`` pipe, one job in flight at a time):
-- GUI -> render process: a ``RenderJob`` (the network as a version-1 document, the modules that
-  define its plug-in processor types, the resolution scale, whether writers run, whether to start
-  from a new network), or ``None`` to stop.
+- GUI -> render process: a ``RenderJob``, or ``None`` to stop. A job carries either the network as
+  a version-1 document (a file opened, a new network, plug-ins that changed, a resync) or the
+  ``changes`` made since the previous job (``vgraph.gui.changes``: property values, processors,
+  connections, links; an empty tuple re-renders), plus the modules that define its plug-in
+  processor types, the resolution scale, whether writers run and whether to start from a new network.
 - render process -> GUI: one ``RenderResult`` per job: what ran or failed, a ``ProcessorStatus`` per
   processor, frames for the displays, histograms and value scales for the transfer-function
-  editors, the concrete cameras of the last frame (for zooming a camera that fits the data).
-The render process keeps its network between jobs (``mirror`` applies each document as a diff), so
-unchanged processors keep their textures and outputs.
+  editors, the concrete cameras of the last frame (for zooming a camera that fits the data). A
+  result with ``needs_document`` rendered nothing: the changes could not be applied (the process
+  has no network, e.g. a new one, or a change failed) and the GUI sends the whole document next.
+The render process keeps its network between jobs (``mirror`` applies a document as a diff; changes
+edit it in place), so unchanged processors keep their textures and outputs.
 
 ``RenderProcess`` is the GUI's handle (no Qt): ``submit`` a job, ``poll``/``wait`` for the result.
 If the process dies (a driver crash), the result says so with its exit code and the next job
@@ -36,6 +40,7 @@ from tqdm import tqdm
 from vgraph.errors import VGraphError
 from vgraph.gui.evaluator import (EvaluationOutcome, ProcessorStatus, evaluate_view, histograms, processor_status,
                                   value_scales, view_cameras)
+from vgraph.gui.changes import Change, apply_changes
 from vgraph.gui.mirror import mirror
 from vgraph.network import Network
 from vgraph.registry import registry
@@ -47,12 +52,15 @@ RECENT_JOBS = 20   # how many recent jobs say how long a job usually takes
 @dataclass
 class RenderJob:
     version: int
-    document: dict
+    document: dict | None      # None: apply ``changes`` to the network the process has
     base_dir: str | None = None
     plugins: tuple[str, ...] = ()
     scale: float = 1.0
     include_writers: bool = False
     fresh: bool = False        # start from a new network (another file was opened)
+    changes: tuple[Change, ...] = ()
+    stamp: tuple | None = None  # (sender, version): names the network state this job leaves
+    since: tuple | None = None  # the stamp of the state ``changes`` edit (the sender's previous job)
 
 
 @dataclass
@@ -66,6 +74,7 @@ class RenderResult:
     view_cameras: dict = field(default_factory=dict)
     seconds: float = 0.0
     error: str | None = None   # the job as a whole failed (its network could not be built, a crash)
+    needs_document: bool = False  # the changes could not be applied: send the whole network
 
 
 def plugin_modules(network: Network) -> tuple[str, ...]:
@@ -80,6 +89,7 @@ class RenderServer:
 
     def __init__(self):
         self.network: Network | None = None
+        self.stamp: tuple | None = None   # the stamp of the job that made ``network``
         self.imported: set[str] = set()
 
     def handle(self, job: RenderJob) -> RenderResult:
@@ -87,9 +97,12 @@ class RenderServer:
         result = RenderResult(job.version, job.scale)
         try:
             self._import_plugins(job.plugins)
-            if job.fresh:
-                self.network = None
-            self.network = mirror(self.network, job.document, job.base_dir)
+            if job.document is not None:
+                self.network = mirror(None if job.fresh else self.network, job.document, job.base_dir)
+            elif not self._applied(job):
+                result.needs_document = True
+                return result
+            self.stamp = job.stamp
         except VGraphError as error:
             self.network = None  # half-applied: rebuild from the next document
             result.error = str(error)
@@ -104,6 +117,20 @@ class RenderServer:
             result.error = "internal error in the render process (please report it):\n" + traceback.format_exc()
         result.seconds = time.perf_counter() - start
         return result
+
+    def _applied(self, job: RenderJob) -> bool:
+        """Apply the job's changes; False when they cannot be: the network is not the one they
+        were made on (none yet in a new process; another window's, when windows share the
+        process), or one failed, which leaves the network half-changed, so it is dropped and the
+        document that follows builds it again."""
+        if self.network is None or job.since != self.stamp:
+            return False
+        try:
+            apply_changes(self.network, job.changes)
+        except Exception:  # any failure means the copies differ: resync rather than fail the job
+            self.network = None
+            return False
+        return True
 
     def _import_plugins(self, modules) -> None:
         for module in modules:
