@@ -1,9 +1,17 @@
 """When and how the GUI evaluates: shortly after every change, in the render process.
 
 Changes arriving together (a slider drag, a macro such as a delete) are gathered by a short
-single-shot timer. Then the network goes to the render process as a document (``render_process``);
-while it works, further changes wait, and only the newest state is sent next, so the GUI never
-queues up stale frames. Results come back through ``finished`` (the outcome) and ``frames``.
+single-shot timer. Then they go to the render process (``render_process``) as the edits made since
+the last job (``changes``: a property's new value, a processor, connection or link added or
+removed), not as the whole network; while it works, further changes wait and go together with the
+next job, so the GUI never queues up stale frames. Results come back through ``finished`` (the
+outcome) and ``frames``.
+
+The whole network goes as a document instead when the render process's copy cannot be trusted or
+reached by changes: a network opened or new (``network_replaced``), a new render process (after a
+crash or a cancel), a job that failed, the network's folder changed (Save As: relative file paths
+mean other things), other plug-in modules, an event that could not be described as a change, and
+when the render process asks for it (``RenderResult.needs_document``).
 
 Conventions:
 - ``interactive(True)`` (the mouse is dragging on a canvas) renders the displays at
@@ -30,11 +38,13 @@ the render process, which it cannot see otherwise:
 from __future__ import annotations
 
 import traceback
+import uuid
 
 from PySide6.QtCore import QObject, QTimer, Signal
 
 from vgraph.errors import VGraphError
 from vgraph.fileformat import network_document
+from vgraph.gui.changes import Change, append_change, change_of
 from vgraph.gui.evaluator import EvaluationOutcome, ProcessorStatus, format_seconds, processor_status
 from vgraph.gui.render_process import RenderJob, RenderProcess, RenderResult, describe_exit, plugin_modules
 from vgraph.gui.workspace import Workspace
@@ -77,7 +87,12 @@ class LiveEvaluation(QObject):
         self.version = 0            # counts changes; a result is current when it carries the latest
         self.scale = 1.0
         self._include_writers = False
-        self._fresh = True
+        self._fresh = True          # the next job starts the render process's copy afresh
+        self._resync = False        # the next job sends the whole document
+        self._changes: list[Change] = []    # edits since the last job
+        self._sent_context = None   # (base_dir, plug-in modules) of the last job
+        self._last_job: RenderJob | None = None
+        self._sender = uuid.uuid4().hex   # tells the render process whose changes a job carries
         self._wanted = False        # a change waits for the render process to be free
         self.timer = self._timer(DELAY_MS, self._send)
         self.poller = self._timer(POLL_MS, self._poll)
@@ -99,6 +114,7 @@ class LiveEvaluation(QObject):
         self.network = network
         self.statuses.clear()
         self._fresh = True
+        self._changes.clear()
         network.subscribe(self._on_event)
         self.schedule()
 
@@ -131,10 +147,17 @@ class LiveEvaluation(QObject):
     # --- when ----------------------------------------------------------------------------------
     def _on_event(self, event: str, **details) -> None:
         if event in TRIGGER_EVENTS:
+            self._record(event, details)
             self.version += 1
             self.schedule()
             if self.scale < 1.0:  # the mouse is moving: no gathering delay
                 self._send()
+
+    def _record(self, event: str, details: dict) -> None:
+        try:
+            append_change(self._changes, change_of(self.network, event, details))
+        except Exception:  # a listener must not break the edit: the document says it instead
+            self._resync = True
 
     def schedule(self) -> None:
         self._wanted = True
@@ -161,17 +184,28 @@ class LiveEvaluation(QObject):
             return
         self._replace_if_dead("")
         try:
-            job = RenderJob(self.version, network_document(self.network),
-                            str(self.network.base_dir) if self.network.base_dir else None,
-                            plugin_modules(self.network), self.scale, self._include_writers, self._fresh)
+            job = self._job()
         except Exception:
             self.crashed.emit(traceback.format_exc())
             return
-        self._wanted = self._include_writers = self._fresh = False
+        self._wanted = self._include_writers = self._fresh = self._resync = False
+        self._changes.clear()
+        self._sent_context = (job.base_dir, job.plugins)
         self._stall_reported = False
+        self._last_job = job
         self.renderer.submit(job)
         self.busy_changed.emit(True)
         self.poller.start()
+
+    def _job(self) -> RenderJob:
+        """The changes since the last job, or the whole document when changes cannot do."""
+        base_dir = str(self.network.base_dir) if self.network.base_dir else None
+        plugins = plugin_modules(self.network)
+        whole = self._fresh or self._resync or (base_dir, plugins) != self._sent_context
+        return RenderJob(self.version, network_document(self.network) if whole else None, base_dir,
+                         plugins, self.scale, self._include_writers, self._fresh,
+                         changes=() if whole else tuple(self._changes), stamp=(self._sender, self.version),
+                         since=self._last_job.stamp if self._last_job else None)
 
     def _poll(self) -> None:
         if not self.renderer.busy:
@@ -184,7 +218,10 @@ class LiveEvaluation(QObject):
 
     def _receive(self, result: RenderResult) -> None:
         self.last_result = result
-        if result.error:
+        if result.needs_document:   # nothing rendered: send the whole network at once
+            self._resync = self._wanted = True
+            self._include_writers |= self._last_job.include_writers
+        elif result.error:
             self._fresh = True  # the render process starts over with the next job
             self.crashed.emit(result.error)
             if self.renderer.pid is None:   # it died with the job: a new one, ready for the next

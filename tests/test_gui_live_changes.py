@@ -1,0 +1,103 @@
+"""The window sends the render process changes, not documents: what is submitted, and that the
+frames and the render process's network are what a whole document gives."""
+
+import os
+import signal
+
+import numpy as np
+import pytest
+
+from vgraph.fileformat import network_document
+from vgraph.gui.changes import PropertySet
+from vgraph.gui.render_process import RenderJob, RenderServer
+
+from conftest import REPO
+from gui_helpers import window  # noqa: F401  (a fixture)
+
+
+@pytest.fixture
+def jobs(window, monkeypatch):
+    """Every job the window submits from now on (the shared render process still gets them)."""
+    renderer, submitted = window.evaluation.renderer, []
+    submit = renderer.submit
+    monkeypatch.setattr(renderer, "submit", lambda job: (submitted.append(job), submit(job))[1])
+    return submitted
+
+
+def open_small(window, name="raycast_sphere.json"):
+    assert window.open_network(REPO / "networks" / name)
+    window.workspace.set_property("canvas.size", [64, 64])   # quick frames
+    window.evaluation.run(wait=True)
+
+
+def document_frame(window) -> np.ndarray:
+    """The canvas frame a render process given the whole document renders."""
+    network = window.workspace.network
+    result = RenderServer().handle(RenderJob(1, network_document(network), str(network.base_dir)))
+    assert result.error is None
+    return result.outcome.frames["canvas"]
+
+
+def test_a_property_edit_sends_a_change_and_renders_the_documents_frame(window, jobs):
+    open_small(window)
+    assert jobs[0].document is not None and jobs[0].fresh          # opening sends the whole network
+    del jobs[:]
+    window.workspace.set_property("rc.sampling_rate", 1.5)
+    window.evaluation.run(wait=True)
+    assert [(job.document, job.changes) for job in jobs] == [(None, (PropertySet("rc.sampling_rate", 1.5),))]
+    frame = window.canvases.views["canvas"].frame()
+    np.testing.assert_array_equal(frame, document_frame(window))
+
+
+def test_structural_edits_and_their_undo_reach_the_render_process(window, jobs):
+    """Replaying what was submitted on a server of our own gives the GUI's network: the render
+    process got the same jobs."""
+    open_small(window)
+    ws = window.workspace
+    ws.remove(["eep"])                    # its connections and camera link go with it
+    window.evaluation.run(wait=True)
+    ws.undo_stack.undo()                  # back at its place, connections and link too
+    window.evaluation.run(wait=True)
+    ws.disconnect(ws.network.inputs_of("canvas", "image")[0])
+    ws.add_processor("Grayscale", id="gray")
+    ws.connect("rc.image", "gray.image")
+    ws.connect("gray.image", "canvas.image")
+    window.evaluation.run(wait=True)
+    assert all(job.document is None for job in jobs[1:])
+    replay = RenderServer()
+    for job in jobs:
+        assert not replay.handle(job).needs_document
+    positions = lambda document: {**document, "processors": [  # noqa: E731  (moves are not sent)
+        {**p, "position": None} for p in document["processors"]]}
+    assert positions(network_document(replay.network)) == positions(network_document(ws.network))
+    np.testing.assert_array_equal(window.canvases.views["canvas"].frame(), document_frame(window))
+
+
+def test_a_new_render_process_gets_the_whole_document(window, jobs):
+    open_small(window)
+    evaluation = window.evaluation
+    os.kill(evaluation.renderer.pid, signal.SIGKILL)
+    evaluation.renderer._process.join(5)
+    del jobs[:]
+    window.workspace.set_property("rc.sampling_rate", 1.5)
+    evaluation.run(wait=True)
+    assert jobs[0].document is not None and jobs[0].fresh
+    assert evaluation.last_result.error is None
+    window.workspace.set_property("rc.sampling_rate", 2.0)
+    evaluation.run(wait=True)
+    assert jobs[-1].document is None                          # and changes again afterwards
+
+
+def test_a_render_process_that_asks_for_the_document_gets_it(window, jobs):
+    """A change the render process cannot apply (here: another sender's network) is answered
+    with the whole document, without an error in the log."""
+    open_small(window)
+    renderer = window.evaluation.renderer
+    renderer.submit(RenderJob(99, network_document(window.workspace.network), stamp=("another window", 1)))
+    renderer.wait()
+    del jobs[:]
+    window.workspace.set_property("rc.sampling_rate", 1.5)
+    window.evaluation.run(wait=True)
+    assert [job.document is None for job in jobs] == [True, False]
+    assert window.evaluation.last_result.error is None and not window.log.messages("error")
+    np.testing.assert_array_equal(window.canvases.views["canvas"].frame(), document_frame(window))
