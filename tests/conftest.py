@@ -1,18 +1,25 @@
-"""Shared test fixtures: where the repository and the shared data sets are, and toy processors."""
+"""Fixtures shared by the tests. Helpers that are not fixtures live in the ``helpers`` package.
+
+The toy processors (helpers.toy_processors) are registered here, once, so every test can add
+them by type name; the render process imports them by module name like any plug-in.
+"""
 
 import os
-from pathlib import Path
 
 import pytest
 
-os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+import vgraph
+from helpers import toy_processors
+from helpers.paths import DATA
 
-REPO = Path(__file__).resolve().parents[1]
-DATA = REPO.parent / "shared" / "data"
+os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")  # read when pytest-qt creates the QApplication
+
+for _cls in toy_processors.ALL:
+    vgraph.register(_cls)
 
 
 @pytest.fixture
-def data_dir() -> Path:
+def data_dir():
     if not DATA.is_dir():
         pytest.skip(f"shared data sets not found at {DATA}")
     return DATA
@@ -31,3 +38,19 @@ def renderer():
     process = RenderProcess()
     yield process
     process.stop()
+
+
+@pytest.fixture
+def window(qtbot, tmp_path, renderer):
+    """A shown main window with its own settings file (recent files do not touch the user's)."""
+    from PySide6.QtCore import QSettings
+    from vgraph.gui.app import MainWindow
+    settings = QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat)
+    main = MainWindow(settings, renderer)
+    main.show()
+    qtbot.waitExposed(main)
+    yield main
+    main.workspace.undo_stack.setClean()  # no unsaved-changes prompt on closing
+    main.close()                           # closeEvent detaches the views from the network
+    main.deleteLater()
+

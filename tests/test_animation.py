@@ -15,7 +15,7 @@ from vgraph import IntProperty, Outport, Processor, animation, cli
 from vgraph.image import Image
 from vgraph.volume import Volume
 
-from conftest import REPO
+from helpers.paths import REPO
 
 SPHERE = REPO / "networks" / "raycast_sphere.json"
 TORUS = REPO / "networks" / "curvature_torus.json"

@@ -10,7 +10,7 @@ import pytest
 
 from vgraph.cli import main
 
-from conftest import REPO
+from helpers.paths import REPO
 
 GRAY = REPO / "networks" / "grayscale.json"
 
@@ -98,7 +98,7 @@ def test_a_bug_inside_a_processor_exits_1_and_names_it(tmp_path, capsys):
                               {"id": "c", "type": "Collect"}],
                "connections": [{"from": "n.value", "to": "f.value"}, {"from": "f.value", "to": "c.value"}]}
     (tmp_path / "fragile.json").write_text(json.dumps(network))
-    args = ["run", str(tmp_path / "fragile.json"), "--plugin", "toy_processors", "--profile", str(tmp_path / "p.json")]
+    args = ["run", str(tmp_path / "fragile.json"), "--plugin", "helpers.toy_processors", "--profile", str(tmp_path / "p.json")]
     assert main(args) == 1
     assert "processor 'f' (Fragile): ZeroDivisionError: deliberate failure" in capsys.readouterr().err
     assert [e["id"] for e in json.loads((tmp_path / "p.json").read_text())["evaluated"]] == ["n"]
@@ -293,7 +293,7 @@ def test_the_profile_of_a_failed_run_names_the_failed_processor(tmp_path):
                               {"id": "c", "type": "Collect"}],
                "connections": [{"from": "n.value", "to": "f.value"}, {"from": "f.value", "to": "c.value"}]}
     (tmp_path / "fragile.json").write_text(json.dumps(network))
-    code, _, err = vgraph_cli("run", tmp_path / "fragile.json", "--plugin", "toy_processors",
+    code, _, err = vgraph_cli("run", tmp_path / "fragile.json", "--plugin", "helpers.toy_processors",
                               "--profile", tmp_path / "p.json", cwd=REPO / "tests")
     assert code == 1, err
     profile = json.loads((tmp_path / "p.json").read_text())

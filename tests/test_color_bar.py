@@ -10,7 +10,7 @@ from vgraph.gl.curvature import colormap_table
 from vgraph.transfer_function import TransferFunction
 from vgraph.processors.color_bar import curvature_scale, format_ticks
 
-from conftest import REPO
+from helpers.paths import REPO
 
 GREY = 0.2
 TF = TransferFunction(points=[(0.0, 0.0, 0.0, 1.0, 0.0), (0.5, 0.0, 1.0, 0.0, 0.5),

@@ -18,10 +18,10 @@ from vgraph.numerics.bspline import evaluate
 from vgraph.numerics.curvature import kindlmann
 from vgraph.numerics.finite_differences import trilinear
 
-from conftest import REPO
-from curvature_helpers import (TORUS_CAMERA, active_source, coefficients_of, curvature_network,
+from helpers.paths import REPO
+from helpers.curvature import (TORUS_CAMERA, active_source, coefficients_of, curvature_network,
                                reference_colours, reference_derivatives, render)
-from test_entry_exit_points import rendering_network
+from helpers.networks import rendering_network
 
 SIZE = (96, 96)
 MODES = ("tricubic", "tricubic_fast", "central", "filtered", "forward")

@@ -17,8 +17,8 @@ from vgraph.numerics.bspline import evaluate
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
-from curvature_helpers import TORUS_CAMERA, coefficients_of, curvature_network
-from test_entry_exit_points import rendering_network
+from helpers.curvature import TORUS_CAMERA, coefficients_of, curvature_network
+from helpers.networks import rendering_network
 
 SIZE = (64, 64)
 OBLIQUE = Camera.looking_at_box((-1, -1, -1), (1, 1, 1), direction=(-0.3, -0.4, -1.0))

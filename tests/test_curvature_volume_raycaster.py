@@ -15,9 +15,9 @@ from vgraph.gl.shaders import programs
 from vgraph.implicit import sample
 from vgraph.transfer_function import TransferFunction
 
-from conftest import REPO
-from curvature_helpers import TORUS_CAMERA, coefficients_of, colormap, curvature_network
-from test_entry_exit_points import rendering_network
+from helpers.paths import REPO
+from helpers.curvature import TORUS_CAMERA, coefficients_of, colormap, curvature_network
+from helpers.networks import rendering_network
 
 SIZE = (64, 64)
 BAND = [(0.0, 0.0), (0.46, 0.0), (0.5, 0.3), (0.54, 0.05), (1.0, 0.05)]  # (position, alpha)

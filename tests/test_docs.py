@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import DATA, REPO
+from helpers.paths import DATA, REPO
 
 BLOCK = re.compile(r"^```(\w+)([^\n]*)\n(.*?)^```", re.S | re.M)
 PAGES = sorted((REPO / "docs").glob("*.md"))

@@ -6,16 +6,13 @@ import pytest
 
 from vgraph import Network, VGraphError
 from vgraph.camera import Camera
-from vgraph.testing import GivenVolume, ray_caster_network
+from vgraph.testing import GivenVolume
 from vgraph.volume import Volume
+
+from helpers.networks import rendering_network
 
 SPACING = (0.5, 0.4, 1.0)
 ORIGIN = (-3.0, -2.0, -4.0)
-
-
-def rendering_network(volume, camera, **raycaster):
-    """GivenVolume -> EntryExitPoints -> RayCaster 'rc', cameras linked (vgraph.testing)."""
-    return ray_caster_network(volume, camera, "RayCaster", id="rc", **raycaster)
 
 
 def random_volume(shape=(10, 12, 16), spacing=SPACING, origin=ORIGIN, seed=0):

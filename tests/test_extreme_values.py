@@ -14,7 +14,7 @@ from vgraph.gl.context import get_context
 from vgraph.scheduler import BlankImageWarning
 from vgraph.testing import ray_caster_network
 from vgraph.volume import Volume
-from conftest import REPO
+from helpers.paths import REPO
 
 N = 24
 CAMERA = Camera(position=(11.5, 11.5, 60.0), focus=(11.5, 11.5, 11.5))

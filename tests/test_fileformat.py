@@ -15,8 +15,8 @@ from vgraph import NetworkFileError
 from vgraph.cli import main
 from vgraph.fileformat import CURRENT_VERSION, load_network, network_document
 
-from conftest import REPO
-import toy_processors
+from helpers.paths import REPO
+from helpers import toy_processors
 
 for cls in toy_processors.ALL:
     vgraph.register(cls)

@@ -11,8 +11,8 @@ from PySide6.QtCore import QEvent, Qt
 
 from vgraph.cli import main
 
-from conftest import REPO
-from gui_helpers import drag, port_position, send_mouse, window  # noqa: F401  (window is a fixture)
+from helpers.paths import REPO
+from helpers.gui import drag, port_position, send_mouse
 
 SHIPPED = REPO / "networks" / "curvature_torus.json"
 

@@ -15,7 +15,6 @@ from vgraph.fileformat import load_network, network_document
 from vgraph.gui.autosave import INTERVAL_KEY, Autosave, read_autosave
 from vgraph.gui.workspace import Workspace
 
-from gui_helpers import window  # noqa: F401  (a fixture)
 
 
 def build_and_save(window, path):

@@ -17,7 +17,8 @@ from vgraph.network import Network
 
 from vgraph.gui.workspace import Workspace
 
-from gui_helpers import send_mouse
+from helpers.gui import send_mouse
+from helpers.paths import REPO
 
 SIZE = (200, 160)  # widget width, height
 
@@ -263,8 +264,6 @@ def test_save_image_writes_the_frame_as_png(ws, qtbot, tmp_path, monkeypatch):
 
 
 # --- in the main window, with the render process ---------------------------------------------------
-from conftest import REPO  # noqa: E402
-from gui_helpers import window  # noqa: E402,F401  (a fixture)
 
 
 def test_the_window_renders_coarse_while_dragging_and_refines_on_release(window, qtbot):

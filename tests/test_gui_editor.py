@@ -7,7 +7,7 @@ from vgraph.gui.items import EdgeItem, LinkItem, port_color
 from vgraph.gui.links import LinkDialog, link_candidates
 from vgraph.network import Connection, Link
 
-from gui_helpers import drag, port_position, window  # noqa: F401  (window is a fixture)
+from helpers.gui import drag, port_position
 
 
 def test_palette_search_and_double_click_add_a_processor_undo_redo(window, qtbot):

@@ -10,7 +10,6 @@ from vgraph.camera import Camera
 from vgraph.gui import editors
 from vgraph.registry import registry
 
-from gui_helpers import window  # noqa: F401  (a fixture)
 
 
 def select(window, processor_id):

@@ -11,8 +11,7 @@ from vgraph.fileformat import network_document
 from vgraph.gui.changes import PropertySet
 from vgraph.gui.render_process import RenderJob, RenderServer
 
-from conftest import REPO
-from gui_helpers import window  # noqa: F401  (a fixture)
+from helpers.paths import REPO
 
 
 @pytest.fixture

@@ -17,8 +17,7 @@ import pytest
 from PySide6.QtCore import QPointF, QRectF, Qt
 from PySide6.QtGui import QColor, QImage, QPainter
 
-from gui_helpers import window  # noqa: F401  (a fixture)
-from conftest import REPO
+from helpers.paths import REPO
 
 # Qt's own bookkeeping may release a handful of references while the loops run; the broken
 # binding lost one per call, thousands here.
@@ -256,7 +255,7 @@ def test_the_undo_history_keeps_the_last_steps_only(qtbot, tmp_path):
 
 
 def test_an_empty_frame_of_visible_content_is_a_warning_in_the_log_once(window):
-    from conftest import REPO
+    from helpers.paths import REPO
     assert window.open_network(REPO / "networks" / "raycast_sphere.json")
     window.evaluation.run(wait=True)
     assert not [m for m in window.log.messages("warning") if "empty image" in m]

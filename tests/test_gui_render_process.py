@@ -6,7 +6,6 @@ import signal
 import numpy as np
 import pytest
 
-import toy_processors
 import vgraph
 from vgraph.errors import NetworkFileError
 from vgraph.fileformat import network_document
@@ -15,10 +14,7 @@ from vgraph.gui.mirror import mirror
 from vgraph.gui.render_process import RenderJob, RenderProcess, RenderServer, plugin_modules
 from vgraph.network import Network
 
-from conftest import REPO
-
-for cls in toy_processors.ALL:
-    vgraph.register(cls)
+from helpers.paths import REPO
 
 
 def summing_network() -> Network:
@@ -97,7 +93,7 @@ def test_the_server_renders_frames_statuses_and_histograms():
 
 def test_plugins_are_imported_by_module_and_main_modules_are_refused():
     network = summing_network()
-    assert plugin_modules(network) == ("toy_processors",)
+    assert plugin_modules(network) == ("helpers.toy_processors",)
     assert plugin_modules(vgraph.load(REPO / "networks" / "raycast_sphere.json")) == ()
     result = RenderServer().handle(RenderJob(1, network_document(network), plugins=("__main__",)))
     assert "cannot be used by the render process" in result.error

@@ -12,7 +12,6 @@ from PySide6.QtWidgets import QColorDialog
 from vgraph.gui import transfer_function_editor as tfe
 from vgraph.transfer_function import PRESETS, TransferFunction, ValueScale
 
-from gui_helpers import window  # noqa: F401  (a fixture)
 
 
 @pytest.fixture
@@ -203,7 +202,7 @@ def test_histogram_bars_follow_the_log_scale(window, editor):
 
 
 def test_the_histogram_of_the_volume_reaches_the_editor_from_the_render_process(window, qtbot):
-    from conftest import REPO
+    from helpers.paths import REPO
     assert window.open_network(REPO / "networks" / "raycast_sphere.json")
     window.evaluation.run(wait=True)
     window.scene.select_processor("rc")                 # selected after the result: still shown

@@ -6,14 +6,9 @@ import networkx as nx
 import pytest
 from PySide6.QtCore import QSettings
 
-import toy_processors
-import vgraph
 from vgraph.fileformat import network_document
 from vgraph.gui.workspace import Workspace
 from vgraph.network import Connection, Link
-
-for cls in toy_processors.ALL:
-    vgraph.register(cls)
 
 
 @pytest.fixture

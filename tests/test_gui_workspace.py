@@ -13,8 +13,7 @@ from PySide6.QtWidgets import QMessageBox
 import vgraph
 from vgraph.cli import build_parser, main
 
-from conftest import REPO
-from gui_helpers import window  # noqa: F401  (a fixture)
+from helpers.paths import REPO
 
 GRAY = REPO / "networks" / "grayscale.json"
 

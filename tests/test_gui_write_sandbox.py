@@ -6,7 +6,6 @@ import pytest
 
 from vgraph.fileformat import network_document
 
-from gui_helpers import window  # noqa: F401  (a fixture)
 
 
 def network_with_writers(folder, paths: dict[str, str]):

@@ -7,7 +7,7 @@ import pytest
 import vgraph
 from vgraph import Network, ProcessorError
 
-from conftest import REPO
+from helpers.paths import REPO
 
 WHEEL = REPO / "networks" / "data" / "color_wheel.png"
 

@@ -11,7 +11,7 @@ import pytest
 import vgraph
 from vgraph.gl.context import collect_garbage, get_context
 from vgraph.leaks import live_gl_textures, repeated_evaluations, writers_redirected
-from conftest import REPO
+from helpers.paths import REPO
 
 NETWORKS = sorted((REPO / "networks").glob("*.json"))
 EVALUATIONS = 500

@@ -7,11 +7,8 @@ from vgraph import CycleError, Network, PortError, PropertyError, VGraphError
 from vgraph.image import Image
 from vgraph.volume import Volume
 
-import toy_processors
-from toy_processors import Collect
-
-for cls in toy_processors.ALL:
-    vgraph.register(cls)
+from helpers import toy_processors
+from helpers.toy_processors import Collect
 
 
 @pytest.fixture

@@ -6,7 +6,7 @@ import pytest
 
 from vgraph.cli import main
 
-from conftest import DATA, REPO
+from helpers.paths import DATA, REPO
 
 NETWORKS = sorted((REPO / "networks").glob("*.json"))
 RENDERERS = ["raycast_sphere", "raycast_head", "mip_engine", "curvature_torus", "curvature_volume"]

@@ -16,7 +16,7 @@ from vgraph.imagefile import to_uint8
 from vgraph.transfer_function import PRESETS
 from vgraph.volume import Volume
 
-from conftest import REPO
+from helpers.paths import REPO
 
 widgets = pytest.importorskip("ipywidgets")
 from vgraph.notebook import Viewer  # noqa: E402  (needs ipywidgets)

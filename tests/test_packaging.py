@@ -12,7 +12,7 @@ import numpy as np
 import PIL.Image
 import pytest
 
-from conftest import REPO
+from helpers.paths import REPO
 
 WHEEL_IMAGE = REPO / "networks" / "data" / "color_wheel.png"
 

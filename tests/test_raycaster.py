@@ -14,7 +14,7 @@ from vgraph.numerics.reference_raycast import Shading, VolumeSampler, render, vo
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
-from test_entry_exit_points import rendering_network
+from helpers.networks import rendering_network
 
 # Tolerance against the CPU reference (max |difference| per channel). Measured on llvmpipe:
 # ~1.3e-6 (float32 arithmetic; float-weight trilinear filtering of 16-bit and float textures).

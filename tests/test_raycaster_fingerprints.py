@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from conftest import REPO
+from helpers.paths import REPO
 from raycaster_cases import all_cases, fingerprint
 
 RECORDED = json.loads((REPO / "tests" / "data" / "raycaster_fingerprints.json").read_text())

@@ -5,11 +5,6 @@ import pytest
 import vgraph
 from vgraph import Network, ProcessorError
 
-import toy_processors
-
-for cls in toy_processors.ALL:
-    vgraph.register(cls)
-
 
 @pytest.fixture
 def net():

@@ -9,7 +9,6 @@ import vgraph
 from vgraph.cli import main
 from vgraph.volume_network import is_volume_path
 
-from gui_helpers import window  # noqa: F401  (a fixture)
 
 VOLUMES = ["mri_head_t1/MR.nii.gz", "ct_head_headsq/quarter.nhdr", "ct_engine/engine.nii.gz",
            "cta_stent/stent.npz", "sim_hydrogen/hydrogen.vti", "sim_neghip/neghip.slc"]

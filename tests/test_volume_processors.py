@@ -15,7 +15,7 @@ from vgraph.cli import main
 from vgraph.implicit import DATA_TYPES, FUNCTIONS
 from vgraph.io import read_volume
 
-from conftest import REPO
+from helpers.paths import REPO
 
 NETWORKS = REPO / "networks"
 

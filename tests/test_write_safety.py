@@ -15,7 +15,7 @@ import pytest
 import vgraph
 from vgraph.atomic import atomic_path, write_text_atomic
 from vgraph.cli import main
-from conftest import REPO
+from helpers.paths import REPO
 
 NETWORK = REPO / "networks" / "volume_spline_torus.json"
 

@@ -1,29 +1,9 @@
-"""Fixtures and helpers shared by the GUI tests (pytest-qt, QT_QPA_PLATFORM=offscreen)."""
+"""Mouse helpers for the GUI tests (pytest-qt, QT_QPA_PLATFORM=offscreen); the ``window`` fixture
+is in conftest.py."""
 
-import pytest
-from PySide6.QtCore import QPointF, QSettings, Qt
+from PySide6.QtCore import QPointF, Qt
 from PySide6.QtGui import QMouseEvent
 from PySide6.QtWidgets import QApplication
-
-import toy_processors
-import vgraph
-
-for cls in toy_processors.ALL:
-    vgraph.register(cls)
-
-
-@pytest.fixture
-def window(qtbot, tmp_path, renderer):
-    """A shown main window with its own settings file (recent files do not touch the user's)."""
-    from vgraph.gui.app import MainWindow
-    settings = QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat)
-    main = MainWindow(settings, renderer)
-    main.show()
-    qtbot.waitExposed(main)
-    yield main
-    main.workspace.undo_stack.setClean()  # no unsaved-changes prompt on closing
-    main.close()                           # closeEvent detaches the views from the network
-    main.deleteLater()
 
 
 def view_point(window, scene_pos: QPointF):

@@ -1,0 +1,13 @@
+"""Helpers shared by the tests: plain functions, classes and constants, imported as
+``from helpers.paths import REPO`` or ``from helpers.gui import drag``.
+
+Fixtures (``window``, ``renderer``, ``gl``, ``data_dir``, ``test_shader_dir``) live in
+``tests/conftest.py``, which pytest gives every test without an import. No test module imports
+another test module: what two test files share belongs here.
+
+- ``paths``: REPO (the repository) and DATA (the shared data sets beside it)
+- ``toy_processors``: small CPU processors (no GL); conftest registers them for every test
+- ``gui``: mouse helpers for the GUI tests
+- ``networks``: networks the rendering tests build
+- ``curvature``: the curvature ray casters' networks and CPU references
+"""
