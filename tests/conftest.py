@@ -5,6 +5,7 @@ them by type name; the render process imports them by module name like any plug-
 """
 
 import os
+from pathlib import Path
 
 import pytest
 
@@ -54,3 +55,13 @@ def window(qtbot, tmp_path, renderer):
     main.close()                           # closeEvent detaches the views from the network
     main.deleteLater()
 
+
+@pytest.fixture
+def test_shader_dir(monkeypatch):
+    """tests/shaders on the shader search path for one test only: adding it at import time changed
+    the path for every test collected after."""
+    from vgraph.gl import shaders
+    directory = Path(__file__).parent / "shaders"
+    monkeypatch.setattr(shaders, "_extra_dirs", list(shaders._extra_dirs))  # restored afterwards
+    shaders.add_shader_dir(directory)
+    return directory

@@ -15,7 +15,7 @@ from vgraph.gl.shaders import (ProgramCache, add_shader_dir, builtin_shader_dir,
 from vgraph.image import Image
 
 TEST_SHADERS = Path(__file__).parent / "shaders"
-add_shader_dir(TEST_SHADERS)
+pytestmark = pytest.mark.usefixtures("test_shader_dir")   # on the search path during each test only
 
 
 @pytest.fixture(scope="module")
