@@ -1,14 +1,14 @@
 """The three ray casters give bit-identical outputs to those recorded before their rebuild on
-shared components (tests/raycaster_cases.py lists the 53 configurations). Bits depend on the GL
+shared components (tests/helpers/raycaster_cases.py lists the 53 configurations). Bits depend on the GL
 driver, so the comparison runs where the recording was made (Mesa llvmpipe here) and is skipped,
-saying so, elsewhere; record again with `python tests/raycaster_cases.py` after a deliberate change."""
+saying so, elsewhere; record again with `cd tests && python -m helpers.raycaster_cases` after a deliberate change."""
 
 import json
 
 import pytest
 
 from helpers.paths import REPO
-from raycaster_cases import all_cases, fingerprint
+from helpers.raycaster_cases import all_cases, fingerprint
 
 RECORDED = json.loads((REPO / "tests" / "data" / "raycaster_fingerprints.json").read_text())
 CASES = list(all_cases())

@@ -378,6 +378,11 @@ class Network:
         if callback in self._listeners:
             self._listeners.remove(callback)
 
+    def processor_evaluated(self, processor: Processor) -> None:
+        """Tell the listeners that ``processor`` ran (or failed: its last_error says); the
+        evaluator calls this, so views can show times and errors without knowing the scheduler."""
+        self._emit("evaluated", processor=processor)
+
     def _emit(self, event: str, **details) -> None:
         for callback in list(self._listeners):
             callback(event, **details)

@@ -98,7 +98,7 @@ def _run(network: Network, processor: Processor) -> EvaluationRecord:
     except Exception as error:
         processor.last_error = _reason(error)
         processor.last_seconds = time.perf_counter() - start
-        network._emit("evaluated", processor=processor)
+        network.processor_evaluated(processor)
         raise ProcessorError(processor.id, processor.type_name, processor.last_error,
                              internal=not isinstance(error, VGraphError)) from error
     processor.inputs, processor.outputs = inputs, outputs
@@ -106,7 +106,7 @@ def _run(network: Network, processor: Processor) -> EvaluationRecord:
     processor.last_error = None
     processor.last_seconds = time.perf_counter() - start
     processor.evaluation_count += 1
-    network._emit("evaluated", processor=processor)
+    network.processor_evaluated(processor)
     return EvaluationRecord(processor.id, processor.type_name, processor.last_seconds)
 
 

@@ -108,14 +108,14 @@ def fingerprints() -> dict[str, dict[str, str]]:
     return {name: fingerprint(make(), outports) for name, make, outports in all_cases()}
 
 
-if __name__ == "__main__":  # record: python tests/raycaster_cases.py (from the repository root)
+if __name__ == "__main__":  # record: cd tests && python -m helpers.raycaster_cases
     import json
     import sys
     from pathlib import Path
 
     from vgraph.gl.context import get_context
     info = get_context().info
-    target = Path(__file__).parent / "data" / "raycaster_fingerprints.json"
+    target = Path(__file__).parents[1] / "data" / "raycaster_fingerprints.json"
     target.write_text(json.dumps({"renderer": info["GL_RENDERER"], "version": info["GL_VERSION"],
                                   "fingerprints": fingerprints()}, indent=1, sort_keys=True))
     print(f"recorded {target}", file=sys.stderr)
