@@ -25,7 +25,7 @@ from vgraph.processor import Processor
 NODE_WIDTH, NODE_HEIGHT = 168.0, 62.0
 PORT_RADIUS = 6.0
 
-KNOWN_TYPE_COLORS = {"Volume": "#2f6fd6", "Image": "#2e9e4f", "Geometry": "#e08a1e",
+KNOWN_TYPE_COLORS = {"Volume": "#2f6fd6", "Image": "#2e9e4f", "Geometry": "#e08a1e", "TetMesh": "#0f9d9a",
                      "float": "#8a63c9", "int": "#8a63c9", "str": "#8c8c8c"}
 STATE_COLORS = {"evaluated": "#2e9e4f", "error": "#d23c3c", "invalid": "#d9a21b",
                 "not_ready": "#b5b5b5", "writer": "#7a8aa6"}

@@ -1,0 +1,144 @@
+"""The TetMesh data type: tetrahedra with one scalar per point, in world units.
+
+Conventions (docs/conventions.md; the same as Volume's where they overlap):
+- ``points`` (N, 3) float32 world coordinates (x, y, z); ``tets`` (M, 4) int32 indices into them;
+  ``scalars`` (N,) float32, the point scalar the renderer classifies.
+- ``value_range`` maps scalars to normalised intensities in [0, 1]: the declared range if given,
+  else the finite min..max (a constant mesh gets a representable range, as volumes do). Transfer
+  functions in data units and percentiles resolve through it (TransferFunction.for_volume works on
+  a TetMesh: it only needs ``value_range`` and ``percentiles``).
+- ``reference_length`` is the length in world units over which a transfer function's opacity is
+  the opacity of one sample at sampling rate 1: the smallest voxel spacing for meshes made from a
+  volume (so a volume and its tetrahedra look alike), else what the source states (default: the
+  mean edge length).
+- GL buffers are uploaded lazily per context (``buffers(ctx)``) and released with the mesh.
+"""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from vgraph.errors import VGraphError
+
+
+@dataclass(eq=False)
+class TetMesh:
+    points: np.ndarray
+    tets: np.ndarray
+    scalars: np.ndarray
+    declared_range: tuple[float, float] | None = None
+    reference_length: float | None = None
+    scalar_name: str = ""
+    source: str = ""  # where it came from, for messages
+    _buffers: dict = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self):
+        where = f" from {self.source}" if self.source else ""
+        self.points = np.ascontiguousarray(self.points, dtype=np.float32)
+        self.tets = np.ascontiguousarray(self.tets, dtype=np.int32)
+        self.scalars = np.ascontiguousarray(self.scalars, dtype=np.float32).reshape(-1)
+        if self.points.ndim != 2 or self.points.shape[1] != 3 or len(self.points) == 0:
+            raise VGraphError(f"mesh{where}: points must be a non-empty (N, 3) array, got {self.points.shape}")
+        if self.tets.ndim != 2 or self.tets.shape[1] != 4 or len(self.tets) == 0:
+            raise VGraphError(f"mesh{where}: tetrahedra must be a non-empty (M, 4) array, got {self.tets.shape}")
+        if len(self.scalars) != len(self.points):
+            raise VGraphError(f"mesh{where}: {len(self.scalars)} scalars for {len(self.points)} points")
+        if not np.all(np.isfinite(self.points)):
+            raise VGraphError(f"mesh{where}: {int((~np.isfinite(self.points)).any(axis=1).sum())} points "
+                              f"have non-finite coordinates")
+        if self.tets.min() < 0 or self.tets.max() >= len(self.points):
+            raise VGraphError(f"mesh{where}: tetrahedron indices must lie in 0 .. {len(self.points) - 1}, "
+                              f"found {int(self.tets.min())} .. {int(self.tets.max())}")
+        if self.declared_range is not None:
+            lo, hi = (float(v) for v in self.declared_range)
+            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+                raise VGraphError(f"mesh{where}: value_range must be finite with low < high, got "
+                                  f"{self.declared_range}")
+            self.declared_range = (lo, hi)
+        if self.reference_length is not None and not (np.isfinite(self.reference_length)
+                                                      and self.reference_length > 0):
+            raise VGraphError(f"mesh{where}: reference_length must be positive, got {self.reference_length}")
+        weakref.finalize(self, _release_all, self._buffers)
+
+    # --- geometry -------------------------------------------------------------------------------
+    @property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(min corner, max corner) of the points, float64 (x, y, z)."""
+        return self.points.min(axis=0).astype(np.float64), self.points.max(axis=0).astype(np.float64)
+
+    @property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The bounding box, as Volume geometry calls it (what cameras frame)."""
+        return self.bounds
+
+    def tet_volumes(self) -> np.ndarray:
+        """Signed volumes of the tetrahedra, float64 (positive: (b - a, c - a, d - a) right-handed)."""
+        p = self.points.astype(np.float64)[self.tets]
+        return np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0]) / 6.0
+
+    @cached_property
+    def mean_edge_length(self) -> float:
+        p = self.points.astype(np.float64)[self.tets]
+        edges = [p[:, j] - p[:, i] for i in range(4) for j in range(i + 1, 4)]
+        return float(np.mean([np.linalg.norm(e, axis=1).mean() for e in edges]))
+
+    @property
+    def opacity_length(self) -> float:
+        """The world length of one 'sample at rate 1' for transfer-function opacities."""
+        return self.reference_length if self.reference_length is not None else self.mean_edge_length
+
+    # --- values ---------------------------------------------------------------------------------
+    @cached_property
+    def value_range(self) -> tuple[float, float]:
+        if self.declared_range is not None:
+            return self.declared_range
+        finite = self.scalars[np.isfinite(self.scalars)]
+        if finite.size == 0:
+            return (0.0, 1.0)
+        lo, hi = float(finite.min()), float(finite.max())
+        return (lo, hi) if hi > lo else (lo, lo + max(1.0, abs(lo) * 1e-6))
+
+    def normalized(self, values=None) -> np.ndarray:
+        """Scalars (or ``values``) as normalised intensities, float64, not clamped."""
+        lo, hi = self.value_range
+        return (np.asarray(self.scalars if values is None else values, dtype=np.float64) - lo) / (hi - lo)
+
+    def percentiles(self, percents) -> np.ndarray:
+        """Scalar values at ``percents`` (in [0, 100]) of the finite point scalars."""
+        finite = self.scalars[np.isfinite(self.scalars)].astype(np.float64)
+        if finite.size == 0:
+            lo, hi = self.value_range
+            return lo + np.asarray(percents, dtype=np.float64) / 100.0 * (hi - lo)
+        return np.percentile(finite, percents)
+
+    def histogram(self, bins: int = 256) -> tuple[np.ndarray, np.ndarray]:
+        """Counts of the finite point scalars in equal bins over the value range, and the edges in
+        normalised intensity (the TF editor's histogram)."""
+        values = self.normalized()[np.isfinite(self.scalars)]
+        counts = np.histogram(np.clip(values, 0.0, 1.0), bins=bins, range=(0.0, 1.0))[0]
+        return counts, np.linspace(0.0, 1.0, bins + 1)
+
+    # --- GPU ------------------------------------------------------------------------------------
+    def buffers(self, ctx) -> dict:
+        """{"points": vec4 (x, y, z, normalised scalar) float32 buffer, "tets": int32 index buffer}
+        on ``ctx``, uploaded once per context and released with the mesh."""
+        key = id(ctx)
+        if key not in self._buffers:
+            vertices = np.concatenate([self.points, self.normalized().astype(np.float32)[:, None]], axis=1)
+            self._buffers[key] = {"points": ctx.buffer(np.ascontiguousarray(vertices, dtype=np.float32).tobytes()),
+                                  "tets": ctx.buffer(self.tets.tobytes())}
+        return self._buffers[key]
+
+
+def _release_all(buffers: dict) -> None:
+    for pair in buffers.values():
+        for buffer in pair.values():
+            try:
+                buffer.release()
+            except Exception:  # the context may already be gone at interpreter exit
+                pass
+    buffers.clear()
