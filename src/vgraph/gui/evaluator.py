@@ -29,6 +29,7 @@ from vgraph.camera import Camera
 from vgraph.errors import ProcessorError, VGraphWarning
 from vgraph.image import Image
 from vgraph.imagefile import to_uint8
+from vgraph.mesh import TetMesh
 from vgraph.network import Network
 from vgraph.processor import Processor
 from vgraph.properties import FilePathProperty, Invalidation, TransferFunctionProperty
@@ -133,16 +134,19 @@ def value_scales(network: Network) -> dict[str, ValueScale]:
     return {pid: ValueScale.of(volume) for pid, volume in _classified_volumes(network)}
 
 
+CLASSIFIED = (Volume, TetMesh)  # data a transfer function classifies: histogram, value range, percentiles
+
+
 def _classified_volumes(network: Network):
-    """(processor id, volume) for each processor with a transfer function and a volume arrived."""
+    """(processor id, data) for each processor with a transfer function and a volume or mesh arrived."""
     for processor in network.processors.values():
         if not any(isinstance(p, TransferFunctionProperty) for p in processor.properties.values()):
             continue
         for inport in processor.inports:
-            sources = network.inputs_of(processor.id, inport.name) if issubclass(inport.data_type, Volume) else []
-            volume = network[sources[0].source].outputs.get(sources[0].outport) if sources else None
-            if isinstance(volume, Volume) and volume.data.size:
-                yield processor.id, volume
+            sources = network.inputs_of(processor.id, inport.name) if issubclass(inport.data_type, CLASSIFIED) else []
+            data = network[sources[0].source].outputs.get(sources[0].outport) if sources else None
+            if isinstance(data, CLASSIFIED):
+                yield processor.id, data
                 break
 
 
