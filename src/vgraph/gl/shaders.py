@@ -300,14 +300,18 @@ class ProgramCache:
 
     def program(self, ctx: moderngl.Context, vertex: str, fragment: str,
                 defines: dict[str, object] | None = None,
-                processor: str | None = None) -> moderngl.Program:
-        """The program of ``vertex`` + ``fragment`` shader files composed with ``defines``."""
-        key = (ctx, "program", vertex, fragment, self._define_key(defines, processor))
+                processor: str | None = None, geometry: str | None = None) -> moderngl.Program:
+        """The program of ``vertex`` (+ optional ``geometry``) + ``fragment`` shader files composed
+        with ``defines``."""
+        key = (ctx, "program", vertex, geometry, fragment, self._define_key(defines, processor))
         if key not in self._programs:
-            sources = {"vertex": compose(vertex, defines, processor=processor),
-                       "fragment": compose(fragment, defines, processor=processor)}
+            sources = {"vertex": compose(vertex, defines, processor=processor)}
+            if geometry is not None:
+                sources["geometry"] = compose(geometry, defines, processor=processor)
+            sources["fragment"] = compose(fragment, defines, processor=processor)
             self._programs[key] = self._compile(
                 lambda: ctx.program(vertex_shader=sources["vertex"].text,
+                                    geometry_shader=sources["geometry"].text if geometry else None,
                                     fragment_shader=sources["fragment"].text),
                 sources, processor)
         return self._programs[key]
