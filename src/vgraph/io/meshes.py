@@ -1,0 +1,223 @@
+"""Reading unstructured meshes into a TetMesh (docs/tetrahedra.md, "Meshes and MeshSource").
+
+    read_mesh(path, array="", declared_range=None, reference_length=None) -> TetMesh
+
+Files are read with meshio: VTK legacy (.vtk) and XML (.vtu), Gmsh (.msh), Medit (.mesh,
+.meshb), XDMF (.xdmf, .xmf), Exodus II (.e, .exo, .ex2; needs the netCDF4 package) and the other
+formats meshio knows. What is kept:
+
+- the 3D cells: tetrahedra as they are; hexahedra, wedges and pyramids split into 6, 3 and 2
+  tetrahedra with matching faces between neighbours (vgraph.tetrahedralize.split_cells: every quad
+  face is cut along the diagonal through its smallest vertex index); quadratic and higher-order
+  cells use their corner nodes. Lines, triangles and quads (a Gmsh file's boundary) are ignored;
+  a file without 3D cells is refused.
+- one point scalar: ``array`` names it; empty means the first point array. A vector array gives
+  its length. ``"cell:NAME"`` takes a cell array instead, averaged to the points (each point gets
+  the mean over the 3D cells that use it), with a VGraphWarning saying so.
+- the points the tetrahedra use (others, such as a Gmsh file's geometry points, are dropped so the
+  bounds are those of the cells).
+
+Every tetrahedron is oriented positively (two vertices swapped where its signed volume is
+negative); flat ones (zero volume, e.g. from collapsed cells) are counted and dropped with a
+VGraphWarning. Any problem with the input raises MeshFileError naming the file and, where there
+is one, the part of it (the cell block, the array).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from vgraph.errors import VGraphError, VGraphWarning, VolumeFileError
+from vgraph.io._common import file_problem
+from vgraph.mesh import TetMesh
+from vgraph.tetrahedralize import TETS_PER_CELL, orient, split_cells
+
+# The formats the tests read; meshio reads more (``meshio_extensions``), which are tried too.
+MESH_EXTENSIONS = (".vtk", ".vtu", ".msh", ".mesh", ".meshb", ".xdmf", ".xmf", ".e", ".exo", ".ex2")
+EXODUS_EXTENSIONS = (".e", ".exo", ".ex2")
+FILE_FILTERS = tuple(f"*{e}" for e in MESH_EXTENSIONS)
+CELL_PREFIX = "cell:"
+_CELL_KIND = re.compile(r"^(tetra|hexahedron|wedge|pyramid)(\d*)$")
+_CORNER_COUNT = {"tetra": 4, "hexahedron": 8, "wedge": 6, "pyramid": 5}
+# Arrays meshio adds for its own bookkeeping (Gmsh tags, Medit references): never the default.
+_BOOKKEEPING = re.compile(r"^(gmsh|medit|flac3d|ansys|abaqus|nastran):")
+
+
+class MeshFileError(VolumeFileError):
+    """A mesh file could not be read. Names the file and, where known, the part of it (a cell
+    block, an array)."""
+
+
+def meshio_extensions() -> tuple[str, ...]:
+    from meshio._helpers import extension_to_filetypes
+    return tuple(extension_to_filetypes)
+
+
+def _extension(path: Path) -> str:
+    name = path.name.lower()
+    known = sorted(set(MESH_EXTENSIONS) | set(meshio_extensions()), key=len, reverse=True)
+    return next((e for e in known if name.endswith(e)), path.suffix.lower())
+
+
+def read_mesh(path, array: str = "", declared_range=None, reference_length=None) -> TetMesh:
+    """The mesh in ``path`` as tetrahedra with one point scalar (module docstring)."""
+    path = Path(path)
+    problem = file_problem(path)
+    if problem is not None:
+        raise MeshFileError(path, "file " + problem)
+    _check_extension(path)
+    raw = _read_meshio(path)
+    points = np.asarray(raw.points)
+    if points.ndim != 2 or points.shape[1] not in (2, 3) or len(points) == 0:
+        raise MeshFileError(path, f"expected points with 3 coordinates, got an array of shape "
+                                  f"{points.shape}", "points")
+    if points.shape[1] == 2:
+        raise MeshFileError(path, "the points are 2D: a 2D mesh has no volume to render", "points")
+    blocks = _volume_blocks(path, raw, len(points))
+    scalars, name = _scalars(path, raw, array, blocks, len(points))
+    tets = np.concatenate([split_cells(kind, corners) for kind, corners, _ in blocks])
+    used = np.unique(tets)
+    bad = ~np.all(np.isfinite(points[used]), axis=1)
+    if bad.any():
+        first = int(used[np.argmax(bad)])
+        raise MeshFileError(path, f"{int(bad.sum())} points used by cells have non-finite "
+                                  f"coordinates (the first is point {first}: "
+                                  f"{points[first].tolist()})", "points")
+    remap = np.full(len(points), -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    points32 = points[used].astype(np.float32)
+    if not np.all(np.isfinite(points32)):
+        raise MeshFileError(path, "point coordinates beyond the float32 range (+-3.4e38)", "points")
+    tets, flat = orient(points32, remap[tets])
+    if flat:
+        warnings.warn(VGraphWarning(
+            f"{path}: {flat} of {flat + len(tets)} tetrahedra have zero volume (flat or collapsed "
+            f"cells) and were dropped"), stacklevel=2)
+    if len(tets) == 0:
+        raise MeshFileError(path, "every tetrahedron has zero volume: the cells are flat", "cells")
+    still_used = np.unique(tets)
+    if len(still_used) < len(used):  # points only flat tetrahedra used
+        again = np.full(len(used), -1, dtype=np.int64)
+        again[still_used] = np.arange(len(still_used))
+        tets, points32, used = again[tets], points32[still_used], used[still_used]
+    try:
+        return TetMesh(points32, tets, scalars[used], declared_range=declared_range,
+                       reference_length=reference_length, scalar_name=name, source=str(path))
+    except VGraphError as error:
+        raise MeshFileError(path, str(error)) from None
+
+
+def _check_extension(path: Path) -> None:
+    extension = _extension(path)
+    if extension not in MESH_EXTENSIONS and extension not in meshio_extensions():
+        raise MeshFileError(path, f"unknown mesh format {extension or '(no extension)'!r}: "
+                                  f"expected one of {', '.join(MESH_EXTENSIONS)} (or another "
+                                  f"format meshio reads)")
+    if extension in EXODUS_EXTENSIONS and importlib.util.find_spec("netCDF4") is None:
+        raise MeshFileError(path, "reading Exodus II files needs the netCDF4 package, which is not "
+                                  "installed: pip install netCDF4 (or convert the file to .vtu)")
+
+
+def _read_meshio(path: Path):
+    import meshio
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # meshio warns about what it skips; we report ourselves
+            return meshio.read(path)
+    except MemoryError:
+        raise MeshFileError(path, "too large for memory (or a damaged header asks for an absurd "
+                                  "size)") from None
+    except Exception as error:  # meshio and numpy raise anything on damaged input
+        reason = str(error).strip() or type(error).__name__
+        raise MeshFileError(path, f"cannot read the mesh (damaged, truncated or not this "
+                                  f"format): {type(error).__name__}: {reason}") from None
+
+
+def _volume_blocks(path: Path, raw, point_count: int) -> list[tuple[str, np.ndarray, int]]:
+    """[(kind, corner indices (n, 4..8) int64, index of the block in raw.cells)] of the 3D cells."""
+    blocks, others = [], []
+    for number, block in enumerate(raw.cells):
+        match = _CELL_KIND.match(block.type)
+        if match is None:
+            others.append(block.type)
+            continue
+        kind = match.group(1)
+        data = np.asarray(block.data)
+        if len(data) == 0:
+            continue
+        corners = data[:, :_CORNER_COUNT[kind]].astype(np.int64)
+        if corners.min() < 0 or corners.max() >= point_count:
+            raise MeshFileError(path, f"{block.type} cells refer to points {int(corners.min())} .. "
+                                      f"{int(corners.max())}, but the file has points 0 .. "
+                                      f"{point_count - 1}", f"cell block {number} ({block.type})")
+        blocks.append((kind, corners, number))
+    if not blocks:
+        found = ", ".join(sorted(set(others))) or "no cells at all"
+        raise MeshFileError(path, f"no 3D cells (tetrahedra, hexahedra, wedges or pyramids): the "
+                                  f"file holds {found}", "cells")
+    skipped = {t for t in others if t.startswith("polyhedron") or t.startswith("VTK_")}
+    if skipped:
+        warnings.warn(VGraphWarning(f"{path}: cells of type {', '.join(sorted(skipped))} are not "
+                                    f"supported and were skipped"), stacklevel=3)
+    return blocks
+
+
+def _scalars(path: Path, raw, array: str, blocks, point_count: int) -> tuple[np.ndarray, str]:
+    """(scalar per point of the file, float64, and its name) for ``array``."""
+    point_names = list(raw.point_data)
+    cell_names = list(raw.cell_data)
+    if array.startswith(CELL_PREFIX):
+        name = array[len(CELL_PREFIX):]
+        if name not in raw.cell_data:
+            raise MeshFileError(path, f"no cell array {name!r}; {_available(point_names, cell_names)}",
+                                f"array {array!r}")
+        return _cell_to_points(path, raw, name, blocks, point_count), array
+    if not array:
+        candidates = [n for n in point_names if not _BOOKKEEPING.match(n)]
+        if not candidates:
+            raise MeshFileError(path, f"no point array to render; {_available(point_names, cell_names)}"
+                                      + (" (ask for a cell array as array = 'cell:NAME')" if cell_names else ""),
+                                "array")
+        array = candidates[0]
+    if array not in raw.point_data:
+        raise MeshFileError(path, f"no point array {array!r}; {_available(point_names, cell_names)}",
+                            f"array {array!r}")
+    return _as_scalar(path, np.asarray(raw.point_data[array]), point_count, array), array
+
+
+def _available(point_names, cell_names) -> str:
+    listed = [repr(n) for n in point_names] + [repr(CELL_PREFIX + n) for n in cell_names]
+    return f"the file has {', '.join(listed)}" if listed else "the file has no arrays"
+
+
+def _as_scalar(path: Path, values: np.ndarray, count: int, name: str) -> np.ndarray:
+    if values.dtype.kind not in "uifb":
+        raise MeshFileError(path, f"array of {values.dtype} values, not numbers", f"array {name!r}")
+    if len(values) != count:
+        raise MeshFileError(path, f"{len(values)} values for {count} {'points' if count else ''}",
+                            f"array {name!r}")
+    values = values.reshape(count, -1).astype(np.float64)
+    return values[:, 0] if values.shape[1] == 1 else np.linalg.norm(values, axis=1)
+
+
+def _cell_to_points(path: Path, raw, name: str, blocks, point_count: int) -> np.ndarray:
+    total = np.zeros(point_count)
+    count = np.zeros(point_count)
+    for kind, corners, number in blocks:
+        values = _as_scalar(path, np.asarray(raw.cell_data[name][number]), len(corners),
+                            f"{CELL_PREFIX}{name}")
+        np.add.at(total, corners.reshape(-1), np.repeat(values, corners.shape[1]))
+        np.add.at(count, corners.reshape(-1), 1.0)
+    warnings.warn(VGraphWarning(
+        f"{path}: cell array {name!r} was averaged to the points (each point gets the mean over "
+        f"the cells that use it), so the rendering interpolates between cells instead of showing "
+        f"one value per cell"), stacklevel=4)
+    return np.divide(total, count, out=np.zeros(point_count), where=count > 0)
+
+
+__all__ = ["read_mesh", "MeshFileError", "MESH_EXTENSIONS", "FILE_FILTERS", "TETS_PER_CELL"]
