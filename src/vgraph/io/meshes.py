@@ -3,8 +3,9 @@
     read_mesh(path, array="", declared_range=None, reference_length=None) -> TetMesh
 
 Files are read with meshio: VTK legacy (.vtk) and XML (.vtu), Gmsh (.msh), Medit (.mesh,
-.meshb), XDMF (.xdmf, .xmf), Exodus II (.e, .exo, .ex2; needs the netCDF4 package) and the other
-formats meshio knows. What is kept:
+.meshb), XDMF (.xdmf, .xmf; meshio's reader needs the h5py package), Exodus II (.e, .exo, .ex2;
+needs the netCDF4 package) and the other formats meshio knows. A missing optional package is
+named in the error, with the command that installs it. What is kept:
 
 - the 3D cells: tetrahedra as they are; hexahedra, wedges and pyramids split into 6, 3 and 2
   tetrahedra with matching faces between neighbours (vgraph.tetrahedralize.split_cells: every quad
@@ -25,7 +26,9 @@ is one, the part of it (the cell block, the array).
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
+import io
 import re
 import warnings
 from pathlib import Path
@@ -124,18 +127,26 @@ def _check_extension(path: Path) -> None:
 
 
 def _read_meshio(path: Path):
-    import meshio
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # meshio warns about what it skips; we report ourselves
-            return meshio.read(path)
-    except MemoryError:
-        raise MeshFileError(path, "too large for memory (or a damaged header asks for an absurd "
-                                  "size)") from None
-    except Exception as error:  # meshio and numpy raise anything on damaged input
-        reason = str(error).strip() or type(error).__name__
-        raise MeshFileError(path, f"cannot read the mesh (damaged, truncated or not this "
-                                  f"format): {type(error).__name__}: {reason}") from None
+    """meshio's reader(s) for the extension, called one by one: meshio.read itself prints a
+    failed reader's error and calls sys.exit."""
+    from meshio._helpers import _filetypes_from_path, reader_map
+    reasons = []
+    for file_format in _filetypes_from_path(path):
+        try:
+            with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+                warnings.simplefilter("ignore")  # meshio warns about what it skips; we report ourselves
+                return reader_map[file_format](str(path))
+        except MemoryError:
+            raise MeshFileError(path, "too large for memory (or a damaged header asks for an "
+                                      "absurd size)") from None
+        except ModuleNotFoundError as error:
+            raise MeshFileError(path, f"reading {file_format} files needs the {error.name} package, "
+                                      f"which is not installed: pip install {error.name}") from None
+        except (Exception, SystemExit) as error:  # meshio and numpy raise anything on damaged input
+            reasons.append(f"as {file_format}: {type(error).__name__}: "
+                           f"{str(error).strip() or '(no message)'}")
+    raise MeshFileError(path, f"cannot read the mesh (damaged, truncated or not this format): "
+                              f"{'; '.join(reasons)}")
 
 
 def _volume_blocks(path: Path, raw, point_count: int) -> list[tuple[str, np.ndarray, int]]:
@@ -179,6 +190,12 @@ def _scalars(path: Path, raw, array: str, blocks, point_count: int) -> tuple[np.
         return _cell_to_points(path, raw, name, blocks, point_count), array
     if not array:
         candidates = [n for n in point_names if not _BOOKKEEPING.match(n)]
+        tags = [n for n in point_names if _BOOKKEEPING.match(n)
+                and np.asarray(raw.point_data[n]).reshape(point_count, -1).shape[1] == 1]
+        if not candidates and tags:  # a Medit file holds no data, only reference numbers
+            warnings.warn(VGraphWarning(f"{path}: no data arrays; rendering the point tags "
+                                        f"{tags[0]!r} the format stores"), stacklevel=4)
+            candidates = tags
         if not candidates:
             raise MeshFileError(path, f"no point array to render; {_available(point_names, cell_names)}"
                                       + (" (ask for a cell array as array = 'cell:NAME')" if cell_names else ""),
