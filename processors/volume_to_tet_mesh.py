@@ -46,6 +46,9 @@ class VolumeToTetMesh(Processor):
     def process(self, volume: Volume) -> TetMesh:
         self.check()
         volume.require_samples(f"{self.id} ({self.type_name})")
+        if min(volume.dims) < 2:
+            raise VGraphError(f"{self.id}: {volume.source or 'the volume'} has no cells: it needs at "
+                              f"least 2 voxels along every axis, got (x, y, z) = {volume.dims}")
         mask = self.cell_mask(volume)
         self.total_cells = int(np.prod([d - 1 for d in volume.dims]))
         self.kept_cells = self.total_cells if mask is None else int(np.count_nonzero(mask))
