@@ -147,6 +147,9 @@ def split_cells(kind: str, cells: np.ndarray) -> np.ndarray:
     cells = np.asarray(cells, dtype=np.int64)
     if kind == "tetra":
         return cells[:, :4].copy()
+    if len(cells) > _CHUNK_CELLS:  # the temporaries cost ~400 bytes per cell
+        return np.concatenate([split_cells(kind, cells[start:start + _CHUNK_CELLS])
+                               for start in range(0, len(cells), _CHUNK_CELLS)])
     faces = CELL_FACES[kind]
     n = len(cells)
     apex_local = np.argmin(cells, axis=1)
