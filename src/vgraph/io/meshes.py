@@ -4,7 +4,8 @@
 
 Files are read with meshio: VTK legacy (.vtk) and XML (.vtu), Gmsh (.msh), Medit (.mesh,
 .meshb), XDMF (.xdmf, .xmf; meshio's reader needs the h5py package), Exodus II (.e, .exo, .ex2;
-needs the netCDF4 package) and the other formats meshio knows. A missing optional package is
+needs the netCDF4 package; files meshio 5.3 fails on, such as those with one combined
+``vals_nod_var``, are read by ``_read_exodus``) and the other formats meshio knows. A missing optional package is
 named in the error, with the command that installs it. What is kept:
 
 - the 3D cells: tetrahedra as they are; hexahedra, wedges and pyramids split into 6, 3 and 2
@@ -145,8 +146,61 @@ def _read_meshio(path: Path):
         except (Exception, SystemExit) as error:  # meshio and numpy raise anything on damaged input
             reasons.append(f"as {file_format}: {type(error).__name__}: "
                            f"{str(error).strip() or '(no message)'}")
+            if file_format == "exodus":
+                try:
+                    return _read_exodus(path)
+                except MeshFileError:
+                    raise
+                except Exception as second:  # noqa: BLE001  (damaged input, as above)
+                    reasons.append(f"as Exodus II with netCDF4: {type(second).__name__}: "
+                                   f"{str(second).strip() or '(no message)'}")
     raise MeshFileError(path, f"cannot read the mesh (damaged, truncated or not this format): "
                               f"{'; '.join(reasons)}")
+
+
+def _read_exodus(path: Path):
+    """Points, cells and the first time step's nodal variables of an Exodus II file, read with
+    netCDF4. meshio 5.3's reader expects one ``vals_nod_var<i>`` per variable and fails with a
+    KeyError on files that hold them all in one ``vals_nod_var`` (time, variable, node), as the
+    shared disk_out_ref.ex2 does."""
+    import meshio
+    import netCDF4
+    from meshio.exodus._exodus import categorize, exodus_to_meshio_type
+
+    def text(variable) -> list[str]:
+        variable.set_auto_mask(False)
+        return [b"".join(row).decode("utf-8", "replace").strip() for row in variable[:]]
+
+    with netCDF4.Dataset(path) as nc:
+        var = nc.variables
+        if "coord" in var:
+            points = np.asarray(var["coord"][:]).T
+        else:
+            points = np.stack([np.asarray(var[n][:]) for n in ("coordx", "coordy", "coordz") if n in var],
+                              axis=1)
+        cells = []
+        for key in sorted((k for k in var if k.startswith("connect")), key=lambda k: int(k[7:] or 0)):
+            kind = exodus_to_meshio_type.get(var[key].elem_type.upper())
+            if kind is None:
+                raise MeshFileError(path, f"unknown element type {var[key].elem_type!r}", key)
+            cells.append((kind, np.asarray(var[key][:]).astype(np.int64) - 1))  # 1-based
+        names = text(var["name_nod_var"]) if "name_nod_var" in var else []
+        steps = len(var["time_whole"]) if "time_whole" in var else 1
+        nodal = {}
+        for i, name in enumerate(names):
+            if "vals_nod_var" in var:
+                nodal[name] = np.asarray(var["vals_nod_var"][0, i], dtype=np.float64)
+            elif f"vals_nod_var{i + 1}" in var:
+                nodal[name] = np.asarray(var[f"vals_nod_var{i + 1}"][0], dtype=np.float64)
+    if steps > 1:
+        warnings.warn(VGraphWarning(f"{path}: the file holds {steps} time steps; the first is read"),
+                      stacklevel=4)
+    present = [n for n in names if n in nodal]
+    single, double, triple = categorize(present)
+    point_data = {name: nodal[present[i]] for name, i in single}
+    point_data |= {name: np.column_stack([nodal[present[i]] for i in group])
+                   for name, *group in (*double, *triple)}
+    return meshio.Mesh(points, cells, point_data=point_data)
 
 
 def _volume_blocks(path: Path, raw, point_count: int) -> list[tuple[str, np.ndarray, int]]:
