@@ -5,8 +5,8 @@
 Files are read with meshio: VTK legacy (.vtk) and XML (.vtu), Gmsh (.msh), Medit (.mesh,
 .meshb), XDMF (.xdmf, .xmf; meshio's reader needs the h5py package), Exodus II (.e, .exo, .ex2;
 needs the netCDF4 package; files meshio 5.3 fails on, such as those with one combined
-``vals_nod_var``, are read by ``_read_exodus``) and the other formats meshio knows. A missing optional package is
-named in the error, with the command that installs it. What is kept:
+``vals_nod_var``, are read by ``_read_exodus``) and the other formats meshio knows. A missing
+optional package is named in the error, with the command that installs it. What is kept:
 
 - the 3D cells: tetrahedra as they are; hexahedra, wedges and pyramids split into 6, 3 and 2
   tetrahedra with matching faces between neighbours (vgraph.tetrahedralize.split_cells: every quad
