@@ -294,10 +294,35 @@ def test_sorts_and_builds_only_when_the_camera_or_the_tf_changes(gl):
     processor.camera = processor.camera.rotate(0.3, 0.1)
     processor.process(mesh)
     assert processor._order.sorts == 2 and processor._table.builds == 1
-    processor.transfer_function = constant_tf()
+    processor.background = (0.2, 0.2, 0.2, 1.0)
     processor.process(mesh)
-    assert processor._order.sorts == 2 and processor._table.builds == 2
+    assert processor._order.sorts == 2 and processor._table.builds == 1
+    processor.transfer_function = constant_tf()  # another table, and other tetrahedra to draw
+    processor.process(mesh)
+    assert processor._order.sorts == 3 and processor._table.builds == 2
     assert programs.compile_count == compiles
+
+
+@pytest.mark.parametrize("integration", INTEGRATIONS)
+def test_skipping_transparent_tetrahedra_changes_nothing(gl, integration):
+    from vgraph.gl.raycasting.components import TransferFunctionLut
+    mesh = grid_mesh(6)
+    images = {}
+    for skip in (False, True):
+        processor = ProjectedTetrahedra(integration=integration, skip_transparent=skip,
+                                        transfer_function=TransferFunctionLut.DEFAULT)
+        processor.render_size = (64, 64)
+        images[skip] = processor.process(mesh)["image"].to_numpy()
+        drawn = len(processor._order.indices)
+    assert drawn < 0.8 * len(mesh.tets)  # the default TF hides the blob's low values
+    if integration == "averaged":  # the LUT read as the skipping reads it: the very same image
+        assert np.array_equal(images[False], images[True])
+    else:  # the table interpolates between scalar nodes 1/127 apart: tiny leaks are gone
+        assert np.abs(images[False] - images[True]).max() < 1e-3
+    empty = ProjectedTetrahedra(transfer_function=constant_tf(a=0.0), background=(0.1, 0.2, 0.3, 1.0))
+    empty.render_size = (16, 16)
+    out = empty.process(mesh)
+    assert np.allclose(out["image"].to_numpy(), (0.1, 0.2, 0.3, 1.0)) and np.all(out["depth"].to_numpy()[..., 0] == 1.0)
 
 
 def test_shared_mesh_renders_in_a_network(gl, data_dir):

@@ -9,7 +9,9 @@ ch. 4; the approximate order of VTK's and Inviwo's projected-tetrahedra renderer
   overlap). The exact orders, MPVO (Williams 1992) and its extensions for non-convex meshes, and
   the power-distance sort of Delaunay meshes, are not done; neither is the sweep order of meshes
   from regular grids.
-- The order is recomputed only when the mesh or the concrete camera changes (``VisibilityOrder``).
+- The order is recomputed only when the mesh, the concrete camera or the set of tetrahedra to draw
+  changes (``VisibilityOrder``). Tetrahedra whose scalars all have zero opacity under the TF can be
+  left out first (``transparent_tetrahedra``): they add nothing, and are neither sorted nor drawn.
 """
 
 from __future__ import annotations
@@ -36,6 +38,20 @@ def back_to_front(points: np.ndarray, tets: np.ndarray, camera: Camera) -> np.nd
     return np.argsort(-key, kind="stable")
 
 
+def visible_tetrahedra(mesh, alpha: np.ndarray) -> np.ndarray:
+    """(M,) bool: the tetrahedra whose normalised scalar range reaches an entry of the TF LUT
+    ``alpha`` with opacity > 0 (vgraph.tetrahedralize.visible_cells: the LUT read linearly between
+    entries, as the shader reads it; the scalar inside a tetrahedron lies between its vertices').
+    Tetrahedra with a non-finite scalar are kept."""
+    from vgraph.tetrahedralize import visible_cells
+    s = mesh.normalized()[mesh.tets]
+    low, high = s.min(axis=1), s.max(axis=1)
+    finite = np.isfinite(low) & np.isfinite(high)
+    visible = np.ones(len(mesh.tets), dtype=bool)
+    visible[finite] = visible_cells(low[finite], high[finite], alpha)
+    return visible
+
+
 class VisibilityOrder:
     """The sorted tetrahedra of the last (mesh, camera), as int32 (M, 4) vertex indices ready to be
     an index buffer; ``sorts`` counts the sorts done (tests)."""
@@ -45,14 +61,21 @@ class VisibilityOrder:
         self.indices: np.ndarray | None = None
         self.sorts = 0
 
-    def update(self, mesh, camera: Camera) -> tuple[np.ndarray, bool]:
-        """(indices, whether they changed)."""
+    def update(self, mesh, camera: Camera, selection=None) -> tuple[np.ndarray, bool]:
+        """(indices, whether they changed). ``selection``: (key, function returning the (M,) bool
+        mask of the tetrahedra to draw), or None for all; the mask is computed when its key
+        changes."""
         eye = tuple(camera.position)
-        key = (id(mesh), camera.projection, eye, tuple(camera.basis()[2]) if camera.projection != "perspective" else None)
+        key = (id(mesh), camera.projection, eye,
+               tuple(camera.basis()[2]) if camera.projection != "perspective" else None,
+               None if selection is None else selection[0])
         if key == self.key and self.indices is not None:
             return self.indices, False
-        order = back_to_front(mesh.points, mesh.tets, camera)
-        self.indices = np.ascontiguousarray(mesh.tets[order], dtype=np.int32)
+        tets = mesh.tets
+        if selection is not None:
+            tets = tets[selection[1]()]
+        order = back_to_front(mesh.points, tets, camera)
+        self.indices = np.ascontiguousarray(tets[order], dtype=np.int32)
         self.key, self._mesh = key, mesh  # keep the mesh alive while its id is the key
         self.sorts += 1
         return self.indices, True
