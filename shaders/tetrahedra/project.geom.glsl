@@ -1,14 +1,15 @@
 #version 330
 // Projected tetrahedra (Shirley & Tuchman 1990; Monsalve 2016 ch. 3), geometry stage: classify
 // the tetrahedron's projection and emit the triangles of its silhouette, fanned from the thick
-// point (vgraph.gl.tetrahedra.projection has the rule and the 81-entry class table).
+// point (vgraph.gl.tetrahedra.projection has the rule and the 81-entry class table), as
+// triangle strips: 5 vertices for class 1, 5 + 3 for class 2.
 //
 // mu_i = (-1)^i det(other three projected vertices) satisfy sum mu_i (p_i, 1) = 0. The vertices
 // with mu > 0 form one group, the others the second (signs flipped when three are positive, so the
 // + group is the smaller). The thick point q = sum |mu_i| p_i / sum |mu_i| over either group: the
 // odd vertex (class 1) or the crossing of the two edges (class 2); the limit classes 3 and 4 come
 // out of the same formulas. Triangles (q, p_i, p_j): pairs inside the larger group for 1 + 3,
-// pairs across the groups for 2 + 2.
+// pairs across the groups for 2 + 2 (the ring alternates between the groups).
 //
 // Every attribute is handed to the fragment stage in homogeneous form, (X / w, 1 / w) and s / w
 // with w the clip w of the point, and interpolated without perspective over triangles whose
@@ -18,7 +19,7 @@
 // twice (thickness 0). The ray enters through one face and leaves through another over each
 // triangle, so the fragment stage gets the exact front and back points of its pixel's ray.
 layout(lines_adjacency) in;
-layout(triangle_strip, max_vertices = 12) out;
+layout(triangle_strip, max_vertices = 8) out;
 
 in vec4 v_point[];
 noperspective out vec4 front_h;   // (X_front / w, 1 / w)
@@ -39,6 +40,14 @@ void silhouette_vertex(int i) {
     back_h = h[i];
     scalar_h = vec2(sh[i]);
     gl_Position = vec4(p[i], 0.0, 1.0);  // z = 0: near and far do not clip (docs)
+    EmitVertex();
+}
+
+void thick_vertex(vec2 q, vec4 front, vec4 back, vec2 scalars) {
+    front_h = front;
+    back_h = back;
+    scalar_h = scalars;
+    gl_Position = vec4(q, 0.0, 1.0);
     EmitVertex();
 }
 
@@ -94,19 +103,32 @@ void main() {
     vec4 thick_back = a_in_front ? hb : ha;
     vec2 thick_scalar = a_in_front ? vec2(sa, sb) : vec2(sb, sa);
 
+    // The silhouette ring: 1 + 3, the group of three in any order; 2 + 2, alternating groups.
+    int a = 0, b = 0;
+    int group_a[4], group_b[4];
     for (int i = 0; i < 4; ++i) {
-        for (int j = i + 1; j < 4; ++j) {
-            bool same_group = (mu[i] > 0.0) == (mu[j] > 0.0);
-            // 1 + 3: pairs inside the group of three; 2 + 2: pairs across the groups.
-            if (positive == 1 ? !(same_group && mu[i] <= 0.0) : same_group) continue;
-            front_h = thick_front;
-            back_h = thick_back;
-            scalar_h = thick_scalar;
-            gl_Position = vec4(q, 0.0, 1.0);
-            EmitVertex();
-            silhouette_vertex(i);
-            silhouette_vertex(j);
-            EndPrimitive();
-        }
+        if (mu[i] > 0.0) group_a[a++] = i; else group_b[b++] = i;
+    }
+    if (positive == 1) {
+        // Strip b0 b1 q b2 b0: triangles (b0, b1, q), (b1, q, b2), (q, b2, b0).
+        silhouette_vertex(group_b[0]);
+        silhouette_vertex(group_b[1]);
+        thick_vertex(q, thick_front, thick_back, thick_scalar);
+        silhouette_vertex(group_b[2]);
+        silhouette_vertex(group_b[0]);
+        EndPrimitive();
+    } else {
+        // Ring a0 b0 a1 b1 around q. Strip a0 b0 q a1 b1: (a0, b0, q), (b0, q, a1), (q, a1, b1);
+        // then the triangle (q, b1, a0).
+        silhouette_vertex(group_a[0]);
+        silhouette_vertex(group_b[0]);
+        thick_vertex(q, thick_front, thick_back, thick_scalar);
+        silhouette_vertex(group_a[1]);
+        silhouette_vertex(group_b[1]);
+        EndPrimitive();
+        thick_vertex(q, thick_front, thick_back, thick_scalar);
+        silhouette_vertex(group_b[1]);
+        silhouette_vertex(group_a[0]);
+        EndPrimitive();
     }
 }
