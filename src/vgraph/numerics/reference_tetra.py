@@ -1,0 +1,449 @@
+"""Exact CPU reference for rendering tetrahedral meshes (numpy). The GL mesh renderers are tested
+against it; docs/tetrahedra.md ("The exact CPU reference") explains the model.
+
+Model, in this order:
+
+1. Rays: ``Camera.rays(W, H)`` of the camera resolved against the mesh's bounds
+   (``camera.resolved(*mesh.bounds, W / H)``) - one per pixel centre, row 0 at the top, origin on
+   the near plane (t = 0), unit direction, t in world units, ending at the far plane
+   ``t_far = (far - near) / dot(direction, forward)`` (as vgraph.numerics.reference_raycast).
+2. Segments: each tetrahedron is the intersection of the four half-spaces of its faces; a ray's
+   segment in it is ``[max(0, entry faces), min(t_far, exit faces)]``, kept where it has positive
+   length. Flat tetrahedra (|6 V| <= 1e-12 * longest edge^3) are skipped. The scalar is LINEAR in
+   each tetrahedron (barycentric interpolation of the point scalars, as normalised intensities
+   ``mesh.normalized``; NaN and -inf count as the value range's low end, +inf as its high end), so
+   along a segment it is linear in t between its values at entry and exit. Segments are
+   composited in order of their entry distance. (A ray lying exactly in a face shared by two
+   tetrahedra is counted in both; only such grazing rays are ambiguous.)
+3. Classification: the normalised TF (``tf.for_volume(mesh)``) itself, piecewise linear between
+   its points (not the 4096-entry LUT); below the first point and above the last the end values
+   hold, and two points at one position are a step. Point opacities are clamped to 1 - 1e-7 so the
+   extinction below stays finite.
+4. Emission-absorption, integrated exactly: extinction ``tau(s) = -ln(1 - a(s)) / L`` with
+   ``L = mesh.opacity_length``, emission ``c(s) tau(s)`` (premultiplied). This is the continuous
+   limit of the RayCaster's compositing ``C += (1 - A) c a'``, ``a' = 1 - (1 - a)^(step / L)``.
+   Along a segment of length l: ``alpha = 1 - exp(-int tau)`` and
+   ``rgb = int c(u) tau(u) exp(-int_0^u tau) du``. For a constant TF over the segment this is
+   ``alpha = 1 - (1 - a)^(l / L)`` and ``rgb = c alpha`` exactly. In general the segment is split
+   where its scalar crosses TF points; on each piece a(u) and c(u) are linear in u, the optical
+   depth has the closed form ``Tau(u) = -(u / L) mean(ln b)`` (b = 1 - a, the mean over [b(0),
+   b(u)] in closed form), and integration by parts leaves ``rgb = c(h) alpha(h) - (c(h) - c(0))
+   mean(alpha)`` with one smooth integral, ``mean(alpha)`` over the piece, done with 16-point
+   Gauss-Legendre on sub-intervals with an optical depth of at most 4 each and, where b varies by
+   more than a factor 8, geometric in b (the log singularity of tau at a -> 1). Accurate to ~1e-12.
+5. Compositing front to back, then over the background:
+   ``rgb = C + (1 - A) * bg.rgb``, ``alpha = A + (1 - A) * bg.a``; a ray meeting no tetrahedron is
+   the background exactly.
+6. Depth (``return_depth=True``), as the ray casters' depth output: r window-space depth of the
+   first point with opacity > 0 (1 where none), g its distance from the ray's start, b the number
+   of segments (tetrahedra) the ray crossed, a 1 where there is such a point.
+
+Images are float32 (H, W, 4), row 0 at the top; arithmetic is float64.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from vgraph.camera import Camera
+from vgraph.errors import VGraphError
+from vgraph.mesh import TetMesh
+from vgraph.transfer_function import TransferFunction
+
+MODES = ("exact",)
+MAX_OPACITY = 1.0 - 1e-7  # TF point opacities are clamped to this (finite extinction)
+FLAT_TET = 1e-12  # |6 V| / longest edge^3 below this: the tetrahedron is skipped
+GAUSS_POINTS = 16
+MAX_DEPTH_PER_INTERVAL = 4.0  # optical depth of one Gauss-Legendre sub-interval, at most
+MAX_B_RATIO = 8.0  # (1 - a) varies by at most this factor over one sub-interval
+MAX_SPLITS = 4096
+
+_NODES, _WEIGHTS = np.polynomial.legendre.leggauss(GAUSS_POINTS)
+_NODES, _WEIGHTS = (_NODES + 1.0) / 2.0, _WEIGHTS / 2.0  # on [0, 1]
+
+
+# --- the transfer function as pieces ------------------------------------------------------------
+@dataclass(frozen=True)
+class _Pieces:
+    """The TF as P + 1 pieces over intensity: [lo, hi] with RGBA va at lo and vb at hi, linear
+    between; the first and the last piece are the constant extensions to -inf and +inf."""
+
+    lo: np.ndarray  # (P + 1,)
+    hi: np.ndarray
+    va: np.ndarray  # (P + 1, 4)
+    vb: np.ndarray
+
+    @classmethod
+    def of(cls, tf: TransferFunction) -> "_Pieces":
+        if tf.space != "normalized":
+            raise VGraphError("tetrahedra reference: the transfer function must be normalised "
+                              "(use tf.for_volume(mesh))")
+        table = np.asarray(tf.points, dtype=np.float64)
+        table[:, 0] = np.maximum.accumulate(table[:, 0])
+        table[:, 4] = np.minimum(table[:, 4], MAX_OPACITY)
+        p, v = table[:, 0], table[:, 1:]
+        lo = np.concatenate([[-np.inf], p])
+        hi = np.concatenate([p, [np.inf]])
+        va = np.concatenate([v[:1], v])
+        vb = np.concatenate([v, v[-1:]])
+        return cls(lo, hi, va, vb)
+
+
+# --- one segment --------------------------------------------------------------------------------
+def segment_integral(s_front, s_back, length, transfer_function: TransferFunction,
+                     opacity_length: float) -> np.ndarray:
+    """Premultiplied RGBA of a segment of ``length`` world units along which the normalised
+    intensity goes linearly from ``s_front`` (where the ray enters) to ``s_back``, for a normalised
+    transfer function whose opacities are per ``opacity_length`` (module docstring, rule 4).
+    Arguments broadcast; returns shape + (4,) float64. Constant TF (c, a) over the segment:
+    ``alpha = 1 - (1 - a) ** (length / L)``, ``rgb = c * alpha``."""
+    if not (math.isfinite(opacity_length) and opacity_length > 0.0):
+        raise VGraphError(f"tetrahedra reference: opacity_length must be positive, got {opacity_length}")
+    s_front, s_back, length = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64)
+                                                    for v in (s_front, s_back, length)))
+    if np.any(length < 0.0) or not np.all(np.isfinite(length)):
+        raise VGraphError("tetrahedra reference: segment lengths must be finite and >= 0")
+    shape = s_front.shape
+    colour, depth, _ = _integrate(s_front.ravel(), s_back.ravel(), length.ravel(),
+                                  _Pieces.of(transfer_function), float(opacity_length))
+    return np.concatenate([colour, -np.expm1(-depth)[:, None]], axis=1).reshape(*shape, 4)
+
+
+def _integrate(s_f, s_b, length, pieces: _Pieces, L: float, chunk: int = 32768):
+    """(premultiplied rgb (n, 3), optical depth (n,), fraction along the segment of the first
+    point with opacity > 0 (n,), inf where none) of n segments."""
+    n = len(s_f)
+    colour, depth, first = np.zeros((n, 3)), np.zeros(n), np.full(n, np.inf)
+    for start in range(0, n, chunk):
+        part = slice(start, start + chunk)
+        colour[part], depth[part], first[part] = _integrate_chunk(s_f[part], s_b[part],
+                                                                  length[part], pieces, L)
+    return colour, depth, first
+
+
+def _integrate_chunk(s_f, s_b, length, pieces: _Pieces, L: float):
+    ds = (s_b - s_f)[:, None]
+    lo, hi = pieces.lo[None, :], pieces.hi[None, :]
+    moving = ds != 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xa = np.where(moving, (lo - s_f[:, None]) / ds, 0.0)
+        xb = np.where(moving, (hi - s_f[:, None]) / ds, 0.0)
+    x0 = np.clip(np.minimum(xa, xb), 0.0, 1.0)
+    x1 = np.clip(np.maximum(xa, xb), 0.0, 1.0)
+    # A segment of constant intensity lies in the one piece lo <= s < hi.
+    holds = (lo <= s_f[:, None]) & (s_f[:, None] < hi)
+    x0 = np.where(moving, x0, 0.0)
+    x1 = np.where(moving, x1, np.where(holds, 1.0, 0.0))
+    x1 = np.maximum(x1, x0)
+    # Front-to-back order of the pieces: ascending intensity if it rises along the ray.
+    falling = (ds < 0.0)[:, 0]
+    x0[falling], x1[falling] = x0[falling, ::-1], x1[falling, ::-1]
+    order = np.where(falling[:, None], np.arange(x0.shape[1])[::-1], np.arange(x0.shape[1]))
+    piece_lo, piece_hi = pieces.lo[order], pieces.hi[order]
+    va, vb = pieces.va[order], pieces.vb[order]
+
+    h = (x1 - x0) * length[:, None]
+    used = h > 0.0
+    rows, cols = np.nonzero(used)
+    s0 = s_f[rows] + ds[rows, 0] * x0[rows, cols]
+    s1 = s_f[rows] + ds[rows, 0] * x1[rows, cols]
+    c_lo, c_hi = piece_lo[rows, cols], piece_hi[rows, cols]
+    width = c_hi - c_lo
+    finite = np.isfinite(width) & (width > 0.0)
+    safe_lo = np.where(np.isfinite(c_lo), c_lo, 0.0)
+    safe_width = np.where(finite, width, 1.0)
+
+    def value(s):
+        f = np.where(finite, (np.clip(s, c_lo, c_hi) - safe_lo) / safe_width, 0.0)
+        return va[rows, cols] + (vb[rows, cols] - va[rows, cols]) * f[:, None]
+
+    rgba0, rgba1 = value(s0), value(s1)
+    tau_piece, rgb_piece = _pieces_integral(h[rows, cols] / L, rgba0, rgba1)
+
+    depth = np.zeros(x0.shape)
+    depth[rows, cols] = tau_piece
+    rgb = np.zeros(x0.shape + (3,))
+    rgb[rows, cols] = rgb_piece
+    before = np.cumsum(depth, axis=1) - depth
+    colour = np.einsum("ij,ijk->ik", np.exp(-before), rgb)
+    visible = depth > 0.0
+    first = np.where(visible.any(axis=1),
+                     x0[np.arange(len(x0)), np.argmax(visible, axis=1)], np.inf)
+    return colour, depth.sum(axis=1), first
+
+
+def _pieces_integral(K, rgba0, rgba1):
+    """Optical depth and premultiplied rgb of pieces where RGBA is linear from rgba0 to rgba1,
+    K = piece length / L (rule 4)."""
+    a0, a1 = rgba0[:, 3], rgba1[:, 3]
+    tau = np.maximum(-K * _mean_log_b(a0, a1, 1.0), 0.0)
+    alpha = -np.expm1(-tau)
+    c0, c1 = rgba0[:, :3], rgba1[:, :3]
+    rgb = c1 * alpha[:, None]
+    sloped = (tau > 0.0) & np.any(c1 != c0, axis=1)
+    if np.any(sloped):
+        mean_alpha = _mean_alpha(K[sloped], a0[sloped], a1[sloped])
+        rgb[sloped] -= (c1[sloped] - c0[sloped]) * mean_alpha[:, None]
+    return tau, rgb
+
+
+def _mean_log_b(a0, a1, x):
+    """Mean of ln(1 - a) over [0, x] for a linear from a0 (at 0) to a1 (at 1), closed form:
+    ln b0 + phi(r x), phi(r) = (1 + r) ln(1 + r) / r - 1, r = (b1 - b0) / b0."""
+    r = (a0 - a1) / (1.0 - a0) * x
+    small = np.abs(r) < 1e-3
+    safe = np.where(small, 1.0, r)
+    phi = np.where(small, r * (0.5 + r * (-1.0 / 6.0 + r * (1.0 / 12.0 - r / 20.0))),
+                   (1.0 + safe) * np.log1p(safe) / safe - 1.0)
+    return np.log1p(-a0) + phi
+
+
+def _mean_alpha(K, a0, a1):
+    """int_0^1 (1 - exp(-Tau(x))) dx per piece, Tau(x) = -K x mean ln b over [0, x]: composite
+    16-point Gauss-Legendre on sub-intervals of optical depth <= 4 and, where 1 - a varies by more
+    than a factor 8, geometric in 1 - a."""
+    n = len(K)
+    steepest = np.maximum(-np.log1p(-a0), -np.log1p(-a1)) * K
+    m1 = np.clip(np.ceil(steepest / MAX_DEPTH_PER_INTERVAL), 1, MAX_SPLITS).astype(np.int64)
+    piece, j, m = _expand(m1)
+    xa, xb = j / m, (j + 1) / m
+    b_a = 1.0 - (a0[piece] + (a1[piece] - a0[piece]) * xa)
+    b_b = 1.0 - (a0[piece] + (a1[piece] - a0[piece]) * xb)
+    ratio = np.maximum(b_a, b_b) / np.minimum(b_a, b_b)
+    m2 = np.clip(np.ceil(np.log(ratio) / math.log(MAX_B_RATIO) - 1e-9), 1, 64).astype(np.int64)
+    sub, k, m = _expand(m2)
+    piece = piece[sub]
+    xa, xb, b_a, b_b = xa[sub], xb[sub], b_a[sub], b_b[sub]
+    geometric = b_a != b_b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = b_b / b_a
+        frac_lo = np.where(geometric, (q ** (k / m) - 1.0) / (q - 1.0), k / m)
+        frac_hi = np.where(geometric, (q ** ((k + 1) / m) - 1.0) / (q - 1.0), (k + 1) / m)
+    lo = xa + (xb - xa) * frac_lo
+    hi = xa + (xb - xa) * np.where(k + 1 == m, 1.0, frac_hi)
+    x = lo[:, None] + (hi - lo)[:, None] * _NODES[None, :]
+    p = piece[:, None]
+    tau = np.maximum(-K[p] * x * _mean_log_b(a0[p], a1[p], x), 0.0)
+    values = (-np.expm1(-tau)) @ _WEIGHTS * (hi - lo)
+    return np.bincount(piece, weights=values, minlength=n)
+
+
+def _expand(counts):
+    """For items with these counts: (item of each entry, index within its item, item's count)."""
+    item = np.repeat(np.arange(len(counts)), counts)
+    starts = np.cumsum(counts) - counts
+    index = np.arange(len(item)) - starts[item]
+    return item, index, counts[item]
+
+
+# --- rays and tetrahedra ------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Segments:
+    """Where rays cross tetrahedra, sorted by ray, then entry distance: the ray (row * W + col),
+    the tetrahedron, entry and exit distances from the ray's start (world units) and the
+    normalised intensity there."""
+
+    ray: np.ndarray
+    tet: np.ndarray
+    t_in: np.ndarray
+    t_out: np.ndarray
+    s_in: np.ndarray
+    s_out: np.ndarray
+
+    @property
+    def length(self) -> np.ndarray:
+        return self.t_out - self.t_in
+
+    def thickness(self, size) -> np.ndarray:
+        """(H, W) total length of the rays inside the mesh."""
+        width, height = size
+        return np.bincount(self.ray, weights=self.length, minlength=width * height).reshape(height, width)
+
+
+class _Geometry:
+    """Face planes (outward normals, offsets) and linear scalar fields of the tetrahedra."""
+
+    def __init__(self, mesh: TetMesh):
+        corners = mesh.points.astype(np.float64)[mesh.tets]  # (M, 4, 3)
+        edges = corners[:, 1:] - corners[:, :1]
+        six_volume = np.einsum("ij,ij->i", np.cross(edges[:, 0], edges[:, 1]), edges[:, 2])
+        longest = np.max([np.linalg.norm(corners[:, i] - corners[:, j], axis=1)
+                          for i in range(4) for j in range(i + 1, 4)], axis=0)
+        keep = np.abs(six_volume) > FLAT_TET * longest ** 3
+        self.index = np.flatnonzero(keep)
+        corners, edges = corners[keep], edges[keep]
+        self.corners = corners
+        normals, offsets = np.empty((len(corners), 4, 3)), np.empty((len(corners), 4))
+        for face in range(4):
+            a, b, c = (corners[:, v] for v in range(4) if v != face)
+            n = np.cross(b - a, c - a)
+            flip = np.einsum("ij,ij->i", n, corners[:, face] - a) > 0.0  # must point away from it
+            n[flip] *= -1.0
+            normals[:, face], offsets[:, face] = n, np.einsum("ij,ij->i", n, a)
+        self.normals, self.offsets = normals, offsets
+        values = _intensities(mesh)[mesh.tets[keep]]
+        self.s0, self.p0 = values[:, 0], corners[:, 0]
+        self.gradient = np.linalg.solve(edges, (values[:, 1:] - values[:, :1])[..., None])[..., 0]
+
+
+def _intensities(mesh: TetMesh) -> np.ndarray:
+    scalars = mesh.scalars.astype(np.float64)
+    if not np.all(np.isfinite(scalars)):
+        lo, hi = mesh.value_range
+        scalars = np.nan_to_num(scalars, nan=lo, posinf=hi, neginf=lo)
+    return mesh.normalized(scalars)
+
+
+def ray_segments(mesh: TetMesh, camera: Camera, size, *, chunk_pairs: int = 1 << 18) -> Segments:
+    """Every ray's segments in the tetrahedra (rule 2) for the camera resolved against the mesh."""
+    width, height = _check_size(size)
+    camera = camera.resolved(*mesh.bounds, width / height)
+    origins, directions = (a.reshape(-1, 3) for a in camera.rays(width, height))
+    t_far = camera.far_distance(directions)
+    return _segments(_Geometry(mesh), camera, width, height, origins, directions, t_far, chunk_pairs)
+
+
+def _segments(geometry, camera, width, height, origins, directions, t_far, chunk_pairs):
+    c0, c1, r0, r1 = _pixel_boxes(geometry.corners, camera, width, height)
+    counts = np.maximum(c1 - c0 + 1, 0) * np.maximum(r1 - r0 + 1, 0)
+    parts = []
+    candidates = np.flatnonzero(counts)
+    bounds = np.cumsum(counts[candidates])
+    start = 0
+    while start < len(candidates):
+        base = bounds[start - 1] if start else 0
+        stop = max(int(np.searchsorted(bounds, base + chunk_pairs, side="right")), start + 1)
+        tets = candidates[start:stop]
+        start = stop
+        tet, k, _ = _expand(counts[tets])
+        tet = tets[tet]
+        columns = c1[tet] - c0[tet] + 1
+        ray = (r0[tet] + k // columns) * width + c0[tet] + k % columns
+        parts.append(_intersect(geometry, tet, ray, origins, directions, t_far))
+    if not parts:
+        empty = np.zeros(0)
+        return Segments(np.zeros(0, np.int64), np.zeros(0, np.int64), empty, empty, empty, empty)
+    ray, tet, t_in, t_out, s_in, s_out = (np.concatenate(v) for v in zip(*parts))
+    order = np.lexsort((t_in, ray))
+    return Segments(ray[order], geometry.index[tet[order]], t_in[order], t_out[order],
+                    s_in[order], s_out[order])
+
+
+def _pixel_boxes(corners, camera, width, height):
+    """Inclusive pixel ranges (c0, c1, r0, r1) that may see each tetrahedron (a one-pixel margin);
+    the whole image for a tetrahedron reaching behind the eye, none for one wholly behind it."""
+    matrix = camera.view_projection(width / height)
+    clip = np.einsum("ij,mkj->mki", matrix[:, :3], corners) + matrix[:, 3]
+    w = clip[..., 3]
+    ahead = w > 1e-12 * np.abs(clip[..., :3]).max(axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ndc = clip[..., :2] / w[..., None]
+    cols = (ndc[..., 0] + 1.0) / 2.0 * width - 0.5
+    rows = (1.0 - ndc[..., 1]) / 2.0 * height - 0.5
+    whole = ~ahead.all(axis=1)
+    cols[whole], rows[whole] = 0.0, 0.0
+    c0 = np.floor(cols.min(axis=1)) - 1
+    c1 = np.ceil(cols.max(axis=1)) + 1
+    r0 = np.floor(rows.min(axis=1)) - 1
+    r1 = np.ceil(rows.max(axis=1)) + 1
+    c0[whole], c1[whole], r0[whole], r1[whole] = 0, width - 1, 0, height - 1
+    behind = ~ahead.any(axis=1)
+    c0, c1 = np.clip(c0, 0, width), np.clip(c1, -1, width - 1)
+    r0, r1 = np.clip(r0, 0, height), np.clip(r1, -1, height - 1)
+    c1[behind] = -1
+    return c0.astype(np.int64), c1.astype(np.int64), r0.astype(np.int64), r1.astype(np.int64)
+
+
+def _intersect(geometry, tet, ray, origins, directions, t_far):
+    """Segments of rays in tetrahedra (pairs), clipped to [0, t_far]; only positive lengths."""
+    o, d = origins[ray], directions[ray]
+    normals = geometry.normals[tet]
+    denom = np.einsum("pfk,pk->pf", normals, d)
+    num = geometry.offsets[tet] - np.einsum("pfk,pk->pf", normals, o)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = num / denom
+    t_in = np.maximum(np.where(denom < 0.0, t, -np.inf).max(axis=1), 0.0)
+    t_out = np.minimum(np.where(denom > 0.0, t, np.inf).min(axis=1), t_far[ray])
+    hit = (t_out > t_in) & ~np.any((denom == 0.0) & (num < 0.0), axis=1)
+    tet, ray, o, d, t_in, t_out = tet[hit], ray[hit], o[hit], d[hit], t_in[hit], t_out[hit]
+    g = geometry.gradient[tet]
+    start = geometry.s0[tet] + np.einsum("pk,pk->p", g, o - geometry.p0[tet])
+    slope = np.einsum("pk,pk->p", g, d)
+    return ray, tet, t_in, t_out, start + t_in * slope, start + t_out * slope
+
+
+# --- the image ----------------------------------------------------------------------------------
+def render(mesh: TetMesh, camera: Camera, transfer_function: TransferFunction, size, *,
+           background=(0.0, 0.0, 0.0, 1.0), mode: str = "exact", return_depth: bool = False,
+           chunk_pairs: int = 1 << 18):
+    """Render ``mesh`` with the exact emission-absorption integral (module docstring).
+
+    ``size`` is (width, height). Returns the float32 (H, W, 4) image, row 0 at the top, and with
+    ``return_depth=True`` also the float32 (H, W, 4) depth image (rule 6)."""
+    width, height = _check_size(size)
+    if mode not in MODES:
+        raise VGraphError(f"tetrahedra reference: mode must be one of {MODES}, got {mode!r}")
+    bg = np.asarray(background, dtype=np.float64)
+    if bg.shape != (4,) or not np.all(np.isfinite(bg)):
+        raise VGraphError("tetrahedra reference: background must be 4 finite numbers (r, g, b, a), "
+                          f"got {background!r}")
+    camera = camera.resolved(*mesh.bounds, width / height)
+    origins, directions = (a.reshape(-1, 3) for a in camera.rays(width, height))
+    t_far = camera.far_distance(directions)
+    segments = _segments(_Geometry(mesh), camera, width, height, origins, directions, t_far,
+                         chunk_pairs)
+    pieces = _Pieces.of(transfer_function.for_volume(mesh))
+    colour, depth, first = _integrate(segments.s_in, segments.s_out, segments.length, pieces,
+                                      mesh.opacity_length)
+
+    rays = width * height
+    before = _exclusive_sums(depth, segments.ray)
+    weight = np.exp(-before)
+    rgb = np.stack([np.bincount(segments.ray, weights=weight * colour[:, c], minlength=rays)
+                    for c in range(3)], axis=1)
+    coverage = -np.expm1(-np.bincount(segments.ray, weights=depth, minlength=rays))[:, None]
+    image = np.concatenate([rgb + (1.0 - coverage) * bg[:3], coverage + (1.0 - coverage) * bg[3]],
+                           axis=1).reshape(height, width, 4).astype(np.float32)
+    if not return_depth:
+        return image
+    return image, _depth_image(camera, origins, directions, segments, first, width, height)
+
+
+def _exclusive_sums(values, group):
+    """Sum of the values before each one within its group (groups contiguous)."""
+    total = np.cumsum(values) - values
+    if len(values) == 0:
+        return total
+    starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+    first_of = np.repeat(starts, np.diff(np.r_[starts, len(values)]))
+    return np.maximum(total - total[first_of], 0.0)
+
+
+def _depth_image(camera, origins, directions, segments, first, width, height):
+    rays = width * height
+    t = np.full(rays, np.inf)
+    np.minimum.at(t, segments.ray, segments.t_in + first * segments.length)
+    found = np.isfinite(t)
+    depth = np.zeros((rays, 4))
+    depth[:, 0] = 1.0
+    points = origins[found] + t[found, None] * directions[found]
+    matrix = camera.view_projection(width / height)
+    clip = points @ matrix[:, :3].T + matrix[:, 3]
+    depth[found, 0] = np.clip(0.5 + 0.5 * clip[:, 2] / clip[:, 3], 0.0, 1.0)
+    depth[found, 1] = t[found]
+    depth[:, 2] = np.bincount(segments.ray, minlength=rays)
+    depth[found, 3] = 1.0
+    return depth.reshape(height, width, 4).astype(np.float32)
+
+
+def _check_size(size) -> tuple[int, int]:
+    try:
+        width, height = (int(v) for v in size)
+    except (TypeError, ValueError):
+        raise VGraphError(f"tetrahedra reference: size must be (width, height), got {size!r}")
+    if width < 1 or height < 1 or (width, height) != tuple(size):
+        raise VGraphError(f"tetrahedra reference: size must be positive integers, got {size!r}")
+    return width, height
