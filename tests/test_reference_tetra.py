@@ -242,6 +242,28 @@ def test_tetrahedralised_volume_matches_the_ray_caster(coefficients):
     np.testing.assert_allclose(exact, sampled, atol=1e-3)
 
 
+@pytest.mark.parametrize("direction", [(1.0, 0.0, 0.0), (0.0, 0.0, -1.0), (1.0, 1.0, 0.0),
+                                       (1.0, -1.0, 1.0), (0.0, 1.0, 1.0), (0.3, 0.2, -1.0)])
+@pytest.mark.parametrize("pixels", [24, 37])
+def test_shared_faces_are_watertight(direction, pixels):
+    """The tetrahedra of a grid fill its box: every ray's total length in them is its chord of
+    the box, also in views along the axes and diagonals where rays run in shared faces (counted
+    once, not twice or never)."""
+    mesh = volume_mesh(linear_volume((1.0, -0.5, 0.8)))
+    lo, hi = mesh.bounds
+    camera = Camera.looking_at_box(lo, hi, direction=direction, projection="orthographic",
+                                   up=(0.0, 0.0, 1.0) if direction[2] == 0 else (0.0, 1.0, 0.0))
+    size = (pixels, pixels)
+    thickness = ray_segments(mesh, camera, size).thickness(size)
+    resolved = camera.resolved(lo, hi)
+    origins, directions = (a.reshape(-1, 3) for a in resolved.rays(*size))
+    with np.errstate(divide="ignore"):
+        slabs = np.stack([(lo - origins) / directions, (hi - origins) / directions])
+    chord = np.maximum(np.nanmin(slabs.max(axis=0), axis=1) - np.nanmax(slabs.min(axis=0), axis=1), 0.0)
+    assert (chord > 0).sum() > pixels * pixels / 8
+    np.testing.assert_allclose(thickness, chord.reshape(pixels, pixels), atol=1e-9)
+
+
 def test_depth_of_an_axis_aligned_view():
     volume = linear_volume((1.0, -0.5, 0.8))
     mesh = volume_mesh(volume)

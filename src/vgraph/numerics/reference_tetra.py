@@ -13,8 +13,10 @@ Model, in this order:
    each tetrahedron (barycentric interpolation of the point scalars, as normalised intensities
    ``mesh.normalized``; NaN and -inf count as the value range's low end, +inf as its high end), so
    along a segment it is linear in t between its values at entry and exit. Segments are
-   composited in order of their entry distance. (A ray lying exactly in a face shared by two
-   tetrahedra is counted in both; only such grazing rays are ambiguous.)
+   composited in order of their entry distance. Shared faces are watertight: both tetrahedra use
+   the same plane (computed from the face's sorted vertex indices), so one's exit is the other's
+   entry, and a ray lying exactly in a face plane (an axis-aligned view of a tetrahedralised grid)
+   belongs to one side only, as if moved by an infinitesimal step along the fixed TIE_BREAK.
 3. Classification: the normalised TF (``tf.for_volume(mesh)``) itself, piecewise linear between
    its points (not the 4096-entry LUT); below the first point and above the last the end values
    hold, and two points at one position are a step. Point opacities are clamped to 1 - 1e-7 so the
@@ -60,6 +62,7 @@ GAUSS_POINTS = 16
 MAX_DEPTH_PER_INTERVAL = 4.0  # optical depth of one Gauss-Legendre sub-interval, at most
 MAX_B_RATIO = 8.0  # (1 - a) varies by at most this factor over one sub-interval
 MAX_SPLITS = 4096
+TIE_BREAK = np.array([1.0, 0.7390851332151607, 0.5772156649015329])  # generic direction (rule 2)
 
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(GAUSS_POINTS)
 _NODES, _WEIGHTS = (_NODES + 1.0) / 2.0, _WEIGHTS / 2.0  # on [0, 1]
@@ -264,29 +267,43 @@ class Segments:
 
 
 class _Geometry:
-    """Face planes (outward normals, offsets) and linear scalar fields of the tetrahedra."""
+    """Face planes and linear scalar fields of the tetrahedra. A face's plane is computed once
+    from its sorted vertex indices (``normal``, ``offset``) and each tetrahedron has it with the
+    sign ``side`` that makes it point outwards, so two tetrahedra sharing a face see exactly
+    opposite planes: a ray crosses from one into the other at the same t, and a ray lying in the
+    face belongs to one of them only (rule 2)."""
 
     def __init__(self, mesh: TetMesh):
-        corners = mesh.points.astype(np.float64)[mesh.tets]  # (M, 4, 3)
+        points = mesh.points.astype(np.float64)
+        corners = points[mesh.tets]  # (M, 4, 3)
         edges = corners[:, 1:] - corners[:, :1]
         six_volume = np.einsum("ij,ij->i", np.cross(edges[:, 0], edges[:, 1]), edges[:, 2])
         longest = np.max([np.linalg.norm(corners[:, i] - corners[:, j], axis=1)
                           for i in range(4) for j in range(i + 1, 4)], axis=0)
         keep = np.abs(six_volume) > FLAT_TET * longest ** 3
         self.index = np.flatnonzero(keep)
-        corners, edges = corners[keep], edges[keep]
+        tets, corners, edges = mesh.tets[keep], corners[keep], edges[keep]
         self.corners = corners
-        normals, offsets = np.empty((len(corners), 4, 3)), np.empty((len(corners), 4))
+        normals, offsets = np.empty((len(tets), 4, 3)), np.empty((len(tets), 4))
+        side = np.empty((len(tets), 4))
         for face in range(4):
-            a, b, c = (corners[:, v] for v in range(4) if v != face)
+            vertices = np.sort(tets[:, [v for v in range(4) if v != face]], axis=1)
+            a, b, c = (points[vertices[:, v]] for v in range(3))
             n = np.cross(b - a, c - a)
-            flip = np.einsum("ij,ij->i", n, corners[:, face] - a) > 0.0  # must point away from it
-            n[flip] *= -1.0
-            normals[:, face], offsets[:, face] = n, np.einsum("ij,ij->i", n, a)
-        self.normals, self.offsets = normals, offsets
-        values = _intensities(mesh)[mesh.tets[keep]]
+            normals[:, face], offsets[:, face] = n, _dot(n, a)
+            side[:, face] = np.where(_dot(n, corners[:, face] - a) > 0.0, -1.0, 1.0)  # outwards
+        self.normals, self.offsets, self.side = normals, offsets, side
+        # A ray exactly in a face plane counts as moved by an infinitesimal TIE_BREAK: it is in
+        # the tetrahedron on that side, the one whose outward normal points away from TIE_BREAK.
+        self.tie_inside = side * np.einsum("mfk,k->mf", normals, TIE_BREAK) < 0.0
+        values = _intensities(mesh)[tets]
         self.s0, self.p0 = values[:, 0], corners[:, 0]
         self.gradient = np.linalg.solve(edges, (values[:, 1:] - values[:, :1])[..., None])[..., 0]
+
+
+def _dot(u, v):
+    """Row-wise dot products summed in a fixed order (the same rounding for equal rows)."""
+    return u[..., 0] * v[..., 0] + u[..., 1] * v[..., 1] + u[..., 2] * v[..., 2]
 
 
 def _intensities(mesh: TetMesh) -> np.ndarray:
@@ -360,14 +377,15 @@ def _pixel_boxes(corners, camera, width, height):
 def _intersect(geometry, tet, ray, origins, directions, t_far):
     """Segments of rays in tetrahedra (pairs), clipped to [0, t_far]; only positive lengths."""
     o, d = origins[ray], directions[ray]
-    normals = geometry.normals[tet]
-    denom = np.einsum("pfk,pk->pf", normals, d)
-    num = geometry.offsets[tet] - np.einsum("pfk,pk->pf", normals, o)
+    normals, side = geometry.normals[tet], geometry.side[tet]
+    denom = side * _dot(normals, d[:, None, :])
+    num = side * (geometry.offsets[tet] - _dot(normals, o[:, None, :]))
     with np.errstate(divide="ignore", invalid="ignore"):
         t = num / denom
     t_in = np.maximum(np.where(denom < 0.0, t, -np.inf).max(axis=1), 0.0)
     t_out = np.minimum(np.where(denom > 0.0, t, np.inf).min(axis=1), t_far[ray])
-    hit = (t_out > t_in) & ~np.any((denom == 0.0) & (num < 0.0), axis=1)
+    outside = (denom == 0.0) & ((num < 0.0) | ((num == 0.0) & ~geometry.tie_inside[tet]))
+    hit = (t_out > t_in) & ~np.any(outside, axis=1)
     tet, ray, o, d, t_in, t_out = tet[hit], ray[hit], o[hit], d[hit], t_in[hit], t_out[hit]
     g = geometry.gradient[tet]
     start = geometry.s0[tet] + np.einsum("pk,pk->p", g, o - geometry.p0[tet])
