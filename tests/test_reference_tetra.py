@@ -303,3 +303,49 @@ def test_shared_mesh_renders_in_seconds():
     assert 0.2 < covered.mean() < 0.9 and image[..., 3].max() > 0.3
     assert np.ptp(image[..., 1][covered]) > 0.1  # coloured, not flat
     np.testing.assert_array_equal(covered, depth[..., 3] == 1.0)
+
+
+# --- input --------------------------------------------------------------------------------------
+def test_data_space_tf_and_non_finite_scalars():
+    """A TF in data units is resolved through the mesh's value range; NaN and -inf count as the
+    range's low end, +inf as its high end (as volumes do)."""
+    points = np.vstack([TET_POINTS, TET_POINTS + [2.0, 0.0, 0.0]])
+    tets = [[0, 1, 2, 3], [4, 5, 6, 7]]
+    camera = orthographic((0.3, 0.2, -1.0), points.min(0), points.max(0))
+    data_tf = TransferFunction(space="data", points=[(10.0, 1.0, 0.0, 0.0, 0.1), (20.0, 0.0, 1.0, 0.0, 0.8)])
+    normal_tf = TransferFunction(points=[(0.0, 1.0, 0.0, 0.0, 0.1), (1.0, 0.0, 1.0, 0.0, 0.8)])
+    finite = TetMesh(points, tets, [10, 20, 15, 12, 10, 20, 10, 20], reference_length=0.4)
+    odd = TetMesh(points, tets, [10, 20, 15, 12, np.nan, np.inf, -np.inf, 20], reference_length=0.4,
+                  declared_range=(10.0, 20.0))
+    np.testing.assert_allclose(render(finite, camera, data_tf, (32, 24)),
+                               render(finite, camera, normal_tf, (32, 24)), atol=1e-7)
+    np.testing.assert_allclose(render(odd, camera, data_tf, (32, 24)),
+                               render(finite, camera, normal_tf, (32, 24)), atol=1e-7)
+
+
+def test_bad_arguments_are_refused():
+    mesh = TetMesh(TET_POINTS, [[0, 1, 2, 3]], [0.0, 1.0, 0.4, 0.7])
+    camera = Camera(fit_to_data=True)
+    with pytest.raises(VGraphError, match="mode"):
+        render(mesh, camera, RAMP, (8, 8), mode="sampled")
+    with pytest.raises(VGraphError, match="size"):
+        render(mesh, camera, RAMP, (8, 0))
+    with pytest.raises(VGraphError, match="background"):
+        render(mesh, camera, RAMP, (8, 8), background=(0, 0, 0))
+
+
+def test_camera_inside_the_mesh():
+    """Tetrahedra reaching behind the eye are tested against every ray; the ray starts on the
+    near plane inside the mesh."""
+    volume = linear_volume((1.0, -0.5, 0.8))
+    mesh = volume_mesh(volume)
+    lo, hi = mesh.bounds
+    centre = (lo + hi) / 2
+    camera = Camera(position=tuple(centre), focus=tuple(hi), up=(0.0, 0.0, 1.0), near=0.01, far=20.0)
+    thickness = ray_segments(mesh, camera, (16, 16)).thickness((16, 16))
+    resolved = camera.resolved(lo, hi)
+    origins, directions = (a.reshape(-1, 3) for a in resolved.rays(16, 16))
+    exits = np.min(np.where(directions > 0, (hi - origins) / np.where(directions > 0, directions, 1),
+                            np.where(directions < 0, (lo - origins) / np.where(directions < 0, directions, 1),
+                                     np.inf)), axis=1)
+    np.testing.assert_allclose(thickness, exits.reshape(16, 16), atol=1e-9)

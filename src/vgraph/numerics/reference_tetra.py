@@ -115,10 +115,11 @@ def segment_integral(s_front, s_back, length, transfer_function: TransferFunctio
     return np.concatenate([colour, -np.expm1(-depth)[:, None]], axis=1).reshape(*shape, 4)
 
 
-def _integrate(s_f, s_b, length, pieces: _Pieces, L: float, chunk: int = 32768):
+def _integrate(s_f, s_b, length, pieces: _Pieces, L: float):
     """(premultiplied rgb (n, 3), optical depth (n,), fraction along the segment of the first
     point with opacity > 0 (n,), inf where none) of n segments."""
     n = len(s_f)
+    chunk = max(1024, (1 << 21) // len(pieces.lo))  # segments x pieces per chunk: about 2 M
     colour, depth, first = np.zeros((n, 3)), np.zeros(n), np.full(n, np.inf)
     for start in range(0, n, chunk):
         part = slice(start, start + chunk)
