@@ -5,7 +5,8 @@ Conventions (docs/tetrahedra.md, section ProjectedTetrahedra, has the long form)
 - Visibility order: the tetrahedra sorted by centroid, farthest first (depth along the view
   direction for the orthographic camera, distance from the eye for the perspective one;
   vgraph.gl.tetrahedra.order), re-sorted only when the mesh or the concrete camera changes and
-  uploaded as the index buffer. Not exact for every mesh (MPVO is not done).
+  uploaded as the index buffer. Not exact for every mesh; ``visibility_order = mpvo`` orders
+  across shared faces instead (MPVO, exact for convex meshes; non-convex ones approximated).
 - Projection: the sorted index buffer is drawn as lines_adjacency, four vertices per tetrahedron;
   the geometry shader classifies the projection (classes 1-4, vgraph.gl.tetrahedra.projection)
   and emits 3 or 4 triangles fanned from the thick point with the exact front and back points of
@@ -88,6 +89,10 @@ class ProjectedTetrahedra(Processor):
                                      "segment (Shirley-Tuchman); preintegrated: the exact segment "
                                      "integral from a table")
     background = ColorProperty((0.0, 0.0, 0.0, 1.0))
+    visibility_order = OptionProperty("centroid", choices=["centroid", "mpvo"],
+                                      doc="centroid: sort the tetrahedra's centroids (fast, not "
+                                          "exact for every mesh); mpvo: the order across shared "
+                                          "faces (exact for convex meshes, slower)")
     skip_transparent = BoolProperty(True, doc="leave out tetrahedra whose scalars all have zero "
                                               "opacity under the TF (same image, faster)")
 
@@ -154,7 +159,7 @@ class ProjectedTetrahedra(Processor):
             self._order = VisibilityOrder()  # another context or mesh: sort and upload afresh
             state.clear()
             state.update(ctx=ctx, mesh=mesh, arrays={})
-        indices, changed = self._order.update(mesh, camera, selection)
+        indices, changed = self._order.update(mesh, camera, selection, self.visibility_order)
         if indices.size == 0:
             return None
         if changed or "indices" not in state:
