@@ -127,6 +127,7 @@ class ProjectedTetrahedra(Processor):
         uniforms = {"view_projection": camera.view_projection(size[0] / size[1]),
                     "inverse_opacity_length": 1.0 / float(mesh.opacity_length),
                     "viewport_size": (float(size[0]), float(size[1])),
+                    "view_forward": vec(camera.basis()[2]),
                     "near_centre": rays["near_centre"], "near_right": rays["near_right"],
                     "near_up": rays["near_up"]}
         selection = None

@@ -18,6 +18,8 @@
 noperspective in vec4 front_h;
 noperspective in vec4 back_h;
 noperspective in vec2 scalar_h;
+flat in vec3 limits;  // (depth extent of the tetrahedron along view_forward, scalar min, max)
+uniform vec3 view_forward;
 
 uniform float inverse_opacity_length;  // 1 / L (mesh.opacity_length)
 uniform mat4 view_projection;
@@ -52,9 +54,14 @@ vec4 segment(float s_front, float s_back, float thickness) {
 void main() {
     vec3 x_front = front_h.xyz / front_h.w;
     vec3 x_back = back_h.xyz / back_h.w;
-    float s_front = scalar_h.x / front_h.w;
-    float s_back = scalar_h.y / back_h.w;
-    color = segment(s_front, s_back, distance(x_front, x_back));
+    float s_front = clamp(scalar_h.x / front_h.w, limits.y, limits.z);
+    float s_back = clamp(scalar_h.y / back_h.w, limits.y, limits.z);
+    // A segment inside the tetrahedron spans at most its depth extent along the view direction;
+    // beyond it (a ray grazing a face seen almost edge-on), shorten it to that.
+    float thickness = distance(x_front, x_back);
+    float across = abs(dot(x_back - x_front, view_forward));
+    if (across > limits.x) thickness *= limits.x / across;
+    color = segment(s_front, s_back, thickness);
     if (color.a > 0.0) {
         vec4 clip = view_projection * vec4(x_front, 1.0);
         vec2 ndc = gl_FragCoord.xy / viewport_size * 2.0 - 1.0;

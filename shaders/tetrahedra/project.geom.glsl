@@ -25,6 +25,8 @@ in vec4 v_point[];
 noperspective out vec4 front_h;   // (X_front / w, 1 / w)
 noperspective out vec4 back_h;    // (X_back / w, 1 / w)
 noperspective out vec2 scalar_h;  // (s_front / w_front, s_back / w_back)
+flat out vec3 limits;             // (depth extent along view_forward, scalar min, scalar max)
+uniform vec3 view_forward;
 
 vec2 p[4];
 vec4 h[4];   // (X / w, 1 / w) of the vertices
@@ -35,7 +37,10 @@ float det2(vec2 a, vec2 b, vec2 c) {
     return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
 }
 
+vec3 tet_limits;
+
 void silhouette_vertex(int i) {
+    limits = tet_limits;
     front_h = h[i];
     back_h = h[i];
     scalar_h = vec2(sh[i]);
@@ -44,6 +49,7 @@ void silhouette_vertex(int i) {
 }
 
 void thick_vertex(vec2 q, vec4 front, vec4 back, vec2 scalars) {
+    limits = tet_limits;
     front_h = front;
     back_h = back;
     scalar_h = scalars;
@@ -61,6 +67,15 @@ void main() {
         h[i] = vec4(v_point[i].xyz * inv_w, inv_w);
         sh[i] = v_point[i].w * inv_w;
     }
+    // What no segment inside the tetrahedron can exceed (the fragment stage clamps to it: where a
+    // face is seen almost edge-on, float32 interpolation across its sliver can overshoot).
+    vec4 depths = vec4(dot(v_point[0].xyz, view_forward), dot(v_point[1].xyz, view_forward),
+                       dot(v_point[2].xyz, view_forward), dot(v_point[3].xyz, view_forward));
+    vec4 scalars = vec4(v_point[0].w, v_point[1].w, v_point[2].w, v_point[3].w);
+    tet_limits = vec3(max(max(depths.x, depths.y), max(depths.z, depths.w))
+                  - min(min(depths.x, depths.y), min(depths.z, depths.w)),
+                  min(min(scalars.x, scalars.y), min(scalars.z, scalars.w)),
+                  max(max(scalars.x, scalars.y), max(scalars.z, scalars.w)));
     float mu[4];
     mu[0] = det2(p[1], p[2], p[3]);
     mu[1] = -det2(p[0], p[2], p[3]);
