@@ -10,7 +10,9 @@ Conventions (docs/tetrahedra_renderer.md has the long form):
 - Projection: the sorted index buffer is drawn as lines_adjacency, four vertices per tetrahedron;
   the geometry shader classifies the projection (classes 1-4, vgraph.gl.tetrahedra.projection)
   and emits 3 or 4 triangles fanned from the thick point with the exact front and back points of
-  each pixel's ray (perspective-correct by construction: homogeneous attributes).
+  each pixel's ray (perspective-correct by construction: homogeneous attributes); the fragment
+  stage clamps the segment to its tetrahedron (scalar range, depth extent along the view), which
+  only matters for rays grazing faces seen edge-on.
 - Tetrahedra whose scalars all have zero opacity under the TF are neither sorted nor drawn
   (``skip_transparent``; they would add exactly nothing).
 - Integration: ``averaged`` (the TF at the mean scalar, alpha = 1 - (1 - a)^(l / L)) or
