@@ -23,6 +23,7 @@ from functools import cached_property
 import numpy as np
 
 from vgraph.errors import VGraphError
+from vgraph.value_range import checked_range, range_of
 
 
 @dataclass(eq=False)
@@ -53,12 +54,7 @@ class TetMesh:
         if self.tets.min() < 0 or self.tets.max() >= len(self.points):
             raise VGraphError(f"mesh{where}: tetrahedron indices must lie in 0 .. {len(self.points) - 1}, "
                               f"found {int(self.tets.min())} .. {int(self.tets.max())}")
-        if self.declared_range is not None:
-            lo, hi = (float(v) for v in self.declared_range)
-            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-                raise VGraphError(f"mesh{where}: value_range must be finite with low < high, got "
-                                  f"{self.declared_range}")
-            self.declared_range = (lo, hi)
+        self.declared_range = checked_range(self.declared_range, f"mesh{where}")
         if self.reference_length is not None and not (np.isfinite(self.reference_length)
                                                       and self.reference_length > 0):
             raise VGraphError(f"mesh{where}: reference_length must be positive, got {self.reference_length}")
@@ -97,10 +93,7 @@ class TetMesh:
         if self.declared_range is not None:
             return self.declared_range
         finite = self.scalars[np.isfinite(self.scalars)]
-        if finite.size == 0:
-            return (0.0, 1.0)
-        lo, hi = float(finite.min()), float(finite.max())
-        return (lo, hi) if hi > lo else (lo, lo + max(1.0, abs(lo) * 1e-6))
+        return range_of((finite.min(), finite.max()) if finite.size else None)
 
     def normalized(self, values=None) -> np.ndarray:
         """Scalars (or ``values``) as normalised intensities, float64, not clamped."""

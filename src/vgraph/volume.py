@@ -32,6 +32,7 @@ import numpy as np
 
 from vgraph.camera import MAX_COORDINATE
 from vgraph.errors import VGraphError
+from vgraph.value_range import checked_range, range_of
 
 Vec3 = tuple[float, float, float]
 
@@ -72,12 +73,7 @@ class Volume:
         self.data = data
         self.spacing = _vec3(self.spacing, "spacing", where, positive=True)
         self.origin = _vec3(self.origin, "origin", where)
-        if self.declared_range is not None:
-            lo, hi = (float(v) for v in self.declared_range)
-            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-                raise VGraphError(f"volume{where}: value_range must be finite with low < high, "
-                                  f"got {self.declared_range}")
-            self.declared_range = (lo, hi)
+        self.declared_range = checked_range(self.declared_range, f"volume{where}")
         if isinstance(self.time_steps, bool) or not isinstance(self.time_steps, (int, np.integer)) \
                 or self.time_steps < 1:
             raise VGraphError(f"volume{where}: time_steps must be a positive integer, "
@@ -129,12 +125,7 @@ class Volume:
     def value_range(self) -> tuple[float, float]:
         if self.declared_range is not None:
             return self.declared_range
-        if self.finite_extremes is None:
-            return (0.0, 1.0)
-        lo, hi = (float(v) for v in self.finite_extremes)
-        if hi > lo:
-            return (lo, hi)
-        return (lo, lo + max(1.0, abs(lo) * 1e-6))  # a constant volume still maps somewhere
+        return range_of(self.finite_extremes)
 
     def percentiles(self, percents) -> np.ndarray:
         """Data values at ``percents`` (each in [0, 100]) of the finite voxels, as np.percentile's

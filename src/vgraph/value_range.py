@@ -1,0 +1,29 @@
+"""The value-range rule volumes and meshes share (docs/conventions.md): a declared range must be
+finite with low < high; otherwise the range is the data's finite min..max, and a constant (or
+empty) data set still maps somewhere."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vgraph.errors import VGraphError
+
+
+def checked_range(declared, what: str) -> tuple[float, float] | None:
+    """``declared`` as (low, high) floats, or None; VGraphError naming ``what`` if impossible."""
+    if declared is None:
+        return None
+    lo, hi = (float(v) for v in declared)
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+        raise VGraphError(f"{what}: value_range must be finite with low < high, got {declared}")
+    return (lo, hi)
+
+
+def range_of(extremes) -> tuple[float, float]:
+    """The value range of data whose finite (min, max) are ``extremes`` (None: no finite value)."""
+    if extremes is None:
+        return (0.0, 1.0)
+    lo, hi = (float(v) for v in extremes)
+    if hi > lo:
+        return (lo, hi)
+    return (lo, lo + max(1.0, abs(lo) * 1e-6))  # a constant data set still maps somewhere
