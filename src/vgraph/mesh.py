@@ -23,6 +23,7 @@ from functools import cached_property
 import numpy as np
 
 from vgraph.errors import VGraphError
+from vgraph.gl.context import release_quietly
 from vgraph.value_range import checked_range, range_of
 
 
@@ -58,7 +59,7 @@ class TetMesh:
         if self.reference_length is not None and not (np.isfinite(self.reference_length)
                                                       and self.reference_length > 0):
             raise VGraphError(f"mesh{where}: reference_length must be positive, got {self.reference_length}")
-        weakref.finalize(self, _release_all, self._buffers)
+        weakref.finalize(self, release_quietly, self._buffers)
 
     # --- geometry -------------------------------------------------------------------------------
     @property
@@ -135,13 +136,3 @@ class TetMesh:
             self._buffers[key] = {"points": ctx.buffer(np.ascontiguousarray(vertices, dtype=np.float32).tobytes()),
                                   "tets": ctx.buffer(self.tets.tobytes())}
         return self._buffers[key]
-
-
-def _release_all(buffers: dict) -> None:
-    for pair in buffers.values():
-        for buffer in pair.values():
-            try:
-                buffer.release()
-            except Exception:  # the context may already be gone at interpreter exit
-                pass
-    buffers.clear()

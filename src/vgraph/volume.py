@@ -32,6 +32,7 @@ import numpy as np
 
 from vgraph.camera import MAX_COORDINATE
 from vgraph.errors import VGraphError
+from vgraph.gl.context import release_quietly
 from vgraph.value_range import checked_range, range_of
 
 Vec3 = tuple[float, float, float]
@@ -79,7 +80,7 @@ class Volume:
             raise VGraphError(f"volume{where}: time_steps must be a positive integer, "
                               f"got {self.time_steps!r}")
         self.time_steps = int(self.time_steps)
-        weakref.finalize(self, _release_all, self._textures)
+        weakref.finalize(self, release_quietly, self._textures)
 
     # --- geometry -------------------------------------------------------------------------------
     @property
@@ -349,12 +350,3 @@ def _vec3(value, name: str, where: str, positive: bool = False) -> Vec3:
         raise VGraphError(f"volume{where}: {name} {vec} is outside what GL's float32 world "
                           f"coordinates hold (magnitudes {1 / MAX_COORDINATE:g} to {MAX_COORDINATE:g})")
     return vec
-
-
-def _release_all(textures: dict) -> None:
-    for texture in textures.values():
-        try:
-            texture.release()
-        except Exception:  # the context may already be gone at interpreter exit
-            pass
-    textures.clear()

@@ -140,3 +140,16 @@ def _create_standalone_context() -> moderngl.Context:
 def _first_line(exc: BaseException) -> str:
     text = str(exc).strip() or type(exc).__name__
     return text.splitlines()[0]
+
+
+def release_quietly(objects: dict) -> None:
+    """Release the GL objects that are the values of ``objects`` (dicts of them too) and empty it;
+    for finalizers of data types that cache GL objects per context, which may run at interpreter
+    exit when the context is already gone."""
+    for value in objects.values():
+        for gl_object in value.values() if isinstance(value, dict) else (value,):
+            try:
+                gl_object.release()
+            except Exception:  # the context may already be gone
+                pass
+    objects.clear()
