@@ -13,7 +13,12 @@ Conventions (docs/tetrahedra_renderer.md has the long form):
   each pixel's ray (perspective-correct by construction: homogeneous attributes); the fragment
   stage clamps the segment to its tetrahedron (scalar range, depth extent along the view), which
   only matters for rays grazing faces seen edge-on.
-- Tetrahedra whose scalars all have zero opacity under the TF are neither sorted nor drawn
+- Meshes cut from a volume (VolumeToTetMesh; ``mesh.grid``) are drawn cell by cell when
+  ``grid_cells`` is on: the cells in the grid's sweep order (no sort), each cell's silhouette from
+  its front faces, and per pixel the ray split at the faces of the cell's five tetrahedra, each
+  piece integrated as a projected tetrahedron would be (vgraph.gl.tetrahedra.cells; the same image
+  from a fifth of the primitives).
+- Tetrahedra (cells) whose scalars all have zero opacity under the TF are neither sorted nor drawn
   (``skip_transparent``; they would add exactly nothing).
 - Integration: ``averaged`` (the TF at the mean scalar, alpha = 1 - (1 - a)^(l / L)) or
   ``preintegrated`` (a 128 x 128 x 32 RGBA32F table of the segment integral over (s_front,
@@ -41,12 +46,15 @@ from vgraph.gl.raycasting.textures import TransferFunctionTexture
 from vgraph.gl.passes import bind_textures, set_uniform
 from vgraph.gl.shaders import programs
 from vgraph.gl.tetrahedra import preintegration
+from vgraph.gl.tetrahedra.cells import cell_attributes, visible_cells_of
 from vgraph.gl.tetrahedra.order import VisibilityOrder, visible_tetrahedra
 from vgraph.image import Image
 from vgraph.mesh import TetMesh
 from vgraph.properties import TransferFunctionProperty
 
-SHADERS = ("tetrahedra/project.vert.glsl", "tetrahedra/project.geom.glsl", "tetrahedra/project.frag.glsl")
+TETRAHEDRA_SHADERS = ("tetrahedra/project.vert.glsl", "tetrahedra/project.geom.glsl",
+                      "tetrahedra/project.frag.glsl")
+CELL_SHADERS = ("tetrahedra/cells.vert.glsl", "tetrahedra/cells.geom.glsl", "tetrahedra/cells.frag.glsl")
 INTEGRATIONS = ("averaged", "preintegrated")
 
 
@@ -97,6 +105,10 @@ class ProjectedTetrahedra(Processor):
                                           "faces (exact for convex meshes, slower)")
     skip_transparent = BoolProperty(True, doc="leave out tetrahedra whose scalars all have zero "
                                               "opacity under the TF (same image, faster)")
+    grid_cells = BoolProperty(True, doc="meshes cut from a volume (VolumeToTetMesh): draw each grid "
+                                        "cell once, in the grid's sweep order, its five tetrahedra "
+                                        "integrated per pixel (same image, faster); off: each "
+                                        "tetrahedron by itself, in the visibility_order")
 
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
@@ -115,27 +127,32 @@ class ProjectedTetrahedra(Processor):
         image.framebuffer.clear(*(float(v) for v in self.background))
         depth.framebuffer.clear(1.0, 0.0, 0.0, 0.0)
 
+        by_cells = self.grid_cells and mesh.grid is not None
+        shaders = CELL_SHADERS if by_cells else TETRAHEDRA_SHADERS
         defines = {"INTEGRATION_PREINTEGRATED": self.integration == "preintegrated",
                    "TABLE_SIZE": preintegration.TABLE_SIZE,
                    "ALPHA_SLICES": preintegration.ALPHA_SLICES}
-        program = programs.program(ctx, SHADERS[0], SHADERS[2], defines, processor=self.id,
-                                   geometry=SHADERS[1])
+        program = programs.program(ctx, shaders[0], shaders[2], defines, processor=self.id,
+                                   geometry=shaders[1])
         resolved = self.transfer_function.for_volume(mesh)
         if self.integration == "preintegrated":
             textures = {"preintegrated": self._table.update(ctx, resolved)}
         else:
             textures = {"transfer_function": self._lut.update(ctx, self.transfer_function, mesh)}
-        rays = ray_uniforms(camera, size)
         uniforms = {"view_projection": camera.view_projection(size[0] / size[1]),
                     "inverse_opacity_length": 1.0 / float(mesh.opacity_length),
-                    "viewport_size": (float(size[0]), float(size[1])),
-                    "view_forward": vec(camera.basis()[2]),
-                    "near_centre": rays["near_centre"], "near_right": rays["near_right"],
-                    "near_up": rays["near_up"]}
+                    "viewport_size": (float(size[0]), float(size[1]))}
+        rays = ray_uniforms(camera, size)
+        if by_cells:  # rays from the pixel (origin and direction) and the cells' size
+            uniforms.update(rays, spacing=vec(mesh.grid.spacing))
+        else:  # where the pixel's ray starts (the depth output's distance), the view direction
+            uniforms.update({name: rays[name] for name in ("near_centre", "near_right", "near_up")},
+                            view_forward=vec(camera.basis()[2]))
         selection = None
         if self.skip_transparent:
-            selection = (resolved, lambda: visible_tetrahedra(mesh, resolved.lut()[:, 3]))
-        vertex_array = self._vertex_array(ctx, program, mesh, camera, selection)
+            visible = visible_cells_of if by_cells else visible_tetrahedra
+            selection = (resolved, lambda: visible(mesh, resolved.lut()[:, 3]))
+        vertex_array = self._vertex_array(ctx, program, mesh, camera, selection, by_cells)
         if vertex_array is None:  # every tetrahedron is transparent
             return {"image": image, "depth": depth}
 
@@ -148,7 +165,7 @@ class ProjectedTetrahedra(Processor):
         ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
         ctx.blend_equation = moderngl.FUNC_ADD
         try:
-            vertex_array.render(moderngl.LINES_ADJACENCY)
+            vertex_array.render(moderngl.POINTS if by_cells else moderngl.LINES_ADJACENCY)
             # llvmpipe keeps the binned geometry of draws nobody waited for: frames that are never
             # read back grew the process by ~0.5 MB each (tests/test_leaks.py); a finish keeps it flat.
             ctx.finish()
@@ -157,15 +174,16 @@ class ProjectedTetrahedra(Processor):
             ctx.disable(moderngl.BLEND)
         return {"image": image, "depth": depth}
 
-    def _vertex_array(self, ctx, program, mesh: TetMesh, camera, selection):
-        """The vertex array of the mesh's points with the tetrahedra to draw in visibility order
-        (None when there are none)."""
+    def _vertex_array(self, ctx, program, mesh: TetMesh, camera, selection, by_cells: bool):
+        """The vertex array of the mesh's points (or grid cells) with the tetrahedra (cells) to
+        draw in visibility order (None when there are none)."""
         state = self._draw_state
-        if state.get("ctx") is not ctx or state.get("mesh") is not mesh:
-            self._order = VisibilityOrder()  # another context or mesh: sort and upload afresh
+        if state.get("ctx") is not ctx or state.get("mesh") is not mesh or state.get("by_cells") != by_cells:
+            self._order = VisibilityOrder()  # another context, mesh or primitive: order and upload afresh
             state.clear()
-            state.update(ctx=ctx, mesh=mesh, arrays={})
-        indices, changed = self._order.update(mesh, camera, selection, self.visibility_order)
+            state.update(ctx=ctx, mesh=mesh, by_cells=by_cells, arrays={})
+        method = "sweep" if by_cells else self.visibility_order
+        indices, changed = self._order.update(mesh, camera, selection, method)
         if indices.size == 0:
             return None
         if changed or "indices" not in state:
@@ -176,6 +194,12 @@ class ProjectedTetrahedra(Processor):
                 state["arrays"] = {}
         arrays = state["arrays"]
         if program not in arrays:
-            arrays[program] = ctx.vertex_array(program, [(mesh.buffers(ctx)["points"], "4f", "point")],
-                                               index_buffer=state["indices"], index_element_size=4)
+            if by_cells:
+                if "cells" not in state:
+                    state["cells"] = ctx.buffer(cell_attributes(mesh).tobytes())
+                content = [(state["cells"], "4f 4f 4f", "cell", "scalars_low", "scalars_high")]
+            else:
+                content = [(mesh.buffers(ctx)["points"], "4f", "point")]
+            arrays[program] = ctx.vertex_array(program, content, index_buffer=state["indices"],
+                                               index_element_size=4)
         return arrays[program]

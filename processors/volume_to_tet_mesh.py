@@ -12,7 +12,7 @@ from vgraph import (Inport, OptionProperty, Outport, Processor, PropertyError, T
                     VectorProperty, VGraphError)
 from vgraph.gl.raycasting.components import TransferFunctionLut
 from vgraph.io._common import available_memory
-from vgraph.mesh import TetMesh
+from vgraph.mesh import RegularGrid, TetMesh
 from vgraph.tetrahedralize import cell_ranges, visible_cells, volume_tetrahedra
 from vgraph.volume import Volume
 
@@ -65,9 +65,12 @@ class VolumeToTetMesh(Processor):
         scalars = volume.data.reshape(-1)[voxels]
         if scalars.dtype.kind == "f":  # as the textures clamp them (docs/conventions.md)
             scalars = np.nan_to_num(scalars, nan=lo, posinf=hi, neginf=lo)
+        cells = np.arange(self.total_cells) if mask is None else np.flatnonzero(mask.reshape(-1))
+        grid = RegularGrid(tuple(volume.dims), tuple(map(float, volume.origin)),
+                           tuple(map(float, volume.spacing)), cells)
         return TetMesh(points, tets, scalars, declared_range=volume.value_range,
                        reference_length=float(min(volume.spacing)), scalar_name="voxel value",
-                       source=f"{volume.source or 'volume'} (cut by {self.id})")
+                       source=f"{volume.source or 'volume'} (cut by {self.id})", grid=grid)
 
     def cell_mask(self, volume: Volume) -> np.ndarray | None:
         """[z-1, y-1, x-1] bool: the cells to keep (None: all of them)."""

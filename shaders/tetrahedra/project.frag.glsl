@@ -3,17 +3,12 @@
 // back points of the pixel's ray (project.geom.glsl), premultiplied for "over" blending back to
 // front (glBlendFunc(ONE, ONE_MINUS_SRC_ALPHA)).
 //
-// INTEGRATION_AVERAGED (Shirley & Tuchman 1990, Monsalve 2016): the TF at the mean scalar
-// (s_front + s_back) / 2 gives colour c and opacity a; alpha = 1 - exp(-tau l) = 1 - (1 - a)^(l / L)
-// with tau = -ln(1 - a) / L (the opacity of a sample at rate 1 over the length L).
-// INTEGRATION_PREINTEGRATED (Roettger et al. 2000, Kraus et al. 2004): the table of
-// vgraph.gl.tetrahedra.preintegration: a = L * mean tau over [s_front, s_back], alpha =
-// 1 - exp(-a l / L), rgb = (C / alpha) at (s_front, s_back, alpha).
+// The integral itself (averaged or pre-integrated): segment.glsl.
 //
 // Second output (the depth image): (window depth of the front point, its distance from the ray's
 // start on the near plane, 0, 1) where alpha > 0, else 0, which the blending leaves as it was: the
 // last tetrahedron with opacity drawn, the nearest in the visibility order, wins.
-#include "raycasting/transfer_function.glsl"
+#include "segment.glsl"
 
 noperspective in vec4 front_h;
 noperspective in vec4 back_h;
@@ -21,35 +16,14 @@ noperspective in vec2 scalar_h;
 flat in vec3 limits;  // (depth extent of the tetrahedron along view_forward, scalar min, max)
 uniform vec3 view_forward;
 
-uniform float inverse_opacity_length;  // 1 / L (mesh.opacity_length)
 uniform mat4 view_projection;
 uniform vec2 viewport_size;
 uniform vec3 near_centre;  // the pixel centre (ndc_x, ndc_y) is at near_centre + ndc_x near_right
 uniform vec3 near_right;   // + ndc_y near_up on the near plane (where Camera.rays start)
 uniform vec3 near_up;
-#ifdef INTEGRATION_PREINTEGRATED
-uniform sampler3D preintegrated;
-#endif
 
 layout(location = 0) out vec4 color;
 layout(location = 1) out vec4 depth;
-
-vec4 segment(float s_front, float s_back, float thickness) {
-    float length_in_l = thickness * inverse_opacity_length;
-#ifdef INTEGRATION_PREINTEGRATED
-    const float n = float(TABLE_SIZE), t = float(ALPHA_SLICES);
-    vec2 st = clamp(vec2(s_front, s_back), 0.0, 1.0) * ((n - 1.0) / n) + 0.5 / n;
-    float mean_depth = textureLod(preintegrated, vec3(st, 0.5 / t), 0.0).a;
-    float alpha = 1.0 - exp(-mean_depth * length_in_l);
-    vec3 rgb = textureLod(preintegrated, vec3(st, alpha * ((t - 1.0) / t) + 0.5 / t), 0.0).rgb;
-    return vec4(rgb * alpha, alpha);
-#else
-    vec4 c = classify(0.5 * (s_front + s_back));
-    float alpha = c.a >= 1.0 ? (thickness > 0.0 ? 1.0 : 0.0)
-                             : 1.0 - exp2(length_in_l * log2(1.0 - c.a));
-    return vec4(c.rgb * alpha, alpha);
-#endif
-}
 
 void main() {
     vec3 x_front = front_h.xyz / front_h.w;

@@ -12,6 +12,9 @@ Conventions (docs/conventions.md; the same as Volume's where they overlap):
   volume (so a volume and its tetrahedra look alike), else what the source states (default: the
   mean edge length).
 - GL buffers are uploaded lazily per context (``buffers(ctx)``) and released with the mesh.
+- ``grid`` (a RegularGrid) says that the mesh was cut from a regular volume by VolumeToTetMesh, five
+  tetrahedra per kept cell in the order of ``grid.cells``: renderers may then work cell by cell
+  (ProjectedTetrahedra's sweep order and cell projection). Other meshes have none.
 """
 
 from __future__ import annotations
@@ -27,6 +30,28 @@ from vgraph.gl.context import release_quietly
 from vgraph.value_range import checked_range, range_of
 
 
+@dataclass(frozen=True, eq=False)
+class RegularGrid:
+    """The regular grid behind a mesh made by VolumeToTetMesh: point (i, j, k) is the voxel centre
+    ``origin + (i, j, k) * spacing``; cell (i, j, k) spans points (i..i+1, j..j+1, k..k+1) and has
+    the linear index ``i + (nx - 1) * (j + (ny - 1) * k)``. ``cells`` lists the kept cells in
+    ascending order; tetrahedra 5c..5c+4 of the mesh are the five of ``cells[c]`` (the templates
+    of vgraph.tetrahedralize.CELL_TETS, by the parity of i + j + k)."""
+    dims: tuple[int, int, int]  # points (voxels) along x, y, z
+    origin: tuple[float, float, float]
+    spacing: tuple[float, float, float]
+    cells: np.ndarray  # (K,) int64
+
+    @property
+    def cell_dims(self) -> tuple[int, int, int]:
+        return tuple(d - 1 for d in self.dims)
+
+    def cell_indices(self) -> np.ndarray:
+        """(K, 3) int64 (i, j, k) of the kept cells."""
+        nx, ny, _ = self.cell_dims
+        return np.stack([self.cells % nx, (self.cells // nx) % ny, self.cells // (nx * ny)], axis=1)
+
+
 @dataclass(eq=False)
 class TetMesh:
     points: np.ndarray
@@ -36,6 +61,7 @@ class TetMesh:
     reference_length: float | None = None
     scalar_name: str = ""
     source: str = ""  # where it came from, for messages
+    grid: RegularGrid | None = None
     _buffers: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
@@ -56,6 +82,9 @@ class TetMesh:
             raise VGraphError(f"mesh{where}: tetrahedron indices must lie in 0 .. {len(self.points) - 1}, "
                               f"found {int(self.tets.min())} .. {int(self.tets.max())}")
         self.declared_range = checked_range(self.declared_range, f"mesh{where}")
+        if self.grid is not None and len(self.tets) != 5 * len(self.grid.cells):
+            raise VGraphError(f"mesh{where}: a mesh cut from a grid has 5 tetrahedra per cell, got "
+                              f"{len(self.tets)} for {len(self.grid.cells)} cells")
         if self.reference_length is not None and not (np.isfinite(self.reference_length)
                                                       and self.reference_length > 0):
             raise VGraphError(f"mesh{where}: reference_length must be positive, got {self.reference_length}")

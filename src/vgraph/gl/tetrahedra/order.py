@@ -9,8 +9,8 @@ ch. 4; the approximate order of VTK's and Inviwo's projected-tetrahedra renderer
   overlap; slivers of split wedges show it). ``mpvo_back_to_front`` is MPVO (Williams 1992): the
   topological order of the "in front of" relation across shared faces, exact for convex acyclic
   meshes; its extension to non-convex meshes (MPVONC, sorting the boundary faces) and the
-  power-distance sort of Delaunay meshes are not done; neither is the sweep order of meshes from
-  regular grids.
+  power-distance sort of Delaunay meshes are not done. Meshes cut from a regular grid are drawn
+  cell by cell in the grid's sweep order instead (vgraph.gl.tetrahedra.cells), which needs no sort.
 - The order is recomputed only when the mesh, the concrete camera or the set of tetrahedra to draw
   changes (``VisibilityOrder``). Tetrahedra whose scalars all have zero opacity under the TF can be
   left out first (``transparent_tetrahedra``): they add nothing, and are neither sorted nor drawn.
@@ -55,39 +55,53 @@ def visible_tetrahedra(mesh, alpha: np.ndarray) -> np.ndarray:
 
 
 class VisibilityOrder:
-    """The sorted tetrahedra of the last (mesh, camera), as int32 (M, 4) vertex indices ready to be
-    an index buffer; ``sorts`` counts the sorts done (tests)."""
+    """What to draw for the last (mesh, camera), back to front, ready to be an index buffer: int32
+    (M, 4) vertex indices of tetrahedra ("centroid", "mpvo"), or int32 (K,) positions of grid cells
+    ("sweep", vgraph.gl.tetrahedra.cells). ``sorts`` counts the orders computed (tests)."""
 
     def __init__(self):
         self.key = None
         self.indices: np.ndarray | None = None
         self.sorts = 0
+        self._mask_key, self._mask = None, None
 
     def update(self, mesh, camera: Camera, selection=None, method: str = "centroid") -> tuple[np.ndarray, bool]:
-        """(indices, whether they changed). ``selection``: (key, function returning the (M,) bool
-        mask of the tetrahedra to draw), or None for all; the mask is computed when its key
-        changes. ``method``: "centroid" (back_to_front) or "mpvo" (mpvo_back_to_front on the whole
-        mesh, then the selection in that order, so hidden tetrahedra still order their
-        neighbours); the face adjacency MPVO needs is built once per mesh."""
+        """(indices, whether they changed). ``selection``: (key, function returning the bool mask
+        of the tetrahedra, or for "sweep" the cells, to draw), or None for all; the mask is
+        computed when its key changes, not with every camera. "mpvo" and "sweep" order the whole
+        mesh and then take the selection in that order, so hidden tetrahedra or cells still order
+        their neighbours; the face adjacency MPVO needs is built once per mesh."""
         eye = tuple(camera.position)
         key = (id(mesh), camera.projection, eye,
                tuple(camera.basis()[2]) if camera.projection != "perspective" else None,
                None if selection is None else selection[0], method)
         if key == self.key and self.indices is not None:
             return self.indices, False
-        mask = None if selection is None else selection[1]()
-        if method == "mpvo":
+        mask = self._selected(mesh, selection)
+        if method == "sweep":
+            from vgraph.gl.tetrahedra.cells import sweep_order
+            order = sweep_order(mesh.grid, camera)
+            indices = order if mask is None else order[mask[order]]
+        elif method == "mpvo":
             if getattr(self, "_adjacency_of", None) is not mesh:
                 self._adjacency, self._adjacency_of = FaceAdjacency(mesh.points, mesh.tets), mesh
             order = mpvo_back_to_front(mesh.points, mesh.tets, camera, self._adjacency)
-            tets = mesh.tets[order if mask is None else order[mask[order]]]
+            indices = mesh.tets[order if mask is None else order[mask[order]]]
         else:
             tets = mesh.tets if mask is None else mesh.tets[mask]
-            tets = tets[back_to_front(mesh.points, tets, camera)]
-        self.indices = np.ascontiguousarray(tets, dtype=np.int32)
+            indices = tets[back_to_front(mesh.points, tets, camera)]
+        self.indices = np.ascontiguousarray(indices, dtype=np.int32)
         self.key, self._mesh = key, mesh  # keep the mesh alive while its id is the key
         self.sorts += 1
         return self.indices, True
+
+    def _selected(self, mesh, selection):
+        if selection is None:
+            return None
+        key = (id(mesh), selection[0])
+        if key != self._mask_key:
+            self._mask_key, self._mask = key, selection[1]()
+        return self._mask
 
 
 # --- MPVO ---------------------------------------------------------------------------------------
