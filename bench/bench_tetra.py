@@ -1,15 +1,16 @@
 """Projected tetrahedra: ours against VTK, and error against run time (Monsalve 2016 tables 4-6
 redone on this machine; issue #13's benchmarks).
 
-    .venv/bin/python bench/bench_tetra.py [--sizes 64 128x128x58 256x128x64] [--size 512]
-        [--repeat 3] [--out bench/results] [--accuracy-grid 32] [--skip-vtk]
+    .venv/bin/python bench/bench_tetra.py [--sizes 64 128x128x58 256x128x64 256] [--size 512]
+        [--repeat 3] [--out bench/results] [--accuracy-grid 32] [--skip-vtk] [--max-tetrahedra N]
 
 Meshes are made from the CT bonsai (256^3, shared/data) by taking every k-th voxel (64^3 is the
 seed's "fuel" size, 5 tetrahedra per cell: 1.25 M tetrahedra), with and without VolumeToTetMesh's
 culling of cells the transfer function leaves transparent (VTK does not cull, so it also gets the
 culled mesh, made by us, for the second comparison). Our renderer also skips transparent
 tetrahedra by itself (ProjectedTetrahedra.skip_transparent, on by default), so its "none" row is
-culled at draw time. For each mesh, image size and integration mode the best of
+culled at draw time. Ours draws these meshes cell by cell (grid_cells, the default for meshes cut
+from a volume) and, for comparison, tetrahedron by tetrahedron (grid_cells off, centroid sort). For each mesh, image size and integration mode the best of
 --repeat frames is timed (a frame: camera set, render, glFinish / WaitForCompletion, no read-back;
 each frame turns the camera so no renderer reuses a sort). VTK runs vtkProjectedTetrahedraMapper
 and vtkUnstructuredGridVolumeZSweepMapper in a spawned worker process (VTK and our EGL context do
@@ -86,6 +87,8 @@ def cameras(mesh, count: int):
 def time_ours(network, cams, size: int) -> tuple[float, np.ndarray]:
     from vgraph.gl.context import get_context
     ctx = get_context()
+    network.set("pt.camera", cams[0].rotate(1.0, 0.0))  # warm up: programs, tables, buffers
+    network.update("pt.image", size=(size, size))
     best = np.inf
     for camera in cams:
         network.set("pt.camera", camera)
@@ -179,27 +182,54 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
 
 
 # --- the runs ---------------------------------------------------------------------------------------
+def gl_mebibytes(network) -> float:
+    """The GL buffers the renderer draws from: the mesh's points (tetrahedra path) or the cells'
+    data (cells path), and the index buffer in visibility order."""
+    import moderngl
+    pt = network.processors["pt"]
+    state = pt._draw_state
+    used = [b for b in state.values() if isinstance(b, moderngl.Buffer)]
+    if not state.get("by_cells"):
+        used.append(network.output("tets.mesh").buffers(state["ctx"])["points"])
+    return sum(b.size for b in used) / 2**20
+
+
 def speed_table(args) -> list[str]:
-    lines = ["| mesh (voxels) | culling | tetrahedra | ours averaged (s) | ours pre-integrated (s) "
-             "| VTK PT (s) | VTK ZSweep (s) | VTK PT / ours |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["| mesh (voxels) | culling | tetrahedra | cells, averaged (s) | cells, pre-integrated (s) "
+             "| tetrahedra, pre-integrated (s) | GL memory cells / tetrahedra (MiB) | VTK PT (s) "
+             "| VTK ZSweep (s) | VTK PT / cells averaged | VTK PT / cells pre-integrated |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for dims in tqdm([parse_dims(s) for s in args.sizes], desc="meshes", file=sys.stderr):
         volume = bonsai_volume(dims)
         for culling in ("none", "transfer_function"):
-            times = {}
-            for integration in ("averaged", "preintegrated"):
-                network = mesh_network(volume, culling, integration)
-                network.update("tets.mesh")
-                mesh = network.output("tets.mesh")
-                cams = cameras(mesh, args.repeat)
-                times[integration], _ = time_ours(network, cams, args.size)
+            times, memory = {}, {}
+            network = mesh_network(volume, culling, "averaged")
+            network.update("tets.mesh")
+            mesh = network.output("tets.mesh")
+            cams = cameras(mesh, args.repeat)
+            many = len(mesh.tets) > args.max_tetrahedra
+            for label, integration, cells in (("cells averaged", "averaged", True),
+                                              ("cells preintegrated", "preintegrated", True),
+                                              ("tets preintegrated", "preintegrated", False)):
+                if many and not cells:
+                    times[label] = memory[label] = np.nan
+                    continue
+                network.set("pt.integration", integration)
+                network.set("pt.grid_cells", cells)
+                times[label], _ = time_ours(network, cams, args.size)
+                memory[label] = gl_mebibytes(network)
+            network.remove("pt")  # free its buffers before VTK's process starts
             vtk_pt = vtk_zs = np.nan
-            if not args.skip_vtk:
+            if not args.skip_vtk and not many:
                 vtk_pt, _ = time_vtk("pt", mesh, transfer_function(), cams, args.size)
                 if len(mesh.tets) <= 2_000_000:  # ZSweep is far slower; only where it finishes
                     vtk_zs, _ = time_vtk("zsweep", mesh, transfer_function(), cams, args.size)
             lines.append(f"| {'x'.join(map(str, dims))} | {culling} | {len(mesh.tets):,} | "
-                         f"{times['averaged']:.3f} | {times['preintegrated']:.3f} | {vtk_pt:.3f} | "
-                         f"{vtk_zs:.3f} | {vtk_pt / times['preintegrated']:.1f} |")
+                         f"{times['cells averaged']:.3f} | {times['cells preintegrated']:.3f} | "
+                         f"{times['tets preintegrated']:.3f} | {memory['cells preintegrated']:.1f} / "
+                         f"{memory['tets preintegrated']:.1f} | {vtk_pt:.3f} | {vtk_zs:.3f} | "
+                         f"{vtk_pt / times['cells averaged']:.1f} | {vtk_pt / times['cells preintegrated']:.1f} |")
+            del network, mesh
     return lines
 
 
@@ -215,9 +245,13 @@ def accuracy_table(args) -> tuple[list[str], list[tuple[str, float, float]]]:
     camera = cameras(mesh, 1)[0]
     exact = reference(mesh, camera, transfer_function(), (size, size))
     for integration in ("averaged", "preintegrated"):
-        network.set("pt.integration", integration)
-        seconds, image = time_ours(network, [camera] * args.repeat, size)
-        rows.append((f"projected, {integration}", seconds, psnr(image, exact), np.abs(image - exact).max()))
+        for cells, order in ((True, "sweep"), (False, "centroid"), (False, "mpvo")):
+            network.set("pt.integration", integration)
+            network.set("pt.grid_cells", cells)
+            network.set("pt.visibility_order", "centroid" if cells else order)
+            seconds, image = time_ours(network, [camera] * args.repeat, size)
+            name = f"{'cells' if cells else 'tetrahedra'} ({order}), {integration}"
+            rows.append((name, seconds, psnr(image, exact), np.abs(image - exact).max()))
     for rate in (0.5, 1.0, 2.0, 4.0):
         rc = ray_caster_network(volume, camera, "RayCaster", transfer_function=transfer_function(),
                                 sampling_rate=rate)
@@ -259,12 +293,15 @@ def plot(rows, path: Path) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", nargs="+", default=["64", "128x128x58", "256x128x64"])
+    parser.add_argument("--sizes", nargs="+", default=["64", "128x128x58", "256x128x64", "256"])
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--accuracy-grid", type=int, default=32)
     parser.add_argument("--accuracy-size", type=int, default=128)
     parser.add_argument("--skip-vtk", action="store_true")
+    parser.add_argument("--max-tetrahedra", type=int, default=12_000_000,
+                        help="larger meshes: only our cells path (VTK and our tetrahedra path "
+                             "would take minutes and tens of GB)")
     parser.add_argument("--skip-speed", action="store_true")
     parser.add_argument("--out", type=Path, default=ROOT / "bench" / "results")
     args = parser.parse_args()

@@ -59,26 +59,33 @@ INTEGRATIONS = ("averaged", "preintegrated")
 
 
 class PreintegrationTable:
-    """The pre-integrated table of the resolved TF as a 3D RGBA32F texture (linear filtering,
-    clamp-to-edge), rebuilt only when the resolved TF changes; ``builds`` counts the builds."""
+    """The pre-integrated table of the resolved TF as textures (linear filtering, clamp-to-edge):
+    the 3D RGBA32F table and, as a 2D R32F texture, its mean extinction over (s_front, s_back)
+    (the same in every alpha slice; a 2D lookup is cheaper than a 3D one on a CPU rasteriser).
+    Rebuilt only when the resolved TF changes; ``builds`` counts the builds."""
 
     def __init__(self):
-        self.texture = None
+        self.textures = None
         self.key = None
         self.builds = 0
 
-    def update(self, ctx, resolved):
+    def update(self, ctx, resolved) -> dict:
         size, slices = preintegration.TABLE_SIZE, preintegration.ALPHA_SLICES
-        if self.texture is None or self.texture.ctx is not ctx:
-            self.texture = ctx.texture3d((size, size, slices), 4, dtype="f4")
-            self.texture.repeat_x = self.texture.repeat_y = self.texture.repeat_z = False
-            self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        if self.textures is None or self.textures["preintegrated"].ctx is not ctx:
+            self.textures = {"preintegrated": ctx.texture3d((size, size, slices), 4, dtype="f4"),
+                             "mean_extinction": ctx.texture((size, size), 1, dtype="f4")}
+            for texture in self.textures.values():
+                texture.repeat_x = texture.repeat_y = False
+                texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            self.textures["preintegrated"].repeat_z = False
             self.key = None
         if resolved != self.key:
-            self.texture.write(np.ascontiguousarray(preintegration.table(resolved)).tobytes())
+            table = preintegration.table(resolved)
+            self.textures["preintegrated"].write(np.ascontiguousarray(table).tobytes())
+            self.textures["mean_extinction"].write(np.ascontiguousarray(table[0, ..., 3]).tobytes())
             self.key = resolved
             self.builds += 1
-        return self.texture
+        return self.textures
 
 
 class ProjectedTetrahedra(Processor):
@@ -136,7 +143,7 @@ class ProjectedTetrahedra(Processor):
                                    geometry=shaders[1])
         resolved = self.transfer_function.for_volume(mesh)
         if self.integration == "preintegrated":
-            textures = {"preintegrated": self._table.update(ctx, resolved)}
+            textures = self._table.update(ctx, resolved)
         else:
             textures = {"transfer_function": self._lut.update(ctx, self.transfer_function, mesh)}
         uniforms = {"view_projection": camera.view_projection(size[0] / size[1]),

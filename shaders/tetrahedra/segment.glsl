@@ -11,7 +11,8 @@
 
 uniform float inverse_opacity_length;  // 1 / L (mesh.opacity_length)
 #ifdef INTEGRATION_PREINTEGRATED
-uniform sampler3D preintegrated;
+uniform sampler3D preintegrated;     // rgb at (s_front, s_back, alpha)
+uniform sampler2D mean_extinction;  // its mean extinction (L * mean tau) at (s_front, s_back)
 #endif
 
 vec4 segment(float s_front, float s_back, float thickness) {
@@ -19,7 +20,7 @@ vec4 segment(float s_front, float s_back, float thickness) {
 #ifdef INTEGRATION_PREINTEGRATED
     const float n = float(TABLE_SIZE), t = float(ALPHA_SLICES);
     vec2 st = clamp(vec2(s_front, s_back), 0.0, 1.0) * ((n - 1.0) / n) + 0.5 / n;
-    float mean_depth = textureLod(preintegrated, vec3(st, 0.5 / t), 0.0).a;
+    float mean_depth = textureLod(mean_extinction, st, 0.0).r;
     float alpha = 1.0 - exp(-mean_depth * length_in_l);
     vec3 rgb = textureLod(preintegrated, vec3(st, alpha * ((t - 1.0) / t) + 0.5 / t), 0.0).rgb;
     return vec4(rgb * alpha, alpha);

@@ -17,6 +17,8 @@ faces of the central tetrahedron and composites the (at most three) pieces itsel
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from vgraph.camera import Camera
@@ -56,9 +58,19 @@ def sweep_order(grid: RegularGrid, camera: Camera) -> np.ndarray:
     return swept[swept >= 0]
 
 
+_attributes: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def cell_attributes(mesh: TetMesh) -> np.ndarray:
     """(K, 12) float32 per kept cell: its corner 0 in world units and its parity (0 or 1), then the
-    normalised scalars of its 8 corners (corner c at offset (c & 1, c >> 1 & 1, c >> 2 & 1))."""
+    normalised scalars of its 8 corners (corner c at offset (c & 1, c >> 1 & 1, c >> 2 & 1)).
+    Computed once per mesh."""
+    if mesh not in _attributes:
+        _attributes[mesh] = _cell_attributes(mesh)
+    return _attributes[mesh]
+
+
+def _cell_attributes(mesh: TetMesh) -> np.ndarray:
     grid = mesh.grid
     ijk = grid.cell_indices()
     parity = ijk.sum(axis=1) & 1
@@ -71,7 +83,13 @@ def cell_attributes(mesh: TetMesh) -> np.ndarray:
 
 
 def visible_cells_of(mesh: TetMesh, alpha: np.ndarray) -> np.ndarray:
-    """(K,) bool: the kept cells whose scalars reach an opacity > 0 under the LUT ``alpha`` (the
-    union of their tetrahedra's ranges is the cell's; vgraph.tetrahedralize.visible_cells)."""
-    from vgraph.gl.tetrahedra.order import visible_tetrahedra
-    return visible_tetrahedra(mesh, alpha).reshape(-1, 5).any(axis=1)
+    """(K,) bool: the kept cells whose scalars reach an opacity > 0 under the LUT ``alpha``
+    (vgraph.tetrahedralize.visible_cells on the range of the cell's eight corners, which is the
+    union of its tetrahedra's ranges). Cells with a non-finite scalar are kept."""
+    from vgraph.tetrahedralize import visible_cells
+    scalars = cell_attributes(mesh)[:, 4:]
+    low, high = scalars.min(axis=1), scalars.max(axis=1)
+    finite = np.isfinite(low) & np.isfinite(high)
+    visible = np.ones(len(scalars), dtype=bool)
+    visible[finite] = visible_cells(low[finite].astype(np.float64), high[finite].astype(np.float64), alpha)
+    return visible
