@@ -1,0 +1,1 @@
+"""Volumes larger than memory: a multiresolution pyramid of bricks (docs/large-data.md)."""

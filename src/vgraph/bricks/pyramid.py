@@ -1,0 +1,142 @@
+"""A volume as a multiresolution pyramid of bricks (Retondaro 2008 ch. 3: the octree's levels and
+leaves), the interface the out-of-core store and the bricked ray caster share.
+
+Conventions (docs/large-data.md has the long form):
+- Level 0 is the full resolution; level k + 1 halves every axis of level k (``ceil(n / 2)`` voxels):
+  voxel i of level k + 1 is the mean of voxels 2i and 2i + 1 of level k along each axis (the last
+  voxel of an odd axis averages the one voxel it has). So a level's spacing is twice the previous
+  one and its first voxel centre lies half a (previous) voxel further: ``origin_{k+1} = origin_k +
+  spacing_k / 2``. Integer data are rounded to the nearest value of their type.
+- Shapes are [z, y, x] as arrays; spacing and origin are (x, y, z) world units, as in Volume.
+- A brick is a block of ``brick`` voxels (x, y, z) of one level; brick (bx, by, bz) covers voxels
+  [bz * brick_z, (bz + 1) * brick_z) ... clamped to the level. ``brick_ranges(level)`` gives the
+  min and max of every brick's finite voxels (data units), so bricks that a transfer function
+  leaves transparent are known without reading them.
+- ``read(level, start, stop)`` returns the voxels [start, stop) ([z, y, x]) of a level, clamped to
+  it: a caller asking for a brick with a halo gets what exists and pads itself.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Level:
+    shape: tuple[int, int, int]  # [z, y, x] voxels
+    spacing: Vec3                # (x, y, z) world units
+    origin: Vec3                 # (x, y, z) world position of voxel (0, 0, 0)'s centre
+
+
+class BrickSource(Protocol):
+    """What a bricked renderer needs of a pyramid (ArrayPyramid in memory, the OME-Zarr store on
+    disk)."""
+
+    levels: list[Level]
+    brick: tuple[int, int, int]  # (x, y, z) voxels per brick
+    dtype: np.dtype
+    value_range: tuple[float, float]
+    source: str
+
+    def read(self, level: int, start, stop) -> np.ndarray: ...
+
+    def brick_ranges(self, level: int) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+def level_count(shape, brick) -> int:
+    """Levels until the coarsest fits in one brick (at least 1)."""
+    count = 1
+    shape = tuple(shape)
+    while any(n > b for n, b in zip(shape, tuple(brick)[::-1])):
+        shape = tuple(math.ceil(n / 2) for n in shape)
+        count += 1
+    return count
+
+
+def next_level(level: Level) -> Level:
+    return Level(tuple(math.ceil(n / 2) for n in level.shape),
+                 tuple(2.0 * s for s in level.spacing),
+                 tuple(o + 0.5 * s for o, s in zip(level.origin, level.spacing)))
+
+
+def halve(data: np.ndarray) -> np.ndarray:
+    """One pyramid step of a [z, y, x] block: the mean of each 2 x 2 x 2 group (an odd axis's last
+    voxel averages what it has), in float64, rounded back for integer types."""
+    out = data.astype(np.float64, copy=False)
+    for axis in range(3):
+        n = out.shape[axis]
+        if n % 2:
+            out = np.concatenate([out, np.take(out, [n - 1], axis=axis)], axis=axis)
+        shape = list(out.shape)
+        shape[axis:axis + 1] = [shape[axis] // 2, 2]
+        out = out.reshape(shape).mean(axis=axis + 1)
+    if data.dtype.kind in "ui":
+        info = np.iinfo(data.dtype)
+        return np.clip(np.rint(out), info.min, info.max).astype(data.dtype)
+    return out.astype(data.dtype)
+
+
+def brick_grid(shape, brick) -> tuple[int, int, int]:
+    """Bricks per axis, [z, y, x], of a level of ``shape`` ([z, y, x])."""
+    return tuple(math.ceil(n / b) for n, b in zip(shape, tuple(brick)[::-1]))
+
+
+def block_ranges(data: np.ndarray, brick) -> tuple[np.ndarray, np.ndarray]:
+    """Min and max of the finite voxels of every brick of ``data`` (arrays [bz, by, bx], float64;
+    NaN where a brick has no finite voxel)."""
+    grid = brick_grid(data.shape, brick)
+    low = np.full(grid, np.nan)
+    high = np.full(grid, np.nan)
+    bx, by, bz = brick
+    for k, j, i in np.ndindex(*grid):
+        block = data[k * bz:(k + 1) * bz, j * by:(j + 1) * by, i * bx:(i + 1) * bx]
+        if block.dtype.kind == "f":
+            block = block[np.isfinite(block)]
+        if block.size:
+            low[k, j, i], high[k, j, i] = block.min(), block.max()
+    return low, high
+
+
+class ArrayPyramid:
+    """A BrickSource over an in-memory [z, y, x] array: the levels are computed up front with
+    ``halve``. For tests, for volumes already in memory that are too large for one GL texture, and
+    as the reference the on-disk store must equal."""
+
+    def __init__(self, data: np.ndarray, spacing: Vec3 = (1.0, 1.0, 1.0), origin: Vec3 = (0.0, 0.0, 0.0),
+                 brick=(64, 64, 64), levels: int | None = None, value_range=None, source: str = ""):
+        self.brick = tuple(int(b) for b in brick)
+        self.dtype = np.dtype(data.dtype)
+        self.source = source
+        count = levels or level_count(data.shape, self.brick)
+        self.levels = [Level(tuple(data.shape), tuple(map(float, spacing)), tuple(map(float, origin)))]
+        self._data = [data]
+        for _ in range(count - 1):
+            self._data.append(halve(self._data[-1]))
+            self.levels.append(next_level(self.levels[-1]))
+        self._ranges: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        if value_range is None:
+            low, high = self.brick_ranges(0)
+            value_range = (float(np.nanmin(low)), float(np.nanmax(high))) if np.isfinite(low).any() else (0.0, 1.0)
+        self.value_range = tuple(map(float, value_range))
+
+    @classmethod
+    def from_volume(cls, volume, brick=(64, 64, 64), levels: int | None = None) -> "ArrayPyramid":
+        return cls(volume.data, volume.spacing, volume.origin, brick, levels, volume.value_range,
+                   volume.source)
+
+    def read(self, level: int, start, stop) -> np.ndarray:
+        data = self._data[level]
+        lo = [max(0, int(a)) for a in start]
+        hi = [min(n, int(b)) for n, b in zip(data.shape, stop)]
+        return data[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]]
+
+    def brick_ranges(self, level: int) -> tuple[np.ndarray, np.ndarray]:
+        if level not in self._ranges:
+            self._ranges[level] = block_ranges(self._data[level], self.brick)
+        return self._ranges[level]
