@@ -1,0 +1,292 @@
+"""``vgraph convert``: a volume file -> an OME-Zarr pyramid of bricks (docs/large-data.md).
+
+The input is read in slabs of one brick row (``brick`` z slices) where its format allows
+(slabs.py); each slab is written to level 0 and halved (pyramid.halve, in pieces along y so its
+float64 temporary stays small) into half a slab of level 1, two of which make a level-1 slab,
+and so on down the levels. Memory therefore holds about one slab per level, whatever the
+volume's size: level 0's slab, at most one slab being assembled per coarser level, and the
+halving's pieces. The levels equal ArrayPyramid's exactly, since a 2x2x2 group never straddles
+two slabs (the brick's z size is even).
+
+The store is written into a temporary folder beside OUT (``.<OUT name>.<pid>.<random>.tmp``) and
+renamed to OUT only when complete; an existing OUT is replaced only then, and only if it is a
+zarr store. A failure removes the temporary folder and leaves OUT as it was.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import resource
+import shutil
+import sys
+import tempfile
+import time
+import tracemalloc
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from vgraph.bricks.pyramid import Level, halve, level_count, next_level
+from vgraph.bricks.slabs import SlabInput, open_input
+from vgraph.bricks.store_writer import StoreWriter
+from vgraph.errors import OutputFileError, VGraphError
+from vgraph.io._common import format_bytes
+from vgraph.value_range import range_of
+
+DEFAULT_BRICK = 64
+MAX_BRICK = 1024
+_PIECE_VOXELS = 2**20  # voxels halved at once: an 8 MiB float64 temporary
+
+
+@dataclass
+class ConvertReport:
+    source: str
+    output: str
+    how: str                                 # streamed, or read whole and why
+    shapes: list[tuple[int, int, int]]       # per level, [z, y, x]
+    brick: tuple[int, int, int]              # (x, y, z)
+    dtype: str
+    value_range: tuple[float, float]
+    seconds: float
+    peak_rss_bytes: int                      # ru_maxrss: the process's peak resident memory so far
+    bytes_written: int
+    traced_peak_bytes: int | None = None     # tracemalloc's peak during the conversion, if traced
+    notes: list[str] = field(default_factory=list)
+
+    def text(self) -> str:
+        levels = "; ".join(f"{k}: {'x'.join(map(str, s[::-1]))}" for k, s in enumerate(self.shapes))
+        lines = [f"converted {self.source} -> {self.output}",
+                 f"  input: {self.how}",
+                 f"  {len(self.shapes)} levels (voxels x, y, z) {levels}",
+                 f"  bricks {' x '.join(map(str, self.brick))}, {self.dtype}, value range "
+                 f"{self.value_range[0]:g} .. {self.value_range[1]:g}",
+                 f"  {self.seconds:.2f} s, {format_bytes(self.bytes_written)} written, peak resident "
+                 f"memory of the process {format_bytes(self.peak_rss_bytes)} (ru_maxrss)"]
+        if self.traced_peak_bytes is not None:
+            lines.append(f"  peak of traced allocations during the conversion "
+                         f"{format_bytes(self.traced_peak_bytes)} (tracemalloc)")
+        return "\n".join(lines + [f"  note: {n}" for n in self.notes])
+
+
+def convert(source, output, *, brick=DEFAULT_BRICK, levels: int | None = None, raw: dict | None = None,
+            time_step: int = 0, progress: bool = True, trace_memory: bool = False) -> ConvertReport:
+    """Convert the volume file ``source`` into the OME-Zarr store ``output`` (a folder, by
+    convention named .zarr). ``brick``: voxels per brick edge, one even number or (x, y, z);
+    ``levels``: pyramid levels (default: until the coarsest fits in one brick); ``raw`` and
+    ``time_step`` as in vgraph.io.read_volume. ``trace_memory`` measures the conversion's peak
+    allocation with tracemalloc (slower)."""
+    began = time.perf_counter()
+    brick = checked_brick(brick)
+    output = _checked_output(Path(output))
+    if trace_memory:
+        tracemalloc.start()
+        tracemalloc.reset_peak()
+    try:
+        data = open_input(source, raw=raw, time_step=time_step)
+        pyramid = _levels(data, brick, levels)
+        with atomic_folder(output) as folder:
+            writer = StoreWriter(folder, pyramid, data.dtype, brick)
+            stats = _write_levels(data, writer, brick, progress)
+            value_range = data.declared_range or range_of(stats.data_range)
+            writer.finish(value_range, data.declared_range, stats.data_range, stats.nonfinite,
+                          name=Path(str(source)).name)
+        traced = tracemalloc.get_traced_memory()[1] if trace_memory else None
+    finally:
+        if trace_memory:
+            tracemalloc.stop()
+    notes = [] if data.streamed else ["the whole input was in memory: convert an uncompressed "
+                                      "raw, NRRD, NIfTI, MetaImage or .npy file to stream it"]
+    return ConvertReport(str(source), str(output), data.how, [lv.shape for lv in pyramid], brick,
+                         str(data.dtype), tuple(value_range), time.perf_counter() - began,
+                         resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
+                         _folder_bytes(output), traced, notes)
+
+
+def checked_brick(brick) -> tuple[int, int, int]:
+    values = (brick,) * 3 if isinstance(brick, (int, np.integer)) else tuple(brick)
+    if len(values) != 3 or not all(isinstance(b, (int, np.integer)) and 2 <= b <= MAX_BRICK
+                                   and b % 2 == 0 for b in values):
+        raise VGraphError(f"brick must be an even number of voxels from 2 to {MAX_BRICK} (or three "
+                          f"of them, x y z), got {brick!r}: halving pairs slices, and a pair must "
+                          f"not straddle two bricks")
+    return tuple(int(b) for b in values)
+
+
+def _levels(data: SlabInput, brick, levels: int | None) -> list[Level]:
+    count = level_count(data.shape, brick) if levels is None else levels
+    most = 1 + max(math.ceil(math.log2(n)) for n in data.shape)  # until every axis has 1 voxel
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or not 1 <= count <= most:
+        raise VGraphError(f"levels must be an integer from 1 to {most} for {data.source} "
+                          f"({' x '.join(map(str, data.shape[::-1]))} voxels), got {levels!r}")
+    out = [Level(tuple(data.shape), tuple(data.spacing), tuple(data.origin))]
+    while len(out) < count:
+        out.append(next_level(out[-1]))
+    return out
+
+
+@dataclass
+class _Stats:
+    low: float = math.inf
+    high: float = -math.inf
+    nonfinite: int = 0
+
+    @property
+    def data_range(self):
+        return (self.low, self.high) if self.low <= self.high else None
+
+
+def _write_levels(data: SlabInput, writer: StoreWriter, brick, progress: bool) -> _Stats:
+    """Stream level 0 slab by slab, feeding the coarser levels as halves come in."""
+    stats, bz = _Stats(), brick[2]
+    cascade = _Cascade(writer, bz)
+    depth = data.shape[0]
+    with tqdm(total=depth, unit="slice", desc=f"converting {Path(data.source).name}", file=sys.stderr,
+              leave=False, disable=None if progress else True) as bar:
+        for z0 in range(0, depth, bz):
+            slab = data.slab(z0, min(z0 + bz, depth))
+            _count(slab, stats)
+            cascade.push(0, slab)
+            bar.update(slab.shape[0])
+    cascade.flush()
+    return stats
+
+
+def _count(slab: np.ndarray, stats: _Stats) -> None:
+    if slab.dtype.kind == "f":
+        finite = np.isfinite(slab)
+        missing = int(slab.size - np.count_nonzero(finite))
+        stats.nonfinite += missing
+        slab = slab[finite] if missing else slab
+    if slab.size:
+        stats.low, stats.high = min(stats.low, float(slab.min())), max(stats.high, float(slab.max()))
+
+
+class _Cascade:
+    """Slabs of every level in z order: a written slab of level k is halved into level k + 1's
+    pending slices, which are written once a whole brick row (or the level's end) is there."""
+
+    def __init__(self, writer: StoreWriter, bz: int):
+        self.writer, self.bz = writer, bz
+        count = len(writer.levels)
+        self.next_z = [0] * count
+        self.pending: list[list[np.ndarray]] = [[] for _ in range(count)]
+
+    def push(self, k: int, slab: np.ndarray) -> None:
+        self.writer.write_slab(k, self.next_z[k], slab)
+        self.next_z[k] += slab.shape[0]
+        if k + 1 < len(self.next_z):
+            self._collect(k + 1, halve_slab(slab))
+
+    def _collect(self, k: int, half: np.ndarray) -> None:
+        self.pending[k].append(half)
+        if sum(p.shape[0] for p in self.pending[k]) >= self.bz:
+            self._emit(k)
+
+    def _emit(self, k: int) -> None:
+        slab = np.concatenate(self.pending[k]) if len(self.pending[k]) > 1 else self.pending[k][0]
+        self.pending[k] = [slab[self.bz:]] if slab.shape[0] > self.bz else []
+        self.push(k, slab[:self.bz])
+
+    def flush(self) -> None:
+        """The levels' last (short) slabs, finest first: each feeds the next level's."""
+        for k in range(1, len(self.pending)):
+            while self.pending[k]:
+                self._emit(k)
+
+
+def halve_slab(slab: np.ndarray) -> np.ndarray:
+    """pyramid.halve of a slab computed in pieces of an even number of y rows (each output voxel
+    is computed exactly as halve computes it, so the result is identical)."""
+    depth, rows, width = slab.shape
+    step = max(2, (_PIECE_VOXELS // max(1, depth * width)) // 2 * 2)
+    if step >= rows:
+        return halve(slab)
+    out = np.empty(((depth + 1) // 2, (rows + 1) // 2, (width + 1) // 2), dtype=slab.dtype)
+    for y0 in range(0, rows, step):
+        piece = halve(slab[:, y0:y0 + step])
+        out[:, y0 // 2:y0 // 2 + piece.shape[1]] = piece
+    return out
+
+
+# --- the output folder ----------------------------------------------------------------------------
+def _checked_output(output: Path) -> Path:
+    if not output.name or output.name in (".", ".."):
+        raise OutputFileError(output, "give the store's folder name, e.g. volume.zarr")
+    if not output.parent.is_dir():
+        raise OutputFileError(output, f"the folder {str(output.parent)!r} does not exist")
+    if output.exists() and not is_zarr_store(output):
+        raise OutputFileError(output, "exists and is not a zarr store: not replaced (remove it or "
+                                      "choose another name)")
+    return output
+
+
+def is_zarr_store(path: Path) -> bool:
+    return path.is_dir() and any((path / name).is_file() for name in ("zarr.json", ".zgroup"))
+
+
+@contextmanager
+def atomic_folder(output: Path):
+    """A temporary folder beside ``output`` that replaces it when the block succeeds."""
+    _remove_stale_folders(output)
+    try:
+        folder = Path(tempfile.mkdtemp(prefix=f".{output.name}.{os.getpid()}.", suffix=".tmp",
+                                       dir=output.parent))
+    except OSError as error:
+        raise OutputFileError(output, error.strerror or str(error)) from None
+    try:
+        yield folder
+        _replace(folder, output)
+    except OSError as error:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise OutputFileError(output, error.strerror or str(error)) from error
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+
+
+def _replace(folder: Path, output: Path) -> None:
+    """Two renames (a folder cannot be renamed over a non-empty one): the old store aside, the
+    new one in; the old one is restored if the second rename fails."""
+    if not output.exists():
+        os.rename(folder, output)
+        return
+    old = folder.with_name(folder.name[:-len(".tmp")] + ".old.tmp")
+    os.rename(output, old)
+    try:
+        os.rename(folder, output)
+    except OSError:
+        os.rename(old, output)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def _remove_stale_folders(output: Path) -> None:
+    """Temporary folders of conversions to ``output`` whose process is gone (killed halfway)."""
+    pattern = re.compile(rf"^\.{re.escape(output.name)}\.(\d+)\..+\.tmp$")
+    try:
+        candidates = list(output.parent.iterdir())
+    except OSError:
+        return
+    for candidate in candidates:
+        match = pattern.match(candidate.name)
+        if match and candidate.is_dir() and not _alive(int(match.group(1))):
+            shutil.rmtree(candidate, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True
+    return True
+
+
+def _folder_bytes(folder: Path) -> int:
+    return sum(f.stat().st_size for f in folder.rglob("*") if f.is_file())
