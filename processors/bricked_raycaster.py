@@ -1,0 +1,228 @@
+"""BrickedRayCaster (issue #14, part 4): ray casting of a volume brick by brick, for volumes larger
+than memory (a BrickedVolume's pyramid on disk) or than one GL texture.
+
+Conventions (docs/bricked_raycaster.md explains each with the numbers):
+- Rays come from the EntryExitPoints images, as for the RayCaster, and the samples lie on the
+  RayCaster's lattice: sample i at entry + i * step, step = min(spacing) / sampling_rate of level 0.
+  Each brick owns a half-open box of that lattice (vgraph.bricks.selection), so every sample is
+  taken in exactly one brick, from the brick's texture with a halo of 2 voxels
+  (vgraph.bricks.cache): trilinear values and central / Sobel gradients equal the whole volume's.
+- Bricks are drawn front to back, one fullscreen pass each (scissored to the brick's screen
+  rectangle), into RGBA32F accumulation targets: dvr and iso blend "under" (C += (1 - A) C_brick),
+  mip keeps the largest maximum with a depth test; a last pass classifies (mip), puts the
+  background under and writes the RayCaster's `image` and `depth` outputs (depth's sample counter
+  is 0). There is no early ray termination: the bricks in front are not readable in a pass.
+- The volume's pyramid: ``volume.bricks`` (BrickedVolume), else an ArrayPyramid of the in-memory
+  volume with ``brick_size`` bricks (built once per volume and brick size).
+- Per frame the bricks are chosen (selection.plan_frame): in view, not empty under the TF (or
+  below the iso level), at the level their projected voxel size asks (``lod_bias``), raised until
+  the frame's bricks fit min(ram_budget, gl_budget); a raised level is warned about.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+import warnings
+import weakref
+from typing import Annotated
+
+import moderngl
+from pydantic import AfterValidator, Field, StrictInt
+
+from vgraph import FloatProperty, Inport, IntProperty, OptionProperty, Outport, VGraphError
+from vgraph.bricks.cache import MB, BrickCache
+from vgraph.bricks.pyramid import ArrayPyramid
+from vgraph.bricks.selection import BrickGeometry, plan_frame, visible_bricks
+from vgraph.bricks.targets import Accumulation, brick_uniforms, level_voxel
+from vgraph.errors import VGraphWarning
+from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
+from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, IsoSurface, Light,
+                                             RaycasterBase, Sampling, TransferFunctionLut)
+from vgraph.gl.raycasting.geometry import vec
+from vgraph.gl.raycasting.targets import RenderTargets
+from vgraph.gl.shaders import programs
+from vgraph.image import Image
+from vgraph.volume import Volume
+
+BRICK_SHADER = "bricks/brick.frag.glsl"
+RESOLVE_SHADER = "bricks/resolve.frag.glsl"
+COMPOSITING = ("dvr", "mip", "iso")
+SHADED_MODES = ("dvr", "iso")
+DERIVATIVES = ("central", "forward", "backward", "sobel")  # each reads at most one voxel away
+DERIVATIVE_SPACINGS = {"forward": 1.0, "backward": 1.0, "central": 2.0, "sobel": 32.0}
+log = logging.getLogger(__name__)
+
+
+def _power_of_two(value: int) -> int:
+    if value & (value - 1):
+        raise ValueError(f"must be a power of two (8, 16, 32, ...), got {value}")
+    return value
+
+
+class BrickSizeProperty(IntProperty):
+    """Voxels per brick edge: a power of two from 8 (a smaller brick is mostly halo)."""
+
+    def _value_type(self):
+        return Annotated[StrictInt, Field(ge=self.min, le=self.max), AfterValidator(_power_of_two)]
+
+
+class BrickedRayCaster(RaycasterBase):
+    """Ray casting brick by brick, front to back, with levels of detail and memory budgets."""
+
+    category = "Volume rendering"
+    inports = [Inport("volume", Volume), Inport("entry", Image), Inport("exit", Image)]
+    outports = [Outport("image", Image), Outport("depth", Image)]
+    components = (EntryExit, CameraRays, Sampling, TransferFunctionLut, IsoSurface, Light, Background)
+
+    compositing = OptionProperty("dvr", choices=list(COMPOSITING), doc="dvr, mip, iso (surface at iso_level)")
+    derivatives = OptionProperty("central", choices=list(DERIVATIVES), doc="finite differences of the shading normals")
+    brick_size = BrickSizeProperty(64, min=8, max=1024,
+                                   doc="voxels per brick edge for in-memory volumes (a BrickedVolume keeps its own)")
+    lod_bias = FloatProperty(0.0, min=-16.0, max=16.0,
+                             doc="levels coarser (+) or finer (-) than voxels of about a pixel")
+    ram_budget = FloatProperty(1024.0, min=0.01, max=1e7, doc="MB of bricks kept in memory")
+    gl_budget = FloatProperty(512.0, min=0.01, max=1e7, doc="MB of brick textures kept on the GL")
+
+    def __init__(self, id: str | None = None, **values):
+        super().__init__(id, **values)
+        self._targets = RenderTargets(2)
+        self._accumulation = Accumulation()
+        self.cache = BrickCache(self.ram_budget, self.gl_budget)
+        self._pyramid = None  # (weakref to the volume, brick size, ArrayPyramid)
+        self.last_frame: dict = {}
+
+    # --- shader ---------------------------------------------------------------------------------
+    def shaded(self) -> bool:
+        return self.shading != "none" and self.compositing in SHADED_MODES
+
+    def shader_defines(self) -> dict[str, bool]:
+        mode = self.compositing
+        defines = {f"COMPOSITING_{mode.upper()}": True,
+                   "OPACITY_CORRECTION": mode == "dvr" and self.sampling_rate != 1.0}
+        if self.shaded():
+            defines[f"GRADIENT_{self.derivatives.upper()}"] = True
+        return defines
+
+    # --- the pyramid ----------------------------------------------------------------------------
+    def brick_source(self, volume: Volume):
+        """The volume's BrickSource: its own (BrickedVolume), else an ArrayPyramid kept per volume."""
+        own = getattr(volume, "bricks", None)
+        if own is not None:
+            return own
+        cached = self._pyramid
+        if cached is None or cached[0]() is not volume or cached[1] != self.brick_size:
+            pyramid = ArrayPyramid.from_volume(volume, (self.brick_size,) * 3)
+            self._pyramid = cached = (weakref.ref(volume), self.brick_size, pyramid)
+        return cached[2]
+
+    def visible(self, source, frame):
+        """visible(level) -> bool per brick for this frame's mode (selection.visible_bricks)."""
+        mode = self.compositing
+        alpha = None
+        if mode == "dvr":
+            lut = self.parts[TransferFunctionLut].lut
+            lut.update(frame.ctx, self.transfer_function, frame.volume)
+            alpha = lut.alpha
+        return lambda level: visible_bricks(source, level, mode, alpha, self.iso_level)
+
+    # --- evaluation -----------------------------------------------------------------------------
+    def process(self, volume: Volume, entry: Image, exit: Image) -> dict:
+        volume.require_samples(f"BrickedRayCaster '{self.id}'")
+        started = time.perf_counter()
+        frame = self.frame(volume, entry, exit)
+        source = self.brick_source(volume)
+        self.cache.use_source(source)
+        self.cache.set_budgets(self.ram_budget, self.gl_budget)
+        geometry = BrickGeometry(source)
+        plan = self.plan(source, geometry, frame)
+        self.cache.begin_frame([key for key, _ in plan.bricks])
+        accumulation = self._accumulation.ensure(frame.ctx, frame.size)
+        self.draw_bricks(frame, geometry, plan.bricks, accumulation)
+        image, depth = self._targets.ensure(frame.ctx, frame.size)
+        self.resolve(frame, accumulation)
+        self.last_frame = {"bricks": len(plan.bricks), "floor_level": plan.floor_level, "bytes": plan.bytes,
+                           "levels": sorted({key[0] for key, _ in plan.bricks}),
+                           "seconds": time.perf_counter() - started}
+        return {"image": image, "depth": depth}
+
+    def plan(self, source, geometry, frame):
+        budget = int(min(self.ram_budget, self.gl_budget) * MB)
+        view_projection = frame.camera.view_projection(frame.size[0] / frame.size[1])
+        try:
+            plan = plan_frame(source, frame.camera, frame.size, view_projection,
+                              self.visible(source, frame), self.lod_bias, budget)
+        except ValueError as error:
+            raise VGraphError(f"{self.id}.ram_budget / {self.id}.gl_budget: {error}; raise the "
+                              f"budgets or use smaller bricks") from None
+        if plan.floor_level > 0:
+            message = (f"BrickedRayCaster '{self.id}': the budget ({min(self.ram_budget, self.gl_budget):g} MB) "
+                       f"cannot hold the frame's finer bricks; rendering at level {plan.floor_level} "
+                       f"or coarser ({len(plan.bricks)} bricks, {plan.bytes / MB:.2f} MB)")
+            log.warning(message)
+            warnings.warn(message, VGraphWarning, stacklevel=2)
+        return plan
+
+    def base_binding(self, frame) -> Binding:
+        """The components' bindings, the same for every brick of the frame."""
+        binding = Binding(defines=self.shader_defines())
+        for component in (EntryExit, CameraRays, Sampling, TransferFunctionLut, IsoSurface, Light):
+            binding = binding.merge(self.parts[component].bind(frame))
+        return binding
+
+    def draw_bricks(self, frame, geometry, bricks, accumulation) -> None:
+        """One pass per brick, front to back, blended into the accumulation (module docstring)."""
+        ctx = frame.ctx
+        binding = self.base_binding(frame)
+        program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, BRICK_SHADER, binding.defines, processor=self.id)
+        self.passes.append((BRICK_SHADER, binding.defines))
+        scale, offset = self.cache.format.scale, self.cache.format.offset
+        uniforms = {**binding.uniforms, "intensity_scale": float(scale), "intensity_offset": float(offset)}
+        ctx.scissor = None
+        accumulation.clear()
+        self._set_blending(ctx)
+        try:
+            for key, rect in bricks:
+                textures = {**binding.textures, "volume": self.cache.texture(ctx, key)}
+                ctx.scissor = rect
+                fullscreen_pass(ctx, program, accumulation, textures,
+                                {**uniforms, **brick_uniforms(geometry, key), **self._gradient_uniforms(geometry, key)},
+                                samplers={"volume": self._sampler(ctx)})
+        finally:
+            ctx.scissor = None
+            ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
+            ctx.blend_func = moderngl.DEFAULT_BLENDING
+
+    def _set_blending(self, ctx) -> None:
+        if self.compositing == "mip":
+            ctx.enable(moderngl.DEPTH_TEST)
+            ctx.depth_func = "<"
+        else:
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE  # "under"
+
+    def _gradient_uniforms(self, geometry, key) -> dict:
+        if not self.shaded():
+            return {}
+        voxel, spacing = level_voxel(geometry, key[0])
+        spacings = DERIVATIVE_SPACINGS[self.derivatives]
+        return {"voxel_step": vec(voxel),
+                "gradient_scale": vec(self.cache.format.scale / (spacings * spacing))}
+
+    def _sampler(self, ctx):
+        from vgraph.gl.raycasting.textures import linear_sampler
+        return linear_sampler(ctx)
+
+    def resolve(self, frame, accumulation) -> None:
+        """The accumulation -> image and depth (bricks/resolve.frag.glsl)."""
+        parts = (EntryExit, CameraRays, Sampling, TransferFunctionLut, Background)
+        binding = Binding(defines={f"COMPOSITING_{self.compositing.upper()}": True})
+        for component in parts:
+            binding = binding.merge(self.parts[component].bind(frame))
+        program = programs.program(frame.ctx, FULLSCREEN_VERTEX_SHADER, RESOLVE_SHADER, binding.defines,
+                                   processor=self.id)
+        self.passes.append((RESOLVE_SHADER, binding.defines))
+        textures = {**binding.textures, "accumulated_sum": accumulation.textures[0],
+                    "accumulated_first": accumulation.textures[1]}
+        fullscreen_pass(frame.ctx, program, self._targets, textures, binding.uniforms, samplers=binding.samplers,
+                        optional={"opacity_exponent", "step_length"})

@@ -1,0 +1,51 @@
+// COMPOSITING_ISO in one brick: the RayCaster's first hit (raycasting/compositing_iso.glsl) among
+// the samples the brick owns. The sample before a hit may belong to the brick in front; it is
+// evaluated here through the halo (exact while a step is at most one voxel: sampling_rate >= 1).
+// The opaque result blends under the bricks in front, so the frontmost hit wins.
+#ifdef COMPOSITING_ISO
+#define ISO_REFINEMENT 3
+uniform float iso_level;
+
+// a < b are fractional sample indices with value(a) - level = fa < 0 <= fb = value(b) - level.
+float refine_crossing(Ray ray, float a, float fa, float b, float fb) {
+    for (int k = 0; k < ISO_REFINEMENT; ++k) {
+        float middle = a + (b - a) * fa / (fa - fb);
+        float fm = intensity(sample_point(ray, middle)) - iso_level;
+        if (fm >= 0.0) {
+            b = middle;
+            fb = fm;
+        } else {
+            a = middle;
+            fa = fm;
+        }
+    }
+    return a + (b - a) * fa / (fa - fb);
+}
+
+void composite(Ray ray, Span span, out vec4 sum, out float depth_sample) {
+    sum = vec4(0.0);
+    depth_sample = -1.0;
+    for (int i = span.first; i <= span.last; ++i) {
+        vec3 t = sample_point(ray, float(i));
+        if (!owns(t)) {
+            continue;
+        }
+        float value = intensity(t);
+        if (value >= iso_level) {
+            float hit = float(i);
+            if (i > 0) {
+                float before = intensity(sample_point(ray, float(i - 1)));
+                hit = refine_crossing(ray, float(i - 1), before - iso_level, hit, value - iso_level);
+            }
+            vec3 rgb = classify(iso_level).rgb;
+#ifdef SHADING_BLINN_PHONG
+            vec3 p = sample_point(ray, hit);
+            rgb = shade(rgb, gradient(p, raw_sample(p)), -ray.direction);
+#endif
+            sum = vec4(rgb, 1.0);
+            depth_sample = hit;
+            return;
+        }
+    }
+}
+#endif

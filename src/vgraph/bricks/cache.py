@@ -1,0 +1,200 @@
+"""An LRU cache of bricks for the bricked ray caster: numpy bricks read from a BrickSource (RAM) and
+their 3D textures (GL), each under its own budget in bytes.
+
+Conventions (docs/bricked_raycaster.md has the long form):
+- A brick's key is (level, bz, by, bx). Its data is the brick's voxels with a halo of HALO voxels
+  on every side, read from the neighbours and replicated at the level's border (what the whole
+  volume's clamp-to-edge texture gives there). HALO = 2: a sample owned by the brick lies within
+  half a voxel of its core, trilinear filtering reaches one voxel further and the shading gradients
+  (central differences and Sobel, one voxel away) one more, so every value the ray caster computes
+  inside a brick equals the whole volume's: no seams.
+- Bricks are held in the texture format of Volume.texture() (uint8 as R16 holding value * 257,
+  uint16 as R16, everything else R32F with non-finite voxels clamped to the value range), so the
+  normalised intensity is ``sample * scale + offset`` with ``texture_format()``'s scale and offset.
+- ``begin_frame(keys)`` pins the bricks a frame needs: eviction takes the least recently used of
+  the others and never a pinned one (a frame that does not fit is the selection's problem: it
+  chooses a coarser level first). Evicted textures are released at once.
+- Counters (``stats``): hits and misses of each cache, bytes read from the source, evictions and
+  uploads; tests and benchmarks read them.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+
+from vgraph.bricks.pyramid import BrickSource
+from vgraph.gl.context import release_quietly
+
+HALO = 2
+MB = 1024 * 1024
+# float32 carries values and ranges inside these bounds with room for the shaders' arithmetic
+# (the rule of Volume.texture_is_normalized).
+FLOAT32_SAFE = 1e30
+
+
+@dataclass(frozen=True)
+class TextureFormat:
+    gl_dtype: str        # moderngl dtype of the brick textures
+    itemsize: int        # bytes per voxel
+    scale: float         # normalised intensity = sample * scale + offset
+    offset: float
+    normalized: bool     # float data uploaded as normalised intensities (float32 cannot carry them)
+
+
+def texture_format(dtype, value_range) -> TextureFormat:
+    """The brick texture format of a source (the rule of Volume.texture and texture_scale_offset)."""
+    dtype = np.dtype(dtype)
+    lo, hi = map(float, value_range)
+    if dtype in (np.dtype(np.uint8), np.dtype(np.uint16)):
+        full = 255.0 if dtype == np.uint8 else 65535.0
+        return TextureFormat("nu2", 2, full / (hi - lo), -lo / (hi - lo), False)
+    if max(abs(lo), abs(hi)) > FLOAT32_SAFE or hi - lo < 1.0 / FLOAT32_SAFE:
+        return TextureFormat("f4", 4, 1.0, 0.0, True)
+    return TextureFormat("f4", 4, 1.0 / (hi - lo), -lo / (hi - lo), False)
+
+
+def to_texture_values(block: np.ndarray, fmt: TextureFormat, value_range) -> np.ndarray:
+    """A block of source voxels as the texture stores them (see the module docstring)."""
+    lo, hi = map(float, value_range)
+    if block.dtype == np.uint8:
+        return block.astype(np.uint16) * np.uint16(257)
+    if block.dtype == np.uint16:
+        return block
+    if fmt.normalized:
+        values = (block.astype(np.float64) - lo) / (hi - lo)
+        return np.nan_to_num(values, nan=0.0, posinf=1.0, neginf=0.0).astype(np.float32)
+    return np.nan_to_num(block.astype(np.float32), nan=lo, posinf=hi, neginf=lo)
+
+
+def brick_extent(source: BrickSource, key) -> tuple[np.ndarray, np.ndarray]:
+    """Voxels [start, stop) ([z, y, x]) of a brick's core in its level."""
+    level, index = key[0], np.asarray(key[1:])
+    size = np.asarray(source.brick[::-1])
+    shape = np.asarray(source.levels[level].shape)
+    start = index * size
+    return start, np.minimum(start + size, shape)
+
+
+def brick_texture_shape(source: BrickSource, key) -> tuple[int, int, int]:
+    """[z, y, x] voxels of a brick with its halo."""
+    start, stop = brick_extent(source, key)
+    return tuple(int(n) for n in stop - start + 2 * HALO)
+
+
+def brick_bytes(source: BrickSource, key) -> int:
+    fmt = texture_format(source.dtype, source.value_range)
+    return int(np.prod(brick_texture_shape(source, key))) * fmt.itemsize
+
+
+def read_with_halo(source: BrickSource, key) -> np.ndarray:
+    """The brick's voxels and HALO more on every side; outside the level the border is replicated."""
+    level = key[0]
+    start, stop = brick_extent(source, key)
+    shape = np.asarray(source.levels[level].shape)
+    want_lo, want_hi = start - HALO, stop + HALO
+    got_lo, got_hi = np.maximum(want_lo, 0), np.minimum(want_hi, shape)
+    block = np.asarray(source.read(level, tuple(got_lo), tuple(got_hi)))
+    pad = [(int(a), int(b)) for a, b in zip(got_lo - want_lo, want_hi - got_hi)]
+    return np.pad(block, pad, mode="edge") if any(a or b for a, b in pad) else block
+
+
+class BrickCache:
+    """The two LRU caches (see the module docstring). One per ray caster; a new source clears it."""
+
+    def __init__(self, ram_budget_mb: float = 1024.0, gl_budget_mb: float = 512.0):
+        self.ram: OrderedDict = OrderedDict()  # key -> texture-ready numpy brick
+        self.gl: OrderedDict = OrderedDict()   # key -> moderngl 3D texture
+        self.pinned: frozenset = frozenset()
+        self.source = None
+        self.set_budgets(ram_budget_mb, gl_budget_mb)
+        self.reset_stats()
+
+    # --- configuration --------------------------------------------------------------------------
+    def set_budgets(self, ram_budget_mb: float, gl_budget_mb: float) -> None:
+        self.ram_budget = int(ram_budget_mb * MB)
+        self.gl_budget = int(gl_budget_mb * MB)
+
+    def reset_stats(self) -> None:
+        self.stats = {"ram_hits": 0, "ram_misses": 0, "gl_hits": 0, "gl_misses": 0, "bytes_read": 0,
+                      "bricks_read": 0, "ram_evictions": 0, "gl_evictions": 0, "uploads": 0}
+
+    def use_source(self, source: BrickSource) -> None:
+        """Bricks of another source are not these bricks: forget them all."""
+        if source is not self.source:
+            self.clear()
+            self.source = source
+            self.format = texture_format(source.dtype, source.value_range)
+
+    def begin_frame(self, keys) -> None:
+        """Pin the bricks of this frame (never evicted until the next begin_frame)."""
+        self.pinned = frozenset(keys)
+
+    # --- lookups --------------------------------------------------------------------------------
+    def brick(self, key) -> np.ndarray:
+        """The brick with its halo, in texture values (read from the source on a miss)."""
+        data = self.ram.get(key)
+        if data is not None:
+            self.ram.move_to_end(key)
+            self.stats["ram_hits"] += 1
+            return data
+        self.stats["ram_misses"] += 1
+        raw = read_with_halo(self.source, key)
+        self.stats["bytes_read"] += raw.nbytes
+        self.stats["bricks_read"] += 1
+        data = np.ascontiguousarray(to_texture_values(raw, self.format, self.source.value_range))
+        self.ram[key] = data
+        self._evict(self.ram, self.ram_budget, lambda array: array.nbytes, "ram_evictions")
+        return data
+
+    def texture(self, ctx, key):
+        """The brick's 3D texture on ``ctx`` (uploaded from the RAM cache on a miss)."""
+        texture = self.gl.get(key)
+        if texture is not None and texture.ctx is ctx:
+            self.gl.move_to_end(key)
+            self.stats["gl_hits"] += 1
+            return texture
+        self.stats["gl_misses"] += 1
+        if texture is not None:  # of a context that is gone
+            release_quietly({key: self.gl.pop(key)})
+        data = self.brick(key)
+        nz, ny, nx = data.shape
+        texture = ctx.texture3d((nx, ny, nz), 1, data.tobytes(), dtype=self.format.gl_dtype, alignment=1)
+        texture.repeat_x = texture.repeat_y = texture.repeat_z = False
+        self.stats["uploads"] += 1
+        self.gl[key] = texture
+        self._evict(self.gl, self.gl_budget, _texture_bytes, "gl_evictions")
+        return texture
+
+    # --- eviction -------------------------------------------------------------------------------
+    def _evict(self, cache: OrderedDict, budget: int, size, counter: str) -> None:
+        """Drop least-recently-used unpinned entries while the cache exceeds its budget."""
+        total = sum(size(value) for value in cache.values())
+        for key in list(cache):
+            if total <= budget:
+                break
+            if key in self.pinned:
+                continue
+            value = cache.pop(key)
+            total -= size(value)
+            self.stats[counter] += 1
+            if cache is self.gl:
+                release_quietly({key: value})
+
+    def resident_bytes(self) -> tuple[int, int]:
+        """(RAM bytes, GL bytes) held now."""
+        return (sum(a.nbytes for a in self.ram.values()), sum(_texture_bytes(t) for t in self.gl.values()))
+
+    def clear(self) -> None:
+        release_quietly(self.gl)
+        self.ram.clear()
+        self.pinned = frozenset()
+
+    release = clear
+
+
+def _texture_bytes(texture) -> int:
+    width, height, depth = texture.size
+    return width * height * depth * (2 if texture.dtype == "nu2" else 4)

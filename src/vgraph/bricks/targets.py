@@ -1,0 +1,64 @@
+"""GL side of the bricked ray caster: the accumulation targets its brick passes blend into and the
+per-brick uniforms that map the global sample lattice into a brick's texture."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vgraph.bricks.cache import HALO, brick_extent
+from vgraph.bricks.selection import BrickGeometry
+from vgraph.gl.context import bind_default_framebuffer
+from vgraph.gl.raycasting.geometry import vec
+
+
+class Accumulation:
+    """Two RGBA32F textures (the bricks' blended sums and first depth samples) and a depth texture
+    (MIP's maximum as 1 - depth), in one framebuffer; kept while the size stays the same."""
+
+    def __init__(self):
+        self.textures: list = []
+        self.depth = None
+        self.framebuffer = None
+        self.size = (0, 0)
+
+    def ensure(self, ctx, size) -> "Accumulation":
+        size = tuple(int(v) for v in size)
+        if self.framebuffer is None or self.framebuffer.ctx is not ctx or self.size != size:
+            if self.framebuffer is not None and self.framebuffer.ctx is ctx:
+                self.release()
+            self.textures = [ctx.texture(size, 4, dtype="f4") for _ in range(2)]
+            self.depth = ctx.depth_texture(size)
+            self.framebuffer = ctx.framebuffer(color_attachments=self.textures, depth_attachment=self.depth)
+            self.size = size
+        return self
+
+    def clear(self) -> None:
+        self.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+
+    def release(self) -> None:
+        if self.framebuffer is not None:
+            bind_default_framebuffer(self.framebuffer.ctx)
+            for gl_object in (self.framebuffer, self.depth, *self.textures):
+                gl_object.release()
+        self.textures, self.depth, self.framebuffer, self.size = [], None, None, (0, 0)
+
+
+def brick_uniforms(geometry: BrickGeometry, key) -> dict:
+    """Uniforms of bricks/brick_sampling.glsl and brick_span.glsl for one brick (float64 here):
+    a level-0 texture coordinate t is at level voxel u = (o0 + (t n0 - 1/2) s0 - oL) / sL, and at
+    coordinate (u - (start - HALO) + 1/2) / m in the brick's texture of m voxels."""
+    source = geometry.source
+    level = source.levels[key[0]]
+    start, stop = brick_extent(source, key)
+    start, m = start[::-1].astype(np.float64), (stop - start + 2 * HALO)[::-1].astype(np.float64)
+    s_level, o_level = np.asarray(level.spacing), np.asarray(level.origin)
+    scale = geometry.dims0 * geometry.spacing0 / (s_level * m)
+    offset = ((geometry.origin0 - 0.5 * geometry.spacing0 - o_level) / s_level - start + HALO + 0.5) / m
+    lo, hi = geometry.owner_bounds(key)
+    return {"brick_scale": vec(scale), "brick_offset": vec(offset), "owner_lo": vec(lo), "owner_hi": vec(hi)}
+
+
+def level_voxel(geometry: BrickGeometry, level: int) -> np.ndarray:
+    """One voxel of ``level`` in level-0 texture space (x, y, z), and its spacing."""
+    spacing = np.asarray(geometry.source.levels[level].spacing)
+    return spacing / (geometry.spacing0 * geometry.dims0), spacing
