@@ -4,12 +4,18 @@ docs/volumes.md).
 The value range a volume gets, first match wins: the ``value_range`` property; the ``robust``
 window (percentiles of the data, for scans whose few outlier voxels would squeeze the bulk into
 a sliver of [0, 1]); a range the file declares; the data's own min..max.
+
+An OME-Zarr store (a folder ending in .zarr, or its zarr.json) opens as a BrickedVolume: its grid
+and range come from the store's metadata and no voxel is read until a consumer needs them; the
+whole array loads only within ``memory_budget`` (docs/large-data.md).
 """
 
 import warnings
+from pathlib import Path
 
-from vgraph import (FilePathProperty, IntProperty, OptionProperty, Outport, Processor, PropertyError,
-                    VectorProperty, VGraphError, VGraphWarning)
+from vgraph import (FilePathProperty, FloatProperty, IntProperty, OptionProperty, Outport, Processor,
+                    PropertyError, VectorProperty, VGraphError, VGraphWarning)
+from vgraph.bricks.volume import DEFAULT_MEMORY_BUDGET_MB, BrickedVolume
 from vgraph.camera import MAX_COORDINATE
 from vgraph.io import SUPPORTED_EXTENSIONS, TimeStepError, read_volume
 from vgraph.volume import Volume
@@ -22,8 +28,9 @@ class VolumeSource(Processor):
 
     category = "Volume"
     outports = [Outport("volume", Volume)]
-    path = FilePathProperty("", filters=tuple(f"*{e}" for e in SUPPORTED_EXTENSIONS),
-                            doc="the volume file, or a folder holding one DICOM series")
+    path = FilePathProperty("", filters=tuple(f"*{e}" for e in SUPPORTED_EXTENSIONS) + ("zarr.json",),
+                            doc="the volume file, a folder holding one DICOM series, or an "
+                                "OME-Zarr store (.zarr folder)")
     time_step = IntProperty(0, min=0, doc="of a file with a time axis (4D NIfTI, ...): the time "
                                           "point to read, 0 = the first")
     spacing = VectorProperty(None, size=3, min=1.0 / MAX_COORDINATE, max=MAX_COORDINATE, optional=True,
@@ -43,6 +50,9 @@ class VolumeSource(Processor):
     raw_dtype = OptionProperty("uint8", choices=RAW_TYPES, doc="for a headerless raw file: voxel type")
     raw_endianness = OptionProperty("little", choices=["little", "big"], doc="for a headerless raw file")
     raw_offset = IntProperty(0, min=-1, doc="for a headerless raw file: header bytes to skip (-1: data at the end)")
+    memory_budget = FloatProperty(DEFAULT_MEMORY_BUDGET_MB, min=1.0,
+                                  doc="for an OME-Zarr store: MiB its whole full-resolution array "
+                                      "may take when a processor needs it (larger: refused)")
 
     def check(self) -> None:
         low, high = self.window_percentiles
@@ -55,8 +65,7 @@ class VolumeSource(Processor):
         if not self.path:
             raise VGraphError(f"{self.id}.path: no volume file chosen")
         try:
-            volume = read_volume(self.resolve_path(self.path), raw=self._raw_description(),
-                                 time_step=self.time_step)
+            volume = self._read(self.resolve_path(self.path))
         except TimeStepError as error:
             count = error.time_steps
             held = "1 time point (0)" if count == 1 else f"{count} time points (0 .. {count - 1})"
@@ -64,6 +73,13 @@ class VolumeSource(Processor):
                                 f"range: {error.file} holds {held}") from None
         self._warn_if_flat(volume)
         return self._with_overrides(volume)
+
+    def _read(self, path) -> Volume:
+        store = zarr_store(Path(path))
+        if store is not None:
+            return BrickedVolume.open(store, time_step=self.time_step,
+                                      memory_budget_mb=self.memory_budget)
+        return read_volume(path, raw=self._raw_description(), time_step=self.time_step)
 
     def _raw_description(self) -> dict | None:
         if self.raw_dims is None:
@@ -76,6 +92,8 @@ class VolumeSource(Processor):
         if self.spacing is None and self.origin is None and value_range is None:
             return volume
         try:
+            if isinstance(volume, BrickedVolume):  # regridded without reading its voxels
+                return volume.with_overrides(self.spacing, self.origin, value_range)
             return volume.with_data(volume.data, spacing=self.spacing or volume.spacing,
                                     origin=self.origin or volume.origin,
                                     declared_range=value_range or volume.declared_range)
@@ -106,3 +124,11 @@ class VolumeSource(Processor):
                 f"({' x '.join(map(str, volume.dims))} voxels): its box has zero thickness there, "
                 f"so it renders as a flat plane seen face-on and as nothing from the side"),
                 stacklevel=2)
+
+
+def zarr_store(path: Path) -> Path | None:
+    """The store folder when ``path`` is an OME-Zarr store or its zarr.json (what a file
+    dialog can pick), else None."""
+    if path.name.lower() in ("zarr.json", ".zgroup", ".zattrs") and path.parent.suffix.lower() == ".zarr":
+        path = path.parent
+    return path if path.suffix.lower() == ".zarr" and path.is_dir() else None

@@ -115,6 +115,8 @@ def build_parser() -> argparse.ArgumentParser:
     gui.add_argument("--window-size", type=parse_size, metavar="WxH", help="window size in pixels")
     gui.set_defaults(command=command_gui)
 
+    add_convert_parser(commands)
+
     bench = commands.add_parser("bench", help="benchmarks: curvature accuracy against frame time")
     bench.set_defaults(command=lambda args: _print_help(bench))
     benchmarks = bench.add_subparsers(title="benchmarks")
@@ -139,6 +141,31 @@ def build_parser() -> argparse.ArgumentParser:
                                "options still apply")
     accuracy.set_defaults(command=command_bench_accuracy)
     return parser
+
+
+def add_convert_parser(commands) -> None:
+    convert = commands.add_parser(
+        "convert", help="convert a volume file into an OME-Zarr pyramid of bricks (volumes larger "
+                        "than memory: docs/large-data.md)")
+    convert.add_argument("input", type=Path, help="the volume file; uncompressed raw, NRRD, .nii, "
+                                                  "MetaImage and .npy are read slab by slab, other "
+                                                  "formats whole")
+    convert.add_argument("output", type=Path, metavar="OUT.zarr",
+                         help="the store (a folder), replaced only when the conversion succeeds")
+    convert.add_argument("--brick", type=int, default=64, metavar="N",
+                         help="voxels per brick edge, even (default 64)")
+    convert.add_argument("--levels", type=int, metavar="N",
+                         help="pyramid levels (default: until the coarsest fits in one brick)")
+    convert.add_argument("--time-step", type=int, default=0, metavar="T",
+                         help="of a file with a time axis: the time point to convert (default 0)")
+    convert.add_argument("--raw-dims", type=int, nargs=3, metavar=("X", "Y", "Z"),
+                         help="a headerless raw file's voxels (with --raw-dtype ...)")
+    convert.add_argument("--raw-dtype", default="uint8", help="a headerless raw file's voxel type")
+    convert.add_argument("--raw-endianness", default="little", choices=["little", "big"])
+    convert.add_argument("--raw-offset", type=int, default=0, metavar="BYTES",
+                         help="header bytes before a raw file's data (-1: the data end the file)")
+    convert.add_argument("--quiet", action="store_true", help="no progress bar")
+    convert.set_defaults(command=command_convert)
 
 
 def add_allow_write(parser: argparse.ArgumentParser) -> None:
@@ -328,6 +355,17 @@ def command_gui(args) -> int:
     if args.screenshot is not None:
         check_output_path(args.screenshot)
     return run_gui(args.network, screenshot=args.screenshot, select=args.select, size=args.window_size)
+
+
+def command_convert(args) -> int:
+    from vgraph.bricks.convert import convert
+    raw = None if args.raw_dims is None else {
+        "dims": tuple(args.raw_dims), "dtype": args.raw_dtype, "endianness": args.raw_endianness,
+        "offset": args.raw_offset}
+    report = convert(args.input, args.output, brick=args.brick, levels=args.levels, raw=raw,
+                     time_step=args.time_step, progress=not args.quiet)
+    print(report.text(), file=sys.stderr)
+    return EXIT_OK
 
 
 def command_bench_accuracy(args) -> int:

@@ -82,6 +82,12 @@ class Volume:
         self.time_steps = int(self.time_steps)
         weakref.finalize(self, release_quietly, self._textures)
 
+    @property
+    def bricks(self):
+        """The pyramid of bricks behind the volume (vgraph.bricks.BrickedVolume); None for a
+        volume held as one array."""
+        return None
+
     # --- geometry -------------------------------------------------------------------------------
     @property
     def dims(self) -> tuple[int, int, int]:

@@ -40,7 +40,7 @@ from vgraph.value_range import range_of
 
 DEFAULT_BRICK = 64
 MAX_BRICK = 1024
-_PIECE_VOXELS = 2**20  # voxels halved at once: an 8 MiB float64 temporary
+_PIECE_VOXELS = 2**18  # voxels halved at once: a 2 MiB float64 temporary
 
 
 @dataclass
@@ -152,6 +152,7 @@ def _write_levels(data: SlabInput, writer: StoreWriter, brick, progress: bool) -
             _count(slab, stats)
             cascade.push(0, slab)
             bar.update(slab.shape[0])
+            del slab  # before the next one is read: else two slabs are alive at once
     cascade.flush()
     return stats
 
@@ -217,6 +218,9 @@ def halve_slab(slab: np.ndarray) -> np.ndarray:
 def _checked_output(output: Path) -> Path:
     if not output.name or output.name in (".", ".."):
         raise OutputFileError(output, "give the store's folder name, e.g. volume.zarr")
+    if output.suffix.lower() != ".zarr":
+        raise OutputFileError(output, "a store's name must end in .zarr (VolumeSource recognises "
+                                      "stores by it)")
     if not output.parent.is_dir():
         raise OutputFileError(output, f"the folder {str(output.parent)!r} does not exist")
     if output.exists() and not is_zarr_store(output):

@@ -39,7 +39,8 @@ def multiscales(levels: list[Level], unit: str | None = None, name: str = "") ->
         {"type": "scale", "scale": list(level.spacing[::-1])},
         {"type": "translation", "translation": list(level.origin[::-1])}]}
         for k, level in enumerate(levels)]
-    return [{"version": NGFF_VERSION, "name": name, "axes": axes, "datasets": datasets,
+    # NGFF 0.5 keeps the version in "ome" only (0.4 had it here)
+    return [{"name": name, "axes": axes, "datasets": datasets,
              "type": "mean", "metadata": {"method": "vgraph.bricks.pyramid.halve",
                                           "description": "mean of 2x2x2 voxels, ceil(n/2)"}}]
 
@@ -73,15 +74,19 @@ class StoreWriter:
         return group.create_array(str(k), shape=grid, chunks=(min(_RANGE_ROWS, grid[0]), *grid[1:]),
                                   dtype="float64", compressors=COMPRESSOR, fill_value=math.nan)
 
-    def write_slab(self, k: int, z0: int, slab: np.ndarray) -> None:
+    def write_slab(self, k: int, z0: int, slab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Voxels [z0, z0 + len(slab)) of level k (z0 a multiple of the brick's z size) and the
         ranges of the bricks they make up."""
-        self.arrays[k][z0:z0 + slab.shape[0]] = slab
+        by = self.brick[1]
+        for y0 in range(0, slab.shape[1], by):  # a band of chunks at a time: zarr copies what
+            # one assignment covers into chunk buffers, so a whole slab would be held twice
+            self.arrays[k][z0:z0 + slab.shape[0], y0:y0 + by] = slab[:, y0:y0 + by]
         low, high = block_ranges(slab, self.brick)
         row = z0 // self.brick[2]
         low_array, high_array = self.range_arrays[k]
         low_array[row:row + low.shape[0]] = low
         high_array[row:row + high.shape[0]] = high
+        return low, high
 
     def finish(self, value_range, declared_range, data_range, nonfinite: int,
                unit: str | None = None, name: str = "") -> None:

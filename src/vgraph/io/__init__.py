@@ -13,6 +13,7 @@ Formats (by extension; a folder is a DICOM series):
   .npy / .npz        NumPy arrays [z, y, x]                        (numpy_format.py)
   .slc               VolVis SLC (8-bit, run-length encoded)         (slc.py)
   .vti               VTK XML ImageData, one scalar array            (vti.py)
+  folder .zarr       OME-Zarr image, read lazily as a BrickedVolume (vgraph/bricks/store.py)
 Writing: .npy, .npz, .nrrd, .nii, .nii.gz (writers.py), atomically.
 
 Every reader returns a Volume with data [z, y, x] in native byte order (file order, x fastest;
@@ -47,6 +48,14 @@ __all__ = ["read_volume", "write_volume", "SUPPORTED_EXTENSIONS", "WRITABLE_EXTE
            "FILE_FILTERS", "NonFiniteVoxelsWarning", "TimeStepError", "VolumeFileError",
            "file_problem"]
 
+
+def read_zarr(path, time_step: int = 0) -> Volume:
+    """An OME-Zarr image as a BrickedVolume: metadata now, voxels when a consumer needs them
+    (within the default memory budget; docs/large-data.md)."""
+    from vgraph.bricks.volume import BrickedVolume  # the bricks import vgraph.io themselves
+    return BrickedVolume.open(path, time_step=time_step)
+
+
 _READERS = {
     ".dat": read_qvis,
     ".raw": None,  # needs the raw description
@@ -56,10 +65,11 @@ _READERS = {
     ".dcm": read_dicom_series, ".ima": read_dicom_series,
     ".npy": read_npy, ".npz": read_npz,
     ".slc": read_slc, ".vti": read_vti,
+    ".zarr": read_zarr,  # a folder
 }
 SUPPORTED_EXTENSIONS: tuple[str, ...] = tuple(_READERS)
 # Readers that know a time axis take time_step; every other file holds one time point.
-_TIME_READERS = {read_nifti, read_nrrd, read_metaimage, read_npy, read_npz}
+_TIME_READERS = {read_nifti, read_nrrd, read_metaimage, read_npy, read_npz, read_zarr}
 
 # For GUI file dialogs: (label, extensions). A DICOM series is opened by picking one of its files.
 FILE_FILTERS: tuple[tuple[str, tuple[str, ...]], ...] = (
@@ -72,6 +82,7 @@ FILE_FILTERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("NumPy array", (".npy", ".npz")),
     ("VolVis SLC", (".slc",)),
     ("VTK image data", (".vti",)),
+    ("OME-Zarr store", (".zarr",)),
 )
 
 
@@ -94,9 +105,11 @@ def _reader_for(path: Path, raw: dict | None):
     if raw is not None:
         return lambda p: read_raw(p, raw)
     if path.is_dir():
-        return read_dicom_series
+        return read_zarr if extension_of(path) == ".zarr" else read_dicom_series
     regular_file(path)  # before anything opens it: a FIFO would block, /dev/zero never end
     ext = extension_of(path)
+    if ext == ".zarr":
+        return read_zarr  # not a folder: it names the problem
     if ext == ".raw":
         return read_raw
     if ext in _READERS:
