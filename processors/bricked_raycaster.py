@@ -177,19 +177,23 @@ class BrickedRayCaster(RaycasterBase):
         program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, BRICK_SHADER, binding.defines, processor=self.id)
         self.passes.append((BRICK_SHADER, binding.defines))
         scale, offset = self.cache.format.scale, self.cache.format.offset
-        uniforms = {**binding.uniforms, "intensity_scale": float(scale), "intensity_offset": float(offset)}
-        ctx.scissor = None
+        uniforms = {**binding.uniforms, "intensity_scale": float(scale), "intensity_offset": float(offset),
+                    "opacity_exponent": 1.0 / self.sampling_rate}  # (the RayCaster's FrontToBack sets it)
+        # The scissor is state of a framebuffer (moderngl: ctx.scissor is the bound one's): set
+        # on the accumulation's own, so no other target keeps a brick's rectangle.
+        framebuffer = accumulation.framebuffer
+        framebuffer.scissor = None
         accumulation.clear()
         self._set_blending(ctx)
         try:
             for key, rect in bricks:
                 textures = {**binding.textures, "volume": self.cache.texture(ctx, key)}
-                ctx.scissor = rect
+                framebuffer.scissor = rect
                 fullscreen_pass(ctx, program, accumulation, textures,
                                 {**uniforms, **brick_uniforms(geometry, key), **self._gradient_uniforms(geometry, key)},
                                 samplers={"volume": self._sampler(ctx)})
         finally:
-            ctx.scissor = None
+            framebuffer.scissor = None
             ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
             ctx.blend_func = moderngl.DEFAULT_BLENDING
 

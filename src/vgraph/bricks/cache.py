@@ -44,10 +44,16 @@ class TextureFormat:
     normalized: bool     # float data uploaded as normalised intensities (float32 cannot carry them)
 
 
+def usable_range(value_range) -> tuple[float, float]:
+    """The value range, widened as Volume widens a constant volume's (a zero width divides by 0)."""
+    lo, hi = map(float, value_range)
+    return (lo, hi) if hi > lo else (lo, lo + max(1.0, abs(lo) * 1e-6))
+
+
 def texture_format(dtype, value_range) -> TextureFormat:
     """The brick texture format of a source (the rule of Volume.texture and texture_scale_offset)."""
     dtype = np.dtype(dtype)
-    lo, hi = map(float, value_range)
+    lo, hi = usable_range(value_range)
     if dtype in (np.dtype(np.uint8), np.dtype(np.uint16)):
         full = 255.0 if dtype == np.uint8 else 65535.0
         return TextureFormat("nu2", 2, full / (hi - lo), -lo / (hi - lo), False)
@@ -58,7 +64,7 @@ def texture_format(dtype, value_range) -> TextureFormat:
 
 def to_texture_values(block: np.ndarray, fmt: TextureFormat, value_range) -> np.ndarray:
     """A block of source voxels as the texture stores them (see the module docstring)."""
-    lo, hi = map(float, value_range)
+    lo, hi = usable_range(value_range)
     if block.dtype == np.uint8:
         return block.astype(np.uint16) * np.uint16(257)
     if block.dtype == np.uint16:

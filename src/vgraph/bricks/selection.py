@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from vgraph.bricks.cache import brick_bytes
+from vgraph.bricks.cache import brick_bytes, usable_range
 from vgraph.bricks.pyramid import BrickSource, brick_grid
 from vgraph.gl.raycasting.empty_space import occupied_blocks
 from vgraph.gl.tetrahedra.cells import axis_order
@@ -87,7 +87,7 @@ def normalised_ranges(source: BrickSource, level: int) -> tuple[np.ndarray, np.n
     """Per-brick [z, y, x] min and max of normalised intensity over each brick and its neighbours;
     a brick without finite voxels counts as 0 (non-finite voxels are uploaded clamped)."""
     low, high = source.brick_ranges(level)
-    lo, hi = source.value_range
+    lo, hi = usable_range(source.value_range)
     low = np.where(np.isfinite(low), (low - lo) / (hi - lo), 0.0)
     high = np.where(np.isfinite(high), (high - lo) / (hi - lo), 0.0)
     return (ndimage.minimum_filter(low, size=3, mode="nearest"),
