@@ -233,6 +233,37 @@ def speed_table(args) -> list[str]:
     return lines
 
 
+def sort_table(args) -> list[str]:
+    """The centroid sort with numpy against the same sort on the GL side (compute shaders), best
+    of --repeat per camera, on the whole (unculled) meshes."""
+    from vgraph.gl.context import get_context
+    from vgraph.gl.tetrahedra.gl_sort import GLCentroidSort
+    from vgraph.gl.tetrahedra.order import back_to_front
+    ctx = get_context()
+    lines = ["| mesh (voxels) | tetrahedra | numpy argsort (s) | GL bitonic network (s) | passes |",
+             "|---|---|---|---|---|"]
+    for dims in [parse_dims(s) for s in args.sort_sizes]:
+        network = mesh_network(bonsai_volume(dims), "none", "averaged")
+        network.update("tets.mesh")
+        mesh = network.output("tets.mesh")
+        cams = cameras(mesh, args.repeat)
+        sorter = GLCentroidSort(ctx, mesh.buffers(ctx)["points"], mesh.tets)
+        sorter.sort(cams[0].rotate(1.0, 0.0))  # compile
+        ctx.finish()
+        cpu = gpu = np.inf
+        for camera in cams:
+            start = time.perf_counter()
+            back_to_front(mesh.points, mesh.tets, camera)
+            cpu = min(cpu, time.perf_counter() - start)
+            start = time.perf_counter()
+            sorter.sort(camera)
+            ctx.finish()
+            gpu = min(gpu, time.perf_counter() - start)
+        sorter.release()
+        lines.append(f"| {'x'.join(map(str, dims))} | {len(mesh.tets):,} | {cpu:.3f} | {gpu:.3f} | {sorter.passes} |")
+    return lines
+
+
 def accuracy_table(args) -> tuple[list[str], list[tuple[str, float, float]]]:
     from vgraph.numerics.reference_tetra import render as reference
     from vgraph.testing import ray_caster_network
@@ -303,12 +334,16 @@ def main() -> None:
                         help="larger meshes: only our cells path (VTK and our tetrahedra path "
                              "would take minutes and tens of GB)")
     parser.add_argument("--skip-speed", action="store_true")
+    parser.add_argument("--sort-sizes", nargs="*", default=["32", "64"],
+                        help="meshes on which the numpy and GL-side centroid sorts are timed")
     parser.add_argument("--out", type=Path, default=ROOT / "bench" / "results")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     report = [f"# Projected tetrahedra ({' '.join(sys.argv[1:]) or 'defaults'})", ""]
     if not args.skip_speed:
         report += ["## Speed", "", *speed_table(args), ""]
+    if args.sort_sizes:
+        report += ["## The centroid sort: numpy or GL", "", *sort_table(args), ""]
     lines, rows = accuracy_table(args)
     report += ["## Error against frame time", "", *lines, ""]
     plot(rows, args.out / "tetra_accuracy.png")

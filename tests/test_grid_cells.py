@@ -188,3 +188,26 @@ def test_rays_start_on_the_near_plane_inside_the_grid(gl):
     assert np.all(np.isfinite(image)) and image[..., 3].max() > 0.05
     assert image.min() >= 0.0 and image[..., 3].max() <= 1.0 + 1e-6
     assert np.all(depth[..., 1][depth[..., 3] == 1] >= 0.0)
+
+
+def test_the_sort_on_the_gl_side_gives_the_numpy_order(gl):
+    """visibility_order = centroid_gl: the bitonic network in compute shaders orders the centroids
+    as numpy's argsort does (up to float32 keys), and draws the same image."""
+    from vgraph.gl.tetrahedra.gl_sort import GLCentroidSort
+    from vgraph.gl.tetrahedra.order import back_to_front, centroids
+    mesh = cut(blob())
+    for camera in cameras(mesh)[:6]:
+        sorter = GLCentroidSort(gl, mesh.buffers(gl)["points"], mesh.tets[: len(mesh.tets) - 7])
+        sorter.sort(camera)
+        ordered = np.frombuffer(sorter.sorted.read(), dtype=np.int32).reshape(-1, 4)
+        sorter.release()
+        expected = mesh.tets[: len(mesh.tets) - 7]
+        expected = expected[back_to_front(mesh.points, expected, camera)]
+        assert sorted(map(tuple, ordered)) == sorted(map(tuple, expected))  # each tetrahedron once
+        eye, forward = np.asarray(camera.position), camera.basis()[2]
+        depth = ((centroids(mesh.points, ordered) - eye) @ forward if camera.projection == "orthographic"
+                 else np.linalg.norm(centroids(mesh.points, ordered) - eye, axis=1))
+        assert np.all(np.diff(depth) <= 1e-5 * np.abs(depth).max())  # farthest first
+        on_gl, _, _ = render(mesh, camera, "averaged", False, order="centroid_gl")
+        with_numpy, _, _ = render(mesh, camera, "averaged", False, order="centroid")
+        assert np.abs(on_gl - with_numpy).max() < 1e-3

@@ -77,7 +77,7 @@ class VisibilityOrder:
                None if selection is None else selection[0], method)
         if key == self.key and self.indices is not None:
             return self.indices, False
-        mask = self._selected(mesh, selection)
+        mask = self.selected(mesh, selection)
         if method == "sweep":
             from vgraph.gl.tetrahedra.cells import sweep_order
             order = sweep_order(mesh.grid, camera)
@@ -95,7 +95,8 @@ class VisibilityOrder:
         self.sorts += 1
         return self.indices, True
 
-    def _selected(self, mesh, selection):
+    def selected(self, mesh, selection):
+        """The mask of ``selection`` for ``mesh`` (None: all), computed when its key changes."""
         if selection is None:
             return None
         key = (id(mesh), selection[0])
