@@ -124,7 +124,8 @@ class BrickedRayCaster(RaycasterBase):
             lut = self.parts[TransferFunctionLut].lut
             lut.update(frame.ctx, self.transfer_function, frame.volume)
             alpha = lut.alpha
-        return lambda level: visible_bricks(source, level, mode, alpha, self.iso_level)
+        value_range = frame.volume.value_range
+        return lambda level: visible_bricks(source, level, mode, alpha, self.iso_level, value_range)
 
     # --- evaluation -----------------------------------------------------------------------------
     def process(self, volume: Volume, entry: Image, exit: Image) -> dict:
@@ -132,7 +133,7 @@ class BrickedRayCaster(RaycasterBase):
         started = time.perf_counter()
         frame = self.frame(volume, entry, exit)
         source = self.brick_source(volume)
-        self.cache.use_source(source)
+        self.cache.use_source(source, volume.value_range)
         self.cache.set_budgets(self.ram_budget, self.gl_budget)
         geometry = BrickGeometry(source)
         plan = self.plan(source, geometry, frame)

@@ -241,3 +241,18 @@ def test_bad_property_values_are_refused_naming_processor_and_field(name, value)
     from vgraph.registry import registry
     with pytest.raises(PropertyError, match=rf"rc\.{name}"):
         registry.get("BrickedRayCaster")(id="rc", **{name: value})
+
+
+def test_a_bricked_volume_from_an_ome_zarr_store_renders_like_its_array(tmp_path):
+    """The BrickedVolume's own pyramid (vgraph convert) is used: its bricks, not brick_size."""
+    pytest.importorskip("zarr")
+    from vgraph.bricks.convert import convert
+    data = (field((45, 38, 51)) * 65535).astype(np.uint16)
+    np.save(tmp_path / "v.npy", data)
+    convert(tmp_path / "v.npy", tmp_path / "v.zarr", brick=16, progress=False)
+    bricked, memory = read_volume(tmp_path / "v.zarr"), read_volume(tmp_path / "v.npy")
+    want, _, _ = reference(memory, oblique(memory), compositing="dvr", transfer_function=WINDOW)
+    got, _, rc = render(bricked, oblique(memory), compositing="dvr", transfer_function=WINDOW,
+                        brick_size=64, lod_bias=FINEST)
+    assert rc.last_frame["bricks"] == 3 * 3 * 4 and rc.cache.stats["bricks_read"] == 36
+    assert psnr(got, want) >= MIN_PSNR

@@ -115,6 +115,7 @@ class BrickCache:
         self.gl: OrderedDict = OrderedDict()   # key -> moderngl 3D texture
         self.pinned: frozenset = frozenset()
         self.source = None
+        self.value_range = None
         self.set_budgets(ram_budget_mb, gl_budget_mb)
         self.reset_stats()
 
@@ -127,12 +128,14 @@ class BrickCache:
         self.stats = {"ram_hits": 0, "ram_misses": 0, "gl_hits": 0, "gl_misses": 0, "bytes_read": 0,
                       "bricks_read": 0, "ram_evictions": 0, "gl_evictions": 0, "uploads": 0}
 
-    def use_source(self, source: BrickSource) -> None:
-        """Bricks of another source are not these bricks: forget them all."""
-        if source is not self.source:
+    def use_source(self, source: BrickSource, value_range=None) -> None:
+        """Bricks of another source (or range: it sets the texture format) are not these bricks:
+        forget them all. ``value_range``: the volume's (a declared range overrides the source's)."""
+        value_range = tuple(map(float, value_range if value_range is not None else source.value_range))
+        if source is not self.source or value_range != self.value_range:
             self.clear()
-            self.source = source
-            self.format = texture_format(source.dtype, source.value_range)
+            self.source, self.value_range = source, value_range
+            self.format = texture_format(source.dtype, value_range)
 
     def begin_frame(self, keys) -> None:
         """Pin the bricks of this frame (never evicted until the next begin_frame)."""
@@ -150,7 +153,7 @@ class BrickCache:
         raw = read_with_halo(self.source, key)
         self.stats["bytes_read"] += raw.nbytes
         self.stats["bricks_read"] += 1
-        data = np.ascontiguousarray(to_texture_values(raw, self.format, self.source.value_range))
+        data = np.ascontiguousarray(to_texture_values(raw, self.format, self.value_range))
         self.ram[key] = data
         self._evict(self.ram, self.ram_budget, lambda array: array.nbytes, "ram_evictions")
         return data

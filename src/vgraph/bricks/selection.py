@@ -83,20 +83,21 @@ class BrickGeometry:
 
 
 # --- emptiness ------------------------------------------------------------------------------------
-def normalised_ranges(source: BrickSource, level: int) -> tuple[np.ndarray, np.ndarray]:
+def normalised_ranges(source: BrickSource, level: int, value_range=None) -> tuple[np.ndarray, np.ndarray]:
     """Per-brick [z, y, x] min and max of normalised intensity over each brick and its neighbours;
     a brick without finite voxels counts as 0 (non-finite voxels are uploaded clamped)."""
     low, high = source.brick_ranges(level)
-    lo, hi = usable_range(source.value_range)
+    lo, hi = usable_range(value_range if value_range is not None else source.value_range)
     low = np.where(np.isfinite(low), (low - lo) / (hi - lo), 0.0)
     high = np.where(np.isfinite(high), (high - lo) / (hi - lo), 0.0)
     return (ndimage.minimum_filter(low, size=3, mode="nearest"),
             ndimage.maximum_filter(high, size=3, mode="nearest"))
 
 
-def visible_bricks(source: BrickSource, level: int, mode: str, alpha=None, iso_level: float = 0.5) -> np.ndarray:
+def visible_bricks(source: BrickSource, level: int, mode: str, alpha=None, iso_level: float = 0.5,
+                   value_range=None) -> np.ndarray:
     """Bool per brick [z, y, x] of ``level``: whether it can contribute in ``mode``."""
-    low, high = normalised_ranges(source, level)
+    low, high = normalised_ranges(source, level, value_range)
     if mode == "dvr":
         return occupied_blocks(low, high, alpha)
     if mode == "iso":
