@@ -41,6 +41,7 @@ from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, En
                                              RaycasterBase, Sampling, TransferFunctionLut)
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.targets import RenderTargets
+from vgraph.gl.raycasting.textures import linear_sampler
 from vgraph.gl.shaders import programs
 from vgraph.image import Image
 from vgraph.volume import Volume
@@ -187,12 +188,15 @@ class BrickedRayCaster(RaycasterBase):
         accumulation.clear()
         self._set_blending(ctx)
         try:
-            for key, rect in bricks:
+            for number, (key, rect) in enumerate(bricks):
                 textures = {**binding.textures, "volume": self.cache.texture(ctx, key)}
                 framebuffer.scissor = rect
+                # The frame's uniforms once: a program keeps its uniform values between passes.
+                frame_uniforms = uniforms if number == 0 else {}
                 fullscreen_pass(ctx, program, accumulation, textures,
-                                {**uniforms, **brick_uniforms(geometry, key), **self._gradient_uniforms(geometry, key)},
-                                samplers={"volume": self._sampler(ctx)})
+                                {**frame_uniforms, **brick_uniforms(geometry, key),
+                                 **self._gradient_uniforms(geometry, key)},
+                                samplers={"volume": linear_sampler(ctx)})
         finally:
             framebuffer.scissor = None
             ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
@@ -213,10 +217,6 @@ class BrickedRayCaster(RaycasterBase):
         spacings = DERIVATIVE_SPACINGS[self.derivatives]
         return {"voxel_step": vec(voxel),
                 "gradient_scale": vec(self.cache.format.scale / (spacings * spacing))}
-
-    def _sampler(self, ctx):
-        from vgraph.gl.raycasting.textures import linear_sampler
-        return linear_sampler(ctx)
 
     def resolve(self, frame, accumulation) -> None:
         """The accumulation -> image and depth (bricks/resolve.frag.glsl)."""

@@ -70,13 +70,6 @@ class BrickGeometry:
         t_hi = np.where(index == self.grids[key[0]] - 1, OUTSIDE, hi / self.dims0)
         return t_lo, t_hi
 
-    def world_box(self, key) -> tuple[np.ndarray, np.ndarray]:
-        """World box of the brick's owned region inside the volume box (voxel centres')."""
-        lo, hi = self.voxel_bounds(key)
-        top = self.dims0 - 1.0
-        lo, hi = np.clip(lo - 0.5, 0.0, top), np.clip(hi - 0.5, 0.0, top)
-        return self.origin0 + lo * self.spacing0, self.origin0 + hi * self.spacing0
-
     def eye_in_bricks(self, eye, level: int) -> np.ndarray:
         """The eye's position in brick units of ``level`` (x, y, z)."""
         return ((np.asarray(eye) - self.origin0) / self.spacing0 + 0.5) / (self.brick * 2.0 ** level)
@@ -105,36 +98,51 @@ def visible_bricks(source: BrickSource, level: int, mode: str, alpha=None, iso_l
     return high > 0.0  # mip: intensities are clamped to [0, 1]; 0 adds nothing to the maximum
 
 
-# --- level of detail --------------------------------------------------------------------------------
-def pixels_per_world(camera, size, distance: float) -> float:
-    """Pixels per world unit at ``distance`` from the eye (along the view)."""
+# --- per-level tables: boxes, level of detail, screen rectangles -----------------------------------
+def level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.ndarray]:
+    """World boxes of the owned regions (inside the box of the voxel centres) of every brick of
+    ``level``: arrays [bz, by, bx, 3] (x, y, z)."""
+    grid = geometry.grids[level]
+    index = np.stack(np.meshgrid(*[np.arange(n) for n in grid[::-1]], indexing="ij"), axis=-1)[..., ::-1]
+    span = geometry.brick * 2.0 ** level
+    top = geometry.dims0 - 1.0
+    lo = np.clip(index * span - 0.5, 0.0, top)
+    hi = np.clip(np.minimum((index + 1) * span, geometry.dims0) - 0.5, 0.0, top)
+    return geometry.origin0 + lo * geometry.spacing0, geometry.origin0 + hi * geometry.spacing0
+
+
+def pixels_per_world(camera, size, distance):
+    """Pixels per world unit at ``distance`` from the eye."""
     if camera.projection == "orthographic":
-        return size[1] / (2.0 * camera.parallel_scale)
-    return size[1] / (2.0 * max(distance, 1e-12) * math.tan(math.radians(camera.fov) / 2.0))
+        return np.full(np.shape(distance), size[1] / (2.0 * camera.parallel_scale))
+    return size[1] / (2.0 * np.maximum(distance, 1e-12) * math.tan(math.radians(camera.fov) / 2.0))
 
 
-def desired_level(geometry: BrickGeometry, camera, size, key, lod_bias: float) -> int:
-    lo, hi = geometry.world_box(key)
+def desired_levels(geometry: BrickGeometry, camera, size, level: int, lod_bias: float) -> np.ndarray:
+    """The level each brick of ``level`` asks for (module docstring), int [bz, by, bx]."""
+    lo, hi = level_boxes(geometry, level)
     eye = np.asarray(camera.position, dtype=np.float64)
-    distance = float(np.linalg.norm(np.maximum(np.maximum(lo - eye, eye - hi), 0.0)))
+    distance = np.linalg.norm(np.maximum(np.maximum(lo - eye, eye - hi), 0.0), axis=-1)
     pixels = float(geometry.spacing0.min()) * pixels_per_world(camera, size, distance)
-    return int(math.floor(-math.log2(max(pixels, 1e-30)) + lod_bias))
+    return np.floor(-np.log2(np.maximum(pixels, 1e-30)) + lod_bias).astype(np.int64)
 
 
-# --- culling ---------------------------------------------------------------------------------------
-def screen_rect(geometry: BrickGeometry, view_projection: np.ndarray, size, key):
-    """Pixel rectangle (x, y, w, h) covering the brick (one pixel of margin), None if off screen;
-    the whole viewport when a corner lies behind the eye."""
-    lo, hi = geometry.world_box(key)
-    corners = np.array([[(lo, hi)[i >> a & 1][a] for a in range(3)] + [1.0] for i in range(8)])
+def screen_rects(geometry: BrickGeometry, view_projection, size, level: int) -> np.ndarray:
+    """Pixel rectangles (x, y, w, h) covering each brick of ``level`` with one pixel of margin, int
+    [bz, by, bx, 4]; w = 0 off screen; the whole viewport where a corner lies behind the eye."""
+    lo, hi = level_boxes(geometry, level)
+    corners = np.stack([np.stack([(lo, hi)[i >> a & 1][..., a] for a in range(3)] + [np.ones(lo.shape[:-1])], -1)
+                        for i in range(8)], axis=-2)                       # [..., 8, 4]
     clip = corners @ np.asarray(view_projection, dtype=np.float64).T
-    if (clip[:, 3] <= 1e-9).any():
-        return (0, 0, int(size[0]), int(size[1]))
-    ndc = clip[:, :2] / clip[:, 3:4]
-    pixel = (ndc * 0.5 + 0.5) * np.asarray(size, dtype=np.float64)
-    x0, y0 = np.maximum(np.floor(pixel.min(axis=0)) - 1, 0).astype(int)
-    x1, y1 = np.minimum(np.ceil(pixel.max(axis=0)) + 1, size).astype(int)
-    return (int(x0), int(y0), int(x1 - x0), int(y1 - y0)) if x1 > x0 and y1 > y0 else None
+    behind = (clip[..., 3] <= 1e-9).any(axis=-1)
+    w = np.where(clip[..., 3:4] > 1e-9, clip[..., 3:4], 1.0)
+    pixel = (clip[..., :2] / w * 0.5 + 0.5) * np.asarray(size, dtype=np.float64)
+    first = np.maximum(np.floor(pixel.min(axis=-2)) - 1, 0)
+    last = np.minimum(np.ceil(pixel.max(axis=-2)) + 1, np.asarray(size, dtype=np.float64))
+    rects = np.concatenate([first, np.maximum(last - first, 0)], axis=-1)
+    rects[behind] = (0, 0, size[0], size[1])
+    rects[(rects[..., 2] == 0) | (rects[..., 3] == 0)] = 0
+    return rects.astype(np.int64)
 
 
 # --- the walk ----------------------------------------------------------------------------------------
@@ -146,35 +154,49 @@ def front_to_back(counts, eye, forward, perspective: bool, offset=(0, 0, 0)):
     return [(int(x), int(y), int(z)) for z in axes[2] for y in axes[1] for x in axes[0]]
 
 
+class LevelTables:
+    """Per-level rectangles, wanted levels and visibility of one frame, computed on first use."""
+
+    def __init__(self, geometry: BrickGeometry, camera, size, view_projection, visible, lod_bias: float):
+        self.geometry, self.camera, self.size = geometry, camera, size
+        self.view_projection, self.visible, self.lod_bias = view_projection, visible, lod_bias
+        self._tables: dict = {}
+
+    def __call__(self, level: int, what: str) -> np.ndarray:
+        if (level, what) not in self._tables:
+            self._tables[level, what] = {
+                "rects": lambda: screen_rects(self.geometry, self.view_projection, self.size, level),
+                "wants": lambda: desired_levels(self.geometry, self.camera, self.size, level, self.lod_bias),
+                "visible": lambda: np.asarray(self.visible(level), dtype=bool),
+            }[what]()
+        return self._tables[level, what]
+
+
 def select_bricks(source: BrickSource, camera, size, view_projection, visible, lod_bias: float,
-                  floor_level: int = 0, geometry: BrickGeometry | None = None) -> list:
+                  floor_level: int = 0, geometry: BrickGeometry | None = None, tables: LevelTables | None = None) -> list:
     """(key, rect) of the bricks to draw, front to back (see the module docstring). ``visible(level)``
     is the bool [z, y, x] array of bricks that can contribute at that level."""
     geometry = geometry or BrickGeometry(source)
+    tables = tables or LevelTables(geometry, camera, size, view_projection, visible, lod_bias)
     top = len(source.levels) - 1
     perspective = camera.projection == "perspective"
     forward = camera.basis()[2]
-    masks: dict[int, np.ndarray] = {}
     chosen: list = []
 
     def walk(level: int, cells):
         eye = geometry.eye_in_bricks(camera.position, level)
+        rects, wants = tables(level, "rects"), tables(level, "wants")
         for x, y, z in cells:
-            key = (level, z, y, x)
-            rect = screen_rect(geometry, view_projection, size, key)
-            if rect is None:
+            rect = rects[z, y, x]
+            if rect[2] == 0:
                 continue
-            want = min(max(desired_level(geometry, camera, size, key, lod_bias), floor_level, 0), top)
-            if level > want:
+            if level > min(max(int(wants[z, y, x]), floor_level, 0), top):
                 grid = geometry.grids[level - 1]
                 first = np.array([x, y, z]) * 2
                 counts = np.minimum(first + 2, grid) - first
                 walk(level - 1, front_to_back(counts, eye * 2, forward, perspective, first))
-                continue
-            if level not in masks:
-                masks[level] = visible(level)
-            if masks[level][z, y, x]:
-                chosen.append((key, rect))
+            elif tables(level, "visible")[z, y, x]:
+                chosen.append(((level, z, y, x), tuple(int(v) for v in rect)))
 
     eye_top = geometry.eye_in_bricks(camera.position, top)
     walk(top, front_to_back(geometry.grids[top], eye_top, forward, perspective))
@@ -186,8 +208,9 @@ def plan_frame(source: BrickSource, camera, size, view_projection, visible, lod_
     """The frame's bricks at the finest levels whose bricks fit ``budget_bytes`` together; raises
     ValueError when not even the coarsest level fits."""
     geometry = BrickGeometry(source)
+    tables = LevelTables(geometry, camera, size, view_projection, visible, lod_bias)
     for floor_level in range(len(source.levels)):
-        bricks = select_bricks(source, camera, size, view_projection, visible, lod_bias, floor_level, geometry)
+        bricks = select_bricks(source, camera, size, view_projection, visible, lod_bias, floor_level, geometry, tables)
         total = sum(brick_bytes(source, key) for key, _ in bricks)
         if total <= budget_bytes:
             return FramePlan(bricks, floor_level, total)
