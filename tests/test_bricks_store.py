@@ -13,7 +13,7 @@ from vgraph.bricks.convert import convert
 from vgraph.bricks.pyramid import ArrayPyramid, block_ranges
 from vgraph.bricks.store import BrickStore
 from vgraph.bricks.volume import BrickedVolume, MemoryBudgetError
-from vgraph.errors import ProcessorError, VolumeFileError
+from vgraph.errors import ProcessorError, VGraphError, VolumeFileError
 from vgraph.io import TimeStepError, read_volume
 from vgraph.network import Network
 
@@ -237,3 +237,24 @@ def test_data_over_the_budget_is_refused_naming_size_budget_and_remedies(store_p
 def test_a_bricked_volume_budget_must_be_positive(store_path):
     with pytest.raises(Exception, match="memory_budget_mb must be a positive number"):
         BrickedVolume(BrickStore(store_path[0]), memory_budget_mb=0)
+
+
+def test_volume_source_accepts_the_stores_zarr_json_and_its_time_axis(store_path, tmp_path):
+    volume = source_output(store_path[0] / "zarr.json")  # what a file dialog can pick
+    assert isinstance(volume, BrickedVolume) and volume.source == str(store_path[0])
+    data = np.arange(2 * 1 * 4 * 4 * 4, dtype=np.uint8).reshape(2, 1, 4, 4, 4)
+    path = foreign_store(tmp_path / "series.zarr", data)
+    second = source_output(path, time_step=1)
+    assert second.time_steps == 2 and second.value_range == (64.0, 106.0)  # its coarsest level: voxel (2, 2, 2)
+    with pytest.raises(VGraphError, match=r"src.time_step: time step 2 is out of range: .*series.zarr "
+                                          r"holds 2 time points"):
+        source_output(path, time_step=2)
+
+
+def test_vgraph_run_renders_a_small_store_and_refuses_one_over_its_budget(store_path, tmp_path, capsys):
+    from vgraph.cli import main
+    assert main(["run", str(store_path[0]), "-o", str(tmp_path / "fits.png"), "--size", "32x32"]) == 0
+    code = main(["run", str(store_path[0]), "-o", str(tmp_path / "over.png"), "--size", "32x32",
+                 "--set", "source.memory_budget=1"])
+    assert code == 2 and "memory budget of 1 MiB" in capsys.readouterr().err
+    assert not (tmp_path / "over.png").exists()
