@@ -36,6 +36,7 @@ from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.selection import BrickGeometry, plan_frame, visible_bricks
 from vgraph.bricks.targets import Accumulation, brick_uniforms, level_voxel
 from vgraph.errors import VGraphWarning
+from vgraph.gl.context import release_quietly
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, IsoSurface, Light,
                                              RaycasterBase, Sampling, TransferFunctionLut)
@@ -90,6 +91,10 @@ class BrickedRayCaster(RaycasterBase):
         self._targets = RenderTargets(2)
         self._accumulation = Accumulation()
         self.cache = BrickCache(self.ram_budget, self.gl_budget)
+        # Brick textures and accumulation targets go with the processor (moderngl does not
+        # release GL objects on garbage collection).
+        weakref.finalize(self, release_quietly, self.cache.gl)
+        weakref.finalize(self, release_quietly, self._accumulation.gl)
         self._pyramid = None  # (weakref to the volume, brick size, ArrayPyramid)
         self.last_frame: dict = {}
 

@@ -7,28 +7,38 @@ import numpy as np
 
 from vgraph.bricks.cache import HALO, brick_extent
 from vgraph.bricks.selection import BrickGeometry
-from vgraph.gl.context import bind_default_framebuffer
+from vgraph.gl.context import bind_default_framebuffer, release_quietly
 from vgraph.gl.raycasting.geometry import vec
 
 
 class Accumulation:
     """Two RGBA32F textures (the bricks' blended sums and first depth samples) and a depth texture
-    (MIP's maximum as 1 - depth), in one framebuffer; kept while the size stays the same."""
+    (MIP's maximum as 1 - depth), in one framebuffer; kept while the size stays the same. The GL
+    objects live in ``gl`` (a dict), which a finalizer of the owner can release."""
 
     def __init__(self):
-        self.textures: list = []
-        self.depth = None
-        self.framebuffer = None
+        self.gl: dict = {}
         self.size = (0, 0)
+
+    @property
+    def framebuffer(self):
+        return self.gl["framebuffer"]
+
+    @property
+    def textures(self) -> list:
+        return [self.gl["sum"], self.gl["first"]]
 
     def ensure(self, ctx, size) -> "Accumulation":
         size = tuple(int(v) for v in size)
-        if self.framebuffer is None or self.framebuffer.ctx is not ctx or self.size != size:
-            if self.framebuffer is not None and self.framebuffer.ctx is ctx:
+        current = self.gl.get("framebuffer")
+        if current is None or current.ctx is not ctx or self.size != size:
+            if current is not None and current.ctx is ctx:
                 self.release()
-            self.textures = [ctx.texture(size, 4, dtype="f4") for _ in range(2)]
-            self.depth = ctx.depth_texture(size)
-            self.framebuffer = ctx.framebuffer(color_attachments=self.textures, depth_attachment=self.depth)
+            self.gl.clear()  # (objects of a replaced context went with it)
+            textures = {name: ctx.texture(size, 4, dtype="f4") for name in ("sum", "first")}
+            depth = ctx.depth_texture(size)
+            self.gl.update(framebuffer=ctx.framebuffer(color_attachments=list(textures.values()),
+                                                       depth_attachment=depth), depth=depth, **textures)
             self.size = size
         return self
 
@@ -36,11 +46,10 @@ class Accumulation:
         self.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
 
     def release(self) -> None:
-        if self.framebuffer is not None:
+        if self.gl:
             bind_default_framebuffer(self.framebuffer.ctx)
-            for gl_object in (self.framebuffer, self.depth, *self.textures):
-                gl_object.release()
-        self.textures, self.depth, self.framebuffer, self.size = [], None, None, (0, 0)
+            release_quietly(self.gl)
+        self.size = (0, 0)
 
 
 def brick_uniforms(geometry: BrickGeometry, key) -> dict:
