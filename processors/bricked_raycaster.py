@@ -49,6 +49,7 @@ from vgraph.volume import Volume
 
 BRICK_SHADER = "bricks/brick.frag.glsl"
 RESOLVE_SHADER = "bricks/resolve.frag.glsl"
+COPY_SHADER = "bricks/copy.frag.glsl"
 COMPOSITING = ("dvr", "mip", "iso")
 SHADED_MODES = ("dvr", "iso")
 DERIVATIVES = ("central", "forward", "backward", "sobel")  # each reads at most one voxel away
@@ -81,6 +82,9 @@ class BrickedRayCaster(RaycasterBase):
     derivatives = OptionProperty("central", choices=list(DERIVATIVES), doc="finite differences of the shading normals")
     brick_size = BrickSizeProperty(64, min=8, max=1024,
                                    doc="voxels per brick edge for in-memory volumes (a BrickedVolume keeps its own)")
+    early_termination = FloatProperty(1.0, min=0.01, max=1.0,
+                                      doc="dvr: stop a ray once its opacity reaches this (as the RayCaster's); "
+                                          "below 1 each brick reads the accumulation: two passes a brick")
     lod_bias = FloatProperty(0.0, min=-16.0, max=16.0,
                              doc="levels coarser (+) or finer (-) than voxels of about a pixel")
     ram_budget = FloatProperty(1024.0, min=0.01, max=1e7, doc="MB of bricks kept in memory")
@@ -102,10 +106,16 @@ class BrickedRayCaster(RaycasterBase):
     def shaded(self) -> bool:
         return self.shading != "none" and self.compositing in SHADED_MODES
 
+    def reads_accumulation(self) -> bool:
+        """dvr with early termination: each brick continues the sum of the bricks in front."""
+        return self.compositing == "dvr" and self.early_termination < 1.0
+
     def shader_defines(self) -> dict[str, bool]:
         mode = self.compositing
+        terminating = self.reads_accumulation()
         defines = {f"COMPOSITING_{mode.upper()}": True,
-                   "OPACITY_CORRECTION": mode == "dvr" and self.sampling_rate != 1.0}
+                   "OPACITY_CORRECTION": mode == "dvr" and self.sampling_rate != 1.0,
+                   "READ_ACCUMULATION": terminating, "EARLY_TERMINATION": terminating}
         if self.shaded():
             defines[f"GRADIENT_{self.derivatives.upper()}"] = True
         return defines
@@ -178,7 +188,7 @@ class BrickedRayCaster(RaycasterBase):
         return binding
 
     def draw_bricks(self, frame, geometry, bricks, accumulation) -> None:
-        """One pass per brick, front to back, blended into the accumulation (module docstring)."""
+        """One pass per brick, front to back, into the accumulation (module docstring)."""
         ctx = frame.ctx
         binding = self.base_binding(frame)
         program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, BRICK_SHADER, binding.defines, processor=self.id)
@@ -186,26 +196,43 @@ class BrickedRayCaster(RaycasterBase):
         scale, offset = self.cache.format.scale, self.cache.format.offset
         uniforms = {**binding.uniforms, "intensity_scale": float(scale), "intensity_offset": float(offset),
                     "opacity_exponent": 1.0 / self.sampling_rate}  # (the RayCaster's FrontToBack sets it)
+        if self.compositing == "dvr":
+            uniforms["early_termination"] = self.early_termination
+        reading = self.reads_accumulation()
+        target = accumulation.scratch if reading else accumulation
+        textures = dict(binding.textures)
+        if reading:
+            textures.update(front_sum=accumulation.textures[0], front_first=accumulation.textures[1])
         # The scissor is state of a framebuffer (moderngl: ctx.scissor is the bound one's): set
-        # on the accumulation's own, so no other target keeps a brick's rectangle.
-        framebuffer = accumulation.framebuffer
-        framebuffer.scissor = None
+        # on the targets' own, so no other target keeps a brick's rectangle.
+        framebuffers = (accumulation.framebuffer, accumulation.scratch.framebuffer)
+        for framebuffer in framebuffers:
+            framebuffer.scissor = None
         accumulation.clear()
-        self._set_blending(ctx)
+        if not reading:
+            self._set_blending(ctx)
         try:
             for number, (key, rect) in enumerate(bricks):
-                textures = {**binding.textures, "volume": self.cache.texture(ctx, key)}
-                framebuffer.scissor = rect
+                target.framebuffer.scissor = rect
                 # The frame's uniforms once: a program keeps its uniform values between passes.
-                frame_uniforms = uniforms if number == 0 else {}
-                fullscreen_pass(ctx, program, accumulation, textures,
-                                {**frame_uniforms, **brick_uniforms(geometry, key),
+                fullscreen_pass(ctx, program, target, {**textures, "volume": self.cache.texture(ctx, key)},
+                                {**(uniforms if number == 0 else {}), **brick_uniforms(geometry, key),
                                  **self._gradient_uniforms(geometry, key)},
                                 samplers={"volume": linear_sampler(ctx)})
+                if reading:
+                    self._copy_back(ctx, accumulation, rect)
         finally:
-            framebuffer.scissor = None
+            for framebuffer in framebuffers:
+                framebuffer.scissor = None
             ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
             ctx.blend_func = moderngl.DEFAULT_BLENDING
+
+    def _copy_back(self, ctx, accumulation, rect) -> None:
+        """The brick's rectangle of the scratch pair -> the accumulation (bricks/copy.frag.glsl)."""
+        program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, COPY_SHADER, {}, processor=self.id)
+        accumulation.framebuffer.scissor = rect
+        scratch = accumulation.scratch.textures
+        fullscreen_pass(ctx, program, accumulation, {"scratch_sum": scratch[0], "scratch_first": scratch[1]})
 
     def _set_blending(self, ctx) -> None:
         if self.compositing == "mip":

@@ -109,13 +109,28 @@ def test_bonsai_matches_the_raycaster(bonsai, mode):
 
 
 def test_early_termination_is_the_difference_to_the_default_raycaster():
-    """The RayCaster stops rays at opacity 0.99; the bricks sum all: at most 1% per channel."""
+    """The RayCaster stops rays at opacity 0.99; blended bricks (early_termination 1, the
+    default) sum all: at most 1% per channel."""
     volume = odd_volume()
     opaque = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.3, 1.0, 0.5, 0.2, 0.5), (1.0, 1, 1, 1, 1.0)])
     default, _, _ = render(volume, oblique(volume), "RayCaster", compositing="dvr", transfer_function=opaque)
     got, _, _ = render(volume, oblique(volume), brick_size=16, lod_bias=FINEST, transfer_function=opaque)
     assert np.abs(got - default).max() <= 0.0101
     assert psnr(got, default) >= 40.0
+
+
+@pytest.mark.parametrize("early_termination", [0.99, 0.6])
+def test_bricks_reading_the_accumulation_terminate_rays_where_the_raycaster_does(early_termination):
+    volume = odd_volume()
+    opaque = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.3, 1.0, 0.5, 0.2, 0.5), (1.0, 1, 1, 1, 1.0)])
+    properties = dict(compositing="dvr", transfer_function=opaque, shading="blinn_phong",
+                      early_termination=early_termination)
+    want, want_depth, _ = render(volume, oblique(volume), "RayCaster", **properties)
+    got, got_depth, rc = render(volume, oblique(volume), brick_size=16, lod_bias=FINEST, **properties)
+    assert psnr(got, want) >= MIN_PSNR  # measured 142-146 dB
+    np.testing.assert_allclose(got_depth[..., :2], want_depth[..., :2], atol=1e-4)
+    assert [shader for shader, _ in rc.passes] == ["bricks/brick.frag.glsl", "bricks/resolve.frag.glsl"]
+    assert rc.passes[0][1]["READ_ACCUMULATION"] and rc.passes[0][1]["EARLY_TERMINATION"]
 
 
 # --- the brick cache ---------------------------------------------------------------------------------

@@ -1,12 +1,21 @@
 // COMPOSITING_DVR in one brick: the RayCaster's front-to-back sum (raycasting/compositing_dvr.glsl)
-// over the samples the brick owns, without early termination (the sum of the bricks in front is
-// not readable here). The pass blends the brick's premultiplied sum under what the bricks in front
-// left: C += (1 - A) C_brick, A += (1 - A) A_brick, which is the same sum regrouped. Depth: the
-// brick's first sample with a' > 0 (the blend keeps the frontmost).
+// over the samples the brick owns, continued from `sum` and `depth_sample`:
+// - blended (the default): they start at 0 and the pass blends the brick's premultiplied sum under
+//   what the bricks in front left, C += (1 - A) C_brick, A += (1 - A) A_brick: the same sum
+//   regrouped, without early termination (a pass cannot read the target it blends into);
+// - READ_ACCUMULATION: they start at what the bricks in front left (front_state.glsl), so the sum
+//   is the RayCaster's, sample by sample, and EARLY_TERMINATION stops it where the RayCaster does
+//   (once A >= early_termination).
+// Depth: the first sample with a' > 0.
 #ifdef COMPOSITING_DVR
-void composite(Ray ray, Span span, out vec4 sum, out float depth_sample) {
-    sum = vec4(0.0);
-    depth_sample = -1.0;
+uniform float early_termination;
+
+void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {
+#ifdef EARLY_TERMINATION
+    if (sum.a >= early_termination) {
+        return;  // the ray stopped in a brick in front
+    }
+#endif
     for (int i = span.first; i <= span.last; ++i) {
         vec3 t = sample_point(ray, float(i));
         if (!owns(t)) {
@@ -24,6 +33,11 @@ void composite(Ray ray, Span span, out vec4 sum, out float depth_sample) {
             }
             float weight = (1.0 - sum.a) * alpha;
             sum += vec4(weight * color.rgb, weight);
+#ifdef EARLY_TERMINATION
+            if (sum.a >= early_termination) {
+                break;
+            }
+#endif
         }
     }
 }

@@ -22,7 +22,7 @@ float refine_crossing(Ray ray, float a, float fa, float b, float fb) {
     return a + (b - a) * fa / (fa - fb);
 }
 
-void composite(Ray ray, Span span, out vec4 sum, out float depth_sample) {
+void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {  // (starts at 0)
     sum = vec4(0.0);
     depth_sample = -1.0;
     for (int i = span.first; i <= span.last; ++i) {

@@ -4,7 +4,7 @@
 // back) the largest maximum wins and a tie keeps the front brick: the RayCaster's first maximum.
 // Classification happens once, in resolve.frag.glsl. A brick with nothing above 0 writes nothing.
 #ifdef COMPOSITING_MIP
-void composite(Ray ray, Span span, out vec4 sum, out float depth_sample) {
+void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {  // (starts at 0)
     float best = 0.0;
     depth_sample = -1.0;
     for (int i = span.first; i <= span.last; ++i) {

@@ -3,6 +3,8 @@ per-brick uniforms that map the global sample lattice into a brick's texture."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 from vgraph.bricks.cache import HALO, brick_extent
@@ -12,9 +14,11 @@ from vgraph.gl.raycasting.geometry import vec
 
 
 class Accumulation:
-    """Two RGBA32F textures (the bricks' blended sums and first depth samples) and a depth texture
-    (MIP's maximum as 1 - depth), in one framebuffer; kept while the size stays the same. The GL
-    objects live in ``gl`` (a dict), which a finalizer of the owner can release."""
+    """The bricks' accumulation: two RGBA32F textures (the blended sums, the first depth samples)
+    and a depth texture (MIP's maximum as 1 - depth) in one framebuffer, and a scratch pair in
+    another (dvr with early termination draws a brick there, reading the accumulation, and copies
+    its rectangle back); kept while the size stays the same. The GL objects live in ``gl`` (a
+    dict), which a finalizer of the owner can release."""
 
     def __init__(self):
         self.gl: dict = {}
@@ -28,6 +32,12 @@ class Accumulation:
     def textures(self) -> list:
         return [self.gl["sum"], self.gl["first"]]
 
+    @property
+    def scratch(self) -> SimpleNamespace:
+        """The scratch pair as a pass target (framebuffer, size) and its textures."""
+        return SimpleNamespace(framebuffer=self.gl["scratch"], size=self.size,
+                               textures=[self.gl["scratch_sum"], self.gl["scratch_first"]])
+
     def ensure(self, ctx, size) -> "Accumulation":
         size = tuple(int(v) for v in size)
         current = self.gl.get("framebuffer")
@@ -35,10 +45,14 @@ class Accumulation:
             if current is not None and current.ctx is ctx:
                 self.release()
             self.gl.clear()  # (objects of a replaced context went with it)
-            textures = {name: ctx.texture(size, 4, dtype="f4") for name in ("sum", "first")}
+            names = ("sum", "first", "scratch_sum", "scratch_first")
+            textures = {name: ctx.texture(size, 4, dtype="f4") for name in names}
             depth = ctx.depth_texture(size)
-            self.gl.update(framebuffer=ctx.framebuffer(color_attachments=list(textures.values()),
-                                                       depth_attachment=depth), depth=depth, **textures)
+            self.gl.update(framebuffer=ctx.framebuffer(color_attachments=[textures["sum"], textures["first"]],
+                                                       depth_attachment=depth),
+                           scratch=ctx.framebuffer(color_attachments=[textures["scratch_sum"],
+                                                                      textures["scratch_first"]]),
+                           depth=depth, **textures)
             self.size = size
         return self
 
