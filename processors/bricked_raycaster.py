@@ -209,7 +209,9 @@ class BrickedRayCaster(RaycasterBase):
         for framebuffer in framebuffers:
             framebuffer.scissor = None
         accumulation.clear()
-        if not reading:
+        if reading:
+            copy = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, COPY_SHADER, {}, processor=self.id)
+        else:
             self._set_blending(ctx)
         try:
             for number, (key, rect) in enumerate(bricks):
@@ -220,19 +222,24 @@ class BrickedRayCaster(RaycasterBase):
                                  **self._gradient_uniforms(geometry, key)},
                                 samplers={"volume": linear_sampler(ctx)})
                 if reading:
-                    self._copy_back(ctx, accumulation, rect)
+                    self._copy_back(ctx, copy, accumulation, rect, first=number == 0)
         finally:
             for framebuffer in framebuffers:
                 framebuffer.scissor = None
             ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
             ctx.blend_func = moderngl.DEFAULT_BLENDING
 
-    def _copy_back(self, ctx, accumulation, rect) -> None:
+    def _copy_back(self, ctx, program, accumulation, rect, first: bool) -> None:
         """The brick's rectangle of the scratch pair -> the accumulation (bricks/copy.frag.glsl)."""
-        program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, COPY_SHADER, {}, processor=self.id)
         accumulation.framebuffer.scissor = rect
         scratch = accumulation.scratch.textures
-        fullscreen_pass(ctx, program, accumulation, {"scratch_sum": scratch[0], "scratch_first": scratch[1]})
+        textures = {"scratch_sum": scratch[0], "scratch_first": scratch[1]}
+        if first:
+            fullscreen_pass(ctx, program, accumulation, textures)
+        else:  # the samplers already point at the units of the first pass
+            for unit, texture in enumerate(textures.values()):
+                texture.use(location=unit)
+            fullscreen_pass(ctx, program, accumulation)
 
     def _set_blending(self, ctx) -> None:
         if self.compositing == "mip":
