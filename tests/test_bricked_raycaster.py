@@ -6,7 +6,7 @@ its warning, and refused property values."""
 import numpy as np
 import pytest
 
-from vgraph import PropertyError, VGraphWarning
+from vgraph import ProcessorError, PropertyError, VGraphWarning
 from vgraph.bricks.cache import HALO, MB, BrickCache, read_with_halo
 from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.camera import Camera
@@ -204,6 +204,12 @@ def test_a_budget_too_small_for_level_0_renders_a_coarser_level_and_says_which()
     assert rc.last_frame["levels"] == [1] and rc.last_frame["floor_level"] == 1
     want, _, _ = reference(volume, camera, size=(48, 48), compositing="mip")
     assert psnr(image, want) >= 30.0  # complete: a smooth field one level coarser
+
+
+def test_a_budget_below_one_coarsest_brick_is_an_error_naming_both_budgets():
+    volume = big_volume()
+    with pytest.raises(ProcessorError, match=r"rc\.ram_budget / rc\.gl_budget: .*coarsest level"):
+        render(volume, oblique(volume), compositing="mip", brick_size=32, ram_budget=0.05)
 
 
 def test_lod_bias_picks_levels_from_the_projected_voxel_size():
