@@ -30,7 +30,9 @@ from typing import Annotated
 import moderngl
 from pydantic import AfterValidator, Field, StrictInt
 
-from vgraph import FloatProperty, Inport, IntProperty, OptionProperty, Outport, VGraphError
+import numpy as np
+
+from vgraph import BoolProperty, FloatProperty, Inport, IntProperty, OptionProperty, Outport, VGraphError
 from vgraph.bricks.cache import MB, BrickCache
 from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.selection import BrickGeometry, plan_frame, visible_bricks
@@ -85,6 +87,8 @@ class BrickedRayCaster(RaycasterBase):
     early_termination = FloatProperty(1.0, min=0.01, max=1.0,
                                       doc="dvr: stop a ray once its opacity reaches this (as the RayCaster's); "
                                           "below 1 each brick reads the accumulation: two passes a brick")
+    empty_space_skipping = BoolProperty(True, doc="inside a brick, skip blocks of 8^3 voxels that cannot "
+                                                  "contribute (same image, faster); empty bricks are always skipped")
     lod_bias = FloatProperty(0.0, min=-16.0, max=16.0,
                              doc="levels coarser (+) or finer (-) than voxels of about a pixel")
     ram_budget = FloatProperty(1024.0, min=0.01, max=1e7, doc="MB of bricks kept in memory")
@@ -99,7 +103,9 @@ class BrickedRayCaster(RaycasterBase):
         # release GL objects on garbage collection).
         weakref.finalize(self, release_quietly, self.cache.gl)
         weakref.finalize(self, release_quietly, self._accumulation.gl)
+        weakref.finalize(self, release_quietly, self.cache.block_textures)
         self._pyramid = None  # (weakref to the volume, brick size, ArrayPyramid)
+        self._alpha_count = {}  # "texture": LUT entries with opacity, cumulated; "key": its alpha
         self.last_frame: dict = {}
 
     # --- shader ---------------------------------------------------------------------------------
@@ -115,7 +121,8 @@ class BrickedRayCaster(RaycasterBase):
         terminating = self.reads_accumulation()
         defines = {f"COMPOSITING_{mode.upper()}": True,
                    "OPACITY_CORRECTION": mode == "dvr" and self.sampling_rate != 1.0,
-                   "READ_ACCUMULATION": terminating, "EARLY_TERMINATION": terminating}
+                   "READ_ACCUMULATION": terminating, "EARLY_TERMINATION": terminating,
+                   "SKIP_EMPTY_BLOCKS": self.empty_space_skipping}
         if self.shaded():
             defines[f"GRADIENT_{self.derivatives.upper()}"] = True
         return defines
@@ -201,6 +208,8 @@ class BrickedRayCaster(RaycasterBase):
         reading = self.reads_accumulation()
         target = accumulation.scratch if reading else accumulation
         textures = dict(binding.textures)
+        if self.compositing == "dvr" and self.empty_space_skipping:
+            textures["alpha_count"] = self._alpha_count_texture(ctx)
         if reading:
             textures.update(front_sum=accumulation.textures[0], front_first=accumulation.textures[1])
         # The scissor is state of a framebuffer (moderngl: ctx.scissor is the bound one's): set
@@ -217,7 +226,8 @@ class BrickedRayCaster(RaycasterBase):
             for number, (key, rect) in enumerate(bricks):
                 target.framebuffer.scissor = rect
                 # The frame's uniforms once: a program keeps its uniform values between passes.
-                fullscreen_pass(ctx, program, target, {**textures, "volume": self.cache.texture(ctx, key)},
+                fullscreen_pass(ctx, program, target, {**textures, "volume": self.cache.texture(ctx, key),
+                                                       "blocks": self.cache.blocks(ctx, key)},
                                 {**(uniforms if number == 0 else {}), **brick_uniforms(geometry, key),
                                  **self._gradient_uniforms(geometry, key)},
                                 samplers={"volume": linear_sampler(ctx)})
@@ -228,6 +238,20 @@ class BrickedRayCaster(RaycasterBase):
                 framebuffer.scissor = None
             ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
             ctx.blend_func = moderngl.DEFAULT_BLENDING
+
+    def _alpha_count_texture(self, ctx):
+        """4097 x 1 R32F: entry i = the LUT entries below i with opacity > 0 (brick_blocks.glsl)."""
+        alpha = self.parts[TransferFunctionLut].lut.alpha
+        texture = self._alpha_count.get("texture")
+        if texture is None or texture.ctx is not ctx:
+            release_quietly(self._alpha_count)
+            texture = self._alpha_count["texture"] = ctx.texture((len(alpha) + 1, 1), 1, dtype="f4")
+            self._alpha_count["key"] = None
+        if self._alpha_count.get("key") is None or not np.array_equal(self._alpha_count["key"], alpha):
+            counts = np.concatenate([[0.0], np.cumsum(alpha > 0.0)]).astype(np.float32)
+            texture.write(counts.tobytes())
+            self._alpha_count["key"] = alpha.copy()
+        return texture
 
     def _copy_back(self, ctx, program, accumulation, rect, first: bool) -> None:
         """The brick's rectangle of the scratch pair -> the accumulation (bricks/copy.frag.glsl)."""

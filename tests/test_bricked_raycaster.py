@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from vgraph import ProcessorError, PropertyError, VGraphWarning
-from vgraph.bricks.cache import HALO, MB, BrickCache, read_with_halo
+from vgraph.bricks.cache import (HALO, MB, BrickCache, block_ranges_of, read_with_halo, texture_format,
+                                 to_texture_values)
 from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.camera import Camera
 from vgraph.io import read_volume
@@ -140,6 +141,28 @@ def test_halo_replicates_the_border_and_reads_neighbours():
     padded = np.pad(data, HALO, mode="edge")
     block = read_with_halo(pyramid, (0, 1, 2, 0))  # z 8..16, y 16..18 (last, partial), x 0..8
     np.testing.assert_array_equal(block, padded[8:16 + 2 * HALO, 16:18 + 2 * HALO, 0:8 + 2 * HALO])
+
+
+def test_block_ranges_cover_every_voxel_their_samples_filter():
+    data = np.random.default_rng(3).random((21, 17, 30)).astype(np.float32)
+    pyramid = ArrayPyramid(data, brick=(16, 16, 16))
+    fmt = texture_format(pyramid.dtype, pyramid.value_range)
+    block = to_texture_values(read_with_halo(pyramid, (0, 1, 0, 1)), fmt, pyramid.value_range)
+    ranges = block_ranges_of(block, fmt)
+    assert ranges.shape == (1, 2, 2, 2)  # core 5 x 16 x 14 voxels in blocks of 8
+    for k in np.ndindex(*ranges.shape[:3]):  # voxels 8k - 1 .. 8k + 8 of the core, + HALO in the array
+        part = block[tuple(slice(8 * i + HALO - 1, 8 * i + 9 + HALO) for i in k)]
+        np.testing.assert_allclose(ranges[k], (part.min() * fmt.scale + fmt.offset, part.max() * fmt.scale + fmt.offset))
+
+
+@pytest.mark.parametrize("properties", [{"compositing": "dvr", "transfer_function": WINDOW},
+                                        {"compositing": "mip"}, {"compositing": "iso", "iso_level": 0.55}],
+                         ids=["dvr", "mip", "iso"])
+def test_skipping_empty_blocks_inside_bricks_leaves_the_image_unchanged(properties):
+    volume = odd_volume()
+    images = [render(volume, oblique(volume), brick_size=16, lod_bias=FINEST, empty_space_skipping=skip,
+                     **properties)[0] for skip in (False, True)]
+    np.testing.assert_array_equal(images[0], images[1])
 
 
 def test_cache_evicts_least_recently_used_but_never_pinned_bricks():

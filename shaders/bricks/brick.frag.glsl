@@ -2,7 +2,7 @@
 // BrickedRayCaster, one pass per brick (front to back): the samples of the pixel's ray that this
 // brick owns (brick_span.glsl), composited by the mode's part (exactly one COMPOSITING_* of dvr,
 // mip, iso; SHADING_BLINN_PHONG with one GRADIENT_* and LIGHT_HEADLIGHT; OPACITY_CORRECTION; for
-// dvr READ_ACCUMULATION with EARLY_TERMINATION, front_state.glsl).
+// dvr READ_ACCUMULATION with EARLY_TERMINATION, front_state.glsl; SKIP_EMPTY_BLOCKS, brick_blocks.glsl).
 // Outputs (processors/bricked_raycaster.py sets blending or the depth test): `sum` = the
 // premultiplied colour and coverage (mip: the maximum and its sample), `first` = (depth sample,
 // 0, 0, 1) where there is one, else 0. Blended passes discard where the brick adds nothing; with
@@ -16,6 +16,7 @@
 #include "raycasting/gradients.glsl"
 #include "raycasting/shading.glsl"
 #include "bricks/brick_span.glsl"
+#include "bricks/brick_blocks.glsl"
 #include "bricks/front_state.glsl"
 #include "bricks/composite_dvr.glsl"
 #include "bricks/composite_mip.glsl"

@@ -21,6 +21,7 @@ void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {
         if (!owns(t)) {
             continue;
         }
+        SKIP_BLOCK_IF(ray, t, i, transparent(range))
         float raw = raw_sample(t);
         vec4 color = classify(raw * intensity_scale + intensity_offset);
         if (color.a > 0.0) {

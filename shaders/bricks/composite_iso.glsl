@@ -30,6 +30,7 @@ void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {  
         if (!owns(t)) {
             continue;
         }
+        SKIP_BLOCK_IF(ray, t, i, range.y < iso_level)  // (the sample before a hit is fetched anyway)
         float value = intensity(t);
         if (value >= iso_level) {
             float hit = float(i);

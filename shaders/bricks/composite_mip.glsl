@@ -12,6 +12,7 @@ void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {  
         if (!owns(t)) {
             continue;
         }
+        SKIP_BLOCK_IF(ray, t, i, range.y <= best)
         float value = min(intensity(t), 1.0);
         if (value > best) {
             best = value;

@@ -29,6 +29,7 @@ from vgraph.bricks.pyramid import BrickSource
 from vgraph.gl.context import release_quietly
 
 HALO = 2
+BLOCK = 8  # voxels per block edge of the empty-space skipping inside a brick
 MB = 1024 * 1024
 # float32 carries values and ranges inside these bounds with room for the shaders' arithmetic
 # (the rule of Volume.texture_is_normalized).
@@ -107,12 +108,30 @@ def read_with_halo(source: BrickSource, key) -> np.ndarray:
     return np.pad(block, pad, mode="edge") if any(a or b for a, b in pad) else block
 
 
+def block_ranges_of(data: np.ndarray, fmt: TextureFormat, block: int = BLOCK) -> np.ndarray:
+    """Normalised min and max, float32 [nbz, nby, nbx, 2], over what the samples in each block of
+    ``block`` core voxels of a brick (``data``: with its halo, in texture values) can read: a
+    sample in block k (core coordinates [bk - 1/2, bk + b - 1/2)) filters voxels bk - 1 .. bk + b,
+    so each range covers those (the shader's empty-space skipping inside a brick)."""
+    low = high = data
+    for axis in range(3):
+        core = data.shape[axis] - 2 * HALO
+        count = -(-core // block)
+        slabs = [(block * k + HALO - 1, min(block * k + block + HALO + 1, data.shape[axis])) for k in range(count)]
+        low = np.stack([np.take(low, range(a, b), axis=axis).min(axis=axis) for a, b in slabs], axis=axis)
+        high = np.stack([np.take(high, range(a, b), axis=axis).max(axis=axis) for a, b in slabs], axis=axis)
+    full = 65535.0 if fmt.gl_dtype == "nu2" else 1.0  # a normalised texture samples value / 65535
+    ranges = np.stack([low, high], axis=-1).astype(np.float64) / full * fmt.scale + fmt.offset
+    return ranges.astype(np.float32)
+
+
 class BrickCache:
     """The two LRU caches (see the module docstring). One per ray caster; a new source clears it."""
 
     def __init__(self, ram_budget_mb: float = 1024.0, gl_budget_mb: float = 512.0):
         self.ram: OrderedDict = OrderedDict()  # key -> texture-ready numpy brick
         self.gl: OrderedDict = OrderedDict()   # key -> moderngl 3D texture
+        self.block_textures: dict = {}         # key -> its blocks' ranges (RG32F), evicted with it
         self.pinned: frozenset = frozenset()
         self.source = None
         self.value_range = None
@@ -167,15 +186,26 @@ class BrickCache:
             return texture
         self.stats["gl_misses"] += 1
         if texture is not None:  # of a context that is gone
-            release_quietly({key: self.gl.pop(key)})
+            self._drop_texture(key)
         data = self.brick(key)
-        nz, ny, nx = data.shape
-        texture = ctx.texture3d((nx, ny, nz), 1, data.tobytes(), dtype=self.format.gl_dtype, alignment=1)
-        texture.repeat_x = texture.repeat_y = texture.repeat_z = False
+        texture = _texture3d(ctx, data, self.format.gl_dtype)
+        self.block_textures[key] = _texture3d(ctx, block_ranges_of(data, self.format), "f4", components=2)
         self.stats["uploads"] += 1
         self.gl[key] = texture
         self._evict(self.gl, self.gl_budget, _texture_bytes, "gl_evictions")
         return texture
+
+    def blocks(self, ctx, key):
+        """The RG32F texture of the brick's block ranges (block_ranges_of), uploaded with it (ask
+        for ``texture`` first: this one does not count as a lookup)."""
+        blocks = self.block_textures.get(key)
+        if blocks is None or blocks.ctx is not ctx:
+            self.texture(ctx, key)
+            blocks = self.block_textures[key]
+        return blocks
+
+    def _drop_texture(self, key) -> None:
+        release_quietly({key: self.gl.pop(key), "blocks": self.block_textures.pop(key, None) or {}})
 
     # --- eviction -------------------------------------------------------------------------------
     def _evict(self, cache: OrderedDict, budget: int, size, counter: str) -> None:
@@ -186,11 +216,12 @@ class BrickCache:
                 break
             if key in self.pinned:
                 continue
-            value = cache.pop(key)
-            total -= size(value)
+            total -= size(cache[key])
             self.stats[counter] += 1
             if cache is self.gl:
-                release_quietly({key: value})
+                self._drop_texture(key)
+            else:
+                cache.pop(key)
 
     def resident_bytes(self) -> tuple[int, int]:
         """(RAM bytes, GL bytes) held now."""
@@ -198,10 +229,18 @@ class BrickCache:
 
     def clear(self) -> None:
         release_quietly(self.gl)
+        release_quietly(self.block_textures)
         self.ram.clear()
         self.pinned = frozenset()
 
     release = clear
+
+
+def _texture3d(ctx, data: np.ndarray, dtype: str, components: int = 1):
+    nz, ny, nx = data.shape[:3]
+    texture = ctx.texture3d((nx, ny, nz), components, np.ascontiguousarray(data).tobytes(), dtype=dtype, alignment=1)
+    texture.repeat_x = texture.repeat_y = texture.repeat_z = False
+    return texture
 
 
 def _texture_bytes(texture) -> int:

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from vgraph.bricks.cache import HALO, brick_extent
+from vgraph.bricks.cache import BLOCK, HALO, brick_extent
 from vgraph.bricks.selection import BrickGeometry
 from vgraph.gl.context import bind_default_framebuffer, release_quietly
 from vgraph.gl.raycasting.geometry import vec
@@ -78,7 +78,9 @@ def brick_uniforms(geometry: BrickGeometry, key) -> dict:
     scale = geometry.dims0 * geometry.spacing0 / (s_level * m)
     offset = ((geometry.origin0 - 0.5 * geometry.spacing0 - o_level) / s_level - start + HALO + 0.5) / m
     lo, hi = geometry.owner_bounds(key)
-    return {"brick_scale": vec(scale), "brick_offset": vec(offset), "owner_lo": vec(lo), "owner_hi": vec(hi)}
+    core = m - 2 * HALO  # (x, y, z)
+    return {"brick_scale": vec(scale), "brick_offset": vec(offset), "owner_lo": vec(lo), "owner_hi": vec(hi),
+            "brick_texels": vec(m), "block_count": tuple(int(-(-int(n) // BLOCK)) for n in core)}
 
 
 def level_voxel(geometry: BrickGeometry, level: int) -> np.ndarray:
