@@ -11,7 +11,11 @@ Conventions (docs/bricked_raycaster.md explains each with the numbers):
   rectangle), into RGBA32F accumulation targets: dvr and iso blend "under" (C += (1 - A) C_brick),
   mip keeps the largest maximum with a depth test; a last pass classifies (mip), puts the
   background under and writes the RayCaster's `image` and `depth` outputs (depth's sample counter
-  is 0). There is no early ray termination: the bricks in front are not readable in a pass.
+  is 0). Blending cannot stop rays early (a pass cannot read the target it blends into); with
+  ``early_termination`` < 1 (dvr) each brick instead reads the accumulation, continues the
+  RayCaster's sum and stops where it does, drawing into a scratch pair copied back per brick.
+- Inside a brick, blocks of 8^3 voxels that cannot contribute are jumped over
+  (``empty_space_skipping``; the brick's block ranges go up with it, cache.block_ranges_of).
 - The volume's pyramid: ``volume.bricks`` (BrickedVolume), else an ArrayPyramid of the in-memory
   volume with ``brick_size`` bricks (built once per volume and brick size).
 - Per frame the bricks are chosen (selection.plan_frame): in view, not empty under the TF (or
