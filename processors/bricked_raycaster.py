@@ -111,6 +111,7 @@ class BrickedRayCaster(RaycasterBase):
         self._pyramid = None  # (weakref to the volume, brick size, ArrayPyramid)
         self._alpha_count = {}  # "texture": LUT entries with opacity, cumulated; "key": its alpha
         self.last_frame: dict = {}
+        self._warned_level = 0  # the budget's level last warned about (0: none)
 
     # --- shader ---------------------------------------------------------------------------------
     def shaded(self) -> bool:
@@ -183,12 +184,13 @@ class BrickedRayCaster(RaycasterBase):
         except ValueError as error:
             raise VGraphError(f"{self.id}.ram_budget / {self.id}.gl_budget: {error}; raise the "
                               f"budgets or use smaller bricks") from None
-        if plan.floor_level > 0:
+        if plan.floor_level > 0 and plan.floor_level != self._warned_level:  # once per change, not per frame
             message = (f"BrickedRayCaster '{self.id}': the budget ({min(self.ram_budget, self.gl_budget):g} MB) "
                        f"cannot hold the frame's finer bricks; rendering at level {plan.floor_level} "
                        f"or coarser ({len(plan.bricks)} bricks, {plan.bytes / MB:.2f} MB)")
             log.warning(message)
             warnings.warn(message, VGraphWarning, stacklevel=2)
+        self._warned_level = plan.floor_level
         return plan
 
     def base_binding(self, frame) -> Binding:

@@ -3,6 +3,8 @@ with odd dimensions and features across 16^3 bricks, and the bonsai), the brick 
 (evictions, re-reads, pinned bricks), TF-empty bricks never read, the level-of-detail fallback with
 its warning, and refused property values."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -227,6 +229,10 @@ def test_a_budget_too_small_for_level_0_renders_a_coarser_level_and_says_which()
     assert rc.last_frame["levels"] == [1] and rc.last_frame["floor_level"] == 1
     want, _, _ = reference(volume, camera, size=(48, 48), compositing="mip")
     assert psnr(image, want) >= 30.0  # complete: a smooth field one level coarser
+    with warnings.catch_warnings():  # said once, not every frame
+        warnings.simplefilter("error")
+        rc.set_property("sampling_rate", 1.5)
+        rc.process(**rc.inputs)
 
 
 def test_a_budget_below_one_coarsest_brick_is_an_error_naming_both_budgets():

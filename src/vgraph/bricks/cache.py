@@ -11,6 +11,9 @@ Conventions (docs/bricked_raycaster.md has the long form):
 - Bricks are held in the texture format of Volume.texture() (uint8 as R16 holding value * 257,
   uint16 as R16, everything else R32F with non-finite voxels clamped to the value range), so the
   normalised intensity is ``sample * scale + offset`` with ``texture_format()``'s scale and offset.
+- With each brick's texture goes a small RG32F texture of its blocks' ranges (``block_ranges_of``,
+  blocks of BLOCK^3 core voxels), for empty-space skipping inside the brick; it is evicted with
+  the brick and not counted in the GL budget (8 bytes per 512 voxels).
 - ``begin_frame(keys)`` pins the bricks a frame needs: eviction takes the least recently used of
   the others and never a pinned one (a frame that does not fit is the selection's problem: it
   chooses a coarser level first). Evicted textures are released at once.
