@@ -154,7 +154,8 @@ def test_block_ranges_cover_every_voxel_their_samples_filter():
     assert ranges.shape == (1, 2, 2, 2)  # core 5 x 16 x 14 voxels in blocks of 8
     for k in np.ndindex(*ranges.shape[:3]):  # voxels 8k - 1 .. 8k + 8 of the core, + HALO in the array
         part = block[tuple(slice(8 * i + HALO - 1, 8 * i + 9 + HALO) for i in k)]
-        np.testing.assert_allclose(ranges[k], (part.min() * fmt.scale + fmt.offset, part.max() * fmt.scale + fmt.offset))
+        normalised = part * np.float64(fmt.scale) + fmt.offset
+        np.testing.assert_allclose(ranges[k], (normalised.min(), normalised.max()), rtol=1e-6)
 
 
 @pytest.mark.parametrize("properties", [{"compositing": "dvr", "transfer_function": WINDOW},

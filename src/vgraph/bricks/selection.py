@@ -173,7 +173,8 @@ class LevelTables:
 
 
 def select_bricks(source: BrickSource, camera, size, view_projection, visible, lod_bias: float,
-                  floor_level: int = 0, geometry: BrickGeometry | None = None, tables: LevelTables | None = None) -> list:
+                  floor_level: int = 0, geometry: BrickGeometry | None = None,
+                  tables: LevelTables | None = None) -> list:
     """(key, rect) of the bricks to draw, front to back (see the module docstring). ``visible(level)``
     is the bool [z, y, x] array of bricks that can contribute at that level."""
     geometry = geometry or BrickGeometry(source)
