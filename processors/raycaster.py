@@ -17,6 +17,9 @@ Conventions (docs/rendering.md explains each property with pictures):
   evaluated (a debug counter; skipped empty space is not counted), a = 1 where there is a depth
   sample. Which sample gives the depth depends on the compositing mode (the shader parts say).
 - The camera must equal the EntryExitPoints camera (link them): it gives depth and view direction.
+- A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
+  than its memory budget, is drawn brick by brick by a BrickedRayCaster with this processor's
+  settings (docs/bricked_raycaster.md); dvr, mip and iso only.
 """
 
 from __future__ import annotations
@@ -59,6 +62,7 @@ class RayCaster(RaycasterBase):
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
         self._targets = RenderTargets(2)
+        self._bricked = None  # the BrickedRayCaster for volumes one texture cannot hold
 
     # --- shader ---------------------------------------------------------------------------------
     def shader_defines(self) -> dict[str, bool]:
@@ -92,10 +96,31 @@ class RayCaster(RaycasterBase):
     def process(self, volume: Volume, entry: Image, exit: Image) -> dict:
         volume.require_samples(f"RayCaster '{self.id}'")
         self.check()
+        if needs_bricks(volume, self.gl):
+            return self._brick_by_brick(volume, entry, exit)
         frame = self.frame(volume, entry, exit)
         image, depth = self._targets.ensure(frame.ctx, entry.size)
         self.draw(frame, SHADER, self._targets, own=Binding(self.shader_defines(), uniforms=self._uniforms(frame)))
         return {"image": image, "depth": depth}
+
+    def _brick_by_brick(self, volume: Volume, entry: Image, exit: Image) -> dict:
+        """The frame drawn by a BrickedRayCaster that shares this processor's settings."""
+        from vgraph.processors.bricked_raycaster import COMPOSITING as BRICKED_MODES, BrickedRayCaster
+        if self.compositing not in BRICKED_MODES:
+            raise VGraphError(f"{self.id}.compositing: {volume.source or 'the volume'} is drawn brick by "
+                              f"brick ({' x '.join(map(str, volume.dims))} voxels do not fit one GL texture "
+                              f"or the memory budget), which offers {', '.join(BRICKED_MODES)}, not "
+                              f"{self.compositing}")
+        if self._bricked is None:
+            self._bricked = BrickedRayCaster(self.id)
+        for name, value in self.property_values.items():
+            if name in BrickedRayCaster.properties and name != "derivatives":
+                self._bricked.set_property(name, value)
+        if self.derivatives != "none":
+            self._bricked.set_property("derivatives", self.derivatives)
+        outputs = self._bricked.process(volume, entry, exit)
+        self.passes = self._bricked.passes
+        return outputs
 
     def _uniforms(self, frame) -> dict:
         if not self.shaded():
@@ -119,3 +144,11 @@ class RayCaster(RaycasterBase):
             level = self.iso_level
             return (kind, level), lambda low, high: radii_if_worthwhile(high >= level)
         return None
+
+
+def needs_bricks(volume: Volume, ctx) -> bool:
+    """Whether one 3D texture cannot hold the volume: wider than the GL's limit on an axis, or a
+    BrickedVolume whose whole array exceeds its memory budget."""
+    if max(volume.dims) > ctx.info["GL_MAX_3D_TEXTURE_SIZE"]:
+        return True
+    return volume.bricks is not None and not getattr(volume, "fits_budget", True)

@@ -328,3 +328,40 @@ def test_a_bricked_volume_from_an_ome_zarr_store_renders_like_its_array(tmp_path
                         brick_size=64, lod_bias=FINEST)
     assert rc.last_frame["bricks"] == 3 * 3 * 4 and rc.cache.stats["bricks_read"] == 36
     assert psnr(got, want) >= MIN_PSNR
+
+
+def test_the_raycaster_draws_a_volume_wider_than_the_texture_limit_brick_by_brick(gl):
+    """Wider than GL_MAX_3D_TEXTURE_SIZE on one axis: the RayCaster hands the frame to a
+    BrickedRayCaster with its own settings (the same image the BrickedRayCaster draws)."""
+    limit = gl.info["GL_MAX_3D_TEXTURE_SIZE"]
+    volume = Volume(field((6, 5, limit + 40)), spacing=(0.01, 1.0, 1.0))
+    with pytest.raises(Exception, match="3D texture limit"):
+        volume.texture(gl)  # what the RayCaster would otherwise hit
+    camera = oblique(volume)
+    got, _, rc = render(volume, camera, "RayCaster", compositing="mip")
+    want, _, _ = render(volume, camera, compositing="mip", brick_size=64, early_termination=0.99)
+    assert rc.passes and rc.passes[0][0].startswith("bricks/")
+    assert got[..., :3].max() > 0.5 and psnr(got, want) >= MIN_PSNR
+    with pytest.raises(ProcessorError, match="rc.compositing: .* offers dvr, mip, iso, not xray"):
+        render(volume, camera, "RayCaster", compositing="xray")
+
+
+def test_the_raycaster_draws_a_store_over_its_memory_budget_brick_by_brick(tmp_path):
+    """A BrickedVolume whose whole array exceeds its budget never loads it: the RayCaster's frame
+    is drawn from bricks, like the in-memory volume's."""
+    pytest.importorskip("zarr")
+    from vgraph.bricks.convert import convert
+    from vgraph.bricks.volume import BrickedVolume
+    data = (field((45, 38, 51)) * 65535).astype(np.uint16)
+    np.save(tmp_path / "v.npy", data)
+    convert(tmp_path / "v.npy", tmp_path / "v.zarr", brick=16, progress=False)
+    bricked = BrickedVolume.open(tmp_path / "v.zarr", memory_budget_mb=0.05)
+    memory = read_volume(tmp_path / "v.npy")
+    camera = oblique(memory)
+    got, _, _ = render(bricked, camera, "RayCaster", compositing="dvr", transfer_function=WINDOW,
+                       early_termination=1.0)
+    want, _, _ = reference(memory, camera, compositing="dvr", transfer_function=WINDOW)
+    assert got[..., :3].max() > 0.2
+    assert psnr(got, want) >= MIN_PSNR
+    with pytest.raises(Exception, match="memory budget"):
+        bricked.data

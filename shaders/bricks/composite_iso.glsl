@@ -3,24 +3,7 @@
 // evaluated here through the halo (exact while a step is at most one voxel: sampling_rate >= 1).
 // The opaque result blends under the bricks in front, so the frontmost hit wins.
 #ifdef COMPOSITING_ISO
-#define ISO_REFINEMENT 3
-uniform float iso_level;
-
-// a < b are fractional sample indices with value(a) - level = fa < 0 <= fb = value(b) - level.
-float refine_crossing(Ray ray, float a, float fa, float b, float fb) {
-    for (int k = 0; k < ISO_REFINEMENT; ++k) {
-        float middle = a + (b - a) * fa / (fa - fb);
-        float fm = intensity(sample_point(ray, middle)) - iso_level;
-        if (fm >= 0.0) {
-            b = middle;
-            fb = fm;
-        } else {
-            a = middle;
-            fa = fm;
-        }
-    }
-    return a + (b - a) * fa / (fa - fb);
-}
+#include "raycasting/iso_refinement.glsl"
 
 void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {  // (starts at 0)
     sum = vec4(0.0);

@@ -6,24 +6,7 @@
 // Depth: the refined hit. With SKIP_EMPTY_SPACE, regions of blocks whose maximum is below the level
 // are jumped over; the sample before a hit is then fetched again for the refinement.
 #ifdef COMPOSITING_ISO
-#define ISO_REFINEMENT 3
-uniform float iso_level;
-
-// a < b are fractional sample indices with value(a) - level = fa < 0 <= fb = value(b) - level.
-float refine_crossing(Ray ray, float a, float fa, float b, float fb) {
-    for (int k = 0; k < ISO_REFINEMENT; ++k) {
-        float middle = a + (b - a) * fa / (fa - fb);
-        float fm = intensity(sample_point(ray, middle)) - iso_level;
-        if (fm >= 0.0) {
-            b = middle;
-            fb = fm;
-        } else {
-            a = middle;
-            fa = fm;
-        }
-    }
-    return a + (b - a) * fa / (fa - fb);
-}
+#include "raycasting/iso_refinement.glsl"
 
 Result march(Ray ray) {
     Result result = empty_result();

@@ -8,7 +8,7 @@ Conventions (docs/bricked_raycaster.md):
   axis (j the level-0 voxel bounds above, n the level-0 voxels): half-open, so each sample of the
   global lattice lies in exactly one brick; the volume's outer faces are pushed to +-OUTSIDE so
   samples on (or a rounding beyond) the box still have an owner.
-- Level per brick: a level-0 voxel (the smallest spacing) projects to p pixels at the brick's
+- Level per brick: a level-0 voxel (its longest edge) projects to p pixels at the brick's
   nearest point; the brick wants level floor(-log2(p) + lod_bias) (voxels of about a pixel at
   lod_bias 0), clamped to the pyramid and to at least ``floor_level``; ``plan_frame`` raises
   floor_level until the frame fits the budget.
@@ -123,7 +123,8 @@ def desired_levels(geometry: BrickGeometry, camera, size, level: int, lod_bias: 
     lo, hi = level_boxes(geometry, level)
     eye = np.asarray(camera.position, dtype=np.float64)
     distance = np.linalg.norm(np.maximum(np.maximum(lo - eye, eye - hi), 0.0), axis=-1)
-    pixels = float(geometry.spacing0.min()) * pixels_per_world(camera, size, distance)
+    # The longest voxel edge: an anisotropic voxel is refined until its longest side is about a pixel.
+    pixels = float(geometry.spacing0.max()) * pixels_per_world(camera, size, distance)
     return np.floor(-np.log2(np.maximum(pixels, 1e-30)) + lod_bias).astype(np.int64)
 
 
