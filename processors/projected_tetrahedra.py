@@ -149,15 +149,7 @@ class ProjectedTetrahedra(Processor):
             textures = self._table.update(ctx, resolved)
         else:
             textures = {"transfer_function": self._lut.update(ctx, self.transfer_function, mesh)}
-        uniforms = {"view_projection": camera.view_projection(size[0] / size[1]),
-                    "inverse_opacity_length": 1.0 / float(mesh.opacity_length),
-                    "viewport_size": (float(size[0]), float(size[1]))}
-        rays = ray_uniforms(camera, size)
-        if by_cells:  # rays from the pixel (origin and direction) and the cells' size
-            uniforms.update(rays, spacing=vec(mesh.grid.spacing))
-        else:  # where the pixel's ray starts (the depth output's distance), the view direction
-            uniforms.update({name: rays[name] for name in ("near_centre", "near_right", "near_up")},
-                            view_forward=vec(camera.basis()[2]))
+        uniforms = self._uniforms(mesh, camera, size, by_cells)
         selection = None
         if self.skip_transparent:
             visible = visible_cells_of if by_cells else visible_tetrahedra
@@ -183,6 +175,19 @@ class ProjectedTetrahedra(Processor):
             ctx.blend_func = moderngl.DEFAULT_BLENDING
             ctx.disable(moderngl.BLEND)
         return {"image": image, "depth": depth}
+
+    @staticmethod
+    def _uniforms(mesh: TetMesh, camera, size, by_cells: bool) -> dict:
+        uniforms = {"view_projection": camera.view_projection(size[0] / size[1]),
+                    "inverse_opacity_length": 1.0 / float(mesh.opacity_length),
+                    "viewport_size": (float(size[0]), float(size[1]))}
+        rays = ray_uniforms(camera, size)
+        if by_cells:  # rays from the pixel (origin and direction) and the cells' size
+            uniforms.update(rays, spacing=vec(mesh.grid.spacing))
+        else:  # where the pixel's ray starts (the depth output's distance), the view direction
+            uniforms.update({name: rays[name] for name in ("near_centre", "near_right", "near_up")},
+                            view_forward=vec(camera.basis()[2]))
+        return uniforms
 
     def _vertex_array(self, ctx, program, mesh: TetMesh, camera, selection, by_cells: bool):
         """The vertex array of the mesh's points (or grid cells) with the tetrahedra (cells) to
