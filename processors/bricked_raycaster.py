@@ -21,6 +21,10 @@ Conventions (docs/bricked_raycaster.md explains each with the numbers):
 - Per frame the bricks are chosen (selection.plan_frame): in view, not empty under the TF (or
   below the iso level), at the level their projected voxel size asks (``lod_bias``), raised until
   the frame's bricks fit min(ram_budget, gl_budget); a raised level is warned about.
+- ``load_limit`` (an attribute, not a property: only the GUI's render process sets it, scripts and
+  ``vgraph run`` keep None and always draw the planned frame): a frame whose missing bricks cannot
+  be read within it is drawn coarser (selection.coarse_first) and the planned bricks are read
+  ahead within the limit; ``last_frame["complete"]`` says whether the planned frame was drawn.
 """
 
 from __future__ import annotations
@@ -37,9 +41,9 @@ from pydantic import AfterValidator, Field, StrictInt
 import numpy as np
 
 from vgraph import BoolProperty, FloatProperty, Inport, IntProperty, OptionProperty, Outport, VGraphError
-from vgraph.bricks.cache import MB, BrickCache
+from vgraph.bricks.cache import MB, BrickCache, LoadLimit
 from vgraph.bricks.pyramid import ArrayPyramid
-from vgraph.bricks.selection import BrickGeometry, plan_frame, visible_bricks
+from vgraph.bricks.selection import BrickGeometry, coarse_first, plan_frame, visible_bricks
 from vgraph.bricks.targets import Accumulation, brick_uniforms, level_voxel
 from vgraph.errors import VGraphWarning
 from vgraph.gl.context import release_quietly
@@ -111,6 +115,7 @@ class BrickedRayCaster(RaycasterBase):
         self._pyramid = None  # (weakref to the volume, brick size, ArrayPyramid)
         self._alpha_count = {}  # "texture": LUT entries with opacity, cumulated; "key": its alpha
         self.last_frame: dict = {}
+        self.load_limit: LoadLimit | None = None  # reading allowed per frame (the GUI's; module docstring)
         self._warned_level = 0  # the budget's level last warned about (0: none)
 
     # --- shader ---------------------------------------------------------------------------------
@@ -165,15 +170,38 @@ class BrickedRayCaster(RaycasterBase):
         self.cache.set_budgets(self.ram_budget, self.gl_budget)
         geometry = BrickGeometry(source)
         plan = self.plan(source, geometry, frame)
-        self.cache.begin_frame([key for key, _ in plan.bricks])
+        read_before, seconds_before = self.cache.stats["bricks_read"], self.cache.stats["read_seconds"]
+        drawn = self.limited(source, plan, frame.ctx)
         accumulation = self._accumulation.ensure(frame.ctx, frame.size)
-        self.draw_bricks(frame, geometry, plan.bricks, accumulation)
+        self.draw_bricks(frame, geometry, drawn.bricks, accumulation)
         image, depth = self._targets.ensure(frame.ctx, frame.size)
         self.resolve(frame, accumulation)
-        self.last_frame = {"bricks": len(plan.bricks), "floor_level": plan.floor_level, "bytes": plan.bytes,
-                           "levels": sorted({key[0] for key, _ in plan.bricks}),
+        complete = drawn is plan
+        if not complete:  # the planned bricks, front first, for the next frame (the GUI asks again)
+            self.cache.begin_frame(plan.keys())
+            self.cache.read_ahead(plan.keys(), self.load_limit, self.cache.stats["bricks_read"] - read_before,
+                                  self.cache.stats["read_seconds"] - seconds_before)
+        self.last_frame = {"bricks": len(drawn.bricks), "floor_level": drawn.floor_level, "bytes": drawn.bytes,
+                           "levels": sorted({key[0] for key, _ in drawn.bricks}), "complete": complete,
+                           "planned_floor_level": plan.floor_level,
+                           "bricks_read": self.cache.stats["bricks_read"] - read_before,
                            "seconds": time.perf_counter() - started}
         return {"image": image, "depth": depth}
+
+    def limited(self, source, plan, ctx):
+        """The plan to draw, pinned in the caches: ``plan``, or a coarser one under ``load_limit``."""
+        if self.load_limit is None:
+            drawn = plan
+            self.cache.begin_frame(plan.keys())
+        else:
+            resident = self.cache.resident(ctx)
+            budget = int(min(self.ram_budget, self.gl_budget) * MB)
+            drawn = coarse_first(source, plan, resident, self.load_limit, self.cache.seconds_per_byte(), budget)
+            # The plan's resident bricks stay pinned too: drawing a coarser frame must not evict
+            # what earlier frames read ahead, or refining would never end (coarse_first checked
+            # that both fit the budget).
+            self.cache.begin_frame(set(drawn.keys()) | (set(plan.keys()) & resident))
+        return drawn
 
     def plan(self, source, geometry, frame):
         budget = int(min(self.ram_budget, self.gl_budget) * MB)

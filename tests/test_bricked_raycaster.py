@@ -365,3 +365,72 @@ def test_the_raycaster_draws_a_store_over_its_memory_budget_brick_by_brick(tmp_p
     assert psnr(got, want) >= MIN_PSNR
     with pytest.raises(Exception, match="memory budget"):
         bricked.data
+
+
+# --- coarse first under a load limit (the GUI's; scripts have none) ------------------------------------
+def refine(network, size, limit, frames=40):
+    """Render the same state until the frame is complete; (last_frame, image) per frame."""
+    rc = network["rc"]
+    rc.load_limit = limit
+    seen = []
+    while not seen or not seen[-1][0]["complete"]:
+        assert len(seen) < frames, [frame for frame, _ in seen]
+        network.invalidate_downstream("rc")  # what the render server does for an incomplete frame
+        image = np.asarray(network.evaluate("rc.image", size=size))
+        seen.append((dict(rc.last_frame), image))
+    return seen
+
+
+def test_scripts_draw_the_planned_frame_at_once():
+    volume = big_volume()
+    network = ray_caster_network(volume, oblique(volume), "BrickedRayCaster", compositing="mip", brick_size=16,
+                                 lod_bias=FINEST)
+    network.evaluate("rc.image", size=(48, 40))
+    rc = network["rc"]
+    assert rc.load_limit is None and rc.last_frame["complete"] and rc.last_frame["levels"] == [0]
+    assert rc.last_frame["bricks_read"] == rc.last_frame["bricks"] == rc.cache.stats["bricks_read"]
+
+
+def test_a_load_limit_draws_coarse_first_and_refines_to_the_planned_frame():
+    """Nothing read yet (the reading speed is unknown): the coarsest bricks first; then each frame
+    reads ahead within the limit, the levels get finer, and the last frame is the planned one,
+    pixel for pixel."""
+    from vgraph.bricks.cache import LoadLimit
+    volume = big_volume()
+    make = lambda: ray_caster_network(volume, oblique(volume), "BrickedRayCaster", transfer_function=WINDOW,
+                                      brick_size=16, lod_bias=FINEST)
+    planned = np.asarray(make().evaluate("rc.image", size=(48, 40)))
+    network = make()
+    seen = refine(network, (48, 40), LoadLimit(seconds=0.005))
+    first, _ = seen[0]
+    assert first["levels"] == [3] and first["bricks"] == 1 and not first["complete"]  # the coarsest: one brick
+    assert all(frame["bricks_read"] > 0 for frame, _ in seen)
+    floors = [frame["floor_level"] for frame, _ in seen]
+    assert floors == sorted(floors, reverse=True) and floors[-1] == 0 and len(seen) >= 2
+    np.testing.assert_array_equal(seen[-1][1], planned)
+    assert psnr(seen[0][1], planned) < psnr(seen[-2][1], planned) or len(seen) == 2
+
+
+def test_a_budget_that_cannot_hold_a_coarse_frame_and_the_planned_bricks_draws_the_plan_whole():
+    """A budget of one brick more than the plan: a coarse frame (the 8 bricks of level 1, read
+    by a first frame allowed 8 bricks) and the planned bricks read so far soon do not fit together.
+    Refining must not evict what it read ahead (it would never end), so from then on the plan is
+    drawn whole, beyond the limit."""
+    from vgraph.bricks.cache import LoadLimit
+    volume = big_volume()
+    _, _, planned = render(volume, oblique(volume), compositing="mip", brick_size=32, lod_bias=FINEST)
+    count = planned.last_frame["bricks"]
+    budget = (count + 1) * (32 + 2 * HALO) ** 3 * 4 / MB
+    network = ray_caster_network(volume, oblique(volume), "BrickedRayCaster", compositing="mip", brick_size=32,
+                                 lod_bias=FINEST, ram_budget=budget, gl_budget=budget)
+    network["rc"].load_limit = LoadLimit(bricks=8)
+    network.evaluate("rc.image", size=SIZE)
+    assert network["rc"].last_frame["levels"] == [1] and network["rc"].last_frame["bricks_read"] == 9
+    seen = refine(network, SIZE, LoadLimit(bricks=2))
+    assert seen[0][0]["levels"] == [1] and not seen[0][0]["complete"] and seen[0][0]["bricks_read"] == 2
+    assert seen[-1][0]["levels"] == [0] and seen[-1][0]["bricks"] == count
+    assert seen[-1][0]["bricks_read"] > 2 and len(seen) < count  # drawn whole before the limit would allow
+    ram, gl = network["rc"].cache.resident_bytes()
+    assert ram <= budget * MB and gl <= budget * MB
+    want, _, _ = reference(volume, oblique(volume), compositing="mip")
+    assert psnr(seen[-1][1], want) >= MIN_PSNR

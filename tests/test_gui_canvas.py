@@ -319,3 +319,34 @@ def test_tetrahedral_networks_render_in_the_window(window, qtbot, data_dir, name
     renderer = next(p.id for p in window.workspace.network.processors.values()
                     if p.type_name == "ProjectedTetrahedra")
     assert window.inspector.histograms[renderer].sum() > 0
+
+
+def test_a_bricked_frame_refines_in_the_window_until_complete_without_input(window, qtbot, tmp_path):
+    """Coarse first: the render process reads a new volume's bricks within GUI_LOAD_LIMIT a
+    frame, so the first frame comes from the coarsest bricks ("refining...", not final) and the
+    window asks for the same state again by itself until the frame is the one `vgraph run` draws."""
+    import vgraph
+    from vgraph.imagefile import to_uint8
+    network = Network()
+    network.add("FunctionSelector", id="source", function="sphere", resolution=128)
+    network.add("EntryExitPoints", id="eep", camera=Camera(position=(2.6, 2.0, 5.8), near=4.0, far=9.0))
+    network.add("BrickedRayCaster", id="rc", compositing="mip", brick_size=16, lod_bias=-16.0)
+    network.add("Canvas", id="canvas", size=(96, 80))
+    network.link("eep.camera", "rc.camera")
+    for source, target in (("source.volume", "eep.volume"), ("source.volume", "rc.volume"),
+                           ("eep.entry", "rc.entry"), ("eep.exit", "rc.exit"), ("rc.image", "canvas.image")):
+        network.connect(source, target)
+    path = tmp_path / "bricked.json"
+    network.save(path)
+    shown = []
+    window.evaluation.frames.connect(lambda frames, final: "canvas" in frames and shown.append(
+        (final, window.canvases.views["canvas"].message())))
+    with qtbot.waitSignal(window.evaluation.frames, timeout=60000,
+                          check_params_cb=lambda frames, final: final and "canvas" in frames):
+        assert window.open_network(path)    # and nothing else: no run(), no input
+    assert shown[0] == (False, "refining...") and shown[-1] == (True, "") and len(shown) >= 2
+    qtbot.waitUntil(window.evaluation.idle, timeout=10000)   # refining stopped with the complete frame
+    view = window.canvases.views["canvas"]
+    assert view.is_final and window.evaluation.last_result.refining is False
+    np.testing.assert_array_equal(view.frame(), to_uint8(vgraph.load(path).evaluate("canvas")))
+    assert view.frame()[..., :3].max() > 100

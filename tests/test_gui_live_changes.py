@@ -100,3 +100,21 @@ def test_a_render_process_that_asks_for_the_document_gets_it(window, jobs):
     assert [job.document is None for job in jobs] == [True, False]
     assert window.evaluation.last_result.error is None and not window.log.messages("error")
     np.testing.assert_array_equal(window.canvases.views["canvas"].frame(), document_frame(window))
+
+
+def test_refining_renders_the_same_state_again_and_stops_when_a_frame_reads_nothing(window, jobs, qtbot):
+    """A final, refining result is asked for again with no changes; one that read no bricks made
+    no progress: refining stops with a warning instead of spinning."""
+    from vgraph.gui.render_process import RenderResult
+    open_small(window)
+    evaluation = window.evaluation
+    del jobs[:]
+    last = evaluation.last_result
+    evaluation._receive(RenderResult(evaluation.version, outcome=last.outcome, refining=True, bricks_read=3))
+    assert [(job.document, job.changes, job.version) for job in jobs] == [(None, (), evaluation.version)]
+    assert window.canvases.views["canvas"].message() == "refining..."
+    qtbot.waitUntil(evaluation.idle, timeout=20000)  # that job's real result is complete: no more jobs
+    assert len(jobs) == 1 and window.canvases.views["canvas"].message() == ""
+    with qtbot.waitSignal(evaluation.warning) as warned:
+        evaluation._receive(RenderResult(evaluation.version, outcome=last.outcome, refining=True, bricks_read=0))
+    assert "stopped refining" in warned.args[0] and len(jobs) == 1 and evaluation.idle()

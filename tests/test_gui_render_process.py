@@ -205,3 +205,54 @@ def test_the_server_asks_for_a_document_when_changes_cannot_apply():
     failing = server.handle(RenderJob(3, None, changes=(PropertySet("zz.value", 1.0),),
                                       stamp=("gui", 3), since=("gui", 2)))
     assert failing.needs_document and failing.error is None and server.network is None
+
+
+# --- coarse first: bricked frames refine job by job -------------------------------------------------
+def bricked_network():
+    """A 96^3 ball with 16^3 bricks (GivenVolume: built here, not sent as a document) -> Canvas."""
+    from vgraph.camera import Camera
+    from vgraph.testing import ray_caster_network
+    from vgraph.volume import Volume
+    z, y, x = np.mgrid[-1:1:96j, -1:1:96j, -1:1:96j]
+    volume = Volume(np.clip(1.0 - np.sqrt(x * x + 1.3 * y * y + z * z), 0, 1).astype(np.float32))
+    camera = Camera.looking_at_box((0, 0, 0), (95, 95, 95), direction=(-0.5, -0.3, -1.0))
+    network = ray_caster_network(volume, camera, "BrickedRayCaster", compositing="mip", brick_size=16,
+                                 lod_bias=-16.0)
+    network.add("Canvas", id="canvas", size=(64, 48))
+    network.connect("rc.image", "canvas.image")
+    return network
+
+
+def test_the_server_draws_bricked_frames_coarse_first_and_refines_to_the_scripts_frame():
+    """Under a load limit the first frame is coarser and ``refining``; the same state rendered
+    again (empty changes) reads more bricks each time and ends at the frame a script renders."""
+    from vgraph.bricks.cache import LoadLimit
+    from vgraph.imagefile import to_uint8
+    script = to_uint8(bricked_network().evaluate("canvas"))
+    server = RenderServer()
+    server.network = bricked_network()  # as if mirrored (a GivenVolume cannot travel as a document)
+    limit = LoadLimit(bricks=40)
+    results = [server.handle(RenderJob(1, None, load_limit=limit))]
+    rc = server.network["rc"]
+    assert results[0].error is None and results[0].refining and results[0].bricks_read == 40
+    assert min(rc.last_frame["levels"]) >= 1 and rc.last_frame["planned_floor_level"] == 0
+    assert np.abs(results[0].outcome.frames["canvas"].astype(int) - script).max() > 0
+    while results[-1].refining and len(results) < 20:
+        results.append(server.handle(RenderJob(1, None, load_limit=limit)))
+        assert results[-1].outcome.ran == ["rc", "canvas"]      # only the refining frame is drawn again
+    assert 3 <= len(results) < 20 and not results[-1].refining and rc.last_frame["complete"]
+    assert all(r.bricks_read > 0 for r in results[:-1])           # every incomplete frame read bricks
+    np.testing.assert_array_equal(results[-1].outcome.frames["canvas"], script)
+    again = server.handle(RenderJob(1, None, load_limit=limit))   # complete: nothing to draw again
+    assert not again.refining and "rc" not in again.outcome.ran
+
+
+def test_jobs_without_a_load_limit_and_writer_runs_draw_the_planned_frame_at_once():
+    from vgraph.imagefile import to_uint8
+    script = to_uint8(bricked_network().evaluate("canvas"))
+    for job in (RenderJob(1, None, load_limit=None), RenderJob(1, None, include_writers=True)):
+        server = RenderServer()
+        server.network = bricked_network()
+        result = server.handle(job)
+        assert not result.refining and server.network["rc"].last_frame["complete"]
+        np.testing.assert_array_equal(result.outcome.frames["canvas"], script)

@@ -17,12 +17,16 @@ Conventions (docs/bricked_raycaster.md has the long form):
 - ``begin_frame(keys)`` pins the bricks a frame needs: eviction takes the least recently used of
   the others and never a pinned one (a frame that does not fit is the selection's problem: it
   chooses a coarser level first). Evicted textures are released at once.
-- Counters (``stats``): hits and misses of each cache, bytes read from the source, evictions and
-  uploads; tests and benchmarks read them.
+- Counters (``stats``): hits and misses of each cache, bytes read from the source (and the seconds
+  it took), evictions and uploads; tests and benchmarks read them.
+- A ``LoadLimit`` bounds the reading of one frame (the GUI's, so a frame never waits long for the
+  disk; scripts have none): ``read_ahead`` reads bricks a later frame needs until it is used up.
+  The time a read will take is estimated from this source's measured rate (``seconds_per_byte``).
 """
 
 from __future__ import annotations
 
+import time
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -46,6 +50,27 @@ class TextureFormat:
     scale: float         # normalised intensity = sample * scale + offset
     offset: float
     normalized: bool     # float data uploaded as normalised intensities (float32 cannot carry them)
+
+
+@dataclass(frozen=True)
+class LoadLimit:
+    """How much one frame may read: ``seconds`` of reading and/or ``bricks`` (None: no bound)."""
+    seconds: float | None = None
+    bricks: int | None = None
+
+    def allows(self, count: int, nbytes: int, seconds_per_byte: float | None) -> bool:
+        """Whether reading ``count`` bricks of ``nbytes`` fits. An unknown rate (nothing read from
+        this source yet) fits nothing: a new volume's first frame is drawn from coarse bricks."""
+        if count == 0:
+            return True
+        if self.bricks is not None and count > self.bricks:
+            return False
+        return self.seconds is None or (seconds_per_byte is not None and nbytes * seconds_per_byte <= self.seconds)
+
+    def used_up(self, count: int, seconds: float) -> bool:
+        """Whether a frame that read ``count`` bricks in ``seconds`` may read no more."""
+        return ((self.bricks is not None and count >= self.bricks)
+                or (self.seconds is not None and seconds >= self.seconds))
 
 
 def usable_range(value_range) -> tuple[float, float]:
@@ -138,6 +163,7 @@ class BrickCache:
         self.pinned: frozenset = frozenset()
         self.source = None
         self.value_range = None
+        self._rate = [0, 0.0]
         self.set_budgets(ram_budget_mb, gl_budget_mb)
         self.reset_stats()
 
@@ -148,7 +174,7 @@ class BrickCache:
 
     def reset_stats(self) -> None:
         self.stats = {"ram_hits": 0, "ram_misses": 0, "gl_hits": 0, "gl_misses": 0, "bytes_read": 0,
-                      "bricks_read": 0, "ram_evictions": 0, "gl_evictions": 0, "uploads": 0}
+                      "bricks_read": 0, "read_seconds": 0.0, "ram_evictions": 0, "gl_evictions": 0, "uploads": 0}
 
     def use_source(self, source: BrickSource, value_range=None) -> None:
         """Bricks of another source (or range: it sets the texture format) are not these bricks:
@@ -158,6 +184,7 @@ class BrickCache:
             self.clear()
             self.source, self.value_range = source, value_range
             self.format = texture_format(source.dtype, value_range)
+            self._rate = [0, 0.0]  # (bytes, seconds) read from this source: another disk, another speed
 
     def begin_frame(self, keys) -> None:
         """Pin the bricks of this frame (never evicted until the next begin_frame)."""
@@ -172,10 +199,15 @@ class BrickCache:
             self.stats["ram_hits"] += 1
             return data
         self.stats["ram_misses"] += 1
+        started = time.perf_counter()
         raw = read_with_halo(self.source, key)
+        data = np.ascontiguousarray(to_texture_values(raw, self.format, self.value_range))
+        seconds = time.perf_counter() - started
         self.stats["bytes_read"] += raw.nbytes
         self.stats["bricks_read"] += 1
-        data = np.ascontiguousarray(to_texture_values(raw, self.format, self.value_range))
+        self.stats["read_seconds"] += seconds
+        self._rate[0] += data.nbytes
+        self._rate[1] += seconds
         self.ram[key] = data
         self._evict(self.ram, self.ram_budget, lambda array: array.nbytes, "ram_evictions")
         return data
@@ -206,6 +238,32 @@ class BrickCache:
             self.texture(ctx, key)
             blocks = self.block_textures[key]
         return blocks
+
+    def resident(self, ctx) -> set:
+        """Keys of the bricks a frame on ``ctx`` can draw without reading."""
+        return set(self.ram) | {key for key, texture in self.gl.items() if texture.ctx is ctx}
+
+    def seconds_per_byte(self) -> float | None:
+        """Measured reading time per byte (of texture data, as ``brick_bytes`` counts) of this
+        source; None before its first read."""
+        nbytes, seconds = self._rate
+        return seconds / nbytes if nbytes else None
+
+    def read_ahead(self, keys, limit: LoadLimit, count: int = 0, seconds: float = 0.0) -> int:
+        """Read ``keys`` (those not in RAM) in order into the RAM cache until ``limit`` is used up,
+        counting ``count`` bricks and ``seconds`` the frame read already; at least one brick, so
+        a frame that reads ahead always makes progress. Returns the bricks read."""
+        read = 0
+        for key in keys:
+            if key in self.ram:
+                continue
+            if read and limit.used_up(count + read, seconds):
+                break
+            before = self.stats["read_seconds"]
+            self.brick(key)
+            seconds += self.stats["read_seconds"] - before
+            read += 1
+        return read
 
     def _drop_texture(self, key) -> None:
         release_quietly({key: self.gl.pop(key), "blocks": self.block_textures.pop(key, None) or {}})

@@ -19,17 +19,22 @@ Conventions (docs/bricked_raycaster.md):
   level, mip those whose maximum is <= 0.
 - Order: front to back, the grid's sweep order (tetrahedra.cells.axis_order, reversed) at the top
   and for each brick's children, valid for orthographic and perspective cameras.
+- Coarse first (a ``LoadLimit``, the GUI's): when the plan's bricks not yet in the cache cannot be
+  read within the limit, ``coarse_first`` draws the plan of the finest coarser floor level whose
+  missing bricks can (the budget fallback's walk, one floor level up at a time); the plan's own
+  bricks are read ahead for the next frames.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
 
-from vgraph.bricks.cache import brick_bytes, usable_range
+from vgraph.bricks.cache import LoadLimit, brick_bytes, usable_range
 from vgraph.bricks.pyramid import BrickSource, brick_grid
 from vgraph.gl.raycasting.empty_space import occupied_blocks
 from vgraph.gl.tetrahedra.cells import axis_order
@@ -42,6 +47,16 @@ class FramePlan:
     bricks: list = field(default_factory=list)  # (key, (x, y, w, h) scissor rect), front to back
     floor_level: int = 0                        # the finest level the budget allowed
     bytes: int = 0                              # the frame's bricks with halo
+    # floor level -> the bricks at that floor (the same walk, its tables reused): coarser plans
+    select: Callable[[int], list] | None = field(default=None, repr=False, compare=False)
+
+    def at_floor(self, floor_level: int, source: BrickSource) -> FramePlan:
+        """This frame's plan with ``floor_level`` as the finest level allowed."""
+        bricks = self.select(floor_level)
+        return FramePlan(bricks, floor_level, sum(brick_bytes(source, key) for key, _ in bricks), self.select)
+
+    def keys(self) -> list:
+        return [key for key, _ in self.bricks]
 
 
 class BrickGeometry:
@@ -211,10 +226,32 @@ def plan_frame(source: BrickSource, camera, size, view_projection, visible, lod_
     ValueError when not even the coarsest level fits."""
     geometry = BrickGeometry(source)
     tables = LevelTables(geometry, camera, size, view_projection, visible, lod_bias)
+
+    def select(floor_level: int) -> list:
+        return select_bricks(source, camera, size, view_projection, visible, lod_bias, floor_level, geometry, tables)
+
     for floor_level in range(len(source.levels)):
-        bricks = select_bricks(source, camera, size, view_projection, visible, lod_bias, floor_level, geometry, tables)
+        bricks = select(floor_level)
         total = sum(brick_bytes(source, key) for key, _ in bricks)
         if total <= budget_bytes:
-            return FramePlan(bricks, floor_level, total)
+            return FramePlan(bricks, floor_level, total, select)
     raise ValueError(f"the {len(bricks)} bricks of the coarsest level need {total / 2**20:.2f} MB "
                      f"but the budget is {budget_bytes / 2**20:.2f} MB")
+
+
+def coarse_first(source: BrickSource, plan: FramePlan, resident: set, limit: LoadLimit,
+                 seconds_per_byte: float | None, budget_bytes: int) -> FramePlan:
+    """The plan to draw now under a load limit: ``plan`` if its bricks not in ``resident`` can be
+    read within ``limit``, else the plan of the finest coarser floor level whose missing bricks can
+    (the coarsest if none can: a frame needs some bricks). The coarser frame's bricks and the
+    plan's resident ones are pinned together while it is drawn (so drawing never evicts what
+    was read ahead); when they do not fit ``budget_bytes`` together, ``plan`` is drawn whole."""
+    for floor_level in range(plan.floor_level, len(source.levels)):
+        candidate = plan if floor_level == plan.floor_level else plan.at_floor(floor_level, source)
+        missing = [key for key in candidate.keys() if key not in resident]
+        if limit.allows(len(missing), sum(brick_bytes(source, key) for key in missing), seconds_per_byte):
+            break
+    if candidate is plan or set(candidate.keys()) == set(plan.keys()):
+        return plan
+    pinned = set(candidate.keys()) | (set(plan.keys()) & resident)
+    return candidate if sum(brick_bytes(source, key) for key in pinned) <= budget_bytes else plan

@@ -18,6 +18,11 @@ Conventions:
   ``INTERACTIVE_SCALE`` of their size at once, without the gathering delay; ``interactive(False)``
   asks for the full-size frame again ("refine on stop").
 - A result is *final* when it is at full scale and no change has happened since its job was sent.
+- Coarse first: a final result that is ``refining`` (a bricked ray caster drew coarser than planned
+  because its bricks were still being read, render_process.GUI_LOAD_LIMIT) is shown as not final
+  ("refining...") and the same state is rendered again (an empty-changes job), by itself, until a
+  frame is complete; any change takes over as usual. A refining result that read no bricks made
+  no progress: refining stops there, with a warning, rather than spin.
 - ``status_of(processor_id)`` is what the render process last reported for that processor (the
   GUI's own copy of the network is never evaluated).
 - Nothing that goes wrong escapes: processor failures are in the outcome; a job that fails as a
@@ -46,7 +51,8 @@ from vgraph.errors import VGraphError
 from vgraph.fileformat import network_document
 from vgraph.gui.changes import Change, append_change, change_of
 from vgraph.gui.evaluator import EvaluationOutcome, ProcessorStatus, format_seconds, processor_status
-from vgraph.gui.render_process import RenderJob, RenderProcess, RenderResult, describe_exit, plugin_modules
+from vgraph.gui.render_process import (GUI_LOAD_LIMIT, RenderJob, RenderProcess, RenderResult, describe_exit,
+                                       plugin_modules)
 from vgraph.gui.workspace import Workspace
 from vgraph.network import Network
 
@@ -86,6 +92,7 @@ class LiveEvaluation(QObject):
         self.view_cameras: dict = {}  # 'id.camera' -> the concrete camera of the last frame
         self.version = 0            # counts changes; a result is current when it carries the latest
         self.scale = 1.0
+        self.load_limit = GUI_LOAD_LIMIT  # reading per frame in the render process (None: complete frames)
         self._include_writers = False
         self._fresh = True          # the next job starts the render process's copy afresh
         self._resync = False        # the next job sends the whole document
@@ -205,7 +212,7 @@ class LiveEvaluation(QObject):
         return RenderJob(self.version, network_document(self.network) if whole else None, base_dir,
                          plugins, self.scale, self._include_writers, self._fresh,
                          changes=() if whole else tuple(self._changes), stamp=(self._sender, self.version),
-                         since=self._last_job.stamp if self._last_job else None)
+                         since=self._last_job.stamp if self._last_job else None, load_limit=self.load_limit)
 
     def _poll(self) -> None:
         if not self.renderer.busy:
@@ -230,7 +237,9 @@ class LiveEvaluation(QObject):
             self.statuses = dict(result.statuses)
             self.last_outcome = result.outcome
             final = result.scale == 1.0 and result.version == self.version
-            self.frames.emit(result.outcome.frames, final)
+            self.frames.emit(result.outcome.frames, final and not result.refining)
+            if final and result.refining:
+                self._refine(result)
             self.view_cameras = dict(result.view_cameras)
             self.histograms.emit(result.histograms)
             self.value_scales.emit(result.value_scales)
@@ -240,6 +249,14 @@ class LiveEvaluation(QObject):
             self._send()
         if not self.renderer.busy:
             self.busy_changed.emit(False)
+
+    def _refine(self, result: RenderResult) -> None:
+        """Render the same state again: the bricks read meanwhile make the frame finer."""
+        if result.bricks_read > 0:
+            self._wanted = True
+        else:
+            self.warning.emit("stopped refining: a frame drawn coarser than planned read no bricks "
+                              "(the frame stays coarse; any change renders again)")
 
     # --- the watchdog ---------------------------------------------------------------------------
     def stall_limit(self) -> float:

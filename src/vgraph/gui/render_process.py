@@ -15,6 +15,13 @@ Protocol (pickled objects over a ``multiprocessing`` pipe, one job in flight at 
   editors, the concrete cameras of the last frame (for zooming a camera that fits the data). A
   result with ``needs_document`` rendered nothing: the changes could not be applied (the process
   has no network, e.g. a new one, or a change failed) and the GUI sends the whole document next.
+- Coarse first: a job's ``load_limit`` (``GUI_LOAD_LIMIT`` unless the GUI says otherwise) goes to
+  every processor that loads bricks progressively (a ``load_limit`` attribute: the BrickedRayCaster),
+  so a frame waits at most about that long for the disk and is drawn coarser meanwhile. A result
+  is ``refining`` when such a processor drew less than it planned (``last_frame["complete"]``);
+  the GUI then sends an empty-changes job for the same state, which draws those processors again
+  (they are invalidated: the bricks read since make the frame finer), until a frame is complete.
+  ``bricks_read`` says whether an incomplete frame made progress.
 The render process keeps its network between jobs (``mirror`` applies a document as a diff; changes
 edit it in place), so unchanged processors keep their textures and outputs.
 
@@ -37,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from tqdm import tqdm
 
+from vgraph.bricks.cache import LoadLimit
 from vgraph.errors import VGraphError
 from vgraph.gui.evaluator import (EvaluationOutcome, ProcessorStatus, evaluate_view, histograms, processor_status,
                                   value_scales, view_cameras)
@@ -47,6 +55,10 @@ from vgraph.registry import registry
 
 BUILTIN_PACKAGE = "vgraph.processors"
 RECENT_JOBS = 20   # how many recent jobs say how long a job usually takes
+# Reading per frame in the GUI: a frame of a volume on disk shows within about this (plus the
+# drawing) and refines in the following jobs; short enough to feel immediate, long enough that a
+# frame reads a good share of what it needs (docs/bricked_raycaster.md, "In the GUI").
+GUI_LOAD_LIMIT = LoadLimit(seconds=0.25)
 
 
 @dataclass
@@ -61,6 +73,7 @@ class RenderJob:
     changes: tuple[Change, ...] = ()
     stamp: tuple | None = None  # (sender, version): names the network state this job leaves
     since: tuple | None = None  # the stamp of the state ``changes`` edit (the sender's previous job)
+    load_limit: LoadLimit | None = GUI_LOAD_LIMIT  # reading per frame of bricked processors (None: no limit)
 
 
 @dataclass
@@ -75,6 +88,8 @@ class RenderResult:
     seconds: float = 0.0
     error: str | None = None   # the job as a whole failed (its network could not be built, a crash)
     needs_document: bool = False  # the changes could not be applied: send the whole network
+    refining: bool = False     # a processor drew a coarser frame than planned: render the same state again
+    bricks_read: int = 0       # bricks those incomplete frames read (0: no progress, stop asking)
 
 
 def plugin_modules(network: Network) -> tuple[str, ...]:
@@ -103,6 +118,8 @@ class RenderServer:
                 result.needs_document = True
                 return result
             self.stamp = job.stamp
+            # Writers write what `vgraph run` writes: complete frames, however long they take.
+            self._limit_loading(None if job.include_writers else job.load_limit)
         except VGraphError as error:
             self.network = None  # half-applied: rebuild from the next document
             result.error = str(error)
@@ -113,10 +130,28 @@ class RenderServer:
             result.histograms = histograms(self.network)
             result.value_scales = value_scales(self.network)
             result.view_cameras = view_cameras(self.network)
+            incomplete = [frame for frame in self._frames(result.outcome.ran) if frame.get("complete") is False]
+            result.refining = bool(incomplete)
+            result.bricks_read = sum(frame.get("bricks_read", 0) for frame in incomplete)
         except Exception:  # a bug below the evaluator: report it, keep serving
             result.error = "internal error in the render process (please report it):\n" + traceback.format_exc()
         result.seconds = time.perf_counter() - start
         return result
+
+    def _limit_loading(self, limit: LoadLimit | None) -> None:
+        """Give the processors that load progressively the job's limit, and invalidate those whose
+        last frame was incomplete: the same state drawn again is finer (module docstring)."""
+        for pid, processor in self.network.processors.items():
+            if hasattr(processor, "load_limit"):
+                processor.load_limit = limit
+                frame = getattr(processor, "last_frame", None)
+                if isinstance(frame, dict) and frame.get("complete") is False:
+                    self.network.invalidate_downstream(pid)
+
+    def _frames(self, ids) -> list[dict]:
+        """``last_frame`` of the progressively loading processors that ran in this job."""
+        return [self.network[pid].last_frame for pid in dict.fromkeys(ids)
+                if pid in self.network and isinstance(getattr(self.network[pid], "last_frame", None), dict)]
 
     def _applied(self, job: RenderJob) -> bool:
         """Apply the job's changes; False when they cannot be: the network is not the one they
