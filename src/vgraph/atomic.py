@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -69,7 +70,8 @@ def check_output_path(path: str | Path, create_folder: bool = False) -> Path:
 
 
 def remove_stale_temporaries(path: Path) -> None:
-    """Remove temporary files of earlier writes to ``path`` whose writing process is gone."""
+    """Remove temporary files (or folders: ``vgraph convert`` writes a store as one) of earlier
+    writes to ``path`` whose writing process is gone."""
     pattern = re.compile(rf"^\.{re.escape(path.name)}\.(\d+)\.[^.]+\.tmp")
     try:
         candidates = list(path.parent.iterdir())
@@ -78,6 +80,9 @@ def remove_stale_temporaries(path: Path) -> None:
     for candidate in candidates:
         match = pattern.match(candidate.name)
         if match and not _process_alive(int(match.group(1))):
+            if candidate.is_dir() and not candidate.is_symlink():
+                shutil.rmtree(candidate, ignore_errors=True)
+                continue
             try:
                 candidate.unlink()
             except OSError:

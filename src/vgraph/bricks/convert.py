@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 import resource
 import shutil
 import sys
@@ -31,6 +30,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from vgraph.atomic import remove_stale_temporaries
 from vgraph.bricks.pyramid import Level, halve, level_count, next_level
 from vgraph.bricks.slabs import SlabInput, open_input
 from vgraph.bricks.store_writer import StoreWriter
@@ -236,7 +236,7 @@ def is_zarr_store(path: Path) -> bool:
 @contextmanager
 def atomic_folder(output: Path):
     """A temporary folder beside ``output`` that replaces it when the block succeeds."""
-    _remove_stale_folders(output)
+    remove_stale_temporaries(output)  # of conversions killed halfway
     try:
         folder = Path(tempfile.mkdtemp(prefix=f".{output.name}.{os.getpid()}.", suffix=".tmp",
                                        dir=output.parent))
@@ -267,29 +267,6 @@ def _replace(folder: Path, output: Path) -> None:
         os.rename(old, output)
         raise
     shutil.rmtree(old, ignore_errors=True)
-
-
-def _remove_stale_folders(output: Path) -> None:
-    """Temporary folders of conversions to ``output`` whose process is gone (killed halfway)."""
-    pattern = re.compile(rf"^\.{re.escape(output.name)}\.(\d+)\..+\.tmp$")
-    try:
-        candidates = list(output.parent.iterdir())
-    except OSError:
-        return
-    for candidate in candidates:
-        match = pattern.match(candidate.name)
-        if match and candidate.is_dir() and not _alive(int(match.group(1))):
-            shutil.rmtree(candidate, ignore_errors=True)
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (PermissionError, OverflowError):
-        return True
-    return True
 
 
 def _folder_bytes(folder: Path) -> int:
