@@ -179,7 +179,9 @@ class BrickedRayCaster(RaycasterBase):
         complete = drawn is plan
         if not complete:  # the planned bricks, front first, for the next frame (the GUI asks again)
             self.cache.begin_frame(plan.keys())
-            self.cache.read_ahead(plan.keys(), self.load_limit, self.cache.stats["bricks_read"] - read_before,
+            resident = self.cache.resident(frame.ctx)
+            self.cache.read_ahead([key for key in plan.keys() if key not in resident], self.load_limit,
+                                  self.cache.stats["bricks_read"] - read_before,
                                   self.cache.stats["read_seconds"] - seconds_before)
         self.last_frame = {"bricks": len(drawn.bricks), "floor_level": drawn.floor_level, "bytes": drawn.bytes,
                            "levels": sorted({key[0] for key, _ in drawn.bricks}), "complete": complete,

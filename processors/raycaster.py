@@ -19,7 +19,8 @@ Conventions (docs/rendering.md explains each property with pictures):
 - The camera must equal the EntryExitPoints camera (link them): it gives depth and view direction.
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
   than its memory budget, is drawn brick by brick by a BrickedRayCaster with this processor's
-  settings (docs/bricked_raycaster.md); dvr, mip and iso only.
+  settings (docs/bricked_raycaster.md); dvr, mip and iso only. Its ``load_limit`` (the GUI's:
+  coarse first) goes to that BrickedRayCaster, whose ``last_frame`` is then this one's.
 """
 
 from __future__ import annotations
@@ -63,6 +64,14 @@ class RayCaster(RaycasterBase):
         super().__init__(id, **values)
         self._targets = RenderTargets(2)
         self._bricked = None  # the BrickedRayCaster for volumes one texture cannot hold
+        self._drew_bricks = False
+        self.load_limit = None  # for that BrickedRayCaster (the render process sets it; not a property)
+
+    @property
+    def last_frame(self) -> dict:
+        """The BrickedRayCaster's ``last_frame`` when the last frame was drawn brick by brick (the
+        render process asks whether it was complete), else empty."""
+        return self._bricked.last_frame if self._drew_bricks else {}
 
     # --- shader ---------------------------------------------------------------------------------
     def shader_defines(self) -> dict[str, bool]:
@@ -96,6 +105,7 @@ class RayCaster(RaycasterBase):
     def process(self, volume: Volume, entry: Image, exit: Image) -> dict:
         volume.require_samples(f"RayCaster '{self.id}'")
         self.check()
+        self._drew_bricks = False
         if needs_bricks(volume, self.gl):
             return self._brick_by_brick(volume, entry, exit)
         frame = self.frame(volume, entry, exit)
@@ -118,7 +128,9 @@ class RayCaster(RaycasterBase):
                 self._bricked.set_property(name, value)
         if self.derivatives != "none":
             self._bricked.set_property("derivatives", self.derivatives)
+        self._bricked.load_limit = self.load_limit
         outputs = self._bricked.process(volume, entry, exit)
+        self._drew_bricks = True
         self.passes = self._bricked.passes
         return outputs
 

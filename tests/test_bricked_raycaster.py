@@ -434,3 +434,27 @@ def test_a_budget_that_cannot_hold_a_coarse_frame_and_the_planned_bricks_draws_t
     assert ram <= budget * MB and gl <= budget * MB
     want, _, _ = reference(volume, oblique(volume), compositing="mip")
     assert psnr(seen[-1][1], want) >= MIN_PSNR
+
+
+def test_a_raycaster_drawing_a_store_brick_by_brick_refines_under_a_load_limit(tmp_path):
+    """The RayCaster hands its load limit to the BrickedRayCaster that draws a store over its
+    memory budget, and its last_frame says whether the frame was complete (the render process asks)."""
+    pytest.importorskip("zarr")
+    from vgraph.bricks.cache import LoadLimit
+    from vgraph.bricks.convert import convert
+    from vgraph.bricks.volume import BrickedVolume
+    np.save(tmp_path / "v.npy", (field((45, 38, 51)) * 65535).astype(np.uint16))
+    convert(tmp_path / "v.npy", tmp_path / "v.zarr", brick=16, progress=False)
+    bricked = BrickedVolume.open(tmp_path / "v.zarr", memory_budget_mb=0.05)
+    camera = oblique(bricked)
+    planned, _, rc = render(bricked, camera, "RayCaster", compositing="mip")
+    assert rc.load_limit is None and rc.last_frame["complete"]
+    network = ray_caster_network(bricked, camera, "RayCaster", compositing="mip")
+    seen = refine(network, SIZE, LoadLimit(bricks=6))
+    assert not seen[0][0]["complete"] and len(seen) > 1
+    np.testing.assert_array_equal(seen[-1][1], planned)
+    small = Volume(field((20, 20, 20)))                  # one texture holds it: no bricks, no last frame
+    network["src"].volume = small
+    network.invalidate_downstream("src")
+    network.evaluate("rc.image", size=SIZE)
+    assert network["rc"].last_frame == {}
