@@ -51,7 +51,7 @@ import math
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_serializer, model_validator
 
 Vec3 = tuple[float, float, float]
 
@@ -75,6 +75,17 @@ class Camera(BaseModel):
     near: float | None = Field(None, gt=0.0, le=MAX_COORDINATE, allow_inf_nan=False)
     far: float | None = Field(None, gt=0.0, le=MAX_COORDINATE, allow_inf_nan=False)
     fit_to_data: bool = False
+    # The part of the full view this camera renders, (left, right, bottom, top) in the full view's
+    # NDC; None = all of it. Set by tile() for rendering one rectangle of an image on its own
+    # (docs/distributed.md); saved only when set, so stored networks keep their form.
+    window: tuple[float, float, float, float] | None = None
+
+    @model_serializer(mode="wrap")
+    def _drop_default_window(self, handler):
+        data = handler(self)
+        if self.window is None:
+            data.pop("window", None)
+        return data
 
     @model_validator(mode="after")
     def _check_geometry(self) -> "Camera":
@@ -92,6 +103,11 @@ class Camera(BaseModel):
             raise ValueError("up must not be parallel to the viewing direction (or zero)")
         if self.near is not None and self.far is not None and not self.near < self.far:
             raise ValueError(f"near ({self.near}) must be smaller than far ({self.far})")
+        if self.window is not None:
+            left, right, bottom, top = self.window
+            if not (all(math.isfinite(v) for v in self.window) and left < right and bottom < top):
+                raise ValueError(f"window (left, right, bottom, top) must be finite with left < right "
+                                 f"and bottom < top, got {list(self.window)}")
         return self
 
     # --- frame ----------------------------------------------------------------------------------
@@ -119,6 +135,35 @@ class Camera(BaseModel):
                              "camera.resolved(box_min, box_max, aspect) to get the camera for a box")
         return self.near, self.far
 
+    # --- tiles ----------------------------------------------------------------------------------
+    def tile(self, x: int, y: int, width: int, height: int, full_width: int, full_height: int) -> "Camera":
+        """The camera that renders pixels [x, x + width) x [y, y + height) (row 0 at the top) of the
+        full_width x full_height image of this camera, as an image of width x height: the off-axis
+        sub-frustum whose pixel centres are the full image's. Automatic parts (fit_to_data, near
+        and far) stay automatic and resolve as for the full image (resolved() uses the full
+        aspect), so every tile frames the data alike. A tile of a tile is a tile of the full view."""
+        full_width, full_height = _check_size(full_width, full_height)
+        width, height = _check_size(width, height)
+        if not (0 <= x and 0 <= y and x + width <= full_width and y + height <= full_height):
+            raise ValueError(f"tile {width}x{height} at ({x}, {y}) is not inside the "
+                             f"{full_width}x{full_height} image")
+        left, right, bottom, top = self.window or (-1.0, 1.0, -1.0, 1.0)
+        span_x, span_y = right - left, top - bottom
+        window = (left + span_x * x / full_width, left + span_x * (x + width) / full_width,
+                  top - span_y * (y + height) / full_height, top - span_y * y / full_height)
+        return self._replace(window=window)
+
+    def window_frame(self, aspect: float) -> tuple[float, float, float, float, float]:
+        """(full_aspect, centre_x, centre_y, half_x, half_y) for an image of ``aspect`` drawn
+        through this camera: the image's NDC (u, v) is the full view's (centre_x + u half_x,
+        centre_y + v half_y), and the full view's aspect is aspect * half_y / half_x."""
+        aspect = _check_aspect(aspect)
+        if self.window is None:
+            return aspect, 0.0, 0.0, 1.0, 1.0
+        left, right, bottom, top = self.window
+        half_x, half_y = (right - left) / 2.0, (top - bottom) / 2.0
+        return aspect * half_y / half_x, (left + right) / 2.0, (bottom + top) / 2.0, half_x, half_y
+
     # --- matrices -------------------------------------------------------------------------------
     def view_matrix(self) -> np.ndarray:
         """World -> eye coordinates (gluLookAt): the eye at the origin looking down -z."""
@@ -130,7 +175,7 @@ class Camera(BaseModel):
 
     def projection_matrix(self, aspect: float) -> np.ndarray:
         """Eye -> clip coordinates with OpenGL conventions (gluPerspective / glOrtho)."""
-        aspect = _check_aspect(aspect)
+        aspect, centre_x, centre_y, half_x, half_y = self.window_frame(aspect)
         n, f = self.planes()
         matrix = np.zeros((4, 4))
         if self.projection == "perspective":
@@ -143,6 +188,9 @@ class Camera(BaseModel):
             matrix[0, 0], matrix[1, 1] = 1.0 / (s * aspect), 1.0 / s
             matrix[2, 2], matrix[2, 3] = -2.0 / (f - n), -(f + n) / (f - n)
             matrix[3, 3] = 1.0
+        if self.window is not None:  # the window's NDC become the image's (x' = (x - c w) / h)
+            matrix[0] = (matrix[0] - centre_x * matrix[3]) / half_x
+            matrix[1] = (matrix[1] - centre_y * matrix[3]) / half_y
         return matrix
 
     def view_projection(self, aspect: float) -> np.ndarray:
@@ -157,6 +205,9 @@ class Camera(BaseModel):
         aspect = width / height
         ndc_x = (np.arange(width) + 0.5) / width * 2.0 - 1.0
         ndc_y = 1.0 - (np.arange(height) + 0.5) / height * 2.0
+        if self.window is not None:  # the same pixel centres in the full view's NDC
+            aspect, centre_x, centre_y, half_x, half_y = self.window_frame(aspect)
+            ndc_x, ndc_y = centre_x + ndc_x * half_x, centre_y + ndc_y * half_y
         right, true_up, forward = self.basis()
         eye = np.asarray(self.position, dtype=np.float64)
         if self.projection == "perspective":
@@ -255,7 +306,9 @@ class Camera(BaseModel):
         near/far planes enclosing the box from where the camera stands (explicit ones are kept).
         The result is a stored camera (fit_to_data False, both planes set); every renderer of a
         view resolves the same camera against the same box, so their rays agree."""
-        camera = self.framing(box_min, box_max, aspect) if self.fit_to_data else self
+        # A tile frames the data as the full image does: with the full view's aspect.
+        full_aspect = self.window_frame(aspect)[0]
+        camera = self.framing(box_min, box_max, full_aspect) if self.fit_to_data else self
         near, far = self.near, self.far
         if near is None or far is None:
             auto_near, auto_far = camera._automatic_planes(box_min, box_max)

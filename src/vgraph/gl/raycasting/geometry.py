@@ -101,7 +101,13 @@ def plane_frame(camera: Camera, size, plane: str = "near") -> tuple[np.ndarray, 
         half_height = depth * math.tan(math.radians(camera.fov) / 2.0)
     else:
         half_height = camera.parallel_scale
-    return centre, half_height * aspect * right, half_height * true_up
+    if camera.window is None:  # the whole view (kept as it was: existing images stay bit for bit)
+        return centre, half_height * aspect * right, half_height * true_up
+    # A tile (Camera.tile): the full view's plane, then the window's part of it, so the image's
+    # NDC (u, v) lands where the full view's (centre_x + u half_x, centre_y + v half_y) does.
+    full_aspect, centre_x, centre_y, half_x, half_y = camera.window_frame(aspect)
+    full_right, full_up = half_height * full_aspect * right, half_height * true_up
+    return centre + centre_x * full_right + centre_y * full_up, half_x * full_right, half_y * full_up
 
 
 def plane_cuts_box(camera: Camera, plane: str, box_min, box_max) -> bool:
@@ -120,7 +126,10 @@ def ray_uniforms(camera: Camera, size) -> dict[str, tuple[float, ...]]:
     near = plane_frame(camera, size, "near")
     forward = camera.basis()[2]
     if camera.projection == "perspective":  # through the near-plane point, from the eye
-        directions = (forward, near[1] / camera.near, near[2] / camera.near)
+        # A tile's centre ray leaves the view axis: its offset on the near plane over the depth.
+        off_axis = (near[0] - np.asarray(camera.position) - camera.near * forward) / camera.near
+        centre = forward if camera.window is None else forward + off_axis
+        directions = (centre, near[1] / camera.near, near[2] / camera.near)
     else:
         directions = (forward, np.zeros(3), np.zeros(3))
     names = ("near_centre", "near_right", "near_up", "direction_centre", "direction_right",
