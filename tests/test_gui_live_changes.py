@@ -118,3 +118,36 @@ def test_refining_renders_the_same_state_again_and_stops_when_a_frame_reads_noth
     with qtbot.waitSignal(evaluation.warning) as warned:
         evaluation._receive(RenderResult(evaluation.version, outcome=last.outcome, refining=True, bricks_read=0))
     assert "stopped refining" in warned.args[0] and len(jobs) == 1 and evaluation.idle()
+
+
+def test_an_edit_while_a_bricked_frame_refines_takes_over(window, jobs, qtbot, tmp_path):
+    """Refining renders the state it was asked for; an edit made meanwhile goes out as a change
+    (the normal flow) and the window ends at the complete frame of the edited state."""
+    import vgraph
+    from vgraph.camera import Camera
+    from vgraph.imagefile import to_uint8
+    from vgraph.network import Network
+    network = Network()
+    network.add("FunctionSelector", id="source", function="sphere", resolution=128)
+    network.add("EntryExitPoints", id="eep", camera=Camera(position=(2.6, 2.0, 5.8), near=4.0, far=9.0))
+    network.add("BrickedRayCaster", id="rc", compositing="mip", brick_size=16, lod_bias=-16.0)
+    network.add("Canvas", id="canvas", size=(64, 48))
+    network.link("eep.camera", "rc.camera")
+    for source, target in (("source.volume", "eep.volume"), ("source.volume", "rc.volume"),
+                           ("eep.entry", "rc.entry"), ("eep.exit", "rc.exit"), ("rc.image", "canvas.image")):
+        network.connect(source, target)
+    network.save(tmp_path / "bricked.json")
+    with qtbot.waitSignal(window.evaluation.frames, timeout=60000,
+                          check_params_cb=lambda frames, final: "canvas" in frames and not final):
+        assert window.open_network(tmp_path / "bricked.json")
+    assert window.evaluation.last_result.refining                  # coarse first: the new volume's first frame
+    window.workspace.set_property("rc.sampling_rate", 1.5)
+    edit = window.evaluation.version
+    qtbot.waitUntil(lambda: window.evaluation.idle() and window.canvases.views["canvas"].is_final, timeout=60000)
+    changed = [job for job in jobs if job.changes]
+    assert [job.changes for job in changed] == [(PropertySet("rc.sampling_rate", 1.5),)]
+    after = jobs[jobs.index(changed[0]):]
+    assert all(job.version == edit for job in after)   # nothing more for the state before the edit
+    assert not window.evaluation.last_result.refining
+    network.set("rc.sampling_rate", 1.5)
+    np.testing.assert_array_equal(window.canvases.views["canvas"].frame(), to_uint8(network.evaluate("canvas")))
