@@ -91,6 +91,12 @@ def build_parser() -> argparse.ArgumentParser:
                      help="write which processors ran and their times, and the one that failed")
     run.add_argument("--plugin", action="append", metavar="MODULE", help="import a plug-in module")
     add_allow_write(run)
+    run.add_argument("--cluster", metavar="local:N|tcp://HOST:PORT",
+                     help="render on a Dask cluster: N local worker processes, or a running scheduler "
+                          "whose workers see the network's files at the same paths (docs/distributed.md)")
+    run.add_argument("--split", choices=["tiles", "leaves"], help="how --cluster divides the work "
+                     "(default: tiles; leaves is not implemented yet)")
+    run.add_argument("--tiles", metavar="CxR", help="columns x rows of the tiles split (default: 2x2)")
     run.set_defaults(command=command_run)
 
     validate = commands.add_parser("validate", help="check a network file")
@@ -251,6 +257,9 @@ def command_run(args) -> int:
     target = args.port or (default_target(network) if outputs else None)
     if outputs:
         check_formats(outputs, target, target_type(network, target))
+    if args.cluster is not None or args.split is not None or args.tiles is not None:
+        from vgraph.distributed.command import run_on_cluster
+        return run_on_cluster(args, network, outputs, target)
     try:
         report = network.update(*([target] if args.port else []), size=args.size)
     finally:

@@ -107,6 +107,13 @@ def write_outputs(outputs: list[Output], target: str, data, blank_warning) -> No
             _write_array(output, _as_array(data, target))
 
 
+def write_image_outputs(outputs: list[Output], pixels: np.ndarray) -> None:
+    """Write an image already read back (float32 H x W x 4; the one ``vgraph run --cluster``
+    assembles from tiles) to every output, as write_outputs writes an Image."""
+    for output in outputs:
+        _write_image(output, pixels)
+
+
 def _write_image(output: Output, pixels: np.ndarray) -> None:
     if output.format == ".png":
         from vgraph.imagefile import write_png

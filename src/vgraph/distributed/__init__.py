@@ -1,0 +1,15 @@
+"""Rendering on a Dask cluster (issue #15; docs/distributed.md).
+
+One concept per module: ``tiles`` (cutting a picture, the tile cameras, assembling),
+``worker`` (what runs in a worker process: the shipped network, its one GL context),
+``render`` (the client side: ``render(network_or_path, client, split="tiles", tiles=(C, R))``)
+and ``cluster`` (``local:N`` or ``tcp://HOST:PORT`` -> a Client). Dask itself is imported only
+when a cluster is used.
+"""
+
+from vgraph.distributed.cluster import ClusterError, connect, parse_cluster
+from vgraph.distributed.render import SPLITS, render
+from vgraph.distributed.tiles import Tile, TileError, cut, parse_grid
+
+__all__ = ["ClusterError", "SPLITS", "Tile", "TileError", "connect", "cut", "parse_cluster",
+           "parse_grid", "render"]

@@ -1,0 +1,42 @@
+"""``vgraph run NET -o OUT.png --cluster local:N|tcp://HOST:PORT [--split tiles] [--tiles CxR]``:
+the run subcommand's cluster path (the parser and the local path stay in vgraph.cli). Everything
+that can be refused is refused before a cluster starts; the image is written atomically, as a
+local run writes it.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from vgraph.errors import VGraphError
+
+
+def run_on_cluster(args, network, outputs, target) -> int:
+    """``vgraph run ... --cluster``: the picture rendered by the cluster's workers (tiles), written
+    as a local run writes it (atomically, the same messages)."""
+    from vgraph.cli_output import write_image_outputs
+    from vgraph.distributed import connect, parse_cluster, parse_grid, render
+    from vgraph.distributed.render import prepare
+
+    if args.cluster is None:
+        raise VGraphError("--split and --tiles need --cluster local:N or --cluster tcp://HOST:PORT")
+    if args.profile is not None:
+        raise VGraphError("--profile times one process; it cannot be combined with --cluster")
+    if not outputs:
+        raise VGraphError("--cluster renders an image: write it with -o OUT.png or --data OUT.npz")
+    split, grid = args.split or "tiles", parse_grid(args.tiles or "2x2")  # refused before starting
+    parse_cluster(args.cluster)
+    if split == "leaves":
+        raise VGraphError("--split leaves is not implemented yet (issue #15): use --split tiles")
+    prepare(network, split, grid, args.size, target)  # refuse an untileable network before starting
+    start = time.perf_counter()
+    with connect(args.cluster) as client:
+        workers = len(client.scheduler_info().get("workers", {}))
+        pixels = render(network, client, split=split, tiles=grid, size=args.size, target=target,
+                        plugins=args.plugin or ())
+    write_image_outputs(outputs, pixels)
+    print(f"rendered {target} as {grid[0]}x{grid[1]} tiles on {workers} worker(s) of "
+          f"{args.cluster} in {time.perf_counter() - start:.3f} s", file=sys.stderr)
+    from vgraph.cli import EXIT_OK
+    return EXIT_OK

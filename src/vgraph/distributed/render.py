@@ -1,0 +1,106 @@
+"""``vgraph.distributed.render``: one picture of a network rendered by the workers of a Dask cluster.
+
+    image = render("networks/raycast_sphere.json", client, split="tiles", tiles=(2, 2))
+
+The client checks the network (its target is an image, nothing in it needs the whole image), cuts
+the picture into tiles (vgraph.distributed.tiles), submits one task per tile (the network's JSON
+document and its folder, never its volumes) and assembles the rectangles the workers return. The
+result is the picture ``vgraph run`` / ``Network.evaluate`` gives in one process, to the tolerance
+docs/distributed.md states.
+"""
+
+from __future__ import annotations
+
+import json
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from vgraph.distributed.tiles import Tile, TileError, assemble, check_grid, cut, untileable
+
+SPLITS = ("tiles", "leaves")
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What a render will do, checked before any cluster is asked: the network, its target, the
+    image size and the tiles."""
+
+    network: object
+    target: str
+    size: tuple[int, int]
+    tiles: list[Tile]
+
+
+def render(network_or_path, client, split: str = "tiles", tiles=(2, 2), size=None,
+           target: str | None = None, plugins=()) -> np.ndarray:
+    """The image at ``target`` (default: the network's Canvas, as ``vgraph run`` picks it) at
+    ``size`` (width, height; default: the Canvas's size), float32 (H, W, 4), row 0 at the top, as
+    Network.evaluate returns it. ``network_or_path``: a Network, or a .json network or volume file
+    (as ``vgraph.load`` reads it). ``client``: a dask.distributed Client. ``tiles``: (columns,
+    rows) of the tiles split. ``plugins``: plug-in modules the workers import before building the
+    network (as ``--plugin``; each worker must be able to import them)."""
+    from vgraph.distributed.worker import render_tile
+
+    plan = prepare(network_or_path, split, tiles, size, target)
+    document, base_dir = shipped(plan.network)
+    # Unique keys: the same tile of another call (a changed file with the same name) is new work.
+    token = uuid.uuid4().hex[:12]
+    futures = [client.submit(render_tile, document, base_dir, plan.target, plan.size, tile,
+                             tuple(plugins), pure=False, key=f"vgraph-tile-{token}-{i}")
+               for i, tile in enumerate(plan.tiles)]
+    return assemble(plan.size, plan.tiles, client.gather(futures))
+
+
+def prepare(network_or_path, split: str = "tiles", tiles=(2, 2), size=None,
+            target: str | None = None) -> Plan:
+    """Check everything render() can refuse without a cluster (``vgraph run --cluster`` asks
+    before starting one): the split, the grid, the target (an image) and the network (nothing in
+    it needs the whole image)."""
+    from vgraph.image import Image
+    from vgraph.scheduler import default_size, default_target, target_type
+
+    if split not in SPLITS:
+        raise TileError(f"unknown split '{split}'; choose one of {', '.join(SPLITS)}")
+    if split == "leaves":
+        raise NotImplementedError("split='leaves' (per-brick partial images composited front to back "
+                                  "in brick visibility order) is not implemented yet: issue #15; "
+                                  "use split='tiles'")
+    grid = check_grid(tiles)
+    network = _network(network_or_path)
+    target = target or default_target(network)
+    data_type = target_type(network, target)
+    if data_type is not None and not issubclass(data_type, Image):
+        raise TileError(f"{target} carries {data_type.__name__}, not an image: only images can be "
+                        "rendered as tiles")
+    reasons = untileable(network, target)
+    if reasons:
+        raise TileError("this network cannot be rendered as tiles: " + "; ".join(reasons))
+    size = tuple(int(v) for v in size) if size is not None else \
+        tuple(default_size(network, [target.partition(".")[0]]))
+    return Plan(network, target, size, cut(size, grid))
+
+
+def shipped(network) -> tuple[str, str | None]:
+    """(the network's JSON document, the folder its relative paths mean): what a task carries.
+    The folder is the network file's, which the workers must see at the same path (a shared
+    file system), as they see the volumes and OME-Zarr stores the network reads."""
+    from vgraph.fileformat import network_document
+
+    base_dir = network.base_dir
+    document = network_document(network, base_dir)
+    return json.dumps(document), (str(base_dir) if base_dir is not None else None)
+
+
+def _network(network_or_path):
+    from vgraph.network import Network
+
+    if isinstance(network_or_path, Network):
+        return network_or_path
+    if isinstance(network_or_path, (str, Path)):
+        import vgraph
+        return vgraph.load(network_or_path)
+    raise TypeError(f"render() takes a Network or the path of a network or volume file, got "
+                    f"{type(network_or_path).__name__}")

@@ -1,0 +1,77 @@
+"""What runs inside a Dask worker process: build the shipped network once, render tiles of it.
+
+- The network travels as its JSON document (text) with the folder its relative paths mean (the
+  network file's): volumes are read by the worker from that shared path, never pickled through the
+  scheduler.
+- Module-level state, per worker process: the networks built so far (keyed by a hash of document,
+  folder and target) with their full-view cameras. A second tile of the same network on the same
+  worker reuses the built network, so its volume is read and uploaded to the GPU once; only the
+  renderers run again for the new camera.
+- One GL context per worker process: ``vgraph.gl.context.get_context()`` creates the process's
+  headless EGL context on the first evaluation in that worker (never in the client or the
+  scheduler) and every later task reuses it. GL contexts are not thread-safe, so tasks of one
+  worker hold ``_GL_LOCK`` while they touch it (workers are started single-threaded anyway).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import threading
+from collections import OrderedDict
+from pathlib import Path
+
+import numpy as np
+
+from vgraph.distributed.tiles import Tile, cameras, set_tile_cameras
+
+_GL_LOCK = threading.Lock()
+_NETWORKS: OrderedDict[str, tuple] = OrderedDict()  # key -> (network, full cameras)
+_KEPT = 2  # networks kept per worker (each may hold a volume on the GPU)
+
+
+def render_tile(document: str, base_dir: str | None, target: str, size: tuple[int, int],
+                tile: Tile, plugins: tuple[str, ...] = ()) -> np.ndarray:
+    """The rendered rectangle of ``tile`` (its halo included) of the ``size`` image of ``target``,
+    float32 (h, w, 4), row 0 at the top: the task of the tiles split."""
+    import vgraph
+
+    for module in plugins:  # the processor types of a plug-in network (vgraph run --plugin)
+        if module not in vgraph.registry.plugins:  # once per worker process
+            vgraph.registry.load_plugin(module)
+    with _GL_LOCK:
+        network, full_cameras = _network(document, base_dir, target)
+        set_tile_cameras(network, full_cameras, tile, size)
+        network.update(target, size=tuple(tile.rendered[2:]))
+        return np.ascontiguousarray(network.output(target).to_numpy(), dtype=np.float32)
+
+
+def worker_info() -> dict:
+    """Which process this is and what it holds (tests check that contexts are per process and reused)."""
+    from vgraph.gl import context
+    return {"pid": os.getpid(), "has_context": context._context is not None,
+            "context_id": id(context._context) if context._context is not None else None,
+            "networks": len(_NETWORKS)}
+
+
+def _network(document: str, base_dir: str | None, target: str):
+    key = hashlib.sha256("\0".join((document, str(base_dir), target)).encode()).hexdigest()
+    if key in _NETWORKS:
+        _NETWORKS.move_to_end(key)
+        return _NETWORKS[key]
+    network = build(document, base_dir)
+    _NETWORKS[key] = (network, cameras(network))
+    while len(_NETWORKS) > _KEPT:
+        _NETWORKS.popitem(last=False)
+    return _NETWORKS[key]
+
+
+def build(document: str, base_dir: str | None):
+    """The network of a shipped document (migrated and validated as a file would be)."""
+    import json
+
+    from vgraph.fileformat import build_network, parse_document
+
+    source = f"<network shipped from {base_dir or 'the client'}>"
+    parsed = parse_document(json.loads(document), source)
+    return build_network(parsed, source, base_dir=Path(base_dir) if base_dir else None)

@@ -1,0 +1,198 @@
+"""Rendering on a Dask cluster (issue #15, docs/distributed.md): the camera's tile sub-frustum, the
+tiles split on two local worker processes, ``vgraph run --cluster`` and its bad input."""
+
+import json
+import time
+
+import numpy as np
+import PIL.Image
+import pytest
+
+import vgraph
+from vgraph.camera import Camera
+from vgraph.cli import main
+from vgraph.distributed import ClusterError, TileError, connect, cut, parse_grid, render
+from vgraph.distributed.render import prepare
+from vgraph.gl.raycasting.geometry import ray_uniforms
+
+from helpers.paths import REPO
+
+SPHERE = REPO / "networks" / "raycast_sphere.json"
+TORUS = REPO / "networks" / "curvature_torus.json"
+# A tile differs from the same rectangle of the whole picture only by float32 rounding of its
+# sub-frustum's uniforms (they are computed for the window, not the whole view). Measured on
+# llvmpipe: RayCaster 2.2e-6, CurvatureRaycaster 9.6e-6, ProjectedTetrahedra (bonsai) 1.9e-5.
+TILE_TOLERANCE = 5e-5
+
+
+# --- the camera's sub-frustum (no cluster) --------------------------------------------------------
+def test_tile_camera_has_the_full_image_pixel_centres():
+    camera = vgraph.load(SPHERE).get("eep.camera")
+    full, (x, y, w, h) = (96, 64), (20, 10, 40, 30)
+    tiled = camera.tile(x, y, w, h, *full)
+    origins, directions = camera.rays(*full)
+    tile_origins, tile_directions = tiled.rays(w, h)
+    assert np.abs(tile_origins - origins[y:y + h, x:x + w]).max() < 1e-12
+    assert np.abs(tile_directions - directions[y:y + h, x:x + w]).max() < 1e-12
+    point = np.array([0.3, 0.2, 0.1, 1.0])  # projects to the same pixel of the full image
+    a, b = camera.view_projection(full[0] / full[1]) @ point, tiled.view_projection(w / h) @ point
+    full_pixel = ((a[0] / a[3] + 1) / 2 * full[0], (1 - a[1] / a[3]) / 2 * full[1])
+    tile_pixel = ((b[0] / b[3] + 1) / 2 * w + x, (1 - b[1] / b[3]) / 2 * h + y)
+    assert np.allclose(full_pixel, tile_pixel, atol=1e-9)
+    # The ray uniforms (what the shaders use) give the same rays too, centre ray included.
+    rays = ray_uniforms(tiled, (w, h))
+    u, v = 0.3, -0.2  # a tile NDC, and the full view's NDC of the same point
+    full_u = ((u + 1) / 2 * w + x) / full[0] * 2 - 1
+    full_v = 1 - ((1 - v) / 2 * h + y) / full[1] * 2
+    whole = ray_uniforms(camera, full)
+    for name in ("near", "direction"):
+        here = np.add(rays[f"{name}_centre"], np.multiply(u, rays[f"{name}_right"])) + np.multiply(v, rays[f"{name}_up"])
+        there = np.add(whole[f"{name}_centre"], np.multiply(full_u, whole[f"{name}_right"])) + \
+            np.multiply(full_v, whole[f"{name}_up"])
+        assert np.allclose(here, there, atol=1e-12), name
+
+
+def test_window_is_saved_only_when_set_and_a_tile_of_a_tile_is_a_tile():
+    camera = Camera()
+    assert "window" not in camera.model_dump() and "window" not in json.loads(camera.model_dump_json())
+    tiled = camera.tile(0, 0, 50, 25, 100, 100)
+    assert tiled.window == (-1.0, 0.0, 0.5, 1.0)
+    assert Camera(**json.loads(tiled.model_dump_json())) == tiled
+    assert tiled.tile(25, 0, 25, 25, 50, 25).window == camera.tile(25, 0, 25, 25, 100, 100).window
+    with pytest.raises(ValueError, match="not inside"):
+        camera.tile(90, 0, 20, 10, 100, 100)
+    with pytest.raises(ValueError, match="window"):
+        Camera(window=(0.5, 0.0, -1.0, 1.0))
+
+
+def tile_and_crop(network, camera_address, full, rect, halo_rect=None):
+    """(the tile rendered through the tiled camera, the same rectangle of the full image)."""
+    whole = network.evaluate(size=full)
+    camera = network.get(camera_address)
+    x, y, w, h = halo_rect or rect
+    network.set(camera_address, camera.tile(x, y, w, h, *full))
+    tile = network.evaluate(size=(w, h))
+    network.set(camera_address, camera)
+    rx, ry, rw, rh = rect
+    return tile[ry - y:ry - y + rh, rx - x:rx - x + rw], whole[ry:ry + rh, rx:rx + rw]
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+def test_raycaster_tile_equals_the_rectangle_of_the_full_image(projection):
+    network = vgraph.load(SPHERE)  # the camera is set on EntryExitPoints; the link carries it on
+    network.set("eep.camera", network.get("eep.camera").model_copy(update={"projection": projection}))
+    tile, crop = tile_and_crop(network, "eep.camera", (96, 64), (20, 10, 40, 30))
+    assert crop[..., 3].min() == 1.0 and np.ptp(crop[..., :3]) > 0.1  # the sphere's edge is in it
+    assert np.abs(tile - crop).max() <= TILE_TOLERANCE
+
+
+def test_projected_tetrahedra_tile_equals_the_rectangle_of_the_full_image():
+    network = vgraph.Network()
+    network.add("FunctionSelector", id="source", function="sphere", resolution=16)
+    network.add("VolumeToTetMesh", id="tets")
+    network.add("ProjectedTetrahedra", id="pt", transfer_function="grayscale")
+    network.connect("source.volume", "tets.volume")
+    network.add("Canvas", id="canvas")
+    network.connect("tets.mesh", "pt.mesh")
+    network.connect("pt.image", "canvas.image")
+    # The default camera frames the data (fit_to_data) with automatic planes: a tile resolves
+    # them for the full image's aspect, not its own.
+    assert network.get("pt.camera").fit_to_data
+    tile, crop = tile_and_crop(network, "pt.camera", (80, 48), (30, 8, 24, 32))
+    assert np.ptp(crop[..., :3]) > 0.1, "the mesh is in the rectangle"
+    assert np.abs(tile - crop).max() <= TILE_TOLERANCE
+
+
+def test_curvature_contour_needs_the_halo():
+    network = vgraph.load(TORUS)
+    network.set("curvature.normalization", "exponential")  # linear needs the whole image's range
+    rect = (20, 10, 40, 30)
+    tile, crop = tile_and_crop(network, "eep.camera", (96, 64), rect, (19, 9, 42, 32))
+    assert np.abs(tile - crop).max() <= TILE_TOLERANCE
+
+
+def test_cut_covers_the_image_once_with_halos_inside_it():
+    tiles = cut((10, 7), (3, 2))
+    cover = np.zeros((7, 10), int)
+    for tile in tiles:
+        cover[tile.y:tile.y + tile.height, tile.x:tile.x + tile.width] += 1
+        x, y, w, h = tile.rendered
+        assert 0 <= x <= tile.x and 0 <= y <= tile.y and x + w <= 10 and y + h <= 7
+    assert (cover == 1).all()
+    assert parse_grid("4X2") == (4, 2)
+    for bad in ("3", "ax2", "0x2", "2x-1"):
+        with pytest.raises(TileError, match="tiles"):
+            parse_grid(bad)
+    with pytest.raises(TileError, match="do not fit"):
+        cut((4, 4), (5, 1))
+
+
+def test_bad_split_and_untileable_networks_are_refused_before_any_cluster():
+    with pytest.raises(TileError, match="unknown split 'rows'"):
+        prepare(SPHERE, split="rows")
+    with pytest.raises(NotImplementedError, match="issue #15"):
+        prepare(SPHERE, split="leaves")
+    with pytest.raises(TileError, match="CurvatureRaycaster 'curvature': linear normalization"):
+        prepare(TORUS)
+    with pytest.raises(TileError, match="source.volume carries Volume"):
+        prepare(SPHERE, target="source.volume")
+
+
+def test_unreachable_scheduler_is_named_quickly():
+    start = time.perf_counter()
+    with pytest.raises(ClusterError, match="tcp://127.0.0.1:9: cannot reach a Dask scheduler"):
+        with connect("tcp://127.0.0.1:9", timeout=1.0):
+            pass
+    assert time.perf_counter() - start < 10
+    with pytest.raises(ClusterError, match="expected local:N"):
+        with connect("udp://nowhere"):
+            pass
+
+
+# --- on two worker processes ----------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def client():
+    from distributed import Client, LocalCluster
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        yield client
+
+
+def test_tiles_on_two_workers_equal_the_single_process_image(client):
+    from vgraph.distributed.worker import worker_info
+    image = render(SPHERE, client, split="tiles", tiles=(3, 2), size=(96, 64))
+    reference = vgraph.load(SPHERE).evaluate(size=(96, 64))
+    assert image.shape == reference.shape and image.dtype == np.float32
+    assert np.abs(image - reference).max() <= TILE_TOLERANCE
+    first = client.run(worker_info)
+    # Again: each worker reuses its one GL context and the network it built.
+    render(vgraph.load(SPHERE), client, tiles=(2, 2), size=(96, 64))
+    second = client.run(worker_info)
+    assert len({info["pid"] for info in first.values()}) == 2
+    for address, info in first.items():
+        if info["has_context"]:
+            assert second[address]["context_id"] == info["context_id"]
+            assert second[address]["networks"] == 1
+
+
+def test_cli_cluster_local_writes_the_local_image(tmp_path, capsys):
+    distributed, local = tmp_path / "tiles.png", tmp_path / "local.png"
+    assert main(["run", str(SPHERE), "-o", str(distributed), "--size", "64x48",
+                 "--cluster", "local:2", "--split", "tiles", "--tiles", "2x3"]) == 0
+    assert "as 2x3 tiles on 2 worker(s) of local:2" in capsys.readouterr().err
+    assert main(["run", str(SPHERE), "-o", str(local), "--size", "64x48"]) == 0
+    a, b = (np.asarray(PIL.Image.open(p), dtype=int) for p in (distributed, local))
+    assert np.abs(a - b).max() <= 1  # 8-bit: a float32 rounding can cross a level at most
+
+
+@pytest.mark.parametrize("options, message", [
+    (["--cluster", "local:2", "--tiles", "3"], "tiles must look like COLUMNSxROWS"),
+    (["--cluster", "local:x"], "--cluster local:x: expected local:N"),
+    (["--tiles", "2x2"], "need --cluster"),
+    (["--cluster", "local:2", "--split", "leaves"], "not implemented yet (issue #15)"),
+    (["--cluster", "tcp://127.0.0.1:9"], "tcp://127.0.0.1:9: cannot reach a Dask scheduler"),
+])
+def test_cli_cluster_bad_input(tmp_path, capsys, options, message):
+    assert main(["run", str(SPHERE), "-o", str(tmp_path / "x.png"), *options]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "x.png").exists()
