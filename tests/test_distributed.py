@@ -86,6 +86,24 @@ def test_raycaster_tile_equals_the_rectangle_of_the_full_image(projection):
     assert np.abs(tile - crop).max() <= TILE_TOLERANCE
 
 
+def test_bricked_raycaster_tile_equals_the_rectangle_of_the_full_image():
+    from vgraph.testing import ray_caster_network
+    from vgraph.volume import Volume
+    z, y, x = np.meshgrid(*[np.linspace(-1, 1, n) for n in (37, 29, 41)], indexing="ij")
+    data = np.clip(1.0 - np.sqrt(x * x + 1.3 * y * y + z * z), 0, 1) + 0.15 * np.sin(9 * x)
+    volume = Volume(data.astype(np.float32), spacing=(1.0, 1.1, 0.9), origin=(-3.0, 2.0, 1.0))
+    camera = Camera(position=(0, 0, 1), focus=(0, 0, 0), near=None, far=None, fit_to_data=True)
+    # Bricks are chosen per tile (culled and levelled by the tile's own projection).
+    network = ray_caster_network(volume, camera, "BrickedRayCaster", brick_size=16, lod_bias=0.0,
+                                 transfer_function="grayscale")
+    whole = network.evaluate("rc.image", size=(96, 64))
+    network.set("eep.camera", camera.tile(20, 10, 40, 30, 96, 64))
+    tile = network.evaluate("rc.image", size=(40, 30))
+    crop = whole[10:40, 20:60]
+    assert np.ptp(crop[..., :3]) > 0.1, "the volume is in the rectangle"
+    assert np.abs(tile - crop).max() <= TILE_TOLERANCE
+
+
 def test_projected_tetrahedra_tile_equals_the_rectangle_of_the_full_image():
     network = vgraph.Network()
     network.add("FunctionSelector", id="source", function="sphere", resolution=16)
@@ -134,6 +152,10 @@ def test_bad_split_and_untileable_networks_are_refused_before_any_cluster():
         prepare(SPHERE, split="leaves")
     with pytest.raises(TileError, match="CurvatureRaycaster 'curvature': linear normalization"):
         prepare(TORUS)
+    with pytest.raises(TileError, match="CurvatureVolumeRaycaster 'curvature': linear"):
+        prepare(REPO / "networks" / "curvature_volume.json")
+    with pytest.raises(TileError, match="ImageSource 'source' reads a whole image file"):
+        prepare(REPO / "networks" / "grayscale.json")
     with pytest.raises(TileError, match="source.volume carries Volume"):
         prepare(SPHERE, target="source.volume")
 

@@ -105,8 +105,9 @@ def untileable(network, target: str) -> list[str]:
             reasons.append(f"ColorBar '{pid}' places its bar in the whole image")
         elif kind == "ImageSource":
             reasons.append(f"ImageSource '{pid}' reads a whole image file, not a view through a camera")
-        elif kind == "CurvatureRaycaster" and processor.property_values.get("normalization") == "linear":
-            reasons.append(f"CurvatureRaycaster '{pid}': linear normalization scales by the whole "
+        elif kind in ("CurvatureRaycaster", "CurvatureVolumeRaycaster") and \
+                processor.property_values.get("normalization") == "linear":
+            reasons.append(f"{kind} '{pid}': linear normalization scales by the whole "
                            "image's curvature range (set normalization to exponential)")
     return reasons
 
