@@ -8,6 +8,11 @@ JSON form (world units)::
 ``fov`` is the vertical field of view in degrees (perspective); ``parallel_scale`` is half the
 height of the view in world units (orthographic), as in VTK.
 
+A tile of the view (``tile(x, y, w, h, W, H)``: one rectangle of a W x H picture rendered on its
+own, docs/distributed.md) adds ``"window": [left, right, bottom, top]``, the rectangle in the full
+view's NDC; the projection, the rays and the ray uniforms map it onto the whole image (an off-axis
+sub-frustum) so its pixel centres are the full picture's. Without a window the key is not written.
+
 Automatic parts (the renderers apply them every frame through ``resolved(box_min, box_max,
 aspect)``, against the box of the data they draw):
 - ``near``/``far`` None (the default): planes enclosing the data's bounding sphere from where the
@@ -305,7 +310,8 @@ class Camera(BaseModel):
         """The concrete camera a renderer uses for a box: framed when ``fit_to_data``, automatic
         near/far planes enclosing the box from where the camera stands (explicit ones are kept).
         The result is a stored camera (fit_to_data False, both planes set); every renderer of a
-        view resolves the same camera against the same box, so their rays agree."""
+        view resolves the same camera against the same box, so their rays agree. ``aspect`` is
+        the image's; a tile frames with its full view's aspect (window_frame)."""
         # A tile frames the data as the full image does: with the full view's aspect.
         full_aspect = self.window_frame(aspect)[0]
         camera = self.framing(box_min, box_max, full_aspect) if self.fit_to_data else self

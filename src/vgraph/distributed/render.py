@@ -89,9 +89,10 @@ def shipped(network) -> tuple[str, str | None]:
     file system), as they see the volumes and OME-Zarr stores the network reads."""
     from vgraph.fileformat import network_document
 
-    base_dir = network.base_dir
+    # A network built in a script has no folder: its relative paths mean the client's current one.
+    base_dir = network.base_dir if network.base_dir is not None else Path.cwd()
     document = network_document(network, base_dir)
-    return json.dumps(document), (str(base_dir) if base_dir is not None else None)
+    return json.dumps(document), str(base_dir)
 
 
 def _network(network_or_path):
