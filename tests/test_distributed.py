@@ -197,6 +197,13 @@ def test_tiles_on_two_workers_equal_the_single_process_image(client):
             assert second[address]["networks"] == 1
 
 
+def test_a_worker_error_reaches_the_client_naming_processor_and_file(client, tmp_path):
+    from vgraph.volume_network import volume_network
+    missing = tmp_path / "gone.nrrd"  # the workers read the volume themselves, so they find it missing
+    with pytest.raises(vgraph.ProcessorError, match="source.*gone.nrrd"):
+        render(volume_network(missing), client, tiles=(1, 1), size=(16, 16))
+
+
 def test_cli_cluster_local_writes_the_local_image(tmp_path, capsys):
     distributed, local = tmp_path / "tiles.png", tmp_path / "local.png"
     assert main(["run", str(SPHERE), "-o", str(distributed), "--size", "64x48",

@@ -7,6 +7,7 @@ Dask distributed is the cluster (docs/distributed.md); vgraph never runs one of 
 from __future__ import annotations
 
 import contextlib
+import logging
 import re
 import warnings
 
@@ -47,8 +48,11 @@ def connect(spec: str, timeout: float = CONNECT_TIMEOUT):
             # else on another port with a warning that says nothing useful to a vgraph user.
             warnings.filterwarnings("ignore", message="Port 8787 is already in use", category=UserWarning)
             # One thread per worker: a worker's tasks share its one GL context (vgraph.distributed.worker).
+            # silence_logs: a task's error reaches the client, which prints it once as a local
+            # run does; the workers' own log of it would repeat it with Dask's traceback.
             cluster = LocalCluster(n_workers=value, threads_per_worker=1, processes=True,
-                                   host="127.0.0.1", dashboard_address=None)
+                                   host="127.0.0.1", dashboard_address=None,
+                                   silence_logs=logging.CRITICAL)
         with cluster, Client(cluster) as client:
             yield client
         return
