@@ -197,6 +197,21 @@ def test_tiles_on_two_workers_equal_the_single_process_image(client):
             assert second[address]["networks"] == 1
 
 
+def test_tiles_of_an_ome_zarr_store_drawn_brick_by_brick_on_the_workers(client, tmp_path):
+    from vgraph.bricks.convert import convert
+    from vgraph.volume_network import volume_network
+    z, y, x = np.meshgrid(*[np.linspace(-1, 1, 128)] * 3, indexing="ij")
+    ball = np.clip(255 * (1.0 - np.sqrt(x * x + 1.3 * y * y + z * z)), 0, 255).astype(np.uint8)
+    np.save(tmp_path / "ball.npy", ball)
+    convert(tmp_path / "ball.npy", tmp_path / "ball.zarr", brick=32, progress=False)
+    network = volume_network(tmp_path / "ball.zarr")  # the workers read the store themselves
+    network.set("source.memory_budget", 1.0)  # 2 MiB at level 0: the ray caster draws by bricks
+    image = render(network, client, tiles=(2, 1), size=(48, 40))
+    reference = network.evaluate(size=(48, 40))
+    assert np.ptp(reference[..., :3]) > 0.1
+    assert np.abs(image - reference).max() <= TILE_TOLERANCE
+
+
 def test_a_worker_error_reaches_the_client_naming_processor_and_file(client, tmp_path):
     from vgraph.volume_network import volume_network
     missing = tmp_path / "gone.nrrd"  # the workers read the volume themselves, so they find it missing
