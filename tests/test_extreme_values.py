@@ -93,12 +93,20 @@ def test_volume_geometry_outside_float32_world_coordinates_is_refused(field, val
         Volume(ball(), **{field: value})
 
 
-def test_a_volume_wider_than_the_gl_texture_limit_is_refused_naming_the_limit():
+def test_a_volume_wider_than_the_gl_texture_limit_is_drawn_brick_by_brick_or_refused_naming_the_limit():
+    """One texture cannot hold it: the texture upload names the limit; the RayCaster draws it brick
+    by brick (docs/bricked_raycaster.md) and refuses, naming the field, the modes bricks lack."""
     limit = get_context().info["GL_MAX_3D_TEXTURE_SIZE"]
     volume = Volume(np.zeros((4, 4, limit + 1), np.uint8), source="long.raw")
+    with pytest.raises(vgraph.VGraphError, match=rf"long.raw: {limit + 1} x 4 x 4 voxels .* limit of "
+                                                 rf"{limit} per axis \(GL_MAX_3D_TEXTURE_SIZE\)"):
+        volume.texture(get_context())
     network = ray_caster_network(volume, CAMERA)
-    with pytest.raises(vgraph.ProcessorError, match=rf"long.raw: {limit + 1} x 4 x 4 voxels .* limit of "
-                                                    rf"{limit} per axis \(GL_MAX_3D_TEXTURE_SIZE\)") as error:
+    assert network.evaluate("rc.image", size=(16, 16)).shape == (16, 16, 4)
+    assert network["rc"].passes[0][0].startswith("bricks/")
+    network.set("rc.compositing", "first_hit")
+    with pytest.raises(vgraph.ProcessorError, match=rf"rc.compositing: long.raw is drawn brick by brick "
+                                                    rf"\({limit + 1} x 4 x 4 voxels") as error:
         network.update("rc.image", size=(16, 16))
     assert not error.value.internal  # exit code 2: bad input, not a bug
 

@@ -17,7 +17,7 @@ Conventions (docs/volumes.md says the same for users):
   a range narrower than 1e-30 (subnormal data). Those volumes are uploaded as normalised
   intensities computed in float64, and ``texture_scale_offset()`` says so with (1, 0).
 - A volume wider than the GL's 3D texture limit on any axis is refused when it is uploaded, naming
-  the limit (the out-of-core path will split such volumes into bricks).
+  the limit; the RayCaster does not upload such volumes but draws them brick by brick.
 - A volume of cubic B-spline coefficients (``is_spline_coefficients``) holds no samples; consumers
   that need one kind refuse the other.
 """
@@ -235,6 +235,7 @@ class Volume:
             where = f" from {self.source}" if self.source else ""
             raise VGraphError(f"volume{where}: {' x '.join(map(str, self.dims))} voxels is larger than "
                               f"this GL's 3D texture limit of {limit} per axis (GL_MAX_3D_TEXTURE_SIZE); "
+                              f"render it with the RayCaster or BrickedRayCaster (brick by brick), or "
                               f"crop or downsample it")
         gl_dtype, _ = _TEXTURE_FORMATS.get(self.data.dtype, ("f4", 1.0))
         data = self.data
