@@ -33,6 +33,7 @@ from vgraph.atomic import atomic_path
 from vgraph.errors import VGraphError
 from vgraph.gui.autosave import Autosave
 from vgraph.gui.canvases import CanvasDocks
+from vgraph.gui.cluster_dialog import ClusterDialog, load_setting, save_setting
 from vgraph.gui.evaluator import EvaluationOutcome, format_seconds
 from vgraph.gui.file_actions import FileActions
 from vgraph.gui.inspector import PropertyInspector
@@ -67,6 +68,7 @@ class MainWindow(FileActions, QMainWindow):
         self._wire()
         self.arrange(1280, 800)
         self._update_title()
+        self.set_cluster(load_setting(self.workspace.settings), save=False)
 
     def arrange(self, width: int, height: int) -> None:
         """Size the window and give the right column (canvases, inspector) a third of it."""
@@ -119,6 +121,7 @@ class MainWindow(FileActions, QMainWindow):
                                            "Ctrl+R")
         self.cancel_action = self._action("&Cancel Rendering", self.cancel_rendering)
         self.cancel_action.setEnabled(False)
+        self.cluster_action = self._action("Render on C&luster...", self.edit_cluster)
         self.cancel_button = QPushButton("Cancel rendering")
         self.cancel_button.setToolTip("stop the render process and start a new one")
         self.cancel_button.clicked.connect(self.cancel_rendering)
@@ -146,7 +149,8 @@ class MainWindow(FileActions, QMainWindow):
         for dock in self.findChildren(QDockWidget):
             view_menu.addAction(dock.toggleViewAction())
         network_menu = bar.addMenu("&Network")
-        network_menu.addActions([self.evaluate_action, self.writers_action, self.cancel_action])
+        network_menu.addActions([self.evaluate_action, self.writers_action, self.cancel_action,
+                                 self.cluster_action])
         self._fill_recent_menu(self.workspace.recent_files())
 
     def _wire(self) -> None:
@@ -167,6 +171,7 @@ class MainWindow(FileActions, QMainWindow):
         self.evaluation.warning.connect(self.log.warning)
         self.evaluation.info.connect(self.log.info)
         self.evaluation.stalled.connect(self._stalled)
+        self.evaluation.progress.connect(self._cluster_progress)
         self.canvases.problem.connect(self.log.error)
 
     # --- messages and dialogs -------------------------------------------------------------------
@@ -226,6 +231,22 @@ class MainWindow(FileActions, QMainWindow):
     def _stalled(self, seconds: float) -> None:
         self.show_message(f"rendering for {seconds:.0f} s...")
         self.cancel_button.show()
+
+    def edit_cluster(self) -> None:
+        dialog = ClusterDialog(self.evaluation.cluster, self)
+        if dialog.exec():
+            self.set_cluster(dialog.setting())
+
+    def set_cluster(self, setting, save: bool = True) -> None:
+        """Render final frames on ``setting``'s cluster (None: here); stored with the preferences."""
+        if save:
+            save_setting(self.workspace.settings, setting)
+            self.log.info(f"final frames render on cluster {setting.describe()}" if setting
+                          else "final frames render here (no cluster)")
+        self.evaluation.set_cluster(setting)
+
+    def _cluster_progress(self, done: int, total: int) -> None:
+        self.show_message(f"rendering on the cluster: {done}/{total} tiles")
 
     def cancel_rendering(self) -> None:
         if self.evaluation.cancel():

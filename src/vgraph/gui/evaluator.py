@@ -61,7 +61,10 @@ class EvaluationOutcome:
     warnings: list[str] = field(default_factory=list)      # VGraphWarnings of the processors that ran
 
 
-def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = False) -> EvaluationOutcome:
+def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = False,
+                  draw=None) -> EvaluationOutcome:
+    """``draw(display, size)``, if given, may return a display's picture drawn elsewhere (a
+    cluster: ``vgraph.gui.cluster``) instead of evaluating it here; None draws it here."""
     outcome = EvaluationOutcome()
     order = list(nx.topological_sort(network.graph))
     ready = ready_processors(network, order)
@@ -74,16 +77,19 @@ def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = 
         if any(a in outcome.failed for a in nx.ancestors(network.graph, target)):
             continue
         display = is_display(type(network[target]))
+        size = display_size(network[target], scale) if display else None
         try:
             with _collected_warnings(outcome.warnings):
-                report = network.update(target, size=display_size(network[target], scale) if display else None)
-            outcome.ran.extend(report.ids)
+                pixels = draw(target, size) if display and draw is not None else None
+                if pixels is None:
+                    report = network.update(target, size=size)
+                    outcome.ran.extend(report.ids)
         except ProcessorError as error:
             outcome.ran.extend(network.last_evaluation.ids)
             outcome.failed[error.processor_id] = error.reason
             continue
         if display:
-            pixels = network.output(target).to_numpy()
+            pixels = network.output(target).to_numpy() if pixels is None else pixels
             outcome.frames[target] = to_uint8(pixels)
             warning = blank_image_warning(network, target, pixels)
             if warning:

@@ -23,6 +23,9 @@ Conventions:
   ("refining...") and the same state is rendered again (an empty-changes job), by itself, until a
   frame is complete; any change takes over as usual. A refining result that read no bricks made
   no progress: refining stops there, with a warning, rather than spin.
+- ``set_cluster(setting)`` (a ``vgraph.gui.cluster.ClusterSetting``, or None) makes the render
+  process draw the final frames on that cluster (coarse ones stay local) and renders again;
+  ``progress(done, total)`` reports its tiles while such a frame is drawn.
 - ``status_of(processor_id)`` is what the render process last reported for that processor (the
   GUI's own copy of the network is never evaluated).
 - Nothing that goes wrong escapes: processor failures are in the outcome; a job that fails as a
@@ -76,6 +79,7 @@ class LiveEvaluation(QObject):
     warning = Signal(str)       # a job takes far too long; a job was cancelled
     info = Signal(str)          # a new render process took over
     stalled = Signal(float)     # seconds the overdue job has been running (each watchdog tick)
+    progress = Signal(int, int)  # tiles done, total of a frame drawn on a cluster
 
     def __init__(self, workspace: Workspace, renderer: RenderProcess | None = None, parent=None,
                  stall_min_seconds: float = STALL_MIN_SECONDS, stall_factor: float = STALL_FACTOR):
@@ -93,6 +97,8 @@ class LiveEvaluation(QObject):
         self.version = 0            # counts changes; a result is current when it carries the latest
         self.scale = 1.0
         self.load_limit = GUI_LOAD_LIMIT  # reading per frame in the render process (None: complete frames)
+        self.cluster = None         # ClusterSetting: final frames drawn on a cluster (None: here)
+        self._progress = None       # the last RenderProgress reported
         self._include_writers = False
         self._fresh = True          # the next job starts the render process's copy afresh
         self._resync = False        # the next job sends the whole document
@@ -170,6 +176,12 @@ class LiveEvaluation(QObject):
         self._wanted = True
         self.timer.start()
 
+    def set_cluster(self, setting) -> None:
+        """Draw the final frames on ``setting``'s cluster (None: in the render process) from now on."""
+        if setting != self.cluster:
+            self.cluster = setting
+            self.schedule()  # the next job carries it: connects (or closes) and draws again
+
     def interactive(self, on: bool) -> None:
         self.scale = INTERACTIVE_SCALE if on else 1.0
         if not on:
@@ -212,18 +224,28 @@ class LiveEvaluation(QObject):
         return RenderJob(self.version, network_document(self.network) if whole else None, base_dir,
                          plugins, self.scale, self._include_writers, self._fresh,
                          changes=() if whole else tuple(self._changes), stamp=(self._sender, self.version),
-                         since=self._last_job.stamp if self._last_job else None, load_limit=self.load_limit)
+                         since=self._last_job.stamp if self._last_job else None, load_limit=self.load_limit,
+                         cluster=self.cluster)
 
     def _poll(self) -> None:
         if not self.renderer.busy:
             return
         result = self.renderer.poll()
+        self._report_progress()
         if result is None:
             self.poller.start()
         else:
             self._receive(result)
 
+    def _report_progress(self) -> None:
+        """Tiles done / total of a frame drawn on a cluster, each new count once."""
+        progress = getattr(self.renderer, "progress", None)
+        if progress is not None and progress is not self._progress:
+            self._progress = progress
+            self.progress.emit(progress.done, progress.total)
+
     def _receive(self, result: RenderResult) -> None:
+        self._report_progress()  # run(wait=True) receives without polling
         self.last_result = result
         if result.needs_document:   # nothing rendered: send the whole network at once
             self._resync = self._wanted = True

@@ -22,6 +22,12 @@ Protocol (pickled objects over a ``multiprocessing`` pipe, one job in flight at 
   the GUI then sends an empty-changes job for the same state, which draws those processors again
   (they are invalidated: the bricks read since make the frame finer), until a frame is complete.
   ``bricks_read`` says whether an incomplete frame made progress.
+- On a cluster: a job's ``cluster`` (``vgraph.gui.cluster.ClusterSetting``, the GUI's "Render on
+  Cluster" setting) makes the final frames (full scale, no writers) of the displays be drawn by
+  that cluster's workers (``vgraph.distributed.render``); meanwhile the render process sends
+  ``RenderProgress`` messages (tiles done / total) before the job's one ``RenderResult``. Coarse
+  frames stay local. A cluster that cannot be reached falls back to local frames with a warning
+  in the outcome.
 The render process keeps its network between jobs (``mirror`` applies a document as a diff; changes
 edit it in place), so unchanged processors keep their textures and outputs.
 
@@ -45,6 +51,7 @@ import numpy as np
 from tqdm import tqdm
 
 from vgraph.bricks.cache import LoadLimit
+from vgraph.gui.cluster import ClusterRenderer, ClusterSetting, ClusterView
 from vgraph.errors import VGraphError
 from vgraph.gui.evaluator import (EvaluationOutcome, ProcessorStatus, evaluate_view, histograms, processor_status,
                                   value_scales, view_cameras)
@@ -74,6 +81,15 @@ class RenderJob:
     stamp: tuple | None = None  # (sender, version): names the network state this job leaves
     since: tuple | None = None  # the stamp of the state ``changes`` edit (the sender's previous job)
     load_limit: LoadLimit | None = GUI_LOAD_LIMIT  # reading per frame of bricked processors (None: no limit)
+    cluster: ClusterSetting | None = None  # draw the final frames on this cluster (None: here)
+
+
+@dataclass
+class RenderProgress:
+    """Sent while a job's frame is drawn on a cluster: ``done`` of ``total`` tiles are in."""
+    version: int
+    done: int
+    total: int
 
 
 @dataclass
@@ -106,6 +122,11 @@ class RenderServer:
         self.network: Network | None = None
         self.stamp: tuple | None = None   # the stamp of the job that made ``network``
         self.imported: set[str] = set()
+        self.cluster = ClusterRenderer()  # the Client, kept between jobs
+        self.progress = None              # progress(RenderProgress) while a frame is drawn on a cluster
+
+    def close(self) -> None:
+        self.cluster.close()
 
     def handle(self, job: RenderJob) -> RenderResult:
         start = time.perf_counter()
@@ -125,8 +146,13 @@ class RenderServer:
             result.error = str(error)
             return result
         try:
-            result.outcome = evaluate_view(self.network, job.scale, job.include_writers)
+            view = self._cluster_view(job)
+            result.outcome = evaluate_view(self.network, job.scale, job.include_writers,
+                                           draw=view.draw if view else None)
             result.statuses = {pid: processor_status(self.network, p) for pid, p in self.network.processors.items()}
+            if view is not None:
+                result.outcome.warnings.extend(view.messages)
+                result.statuses = view.statuses(result.statuses)
             result.histograms = histograms(self.network)
             result.value_scales = value_scales(self.network)
             result.view_cameras = view_cameras(self.network)
@@ -137,6 +163,23 @@ class RenderServer:
             result.error = "internal error in the render process (please report it):\n" + traceback.format_exc()
         result.seconds = time.perf_counter() - start
         return result
+
+    def _cluster_view(self, job: RenderJob) -> ClusterView | None:
+        """How this job uses the cluster: only final frames without writers go there (module
+        docstring); the client stays open across the other jobs."""
+        final = job.scale == 1.0 and not job.include_writers
+        message = self.cluster.use(job.cluster, connect=final)
+        if message is not None:
+            warning = ClusterView(self.cluster, self.network)  # draws nothing: reports the fallback
+            warning.messages.append(message)
+            return warning
+        if job.cluster is None or not final:
+            return None
+
+        def progress(done: int, total: int) -> None:
+            if self.progress is not None:
+                self.progress(RenderProgress(job.version, done, total))
+        return ClusterView(self.cluster, self.network, progress)
 
     def _limit_loading(self, limit: LoadLimit | None) -> None:
         """Give the processors that load progressively the job's limit, and invalidate those whose
@@ -184,14 +227,18 @@ def serve(connection) -> None:
     # reports as leaked whenever a render process is killed.
     tqdm.set_lock(threading.RLock())
     server = RenderServer()
-    while True:
-        try:
-            job = connection.recv()
-        except (EOFError, OSError):
-            return
-        if job is None:
-            return
-        connection.send(server.handle(job))
+    server.progress = connection.send
+    try:
+        while True:
+            try:
+                job = connection.recv()
+            except (EOFError, OSError):
+                return
+            if job is None:
+                return
+            connection.send(server.handle(job))
+    finally:
+        server.close()  # the cluster's client (and a LocalCluster it started)
 
 
 # --- the GUI's side ------------------------------------------------------------------------------
@@ -220,6 +267,7 @@ class RenderProcess:
         self.job_started = 0.0              # time.monotonic() when it was sent
         self.recent_seconds: deque[float] = deque(maxlen=RECENT_JOBS)
         self.starts = 0                     # processes started so far
+        self.progress: RenderProgress | None = None  # the last progress of the job in flight
 
     @property
     def busy(self) -> bool:
@@ -249,6 +297,7 @@ class RenderProcess:
             self.start()
         self.job = job
         self.job_started = time.monotonic()
+        self.progress = None
         try:
             self._connection.send(job)
         except (OSError, ValueError):
@@ -259,11 +308,15 @@ class RenderProcess:
         if not self.busy:
             return None
         try:
-            if not self._connection.poll():
-                if self._process.is_alive():
-                    return None
-                raise EOFError
-            result = self._connection.recv()
+            while True:  # progress messages first, then the job's one result
+                if not self._connection.poll():
+                    if self._process.is_alive():
+                        return None
+                    raise EOFError
+                result = self._connection.recv()
+                if not isinstance(result, RenderProgress):
+                    break
+                self.progress = result
             self.recent_seconds.append(self.elapsed())
         except (EOFError, OSError):
             self._process.join(timeout=1.0)
