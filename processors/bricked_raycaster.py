@@ -25,6 +25,9 @@ Conventions (docs/bricked_raycaster.md explains each with the numbers):
   ``vgraph run`` keep None and always draw the planned frame): a frame whose missing bricks cannot
   be read within it is drawn coarser (selection.coarse_first) and the planned bricks are read
   ahead within the limit; ``last_frame["complete"]`` says whether the planned frame was drawn.
+- ``leaf`` (an attribute, set only by the leaves split's tasks, vgraph.distributed.leaves): draw a
+  run of the plan's bricks and keep the accumulation before the resolve pass, or resolve an
+  accumulation composited from such runs (selection.LeafPass); None draws the frame as always.
 """
 
 from __future__ import annotations
@@ -43,7 +46,7 @@ import numpy as np
 from vgraph import BoolProperty, FloatProperty, Inport, IntProperty, OptionProperty, Outport, VGraphError
 from vgraph.bricks.cache import MB, BrickCache, LoadLimit
 from vgraph.bricks.pyramid import ArrayPyramid
-from vgraph.bricks.selection import BrickGeometry, coarse_first, plan_frame, visible_bricks
+from vgraph.bricks.selection import BrickGeometry, FramePlan, LeafPass, coarse_first, plan_frame, visible_bricks
 from vgraph.bricks.targets import Accumulation, brick_uniforms, level_voxel
 from vgraph.errors import VGraphWarning
 from vgraph.gl.context import release_quietly
@@ -117,6 +120,7 @@ class BrickedRayCaster(RaycasterBase):
         self.last_frame: dict = {}
         self.load_limit: LoadLimit | None = None  # reading allowed per frame (the GUI's; module docstring)
         self._warned_level = 0  # the budget's level last warned about (0: none)
+        self.leaf: LeafPass | None = None  # the leaves split's part of the frame (module docstring)
 
     # --- shader ---------------------------------------------------------------------------------
     def shaded(self) -> bool:
@@ -173,10 +177,13 @@ class BrickedRayCaster(RaycasterBase):
         read_before, seconds_before = self.cache.stats["bricks_read"], self.cache.stats["read_seconds"]
         drawn = self.limited(source, plan, frame.ctx)
         accumulation = self._accumulation.ensure(frame.ctx, frame.size)
-        self.draw_bricks(frame, geometry, drawn.bricks, accumulation)
+        if self.leaf is None:
+            self.draw_bricks(frame, geometry, drawn.bricks, accumulation)
+        else:
+            drawn = self.leaf_pass(frame, geometry, plan, accumulation)
         image, depth = self._targets.ensure(frame.ctx, frame.size)
         self.resolve(frame, accumulation)
-        complete = drawn is plan
+        complete = drawn is plan or self.leaf is not None  # (a leaf draws its part of the planned frame)
         if not complete:  # the planned bricks, front first, for the next frame (the GUI asks again)
             self.cache.begin_frame(plan.keys())
             resident = self.cache.resident(frame.ctx)
@@ -189,6 +196,22 @@ class BrickedRayCaster(RaycasterBase):
                            "bricks_read": self.cache.stats["bricks_read"] - read_before,
                            "seconds": time.perf_counter() - started}
         return {"image": image, "depth": depth}
+
+    def leaf_pass(self, frame, geometry, plan, accumulation):
+        """The leaves split's part of the frame (selection.LeafPass): draw its bricks and read the
+        accumulation back, or write the composited accumulation for the resolve pass."""
+        leaf = self.leaf
+        leaf.plan = plan
+        if leaf.accumulated is not None:
+            accumulation.clear()
+            for texture, array in zip(accumulation.textures, leaf.accumulated):
+                texture.write(np.ascontiguousarray(array, dtype=np.float32).tobytes())
+            return FramePlan([], plan.floor_level, 0)
+        self.draw_bricks(frame, geometry, leaf.bricks, accumulation)
+        height, width = frame.size[1], frame.size[0]
+        leaf.partial = tuple(np.frombuffer(texture.read(), dtype=np.float32).reshape(height, width, 4)
+                             for texture in accumulation.textures)
+        return FramePlan(list(leaf.bricks), plan.floor_level, 0)
 
     def limited(self, source, plan, ctx):
         """The plan to draw, pinned in the caches: ``plan``, or a coarser one under ``load_limit``."""

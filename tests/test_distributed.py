@@ -148,7 +148,7 @@ def test_cut_covers_the_image_once_with_halos_inside_it():
 def test_bad_split_and_untileable_networks_are_refused_before_any_cluster():
     with pytest.raises(TileError, match="unknown split 'rows'"):
         prepare(SPHERE, split="rows")
-    with pytest.raises(NotImplementedError, match="issue #15"):
+    with pytest.raises(TileError, match="one BrickedRayCaster"):  # (tests/test_distributed_leaves.py)
         prepare(SPHERE, split="leaves")
     with pytest.raises(TileError, match="CurvatureRaycaster 'curvature': linear normalization"):
         prepare(TORUS)
@@ -233,7 +233,7 @@ def test_cli_cluster_local_writes_the_local_image(tmp_path, capsys):
     (["--cluster", "local:2", "--tiles", "3"], "tiles must look like COLUMNSxROWS"),
     (["--cluster", "local:x"], "--cluster local:x: expected local:N"),
     (["--tiles", "2x2"], "need --cluster"),
-    (["--cluster", "local:2", "--split", "leaves"], "not implemented yet (issue #15)"),
+    (["--cluster", "local:2", "--split", "leaves"], "needs none (use split='tiles')"),
     (["--cluster", "tcp://127.0.0.1:9"], "tcp://127.0.0.1:9: cannot reach a Dask scheduler"),
 ])
 def test_cli_cluster_bad_input(tmp_path, capsys, options, message):

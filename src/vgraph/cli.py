@@ -95,7 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="render on a Dask cluster: N local worker processes, or a running scheduler "
                           "whose workers see the network's files at the same paths (docs/distributed.md)")
     run.add_argument("--split", choices=["tiles", "leaves"], help="how --cluster divides the work "
-                     "(default: tiles; leaves is not implemented yet)")
+                     "(default: tiles; leaves: runs of a BrickedRayCaster's bricks, docs/distributed.md)")
     run.add_argument("--tiles", metavar="CxR", help="columns x rows of the tiles split (default: 2x2)")
     run.set_defaults(command=command_run)
 

@@ -59,6 +59,22 @@ class FramePlan:
         return [key for key, _ in self.bricks]
 
 
+@dataclass
+class LeafPass:
+    """One task of the leaves split (vgraph.distributed.leaves) in a BrickedRayCaster frame, set as
+    the processor's ``leaf`` attribute (never a saved property; None: the whole frame, as always).
+    In: ``bricks`` (key, rect), front to back, drawn instead of the plan's ([]: none, only plan),
+    or ``accumulated``, the (sum, first) accumulation of all the frame's bricks, composited on the
+    workers, resolved instead of drawing any. Out: ``plan`` (the frame's FramePlan) and
+    ``partial``, the (sum, first) accumulation of ``bricks`` before the resolve pass: float32
+    [H, W, 4] arrays, row 0 at the bottom (GL's order; only composited per pixel)."""
+
+    bricks: list | None = None
+    accumulated: tuple | None = None
+    plan: FramePlan | None = field(default=None, repr=False)
+    partial: tuple | None = field(default=None, repr=False)
+
+
 class BrickGeometry:
     """Where a source's bricks are: level-0 voxel bounds, world boxes and ownership bounds."""
 

@@ -1,4 +1,4 @@
-"""``vgraph run NET -o OUT.png --cluster local:N|tcp://HOST:PORT [--split tiles] [--tiles CxR]``:
+"""``vgraph run NET -o OUT.png --cluster local:N|tcp://HOST:PORT [--split tiles|leaves] [--tiles CxR]``:
 the run subcommand's cluster path (the parser and the local path stay in vgraph.cli). Everything
 that can be refused is refused before a cluster starts; the image is written atomically, as a
 local run writes it.
@@ -13,7 +13,7 @@ from vgraph.errors import VGraphError
 
 
 def run_on_cluster(args, network, outputs, target) -> int:
-    """``vgraph run ... --cluster``: the picture rendered by the cluster's workers (tiles), written
+    """``vgraph run ... --cluster``: the picture rendered by the cluster's workers (tiles or leaves), written
     as a local run writes it (atomically, the same messages)."""
     from vgraph.cli_output import write_image_outputs
     from vgraph.distributed import connect, parse_cluster, parse_grid, render
@@ -27,16 +27,17 @@ def run_on_cluster(args, network, outputs, target) -> int:
         raise VGraphError("--cluster renders an image: write it with -o OUT.png or --data OUT.npz")
     split, grid = args.split or "tiles", parse_grid(args.tiles or "2x2")  # refused before starting
     parse_cluster(args.cluster)
-    if split == "leaves":
-        raise VGraphError("--split leaves is not implemented yet (issue #15): use --split tiles")
-    prepare(network, split, grid, args.size, target)  # refuse an untileable network before starting
+    if split == "leaves" and args.tiles is not None:
+        raise VGraphError("--tiles cuts the picture of the tiles split; --split leaves divides the bricks")
+    prepare(network, split, grid, args.size, target)  # refuse what the split cannot render before starting
     start = time.perf_counter()
     with connect(args.cluster) as client:
         workers = len(client.scheduler_info().get("workers", {}))
         pixels = render(network, client, split=split, tiles=grid, size=args.size, target=target,
                         plugins=args.plugin or ())
     write_image_outputs(outputs, pixels)
-    print(f"rendered {target} as {grid[0]}x{grid[1]} tiles on {workers} worker(s) of "
+    how = f"{grid[0]}x{grid[1]} tiles" if split == "tiles" else "runs of bricks (leaves)"
+    print(f"rendered {target} as {how} on {workers} worker(s) of "
           f"{args.cluster} in {time.perf_counter() - start:.3f} s", file=sys.stderr)
     from vgraph.cli import EXIT_OK
     return EXIT_OK

@@ -35,16 +35,20 @@ class Plan:
 
 
 def render(network_or_path, client, split: str = "tiles", tiles=(2, 2), size=None,
-           target: str | None = None, plugins=()) -> np.ndarray:
+           target: str | None = None, plugins=(), runs: int | None = None) -> np.ndarray:
     """The image at ``target`` (default: the network's Canvas, as ``vgraph run`` picks it) at
     ``size`` (width, height; default: the Canvas's size), float32 (H, W, 4), row 0 at the top, as
     Network.evaluate returns it. ``network_or_path``: a Network, or a .json network or volume file
     (as ``vgraph.load`` reads it). ``client``: a dask.distributed Client. ``tiles``: (columns,
     rows) of the tiles split. ``plugins``: plug-in modules the workers import before building the
-    network (as ``--plugin``; each worker must be able to import them)."""
+    network (as ``--plugin``; each worker must be able to import them). ``runs``: how many runs
+    of bricks the leaves split draws in parallel (default: one per worker; vgraph.distributed.leaves)."""
     from vgraph.distributed.worker import render_tile
 
     plan = prepare(network_or_path, split, tiles, size, target)
+    if split == "leaves":
+        from vgraph.distributed.leaves import render_leaves
+        return render_leaves(plan, client, runs=runs, plugins=plugins)
     document, base_dir = shipped(plan.network)
     # Unique keys: the same tile of another call (a changed file with the same name) is new work.
     token = uuid.uuid4().hex[:12]
@@ -64,10 +68,6 @@ def prepare(network_or_path, split: str = "tiles", tiles=(2, 2), size=None,
 
     if split not in SPLITS:
         raise TileError(f"unknown split '{split}'; choose one of {', '.join(SPLITS)}")
-    if split == "leaves":
-        raise NotImplementedError("split='leaves' (per-brick partial images composited front to back "
-                                  "in brick visibility order) is not implemented yet: issue #15; "
-                                  "use split='tiles'")
     grid = check_grid(tiles)
     network = _network(network_or_path)
     target = target or default_target(network)
@@ -75,11 +75,15 @@ def prepare(network_or_path, split: str = "tiles", tiles=(2, 2), size=None,
     if data_type is not None and not issubclass(data_type, Image):
         raise TileError(f"{target} carries {data_type.__name__}, not an image: only images can be "
                         "rendered as tiles")
+    size = tuple(int(v) for v in size) if size is not None else \
+        tuple(default_size(network, [target.partition(".")[0]]))
+    if split == "leaves":  # every worker renders the whole picture: nothing needs to be tileable
+        from vgraph.distributed.leaves import bricked_caster
+        bricked_caster(network, target)
+        return Plan(network, target, size, [])
     reasons = untileable(network, target)
     if reasons:
         raise TileError("this network cannot be rendered as tiles: " + "; ".join(reasons))
-    size = tuple(int(v) for v in size) if size is not None else \
-        tuple(default_size(network, [target.partition(".")[0]]))
     return Plan(network, target, size, cut(size, grid))
 
 

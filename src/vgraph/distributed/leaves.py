@@ -1,0 +1,201 @@
+"""The leaves split (sort-last, issue #15): the bricks of one BrickedRayCaster frame are divided
+among the workers, each ray-casts its bricks into a partial accumulation, and the partials are
+composited in visibility order on the workers before the frame is resolved once.
+
+- Plan: one task builds the network on a worker and plans the frame there (selection.plan_frame,
+  through the processor itself: the plan needs the transfer function's LUT, i.e. a GL context,
+  which the client never creates). It returns the planned bricks, front to back, with their
+  weights: the voxels of each brick (all planned bricks are non-empty by their ranges).
+- Runs: the front-to-back list is cut into contiguous runs of about equal weight, one per worker
+  (``split_runs``). A contiguous run composites into one partial image that is exactly one layer
+  in visibility order, because every sample lies in exactly one brick and the order is per pixel
+  front to back (docs/bricked_raycaster.md).
+- Partials: each run task draws its bricks (selection.LeafPass) and returns the accumulation before
+  the resolve pass: (sum, first), float32 [H, W, 4] each. dvr and iso: premultiplied colour and
+  the first depth sample, both blended "under"; mip: (maximum, its sample) decided by the depth
+  test on 1 - maximum.
+- Composite: adjacent layers are combined pairwise as Dask tasks (a tree of depth log2(runs)), so
+  the partial images stay on the workers; only the final picture reaches the client.
+- Resolve: a last task puts the composited accumulation into the processor and evaluates the
+  target: the resolve pass (background, mip's classification, depth) and everything downstream
+  run once, as in one process.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vgraph.distributed.tiles import TileError
+
+KIND = "BrickedRayCaster"
+DEPTH_STEPS = 2 ** 24 - 1  # the accumulation's depth texture (mip's test on 1 - maximum): 24-bit
+
+
+# --- the client's side ---------------------------------------------------------------------------
+def bricked_caster(network, target: str) -> str:
+    """The id of the one BrickedRayCaster the target needs, refused (TileError) when there is none,
+    several, or one whose bricks cannot be composited independently."""
+    import networkx as nx
+
+    processor_id = target.partition(".")[0]
+    needed = sorted({processor_id, *nx.ancestors(network.graph, processor_id)})
+    casters = [pid for pid in needed if network[pid].type_name == KIND]
+    if len(casters) != 1:
+        found = "none" if not casters else ", ".join(f"'{pid}'" for pid in casters)
+        raise TileError(f"the leaves split divides the bricks of one BrickedRayCaster among the "
+                        f"workers; {target} needs {found} (use split='tiles')")
+    caster = network[casters[0]]
+    values = caster.property_values
+    if values.get("compositing") == "dvr" and values.get("early_termination", 1.0) < 1.0:
+        # A run cannot know how opaque the runs in front of it are, so it cannot stop its rays
+        # where one process would: the image would differ by up to 1 - early_termination.
+        raise TileError(f"{casters[0]}.early_termination: {values['early_termination']:g} stops rays "
+                        "by what the bricks in front left, which a worker's run of bricks cannot see; "
+                        "set it to 1 for the leaves split (or use split='tiles')")
+    return casters[0]
+
+
+def split_runs(weights, count: int) -> list[tuple[int, int]]:
+    """[start, stop) of ``count`` contiguous runs of ``weights`` (front to back) of about equal
+    sum: run k ends where the cumulative weight is nearest k / count of the total. Fewer runs when
+    there are fewer items; none for none."""
+    weights = np.asarray(weights, dtype=np.float64)
+    n = len(weights)
+    count = max(1, min(int(count), n))
+    if n == 0:
+        return []
+    cumulative = np.concatenate([[0.0], np.cumsum(weights)])
+    bounds = [0]
+    for k in range(1, count):
+        goal = cumulative[-1] * k / count
+        end = int(np.argmin(np.abs(cumulative - goal)))
+        # Every run keeps at least one brick: after the previous cut, before the remaining runs'.
+        bounds.append(min(max(end, bounds[-1] + 1), n - (count - k)))
+    bounds.append(n)
+    return list(zip(bounds[:-1], bounds[1:]))
+
+
+def render_leaves(plan, client, runs: int | None = None, plugins=()) -> np.ndarray:
+    """The picture of ``plan`` (render.Plan) drawn by the leaves split; ``runs``: brick runs
+    (default: one per worker)."""
+    import uuid
+
+    from vgraph.distributed.render import shipped
+
+    caster = bricked_caster(plan.network, plan.target)
+    document, base_dir = shipped(plan.network)
+    plugins = tuple(plugins)
+    common = (document, base_dir, plan.target, plan.size, caster, plugins)
+    # Unique per call (a changed file with the same name is new work); a retried task keeps its
+    # key and recomputes the same value from its arguments alone.
+    token = uuid.uuid4().hex[:12]
+    mode = plan.network[caster].compositing
+    bricks, weights = client.submit(plan_task, *common, pure=False, key=f"vgraph-leaves-{token}-plan").result()
+    workers = sorted(client.scheduler_info().get("workers", {}))
+    pieces = split_runs(weights, runs or max(1, len(workers)))
+    layers = []
+    for i, (start, stop) in enumerate(pieces):
+        # Run i goes to the i-th worker (sorted addresses): the same run of the same network lands
+        # on the worker that holds its network and bricks, frame after frame. The restriction is
+        # loose, so the run moves to another worker when that one is gone (killed, replaced).
+        place = {"workers": [workers[i % len(workers)]], "allow_other_workers": True} if workers else {}
+        layers.append(client.submit(run_task, *common, bricks[start:stop], pure=False,
+                                    key=f"vgraph-leaves-{token}-run{i}", **place))
+    level = 0
+    while len(layers) > 1:  # adjacent layers pairwise, front before back: the visibility order
+        level += 1
+        layers = [client.submit(composite, *layers[j:j + 2], mode, pure=False,
+                                key=f"vgraph-leaves-{token}-composite{level}-{j // 2}")
+                  if j + 1 < len(layers) else layers[j] for j in range(0, len(layers), 2)]
+    accumulated = layers[0] if layers else None
+    return client.submit(resolve_task, *common, accumulated, pure=False,
+                         key=f"vgraph-leaves-{token}-resolve").result()
+
+
+# --- compositing (pure numpy; on the workers) --------------------------------------------------------
+def composite(front: tuple, back: tuple, mode: str) -> tuple:
+    """Two partial accumulations (sum, first) of adjacent runs -> the accumulation of both, as the
+    single process's brick passes leave it."""
+    front_sum, front_first = front
+    back_sum, back_first = back
+    if mode == "mip":
+        # The depth test (LESS on 1 - maximum, a 24-bit depth texture cleared to 1): the back
+        # run's maximum wins only where it is larger at that precision; a tie keeps the front.
+        front_depth = np.where(front_sum[..., 3] > 0, _depth(front_sum[..., 0]), DEPTH_STEPS)
+        back_depth = np.where(back_sum[..., 3] > 0, _depth(back_sum[..., 0]), DEPTH_STEPS)
+        take = (back_depth < front_depth)[..., None]
+        return np.where(take, back_sum, front_sum), np.where(take, back_first, front_first)
+    # dvr and iso: the passes' blending "under" (ONE_MINUS_DST_ALPHA, ONE) on both targets:
+    # colour C += (1 - A) C_back; the first depth sample (alpha 1 where set) stays the front's.
+    under = lambda a, b: (a + (np.float32(1.0) - a[..., 3:4]) * b).astype(np.float32)  # noqa: E731
+    return under(front_sum, back_sum), under(front_first, back_first)
+
+
+def _depth(maximum: np.ndarray) -> np.ndarray:
+    return np.rint((1.0 - maximum.astype(np.float64)) * DEPTH_STEPS)
+
+
+# --- the tasks (in worker processes) -----------------------------------------------------------------
+def plan_task(document, base_dir, target, size, caster, plugins) -> tuple[list, list]:
+    """(the planned bricks (key, rect) front to back, their weights: voxels of each brick)."""
+    from vgraph.bricks.cache import brick_extent
+
+    def planned(processor, leaf):
+        source = processor.brick_source(processor.inputs["volume"])
+        bricks = [(tuple(int(v) for v in key), tuple(int(v) for v in rect)) for key, rect in leaf.plan.bricks]
+        weights = [int(np.prod(stop - start)) for start, stop in (brick_extent(source, key) for key, _ in bricks)]
+        return bricks, weights
+
+    return _draw(document, base_dir, target, size, caster, plugins, planned, bricks=[])
+
+
+def run_task(document, base_dir, target, size, caster, plugins, bricks) -> tuple:
+    """The (sum, first) accumulation of ``bricks`` (a contiguous run of the plan)."""
+    return _draw(document, base_dir, target, size, caster, plugins, lambda _, leaf: leaf.partial,
+                 bricks=[(tuple(key), tuple(rect)) for key, rect in bricks])
+
+
+def resolve_task(document, base_dir, target, size, caster, plugins, accumulated) -> np.ndarray:
+    """The target's picture, float32 (H, W, 4), row 0 at the top, from the composited
+    accumulation (None: the frame has no bricks, so none are drawn)."""
+    def picture(network):
+        return np.ascontiguousarray(network.output(target).to_numpy(), dtype=np.float32)
+
+    leaf = {"bricks": []} if accumulated is None else {"accumulated": accumulated}
+    return _draw(document, base_dir, target, size, caster, plugins, None, output=picture, **leaf)
+
+
+def _draw(document, base_dir, target, size, caster, plugins, result, output=None, **leaf_values):
+    """Evaluate the shipped network with a LeafPass(**leaf_values) in the caster, up to the
+    caster's image and return ``result(processor, leaf)``, or up to the target and return
+    ``output(network)``. The processor is left as it was (no leaf, its outputs invalid), so a
+    retried or later task on this worker starts afresh: tasks are idempotent."""
+    from vgraph.bricks.selection import LeafPass
+    from vgraph.distributed.worker import _GL_LOCK, _network
+
+    _load_plugins(plugins)
+    with _GL_LOCK:
+        network, full_cameras = _network(document, base_dir, target)
+        for address, camera in full_cameras.items():  # a tiles task may have left a tile's camera
+            network.set(address, camera)
+        processor = network[caster]
+        leaf = LeafPass(**leaf_values)
+        processor.leaf = leaf
+        network.invalidate_downstream(caster)  # the leaf is not a property: the network cannot see it
+        try:
+            if output is not None:
+                network.update(target, size=tuple(size))
+                return output(network)
+            network.update(f"{caster}.image", size=tuple(size))
+            return result(processor, leaf)
+        finally:
+            processor.leaf = None
+            network.invalidate_downstream(caster)
+
+
+def _load_plugins(plugins) -> None:
+    import vgraph
+
+    for module in plugins:  # the processor types of a plug-in network (vgraph run --plugin)
+        if module not in vgraph.registry.plugins:  # once per worker process
+            vgraph.registry.load_plugin(module)
