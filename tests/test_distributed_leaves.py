@@ -113,6 +113,9 @@ def test_leaves_equal_the_single_process_picture(client, tmp_path, mode, propert
         image = render(network, client, split="leaves", size=(64, 48), runs=runs)
         assert image.shape == reference.shape and image.dtype == np.float32
         assert psnr(image, reference) >= PSNR_FLOOR, (mode, runs, psnr(image, reference))
+    # The depth output (the first depth sample, or mip's maximum's) is resolved from the composite too.
+    depth = render(network, client, split="leaves", target="rc.depth", size=(64, 48), runs=3)
+    assert np.allclose(depth, network.evaluate("rc.depth", size=(64, 48)), atol=1e-5, equal_nan=True)
 
 
 def test_leaves_of_an_ome_zarr_store_read_by_the_workers(client, tmp_path):

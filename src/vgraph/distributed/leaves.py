@@ -127,8 +127,15 @@ def composite(front: tuple, back: tuple, mode: str) -> tuple:
         return np.where(take, back_sum, front_sum), np.where(take, back_first, front_first)
     # dvr and iso: the passes' blending "under" (ONE_MINUS_DST_ALPHA, ONE) on both targets:
     # colour C += (1 - A) C_back; the first depth sample (alpha 1 where set) stays the front's.
-    under = lambda a, b: (a + (np.float32(1.0) - a[..., 3:4]) * b).astype(np.float32)  # noqa: E731
-    return under(front_sum, back_sum), under(front_first, back_first)
+    return _under(front_sum, back_sum), _under(front_first, back_first)
+
+
+def _under(front: np.ndarray, back: np.ndarray) -> np.ndarray:
+    # IEEE arithmetic as the GL blend does it (llvmpipe, measured): an iso brick's refined depth
+    # sample can be inf or NaN, and 0 * inf = NaN reaches the accumulation behind a front hit in
+    # one process too, so it does here (numpy need not warn about it).
+    with np.errstate(invalid="ignore", over="ignore"):
+        return (front + (np.float32(1.0) - front[..., 3:4]) * back).astype(np.float32)
 
 
 def _depth(maximum: np.ndarray) -> np.ndarray:
