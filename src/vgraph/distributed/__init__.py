@@ -2,7 +2,8 @@
 
 One concept per module: ``tiles`` (cutting a picture, the tile cameras, assembling),
 ``worker`` (what runs in a worker process: the shipped network, its one GL context),
-``render`` (the client side: ``render(network_or_path, client, split="tiles", tiles=(C, R))``)
+``leaves`` (the sort-last split: runs of a BrickedRayCaster's bricks, composited on the workers),
+``render`` (the client side: ``render(network_or_path, client, split="tiles"|"leaves", ...)``)
 and ``cluster`` (``local:N`` or ``tcp://HOST:PORT`` -> a Client). Dask itself is imported only
 when a cluster is used.
 """
