@@ -119,3 +119,22 @@ def test_window_with_the_cluster_setting_shows_a_frame_drawn_there(window, sched
     window.set_cluster(None)
     window.evaluation.run(wait=True)
     assert window.evaluation.statuses["rc"].text.startswith("evaluated")
+
+
+def test_local_setting_starts_its_workers_from_the_render_process_and_closes_them():
+    """The render process is a daemon; ``local:N`` still starts N worker processes there."""
+    import subprocess
+
+    from vgraph.gui.render_process import RenderProcess
+    process = RenderProcess()
+    try:
+        process.submit(sphere_job(cluster=ClusterSetting("local:1", "tiles", (2, 1))))
+        result = process.wait(timeout=120)
+        assert not result.outcome.warnings and result.statuses["rc"].text.startswith("on cluster")
+        assert process.progress is not None and process.progress.done == process.progress.total == 2
+        pid = process.pid
+        workers = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout.split()
+        assert workers  # the LocalCluster's worker process
+    finally:
+        process.stop()  # the render process closes its cluster on the way out
+    assert all(subprocess.run(["kill", "-0", w], capture_output=True).returncode != 0 for w in workers)

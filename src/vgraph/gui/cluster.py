@@ -85,6 +85,8 @@ class ClusterRenderer:
             return None
         from vgraph.distributed import connect
 
+        if setting.address.startswith("local:"):
+            _allow_worker_processes()
         stack = contextlib.ExitStack()
         try:
             self.client = stack.enter_context(connect(setting.address))
@@ -144,6 +146,19 @@ class ClusterRenderer:
                 self._stack.close()
         self._stack = self.client = self.setting = None
         self.workers = 0
+
+
+def _allow_worker_processes() -> None:
+    """Let this process start the LocalCluster's worker processes. The render process is a daemon
+    (it must not outlive the window), and multiprocessing refuses children to daemons because it
+    would not wait for them; here ``close()`` (on a cleared setting and when the render process
+    stops) closes the cluster and its workers, and a worker whose nanny's process was killed
+    stops by itself (Dask's workers watch their parent)."""
+    import multiprocessing
+
+    process = multiprocessing.current_process()
+    if process.daemon:
+        process._config["daemon"] = False  # what multiprocessing checks before starting a child
 
 
 class ClusterView:
