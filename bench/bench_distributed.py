@@ -32,7 +32,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import statistics
 import sys
 import tempfile
 import time
@@ -133,14 +132,25 @@ def timed_render(client, network, split, grid, size):
     return time.perf_counter() - start
 
 
-def run_cluster(workers: int, networks: dict, size) -> list[dict]:
+def run_cluster(workers: int | str, networks: dict, size) -> list[dict]:
+    """The configurations on a LocalCluster of ``workers`` processes, or (an address) on the running
+    cluster there with all its workers (its workers must see the temporary stores: run the bench
+    with TMPDIR on the shared file system)."""
+    import contextlib
+
     from distributed import Client, LocalCluster
     rows = []
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="Port 8787 is already in use", category=UserWarning)
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                               dashboard_address=None, silence_logs=50)
-    with cluster, Client(cluster) as client:
+    with contextlib.ExitStack() as stack:
+        if isinstance(workers, str):
+            client = stack.enter_context(Client(workers, timeout=10))
+            workers = len(client.scheduler_info()["workers"])
+        else:
+            with warnings.catch_warnings():
+                warnings.filterwarnings("ignore", message="Port 8787 is already in use", category=UserWarning)
+                cluster = stack.enter_context(LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                    dashboard_address=None, silence_logs=50))
+            client = stack.enter_context(Client(cluster))
         # Every worker makes its GL context once, before anything is timed (a worker's lifetime cost).
         first = next(iter(networks.values()))
         timed_render(client, first, "tiles", (workers * 2, 1), (64, 64))
@@ -233,6 +243,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
+    parser.add_argument("--scheduler", help="tcp://HOST:PORT of a running cluster to measure instead of "
+                        "LocalClusters of 1 and 2 workers (a real-cluster check)")
     parser.add_argument("--refit", action="store_true",
                         help="fit, predict, tabulate and plot the measurements in OUT again (no runs)")
     args = parser.parse_args(argv)
@@ -252,8 +264,13 @@ def main(argv=None) -> int:
             networks[name] = network_for(store)
             counts[name] = per_tile_counts(networks[name], size)
             print(name, {g: sum(c["bricks"]) for g, c in counts[name].items()}, file=sys.stderr)
-        rows = run_cluster(1, networks, size) + run_cluster(2, networks, size)
-    return report({"size": size, "brick": BRICK, "rows": rows, "counts": counts}, out)
+        if args.scheduler:
+            rows = run_cluster(args.scheduler, networks, size)
+        else:
+            rows = run_cluster(1, networks, size) + run_cluster(2, networks, size)
+    cluster = f"the cluster at {args.scheduler}" if args.scheduler else \
+        "a LocalCluster of single-threaded workers on this machine"
+    return report({"size": size, "brick": BRICK, "rows": rows, "counts": counts, "cluster": cluster}, out)
 
 
 def report(result: dict, out: Path) -> int:
@@ -271,7 +288,7 @@ def report(result: dict, out: Path) -> int:
 def markdown(result: dict) -> str:
     mb = 1 / 2 ** 20
     lines = [f"Frames {result['size'][0]}x{result['size'][1]}, BrickedRayCaster, OME-Zarr bricks of "
-             f"{result['brick']}^3, LocalCluster of single-threaded workers on this machine (2 cores).", "",
+             f"{result['brick']}^3, on {result.get('cluster', 'a LocalCluster on this machine')}.", "",
              "| data | workers | split | tiles | cold s | warm s | MB read per worker | bricks per worker | model s |",
              "|---|---|---|---|---|---|---|---|---|"]
     for r in result["rows"]:
