@@ -104,6 +104,23 @@ def test_bricked_raycaster_tile_equals_the_rectangle_of_the_full_image():
     assert np.abs(tile - crop).max() <= TILE_TOLERANCE
 
 
+def test_a_tile_draws_its_bricks_at_the_levels_of_the_full_picture():
+    """The level of detail follows the full picture's pixels, not the tile's (a small tile of a big
+    frame must not draw coarser bricks)."""
+    from vgraph.testing import ray_caster_network
+    from vgraph.volume import Volume
+    data = np.random.default_rng(4).random((96, 96, 96)).astype(np.float32)
+    volume = Volume(data)
+    camera = Camera(position=(0, 0, 1), focus=(0, 0, 0), near=None, far=None, fit_to_data=True)
+    network = ray_caster_network(volume, camera, "BrickedRayCaster", brick_size=16, lod_bias=0.0,
+                                 compositing="mip")
+    network.evaluate("rc.image", size=(64, 64))
+    whole = network["rc"].last_frame["levels"]
+    network.set("eep.camera", camera.tile(16, 16, 16, 16, 64, 64))
+    network.evaluate("rc.image", size=(16, 16))
+    assert whole and network["rc"].last_frame["levels"] == whole
+
+
 def test_projected_tetrahedra_tile_equals_the_rectangle_of_the_full_image():
     network = vgraph.Network()
     network.add("FunctionSelector", id="source", function="sphere", resolution=16)

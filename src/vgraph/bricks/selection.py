@@ -143,10 +143,15 @@ def level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.nda
 
 
 def pixels_per_world(camera, size, distance):
-    """Pixels per world unit at ``distance`` from the eye."""
+    """Pixels per world unit at ``distance`` from the eye, in the full picture: a tile of it (a
+    camera with a ``window``, vgraph.distributed) draws its bricks at the levels the picture does."""
+    height = float(size[1])
+    if camera.window is not None:
+        _, _, bottom, top = camera.window
+        height *= 2.0 / (top - bottom)  # the window spans top - bottom of the full view's 2 in NDC
     if camera.projection == "orthographic":
-        return np.full(np.shape(distance), size[1] / (2.0 * camera.parallel_scale))
-    return size[1] / (2.0 * np.maximum(distance, 1e-12) * math.tan(math.radians(camera.fov) / 2.0))
+        return np.full(np.shape(distance), height / (2.0 * camera.parallel_scale))
+    return height / (2.0 * np.maximum(distance, 1e-12) * math.tan(math.radians(camera.fov) / 2.0))
 
 
 def desired_levels(geometry: BrickGeometry, camera, size, level: int, lod_bias: float) -> np.ndarray:
