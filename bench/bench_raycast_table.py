@@ -1,4 +1,4 @@
-"""Seed 000 table 4.2 redone: frames per second of the GL ray caster at 128^2 .. 1024^2 for an
+"""Inácio 2009 table 4.2 redone: frames per second of the GL ray caster at 128^2 .. 1024^2 for an
 opaque and a fully transparent transfer function, with the CPU reference ray caster beside it and
 the GL / CPU speed ratio (Inácio 2009 ch. 4.2.4 found its GPU ~3000x faster than its CPU).
 
@@ -52,7 +52,7 @@ ROOT = Path(__file__).resolve().parents[1]
 OPAQUE = TransferFunction(points=[(0.0, 0.9, 0.8, 0.7, 1.0), (1.0, 1.0, 1.0, 1.0, 1.0)])
 TRANSPARENT = TransferFunction(points=[(0.0, 0.9, 0.8, 0.7, 0.0), (1.0, 1.0, 1.0, 1.0, 0.0)])
 CAMERAS = {"A": (0.0, 0.0, -1.0), "B": (-0.45, -0.35, -1.0)}  # viewing directions
-# Seed 000 table 4.2, fps on a GeForce 9800M GS (2009), 512x512x460 CT in fp16: quoted for the plot.
+# Inácio 2009 table 4.2, fps on a GeForce 9800M GS (2009), 512x512x460 CT in fp16: quoted for the plot.
 SEED_TABLE = {("A", "opaque"): (519.5, 251.5, 124.3, 55.4),
               ("A", "transparent"): (34.7, 15.3, 7.8, 2.6),
               ("B", "opaque"): (469.3, 235.2, 112.6, 53.5),
