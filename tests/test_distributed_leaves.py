@@ -130,6 +130,26 @@ def test_leaves_of_an_ome_zarr_store_read_by_the_workers(client, tmp_path):
     assert psnr(image, reference) >= PSNR_FLOOR
 
 
+def test_a_new_view_reuses_the_workers_networks_and_their_bricks(client, tmp_path):
+    """Frames from two views of one network: the workers keep the network built for the first (its
+    cameras aside), so the second frame reads (almost) no brick again, and is still exact."""
+    from vgraph.distributed.worker import worker_info
+
+    def bricks_read():
+        from vgraph.distributed import worker
+        return sum(network[0]["rc"].cache.stats["bricks_read"] for network in worker._NETWORKS.values())
+
+    network = bricked_network(volume_file(tmp_path), compositing="mip")
+    render(network, client, split="leaves", size=(48, 40))
+    first = sum(client.run(bricks_read).values())
+    network.set("eep.camera", network.get("eep.camera").rotate(0.05, 0.0))
+    image = render(network, client, split="leaves", size=(48, 40))
+    again = sum(client.run(bricks_read).values()) - first
+    assert first > 0 and again <= first // 4
+    assert all(info["networks"] <= 2 for info in client.run(worker_info).values())
+    assert psnr(image, network.evaluate(size=(48, 40))) >= PSNR_FLOOR
+
+
 def test_cli_split_leaves_writes_the_local_image(tmp_path, capsys):
     import PIL.Image
 

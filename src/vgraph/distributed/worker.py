@@ -3,10 +3,12 @@
 - The network travels as its JSON document (text) with the folder its relative paths mean (the
   network file's): volumes are read by the worker from that shared path, never pickled through the
   scheduler.
-- Module-level state, per worker process: the networks built so far (keyed by a hash of document,
-  folder and target) with their full-view cameras. A second tile of the same network on the same
-  worker reuses the built network, so its volume is read and uploaded to the GPU once; only the
-  renderers run again for the new camera.
+- Module-level state, per worker process: the networks built so far (keyed by a hash of the
+  document without its cameras, folder and target) with their full-view cameras. A second tile, or
+  a frame from another view, of the same network on the same worker reuses the built network, so
+  its volume is read and uploaded to the GPU once and its bricks stay in the BrickedRayCaster's
+  cache (Dask's placement sends a leaves run back to that worker); only the renderers run again for
+  the new camera.
 - One GL context per worker process: ``vgraph.gl.context.get_context()`` creates the process's
   headless EGL context on the first evaluation in that worker (never in the client or the
   scheduler) and every later task reuses it. GL contexts are not thread-safe, so tasks of one
@@ -55,15 +57,41 @@ def worker_info() -> dict:
 
 
 def _network(document: str, base_dir: str | None, target: str):
-    key = hashlib.sha256("\0".join((document, str(base_dir), target)).encode()).hexdigest()
+    """The built network of ``document`` with its cameras as the document has them. Networks are
+    kept by the document without its cameras: a frame from another view reuses the network (its
+    volume, its bricks in the BrickedRayCaster's cache) and only sets the new cameras."""
+    scene, views = split_cameras(document)
+    key = hashlib.sha256("\0".join((scene, str(base_dir), target)).encode()).hexdigest()
     if key in _NETWORKS:
         _NETWORKS.move_to_end(key)
+        network = _NETWORKS[key][0]
+        for address, value in views.items():
+            network.set(address, value)
+        _NETWORKS[key] = (network, cameras(network))
         return _NETWORKS[key]
     network = build(document, base_dir)
     _NETWORKS[key] = (network, cameras(network))
     while len(_NETWORKS) > _KEPT:
         _NETWORKS.popitem(last=False)
     return _NETWORKS[key]
+
+
+def split_cameras(document: str) -> tuple[str, dict]:
+    """(the document without its camera properties, as canonical JSON; 'id.name' -> camera value)."""
+    import json
+
+    import vgraph
+    parsed = json.loads(document)
+    views = {}
+    for entry in parsed.get("processors", []):
+        try:
+            kinds = vgraph.registry.get(entry.get("type", "")).properties
+        except Exception:  # an unknown type: build() reports it
+            continue
+        properties = entry.get("properties", {})
+        for name in [n for n in properties if n in kinds and kinds[n].kind == "camera"]:
+            views[f"{entry.get('id')}.{name}"] = properties.pop(name)
+    return json.dumps(parsed, sort_keys=True), views
 
 
 def build(document: str, base_dir: str | None):
