@@ -18,6 +18,7 @@ from vgraph.network import Network
 from vgraph.gui.workspace import Workspace
 
 from helpers.gui import send_mouse
+from helpers.networks import bricked_sphere_network
 from helpers.paths import REPO
 
 SIZE = (200, 160)  # widget width, height
@@ -327,15 +328,7 @@ def test_a_bricked_frame_refines_in_the_window_until_complete_without_input(wind
     window asks for the same state again by itself until the frame is the one `vgraph run` draws."""
     import vgraph
     from vgraph.imagefile import to_uint8
-    network = Network()
-    network.add("FunctionSelector", id="source", function="sphere", resolution=128)
-    network.add("EntryExitPoints", id="eep", camera=Camera(position=(2.6, 2.0, 5.8), near=4.0, far=9.0))
-    network.add("BrickedRayCaster", id="rc", compositing="mip", brick_size=16, lod_bias=-16.0)
-    network.add("Canvas", id="canvas", size=(96, 80))
-    network.link("eep.camera", "rc.camera")
-    for source, target in (("source.volume", "eep.volume"), ("source.volume", "rc.volume"),
-                           ("eep.entry", "rc.entry"), ("eep.exit", "rc.exit"), ("rc.image", "canvas.image")):
-        network.connect(source, target)
+    network = bricked_sphere_network((96, 80))
     path = tmp_path / "bricked.json"
     network.save(path)
     shown = []

@@ -11,6 +11,7 @@ from vgraph.fileformat import network_document
 from vgraph.gui.changes import PropertySet
 from vgraph.gui.render_process import RenderJob, RenderServer
 
+from helpers.networks import bricked_sphere_network
 from helpers.paths import REPO
 
 
@@ -124,18 +125,8 @@ def test_an_edit_while_a_bricked_frame_refines_takes_over(window, jobs, qtbot, t
     """Refining renders the state it was asked for; an edit made meanwhile goes out as a change
     (the normal flow) and the window ends at the complete frame of the edited state."""
     import vgraph
-    from vgraph.camera import Camera
     from vgraph.imagefile import to_uint8
-    from vgraph.network import Network
-    network = Network()
-    network.add("FunctionSelector", id="source", function="sphere", resolution=128)
-    network.add("EntryExitPoints", id="eep", camera=Camera(position=(2.6, 2.0, 5.8), near=4.0, far=9.0))
-    network.add("BrickedRayCaster", id="rc", compositing="mip", brick_size=16, lod_bias=-16.0)
-    network.add("Canvas", id="canvas", size=(64, 48))
-    network.link("eep.camera", "rc.camera")
-    for source, target in (("source.volume", "eep.volume"), ("source.volume", "rc.volume"),
-                           ("eep.entry", "rc.entry"), ("eep.exit", "rc.exit"), ("rc.image", "canvas.image")):
-        network.connect(source, target)
+    network = bricked_sphere_network((64, 48))
     network.save(tmp_path / "bricked.json")
     with qtbot.waitSignal(window.evaluation.frames, timeout=60000,
                           check_params_cb=lambda frames, final: "canvas" in frames and not final):

@@ -46,6 +46,15 @@ class RegularGrid:
     def cell_dims(self) -> tuple[int, int, int]:
         return tuple(d - 1 for d in self.dims)
 
+    @cached_property
+    def positions(self) -> np.ndarray:
+        """[z, y, x] int32 over all cells: each cell's position in ``cells``, -1 where culled (the
+        sweep order picks the kept cells with it every time the camera moves)."""
+        nx, ny, nz = self.cell_dims
+        position = np.full(nx * ny * nz, -1, dtype=np.int32)
+        position[self.cells] = np.arange(len(self.cells), dtype=np.int32)
+        return position.reshape(nz, ny, nx)
+
     def cell_indices(self) -> np.ndarray:
         """(K, 3) int64 (i, j, k) of the kept cells."""
         nx, ny, _ = self.cell_dims
@@ -91,10 +100,13 @@ class TetMesh:
         weakref.finalize(self, release_quietly, self._buffers)
 
     # --- geometry -------------------------------------------------------------------------------
-    @property
+    @cached_property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """(min corner, max corner) of the points, float64 (x, y, z)."""
-        return self.points.min(axis=0).astype(np.float64), self.points.max(axis=0).astype(np.float64)
+        """(min corner, max corner) of the points, float64 (x, y, z); once per mesh (renderers frame
+        the camera with it every frame)."""
+        low, high = self.points.min(axis=0).astype(np.float64), self.points.max(axis=0).astype(np.float64)
+        low.flags.writeable = high.flags.writeable = False  # shared by every caller
+        return low, high
 
     @property
     def box(self) -> tuple[np.ndarray, np.ndarray]:

@@ -52,9 +52,7 @@ def sweep_order(grid: RegularGrid, camera: Camera) -> np.ndarray:
     forward = camera.basis()[2]
     x, y, z = (axis_order(n, eye[a] if perspective else None, forward[a])
                for a, n in enumerate((nx, ny, nz)))
-    position = np.full(nx * ny * nz, -1, dtype=np.int32)  # cell -> its position in grid.cells
-    position[grid.cells] = np.arange(len(grid.cells), dtype=np.int32)
-    swept = position.reshape(nz, ny, nx)[np.ix_(z, y, x)].reshape(-1)
+    swept = grid.positions[np.ix_(z, y, x)].reshape(-1)
     return swept[swept >= 0]
 
 
