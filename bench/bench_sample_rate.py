@@ -1,0 +1,163 @@
+"""How close the RayCaster comes to what this machine's GL can do: samples per second of our
+ray-casting loop against trivial shaders that only sample.
+
+    .venv/bin/python bench/bench_sample_rate.py [--size 512] [--samples 256] [--repeat 5]
+
+The machine's limit is measured with full-screen passes whose every pixel takes --samples
+trilinear samples of the same 256^3 volume texture along an oblique line (one pixel, one line),
+keeping nothing but a sum (so the compiler cannot drop the fetches):
+
+- "fetch only": one trilinear fetch and an add per sample: the bare texture-sampling rate.
+- "fetch + TF": the fetch, the 1D TF look-up and front-to-back compositing without early
+  termination: the least work a DVR sample can be.
+
+"ours" is the RayCaster (dvr, dense fog TF: opacity everywhere, so nothing is skipped and no ray
+ends early; and the four rows of bench_vtk) on the same volume and image size: the samples it
+evaluated (the depth output's sample counter, summed over the image) over the seconds of its pass
+(EntryExitPoints cached, until glFinish). For the scenes with empty space the rate counts only the
+samples evaluated, so it says how much work is left per second, not the frame rate.
+
+Both volumes of bench_vtk: the CT bonsai (uint8, uploaded as R16 unorm) and the signed-distance
+torus (float32, R32F). Best of --repeat passes each; timings vary up to 2x on shared machines,
+compare within one run. Prints a markdown table (also to --out if given).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_vtk import TORUS_MIP_TF, load_volume, scenes  # noqa: E402
+from raycaster_speed import FOG_TF, network  # noqa: E402
+
+from vgraph.camera import Camera  # noqa: E402
+from vgraph.gl.context import get_context  # noqa: E402
+from vgraph.numerics.reference_raycast import volume_box  # noqa: E402
+from vgraph.volume import Volume  # noqa: E402
+
+VERTEX = """#version 330
+in vec2 position;
+void main() { gl_Position = vec4(position, 0.0, 1.0); }
+"""
+TRIVIAL = """#version 330
+uniform sampler3D volume;
+uniform sampler1D lut;
+uniform int samples;
+uniform vec2 viewport;
+out vec4 color;
+void main() {
+    // An oblique line through the box per pixel, as a ray would run.
+    vec2 p = gl_FragCoord.xy / viewport;
+    vec3 start = vec3(p, 0.0);
+    vec3 step = vec3(0.13, 0.07, 1.0) / float(samples);
+    vec4 sum = vec4(0.0);
+    for (int i = 0; i < samples; ++i) {
+        float v = texture(volume, start + float(i) * step).r;
+#ifdef CLASSIFY
+        vec4 c = texture(lut, v);
+        sum += (1.0 - sum.a) * vec4(c.rgb * c.a, c.a);
+#else
+        sum.r += v;
+#endif
+    }
+    color = sum;
+}
+"""
+
+
+def trivial_rate(ctx, volume: Volume, size: int, samples: int, repeat: int, classify: bool) -> float:
+    """Samples per second of the trivial pass (module docstring)."""
+    source = TRIVIAL.replace("#version 330", "#version 330\n#define CLASSIFY" if classify else "#version 330")
+    program = ctx.program(vertex_shader=VERTEX, fragment_shader=source)
+    texture = volume.texture(ctx)
+    texture.filter = (ctx.LINEAR, ctx.LINEAR)
+    lut = ctx.texture((4096, 1), 4, np.linspace(0.0, 0.01, 4096 * 4, dtype=np.float32).tobytes(), dtype="f4")
+    lut.filter = (ctx.LINEAR, ctx.LINEAR)
+    target = ctx.texture((size, size), 4, dtype="f4")
+    framebuffer = ctx.framebuffer(color_attachments=[target])
+    quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], dtype="f4").tobytes())
+    vao = ctx.vertex_array(program, [(quad, "2f", "position")])
+    program["samples"].value = samples
+    program["viewport"].value = (float(size), float(size))
+    program["volume"].value = 0
+    if "lut" in program:
+        program["lut"].value = 1
+    texture.use(0)
+    lut.use(1)
+    framebuffer.use()
+    best = float("inf")
+    for _ in range(repeat + 1):  # the first compiles
+        start = time.perf_counter()
+        vao.render(mode=ctx.TRIANGLE_STRIP)
+        ctx.finish()
+        best = min(best, time.perf_counter() - start)
+    for obj in (vao, quad, framebuffer, target, lut, program):
+        obj.release()
+    return size * size * samples / best
+
+
+def our_rate(volume: Volume, size: int, repeat: int, scene: dict) -> tuple[float, float, float]:
+    """(samples per second, seconds of the RayCaster pass, samples per covered pixel)."""
+    camera = Camera.looking_at_box(*volume_box(volume), direction=(-0.45, -0.35, -1.0))
+    net = network(volume, camera)
+    net.set("rc.compositing", scene["compositing"])
+    net.set("rc.transfer_function", scene["tf"])
+    net.set("rc.shading", "blinn_phong" if scene["shading"] else "none")
+    ctx = get_context()
+    shape = (size, size)
+    net.evaluate("rc.image", size=shape)  # compile, upload, build blocks
+    best = float("inf")
+    for _ in range(repeat):
+        net.processors["rc"].invalidate()
+        start = time.perf_counter()
+        net.update("rc.image", size=shape)
+        ctx.finish()
+        best = min(best, time.perf_counter() - start)
+    depth = net.evaluate("rc.depth", size=shape)
+    covered = net.evaluate("eep.entry", size=shape)[..., 3] > 0
+    taken = float(depth[..., 2].sum())
+    return taken / best, best, taken / max(int(covered.sum()), 1)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=512)
+    parser.add_argument("--samples", type=int, default=256, help="samples per pixel of the trivial passes")
+    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--out", type=Path, default=None)
+    args = parser.parse_args()
+    ctx = get_context()
+    lines = [f"{args.size}^2 image; trivial passes take {args.samples} samples per pixel; best of {args.repeat}",
+             "", "| volume (texture) | pass | seconds | samples per pixel | million samples/s | share of fetch only |",
+             "|---|---|---|---|---|---|"]
+    for name, label in (("bonsai", "bonsai 256^3 uint8 (R16)"), ("torus", "torus 256^3 float32 (R32F)")):
+        volume = load_volume(name, 256)
+        limit = trivial_rate(ctx, volume, args.size, args.samples, args.repeat, classify=False)
+        seconds = args.size ** 2 * args.samples / limit
+        lines.append(f"| {label} | fetch only | {seconds:.3f} | {args.samples} | {limit / 1e6:.0f} | 1.00 |")
+        classified = trivial_rate(ctx, volume, args.size, args.samples, args.repeat, classify=True)
+        seconds = args.size ** 2 * args.samples / classified
+        lines.append(f"| {label} | fetch + TF | {seconds:.3f} | {args.samples} | {classified / 1e6:.0f} | "
+                     f"{classified / limit:.2f} |")
+        rows = {"ours, dense fog": dict(compositing="dvr", shading=False, tf=FOG_TF)}
+        rows.update({f"ours, {mode}": scene for mode, scene in scenes(name).items() if "fog" not in mode})
+        if name == "torus":
+            rows["ours, MIP"]["tf"] = TORUS_MIP_TF
+        for row, scene in rows.items():
+            rate, seconds, per_pixel = our_rate(volume, args.size, args.repeat, scene)
+            lines.append(f"| {label} | {row} | {seconds:.3f} | {per_pixel:.0f} | {rate / 1e6:.0f} | "
+                         f"{rate / limit:.2f} |")
+        print("\n".join(lines[-7:]), flush=True)
+    text = "\n".join(lines) + "\n"
+    print("\n" + text)
+    if args.out:
+        args.out.write_text(text)
+
+
+if __name__ == "__main__":
+    main()
