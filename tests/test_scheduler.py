@@ -145,3 +145,35 @@ def test_target_type_is_known_before_evaluating(net):
     assert target_type(image_net, "canvas") is Image
     with pytest.raises(vgraph.VGraphError, match="has no outport 'nope'"):
         target_type(net, "sum.nope")
+
+
+# --- on-demand outports: computed only when something reads them -----------------------------------
+@pytest.fixture
+def powers():
+    network = Network()
+    network.add("Number", id="a", value=3.0)
+    network.add("Powers", id="p")
+    network.add("Collect", id="out")
+    network.connect("a.value", "p.value")
+    network.connect("p.value", "out.value")
+    return network
+
+
+def test_an_on_demand_outport_is_left_out_when_nothing_reads_it(powers):
+    powers.update("out")
+    assert powers["p"].squared is False and powers.output("p.square") is None
+
+
+def test_an_on_demand_outport_asked_for_reruns_its_processor_once(powers):
+    powers.update("out")
+    assert powers.update("p.square").ids == ["p"] and powers.output("p.square") == 9.0
+    assert powers.update("p.square").ids == [] and powers.update("out").ids == []  # still valid
+
+
+def test_a_connection_reading_an_on_demand_outport_makes_it_computed(powers):
+    powers.add("Collect", id="squares")
+    powers.connect("p.square", "squares.value")
+    powers.update("squares")
+    assert powers["p"].squared and powers["squares"].inputs["value"] == 9.0
+    powers.update("out")  # does not read the square: p keeps its outputs, nothing reruns
+    assert powers["p"].squared and powers.update("squares").ids == []

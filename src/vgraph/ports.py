@@ -39,4 +39,8 @@ class Inport(Port):
 
 @dataclass(frozen=True)
 class Outport(Port):
+    # Computed only when something reads it this evaluation (a target, or a connection to a processor
+    # being evaluated); process() asks ``self.wants(name)``. E.g. a ray caster's depth image.
+    on_demand: bool = False
+
     direction = "out"

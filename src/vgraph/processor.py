@@ -69,6 +69,7 @@ class Processor:
         self.invalid_level = Invalidation.OUTPUT  # nothing computed yet
         self.initialized = False
         self.outputs: dict[str, object] = {}
+        self.wanted: frozenset[str] = frozenset()  # on-demand outports read this evaluation (scheduler)
         self.inputs: dict[str, object] = {}  # what the last process() received (sinks show it)
         self.evaluation_count = 0
         self.last_seconds: float | None = None
@@ -130,6 +131,12 @@ class Processor:
         """The process's shared moderngl context (created on first use, never by a processor)."""
         from vgraph.gl.context import get_context
         return get_context()
+
+    def wants(self, outport: str) -> bool:
+        """Whether process() should produce ``outport`` this time: always for ordinary outports;
+        for an ``on_demand`` one only when something reads it (the scheduler sets ``wanted``)."""
+        port = self.outport(outport)
+        return port is None or not port.on_demand or outport in self.wanted
 
     def initialize(self) -> None:
         """Called once, just before the first process(); never for processors not evaluated."""

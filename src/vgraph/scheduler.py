@@ -67,6 +67,7 @@ def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None) 
         if processor.renders_at_size and processor.render_size != size:
             processor.render_size = size
             network.invalidate_downstream(pid)
+    _mark_wanted_outputs(network, targets, needed)
 
     report = EvaluationReport()
     network.last_evaluation = report
@@ -85,6 +86,27 @@ def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None) 
         report.total_seconds = time.perf_counter() - start
         collect_garbage()  # outputs replaced in this evaluation free their GL memory now
     return report
+
+
+def _mark_wanted_outputs(network: Network, targets: list[str], needed: set[str]) -> None:
+    """Tell each needed processor which of its on-demand outports are read this evaluation (by a
+    target or by a needed processor); one that computed fewer of them last time runs again."""
+    read: dict[str, set[str]] = {pid: set() for pid in needed}
+    for target in targets:
+        if "." in target:
+            processor_id, port = split_address(target)
+            read[processor_id].add(port)
+    for connection in network.connections:
+        if connection.source in needed and connection.target in needed:
+            read[connection.source].add(connection.outport)
+    for pid, ports in read.items():
+        processor = network.processors[pid]
+        wanted = frozenset(p.name for p in processor.outports if p.on_demand and p.name in ports)
+        if wanted <= processor.wanted and processor.invalid_level == Invalidation.VALID:
+            continue  # its outputs hold what is read (and perhaps more): nothing to redo
+        if not wanted <= processor.wanted:
+            processor.invalidate()  # its other outputs come out the same: readers need not rerun
+        processor.wanted = wanted
 
 
 def _run(network: Network, processor: Processor) -> EvaluationRecord:

@@ -59,4 +59,15 @@ class Text(Processor):
         return "hello"
 
 
-ALL = [Number, Sum, Fragile, Collect, Text]
+class Powers(Processor):
+    """Its input and, only when something reads it, the input squared (an on-demand outport)."""
+    category = "Test"
+    inports = [Inport("value", float)]
+    outports = [Outport("value", float), Outport("square", float, on_demand=True)]
+
+    def process(self, value):
+        self.squared = self.wants("square")
+        return {"value": value, "square": value * value if self.squared else None}
+
+
+ALL = [Number, Sum, Fragile, Collect, Text, Powers]
