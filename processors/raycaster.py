@@ -5,8 +5,10 @@ Conventions (docs/rendering.md explains each property with pictures):
   min(spacing) / sampling_rate world units from the entry point, trilinear reconstruction, the TF's
   4096-entry LUT with linear filtering, opacity correction 1 - (1 - a)^(1 / sampling_rate),
   front-to-back compositing with early termination, MIP classified once, Blinn-Phong shading with a
-  headlight and central differences. The GL image matches the reference within the tolerances in
-  docs/rendering.md.
+  headlight and central differences (``derivatives = precomputed``: the reference's
+  ``Shading(gradients="precomputed")``, voxel gradients computed once per volume and interpolated,
+  one fetch a shaded sample; vgraph.gl.raycasting.gradient_volume). The GL image matches the
+  reference within the tolerances in docs/rendering.md.
 - Built from the shared ray-casting components (vgraph.gl.raycasting.components); its own parts
   are the compositing mode, the interpolation and the derivatives for shading. The fragment shader
   is composed from shaders/raycasting/*.glsl with the defines of the components and of
@@ -19,7 +21,9 @@ Conventions (docs/rendering.md explains each property with pictures):
 - The camera must equal the EntryExitPoints camera (link them): it gives depth and view direction.
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
   than its memory budget, is drawn brick by brick by a BrickedRayCaster with this processor's
-  settings (docs/bricked_raycaster.md); dvr, mip and iso only. Its ``load_limit`` (the GUI's:
+  settings (docs/bricked_raycaster.md); dvr, mip and iso only, and ``precomputed`` derivatives
+  become ``central`` there (a gradient volume of a volume that large is what bricking avoids;
+  inside the box both give the same gradient up to 16-bit steps). Its ``load_limit`` (the GUI's:
   coarse first) goes to that BrickedRayCaster, whose ``last_frame`` is then this one's.
 """
 
@@ -31,7 +35,9 @@ from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, Em
                                              TransferFunctionLut, VolumeSampling)
 from vgraph.gl.raycasting.empty_space import crossed_by, occupied_blocks, radii_if_worthwhile, visible_under
 from vgraph.gl.raycasting.geometry import vec
+from vgraph.gl.raycasting.gradient_volume import gradient_texture
 from vgraph.gl.raycasting.targets import RenderTargets
+from vgraph.gl.raycasting.textures import linear_sampler
 from vgraph.image import Image
 from vgraph.volume import Volume
 
@@ -39,7 +45,7 @@ SHADER = "raycasting/raycaster.frag.glsl"
 COMPOSITING = ("dvr", "mip", "iso", "first_hit", "xray")
 SHADED_MODES = ("dvr", "iso")
 SKIPPING = {"dvr": "opacity", "first_hit": "opacity", "iso": "level", "mip": "maximum"}
-DERIVATIVES = ("none", "forward", "backward", "central", "sobel")
+DERIVATIVES = ("none", "forward", "backward", "central", "sobel", "precomputed")
 # Raw texture differences -> normalised intensity per world unit: divide by this many spacings.
 DERIVATIVE_SPACINGS = {"forward": 1.0, "backward": 1.0, "central": 2.0, "sobel": 32.0}
 
@@ -58,7 +64,9 @@ class RayCaster(RaycasterBase):
                                      "xray (average intensity)")
     interpolation = OptionProperty("trilinear", choices=["nearest", "trilinear"])
     derivatives = OptionProperty("central", choices=list(DERIVATIVES),
-                                 doc="finite differences of the shading normals")
+                                 doc="finite differences of the shading normals; precomputed: "
+                                     "central differences at the voxels, computed once per volume "
+                                     "(8 bytes a voxel), one fetch a shaded sample")
 
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
@@ -90,7 +98,8 @@ class RayCaster(RaycasterBase):
     def check(self) -> None:
         if self.shading != "none" and self.derivatives == "none":
             raise VGraphError(f"{self.id}.shading: {self.shading} needs derivatives; set "
-                              f"{self.id}.derivatives to central (or forward, backward, sobel) or "
+                              f"{self.id}.derivatives to central (or forward, backward, sobel, "
+                              f"precomputed) or "
                               f"{self.id}.shading to none")
 
     def visible_content(self) -> str | None:
@@ -110,7 +119,7 @@ class RayCaster(RaycasterBase):
             return self._brick_by_brick(volume, entry, exit)
         frame = self.frame(volume, entry, exit)
         image, depth = self._targets.ensure(frame.ctx, entry.size)
-        self.draw(frame, SHADER, self._targets, own=Binding(self.shader_defines(), uniforms=self._uniforms(frame)))
+        self.draw(frame, SHADER, self._targets, own=self._binding(frame))
         return {"image": image, "depth": depth}
 
     def _brick_by_brick(self, volume: Volume, entry: Image, exit: Image) -> dict:
@@ -126,21 +135,31 @@ class RayCaster(RaycasterBase):
         for name, value in self.property_values.items():
             if name in BrickedRayCaster.properties and name != "derivatives":
                 self._bricked.set_property(name, value)
-        if self.derivatives != "none":
-            self._bricked.set_property("derivatives", self.derivatives)
+        if self.derivatives != "none":  # the BrickedRayCaster has no gradient volume (docstring)
+            derivatives = "central" if self.derivatives == "precomputed" else self.derivatives
+            self._bricked.set_property("derivatives", derivatives)
         self._bricked.load_limit = self.load_limit
         outputs = self._bricked.process(volume, entry, exit)
         self._drew_bricks = True
         self.passes = self._bricked.passes
         return outputs
 
-    def _uniforms(self, frame) -> dict:
+    def _binding(self, frame) -> Binding:
+        """The defines, and for shading the gradients' uniforms (and the gradient volume, which
+        only a shaded frame with precomputed derivatives builds and binds)."""
+        binding = Binding(self.shader_defines())
         if not self.shaded():
-            return {}
+            return binding
+        if self.derivatives == "precomputed":
+            texture, scale = gradient_texture(frame.ctx, frame.volume)
+            return binding.merge(Binding(textures={"gradients": texture},
+                                         samplers={"gradients": linear_sampler(frame.ctx)},
+                                         uniforms={"gradient_scale": vec(scale)}))
         scale, _ = frame.volume.texture_scale_offset()
         spacings = DERIVATIVE_SPACINGS.get(self.derivatives, 1.0)
-        return {"voxel_step": vec(1.0 / frame.geometry.dims),
-                "gradient_scale": vec(float(scale) / (spacings * frame.geometry.spacing))}
+        return binding.merge(Binding(uniforms={
+            "voxel_step": vec(1.0 / frame.geometry.dims),
+            "gradient_scale": vec(float(scale) / (spacings * frame.geometry.spacing))}))
 
     def skip_values(self, frame):
         """What empty-space skipping needs for this mode (components.EmptySpace)."""

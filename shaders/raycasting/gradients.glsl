@@ -3,7 +3,16 @@
 // (f(p) - f(p - h)) / h, GRADIENT_CENTRAL (f(p + h) - f(p - h)) / 2h, GRADIENT_SOBEL the 3x3x3
 // Sobel operator (central difference along the axis, weights 1 2 1 across it, divided by 32 h).
 // `here` is raw_sample(t), which the caller already has. Compiled only with a GRADIENT_* define.
-#if defined(GRADIENT_FORWARD) || defined(GRADIENT_BACKWARD) || defined(GRADIENT_CENTRAL) || defined(GRADIENT_SOBEL)
+// GRADIENT_PRECOMPUTED: central differences computed once at the voxels (texel rgb * scale per axis,
+// vgraph.gl.raycasting.gradient_volume), interpolated by the texture unit: one fetch, `here` unused.
+#if defined(GRADIENT_PRECOMPUTED)
+uniform sampler3D gradients;  // RGBA16_SNORM: rgb = g / gradient_scale per component
+uniform vec3 gradient_scale;  // per-axis max |g| of the volume, normalised intensity per world unit
+
+vec3 gradient(vec3 t, float here) {
+    return textureLod(gradients, t, 0.0).rgb * gradient_scale;  // explicit LOD: inside loops
+}
+#elif defined(GRADIENT_FORWARD) || defined(GRADIENT_BACKWARD) || defined(GRADIENT_CENTRAL) || defined(GRADIENT_SOBEL)
 uniform vec3 voxel_step;      // one voxel in texture space: 1 / dims
 uniform vec3 gradient_scale;  // intensity_scale / (h, 2h or 32h): raw differences -> per world unit
 

@@ -28,7 +28,17 @@ Optical model (Inácio 2009 ch. 2.4 and 4.1-4.3), in this order:
 6. Optional shading (``shading=Shading(...)``, Inácio 2009 ch. 4.3, Blinn-Phong with a headlight):
    gradient by central differences of the reconstructed field one voxel away along each axis,
    ``g_k = (f(p + h_k e_k) - f(p - h_k e_k)) / (2 h_k)``, ``h = spacing`` (normalised intensity per
-   world unit). ``L = V = H = -direction``; two-sided: ``c = |dot(g / |g|, L)|``;
+   world unit). With ``Shading(gradients="precomputed")`` (the RayCaster's ``derivatives =
+   precomputed``) the gradient is instead computed once at the voxels,
+   ``G[i] = (F[i + e_k] - F[i - e_k]) / (2 h_k)`` on the normalised voxel values F padded by one
+   voxel of their edge values (= the clamp-to-edge of rule 4), and reconstructed trilinearly like
+   the intensities (rule 4's clamping and weights). With ``quantized=True`` (the default, as the GL
+   texture stores them) each component is first rounded to ``round(G_k / s_k * 32767) * s_k /
+   32767`` with ``s_k = max |G_k|`` over the volume (1 where that is 0): 16-bit signed normalised
+   steps. Trilinear interpolation commutes with whole-voxel shifts and edge padding equals
+   clamping, so unquantised this equals the on-the-fly central difference at every point of the
+   box (it differs only beyond the box, by the clamping); quantised it differs by at most
+   ``s_k / 65534`` per component. ``L = V = H = -direction``; two-sided: ``c = |dot(g / |g|, L)|``;
    ``rgb' = clamp(ambient * rgb + diffuse * c * rgb + specular * c ** shininess, 0, 1)``; where
    ``|g| * min(spacing) <= 1e-6`` the colour stays unshaded. Alpha is not changed. (Only samples
    with opacity > 0 are shaded; the others do not contribute anyway.)
@@ -60,16 +70,23 @@ MODES = ("dvr", "mip")
 SAMPLE_COUNT_SLACK = 1e-3  # fraction of a step; see rule 3 of the module docstring
 BOX_EPSILON = 1e-9  # relative growth of the box; see rule 2
 GRADIENT_EPSILON = 1e-6  # |g| * min(spacing) below this: no shading; see rule 6
+GRADIENT_MODES = ("central", "precomputed")
+SNORM16_MAX = 32767  # a 16-bit signed normalised texel q means q / 32767 (GL 4.2+ rule)
 
 
 @dataclass(frozen=True)
 class Shading:
-    """Blinn-Phong coefficients (headlight, white light and specular colour)."""
+    """Blinn-Phong coefficients (headlight, white light and specular colour) and where the
+    gradient comes from: ``central`` differences of the reconstructed field, or ``precomputed``
+    central differences at the voxels, interpolated (``quantized`` to 16-bit steps as the GL
+    texture holds them); rule 6."""
 
     ambient: float = 0.3
     diffuse: float = 0.7
     specular: float = 0.2
     shininess: float = 32.0
+    gradients: str = "central"
+    quantized: bool = True
 
 
 def volume_box(volume: Volume) -> tuple[np.ndarray, np.ndarray]:
@@ -88,6 +105,7 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
     ``return_samples=True`` also the int32 (H, W) number of samples each ray took."""
     width, height, background = _check_arguments(volume, size, mode, sampling_rate,
                                                  early_termination, background)
+    _check_shading(shading)
     camera = camera.resolved(*volume_box(volume), width / height)  # as the GL renderers do
     origins, directions = camera.rays(width, height)
     origins, directions = origins.reshape(-1, 3), directions.reshape(-1, 3)
@@ -140,6 +158,11 @@ class VolumeSampler:
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         """(M, 3) world points (x, y, z) -> (M,) normalised intensities."""
+        return self.interpolate(self.flat, points)
+
+    def interpolate(self, table: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Trilinear reconstruction (rule 4) of per-voxel values ``table`` ((N,) or (N, C) in
+        [z, y, x] order, x fastest) at (M, 3) world points."""
         u = np.clip((points - self.origin) / self.spacing, 0.0, self.dims - 1)
         base = np.minimum(np.floor(u).astype(np.int64), np.maximum(self.dims - 2, 0))
         frac = u - base
@@ -149,8 +172,11 @@ class VolumeSampler:
         x1, y1, z1 = nxt.T
         fx, fy, fz = frac.T
 
+        if table.ndim == 2:
+            fx, fy, fz = fx[:, None], fy[:, None], fz[:, None]
+
         def fetch(x, y, z):
-            return self.flat[(z * ny + y) * nx + x]
+            return table[(z * ny + y) * nx + x]
 
         c00 = _lerp(fetch(x0, y0, z0), fetch(x1, y0, z0), fx)
         c10 = _lerp(fetch(x0, y1, z0), fetch(x1, y1, z0), fx)
@@ -166,6 +192,49 @@ class VolumeSampler:
             offset[axis] = self.spacing[axis]
             grad[:, axis] = (self(points + offset) - self(points - offset)) / (2.0 * self.spacing[axis])
         return grad
+
+    def voxel_gradient(self, points: np.ndarray, quantized: bool = True) -> np.ndarray:
+        """(M, 3) precomputed voxel gradients interpolated trilinearly at world points (rule 6),
+        per world unit; the voxel table is built on first use."""
+        key = "_voxel_gradients_quantized" if quantized else "_voxel_gradients"
+        table = self.__dict__.get(key)
+        if table is None:
+            values = self.flat.reshape(self.dims[::-1])
+            table = central_differences(np.pad(values, 1, mode="edge"), self.spacing)
+            if quantized:
+                scale = gradient_scale(table)
+                table = dequantized(quantized_gradients(table, scale), scale)
+            table = self.__dict__[key] = table.reshape(-1, 3)
+        return self.interpolate(table, points)
+
+
+def central_differences(padded: np.ndarray, spacing) -> np.ndarray:
+    """(nz, ny, nx, 3) float64 central differences (x, y, z components, per world unit) of the
+    interior of ``padded``, an [z, y, x] array of normalised intensities with one voxel more on
+    every side (edge values at the volume's faces)."""
+    padded = np.asarray(padded, dtype=np.float64)
+    hx, hy, hz = (float(h) for h in spacing)
+    out = np.empty((*(n - 2 for n in padded.shape), 3))
+    out[..., 0] = (padded[1:-1, 1:-1, 2:] - padded[1:-1, 1:-1, :-2]) / (2.0 * hx)
+    out[..., 1] = (padded[1:-1, 2:, 1:-1] - padded[1:-1, :-2, 1:-1]) / (2.0 * hy)
+    out[..., 2] = (padded[2:, 1:-1, 1:-1] - padded[:-2, 1:-1, 1:-1]) / (2.0 * hz)
+    return out
+
+
+def gradient_scale(gradients: np.ndarray) -> np.ndarray:
+    """Per component the largest |g| (1 where all are 0): the factor of the 16-bit steps."""
+    largest = np.abs(gradients.reshape(-1, 3)).max(axis=0)
+    return np.where(largest > 0.0, largest, 1.0)
+
+
+def quantized_gradients(gradients: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """int16 texels round(g / scale * 32767): what the RGBA16_SNORM texture stores (rgb)."""
+    return np.rint(gradients / scale * SNORM16_MAX).astype(np.int16)
+
+
+def dequantized(texels: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """The gradients int16 texels stand for, in float64."""
+    return texels.astype(np.float64) * (scale / SNORM16_MAX)
 
 
 def lookup(lut: np.ndarray, intensity: np.ndarray) -> np.ndarray:
@@ -223,7 +292,10 @@ def _march_mip(sampler, lut, origins, directions, t_entry, counts, step, samplin
 def _shade(sampler, shading, points, directions, rgb, visible):
     """Blinn-Phong with a two-sided headlight for the visible samples (rule 6)."""
     shaded = rgb.copy()
-    grad = sampler.gradient(points[visible])
+    if shading.gradients == "precomputed":
+        grad = sampler.voxel_gradient(points[visible], shading.quantized)
+    else:
+        grad = sampler.gradient(points[visible])
     norm = np.linalg.norm(grad, axis=1)
     lit = norm * sampler.spacing.min() > GRADIENT_EPSILON
     cosine = np.abs(np.einsum("ij,ij->i", grad[lit], -directions[visible][lit])) / norm[lit]
@@ -233,6 +305,23 @@ def _shade(sampler, shading, points, directions, rgb, visible):
     rows = np.flatnonzero(visible)[lit]
     shaded[rows] = np.clip(light, 0.0, 1.0)
     return shaded
+
+
+def shade_points(volume: Volume, shading: Shading, points, directions, rgb) -> np.ndarray:
+    """(M, 3) colours ``rgb`` shaded at world ``points`` seen along ``directions`` (rule 6);
+    for surfaces found elsewhere (the GL iso hits)."""
+    _check_shading(shading)
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    rgb = np.asarray(rgb, dtype=np.float64).reshape(-1, 3)
+    return _shade(VolumeSampler(volume), shading, points,
+                  np.asarray(directions, dtype=np.float64).reshape(-1, 3), rgb,
+                  np.ones(len(points), dtype=bool))
+
+
+def _check_shading(shading: Shading | None) -> None:
+    if shading is not None and shading.gradients not in GRADIENT_MODES:
+        raise VGraphError(f"reference ray caster: shading gradients must be one of {GRADIENT_MODES}, "
+                          f"got {shading.gradients!r}")
 
 
 # --- geometry -----------------------------------------------------------------------------------

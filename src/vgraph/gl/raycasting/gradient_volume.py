@@ -1,0 +1,134 @@
+"""Precomputed gradients (RayCaster ``derivatives = precomputed``): one texture fetch per shaded
+sample instead of six.
+
+The gradient is computed once per volume at the voxels, central differences of the normalised
+intensities with the volume's edge values repeated beyond its faces (what the texture's
+clamp-to-edge gives the on-the-fly central mode), in normalised intensity per world unit; the
+texture is sampled trilinearly. Rule 6 of vgraph.numerics.reference_raycast states the model and
+why, inside the box, it equals the on-the-fly central difference up to the 16-bit steps.
+
+Storage: an RGBA16_SNORM 3D texture, rgb = round(g_k / s_k * 32767) with s_k = max |g_k| over the
+volume per axis (``scale``, a uniform), a = 0: 8 bytes a voxel. moderngl 5.13's ``ni2`` dtype makes
+an unsigned RGBA16 texture (negative texels read as 0, measured on Mesa), and ``texture3d`` takes no
+internal format, so the texture is made by moderngl and its storage respecified as RGBA16_SNORM
+with one glTexImage3D call through PyOpenGL; moderngl writes it with GL_SHORT texels, which GL
+stores unchanged.
+
+The numpy part works slab by slab (``SLAB_VOXELS``), twice (the scale, then the texels), so a
+512^3 volume needs neither a float64 copy nor a host copy of the texture; the texture is cached per
+volume and context and released with the volume.
+"""
+
+from __future__ import annotations
+
+import sys
+import weakref
+
+import moderngl
+import numpy as np
+
+from vgraph.errors import VGraphError
+from vgraph.gl.context import release_quietly
+from vgraph.numerics.reference_raycast import central_differences, gradient_scale, quantized_gradients
+from vgraph.volume import Volume
+
+SLAB_VOXELS = 2**22  # voxels per numpy slab: ~100 MB of float64 temporaries
+PROGRESS_VOXELS = 32 * 2**20  # show a progress bar (stderr) above this many voxels
+GL_TEXTURE_3D = 0x806F
+GL_RGBA16_SNORM = 0x8F9B
+
+# volume -> {"scale": per-axis factor, id(ctx): texture}; entries go with their volume.
+_cache: "weakref.WeakKeyDictionary[Volume, dict]" = weakref.WeakKeyDictionary()
+
+
+def gradient_texture(ctx: moderngl.Context, volume: Volume) -> tuple[moderngl.Texture3D, np.ndarray]:
+    """The volume's gradient texture on ``ctx`` and its per-axis scale (float64 (3,), x y z):
+    gradient = texel.rgb * scale. Built on first use, then cached (module docstring)."""
+    entry = _cache.get(volume)
+    if entry is None:
+        entry = _cache[volume] = {}
+        textures: dict = {}
+        entry["textures"] = textures
+        weakref.finalize(volume, release_quietly, textures)
+    textures = entry["textures"]
+    texture = textures.get(id(ctx))
+    if texture is None or texture.ctx is not ctx:
+        if "scale" not in entry:
+            entry["scale"] = _scale(volume)
+        textures[id(ctx)] = texture = _upload(ctx, volume, entry["scale"])
+    return texture, entry["scale"]
+
+
+def is_cached(volume: Volume) -> bool:
+    """Whether a gradient texture was built for ``volume`` (on any context)."""
+    entry = _cache.get(volume)
+    return bool(entry and entry["textures"])
+
+
+def slab_gradients(volume: Volume, z0: int, z1: int) -> np.ndarray:
+    """float64 (z1 - z0, ny, nx, 3) voxel gradients of slices [z0, z1), identical to those of the
+    whole volume (the slab reads one slice more on each side where there is one)."""
+    nz = volume.data.shape[0]
+    below, above = max(z0 - 1, 0), min(z1 + 1, nz)
+    values = volume.data[below:above]
+    if volume.nonfinite_count:  # as the volume texture stores them (vgraph.volume)
+        lo, hi = volume.value_range
+        values = np.nan_to_num(values.astype(np.float64), nan=lo, posinf=hi, neginf=lo)
+    values = volume.normalized(values)
+    pad_z = (1 if below == z0 else 0, 1 if above == z1 else 0)  # edge values only at the faces
+    return central_differences(np.pad(values, (pad_z, (1, 1), (1, 1)), mode="edge"), volume.spacing)
+
+
+def _slabs(volume: Volume, what: str):
+    nz, ny, nx = volume.data.shape
+    thickness = max(1, SLAB_VOXELS // (nx * ny))
+    starts = range(0, nz, thickness)
+    if volume.data.size > PROGRESS_VOXELS:
+        from tqdm import tqdm
+        starts = tqdm(starts, desc=f"gradients ({what})", unit="slab", file=sys.stderr, leave=False)
+    for z0 in starts:
+        yield z0, min(z0 + thickness, nz)
+
+
+def _scale(volume: Volume) -> np.ndarray:
+    largest = np.zeros(3)
+    for z0, z1 in _slabs(volume, "range"):
+        largest = np.maximum(largest, np.abs(slab_gradients(volume, z0, z1)).reshape(-1, 3).max(axis=0))
+    return gradient_scale(largest[None, :])
+
+
+def _upload(ctx: moderngl.Context, volume: Volume, scale: np.ndarray) -> moderngl.Texture3D:
+    nx, ny, nz = volume.dims
+    limit = ctx.info["GL_MAX_3D_TEXTURE_SIZE"]
+    if max(volume.dims) > limit:
+        raise VGraphError(f"gradient volume: {nx} x {ny} x {nz} voxels exceed this GL's 3D texture "
+                          f"limit of {limit} per axis")
+    texture = ctx.texture3d((nx, ny, nz), 4, None, dtype="ni2", alignment=1)
+    _respecify_snorm(texture, (nx, ny, nz))
+    texture.repeat_x = texture.repeat_y = texture.repeat_z = False
+    texels = None
+    for z0, z1 in _slabs(volume, "texture"):
+        rgb = quantized_gradients(slab_gradients(volume, z0, z1), scale)
+        if texels is None or texels.shape[0] != z1 - z0:
+            texels = np.zeros((z1 - z0, ny, nx, 4), dtype=np.int16)
+        texels[..., :3] = rgb
+        texture.write(texels, viewport=(0, 0, z0, nx, ny, z1 - z0), alignment=1)
+    return texture
+
+
+def _respecify_snorm(texture: moderngl.Texture3D, size: tuple[int, int, int]) -> None:
+    from OpenGL import GL
+    error = None
+    GL.glBindTexture(GL_TEXTURE_3D, texture.glo)
+    try:
+        GL.glTexImage3D(GL_TEXTURE_3D, 0, GL_RGBA16_SNORM, *size, 0, GL.GL_RGBA, GL.GL_SHORT, None)
+    except Exception as exc:  # PyOpenGL raises GLError (out of memory, no such format)
+        error = exc
+    finally:
+        GL.glBindTexture(GL_TEXTURE_3D, 0)
+    if error is None and texture.ctx.error != "GL_NO_ERROR":
+        error = "GL error"
+    if error is not None:
+        texture.release()
+        raise VGraphError(f"gradient volume: this GL refused an RGBA16_SNORM 3D texture of "
+                          f"{' x '.join(map(str, size))} texels ({error}); use derivatives = central")

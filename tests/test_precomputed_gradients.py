@@ -1,0 +1,206 @@
+"""RayCaster derivatives = precomputed: the gradient volume (central differences at the voxels,
+RGBA16_SNORM, one fetch a shaded sample) against numpy and the CPU reference's
+Shading(gradients="precomputed"), its cache, and that nothing builds it unless a frame is shaded
+with it."""
+
+import gc
+import weakref
+
+import moderngl
+import numpy as np
+import pytest
+
+from vgraph.camera import Camera
+from vgraph.gl.context import get_context
+from vgraph.gl.raycasting import gradient_volume
+from vgraph.gl.raycasting.gradient_volume import gradient_texture, is_cached
+from vgraph.implicit import sample
+from vgraph.numerics.reference_raycast import (SNORM16_MAX, Shading, VolumeSampler, lookup, render,
+                                               shade_points, volume_box)
+from vgraph.transfer_function import TransferFunction
+from vgraph.volume import Volume
+
+from helpers.networks import rendering_network
+
+# Max |GL - reference| per channel with the quantised reference, measured on llvmpipe: 2.1e-6
+# (dvr, uint8 torus), 1.1e-6 (iso hits); the tolerance is a few times that.
+PRECOMPUTED_TOLERANCE = 1e-5
+COLOURED = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.45, 0.2, 0.4, 0.9, 0.0),
+                                    (0.55, 1.0, 0.7, 0.2, 0.5), (1.0, 1, 1, 1, 0.8)])
+SIZE = (56, 44)
+BACKGROUND = (0.1, 0.2, 0.3, 1.0)
+
+
+def oblique_camera(volume):
+    return Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
+
+
+def anisotropic_torus_with_nan():
+    volume = sample("torus", 20, "float32")
+    data = volume.data.copy()
+    data[3, 4, 5] = np.nan  # uploaded (and differentiated) as the range's low end
+    return Volume(data, spacing=(0.1, 0.1, 0.05), origin=(-1.0, -1.0, -0.5),
+                  declared_range=volume.value_range)
+
+
+VOLUMES = {"torus float32": lambda: sample("torus", 32, "float32"),
+           "torus uint8": lambda: sample("torus", 24, "uint8"),
+           "sphere uint8": lambda: sample("sphere", 24, "uint8"),
+           "anisotropic with NaN": anisotropic_torus_with_nan}
+
+
+def numpy_gradients(volume):
+    """(nz, ny, nx, 3) central differences with edge values beyond the faces, by np.gradient."""
+    lo, hi = volume.value_range
+    values = volume.normalized(np.nan_to_num(volume.data.astype(np.float64), nan=lo, posinf=hi, neginf=lo))
+    hx, hy, hz = volume.spacing
+    gz, gy, gx = np.gradient(np.pad(values, 1, mode="edge"), hz, hy, hx)
+    inner = (slice(1, -1),) * 3
+    return np.stack([gx[inner], gy[inner], gz[inner]], axis=-1)
+
+
+def texels(texture, volume):
+    nx, ny, nz = volume.dims
+    return np.frombuffer(texture.read(alignment=1), dtype=np.int16).reshape(nz, ny, nx, 4)
+
+
+# --- the texture ------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", list(VOLUMES))
+def test_texture_holds_the_central_differences_in_16_bit_steps(name, monkeypatch):
+    volume = VOLUMES[name]()
+    monkeypatch.setattr(gradient_volume, "SLAB_VOXELS", 1500)  # several slabs, uneven last one
+    texture, scale = gradient_texture(get_context(), volume)
+    stored = texels(texture, volume)
+    expected = numpy_gradients(volume)
+    np.testing.assert_array_equal(scale, np.abs(expected).reshape(-1, 3).max(axis=0))
+    assert np.all(stored[..., 3] == 0) and np.abs(stored[..., :3]).max() == SNORM16_MAX
+    # Rounded to the nearest step of scale / 32767 (up to float64 rounding of the quotient).
+    error = np.abs(stored[..., :3] * (scale / SNORM16_MAX) - expected)
+    assert np.all(error <= scale / (2 * SNORM16_MAX) * (1 + 1e-9))
+    assert texture.dtype == "ni2" and texture.components == 4  # 8 bytes a voxel
+
+
+def test_texture_is_signed_normalised_in_the_shader():
+    """The GL reads texel q as q / 32767, negatives included (moderngl's own ni2 clamps them to 0)."""
+    ctx = get_context()
+    volume = Volume(np.array([[[0.0, 1.0, 0.25, 0.0]]], dtype=np.float32))  # along x only
+    texture, scale = gradient_texture(ctx, volume)
+    points = np.array([[x, 0.0, 0.0] for x in (0.0, 1.0, 2.0, 3.0)])
+    np.testing.assert_array_equal(VolumeSampler(volume).voxel_gradient(points, quantized=False)[:, 0],
+                                  [0.5, 0.125, -0.5, -0.125])
+    assert scale[0] == 0.5 and texels(texture, volume)[0, 0, :, 0].tolist() == [32767, 8192, -32767, -8192]
+    program = ctx.program(
+        vertex_shader="#version 330\nin vec2 p; void main() { gl_Position = vec4(p, 0.0, 1.0); }",
+        fragment_shader="#version 330\nuniform sampler3D g; out vec4 c;\n"
+                        "void main() { c = texelFetch(g, ivec3(int(gl_FragCoord.x), 0, 0), 0); }")
+    target = ctx.simple_framebuffer((4, 1), components=4, dtype="f4")
+    triangle = ctx.buffer(np.array([-1, -1, 3, -1, -1, 3], dtype="f4").tobytes())
+    target.use()
+    texture.use(0)
+    program["g"] = 0
+    ctx.vertex_array(program, [(triangle, "2f", "p")]).render(moderngl.TRIANGLES)
+    red = np.frombuffer(target.read(components=4, dtype="f4"), dtype=np.float32).reshape(4, 4)[:, 0]
+    np.testing.assert_allclose(red, np.array([32767, 8192, -32767, -8192]) / 32767, atol=1e-7)
+
+
+def test_texture_is_cached_per_volume_and_released_with_it():
+    ctx = get_context()
+    volume = sample("sphere", 16, "float32")
+    texture, _ = gradient_texture(ctx, volume)
+    assert gradient_texture(ctx, volume)[0] is texture and is_cached(volume)
+    alive = weakref.ref(volume)
+    del volume
+    gc.collect()
+    assert alive() is None and isinstance(texture.mglo, moderngl.InvalidObject)
+
+
+def test_large_volumes_show_progress_on_stderr(monkeypatch, capsys):
+    monkeypatch.setattr(gradient_volume, "PROGRESS_VOXELS", 1000)
+    gradient_texture(get_context(), sample("sphere", 16, "float32"))
+    captured = capsys.readouterr()
+    assert "gradients" in captured.err and captured.out == ""
+
+
+# --- the reference ----------------------------------------------------------------------------
+def test_unquantised_voxel_gradients_equal_the_on_the_fly_central_differences():
+    """Trilinear interpolation commutes with whole-voxel shifts and edge padding is clamping:
+    inside the box the two models are one (reference rule 6)."""
+    volume = anisotropic_torus_with_nan()
+    sampler = VolumeSampler(volume)
+    lo, hi = volume_box(volume)
+    points = lo + np.random.default_rng(4).random((4000, 3)) * (hi - lo)
+    central = sampler.gradient(points)
+    np.testing.assert_allclose(sampler.voxel_gradient(points, quantized=False), central, atol=1e-12)
+    steps = np.abs(sampler.voxel_gradient(points) - central).max(axis=0)
+    assert np.all(steps > 0) and np.all(steps <= np.abs(numpy_gradients(volume)).reshape(-1, 3).max(0) / 65534)
+
+
+def test_reference_refuses_an_unknown_gradient_mode():
+    from vgraph.errors import VGraphError
+    volume = sample("sphere", 16, "float32")
+    with pytest.raises(VGraphError, match="gradients must be one of"):
+        render(volume, oblique_camera(volume), COLOURED, (4, 4), shading=Shading(gradients="sobel"))
+
+
+# --- images against the reference --------------------------------------------------------------
+@pytest.mark.parametrize("name", list(VOLUMES))
+def test_shaded_dvr_matches_the_reference(name):
+    volume = VOLUMES[name]()
+    camera = oblique_camera(volume)
+    network = rendering_network(volume, camera, transfer_function=COLOURED, shading="blinn_phong",
+                                derivatives="precomputed", background=BACKGROUND)
+    gl = network.evaluate("rc.image", size=SIZE)
+    reference = render(volume, camera, COLOURED, SIZE, shading=Shading(gradients="precomputed"),
+                       background=BACKGROUND)
+    assert np.abs(reference - reference[0, 0]).max() > 0.3  # the object is in the picture
+    np.testing.assert_allclose(gl, reference, atol=PRECOMPUTED_TOLERANCE)
+    assert network["rc"].passes[-1][1]["GRADIENT_PRECOMPUTED"]
+
+
+@pytest.mark.parametrize("name", ["torus float32", "sphere uint8"])
+def test_shaded_iso_surface_matches_the_reference_at_its_hits(name):
+    """The reference has no iso mode: it shades the GL's hit points (from the depth output) with
+    TF(level).rgb, so this checks the shading of the surface, not the search for it."""
+    volume = VOLUMES[name]()
+    network = rendering_network(volume, oblique_camera(volume), compositing="iso", iso_level=0.5,
+                                transfer_function=COLOURED, shading="blinn_phong",
+                                derivatives="precomputed")
+    image = network.evaluate("rc.image", size=SIZE)
+    depth = network.evaluate("rc.depth", size=SIZE)
+    origins, directions = network["rc"].view_camera.rays(*SIZE)
+    hit = depth[..., 3] > 0
+    assert hit.sum() > 100
+    points = origins[hit] + depth[..., 1][hit][:, None].astype(np.float64) * directions[hit]
+    colour = lookup(COLOURED.for_volume(volume).lut().astype(np.float64), np.array([0.5]))[0, :3]
+    expected = shade_points(volume, Shading(gradients="precomputed"), points, directions[hit],
+                            np.broadcast_to(colour, (len(points), 3)))
+    assert np.ptp(expected[:, 0]) > 0.3  # lit and unlit parts of the surface
+    np.testing.assert_allclose(image[hit][:, :3], expected, atol=PRECOMPUTED_TOLERANCE)
+
+
+# --- built only when used -----------------------------------------------------------------------
+@pytest.mark.parametrize("changes", [dict(shading="none"), dict(compositing="mip"),
+                                     dict(compositing="first_hit"), dict(derivatives="central")])
+def test_no_gradient_volume_unless_a_shaded_frame_uses_it(changes):
+    volume = sample("torus", 16, "float32")
+    settings = dict(shading="blinn_phong", derivatives="precomputed", transfer_function=COLOURED)
+    network = rendering_network(volume, oblique_camera(volume), **{**settings, **changes})
+    network.evaluate("rc.image", size=(16, 12))
+    assert not is_cached(volume)
+    assert "GRADIENT_PRECOMPUTED" not in network["rc"].passes[-1][1]
+    network.set("rc.compositing", "dvr")
+    network.set("rc.shading", "blinn_phong")
+    network.set("rc.derivatives", "precomputed")
+    network.evaluate("rc.image", size=(16, 12))
+    assert is_cached(volume)
+
+
+def test_bricked_frames_use_central_differences():
+    from vgraph.processors.raycaster import RayCaster
+    volume = sample("torus", 16, "float32")
+    from vgraph.processors.bricked_raycaster import BrickedRayCaster
+    caster = RayCaster("rc", compositing="iso", shading="blinn_phong", derivatives="precomputed")
+    bricked = BrickedRayCaster("rc")
+    caster._bricked = bricked
+    bricked.process = lambda volume, entry, exit: {"seen": bricked.derivatives}
+    assert caster._brick_by_brick(volume, None, None) == {"seen": "central"}
