@@ -33,7 +33,7 @@ Optical model (Inácio 2009 ch. 2.4 and 4.1-4.3), in this order:
    ``G[i] = (F[i + e_k] - F[i - e_k]) / (2 h_k)`` on the normalised voxel values F padded by one
    voxel of their edge values (= the clamp-to-edge of rule 4), and reconstructed trilinearly like
    the intensities (rule 4's clamping and weights). With ``quantized=True`` (the default, as the GL
-   texture stores them) each component is first rounded to ``round(G_k / s_k * 32767) * s_k /
+   texture stores them) each component is first rounded to ``round(G_k * (32767 / s_k)) * s_k /
    32767`` with ``s_k = max |G_k|`` over the volume (1 where that is 0): 16-bit signed normalised
    steps. Trilinear interpolation commutes with whole-voxel shifts and edge padding equals
    clamping, so unquantised this equals the on-the-fly central difference at every point of the
@@ -228,8 +228,9 @@ def gradient_scale(gradients: np.ndarray) -> np.ndarray:
 
 
 def quantized_gradients(gradients: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """int16 texels round(g / scale * 32767): what the RGBA16_SNORM texture stores (rgb)."""
-    return np.rint(gradients / scale * SNORM16_MAX).astype(np.int16)
+    """int16 texels round(g * (32767 / scale)): what the RGBA16_SNORM texture stores (rgb)."""
+    steps = gradients * (SNORM16_MAX / scale)
+    return np.rint(steps, out=steps).astype(np.int16)
 
 
 def dequantized(texels: np.ndarray, scale: np.ndarray) -> np.ndarray:

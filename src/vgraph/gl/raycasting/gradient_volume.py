@@ -7,7 +7,7 @@ clamp-to-edge gives the on-the-fly central mode), in normalised intensity per wo
 texture is sampled trilinearly. Rule 6 of vgraph.numerics.reference_raycast states the model and
 why, inside the box, it equals the on-the-fly central difference up to the 16-bit steps.
 
-Storage: an RGBA16_SNORM 3D texture, rgb = round(g_k / s_k * 32767) with s_k = max |g_k| over the
+Storage: an RGBA16_SNORM 3D texture, rgb = round(g_k * 32767 / s_k) with s_k = max |g_k| over the
 volume per axis (``scale``, a uniform), a = 0: 8 bytes a voxel. moderngl 5.13's ``ni2`` dtype makes
 an unsigned RGBA16 texture (negative texels read as 0, measured on Mesa), and ``texture3d`` takes no
 internal format, so the texture is made by moderngl and its storage respecified as RGBA16_SNORM
@@ -93,7 +93,10 @@ def _slabs(volume: Volume, what: str):
 def _scale(volume: Volume) -> np.ndarray:
     largest = np.zeros(3)
     for z0, z1 in _slabs(volume, "range"):
-        largest = np.maximum(largest, np.abs(slab_gradients(volume, z0, z1)).reshape(-1, 3).max(axis=0))
+        gradients = slab_gradients(volume, z0, z1)
+        for k in range(3):  # max and -min: no |g| copy of the slab
+            component = gradients[..., k]
+            largest[k] = max(largest[k], component.max(), -component.min())
     return gradient_scale(largest[None, :])
 
 
