@@ -16,6 +16,11 @@ Conventions (docs/volumes.md says the same for users):
   cannot carry them: values beyond +-1e30 (float64 data up to 1.8e308, float32 near its limit) or
   a range narrower than 1e-30 (subnormal data). Those volumes are uploaded as normalised
   intensities computed in float64, and ``texture_scale_offset()`` says so with (1, 0).
+- ``at_precision("16bit")`` is the volume as 16-bit codes over its value range, q = round(65535 *
+  normalised intensity), sampled from an R16 texture (llvmpipe's fastest format): normalised
+  intensities within 0.5 / 65535 (7.6e-6) of the stored values', values outside the value range
+  clamped to its ends. It is made once per volume and has its own textures, so a volume drawn at
+  both precisions keeps both. 8- and 16-bit volumes are their own 16-bit copy.
 - A volume wider than the GL's 3D texture limit on any axis is refused when it is uploaded, naming
   the limit; the RayCaster does not upload such volumes but draws them brick by brick.
 - A volume of cubic B-spline coefficients (``is_spline_coefficients``) holds no samples; consumers
@@ -49,6 +54,8 @@ _SLAB_VOXELS = 2**22  # normalising in float64 slab by slab bounds the temporary
 # Bins of the histogram behind percentiles(): accurate to (max - min) / 65536, exact for integer
 # data spanning fewer values (one bin per integer), and 512 KiB of counts whatever the volume.
 PERCENTILE_BINS = 65536
+PRECISIONS = ("full", "16bit")  # of at_precision(): the stored values, or 16-bit codes
+SIXTEEN_BIT_CODES = 65535.0  # the largest code of a 16-bit copy: normalised intensity = q / 65535
 
 
 @dataclass(eq=False)
@@ -204,6 +211,17 @@ class Volume:
         return self
 
     # --- GPU ------------------------------------------------------------------------------------
+    def at_precision(self, precision: str) -> "Volume":
+        """The volume to sample at ``precision`` (PRECISIONS): itself for "full"; for "16bit" its
+        16-bit copy (module docstring), made once and kept with the volume."""
+        if precision not in PRECISIONS:
+            raise VGraphError(f"volume precision must be one of {', '.join(PRECISIONS)}, got {precision!r}")
+        if precision == "full" or self.data.dtype in _TEXTURE_FORMATS:
+            return self  # stored as R16 already: the copy would be the same texture
+        if "_sixteen_bit" not in self.__dict__:
+            self.__dict__["_sixteen_bit"] = SixteenBitCopy.of(self)
+        return self.__dict__["_sixteen_bit"]
+
     def texture(self, ctx):
         """The volume as a 3D texture on ``ctx`` (R16 normalised for 8 and 16 bit, otherwise R32F), uploaded
         once per context and released with the volume. Non-finite voxels are uploaded clamped to
@@ -270,6 +288,47 @@ class Volume:
                       time_steps=self.time_steps)
         fields.update(changes)
         return Volume(data, **fields)
+
+
+@dataclass(eq=False)
+class SixteenBitCopy(Volume):
+    """A volume as 16-bit codes q over the original's value range (Volume.at_precision): ``data``
+    holds q (uint16), ``value_range`` stays the original's (so transfer functions in data values
+    keep their places), normalised intensity = q / 65535, the texture R16 normalised, which the
+    GL samples as q / 65535 directly. Percentiles are the codes' mapped into data values. Every
+    consumer of normalised intensities (block ranges for skipping, the CPU reference, histograms)
+    sees the quantised values the shaders sample."""
+
+    @classmethod
+    def of(cls, volume: Volume) -> "SixteenBitCopy":
+        lo, hi = volume.value_range
+        flat = volume.data.reshape(-1)
+        codes = np.empty(flat.size, dtype=np.uint16)
+        for start in range(0, flat.size, _SLAB_VOXELS):  # float64 slab by slab, as _normalized_float32
+            unit = _to_unit(flat[start:start + _SLAB_VOXELS].astype(np.float64), lo, hi)
+            unit = np.clip(np.nan_to_num(unit, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+            codes[start:start + _SLAB_VOXELS] = np.rint(unit * SIXTEEN_BIT_CODES)
+        return cls(codes.reshape(volume.data.shape), spacing=volume.spacing, origin=volume.origin,
+                   declared_range=(lo, hi), is_spline_coefficients=volume.is_spline_coefficients,
+                   source=volume.source, time_steps=volume.time_steps)
+
+    def normalized(self, values) -> np.ndarray:
+        return np.asarray(values, dtype=np.float64) / SIXTEEN_BIT_CODES
+
+    def texture_scale_offset(self) -> tuple[float, float]:
+        return 1.0, 0.0  # R16 normalised: the GL returns q / 65535
+
+    def percentiles(self, percents) -> np.ndarray:
+        lo, hi = self.value_range
+        return _from_unit(super().percentiles(percents) / SIXTEEN_BIT_CODES, lo, hi)
+
+    def at_precision(self, precision: str) -> "Volume":
+        if precision not in PRECISIONS:
+            raise VGraphError(f"volume precision must be one of {', '.join(PRECISIONS)}, got {precision!r}")
+        return self  # its full precision is its 16 bits
+
+    def with_data(self, data: np.ndarray, **changes) -> "Volume":
+        raise VGraphError("a 16-bit copy holds codes, not data values: take with_data() of the original volume")
 
 
 @dataclass(frozen=True)

@@ -45,7 +45,7 @@ from vgraph.processor import Processor
 from vgraph.properties import (BoolProperty, CameraProperty, ColorProperty, FloatProperty, OptionProperty,
                                Property, TransferFunctionProperty, VectorProperty)
 from vgraph.transfer_function import TransferFunction
-from vgraph.volume import Volume
+from vgraph.volume import PRECISIONS, Volume
 
 
 @dataclass
@@ -125,6 +125,8 @@ class RaycasterBase(Processor):
                               f"{exit.size[0]}x{exit.size[1]}; connect both to one EntryExitPoints")
         self.view_camera = view_camera(self.camera, volume, entry.size)
         self.passes = []
+        if VolumeSampling in self.parts:  # the volume at the precision it is sampled at, for every part
+            volume = volume.at_precision(self.volume_precision)
         return Frame(self.gl, volume, entry, exit, self.view_camera, VolumeGeometry.of(volume))
 
     def draw(self, frame: Frame, shader: str, target, parts=None, own: Binding | None = None) -> None:
@@ -173,9 +175,20 @@ class CameraRays(Component):
 
 
 class VolumeSampling(Component):
-    """The volume texture, sampled trilinearly through a sampler object whatever its own filter."""
+    """The volume texture, sampled trilinearly through a sampler object whatever its own filter.
+    ``volume_precision`` "16bit" samples float (and 32-bit integer) volumes from their 16-bit copy
+    (Volume.at_precision: R16, llvmpipe's fastest format; normalised intensities within 7.6e-6).
+    The frame's volume is that copy (RaycasterBase.frame), so block ranges for skipping, gradient
+    scales and the transfer function all see the values the shader samples."""
 
     glsl = ("raycasting/volume_sampling.glsl",)
+
+    @staticmethod
+    def declare():
+        return {"volume_precision": OptionProperty(
+            "full", choices=list(PRECISIONS),
+            doc="full: the stored values; 16bit: float volumes as 16-bit codes over the value range "
+                "(faster texture, error <= range / 131070)")}
 
     def bind(self, frame: Frame) -> Binding:
         volume = frame.volume
