@@ -4,7 +4,8 @@ transfer function and step, for composite, composite + shading and MIP, plus com
 dense fog TF (no empty space: shows the cost per sample when nothing can be skipped).
 
     .venv/bin/python bench/bench_vtk.py [--volume torus|bonsai] [--resolution 256] [--size 512]
-        [--repeat 7] [--vtk-window egl|default] [--out bench/results] [--figure PNG]
+        [--repeat 7] [--vtk-window egl|default] [--derivatives precomputed|central]
+        [--out bench/results] [--figure PNG]
 
 Conventions (what "the same" means here):
 - Volume: the 256^3 float32 signed-distance torus of vgraph.implicit (surface at normalised 0.5)
@@ -20,7 +21,11 @@ Conventions (what "the same" means here):
   per-sample opacity is the same.
 - Shading: ambient 0.3, diffuse 0.7, specular 0.2, headlight, two-sided, white. VTK uses Phong
   (R.V)^p where we use Blinn-Phong (N.H)^32; with a headlight R.V = 2 (N.L)^2 - 1, whose lobe
-  matches (N.H)^32 near the peak for p = 8, so VTK gets specular power 8.
+  matches (N.H)^32 near the peak for p = 8, so VTK gets specular power 8. Our normals come from
+  --derivatives: precomputed (default; a gradient volume built once per volume, like the CPU
+  mapper's normals, one fetch a sample) or central (six fetches a sample, nothing precomputed);
+  the two differ only by 16-bit steps of the gradient (docs/rendering.md). The gradient volume is
+  built in the untimed first frame of a mode, as VTK's CPU mapper builds its normals there.
 - A frame is: set the camera, render, wait for completion, no read-back (ours: EntryExitPoints
   and RayCaster passes, then glFinish; VTK: Render() and WaitForCompletion()). VTK runs in a
   spawned worker process (see vtk_worker) that times its own frames. Rounds interleave the three
@@ -97,15 +102,17 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
 
 # --- ours ---------------------------------------------------------------------------------------
 class OurRenderer:
-    def __init__(self, volume: Volume, camera: Camera, size: int):
+    def __init__(self, volume: Volume, camera: Camera, size: int, derivatives: str = "precomputed"):
         self.net = network(volume, camera)
         self.size = (size, size)
         self.ctx = get_context()
+        self.derivatives = derivatives
 
     def configure(self, scene: dict) -> None:
         self.net.set("rc.compositing", scene["compositing"])
         self.net.set("rc.transfer_function", scene["tf"])
         self.net.set("rc.shading", "blinn_phong" if scene["shading"] else "none")
+        self.net.set("rc.derivatives", self.derivatives)
         for key, value in SHADING.items():
             self.net.set(f"rc.{key}", value)
 
@@ -317,7 +324,8 @@ def markdown(rows: list[dict], args, window: str) -> str:
     lines = [f"torus SDF {args.resolution}^3 float32" if args.volume == "torus"
              else "ct_bonsai 256^3 uint8",
              f"{args.size}^2 image, step = min(spacing), best of {args.repeat} frames (camera "
-             f"orbited {args.azimuth} degrees per frame), VTK window {window}", "",
+             f"orbited {args.azimuth} degrees per frame), VTK window {window}, our derivatives "
+             f"{args.derivatives}", "",
              "| mode | ours s | VTK GPU s | VTK CPU s | VTK GPU / ours | VTK CPU / ours "
              "| PSNR ours-GPU dB | PSNR ours-CPU dB | PSNR GPU-CPU dB |",
              "|---|---|---|---|---|---|---|---|---|"]
@@ -373,6 +381,8 @@ def main() -> None:
     parser.add_argument("--azimuth", type=float, default=3.0, help="degrees per frame")
     parser.add_argument("--vtk-window", choices=["egl", "default"], default="egl",
                         help="egl: VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow")
+    parser.add_argument("--derivatives", choices=["precomputed", "central"], default="precomputed",
+                        help="our shading normals (rc.derivatives); precomputed measured faster")
     parser.add_argument("--figure-mode", default="composite + shading")
     parser.add_argument("--out", type=Path, default=ROOT / "bench" / "results")
     parser.add_argument("--figure", type=Path, default=None,
@@ -384,7 +394,7 @@ def main() -> None:
     process, connection, version, window = start_vtk_worker(args)
     print(f"VTK {version}, window {window}")
     try:
-        renderers = {"ours": OurRenderer(volume, cameras[0], args.size),
+        renderers = {"ours": OurRenderer(volume, cameras[0], args.size, args.derivatives),
                      "VTK GPU": VtkProxy(connection, "VTK GPU"),
                      "VTK CPU": VtkProxy(connection, "VTK CPU")}
         rows, pictures = run(args, cameras, renderers, modes)
