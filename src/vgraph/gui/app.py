@@ -158,6 +158,7 @@ class MainWindow(FileActions, QMainWindow):
         self.palette.processor_chosen.connect(self.add_processor)
         self.scene.status_message.connect(self.show_message)
         self.inspector.status_message.connect(self.show_message)
+        self.inspector.interacting.connect(self.evaluation.interactive)
         self.scene.selectionChanged.connect(self._selection_changed)
         workspace.undo_stack.cleanChanged.connect(self._update_title)
         workspace.path_changed.connect(self._update_title)

@@ -3,7 +3,9 @@
 Conventions:
 - An editor shows a value (``show_value``, which never emits) and emits ``edited(value, merge)``
   when the user changes it; ``merge`` is None, or while a slider is dragged a key naming that one
-  drag, so a drag becomes one undo step (and the next drag another). Editors do not validate: the inspector sends the value through the workspace,
+  drag, so a drag becomes one undo step (and the next drag another). ``interacting(True)`` when
+  such a drag starts and ``interacting(False)`` when it ends, so the window renders coarse frames
+  meanwhile and refines on release. Editors do not validate: the inspector sends the value through the workspace,
   which validates and reports a rejection, and then shows the current value again.
 - ``problem(str)`` reports input an editor cannot even turn into a value (e.g. malformed JSON).
 - ``EDITOR_TYPES`` maps a property kind to its editor; ``register_editor`` adds or replaces one
@@ -33,6 +35,7 @@ UNBOUNDED = 1e9
 class PropertyEditor(QWidget):
     edited = Signal(object, object)   # value, merge key (None: a separate undo step)
     problem = Signal(str)
+    interacting = Signal(bool)        # a drag (slider, TF point) started / ended
 
     def __init__(self, prop: Property, processor: Processor, parent=None):
         super().__init__(parent)
@@ -66,10 +69,12 @@ class PropertyEditor(QWidget):
         slider.setRange(low, high)
         self._drags = 0
         slider.sliderPressed.connect(self._drag_started)
+        slider.sliderReleased.connect(lambda: self.interacting.emit(False))
         return slider
 
     def _drag_started(self) -> None:
         self._drags += 1
+        self.interacting.emit(True)
 
     def drag_key(self, slider: QSlider):
         return (id(self), self._drags) if slider.isSliderDown() else None

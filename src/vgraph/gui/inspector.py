@@ -5,6 +5,8 @@ Conventions:
   tooltip and a mark when the property is linked.
 - Edits go through the workspace (one undo command each; slider drags merge). A rejected value
   is reported through ``status_message`` and the editor shows the current value again.
+- ``interacting`` says when a drag in an editor (a slider, a TF point) starts and ends; editors
+  replaced mid-drag (another processor selected) end it.
 - The inspector follows the network's events: a value changed elsewhere (undo, a link, a script)
   is shown at once; the status line follows evaluations.
 """
@@ -26,6 +28,7 @@ LINK_MARK = " \u2194"  # a two-headed arrow after the label of a linked property
 
 class PropertyInspector(QWidget):
     status_message = Signal(str)
+    interacting = Signal(bool)
 
     def __init__(self, workspace: Workspace, parent=None, status_of=None):
         super().__init__(parent)
@@ -36,6 +39,7 @@ class PropertyInspector(QWidget):
         self.network: Network | None = None
         self.processor_id: str | None = None
         self.editors: dict[str, PropertyEditor] = {}
+        self._dragging = False
         self.labels: dict[str, QLabel] = {}
         self.title = QLabel()
         self.title.setTextFormat(Qt.RichText)
@@ -68,6 +72,7 @@ class PropertyInspector(QWidget):
     # --- showing --------------------------------------------------------------------------------
     def show_processor(self, processor_id: str | None) -> None:
         self.processor_id = processor_id if processor_id in (self.network or {}) else None
+        self._set_dragging(False)
         while self.form.rowCount():
             self.form.removeRow(0)
         self.editors.clear(), self.labels.clear()
@@ -82,6 +87,7 @@ class PropertyInspector(QWidget):
             editor = editor_for(prop, processor)
             editor.edited.connect(lambda value, merge, name=name: self.edit(name, value, merge))
             editor.problem.connect(self.status_message)
+            editor.interacting.connect(self._set_dragging)
             label = QLabel(prop.label)
             self.editors[name], self.labels[name] = editor, label
             self.form.addRow(label, editor)
@@ -89,6 +95,11 @@ class PropertyInspector(QWidget):
         self.refresh_status()
         self.set_histograms(self.histograms)
         self.set_value_scales(self.value_scales)
+
+    def _set_dragging(self, on: bool) -> None:
+        if on != self._dragging:
+            self._dragging = on
+            self.interacting.emit(on)
 
     def refresh_status(self) -> None:
         if self.processor_id is not None:

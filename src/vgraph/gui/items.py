@@ -106,6 +106,8 @@ class NodeItem(QGraphicsItem):
         return self.ports[(direction, name)]
 
     def set_status(self, status: ProcessorStatus) -> None:
+        if status == self.status and self.toolTip():
+            return  # every mouse move of a drag asks again: repaint only what changed
         self.status = status
         lines = [f"{self.processor_id} ({self.type_name})"]
         if self.description:

@@ -1,7 +1,7 @@
 """When and how the GUI evaluates: shortly after every change, in the render process.
 
-Changes arriving together (a slider drag, a macro such as a delete) are gathered by a short
-single-shot timer. Then they go to the render process (``render_process``) as the edits made since
+Changes arriving together (a macro such as a delete) are gathered by a short single-shot timer,
+started by the first of them (a stream of changes does not postpone it). Then they go to the render process (``render_process``) as the edits made since
 the last job (``changes``: a property's new value, a processor, connection or link added or
 removed), not as the whole network; while it works, further changes wait and go together with the
 next job, so the GUI never queues up stale frames. Results come back through ``finished`` (the
@@ -14,9 +14,14 @@ mean other things), other plug-in modules, an event that could not be described 
 when the render process asks for it (``RenderResult.needs_document``).
 
 Conventions:
-- ``interactive(True)`` (the mouse is dragging on a canvas) renders the displays at
-  ``INTERACTIVE_SCALE`` of their size at once, without the gathering delay; ``interactive(False)``
-  asks for the full-size frame again ("refine on stop").
+- ``interactive(True)`` (the mouse drags on a canvas, a slider or a TF point) renders the displays
+  at ``INTERACTIVE_SCALE`` of their size at once, without the gathering delay; ``interactive(False)``
+  asks for the full-size frame again at once ("refine on release").
+- While interactive, each change goes out at once as a job queued behind those in flight (at most
+  ``MAX_IN_FLIGHT``), so the render process never waits for a round trip through the window; it
+  renders the newest job waiting and answers the older ones ``skipped`` (changes applied, nothing
+  drawn). Results that arrive together are shown newest only (``frames_dropped`` counts the
+  others): every poll that brings frames shows one.
 - A result is *final* when it is at full scale and no change has happened since its job was sent.
 - Coarse first: a final result that is ``refining`` (a bricked ray caster drew coarser than planned
   because its bricks were still being read, render_process.GUI_LOAD_LIMIT) is shown as not final
@@ -48,6 +53,8 @@ from __future__ import annotations
 import traceback
 import uuid
 
+import numpy as np
+
 from PySide6.QtCore import QObject, QTimer, Signal
 
 from vgraph.errors import VGraphError
@@ -64,6 +71,7 @@ TRIGGER_EVENTS = {"processor_added", "processor_removed", "connected", "disconne
 DELAY_MS = 30
 POLL_MS = 10
 INTERACTIVE_SCALE = 0.25
+MAX_IN_FLIGHT = 4           # jobs queued while dragging: a few small pickles, never a full pipe
 WATCHDOG_MS = 1000
 STALL_MIN_SECONDS = 10.0    # no job is called stuck sooner (loading a large volume takes a while)
 STALL_FACTOR = 10.0         # ... nor before it took this many times as long as recent jobs
@@ -80,6 +88,7 @@ class LiveEvaluation(QObject):
     info = Signal(str)          # a new render process took over
     stalled = Signal(float)     # seconds the overdue job has been running (each watchdog tick)
     progress = Signal(int, int)  # tiles done, total of a frame drawn on a cluster
+    received = Signal(object)   # every RenderResult as it arrives, before it is shown (timing)
 
     def __init__(self, workspace: Workspace, renderer: RenderProcess | None = None, parent=None,
                  stall_min_seconds: float = STALL_MIN_SECONDS, stall_factor: float = STALL_FACTOR):
@@ -107,6 +116,8 @@ class LiveEvaluation(QObject):
         self._last_job: RenderJob | None = None
         self._sender = uuid.uuid4().hex   # tells the render process whose changes a job carries
         self._wanted = False        # a change waits for the render process to be free
+        self.frames_dropped = 0     # results not shown: a newer one arrived with them
+        self._shown_extras = None   # (histograms, value scales) last emitted
         self.timer = self._timer(DELAY_MS, self._send)
         self.poller = self._timer(POLL_MS, self._poll)
         self.watchdog = self._timer(WATCHDOG_MS, self.check_renderer)
@@ -126,6 +137,7 @@ class LiveEvaluation(QObject):
         self.detach()
         self.network = network
         self.statuses.clear()
+        self._shown_extras = None
         self._fresh = True
         self._changes.clear()
         network.subscribe(self._on_event)
@@ -143,9 +155,10 @@ class LiveEvaluation(QObject):
         self.watchdog.stop()
         if self._owns_renderer:
             self.renderer.stop()
-        elif self.renderer.busy:
-            try:
-                self.renderer.wait(timeout=self.stall_limit())
+        else:
+            try:  # every job: a shared process must not answer the next window with ours
+                while self.renderer.busy:
+                    self.renderer.wait(timeout=self.stall_limit())
             except VGraphError:
                 self.renderer.cancel()  # a stuck job must not keep the window from closing
 
@@ -174,7 +187,8 @@ class LiveEvaluation(QObject):
 
     def schedule(self) -> None:
         self._wanted = True
-        self.timer.start()
+        if not self.timer.isActive():  # restarting it on every change would wait out a whole drag
+            self.timer.start()
 
     def set_cluster(self, setting) -> None:
         """Draw the final frames on ``setting``'s cluster (None: in the render process) from now on."""
@@ -185,7 +199,8 @@ class LiveEvaluation(QObject):
     def interactive(self, on: bool) -> None:
         self.scale = INTERACTIVE_SCALE if on else 1.0
         if not on:
-            self.schedule()
+            self._wanted = True
+            self._send()  # queued behind the coarse jobs, which it makes stale: they are skipped
 
     # --- sending and receiving -----------------------------------------------------------------
     def run(self, include_writers: bool = False, wait: bool = False) -> EvaluationOutcome | None:
@@ -199,9 +214,11 @@ class LiveEvaluation(QObject):
 
     def _send(self) -> None:
         self.timer.stop()
-        if not self._wanted or self.renderer.busy:
+        busy = self.renderer.busy
+        if not self._wanted or (busy and not self._may_queue()):
             return
-        self._replace_if_dead("")
+        if not busy:
+            self._replace_if_dead("")
         try:
             job = self._job()
         except Exception:
@@ -213,14 +230,27 @@ class LiveEvaluation(QObject):
         self._stall_reported = False
         self._last_job = job
         self.renderer.submit(job)
-        self.busy_changed.emit(True)
+        if not busy:
+            self.busy_changed.emit(True)
         self.poller.start()
+
+    def _may_queue(self) -> bool:
+        """Whether the next job may go behind those in flight: changes only (no document, no
+        writers), a few at most, and never a full-size job behind another (edits made while a full
+        frame renders are gathered into the next job, as they always were)."""
+        if self.renderer.in_flight >= MAX_IN_FLIGHT or self._include_writers or self._whole()[0]:
+            return False
+        return self.scale < 1.0 or all(job.scale < 1.0 for job in self.renderer.jobs)
+
+    def _whole(self) -> tuple[bool, str | None, tuple[str, ...]]:
+        """(whether the next job must carry the whole document, its base_dir, its plug-ins)."""
+        base_dir = str(self.network.base_dir) if self.network.base_dir else None
+        plugins = plugin_modules(self.network)
+        return self._fresh or self._resync or (base_dir, plugins) != self._sent_context, base_dir, plugins
 
     def _job(self) -> RenderJob:
         """The changes since the last job, or the whole document when changes cannot do."""
-        base_dir = str(self.network.base_dir) if self.network.base_dir else None
-        plugins = plugin_modules(self.network)
-        whole = self._fresh or self._resync or (base_dir, plugins) != self._sent_context
+        whole, base_dir, plugins = self._whole()
         return RenderJob(self.version, network_document(self.network) if whole else None, base_dir,
                          plugins, self.scale, self._include_writers, self._fresh,
                          changes=() if whole else tuple(self._changes), stamp=(self._sender, self.version),
@@ -228,14 +258,19 @@ class LiveEvaluation(QObject):
                          cluster=self.cluster)
 
     def _poll(self) -> None:
-        if not self.renderer.busy:
-            return
-        result = self.renderer.poll()
+        results = []
+        while self.renderer.busy:
+            result = self.renderer.poll()
+            if result is None:
+                break
+            results.append(result)
         self._report_progress()
-        if result is None:
+        # Frames that arrive together: the newest is shown, the older ones were stale on arrival.
+        newest = max((i for i, result in enumerate(results) if result.outcome.frames), default=-1)
+        for i, result in enumerate(results):
+            self._receive(result, show=i == newest)
+        if self.renderer.busy:
             self.poller.start()
-        else:
-            self._receive(result)
 
     def _report_progress(self) -> None:
         """Tiles done / total of a frame drawn on a cluster, each new count once."""
@@ -244,9 +279,10 @@ class LiveEvaluation(QObject):
             self._progress = progress
             self.progress.emit(progress.done, progress.total)
 
-    def _receive(self, result: RenderResult) -> None:
+    def _receive(self, result: RenderResult, show: bool = True) -> None:
         self._report_progress()  # run(wait=True) receives without polling
         self.last_result = result
+        self.received.emit(result)
         if result.needs_document:   # nothing rendered: send the whole network at once
             self._resync = self._wanted = True
             self._include_writers |= self._last_job.include_writers
@@ -255,22 +291,35 @@ class LiveEvaluation(QObject):
             self.crashed.emit(result.error)
             if self.renderer.pid is None:   # it died with the job: a new one, ready for the next
                 self._replace()
-        else:
+        elif not result.skipped:
             self.statuses = dict(result.statuses)
             self.last_outcome = result.outcome
             final = result.scale == 1.0 and result.version == self.version
-            self.frames.emit(result.outcome.frames, final and not result.refining)
+            if show or final or not result.outcome.frames:
+                self.frames.emit(result.outcome.frames, final and not result.refining)
+            else:
+                self.frames_dropped += 1
             if final and result.refining:
                 self._refine(result)
             self.view_cameras = dict(result.view_cameras)
-            self.histograms.emit(result.histograms)
-            self.value_scales.emit(result.value_scales)
+            self._emit_extras(result)
             self.finished.emit(result.outcome)
-        if self._wanted or (result.scale < 1.0 and self.scale == 1.0):
+        coarse_last = self._last_job is not None and self._last_job.scale < 1.0
+        if self._wanted or (coarse_last and self.scale == 1.0):  # a drag ended: the full frame
             self._wanted = True
             self._send()
         if not self.renderer.busy:
             self.busy_changed.emit(False)
+
+    def _emit_extras(self, result: RenderResult) -> None:
+        """Histograms and value scales when they differ from the last ones: each repaints the
+        TF editor, which a drag should not pay for every frame."""
+        extras = (result.histograms, result.value_scales)
+        if self._shown_extras is not None and _same_extras(self._shown_extras, extras):
+            return
+        self._shown_extras = extras
+        self.histograms.emit(result.histograms)
+        self.value_scales.emit(result.value_scales)
 
     def _refine(self, result: RenderResult) -> None:
         """Render the same state again: the bricks read meanwhile make the frame finer."""
@@ -331,3 +380,9 @@ class LiveEvaluation(QObject):
         self._replace()
         self.busy_changed.emit(False)
         return True
+
+
+def _same_extras(old: tuple, new: tuple) -> bool:
+    (old_histograms, old_scales), (new_histograms, new_scales) = old, new
+    return (old_scales == new_scales and old_histograms.keys() == new_histograms.keys()
+            and all(np.array_equal(old_histograms[key], new_histograms[key]) for key in new_histograms))

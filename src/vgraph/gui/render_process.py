@@ -82,6 +82,7 @@ class RenderJob:
     since: tuple | None = None  # the stamp of the state ``changes`` edit (the sender's previous job)
     load_limit: LoadLimit | None = GUI_LOAD_LIMIT  # reading per frame of bricked processors (None: no limit)
     cluster: ClusterSetting | None = None  # draw the final frames on this cluster (None: here)
+    sent: float = 0.0          # time.monotonic() when the window sent it (RenderResult.submitted)
 
 
 @dataclass
@@ -106,6 +107,14 @@ class RenderResult:
     needs_document: bool = False  # the changes could not be applied: send the whole network
     refining: bool = False     # a processor drew a coarser frame than planned: render the same state again
     bricks_read: int = 0       # bricks those incomplete frames read (0: no progress, stop asking)
+    skipped: bool = False      # not rendered: a newer job was already waiting (its changes are applied)
+    # time.monotonic() (one clock for both processes on one machine): the job sent by the window,
+    # started and finished in the render process, the result received by the window. What
+    # bench/bench_interaction.py reads to split a frame's latency into rendering and transfer.
+    submitted: float = 0.0
+    started: float = 0.0
+    finished: float = 0.0
+    received: float = 0.0
 
 
 def plugin_modules(network: Network) -> tuple[str, ...]:
@@ -130,20 +139,8 @@ class RenderServer:
 
     def handle(self, job: RenderJob) -> RenderResult:
         start = time.perf_counter()
-        result = RenderResult(job.version, job.scale)
-        try:
-            self._import_plugins(job.plugins)
-            if job.document is not None:
-                self.network = mirror(None if job.fresh else self.network, job.document, job.base_dir)
-            elif not self._applied(job):
-                result.needs_document = True
-                return result
-            self.stamp = job.stamp
-            # Writers write what `vgraph run` writes: complete frames, however long they take.
-            self._limit_loading(None if job.include_writers else job.load_limit)
-        except VGraphError as error:
-            self.network = None  # half-applied: rebuild from the next document
-            result.error = str(error)
+        result = RenderResult(job.version, job.scale, started=time.monotonic())
+        if not self._prepare(job, result):
             return result
         try:
             view = self._cluster_view(job)
@@ -162,7 +159,35 @@ class RenderServer:
         except Exception:  # a bug below the evaluator: report it, keep serving
             result.error = "internal error in the render process (please report it):\n" + traceback.format_exc()
         result.seconds = time.perf_counter() - start
+        result.finished = time.monotonic()
         return result
+
+    def skip(self, job: RenderJob) -> RenderResult:
+        """Bring the network to ``job``'s state without rendering it: a newer job is waiting, so
+        its frame would be stale before it is drawn."""
+        result = RenderResult(job.version, job.scale, started=time.monotonic(), skipped=True)
+        self._prepare(job, result)
+        result.finished = time.monotonic()
+        return result
+
+    def _prepare(self, job: RenderJob, result: RenderResult) -> bool:
+        """Apply the job's document or changes; False (with the reason in ``result``) if it cannot
+        be rendered."""
+        try:
+            self._import_plugins(job.plugins)
+            if job.document is not None:
+                self.network = mirror(None if job.fresh else self.network, job.document, job.base_dir)
+            elif not self._applied(job):
+                result.needs_document = True
+                return False
+            self.stamp = job.stamp
+            # Writers write what `vgraph run` writes: complete frames, however long they take.
+            self._limit_loading(None if job.include_writers else job.load_limit)
+        except VGraphError as error:
+            self.network = None  # half-applied: rebuild from the next document
+            result.error = str(error)
+            return False
+        return True
 
     def _cluster_view(self, job: RenderJob) -> ClusterView | None:
         """How this job uses the cluster: only final frames without writers go there (module
@@ -234,6 +259,10 @@ def serve(connection) -> None:
                 job = connection.recv()
             except (EOFError, OSError):
                 return
+            while job is not None and not job.include_writers and connection.poll():
+                newer = connection.recv()   # waited behind ``job``: render that one instead
+                connection.send(server.skip(job))
+                job = newer
             if job is None:
                 return
             connection.send(server.handle(job))
@@ -253,7 +282,11 @@ def describe_exit(code: int | None) -> str:
 
 
 class RenderProcess:
-    """Starts the render process on first use; one job in flight at a time.
+    """Starts the render process on first use; jobs are answered one result each, in order.
+
+    Usually one job is in flight; a job submitted while others are goes behind them (the GUI does
+    so while the mouse drags). The render process renders only the newest of the jobs that
+    wait when it gets to them; the older ones come back ``skipped`` (their changes applied).
 
     For the GUI's watchdog (``LiveEvaluation``): ``elapsed()`` is how long the job in flight has
     been running, ``typical_seconds()`` the median of the last ``RECENT_JOBS`` jobs, ``died()`` the
@@ -263,15 +296,24 @@ class RenderProcess:
     def __init__(self):
         self._process = None
         self._connection = None
-        self.job: RenderJob | None = None   # the job in flight
-        self.job_started = 0.0              # time.monotonic() when it was sent
+        self.jobs: deque[RenderJob] = deque()  # in flight, oldest first
+        self.job_started = 0.0              # time.monotonic() when the oldest job began, as seen from here
         self.recent_seconds: deque[float] = deque(maxlen=RECENT_JOBS)
         self.starts = 0                     # processes started so far
         self.progress: RenderProgress | None = None  # the last progress of the job in flight
 
     @property
+    def job(self) -> RenderJob | None:
+        """The oldest job in flight: the one the render process works on."""
+        return self.jobs[0] if self.jobs else None
+
+    @property
     def busy(self) -> bool:
-        return self.job is not None
+        return bool(self.jobs)
+
+    @property
+    def in_flight(self) -> int:
+        return len(self.jobs)
 
     @property
     def pid(self) -> int | None:
@@ -291,13 +333,14 @@ class RenderProcess:
         return self._process.exitcode
 
     def submit(self, job: RenderJob) -> None:
-        if self.busy:
-            raise VGraphError("the render process is still working on the previous job")
-        if self._process is None or not self._process.is_alive():
+        # With jobs in flight a dead process is poll()'s to report (for them all), not to replace.
+        if not self.jobs and (self._process is None or not self._process.is_alive()):
             self.start()
-        self.job = job
-        self.job_started = time.monotonic()
-        self.progress = None
+        if not self.jobs:
+            self.job_started = time.monotonic()
+            self.progress = None
+        job.sent = time.monotonic()
+        self.jobs.append(job)
         try:
             self._connection.send(job)
         except (OSError, ValueError):
@@ -317,13 +360,18 @@ class RenderProcess:
                 if not isinstance(result, RenderProgress):
                     break
                 self.progress = result
-            self.recent_seconds.append(self.elapsed())
+            now = time.monotonic()
+            if not result.skipped:
+                self.recent_seconds.append(now - max(self.job_started, result.started))
+            result.submitted, result.received = self.job.sent, now
+            self.jobs.popleft()
+            self.job_started = now  # the next one (if any) runs from now
         except (EOFError, OSError):
             self._process.join(timeout=1.0)
             result = RenderResult(self.job.version, self.job.scale, error=(
                 f"the render process stopped unexpectedly ({describe_exit(self._process.exitcode)})"))
             self._discard()
-        self.job = None
+            self.jobs.clear()  # the jobs behind it died with it
         return result
 
     def wait(self, timeout: float = 120.0) -> RenderResult:
@@ -350,7 +398,7 @@ class RenderProcess:
     def cancel(self) -> None:
         """Give up the job in flight: its process is killed (``start`` or the next job makes a new one)."""
         self._discard()
-        self.job = None
+        self.jobs.clear()
 
     def _discard(self) -> None:
         if self._connection is not None:
@@ -369,4 +417,4 @@ class RenderProcess:
             except (OSError, ValueError):
                 pass
         self._discard()
-        self.job = None
+        self.jobs.clear()

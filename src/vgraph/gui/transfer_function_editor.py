@@ -57,6 +57,7 @@ class TransferFunctionPlot(QWidget):
 
     changed = Signal(object, object)    # TransferFunction, merge key (None: a separate undo step)
     color_requested = Signal(int)       # index of a double-clicked point
+    interacting = Signal(bool)          # a point drag started / ended
 
     BACKGROUND = QColor(255, 255, 255)
     BAR_COLOR = QColor(200, 200, 200)
@@ -197,6 +198,8 @@ class TransferFunctionPlot(QWidget):
         if event.button() == Qt.LeftButton:
             self.selected = hit
             self._drag = (hit, next(_drag_numbers)) if hit is not None else None
+            if self._drag is not None:
+                self.interacting.emit(True)
             self.update()
         elif event.button() == Qt.RightButton and hit is not None:
             self.remove_point(hit)
@@ -208,8 +211,9 @@ class TransferFunctionPlot(QWidget):
                 self.move_point(index, *self.from_pixel(event.position()), merge=(id(self), number))
 
     def mouseReleaseEvent(self, event):
-        if event.button() == Qt.LeftButton:
+        if event.button() == Qt.LeftButton and self._drag is not None:
             self._drag = None
+            self.interacting.emit(False)
 
     def mouseDoubleClickEvent(self, event):
         if event.button() != Qt.LeftButton or not self.editable:
@@ -317,6 +321,7 @@ class TransferFunctionEditor(PropertyEditor):
         self.plot = TransferFunctionPlot()
         self.plot.changed.connect(lambda tf, merge: self.emit(tf, merge))
         self.plot.color_requested.connect(self.choose_color)
+        self.plot.interacting.connect(self.interacting)
         self.presets = QComboBox()
         self.presets.addItem("Presets...")
         self.presets.addItems(list(PRESETS))
