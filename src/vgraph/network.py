@@ -11,6 +11,10 @@ everything downstream; links carry the value to the properties that follow it. L
 are told of every change as ``callback(event, **details)``: processor_added, processor_removed,
 connected, disconnected, linked, unlinked, property_changed, moved, and evaluated (the scheduler).
 
+Questions about the graph alone (descendants, the scheduler's order) are answered once per shape
+of the graph (``graph_query``): a camera drag asks them every frame, and networkx on graph views
+costs far more than the answer.
+
 Evaluation and saving are not the model's business: ``update``, ``output``, ``evaluate``, ``save``
 and ``_repr_png_`` forward to the ``NetworkServices`` the vgraph package binds (``vgraph.services``,
 docs/architecture.md), so this module imports neither the scheduler nor the file format.
@@ -120,6 +124,7 @@ class Network:
         self.base_dir = Path(base_dir) if base_dir is not None else None
         self.description = ""
         self.last_evaluation = None  # an EvaluationReport, set by the scheduler
+        self._graph_answers: dict = {}  # graph_query's answers, dropped whenever the graph changes
 
     @property
     def processors(self) -> Mapping[str, Processor]:
@@ -159,6 +164,7 @@ class Network:
         if index == len(self._processors):
             self._processors[processor.id] = processor
             self.graph.add_node(processor.id)
+            self._graph_answers.clear()
         else:
             items = list(self._processors.items())
             items.insert(index, (processor.id, processor))
@@ -179,6 +185,7 @@ class Network:
         for _, link in removal.links:
             self.unlink(link.source, link.target)
         self.graph.remove_node(processor_id)
+        self._graph_answers.clear()
         del self._processors[processor_id]
         processor.network = None
         self._emit("processor_removed", processor=processor)
@@ -226,6 +233,16 @@ class Network:
         graph.add_nodes_from(self._processors)
         graph.add_edges_from((c.source, c.target, (c.outport, c.inport)) for c in self._connections)
         self.graph = graph
+        self._graph_answers.clear()
+
+    def graph_query(self, key, compute: Callable[[], object]):
+        """``compute()``, an answer that depends on the graph (processors, connections) alone,
+        kept under ``key`` until the graph changes. Answers are shared: return immutable ones."""
+        try:
+            return self._graph_answers[key]
+        except KeyError:
+            answer = self._graph_answers[key] = compute()
+            return answer
 
     # --- connections ----------------------------------------------------------------------------
     def connect(self, source: str, target: str, index: int | None = None) -> Connection:
@@ -240,6 +257,7 @@ class Network:
         self._connections.insert(index, connection)
         if index == len(self._connections) - 1:
             self.graph.add_edge(src_id, dst_id, key=(out_name, in_name))
+            self._graph_answers.clear()
         else:
             self._rebuild_graph()
         self.invalidate_downstream(dst_id)
@@ -275,6 +293,7 @@ class Network:
             raise PortError(f"{connection} is not connected")
         self._connections.remove(connection)
         self.graph.remove_edge(connection.source, connection.target, key=(connection.outport, connection.inport))
+        self._graph_answers.clear()
         self.invalidate_downstream(connection.target)
         self._emit("disconnected", connection=connection)
 
@@ -341,7 +360,9 @@ class Network:
                 self.set(follower, value)  # the follower's own change carries it further
 
     def invalidate_downstream(self, processor_id: str, level: Invalidation = Invalidation.OUTPUT) -> None:
-        for pid in (processor_id, *nx.descendants(self.graph, processor_id)):
+        downstream = self.graph_query(("downstream", processor_id),
+                                      lambda: (processor_id, *nx.descendants(self.graph, processor_id)))
+        for pid in downstream:
             self._processors[pid].invalidate(level)
 
     def sinks(self) -> list[Processor]:

@@ -60,14 +60,14 @@ def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None) 
     targets = list(targets) or [p.id for p in network.sinks()]
     target_ids = [_target_processor(network, t) for t in targets]
     size = _checked_size(size) if size is not None else default_size(network, target_ids)
-    needed = set(target_ids).union(*(nx.ancestors(network.graph, t) for t in target_ids))
-    order = list(nx.topological_sort(network.graph.subgraph(needed)))
+    _, order, read = network.graph_query(("plan", tuple(targets), tuple(target_ids)),
+                                         lambda: _plan(network, targets, target_ids))
     for pid in order:
         processor = network.processors[pid]
         if processor.renders_at_size and processor.render_size != size:
             processor.render_size = size
             network.invalidate_downstream(pid)
-    _mark_wanted_outputs(network, targets, needed)
+    _mark_wanted_outputs(network, read)
 
     report = EvaluationReport()
     network.last_evaluation = report
@@ -88,9 +88,11 @@ def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None) 
     return report
 
 
-def _mark_wanted_outputs(network: Network, targets: list[str], needed: set[str]) -> None:
-    """Tell each needed processor which of its on-demand outports are read this evaluation (by a
-    target or by a needed processor); one that computed fewer of them last time runs again."""
+def _plan(network: Network, targets: list[str], target_ids: list[str]):
+    """(the processors the targets need, their order, the outports read of each): the graph's
+    answer, the same every frame until the graph changes (``Network.graph_query``)."""
+    needed = frozenset(target_ids).union(*(nx.ancestors(network.graph, t) for t in target_ids))
+    order = tuple(nx.topological_sort(network.graph.subgraph(needed)))
     read: dict[str, set[str]] = {pid: set() for pid in needed}
     for target in targets:
         if "." in target:
@@ -99,7 +101,14 @@ def _mark_wanted_outputs(network: Network, targets: list[str], needed: set[str])
     for connection in network.connections:
         if connection.source in needed and connection.target in needed:
             read[connection.source].add(connection.outport)
-    for pid, ports in read.items():
+    return needed, order, tuple((pid, frozenset(ports)) for pid, ports in read.items())
+
+
+def _mark_wanted_outputs(network: Network, read) -> None:
+    """Tell each needed processor which of its on-demand outports are read this evaluation (by a
+    target or by a needed processor: ``read``, pairs of an id and its ports read); one that
+    computed fewer of them last time runs again."""
+    for pid, ports in read:
         processor = network.processors[pid]
         wanted = frozenset(p.name for p in processor.outports if p.on_demand and p.name in ports)
         if wanted <= processor.wanted and processor.invalid_level == Invalidation.VALID:

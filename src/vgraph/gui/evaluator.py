@@ -66,15 +66,11 @@ def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = 
     """``draw(display, size)``, if given, may return a display's picture drawn elsewhere (a
     cluster: ``vgraph.gui.cluster``) instead of evaluating it here; None draws it here."""
     outcome = EvaluationOutcome()
-    order = list(nx.topological_sort(network.graph))
-    ready = ready_processors(network, order)
-    outcome.not_ready = [pid for pid in order if pid not in ready]
-    outcome.writers = [pid for pid in ready if is_writer(type(network[pid])) and not include_writers]
-    runnable = ready - set(outcome.writers)
-    targets = [pid for pid in order if pid in runnable
-               and not any(s in runnable for s in network.graph.successors(pid))]
-    for target in sorted(targets, key=lambda pid: is_display(type(network[pid]))):  # frames last
-        if any(a in outcome.failed for a in nx.ancestors(network.graph, target)):
+    not_ready, writers, targets = network.graph_query(("view", include_writers),
+                                                      lambda: _view_plan(network, include_writers))
+    outcome.not_ready, outcome.writers = list(not_ready), list(writers)
+    for target, ancestors in targets:
+        if not ancestors.isdisjoint(outcome.failed):
             continue
         display = is_display(type(network[target]))
         size = display_size(network[target], scale) if display else None
@@ -95,6 +91,20 @@ def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = 
             if warning:
                 outcome.blank[target] = warning
     return outcome
+
+
+def _view_plan(network: Network, include_writers: bool):
+    """(not ready, writers left alone, (target, its ancestors) in evaluation order, displays
+    last): what the graph says, asked once per graph shape (``Network.graph_query``)."""
+    order = list(nx.topological_sort(network.graph))
+    ready = ready_processors(network, order)
+    writers = [pid for pid in ready if is_writer(type(network[pid])) and not include_writers]
+    runnable = ready - set(writers)
+    targets = [pid for pid in order if pid in runnable
+               and not any(s in runnable for s in network.graph.successors(pid))]
+    targets.sort(key=lambda pid: is_display(type(network[pid])))  # frames last
+    return (tuple(pid for pid in order if pid not in ready), tuple(writers),
+            tuple((pid, frozenset(nx.ancestors(network.graph, pid))) for pid in targets))
 
 
 @contextmanager
