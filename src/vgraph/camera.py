@@ -52,6 +52,7 @@ Conventions (the GL renderers and the CPU reference ray caster all rely on them)
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Literal
 
@@ -122,10 +123,9 @@ class Camera(BaseModel):
         return float(np.linalg.norm(np.subtract(self.focus, self.position)))
 
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Orthonormal (right, true_up, forward) of the camera, float64, as in gluLookAt."""
-        forward = _unit(np.subtract(self.focus, self.position, dtype=np.float64))
-        right = _unit(np.cross(forward, np.asarray(self.up, dtype=np.float64)))
-        return right, np.cross(right, forward), forward
+        """Orthonormal (right, true_up, forward) of the camera, float64, as in gluLookAt
+        (read-only arrays: they are shared by every camera with the same position, focus, up)."""
+        return _basis(self.position, self.focus, self.up)
 
     def visible_half_height(self) -> float:
         """Half the height of the view in world units at the focus distance."""
@@ -374,6 +374,18 @@ VIEW_NAMES = (*VIEWS, *VIEW_ALIASES)
 
 
 # --- helpers ------------------------------------------------------------------------------------
+@functools.lru_cache(maxsize=64)
+def _basis(position: Vec3, focus: Vec3, up: Vec3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    # Remembered: a frame asks a few renderers' worth of times for the basis of one camera, and
+    # np.cross costs tens of microseconds a call (docs/gui.md, per-frame overhead).
+    forward = _unit(np.subtract(focus, position, dtype=np.float64))
+    right = _unit(np.cross(forward, np.asarray(up, dtype=np.float64)))
+    vectors = right, np.cross(right, forward), forward
+    for vector in vectors:
+        vector.flags.writeable = False
+    return vectors
+
+
 def _unit(vector: np.ndarray) -> np.ndarray:
     return vector / np.linalg.norm(vector)
 

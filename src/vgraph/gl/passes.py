@@ -13,10 +13,15 @@ Conventions:
   is skipped. Programs not made by ``vgraph.gl.shaders.programs`` are set leniently.
 - numpy uniform values are written in the uniform's own type; a 2D array for a matrix uniform is in
   mathematical (row-major) layout and is transposed to GL's column-major order.
+- A uniform keeps the bytes last written through ``set_uniform`` and is not written again with the
+  same bytes (a program keeps its uniforms; a frame sets some 80, most of them unchanged): set a
+  uniform either always through ``set_uniform`` or never.
 - The pass uses the context's current enable flags (by default no depth test and no blending).
 """
 
 from __future__ import annotations
+
+import struct
 
 import moderngl
 import numpy as np
@@ -75,12 +80,24 @@ def set_uniform(program: moderngl.Program, name: str, value, optional: bool = Fa
                               f"set for a shader that does not have it?")
         return False
     if isinstance(value, np.ndarray):
-        uniform.write(_uniform_bytes(uniform, value))
-    elif isinstance(value, np.generic):
-        uniform.value = value.item()
+        data = _uniform_bytes(uniform, value)
     else:
-        uniform.value = value
+        data = _packed(uniform, value.item() if isinstance(value, np.generic) else value)
+    if getattr(uniform, "_vgraph_written", None) != data:
+        uniform.write(data)
+        uniform._vgraph_written = data
     return True
+
+
+def _packed(uniform: moderngl.Uniform, value) -> bytes:
+    """The bytes ``uniform.value = value`` writes (moderngl's own packing)."""
+    if uniform.array_length > 1:
+        if uniform.dimension > 1:
+            return b"".join(struct.pack(uniform.fmt, *row) for row in value)
+        return b"".join(struct.pack(uniform.fmt, item) for item in value)
+    if uniform.dimension > 1:
+        return struct.pack(uniform.fmt, *value)
+    return struct.pack(uniform.fmt, value)
 
 
 def _uniform_bytes(uniform: moderngl.Uniform, value: np.ndarray) -> bytes:

@@ -18,6 +18,7 @@ Conventions (docs/conventions.md has them all):
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -39,7 +40,14 @@ DEFAULT_CAMERA = Camera(**{**Camera.looking_at_box(*UNIT_BOX, direction=(-0.45, 
 def view_camera(camera: Camera, volume: Volume, size) -> Camera:
     """The concrete camera that renders ``volume`` at ``size`` (Camera.resolved on its box): every
     processor of one view resolves the same camera, so entry points and ray casters agree."""
-    return camera.resolved(*VolumeGeometry.of(volume).box, size[0] / size[1])
+    box_min, box_max = VolumeGeometry.of(volume).box
+    return _resolved(camera, tuple(box_min), tuple(box_max), size[0] / size[1])
+
+
+@functools.lru_cache(maxsize=32)
+def _resolved(camera: Camera, box_min: tuple, box_max: tuple, aspect: float) -> Camera:
+    # Remembered: the processors of one frame resolve the same camera, each a validated model.
+    return camera.resolved(np.array(box_min), np.array(box_max), aspect)
 
 
 @dataclass(frozen=True)
