@@ -95,17 +95,21 @@ class Camera(BaseModel):
 
     @model_validator(mode="after")
     def _check_geometry(self) -> "Camera":
+        # Plain floats, not numpy: every camera a drag makes passes here (numpy's 3-vector calls
+        # cost tens of microseconds each).
         for name in ("position", "focus", "up"):
             values = getattr(self, name)
-            if not all(np.isfinite(values)):
+            if not all(math.isfinite(v) for v in values):
                 raise ValueError(f"{name} must be finite, got {list(values)}")
             if max(abs(v) for v in values) > MAX_COORDINATE:
                 raise ValueError(f"{name} must lie within +-{MAX_COORDINATE:g} (float32 GL matrices "
                                  f"overflow beyond), got {list(values)}")
-        view = np.subtract(self.focus, self.position)
-        if np.linalg.norm(view) == 0.0:
+        (vx, vy, vz), (ux, uy, uz) = (f - p for f, p in zip(self.focus, self.position)), self.up
+        view = math.hypot(vx, vy, vz)
+        if view == 0.0:
             raise ValueError("position and focus must differ")
-        if np.linalg.norm(np.cross(view, self.up)) <= 1e-12 * np.linalg.norm(view) * max(np.linalg.norm(self.up), 1e-300):
+        across = math.hypot(vy * uz - vz * uy, vz * ux - vx * uz, vx * uy - vy * ux)
+        if across <= 1e-12 * view * max(math.hypot(ux, uy, uz), 1e-300):
             raise ValueError("up must not be parallel to the viewing direction (or zero)")
         if self.near is not None and self.far is not None and not self.near < self.far:
             raise ValueError(f"near ({self.near}) must be smaller than far ({self.far})")
