@@ -11,9 +11,13 @@
 //     }
 //
 // Without SKIP_EMPTY_SPACE a March is only the index and skip_empty_space() is the literal false,
-// which the compiler removes: the loop is a plain march.
+// which the compiler removes: the loop is a plain march. With RAY_BOUNDS (ray_bounds.glsl; only for
+// modes whose empty blocks contribute nothing, and never without SKIP_EMPTY_SPACE) start_march()
+// also narrows the samples to those that may lie in an occupied block: it starts at the first and
+// lowers ray.samples, so the loop head above stays as it is.
 #include "raycasting/ray.glsl"
 #include "raycasting/empty_space.glsl"
+#include "raycasting/ray_bounds.glsl"
 
 struct March {
     int i;           // the sample to evaluate next
@@ -22,9 +26,15 @@ struct March {
 #endif
 };
 
+#ifdef RAY_BOUNDS
+March start_march(inout Ray ray) {
+    March cursor;
+    cursor.i = bound_samples(ray);
+#else
 March start_march(Ray ray) {
     March cursor;
     cursor.i = 0;
+#endif
 #ifdef SKIP_EMPTY_SPACE
     cursor.walk = block_walk(ray);
 #endif

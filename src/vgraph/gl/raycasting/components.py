@@ -38,6 +38,8 @@ from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.raycasting.empty_space import SkipBlocks, block_grid_uniforms
 from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, VolumeGeometry, ray_uniforms, vec, view_camera
 from vgraph.gl.raycasting.light import shading_uniforms
+from vgraph.gl.raycasting import ray_bounds
+from vgraph.gl.raycasting.ray_bounds import RayBounds
 from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler
 from vgraph.gl.shaders import programs
 from vgraph.image import Image
@@ -298,15 +300,20 @@ class Light(Component):
 
 
 class EmptySpace(Component):
-    """Empty-space skipping over blocks (vgraph.gl.raycasting.empty_space). The processor's
-    ``skip_values(frame)`` gives (what they depend on, values(block_min, block_max)), or None when
-    this frame's mode does not skip."""
+    """Empty-space skipping over blocks (vgraph.gl.raycasting.empty_space) and, where empty blocks
+    contribute nothing, ray bounds from the occupied ones (vgraph.gl.raycasting.ray_bounds). The
+    processor's ``skip_values(frame)`` gives (what they depend on, values(block_min, block_max)), or
+    None when this frame's mode does not skip; bounds are drawn when what they depend on is one of
+    BOUNDED (RayCaster.skip_values: dvr, first_hit, iso), not for mip (block maxima) or for
+    ray casters that do not say so."""
 
-    glsl = ("raycasting/empty_space.glsl",)
+    glsl = ("raycasting/empty_space.glsl", "raycasting/ray_bounds.glsl")
+    BOUNDED = ("opacity", "level")
 
     def __init__(self, processor):
         super().__init__(processor)
         self.blocks = SkipBlocks()
+        self.bounds = RayBounds()
 
     @staticmethod
     def declare():
@@ -318,9 +325,15 @@ class EmptySpace(Component):
         wanted = self.processor.skip_values(frame) if self.processor.empty_space_skipping else None
         if wanted is not None:
             texture = self.blocks.texture(frame.ctx, frame.volume, *wanted)
-        return Binding(defines={"SKIP_EMPTY_SPACE": texture is not None},
-                       textures={"blocks": texture} if texture is not None else {},
-                       uniforms=block_grid_uniforms(frame.volume))
+        bounds = None
+        if texture is not None and isinstance(wanted[0], tuple) and wanted[0][0] in self.BOUNDED:
+            bounds = self.bounds.texture(frame, self.blocks.key, self.blocks.values == 0.0)
+        textures = {"blocks": texture} if texture is not None else {}
+        if bounds is not None:
+            textures["ray_bounds"] = bounds
+        return Binding(defines={"SKIP_EMPTY_SPACE": texture is not None, "RAY_BOUNDS": bounds is not None},
+                       textures=textures,
+                       uniforms={**block_grid_uniforms(frame.volume), "ray_bounds_tile": ray_bounds.TILE})
 
 
 class Background(Component):

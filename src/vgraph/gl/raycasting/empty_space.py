@@ -95,6 +95,8 @@ class SkipBlocks:
         self._texture = None
         self._key = None
         self._values_exist = False
+        self.key = None  # what the current values were built from (RayBounds rebuilds with it)
+        self.values = None  # the current block values (None: skipping does not pay)
 
     def texture(self, ctx: moderngl.Context, volume: Volume, depends, values):
         """``values(block_min, block_max)`` -> float array per block (skip radii, or the maxima for
@@ -102,8 +104,8 @@ class SkipBlocks:
         Returns the texture, or None."""
         key = (ctx, volume, depends)
         if self._key is None or not all(a is b or a == b for a, b in zip(key, self._key)):
-            self._key = key
-            block_values = values(*block_ranges(volume))
+            self._key = self.key = key
+            block_values = self.values = values(*block_ranges(volume))
             self._values_exist = block_values is not None
             if self._values_exist:
                 self._upload(ctx, block_values)
