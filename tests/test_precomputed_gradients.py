@@ -204,3 +204,23 @@ def test_bricked_frames_use_central_differences():
     caster._bricked = bricked
     bricked.process = lambda volume, entry, exit: {"seen": bricked.derivatives}
     assert caster._brick_by_brick(volume, None, None) == {"seen": "central"}
+
+
+def test_a_store_drawn_brick_by_brick_is_shaded_with_central_differences(tmp_path):
+    """End to end: a BrickedVolume over its memory budget, shaded with precomputed derivatives,
+    renders as with central ones and builds no gradient volume."""
+    pytest.importorskip("zarr")
+    from vgraph.bricks.convert import convert
+    from vgraph.bricks.volume import BrickedVolume
+    np.save(tmp_path / "v.npy", sample("sphere", 32, "uint16").data)
+    convert(tmp_path / "v.npy", tmp_path / "v.zarr", brick=16, progress=False)
+    store = BrickedVolume.open(tmp_path / "v.zarr", memory_budget_mb=0.01)
+    images = []
+    for derivatives in ("precomputed", "central"):
+        network = rendering_network(store, oblique_camera(store), compositing="iso", iso_level=0.5,
+                                    shading="blinn_phong", derivatives=derivatives)
+        images.append(network.evaluate("rc.image", size=(24, 20)))
+        assert network["rc"].last_frame  # drawn by the BrickedRayCaster
+    assert images[0][..., 3].max() == 1.0
+    np.testing.assert_array_equal(images[0], images[1])
+    assert not is_cached(store)
