@@ -68,6 +68,12 @@ def is_cached(volume: Volume) -> bool:
 def slab_gradients(volume: Volume, z0: int, z1: int) -> np.ndarray:
     """float64 (z1 - z0, ny, nx, 3) voxel gradients of slices [z0, z1), identical to those of the
     whole volume (the slab reads one slice more on each side where there is one)."""
+    return central_differences(_padded_slab(volume, z0, z1), volume.spacing)
+
+
+def _padded_slab(volume: Volume, z0: int, z1: int) -> np.ndarray:
+    """Normalised float64 slices [z0 - 1, z1 + 1) and one voxel more around x and y: neighbours
+    where the volume has them, edge values beyond its faces."""
     nz = volume.data.shape[0]
     below, above = max(z0 - 1, 0), min(z1 + 1, nz)
     values = volume.data[below:above]
@@ -76,7 +82,7 @@ def slab_gradients(volume: Volume, z0: int, z1: int) -> np.ndarray:
         values = np.nan_to_num(values.astype(np.float64), nan=lo, posinf=hi, neginf=lo)
     values = volume.normalized(values)
     pad_z = (1 if below == z0 else 0, 1 if above == z1 else 0)  # edge values only at the faces
-    return central_differences(np.pad(values, (pad_z, (1, 1), (1, 1)), mode="edge"), volume.spacing)
+    return np.pad(values, (pad_z, (1, 1), (1, 1)), mode="edge")
 
 
 def _slabs(volume: Volume, what: str):
@@ -91,12 +97,19 @@ def _slabs(volume: Volume, what: str):
 
 
 def _scale(volume: Volume) -> np.ndarray:
+    # The largest difference divided by 2h is the largest gradient exactly (division by a positive
+    # number is monotone under rounding), without the slab's (..., 3) gradient array.
     largest = np.zeros(3)
+    inner = slice(1, -1)
     for z0, z1 in _slabs(volume, "range"):
-        gradients = slab_gradients(volume, z0, z1)
-        for k in range(3):  # max and -min: no |g| copy of the slab
-            component = gradients[..., k]
-            largest[k] = max(largest[k], component.max(), -component.min())
+        padded = _padded_slab(volume, z0, z1)
+        for k, (ahead, behind) in enumerate((
+                ((inner, inner, slice(2, None)), (inner, inner, slice(None, -2))),
+                ((inner, slice(2, None), inner), (inner, slice(None, -2), inner)),
+                ((slice(2, None), inner, inner), (slice(None, -2), inner, inner)))):
+            difference = padded[ahead] - padded[behind]
+            largest[k] = max(largest[k], difference.max() / (2.0 * volume.spacing[k]),
+                             -(difference.min() / (2.0 * volume.spacing[k])))
     return gradient_scale(largest[None, :])
 
 
