@@ -203,8 +203,9 @@ class Camera(BaseModel):
         return matrix
 
     def view_projection(self, aspect: float) -> np.ndarray:
-        """World -> clip coordinates: projection_matrix(aspect) @ view_matrix()."""
-        return self.projection_matrix(aspect) @ self.view_matrix()
+        """World -> clip coordinates: projection_matrix(aspect) @ view_matrix() (read-only: shared
+        by the renderers of one frame, which each ask for it)."""
+        return _view_projection(self, aspect)
 
     # --- rays -----------------------------------------------------------------------------------
     def rays(self, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
@@ -388,6 +389,13 @@ def _basis(position: Vec3, focus: Vec3, up: Vec3) -> tuple[np.ndarray, np.ndarra
     for vector in vectors:
         vector.flags.writeable = False
     return vectors
+
+
+@functools.lru_cache(maxsize=16)
+def _view_projection(camera: Camera, aspect: float) -> np.ndarray:
+    matrix = camera.projection_matrix(aspect) @ camera.view_matrix()
+    matrix.flags.writeable = False
+    return matrix
 
 
 def _unit(vector: np.ndarray) -> np.ndarray:

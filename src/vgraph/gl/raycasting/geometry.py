@@ -148,4 +148,4 @@ def ray_uniforms(camera: Camera, size) -> dict[str, tuple[float, ...]]:
 
 def vec(values) -> tuple[float, ...]:
     """A uniform value from a numpy vector (float64 -> Python floats; the GL side is float32)."""
-    return tuple(float(v) for v in values)
+    return tuple(map(float, values))
