@@ -15,8 +15,9 @@ from vgraph.gl.context import get_context
 from vgraph.gl.raycasting import gradient_volume
 from vgraph.gl.raycasting.gradient_volume import gradient_texture, is_cached
 from vgraph.implicit import sample
-from vgraph.numerics.reference_raycast import (SNORM16_MAX, Shading, VolumeSampler, lookup, render,
-                                               shade_points, volume_box)
+from vgraph.numerics.reference_raycast import (SNORM16_MAX, Shading, VolumeSampler, central_differences,
+                                               lookup, quantized_gradients, render, shade_points,
+                                               volume_box)
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
@@ -77,6 +78,10 @@ def test_texture_holds_the_central_differences_in_16_bit_steps(name, monkeypatch
     # Rounded to the nearest step of scale / 32767 (up to float64 rounding of the quotient).
     error = np.abs(stored[..., :3] * (scale / SNORM16_MAX) - expected)
     assert np.all(error <= scale / (2 * SNORM16_MAX) * (1 + 1e-9))
+    # Bit for bit the reference's texels (Shading(gradients="precomputed")).
+    normalised = VolumeSampler(volume).flat.reshape(volume.data.shape)
+    reference = central_differences(np.pad(normalised, 1, mode="edge"), volume.spacing)
+    np.testing.assert_array_equal(stored[..., :3], quantized_gradients(reference, scale))
     assert texture.dtype == "ni2" and texture.components == 4  # 8 bytes a voxel
 
 

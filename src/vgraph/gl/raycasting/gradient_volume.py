@@ -29,7 +29,7 @@ import numpy as np
 
 from vgraph.errors import VGraphError
 from vgraph.gl.context import release_quietly
-from vgraph.numerics.reference_raycast import central_differences, gradient_scale, quantized_gradients
+from vgraph.numerics.reference_raycast import SNORM16_MAX, central_differences, gradient_scale
 from vgraph.volume import Volume
 
 SLAB_VOXELS = 2**22  # voxels per numpy slab: ~100 MB of float64 temporaries
@@ -37,6 +37,11 @@ PROGRESS_VOXELS = 32 * 2**20  # show a progress bar (stderr) above this many vox
 GL_TEXTURE_3D = 0x806F
 GL_RGBA16_SNORM = 0x8F9B
 
+_INNER = slice(1, -1)
+# Per axis x, y, z: (the neighbour ahead, the one behind) of every voxel of a padded slab.
+_NEIGHBOURS = (((_INNER, _INNER, slice(2, None)), (_INNER, _INNER, slice(None, -2))),
+               ((_INNER, slice(2, None), _INNER), (_INNER, slice(None, -2), _INNER)),
+               ((slice(2, None), _INNER, _INNER), (slice(None, -2), _INNER, _INNER)))
 # volume -> {"scale": per-axis factor, id(ctx): texture}; entries go with their volume.
 _cache: "weakref.WeakKeyDictionary[Volume, dict]" = weakref.WeakKeyDictionary()
 
@@ -100,13 +105,9 @@ def _scale(volume: Volume) -> np.ndarray:
     # The largest difference divided by 2h is the largest gradient exactly (division by a positive
     # number is monotone under rounding), without the slab's (..., 3) gradient array.
     largest = np.zeros(3)
-    inner = slice(1, -1)
     for z0, z1 in _slabs(volume, "range"):
         padded = _padded_slab(volume, z0, z1)
-        for k, (ahead, behind) in enumerate((
-                ((inner, inner, slice(2, None)), (inner, inner, slice(None, -2))),
-                ((inner, slice(2, None), inner), (inner, slice(None, -2), inner)),
-                ((slice(2, None), inner, inner), (slice(None, -2), inner, inner)))):
+        for k, (ahead, behind) in enumerate(_NEIGHBOURS):
             difference = padded[ahead] - padded[behind]
             largest[k] = max(largest[k], difference.max() / (2.0 * volume.spacing[k]),
                              -(difference.min() / (2.0 * volume.spacing[k])))
@@ -124,10 +125,15 @@ def _upload(ctx: moderngl.Context, volume: Volume, scale: np.ndarray) -> moderng
     texture.repeat_x = texture.repeat_y = texture.repeat_z = False
     texels = None
     for z0, z1 in _slabs(volume, "texture"):
-        rgb = quantized_gradients(slab_gradients(volume, z0, z1), scale)
         if texels is None or texels.shape[0] != z1 - z0:
             texels = np.zeros((z1 - z0, ny, nx, 4), dtype=np.int16)
-        texels[..., :3] = rgb
+        padded = _padded_slab(volume, z0, z1)
+        # Component by component, the operations of central_differences and quantized_gradients
+        # (same texels, tested) without their (..., 3) float64 arrays.
+        for k, (ahead, behind) in enumerate(_NEIGHBOURS):
+            steps = (padded[ahead] - padded[behind]) / (2.0 * float(volume.spacing[k]))
+            steps *= SNORM16_MAX / scale[k]
+            texels[..., k] = np.rint(steps, out=steps)
         texture.write(texels, viewport=(0, 0, z0, nx, ny, z1 - z0), alignment=1)
     return texture
 
