@@ -15,8 +15,8 @@ Canvas at 512 x 512, and drives three drags with input events every 16 ms (a 60 
 Networks: ``head`` is networks/raycast_head.json; ``bonsai`` is the same network on
 shared/data/ct_bonsai (256^3 uint8), with a camera that fits the data and a leaves-and-pot TF.
 
-Per drag it records, at the window, every frame shown (``LiveEvaluation.frames``: when, its size,
-final or not) and, in the render process, every job (``RenderResult``'s timestamps: submitted,
+Per drag it records, at the window, every frame given to the canvas (``LiveEvaluation.frames``:
+when, its size, final or not) and when it was first painted (an event filter on the canvas) and, in the render process, every job (``RenderResult``'s timestamps: submitted,
 started, finished, received; one clock for both processes). It reports frames per second while
 the mouse moves (at the window and jobs finished in the render process), the coarse frame size,
 the mean evaluation and transfer times, the stale jobs the render process skipped (a newer one
@@ -68,7 +68,7 @@ class Row:
     drag: str
     seconds: float            # mouse down to mouse up
     moves: int                # input events sent
-    window_frames: int        # frames shown during the drag
+    window_frames: int        # frames painted on the canvas during the drag
     window_fps: float
     coarse_size: str          # width x height of the frames shown during the drag
     render_jobs: int          # jobs the render process finished during the drag
@@ -79,7 +79,7 @@ class Row:
     skipped: int              # jobs the render process did not render: a newer one was waiting
     dropped: int              # results not shown at the window: a newer one arrived with them
     render_refined_s: float   # release -> the render process finished the refined frame
-    window_refined_s: float   # release -> the refined frame shown
+    window_refined_s: float   # release -> the refined frame painted
 
 
 def bonsai_network(folder: Path) -> Path:
@@ -102,20 +102,44 @@ def bonsai_network(folder: Path) -> Path:
     return path
 
 
+def _paint_filter():
+    from PySide6.QtCore import QEvent, QObject
+
+    class PaintFilter(QObject):
+        """Calls ``painted()`` when the canvas is about to paint."""
+
+        def __init__(self, painted):
+            super().__init__()
+            self.painted = painted
+
+        def eventFilter(self, watched, event):
+            if event.type() == QEvent.Paint:
+                self.painted()
+            return False
+    return PaintFilter
+
+
 class Recorder:
-    """Frames shown at the window and results received from the render process, timestamped."""
+    """Frames given to the canvas, when each was first painted, and the results received from the
+    render process, timestamped. A frame replaced before a paint was never seen."""
 
     def __init__(self, window):
         self.window = window
-        self.frames: list[tuple[float, tuple, bool]] = []   # (time, (w, h), final)
+        self.frames: list[list] = []   # [time given, (w, h), final, time first painted or None]
         self.results: list = []
         window.evaluation.frames.connect(self._frame)
         window.evaluation.received.connect(self.results.append)
+        self.filter = _paint_filter()(self._painted)
+        window.canvases.views[CANVAS].installEventFilter(self.filter)
 
     def _frame(self, frames: dict, final: bool) -> None:
         frame = frames.get(CANVAS)
         if frame is not None:
-            self.frames.append((time.monotonic(), (frame.shape[1], frame.shape[0]), bool(final)))
+            self.frames.append([time.monotonic(), (frame.shape[1], frame.shape[0]), bool(final), None])
+
+    def _painted(self) -> None:
+        if self.frames and self.frames[-1][3] is None:
+            self.frames[-1][3] = time.monotonic()
 
     def clear(self) -> None:
         self.frames.clear()
@@ -203,11 +227,12 @@ def measure(window, recorder: Recorder, network: str, drag: str, seconds: float)
     dropped = getattr(window.evaluation, "frames_dropped", 0)  # (absent before it was counted)
     start, end, moves = DRAGS[drag](window, seconds)
     settle(window)
-    during = [f for f in recorder.frames if start <= f[0] <= end]
+    wait_until(time.monotonic() + 0.2)  # the refined frame's paint
+    during = [f for f in recorder.frames if f[3] is not None and start <= f[3] <= end]
     jobs = [r for r in recorder.results if start <= r.finished <= end and r.outcome.frames]
     refined_render = [r for r in recorder.results if r.finished > end and r.scale == 1.0]
-    refined_window = [f for f in recorder.frames if f[0] > end and f[2]]
-    sizes = sorted({f"{w}x{h}" for _, (w, h), _ in during})
+    refined_window = [f for f in recorder.frames if f[0] > end and f[2] and f[3] is not None]
+    sizes = sorted({f"{w}x{h}" for _, (w, h), _, _ in during})
 
     def mean_ms(values):
         return round(1000.0 * statistics.fmean(values), 1) if values else float("nan")
@@ -218,7 +243,7 @@ def measure(window, recorder: Recorder, network: str, drag: str, seconds: float)
                sum(1 for r in recorder.results if getattr(r, "skipped", False)),
                getattr(window.evaluation, "frames_dropped", 0) - dropped,
                round(refined_render[-1].finished - end, 2) if refined_render else float("nan"),
-               round(refined_window[-1][0] - end, 2) if refined_window else float("nan"))
+               round(refined_window[-1][3] - end, 2) if refined_window else float("nan"))
 
 
 def open_window(path: Path, settings_dir: Path):
