@@ -19,6 +19,21 @@
 #include "raycasting/empty_space.glsl"
 #include "raycasting/ray_bounds.glsl"
 
+#ifdef RAY_BOUNDS
+// The first sample in the bounds (one step to spare on each side for rounding); lowers ray.samples
+// past the last one. Samples keep their positions start + i * step and the ones left out lie in
+// empty blocks, so the image does not change. Needs depth_output.glsl (world_point, near_centre).
+int bound_samples(inout Ray ray) {
+    vec2 bounds = pixel_bounds();
+    float start = dot(world_point(ray.start) - near_centre, view_forward);
+    float per_sample = step_length * dot(ray.direction, view_forward);
+    float first = floor((bounds.x - start) / per_sample) - 1.0;
+    float last = ceil((-bounds.y - start) / per_sample) + 1.0;
+    ray.samples = int(clamp(last + 1.0, 0.0, float(ray.samples)));
+    return int(clamp(first, 0.0, float(ray.samples)));
+}
+#endif
+
 struct March {
     int i;           // the sample to evaluate next
 #ifdef SKIP_EMPTY_SPACE

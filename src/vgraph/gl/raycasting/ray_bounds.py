@@ -41,33 +41,39 @@ SHADERS = ("raycasting/ray_bounds.vert.glsl", "raycasting/ray_bounds.frag.glsl")
 GROW = 0.5  # voxels: see the module docstring (below one voxel, the blocks' range margin)
 TILE = 4  # pixels per bounds texel and axis: 1/16 of the fragments, bounds a few voxels looser
 FAR = 1e30  # the cleared value: no occupied box along the pixel's ray
-# Above this share of occupied blocks the pass costs more than it saves (bench: docs/performance.md).
-MAX_OCCUPIED_FRACTION = 0.5
+# Where the pass costs more than it saves (measured at 512^2, docs/performance.md): with most
+# blocks occupied little is left to cut, and scattered blocks make many boxes (the pass took 2-5 ms
+# for 170-670 boxes, 11 ms for 1075, 15 ms for 2034; bounds saved 5-15 ms a frame).
+MAX_OCCUPIED_FRACTION = 0.75
+MAX_BOXES = 1024
 # Measurement switch: VGRAPH_RAY_BOUNDS=0 turns the bounds off (same image, the work before them).
 ENABLED = os.environ.get("VGRAPH_RAY_BOUNDS", "1") != "0"
 
 
 def occupied_boxes(occupied: np.ndarray) -> np.ndarray:
-    """Greedy cover of the True blocks of ``occupied`` [bz, by, bx] by disjoint boxes: int array
-    (n, 6) of (x0, y0, z0, x1, y1, z1), block indices, end exclusive. Runs along x, grown along y
-    while whole rows are free, then along z while whole slabs are: a few hundred boxes for the
-    32^3 blocks of a 256^3 volume, where the blocks themselves would be thousands."""
-    free = occupied.copy()
-    nz, ny, nx = occupied.shape
-    boxes = []
-    for z, y, x in zip(*np.nonzero(occupied)):
-        if not free[z, y, x]:
-            continue
-        x1 = x + 1 + int(np.argmin(np.append(free[z, y, x + 1:], False)))
-        y1 = y + 1
-        while y1 < ny and free[z, y1, x:x1].all():
-            y1 += 1
-        z1 = z + 1
-        while z1 < nz and free[z1, y:y1, x:x1].all():
-            z1 += 1
-        free[z:z1, y:y1, x:x1] = False
-        boxes.append((x, y, z, x1, y1, z1))
-    return np.array(boxes, dtype=np.int64).reshape(-1, 6)
+    """Disjoint boxes covering exactly the True blocks of ``occupied`` [bz, by, bx]: int array (n, 6)
+    of (x0, y0, z0, x1, y1, z1), block indices, end exclusive. Runs along x, merged along y where
+    the same run continues in the next row, then along z where the same rectangle continues in
+    the next slab (whole-array numpy: a TF edit rebuilds them in milliseconds). A few hundred
+    boxes for the 32^3 blocks of a 256^3 volume, where the blocks themselves are thousands."""
+    edges = np.diff(np.pad(occupied.astype(np.int8), [(0, 0), (0, 0), (1, 1)]), axis=2)
+    z, y, x0 = np.nonzero(edges == 1)
+    x1 = np.nonzero(edges == -1)[2]  # row-major order: each run's end comes right after its start
+    (z, x0, x1), y0, y1 = _join((z, x0, x1), y, y + 1)
+    (y0, y1, x0, x1), z0, z1 = _join((y0, y1, x0, x1), z, z + 1)
+    return np.stack([x0, y0, z0, x1, y1, z1], axis=1).astype(np.int64).reshape(-1, 6)
+
+
+def _join(keys, start, end):
+    """Join items with equal ``keys`` whose [start, end) follow each other along one axis."""
+    if len(start) == 0:
+        return keys, start, end
+    order = np.lexsort((start, *keys[::-1]))
+    keys, start, end = [k[order] for k in keys], start[order], end[order]
+    same = np.all([k[1:] == k[:-1] for k in keys], axis=0) & (start[1:] == end[:-1])
+    first = np.flatnonzero(np.concatenate([[True], ~same]))
+    last = np.append(first[1:], len(start)) - 1
+    return [k[first] for k in keys], start[first], end[last]
 
 
 def world_boxes(boxes: np.ndarray, geometry: VolumeGeometry) -> np.ndarray:
@@ -80,8 +86,12 @@ def world_boxes(boxes: np.ndarray, geometry: VolumeGeometry) -> np.ndarray:
     return np.hstack([to_world(lo), to_world(hi)]).astype(np.float32)
 
 
-def worthwhile(occupied: np.ndarray) -> bool:
-    return bool(occupied.any()) and float(occupied.mean()) <= MAX_OCCUPIED_FRACTION
+def worthwhile_boxes(occupied: np.ndarray) -> np.ndarray | None:
+    """occupied_boxes, or None where the pass would cost more than it saves (module constants)."""
+    if not occupied.any() or occupied.mean() > MAX_OCCUPIED_FRACTION:
+        return None
+    boxes = occupied_boxes(occupied)
+    return boxes if len(boxes) <= MAX_BOXES else None
 
 
 class RayBounds:
@@ -106,8 +116,8 @@ class RayBounds:
         ctx = frame.ctx
         if self._key is None or not all(a is b or a == b for a, b in zip(key, self._key)):
             self._key, self._frame = key, None
-            self._upload(ctx, world_boxes(occupied_boxes(occupied), frame.geometry)
-                         if worthwhile(occupied) else None)
+            boxes = worthwhile_boxes(occupied)
+            self._upload(ctx, None if boxes is None else world_boxes(boxes, frame.geometry))
         if self._count == 0:
             return None
         if self._frame is not frame:
