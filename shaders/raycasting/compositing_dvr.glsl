@@ -10,6 +10,17 @@ Result march(Ray ray) {
     Result result = empty_result();
     vec4 sum = vec4(0.0);
     March cursor = start_march(ray);
+#ifdef SHADING_BLINN_PHONG
+    // First the samples up to the first visible one, in a loop without the shading code: SIMD GL
+    // (llvmpipe, GPU warps) runs a branch for a whole group of pixels when one of them takes it, so
+    // in a single loop rays still in empty space would wait for their neighbours' shading.
+    while (cursor.i < ray.samples) {
+        if (skip_empty_space(cursor, ray)) continue;
+        if (classify(intensity(sample_point(ray, float(cursor.i)))).a > 0.0) break;
+        result.taken++;
+        ++cursor.i;
+    }
+#endif
     while (cursor.i < ray.samples) {
         if (skip_empty_space(cursor, ray)) continue;
         vec3 t = sample_point(ray, float(cursor.i));
