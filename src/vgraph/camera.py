@@ -384,8 +384,8 @@ def _basis(position: Vec3, focus: Vec3, up: Vec3) -> tuple[np.ndarray, np.ndarra
     # Remembered: a frame asks a few renderers' worth of times for the basis of one camera, and
     # np.cross costs tens of microseconds a call (docs/gui.md, per-frame overhead).
     forward = _unit(np.subtract(focus, position, dtype=np.float64))
-    right = _unit(np.cross(forward, np.asarray(up, dtype=np.float64)))
-    vectors = right, np.cross(right, forward), forward
+    right = _unit(_cross(forward, np.asarray(up, dtype=np.float64)))
+    vectors = right, _cross(right, forward), forward
     for vector in vectors:
         vector.flags.writeable = False
     return vectors
@@ -396,6 +396,13 @@ def _view_projection(camera: Camera, aspect: float) -> np.ndarray:
     matrix = camera.projection_matrix(aspect) @ camera.view_matrix()
     matrix.flags.writeable = False
     return matrix
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """np.cross of two 3-vectors, the same products and differences in the same order (so the
+    same bits), without np.cross's general machinery."""
+    (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
 def _unit(vector: np.ndarray) -> np.ndarray:
