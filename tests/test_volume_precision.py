@@ -40,6 +40,13 @@ def test_codes_are_within_half_a_step_of_the_values():
     assert copy.data.min() == 0 and copy.data.max() == SIXTEEN_BIT_CODES  # the range's ends are exact
 
 
+def test_a_range_wider_than_float64_differences():
+    """hi - lo overflows for float64 data near +-1.8e308: the codes come from the scaled form."""
+    data = np.array([-1.5e308, -0.5e308, 0.0, 1.5e308] * 6, dtype=np.float64).reshape(2, 3, 4)
+    copy = Volume(data).at_precision("16bit")
+    np.testing.assert_array_equal(copy.data[0, 0], [0, 21845, 32768, 65535])
+
+
 def test_the_copy_is_made_once_and_full_precision_is_the_volume_itself(torus):
     assert torus.at_precision("16bit") is torus.at_precision("16bit")
     assert torus.at_precision("full") is torus

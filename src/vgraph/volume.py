@@ -304,10 +304,24 @@ class SixteenBitCopy(Volume):
         lo, hi = volume.value_range
         flat = volume.data.reshape(-1)
         codes = np.empty(flat.size, dtype=np.uint16)
-        for start in range(0, flat.size, _SLAB_VOXELS):  # float64 slab by slab, as _normalized_float32
-            unit = _to_unit(flat[start:start + _SLAB_VOXELS].astype(np.float64), lo, hi)
-            unit = np.clip(np.nan_to_num(unit, nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
-            codes[start:start + _SLAB_VOXELS] = np.rint(unit * SIXTEEN_BIT_CODES)
+        # In float64 (float32 would put codes near a half off by one), slab by slab in one
+        # reused buffer: fresh 8-byte temporaries of a whole volume cost more than the arithmetic.
+        with np.errstate(over="ignore"):
+            span = hi - lo  # inf for float64 data near +-1.8e308: then _to_unit's scaled form
+        buffer = np.empty(min(flat.size, _SLAB_VOXELS), dtype=np.float64)
+        for start in range(0, flat.size, _SLAB_VOXELS):
+            slab = flat[start:start + _SLAB_VOXELS]
+            unit = buffer[:slab.size]
+            np.copyto(unit, slab, casting="unsafe")
+            if np.isfinite(span):
+                unit -= lo
+                unit *= SIXTEEN_BIT_CODES / span
+            else:
+                unit[...] = _to_unit(unit, lo, hi) * SIXTEEN_BIT_CODES
+            if volume.nonfinite_count:  # as the full texture: NaN -> lo, +-Inf -> the ends
+                np.nan_to_num(unit, copy=False, nan=0.0, posinf=SIXTEEN_BIT_CODES, neginf=0.0)
+            np.clip(unit, 0.0, SIXTEEN_BIT_CODES, out=unit)
+            codes[start:start + _SLAB_VOXELS] = np.rint(unit, out=unit)
         return cls(codes.reshape(volume.data.shape), spacing=volume.spacing, origin=volume.origin,
                    declared_range=(lo, hi), is_spline_coefficients=volume.is_spline_coefficients,
                    source=volume.source, time_steps=volume.time_steps)
