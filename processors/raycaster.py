@@ -18,6 +18,7 @@ Conventions (docs/rendering.md explains each property with pictures):
   distance in world units from the ray's start on the near plane, b = the number of samples the ray
   evaluated (a debug counter; skipped empty space is not counted), a = 1 where there is a depth
   sample. Which sample gives the depth depends on the compositing mode (the shader parts say).
+  The depth output is on demand: drawn only when a target or a connected processor reads it.
 - The camera must equal the EntryExitPoints camera (link them): it gives depth and view direction.
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
   than its memory budget, is drawn brick by brick by a BrickedRayCaster with this processor's
@@ -55,7 +56,7 @@ class RayCaster(RaycasterBase):
 
     category = "Volume rendering"
     inports = [Inport("volume", Volume), Inport("entry", Image), Inport("exit", Image)]
-    outports = [Outport("image", Image), Outport("depth", Image)]
+    outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
     components = (EntryExit, CameraRays, VolumeSampling, Sampling, TransferFunctionLut, FrontToBack,
                   IsoSurface, Light, EmptySpace, Background)
 
@@ -70,7 +71,7 @@ class RayCaster(RaycasterBase):
 
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
-        self._targets = RenderTargets(2)
+        self._targets = {True: RenderTargets(2), False: RenderTargets(1)}  # by: depth output wanted
         self._bricked = None  # the BrickedRayCaster for volumes one texture cannot hold
         self._drew_bricks = False
         self.load_limit = None  # for that BrickedRayCaster (the render process sets it; not a property)
@@ -118,9 +119,14 @@ class RayCaster(RaycasterBase):
         if needs_bricks(volume, self.gl):
             return self._brick_by_brick(volume, entry, exit)
         frame = self.frame(volume, entry, exit)
-        image, depth = self._targets.ensure(frame.ctx, entry.size)
-        self.draw(frame, SHADER, self._targets, own=self._binding(frame))
-        return {"image": image, "depth": depth}
+        with_depth = self.wants("depth")
+        targets = self._targets[with_depth]
+        self._targets[not with_depth].release()  # a scene keeps the images of one kind only
+        outputs = dict(zip(("image", "depth"), targets.ensure(frame.ctx, entry.size)))
+        own = self._binding(frame)
+        own.defines["DEPTH_OUTPUT"] = with_depth
+        self.draw(frame, SHADER, targets, own=own)
+        return outputs
 
     def _brick_by_brick(self, volume: Volume, entry: Image, exit: Image) -> dict:
         """The frame drawn by a BrickedRayCaster that shares this processor's settings."""

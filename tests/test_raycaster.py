@@ -350,3 +350,16 @@ def test_block_ranges_cover_each_block_with_a_voxel_of_margin():
     assert 0 < occupied.sum() < occupied.size
     radii = skip_radii(np.pad(np.ones((1, 1, 1), bool), 3))  # one occupied block in a 7^3 grid
     assert radii[3, 3, 3] == 0 and radii[3, 3, 4] == 1 and radii[0, 3, 3] == 3 and radii[0, 0, 6] == 3
+
+
+def test_the_depth_output_is_drawn_only_when_something_reads_it(torus):
+    """A scene that shows only the image leaves the depth pass out (no second target, no
+    DEPTH_OUTPUT code); asking for the depth later draws it, with the same image."""
+    network = rendering_network(torus, oblique_camera(torus), transfer_function=COLOURED)
+    image = network.evaluate("rc.image", size=SIZE)
+    caster = network["rc"]
+    assert caster.outputs.get("depth") is None
+    assert not caster.passes[-1][1].get("DEPTH_OUTPUT")
+    depth = network.evaluate("rc.depth", size=SIZE)
+    assert caster.passes[-1][1]["DEPTH_OUTPUT"] and (depth[..., 3] == 1.0).any()
+    np.testing.assert_array_equal(network.evaluate("rc.image", size=SIZE), image)
