@@ -6,7 +6,7 @@
 // margin, empty_space.glsl). Skipping, front to back, the blocks not above the running maximum
 // saves little where the maxima lie inside the volume: the maximum rises slowly along the ray
 // (torus 256^3: 108 of 165 samples per pixel taken). So the ray's stretches (its samples in one
-// block, in the order of the block walk of empty_space.glsl) are taken in three passes:
+// block, in the order of the walk over the blocks below) are taken in three passes:
 //   1. the blocks only, one texelFetch each: the largest bound on the ray, `top`, and the first
 //      stretch with it;
 //   2. that stretch's samples: a maximum `best` usually close to the ray's;
@@ -20,9 +20,42 @@
 // takes 40 samples per pixel. In pass 3 the walk is a loop of its own with no sampling inside,
 // followed by the stretch's samples: on llvmpipe a walk with the sample loop nested in it cost as
 // much as the sampling itself, and one flat loop (a sample per iteration, the walk inside) was
-// 5-20 % slower than this (process CPU time, bonsai and torus).
+// 5-20 % slower than this (process CPU time, bonsai and torus). The walk steps from block to block
+// (a DDA) rather than recomputing the block of a sample index (empty_space.glsl's
+// next_sample_outside): up to 20 % less, never more.
 #ifdef COMPOSITING_MIP
 #ifdef SKIP_EMPTY_SPACE
+// The walk over the blocks (a 3D DDA, Amanatides & Woo 1987, in block coordinates of
+// empty_space.glsl): each step gives the block the ray is in and the end of its stretch, the first
+// sample index past the ray's exit from the block (samples at or past the exit belong to the next
+// one; a stretch may be empty where the ray clips a block's corner between two samples). Blocks
+// outside the grid (a ray starting on the box's face) stand for the edge block, which covers them.
+struct Cells {
+    ivec3 cell;
+    ivec3 dir;
+    vec3 t_max;    // sample index (fractional) where the ray leaves the cell along each axis
+    vec3 t_delta;
+};
+
+Cells first_cell(BlockWalk walk) {
+    Cells c;
+    c.cell = clamp(ivec3(floor(walk.start)), ivec3(0), block_count - 1);
+    c.dir = ivec3(sign(walk.step));
+    vec3 face = vec3(c.cell) + step(vec3(0.0), walk.step);
+    c.t_delta = abs(walk.steps_per_unit);
+    c.t_max = mix(vec3(1e30), (face - walk.start) * walk.steps_per_unit, notEqual(walk.step, vec3(0.0)));
+    return c;
+}
+
+int leave_cell(inout Cells c, int samples, out ivec3 block) {
+    block = clamp(c.cell, ivec3(0), block_count - 1);
+    float t = min(min(c.t_max.x, c.t_max.y), c.t_max.z);
+    bvec3 axis = lessThanEqual(c.t_max, vec3(t));
+    c.cell += ivec3(axis) * c.dir;
+    c.t_max += vec3(axis) * c.t_delta;
+    return min(int(floor(clamp(t, -1.0, float(samples)))) + 1, samples);
+}
+
 Result march(Ray ray) {
     Result result = empty_result();
     BlockWalk walk = block_walk(ray);
@@ -38,9 +71,13 @@ Result march(Ray ray) {
     float top = -1e30;
     int top_start = 0;
     int top_end = 0;
+    Cells cells = first_cell(walk);
     for (int i = 0; i < ray.samples;) {
-        ivec3 block = block_of(walk, i);
-        int next = min(next_sample_outside(walk, i, block, 1.0, ray.samples), ray.samples);
+        ivec3 block;
+        int next = leave_cell(cells, ray.samples, block);
+        if (next <= i) {
+            continue;  // no sample in this block
+        }
         float bound = block_value(block);
         if (bound > top) {
             top = bound;
@@ -64,12 +101,16 @@ Result march(Ray ray) {
     // 3. The rest, front to back: the walk to the next stretch that can change the result, then
     // its samples (until best reaches its bound).
     int i = 0;
+    cells = first_cell(walk);  // the same walk again
     while (i < ray.samples && !(i > best_sample && best >= ceiling)) {
         int stretch_end = i;
         float stretch_bound = 0.0;
         while (i < ray.samples && !(i > best_sample && best >= ceiling)) {
-            ivec3 block = block_of(walk, i);
-            int next = min(next_sample_outside(walk, i, block, 1.0, ray.samples), ray.samples);
+            ivec3 block;
+            int next = leave_cell(cells, ray.samples, block);
+            if (next <= i) {
+                continue;
+            }
             float bound = block_value(block);
             if ((i < best_sample ? bound + tie_slack >= best : bound > best) && i != top_start) {
                 stretch_end = next;
