@@ -105,12 +105,20 @@ def test_a_tf_point_drag_is_interactive_while_the_button_is_down(window, jobs, q
     assert window.canvases.views["canvas"].frame().shape[:2] == (SIZE, SIZE)
 
 
-def test_a_click_on_empty_plot_space_is_no_drag(window, qtbot):
+def test_clicks_that_change_nothing_render_nothing(window, jobs, qtbot):
+    """A click on empty plot space is no drag; a click on a point is a drag that moved nothing,
+    so its release asks for no frame."""
     open_sphere(window)
     plot = window.inspector.editors["transfer_function"].plot
     with qtbot.assertNotEmitted(window.inspector.interacting):
         send_mouse(plot, QEvent.MouseButtonPress, plot.to_pixel(0.5, 0.97), Qt.LeftButton, Qt.LeftButton)
         send_mouse(plot, QEvent.MouseButtonRelease, plot.to_pixel(0.5, 0.97), Qt.LeftButton, Qt.NoButton)
+    position, *_, opacity = plot.points[len(plot.points) // 2]
+    del jobs[:]
+    send_mouse(plot, QEvent.MouseButtonPress, plot.to_pixel(position, opacity), Qt.LeftButton, Qt.LeftButton)
+    send_mouse(plot, QEvent.MouseButtonRelease, plot.to_pixel(position, opacity), Qt.LeftButton, Qt.NoButton)
+    qtbot.wait(100)
+    assert jobs == [] and window.evaluation.idle()
 
 
 class FakeConnection:

@@ -198,7 +198,8 @@ class LiveEvaluation(QObject):
 
     def interactive(self, on: bool) -> None:
         self.scale = INTERACTIVE_SCALE if on else 1.0
-        if not on:
+        coarse_last = self._last_job is not None and self._last_job.scale < 1.0
+        if not on and (self._wanted or coarse_last):  # a press and release that changed nothing: nothing
             self._wanted = True
             self._send()  # queued behind the coarse jobs, which it makes stale: they are skipped
 
