@@ -42,8 +42,18 @@ def far_from_zero():
     return Volume((1000.0 + steps / 3.0).astype(np.float32))
 
 
+def spike_in_a_margin():
+    """A constant volume with one bright voxel at x = 15, the last of block 1 and in the margin of
+    block 2: rays through block 2 see only the constant under a block maximum of 1, so the block
+    with the ray's largest maximum yields the constant, and the first sample holding it lies in
+    the blocks in front, whose maximum equals it (the tie rule before the depth sample)."""
+    data = np.full((24, 24, 24), 0.5, dtype=np.float32)
+    data[12, 12, 15] = 1.0
+    return Volume(data, declared_range=(0.0, 1.0))
+
+
 VOLUMES = {"torus": lambda: sample("torus", 64, "float32"), "noise": noise, "plateaus": plateaus,
-           "far_from_zero": far_from_zero}
+           "far_from_zero": far_from_zero, "spike_in_a_margin": spike_in_a_margin}
 
 
 def cameras(volume):
@@ -120,3 +130,20 @@ def test_bonsai(bonsai, camera_name):
     skipped, plain = with_and_without_skipping(bonsai, cameras(bonsai)[camera_name], size=(96, 96))
     assert_same_picture(skipped, plain)
     assert skipped[1][..., 2].sum() < 0.8 * plain[1][..., 2].sum()
+
+
+# --- the BrickedRayCaster's MIP (shaders/bricks/composite_mip.glsl), brick by brick -------------
+@pytest.mark.parametrize("volume_name", list(VOLUMES))
+def test_bricked_skipping_changes_neither_image_nor_depth(volume_name):
+    from vgraph.testing import ray_caster_network
+    volume = VOLUMES[volume_name]()
+    for camera_name in ("perspective", "inside"):
+        network = ray_caster_network(volume, cameras(volume)[camera_name], "BrickedRayCaster",
+                                     compositing="mip", transfer_function=RAMP, brick_size=16, lod_bias=-16.0)
+        outputs = []
+        for skipping in (True, False):
+            network.set("rc.empty_space_skipping", skipping)
+            outputs.append((network.evaluate("rc.image", size=SIZE), network.evaluate("rc.depth", size=SIZE)))
+        assert np.ptp(outputs[1][0][..., 0]) > 0.1
+        np.testing.assert_array_equal(outputs[0][0], outputs[1][0])
+        np.testing.assert_array_equal(outputs[0][1], outputs[1][1])
