@@ -1,10 +1,11 @@
 """When and how the GUI evaluates: shortly after every change, in the render process.
 
 Changes arriving together (a macro such as a delete) are gathered by a short single-shot timer,
-started by the first of them (a stream of changes does not postpone it). Then they go to the render process (``render_process``) as the edits made since
-the last job (``changes``: a property's new value, a processor, connection or link added or
-removed), not as the whole network; while it works, further changes wait and go together with the
-next job, so the GUI never queues up stale frames. Results come back through ``finished`` (the
+started by the first of them (a stream of changes does not postpone it). Then they go to the
+render process (``render_process``) as the edits made since the last job (``changes``: a
+property's new value, a processor, connection or link added or removed), not as the whole network;
+while it works, further changes wait and go together with the next job (while dragging they are
+queued instead, and the render process skips the stale ones: see below). Results come back through ``finished`` (the
 outcome) and ``frames``.
 
 The whole network goes as a document instead when the render process's copy cannot be trusted or
