@@ -5,8 +5,8 @@ started by the first of them (a stream of changes does not postpone it). Then th
 render process (``render_process``) as the edits made since the last job (``changes``: a
 property's new value, a processor, connection or link added or removed), not as the whole network;
 while it works, further changes wait and go together with the next job (while dragging they are
-queued instead, and the render process skips the stale ones: see below). Results come back through ``finished`` (the
-outcome) and ``frames``.
+queued instead, and the render process skips the stale ones: see below). Results come back
+through ``finished`` (the outcome) and ``frames``.
 
 The whole network goes as a document instead when the render process's copy cannot be trusted or
 reached by changes: a network opened or new (``network_replaced``), a new render process (after a
