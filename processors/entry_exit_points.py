@@ -77,6 +77,7 @@ class EntryExitPoints(Processor):
         super().__init__(id, **values)
         self._entry, self._exit = RenderTargets(1), RenderTargets(1)
         self._cube: tuple | None = None  # (ctx, vertex buffer, {program: vertex array})
+        self._volume_cache: tuple | None = None  # (volume, _volume_uniforms of it)
 
     def process(self, volume: Volume) -> dict:
         ctx = self.gl
@@ -106,24 +107,34 @@ class EntryExitPoints(Processor):
     def _uniforms(self, volume: Volume, size, camera) -> dict:
         """Uniforms of the point computation (entry_exit_point.glsl), and under "faces" and "cap"
         those of the two ways of drawing it."""
-        geometry = VolumeGeometry.of(volume)
-        box_min, box_max = geometry.box
-        hit_min, hit_max = self._hit_box = geometry.grown_box()
-        proxy_min, proxy_max = geometry.proxy_box()
-        scale, offset = geometry.world_to_texture
-        texture_min, texture_max = geometry.texture_box
-        return {"box_min": vec(box_min), "box_max": vec(box_max),
-                "hit_box_min": vec(hit_min), "hit_box_max": vec(hit_max),
-                "faces": {"proxy_min": vec(proxy_min), "proxy_size": vec(proxy_max - proxy_min),
-                          "view_projection": camera.view_projection(size[0] / size[1])},
-                "cap": {"proxy_min": vec(proxy_min), "proxy_max": vec(proxy_max)},
+        boxes, proxy, self._hit_box, min_spacing = self._volume_uniforms(volume)
+        return {**boxes,
+                "faces": {**proxy["faces"], "view_projection": camera.view_projection(size[0] / size[1])},
+                "cap": proxy["cap"],
                 "near_to_far": camera.far - camera.near,
-                "world_to_texture_scale": vec(scale), "world_to_texture_offset": vec(offset),
-                "texture_box_min": vec(texture_min), "texture_box_max": vec(texture_max),
-                "texture_to_world_scale": vec(geometry.texture_to_world[0]),
-                "jitter": float(self.jitter * geometry.spacing.min()),
+                "jitter": float(self.jitter * min_spacing),
                 "viewport_size": (float(size[0]), float(size[1])),
                 **ray_uniforms(camera, size)}
+
+    def _volume_uniforms(self, volume: Volume):
+        """What depends on the volume alone, worked out once per volume (a camera drag asks
+        every frame): (box uniforms, proxy uniforms of faces and cap, the hit box, min spacing)."""
+        if self._volume_cache is None or self._volume_cache[0] is not volume:
+            geometry = VolumeGeometry.of(volume)
+            box_min, box_max = geometry.box
+            hit_min, hit_max = hit_box = geometry.grown_box()
+            proxy_min, proxy_max = geometry.proxy_box()
+            scale, offset = geometry.world_to_texture
+            texture_min, texture_max = geometry.texture_box
+            boxes = {"box_min": vec(box_min), "box_max": vec(box_max),
+                     "hit_box_min": vec(hit_min), "hit_box_max": vec(hit_max),
+                     "world_to_texture_scale": vec(scale), "world_to_texture_offset": vec(offset),
+                     "texture_box_min": vec(texture_min), "texture_box_max": vec(texture_max),
+                     "texture_to_world_scale": vec(geometry.texture_to_world[0])}
+            proxy = {"faces": {"proxy_min": vec(proxy_min), "proxy_size": vec(proxy_max - proxy_min)},
+                     "cap": {"proxy_min": vec(proxy_min), "proxy_max": vec(proxy_max)}}
+            self._volume_cache = (volume, (boxes, proxy, hit_box, float(geometry.spacing.min())))
+        return self._volume_cache[1]
 
     def _draw(self, ctx, target: Image, culled: str, defines: dict, uniforms: dict, plane: str,
               exit_points: Image | None = None) -> None:
