@@ -29,7 +29,8 @@ bench/results/interaction_<time>.csv and .png.
 ``network.update`` on a cached network when only the camera changes (the frame drawn at 8 x 8
 pixels; the time inside GL draws and clears subtracted): the scheduler and the uniform set-up. It
 is the CPU time of the calling thread (``time.thread_time``), so waiting for a core on a loaded
-machine does not count; llvmpipe's own threads do not either.
+machine does not count; llvmpipe's own threads do not either. It also counts the Python function
+calls per frame, a figure the load cannot blur.
 
 ``--xvfb`` runs the same under a real X server (Xvfb, QT_QPA_PLATFORM=xcb) if Xvfb is installed,
 so frames are painted by a real window system.
@@ -295,8 +296,12 @@ def plot(rows: list[Row], path: Path) -> None:
     figure.savefig(path, dpi=100)
 
 
-def python_overhead(path: Path, frames: int = 300) -> tuple[float, float, float]:
-    """(median, 10th percentile, median GL) milliseconds per camera frame of ``network.update``."""
+def python_overhead(path: Path, frames: int = 300) -> tuple[float, float, float, float]:
+    """(median, 10th percentile, median GL) milliseconds per camera frame of ``network.update``,
+    and the Python function calls per frame (cProfile: a count a loaded machine cannot blur)."""
+    import cProfile
+    import pstats
+
     import moderngl
     from vgraph.fileformat import load_network
     in_gl = [0.0]
@@ -325,7 +330,15 @@ def python_overhead(path: Path, frames: int = 300) -> tuple[float, float, float]
         python.append(time.thread_time() - start - in_gl[0])
         gl.append(in_gl[0])
     python, gl = python[frames // 5:], gl[frames // 5:]  # after the first frames (compiling, caches)
-    return (1e3 * statistics.median(python), 1e3 * sorted(python)[len(python) // 10], 1e3 * statistics.median(gl))
+    profile = cProfile.Profile()
+    for i in range(100):
+        network.set(f"{RAY_CASTER}.camera", camera.rotate(-0.002 * (i + 1), 0.0))
+        profile.enable()
+        network.update(CANVAS, size=(8, 8))
+        profile.disable()
+    calls = sum(entry[1] for entry in pstats.Stats(profile).stats.values()) / 100
+    return (1e3 * statistics.median(python), 1e3 * sorted(python)[len(python) // 10], 1e3 * statistics.median(gl),
+            calls)
 
 
 def parse_args(argv=None):
@@ -366,9 +379,9 @@ def main(argv=None) -> int:
         with tempfile.TemporaryDirectory() as folder:
             paths = {"head": HEAD, "bonsai": bonsai_network(Path(folder))}
             for name in args.networks:
-                median, low, gl = python_overhead(paths[name])
-                print(f"{name}: Python per camera frame {median:.3f} ms (10th percentile {low:.3f} ms); "
-                      f"GL draws and clears {gl:.3f} ms", flush=True)
+                median, low, gl, calls = python_overhead(paths[name])
+                print(f"{name}: Python per camera frame {median:.3f} ms (10th percentile {low:.3f} ms), "
+                      f"{calls:.0f} function calls; GL draws and clears {gl:.3f} ms", flush=True)
         return 0
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
     rows = []
