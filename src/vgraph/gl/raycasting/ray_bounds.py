@@ -42,8 +42,8 @@ GROW = 0.5  # voxels: see the module docstring (below one voxel, the blocks' ran
 TILE = 4  # pixels per bounds texel and axis: 1/16 of the fragments, bounds a few voxels looser
 FAR = 1e30  # the cleared value: no occupied box along the pixel's ray
 # Where the pass costs more than it saves (measured at 512^2, docs/performance.md): with most
-# blocks occupied little is left to cut, and scattered blocks make many boxes (the pass took 2-5 ms
-# for 170-670 boxes, 11 ms for 1075, 15 ms for 2034; bounds saved 5-15 ms a frame).
+# blocks occupied little is left to cut, and scattered blocks make many boxes (the pass took 2-3 ms
+# for 300-600 boxes, 11 ms for 1075, 15 ms for 2034; the bounds saved 0-8 ms a frame).
 MAX_OCCUPIED_FRACTION = 0.75
 MAX_BOXES = 1024
 # Measurement switch: VGRAPH_RAY_BOUNDS=0 turns the bounds off (same image, the work before them).
