@@ -131,6 +131,17 @@ def test_other_rates_interpolation_and_jitter(tree_volume, rate, interpolation, 
     assert_same_picture(render(network, SIZE, True, monkeypatch), render(network, SIZE, False, monkeypatch))
 
 
+def test_a_tile_of_the_view(tree_volume, monkeypatch):
+    """A tile (Camera.tile, as the distributed renderer draws them) has rays off the view axis."""
+    full = cameras(tree_volume)["perspective"]
+    camera = full.tile(40, 8, 48, 36, 128, 96)
+    bounded, skipped, plain = three_ways(tree_volume, camera, monkeypatch, (48, 36), compositing="dvr",
+                                         transfer_function=TREE_TF)
+    assert bounded[2].get("RAY_BOUNDS") is True
+    assert np.ptp(plain[0][..., 0]) > 0.1
+    assert_same_picture(bounded, plain)
+
+
 def bounds_per_pixel(network, size):
     """The bounds target (near, far depth from the near plane) spread to the pixels, row 0 at the top."""
     texture = network["rc"].parts[EmptySpace].bounds._texture
