@@ -66,9 +66,10 @@ class CurvatureVolumeRaycaster(RaycasterBase):
         return visible_under(volume, self.transfer_function) if volume is not None else None
 
     def skip_values(self, frame):
-        """Blocks where the TF has opacity (components.EmptySpace)."""
+        """Blocks where the TF has opacity (components.EmptySpace; "opacity": empty blocks contribute
+        nothing, so ray bounds apply too)."""
         lut = self.parts[TransferFunctionLut].lut
-        return self.transfer_function, lambda low, high: radii_if_worthwhile(occupied_blocks(low, high, lut.alpha))
+        return ("opacity", self.transfer_function), lambda low, high: radii_if_worthwhile(occupied_blocks(low, high, lut.alpha))
 
     def process(self, volume: Volume, entry: Image, exit: Image) -> dict:
         frame = self.frame(volume, entry, exit)

@@ -4,7 +4,8 @@ dvr (also shaded), iso and first_hit on a synthetic tree in air and on the CT bo
 orthographic with rays along block faces, a camera inside, the far plane through the volume and
 jittered entry points. Also: rays that meet no occupied block evaluate nothing, a TF change
 rebuilds the boxes, the bounds stay out where they cannot pay or are not exact (mip, xray, dense
-TFs, scattered blocks, curvature ray casters), and the boxes cover exactly the occupied blocks."""
+TFs, scattered blocks, the CurvatureRaycaster; the CurvatureVolumeRaycaster has them, same picture),
+and the boxes cover exactly the occupied blocks."""
 
 import numpy as np
 import pytest
@@ -212,18 +213,38 @@ def test_no_bounds_where_they_are_not_exact_or_do_not_pay(tree_volume, propertie
     assert defines.get("RAY_BOUNDS") is not True
 
 
-@pytest.mark.parametrize("processor", ["CurvatureRaycaster", "CurvatureVolumeRaycaster"])
-def test_curvature_ray_casters_draw_no_bounds(processor, monkeypatch):
-    """They skip, but without bounds: the CurvatureRaycaster's hit search goes on to the exit point
-    after the last sample (iso_hit.glsl), so fewer samples would change it; the
-    CurvatureVolumeRaycaster does not opt in (its skip values are not one of EmptySpace.BOUNDED)."""
+def test_the_curvature_raycaster_draws_no_bounds(monkeypatch):
+    """It skips, but its hit search goes on to the exit point after the last sample (iso_hit.glsl),
+    so fewer samples would change it."""
     volume = sample("torus", 32, "float32")
-    network = ray_caster_network(volume, cameras(volume)["perspective"], processor, id="rc", derivatives="central")
+    network = ray_caster_network(volume, cameras(volume)["perspective"], "CurvatureRaycaster", id="rc",
+                                 derivatives="central")
     monkeypatch.setattr(ray_bounds, "ENABLED", True)
     network.evaluate("rc.image", size=SIZE)
     passes = [defines for _, defines in network["rc"].passes]
     assert any(defines.get("SKIP_EMPTY_SPACE") for defines in passes)
     assert not any(defines.get("RAY_BOUNDS") for defines in passes)
+
+
+@pytest.mark.parametrize("derivatives", ["central", "tricubic"])
+@pytest.mark.parametrize("normalization", ["linear", "exponential"])
+def test_the_curvature_volume_raycaster_with_bounds(derivatives, normalization, monkeypatch):
+    """Its march is the RayCaster's dvr with colour from curvature (also the range pass of the
+    linear normalisation): bounds on both passes, the same picture."""
+    from helpers.curvature import coefficients_of
+    volume = sample("torus", 40, "float32")
+    if derivatives == "tricubic":
+        volume = coefficients_of(volume)
+    surface = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.48, 0.9, 0.6, 0.3, 0.0), (0.52, 1.0, 0.8, 0.5, 0.6),
+                                       (0.56, 1, 1, 1, 0.0), (1.0, 1, 1, 1, 0.0)])
+    network = ray_caster_network(volume, cameras(volume)["perspective"], "CurvatureVolumeRaycaster", id="rc",
+                                 derivatives=derivatives, normalization=normalization, transfer_function=surface)
+    bounded = render(network, SIZE, True, monkeypatch)
+    passes = [defines for _, defines in network["rc"].passes]
+    assert all(defines.get("RAY_BOUNDS") for defines in passes)
+    plain = render(network, SIZE, False, monkeypatch)
+    assert np.ptp(plain[0][..., 0]) > 0.1
+    assert_same_picture(bounded, plain)
 
 
 def test_bonsai(monkeypatch):

@@ -303,9 +303,10 @@ class EmptySpace(Component):
     """Empty-space skipping over blocks (vgraph.gl.raycasting.empty_space) and, where empty blocks
     contribute nothing, ray bounds from the occupied ones (vgraph.gl.raycasting.ray_bounds). The
     processor's ``skip_values(frame)`` gives (what they depend on, values(block_min, block_max)), or
-    None when this frame's mode does not skip; bounds are drawn when what they depend on is one of
-    BOUNDED (RayCaster.skip_values: dvr, first_hit, iso), not for mip (block maxima) or for
-    ray casters that do not say so."""
+    None when this frame's mode does not skip; bounds are drawn when what they depend on is
+    (kind, ...) with kind one of BOUNDED, where empty blocks contribute nothing (the RayCaster's
+    dvr, first_hit and iso, the CurvatureVolumeRaycaster), not for mip (block maxima) or ray
+    casters that do not say so (the CurvatureRaycaster's hit search also reads the exit point)."""
 
     glsl = ("raycasting/empty_space.glsl", "raycasting/ray_bounds.glsl")
     BOUNDED = ("opacity", "level")
