@@ -57,6 +57,15 @@ def window(qtbot, tmp_path, renderer):
 
 
 @pytest.fixture
+def jobs(window, monkeypatch):
+    """Every job the window submits from now on (the shared render process still gets them)."""
+    renderer, submitted = window.evaluation.renderer, []
+    submit = renderer.submit
+    monkeypatch.setattr(renderer, "submit", lambda job: (submitted.append(job), submit(job))[1])
+    return submitted
+
+
+@pytest.fixture
 def test_shader_dir(monkeypatch):
     """tests/shaders on the shader search path for one test only: adding it at import time changed
     the path for every test collected after."""

@@ -404,7 +404,9 @@ def test_a_load_limit_draws_coarse_first_and_refines_to_the_planned_frame():
     seen = refine(network, (48, 40), LoadLimit(seconds=0.005))
     first, _ = seen[0]
     assert first["levels"] == [3] and first["bricks"] == 1 and not first["complete"]  # the coarsest: one brick
-    assert all(frame["bricks_read"] > 0 for frame, _ in seen)
+    # Every incomplete frame makes progress; the complete one may find all it needs read ahead
+    # by the frame before (how much a frame reads ahead depends on how fast this machine reads).
+    assert all(frame["bricks_read"] > 0 for frame, _ in seen[:-1])
     floors = [frame["floor_level"] for frame, _ in seen]
     assert floors == sorted(floors, reverse=True) and floors[-1] == 0 and len(seen) >= 2
     np.testing.assert_array_equal(seen[-1][1], planned)

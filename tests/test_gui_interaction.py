@@ -23,15 +23,6 @@ SIZE = 64  # canvas side: coarse frames are SIZE * INTERACTIVE_SCALE
 
 
 @pytest.fixture
-def jobs(window, monkeypatch):
-    """Every job the window submits from now on (the shared render process still gets them)."""
-    renderer, submitted = window.evaluation.renderer, []
-    submit = renderer.submit
-    monkeypatch.setattr(renderer, "submit", lambda job: (submitted.append(job), submit(job))[1])
-    return submitted
-
-
-@pytest.fixture
 def shown(window):
     """(width, final) of every frame the canvas is given."""
     frames = []

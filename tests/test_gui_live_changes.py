@@ -5,7 +5,6 @@ import os
 import signal
 
 import numpy as np
-import pytest
 
 from vgraph.fileformat import network_document
 from vgraph.gui.changes import PropertySet
@@ -13,15 +12,6 @@ from vgraph.gui.render_process import RenderJob, RenderServer
 
 from helpers.networks import bricked_sphere_network
 from helpers.paths import REPO
-
-
-@pytest.fixture
-def jobs(window, monkeypatch):
-    """Every job the window submits from now on (the shared render process still gets them)."""
-    renderer, submitted = window.evaluation.renderer, []
-    submit = renderer.submit
-    monkeypatch.setattr(renderer, "submit", lambda job: (submitted.append(job), submit(job))[1])
-    return submitted
 
 
 def open_small(window, name="raycast_sphere.json"):
