@@ -229,3 +229,16 @@ def test_a_store_drawn_brick_by_brick_is_shaded_with_central_differences(tmp_pat
     assert images[0][..., 3].max() == 1.0
     np.testing.assert_array_equal(images[0], images[1])
     assert not is_cached(store)
+
+
+def test_an_error_flag_left_by_earlier_gl_work_does_not_fail_the_build():
+    """PyOpenGL checks glGetError after its calls: a flag someone else left pending (here an
+    invalid texture unit, which moderngl does not check) must not be blamed on the gradient
+    volume (it failed bench_sample_rate once)."""
+    ctx = get_context()
+    stray = ctx.texture((4, 4), 4)
+    stray.use(location=1 << 20)  # GL_INVALID_ENUM, left pending
+    volume = sample("sphere", 16, "float32")
+    texture, _ = gradient_texture(ctx, volume)
+    assert texture.size == (16, 16, 16)
+    stray.release()

@@ -141,6 +141,11 @@ def _upload(ctx: moderngl.Context, volume: Volume, scale: np.ndarray) -> moderng
 def _respecify_snorm(texture: moderngl.Texture3D, size: tuple[int, int, int]) -> None:
     from OpenGL import GL
     error = None
+    # PyOpenGL checks glGetError after each call: an error flag left by earlier GL work (not ours)
+    # would be reported against this bind. Read such flags first (at most one per kind).
+    for _ in range(8):
+        if texture.ctx.error == "GL_NO_ERROR":
+            break
     GL.glBindTexture(GL_TEXTURE_3D, texture.glo)
     try:
         GL.glTexImage3D(GL_TEXTURE_3D, 0, GL_RGBA16_SNORM, *size, 0, GL.GL_RGBA, GL.GL_SHORT, None)
