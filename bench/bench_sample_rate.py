@@ -1,7 +1,7 @@
 """How close the RayCaster comes to what this machine's GL can do: samples per second of our
 ray-casting loop against trivial shaders that only sample.
 
-    .venv/bin/python bench/bench_sample_rate.py [--size 512] [--samples 256] [--repeat 5]
+    .venv/bin/python bench/bench_sample_rate.py [--size 512] [--samples 256] [--repeat 5] [--formats]
 
 The machine's limit is measured with full-screen passes whose every pixel takes --samples
 trilinear samples of the same 256^3 volume texture along an oblique line (one pixel, one line),
@@ -16,6 +16,9 @@ ends early; and the four rows of bench_vtk) on the same volume and image size: t
 evaluated (the depth output's sample counter, summed over the image) over the seconds of its pass
 (EntryExitPoints cached, until glFinish). For the scenes with empty space the rate counts only the
 samples evaluated, so it says how much work is left per second, not the frame rate.
+
+--formats adds the "fetch only" rate of 256^3 textures of random values in the formats a volume
+or a gradient volume could use (R16, R32F, RGBA8, RGBA16, RGBA16F): what one fetch costs by format.
 
 Both volumes of bench_vtk, with its settings for ours (derivatives = precomputed, volume_precision
 = 16bit): the CT bonsai (uint8, uploaded as R16 unorm) and the signed-distance torus (float32,
@@ -102,6 +105,38 @@ def trivial_rate(ctx, volume: Volume, size: int, samples: int, repeat: int, clas
     return size * size * samples / best
 
 
+FORMATS = {"R16": (1, "nu2", np.uint16), "R32F": (1, "f4", np.float32), "RGBA8": (4, "nu1", np.uint8),
+           "RGBA16": (4, "nu2", np.uint16), "RGBA16F": (4, "f2", np.float16)}
+
+
+class _RandomTexture:
+    """Stands in for a Volume in trivial_rate: a 256^3 texture of random values in one format."""
+
+    def __init__(self, components, dtype, numpy_type, size=256):
+        rng = np.random.default_rng(0)
+        values = rng.random(size ** 3 * components)
+        if np.issubdtype(numpy_type, np.integer):
+            values = values * np.iinfo(numpy_type).max
+        self.data = values.astype(numpy_type)
+        self.shape = (size, size, size, components, dtype)
+
+    def texture(self, ctx):
+        size, _, _, components, dtype = self.shape
+        self.made = ctx.texture3d((size, size, size), components, self.data.tobytes(), dtype=dtype)
+        return self.made
+
+
+def format_rows(ctx, args) -> list[str]:
+    rows = []
+    for name, spec in FORMATS.items():
+        stand_in = _RandomTexture(*spec)
+        rate = trivial_rate(ctx, stand_in, args.size, args.samples, args.repeat, classify=False)
+        stand_in.made.release()
+        rows.append(f"| random 256^3 ({name}) | fetch only | {args.size ** 2 * args.samples / rate:.3f} | "
+                    f"{args.samples} | {rate / 1e6:.0f} | |")
+    return rows
+
+
 def our_rate(volume: Volume, size: int, repeat: int, scene: dict) -> tuple[float, float, float]:
     """(samples per second, seconds of the RayCaster pass, samples per covered pixel)."""
     camera = Camera.looking_at_box(*volume_box(volume), direction=(-0.45, -0.35, -1.0))
@@ -133,6 +168,7 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=256, help="samples per pixel of the trivial passes")
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument("--formats", action="store_true", help="also the fetch rate of each texture format")
     args = parser.parse_args()
     ctx = get_context()
     lines = [f"{args.size}^2 image; trivial passes take {args.samples} samples per pixel; best of {args.repeat}",
@@ -157,6 +193,8 @@ def main() -> None:
             lines.append(f"| {label} | {row} | {seconds:.3f} | {per_pixel:.0f} | {rate / 1e6:.0f} | "
                          f"{rate / limit:.2f} |")
         print("\n".join(lines[-7:]), flush=True)
+    if args.formats:
+        lines.extend(format_rows(ctx, args))
     text = "\n".join(lines) + "\n"
     print("\n" + text)
     if args.out:

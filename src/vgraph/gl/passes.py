@@ -69,10 +69,17 @@ def bind_textures(program: moderngl.Program, textures: dict[str, object]) -> dic
     return units
 
 
+# Values compared as they are: numbers and tuples of numbers (as vec() makes); numpy arrays are
+# compared by their packed bytes.
+_PLAIN = (float, int, bool, tuple)
+
+
 def set_uniform(program: moderngl.Program, name: str, value, optional: bool = False) -> bool:
     """Set a uniform; return whether the program uses it. ShaderError if the program's sources do
     not declare ``name`` at all, unless ``optional`` (see the module docstring)."""
-    uniform = program.get(name, None)
+    uniform = program._members.get(name)  # Program.get, without a Python call per uniform
+    if type(value) in _PLAIN and _same(getattr(uniform, "_vgraph_value", None), value):
+        return True  # the value last written (most uniforms of a frame): no packing, no write
     if not isinstance(uniform, moderngl.Uniform):
         source = programs.source_of(program)
         if source is not None and name not in source.declared and not optional:
@@ -86,7 +93,15 @@ def set_uniform(program: moderngl.Program, name: str, value, optional: bool = Fa
     if getattr(uniform, "_vgraph_written", None) != data:
         uniform.write(data)
         uniform._vgraph_written = data
+    uniform._vgraph_value = value if type(value) in _PLAIN else None
     return True
+
+
+def _same(last, value) -> bool:
+    try:
+        return bool(last == value)
+    except ValueError:  # a tuple holding arrays: leave it to the bytes
+        return False
 
 
 def _packed(uniform: moderngl.Uniform, value) -> bytes:
