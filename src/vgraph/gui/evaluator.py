@@ -19,6 +19,7 @@ Conventions:
 from __future__ import annotations
 
 import warnings
+import weakref
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -179,6 +180,9 @@ class ProcessorStatus:
     state: str    # "evaluated", "error", "invalid", "not_ready", "writer"
     text: str     # one short line for the node
     detail: str   # the full story for a tooltip or the inspector
+    # What the processor produced, for the inspector (the GUI process holds no volume): one
+    # line per volume outport, and the size of the file a source read. Empty when not evaluated.
+    data: str = ""
 
 
 def processor_status(network: Network, processor: Processor) -> ProcessorStatus:
@@ -190,7 +194,7 @@ def processor_status(network: Network, processor: Processor) -> ProcessorStatus:
         return ProcessorStatus("evaluated", f"evaluated in {format_seconds(seconds)}",
                                f"up to date; ran {processor.evaluation_count} time"
                                f"{'s' * (processor.evaluation_count != 1)}, the last run took "
-                               f"{format_seconds(seconds)}")
+                               f"{format_seconds(seconds)}", data_summary(processor))
     missing = [p.name for p in processor.inports
                if not p.optional and not network.inputs_of(processor.id, p.name)]
     if missing:
@@ -200,6 +204,62 @@ def processor_status(network: Network, processor: Processor) -> ProcessorStatus:
         return ProcessorStatus("writer", "writes on request",
                                "writers run with Network > Run Writers, not on every edit")
     return ProcessorStatus("invalid", "not evaluated", "waiting for evaluation (or for its inputs)")
+
+
+_summaries: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # processor -> (run, summary)
+
+
+def data_summary(processor: Processor) -> str:
+    """Dimensions, type, spacing and value range of each volume the processor output, and the
+    size of the file a source read. A few hundred bytes: it crosses the process boundary on
+    every evaluation. Kept per run of the processor: statuses are built for every frame of a
+    drag, and a Zarr store's size is a walk over its chunk files."""
+    run = (processor.evaluation_count, tuple(id(data) for data in processor.outputs.values()))
+    cached = _summaries.get(processor)
+    if cached is None or cached[0] != run:
+        cached = _summaries[processor] = (run, _summary(processor))
+    return cached[1]
+
+
+def _summary(processor: Processor) -> str:
+    lines = []
+    for name, data in processor.outputs.items():
+        if isinstance(data, Volume):
+            x, y, z = data.dims
+            lo, hi = data.value_range
+            lines.append(f"{name}: {x} \u00d7 {y} \u00d7 {z} {data.data.dtype}, spacing "
+                         f"({', '.join(f'{s:g}' for s in data.spacing)}), values {lo:g} to {hi:g}")
+    if processor.outports and lines:
+        for prop in processor.properties.values():
+            value = processor.property_values[prop.name]
+            if isinstance(prop, FilePathProperty) and value:
+                size = _file_size(processor.resolve_path(value))
+                if size is not None:
+                    lines.append(f"file: {format_bytes(size)}")
+    return "\n".join(lines)
+
+
+HEADER_SUFFIXES = (".mhd", ".nhdr", ".hdr")
+
+
+def _file_size(path) -> int | None:
+    """Bytes of a file, or of all files under a folder (a Zarr store, a DICOM series); a header
+    (.mhd, .nhdr, .hdr) counts with its data file of the same name, which holds nearly all."""
+    try:
+        if path.is_dir():
+            return sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
+        if path.suffix.lower() in HEADER_SUFFIXES:
+            return sum(f.stat().st_size for f in path.parent.glob(path.stem + ".*") if f.is_file())
+        return path.stat().st_size
+    except OSError:
+        return None
+
+
+def format_bytes(size: int) -> str:
+    for unit in ("bytes", "KiB", "MiB", "GiB"):
+        if size < 1024 or unit == "GiB":
+            return f"{size} {unit}" if unit == "bytes" else f"{size:.1f} {unit}"
+        size /= 1024
 
 
 def format_seconds(seconds: float) -> str:

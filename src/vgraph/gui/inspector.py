@@ -26,6 +26,20 @@ from vgraph.network import Network
 LINK_MARK = " \u2194"  # a two-headed arrow after the label of a linked property
 
 
+def property_tooltip(prop) -> str:
+    """The declaration's doc, its range or choices and its default: what a user hovering over an
+    editor wants to know before changing it."""
+    lines = [prop.doc] if prop.doc else []
+    if getattr(prop, "choices", None):
+        lines.append("choices: " + ", ".join(str(c) for c in prop.choices))
+    low, high = getattr(prop, "min", None), getattr(prop, "max", None)
+    if low is not None or high is not None:
+        lines.append(f"range: {'-' if low is None else f'{low:g}'} to {'-' if high is None else f'{high:g}'}")
+    if isinstance(prop.default, (bool, int, float, str)) and prop.default != "":
+        lines.append(f"default: {prop.default}")
+    return "\n".join(lines)
+
+
 class PropertyInspector(QWidget):
     status_message = Signal(str)
     interacting = Signal(bool)
@@ -47,6 +61,9 @@ class PropertyInspector(QWidget):
         self.status = QLabel()
         self.status.setWordWrap(True)
         self.status.setTextInteractionFlags(Qt.TextSelectableByMouse)
+        self.data = QLabel()   # what the processor produced (dims, type, ...), from the render process
+        self.data.setWordWrap(True)
+        self.data.setTextInteractionFlags(Qt.TextSelectableByMouse)
         self.form_host = QWidget()
         self.form = QFormLayout(self.form_host)
         scroll = QScrollArea()
@@ -55,6 +72,7 @@ class PropertyInspector(QWidget):
         layout = QVBoxLayout(self)
         layout.addWidget(self.title)
         layout.addWidget(self.status)
+        layout.addWidget(self.data)
         layout.addWidget(scroll, 1)
         workspace.network_replaced.connect(self._follow)
         self._follow(workspace.network)
@@ -78,7 +96,7 @@ class PropertyInspector(QWidget):
         self.editors.clear(), self.labels.clear()
         if self.processor_id is None:
             self.title.setText("<i>Select one processor to edit its properties.</i>")
-            self.status.clear()
+            self.status.clear(), self.data.clear()
             return
         processor = self.network[self.processor_id]
         self.title.setText(f"<b>{processor.id}</b> ({processor.type_name})<br><small>"
@@ -88,6 +106,7 @@ class PropertyInspector(QWidget):
             editor.edited.connect(lambda value, merge, name=name: self.edit(name, value, merge))
             editor.problem.connect(self.status_message)
             editor.interacting.connect(self._set_dragging)
+            editor.setToolTip(property_tooltip(prop))
             label = QLabel(prop.label)
             self.editors[name], self.labels[name] = editor, label
             self.form.addRow(label, editor)
@@ -105,6 +124,8 @@ class PropertyInspector(QWidget):
         if self.processor_id is not None:
             status = self.status_of(self.processor_id)
             self.status.setText(f"{status.state.replace('_', ' ')}: {status.detail}")
+            self.data.setText(status.data)
+            self.data.setVisible(bool(status.data))
 
     def set_histograms(self, histograms: dict) -> None:
         """Histograms of the volumes arriving at processors (from the render process), shown by
@@ -129,10 +150,10 @@ class PropertyInspector(QWidget):
                         if address in (l.source, l.target)]
             prop = processor.properties[name]
             label.setText(prop.label + (LINK_MARK if partners else ""))
-            tips = [prop.doc] if prop.doc else []
+            tips = [property_tooltip(prop)]
             if partners:
                 tips.append("linked with " + ", ".join(partners))
-            label.setToolTip("\n".join(tips))
+            label.setToolTip("\n".join(t for t in tips if t))
 
     # --- editing --------------------------------------------------------------------------------
     def edit(self, name: str, value, merge=None) -> None:
