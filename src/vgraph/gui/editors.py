@@ -96,6 +96,13 @@ def narrow(spin):
     return spin
 
 
+def list_popup(combo: QComboBox) -> QComboBox:
+    """A popup that opens below the box as a list: the Fusion/macOS style opens it over the box
+    with the current item under the cursor, so a click-release picks a neighbour by accident."""
+    combo.setStyleSheet("QComboBox { combobox-popup: 0; }")
+    return combo
+
+
 def _bounded(prop) -> bool:
     return prop.min is not None and prop.max is not None
 
@@ -162,7 +169,7 @@ class BoolEditor(PropertyEditor):
 
 class OptionEditor(PropertyEditor):
     def build(self):
-        self.combo = QComboBox()
+        self.combo = list_popup(QComboBox())
         self.combo.addItems(list(self.prop.choices))
         self.combo.currentTextChanged.connect(lambda text: self.emit(text))
         self.layout_.addWidget(self.combo)
@@ -291,14 +298,15 @@ class ColorEditor(PropertyEditor):
 
 
 class CameraEditor(PropertyEditor):
-    """Projection, position, focus, up and field of view, whether it fits the data, and a Reset to
-    the declared default. Typing a position or focus stores the camera (it stops fitting)."""
+    """Projection, position, focus, up and field of view, near and far planes, whether it fits the
+    data, and a Reset to the declared default. Typing a position or focus stores the camera (it
+    stops fitting). A plane at 0 shows "automatic": None, the renderer encloses the data."""
 
     VECTORS = ("position", "focus", "up")
 
     def build(self):
         grid = QGridLayout()
-        self.projection = QComboBox()
+        self.projection = list_popup(QComboBox())
         self.projection.addItems(["perspective", "orthographic"])
         self.projection.currentTextChanged.connect(self._changed)
         grid.addWidget(QLabel("projection"), 0, 0)
@@ -320,6 +328,15 @@ class CameraEditor(PropertyEditor):
                             "planes follow the data unless set in the .json")
         self.fit.toggled.connect(self._changed)
         grid.addWidget(self.fit, 5, 1, 1, 3)
+        self.planes = {}
+        for column, name in ((0, "near"), (2, "far")):
+            spin = self._spin(0.0, 1e6)
+            spin.setSpecialValueText("automatic")   # shown at the minimum, 0, which means None
+            spin.setToolTip(f"{name} clipping plane, distance from the camera; 0: automatic "
+                            "(planes enclosing the data's bounding sphere)")
+            self.planes[name] = spin
+            grid.addWidget(QLabel(name), 6, column)
+            grid.addWidget(spin, 6, column + 1)
         self.layout_.addLayout(grid)
 
     def _spin(self, low, high) -> QDoubleSpinBox:
@@ -335,6 +352,8 @@ class CameraEditor(PropertyEditor):
         changes = {name: tuple(spin_value(s, exact) for s, exact in zip(spins, getattr(current, name)))
                    for name, spins in self.vectors.items()}
         changes |= {"projection": self.projection.currentText(), "fov": spin_value(self.fov, current.fov)}
+        changes |= {name: (spin_value(spin, getattr(current, name)) or None)
+                    for name, spin in self.planes.items()}
         moved = changes["position"] != current.position or changes["focus"] != current.focus
         changes["fit_to_data"] = self.fit.isChecked() and not moved
         self.emit(current.model_dump() | changes)
@@ -346,6 +365,8 @@ class CameraEditor(PropertyEditor):
                 spin.setValue(component)
         self.fov.setValue(value.fov)
         self.fit.setChecked(value.fit_to_data)
+        for name, spin in self.planes.items():
+            spin.setValue(getattr(value, name) or 0.0)
 
 
 class JsonEditor(PropertyEditor):

@@ -15,7 +15,9 @@ Conventions:
   arrives such a TF is shown but not editable.
 - Mouse: left-drag moves a point (x clamped between its neighbours, both in [0, 1]); a
   double-click on empty space adds a point (colour of the TF there, opacity = mouse y); a
-  double-click on a point asks for its colour; right-click or Delete removes a point (never the last).
+  double-click on a point asks for its colour; right-click or Delete removes a point (never the last);
+  Return on the selected point (or the Point... button) types in its position, colour and opacity
+  (``tf_point_dialog``), in the TF's own space.
 - Each drag emits with one merge key of its own, so a drag is one undo step; every other edit emits
   with ``merge=None``. Emitted values are rounded to 6 decimals to keep saved networks readable.
 - The histogram (``set_histogram``) holds counts per equal bin over normalised intensity, as
@@ -30,11 +32,12 @@ from pathlib import Path
 import numpy as np
 from PySide6.QtCore import QEvent, QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QBrush, QColor, QImage, QPainter, QPen, QPixmap, QPolygonF
-from PySide6.QtWidgets import (QCheckBox, QColorDialog, QComboBox, QFileDialog, QHBoxLayout, QPushButton,
-                               QVBoxLayout, QWidget)
+from PySide6.QtWidgets import (QCheckBox, QColorDialog, QComboBox, QDialog, QFileDialog, QHBoxLayout,
+                               QPushButton, QVBoxLayout, QWidget)
 
 from vgraph.errors import VGraphError
-from vgraph.gui.editors import PropertyEditor, register_editor
+from vgraph.gui.editors import PropertyEditor, list_popup, register_editor
+from vgraph.gui.tf_point_dialog import PointDialog
 from vgraph.transfer_function import PRESETS, TransferFunction, ValueScale
 
 MARGIN = 7          # px around the curve area: room for the circles of points at the edges
@@ -57,6 +60,7 @@ class TransferFunctionPlot(QWidget):
 
     changed = Signal(object, object)    # TransferFunction, merge key (None: a separate undo step)
     color_requested = Signal(int)       # index of a double-clicked point
+    point_requested = Signal(int)       # index of a point to type in (Return)
     interacting = Signal(bool)          # a point drag started / ended
 
     BACKGROUND = QColor(255, 255, 255)
@@ -187,6 +191,19 @@ class TransferFunctionPlot(QWidget):
             self.selected = None
             self._commit(points)
 
+    def set_point(self, index: int, point) -> None:
+        """Replace point ``index`` (in the TF's space), its position kept between its neighbours."""
+        low, high = self.neighbour_limits(index)
+        position = min(max(point[0], -np.inf if low is None else low), np.inf if high is None else high)
+        points = self.points
+        points[index] = (position, *point[1:])
+        self._commit(points)
+
+    def neighbour_limits(self, index: int) -> tuple[float | None, float | None]:
+        points = self.points
+        return (points[index - 1][0] if index > 0 else None,
+                points[index + 1][0] if index + 1 < len(points) else None)
+
     def set_point_color(self, index: int, rgb) -> None:
         points = self.points
         points[index] = (points[index][0], *rgb, points[index][4])
@@ -235,6 +252,8 @@ class TransferFunctionPlot(QWidget):
     def keyPressEvent(self, event):
         if event.key() in (Qt.Key_Delete, Qt.Key_Backspace) and self.selected is not None:
             self.remove_point(self.selected)
+        elif event.key() in (Qt.Key_Return, Qt.Key_Enter) and self.selected is not None:
+            self.point_requested.emit(self.selected)
         else:
             super().keyPressEvent(event)
 
@@ -322,7 +341,11 @@ class TransferFunctionEditor(PropertyEditor):
         self.plot.changed.connect(lambda tf, merge: self.emit(tf, merge))
         self.plot.color_requested.connect(self.choose_color)
         self.plot.interacting.connect(self.interacting)
-        self.presets = QComboBox()
+        self.plot.point_requested.connect(self.edit_point)
+        self.point_button = QPushButton("Point...")
+        self.point_button.setToolTip("type in the selected point's position, colour and opacity (Return)")
+        self.point_button.clicked.connect(lambda: self.edit_point(self.plot.selected))
+        self.presets = list_popup(QComboBox())
         self.presets.addItem("Presets...")
         self.presets.addItems(list(PRESETS))
         self.presets.currentIndexChanged.connect(self._preset_chosen)
@@ -334,7 +357,7 @@ class TransferFunctionEditor(PropertyEditor):
         self.log_scale.setToolTip("histogram on a logarithmic scale")
         self.log_scale.toggled.connect(self.plot.set_log_scale)
         row = QHBoxLayout()
-        for widget in (self.presets, self.load_button, self.save_button, self.log_scale):
+        for widget in (self.point_button, self.presets, self.load_button, self.save_button, self.log_scale):
             row.addWidget(widget)
         column = QVBoxLayout()
         column.addWidget(self.plot, 1)
@@ -356,6 +379,16 @@ class TransferFunctionEditor(PropertyEditor):
         if index > 0:
             self.emit(PRESETS[self.presets.itemText(index)])
             self.presets.setCurrentIndex(0)   # the combo is a menu: it shows no current preset
+
+    def edit_point(self, index: int | None) -> None:
+        if index is None or index >= len(self.plot.points) or not self.plot.editable:
+            self.problem.emit(f"{self.processor.id}.{self.prop.name}: click a point first, then Point...")
+            return
+        dialog = PointDialog(self.plot.points[index], self.plot.transfer_function.space,
+                             *self.plot.neighbour_limits(index), parent=self,
+                             title=f"{self.prop.label}: point {index}")
+        if dialog.exec() == QDialog.Accepted and dialog.point() != self.plot.points[index]:
+            self.plot.set_point(index, dialog.point())
 
     def choose_color(self, index: int) -> None:
         r, g, b = self.plot.points[index][1:4]
