@@ -29,7 +29,7 @@ def test_wheel_contains_processors_and_shaders(tmp_path):
     source.mkdir()
     for name in ("pyproject.toml", "README.md"):
         shutil.copy(REPO / name, source / name)
-    for folder in ("src", "processors", "shaders"):
+    for folder in ("src", "processors", "shaders", "docs"):
         shutil.copytree(REPO / folder, source / folder, ignore=shutil.ignore_patterns("__pycache__"))
     pip("wheel", "--no-deps", "--no-build-isolation", "-w", tmp_path / "dist", source)
     wheel, = (tmp_path / "dist").glob("vgraph-*.whl")
@@ -40,6 +40,8 @@ def test_wheel_contains_processors_and_shaders(tmp_path):
         assert f"vgraph/{module.relative_to(REPO / 'src' / 'vgraph').as_posix()}" in names, module
     for shader in (REPO / "shaders").rglob("*.glsl"):
         assert f"vgraph/shaders/{shader.relative_to(REPO / 'shaders').as_posix()}" in names
+    for page in (REPO / "docs").glob("*.md"):   # Help > Documentation reads them offline
+        assert f"vgraph/docs/{page.name}" in names
     assert any(n.endswith("entry_points.txt") for n in names)
 
 
