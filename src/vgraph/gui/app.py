@@ -36,6 +36,8 @@ from vgraph.gui.canvases import CanvasDocks
 from vgraph.gui.cluster_dialog import ClusterDialog, load_setting, save_setting
 from vgraph.gui.evaluator import EvaluationOutcome, format_seconds
 from vgraph.gui.file_actions import FileActions
+from vgraph.gui.help import build_help_menu, redo_keys
+from vgraph.gui import layout
 from vgraph.gui.inspector import PropertyInspector
 from vgraph.gui.links import LinkDialog
 from vgraph.gui.live_evaluation import LiveEvaluation
@@ -57,24 +59,32 @@ class MainWindow(FileActions, QMainWindow):
         self.palette = ProcessorPalette()
         self.inspector = PropertyInspector(self.workspace, status_of=self.evaluation.status_of)
         self.log = LogPanel()
-        self._dock("Processors", self.palette, Qt.LeftDockWidgetArea)
+        self.palette_dock = self._dock("Processors", self.palette, Qt.LeftDockWidgetArea)
         self.properties_dock = self._dock("Properties", self.inspector, Qt.RightDockWidgetArea)
         self.log_dock = self._dock("Log", self.log, Qt.BottomDockWidgetArea)
         self.canvases = CanvasDocks(self, self.workspace, self.evaluation, above=self.properties_dock)
         self.failures: dict[str, str] = {}
+        self.remember_layout = True  # a screenshot run leaves the user's layout alone
         self.blank_warnings: dict[str, str] = {}  # display id -> the empty-image warning logged
         self._build_actions()
         self._build_menus()
         self._wire()
-        self.arrange(1280, 800)
+        if not layout.restore_layout(self, self.workspace.settings):
+            self.arrange(*layout.first_run_size(self))
         self._update_title()
         self.set_cluster(load_setting(self.workspace.settings), save=False)
 
     def arrange(self, width: int, height: int) -> None:
-        """Size the window and give the right column (canvases, inspector) a third of it."""
-        self.resize(width, height)
-        self.resizeDocks([self.properties_dock], [width * 9 // 25], Qt.Horizontal)
-        self.resizeDocks([self.log_dock], [100], Qt.Vertical)
+        """Size the window; the right column (canvases, inspector) fits the widest editor."""
+        layout.arrange(self, width, height)
+
+    def home_areas(self) -> dict[QDockWidget, Qt.DockWidgetArea]:
+        """The fixed docks and where the first-run layout puts them (View > Reset Layout)."""
+        return {self.palette_dock: Qt.LeftDockWidgetArea, self.properties_dock: Qt.RightDockWidgetArea,
+                self.log_dock: Qt.BottomDockWidgetArea}
+
+    def refresh_dock_menu(self) -> None:
+        layout.fill_dock_menu(self.view_menu, self, before=self.reset_layout_action)
 
     def _dock(self, title: str, widget, area) -> QDockWidget:
         dock = QDockWidget(title, self)
@@ -105,7 +115,7 @@ class MainWindow(FileActions, QMainWindow):
         self.undo_action = stack.createUndoAction(self, "&Undo")
         self.undo_action.setShortcut(QKeySequence.Undo)
         self.redo_action = stack.createRedoAction(self, "&Redo")
-        self.redo_action.setShortcut(QKeySequence.Redo)
+        self.redo_action.setShortcuts(redo_keys(QKeySequence.keyBindings(QKeySequence.Redo)))
         self.delete_action = self._action("&Delete", self.scene.delete_selected, QKeySequence.Delete)
         self.select_all_action = self._action("Select &All", self._select_all, QKeySequence.SelectAll)
         self.links_action = self._action("Property &Links...", self.edit_links, "Ctrl+L")
@@ -120,6 +130,7 @@ class MainWindow(FileActions, QMainWindow):
         self.writers_action = self._action("Run &Writers", lambda: self.evaluation.run(include_writers=True),
                                            "Ctrl+R")
         self.cancel_action = self._action("&Cancel Rendering", self.cancel_rendering)
+        self.reset_layout_action = self._action("&Reset Layout", lambda: layout.reset_layout(self))
         self.cancel_action.setEnabled(False)
         self.cluster_action = self._action("Render on C&luster...", self.edit_cluster)
         self.cancel_button = QPushButton("Cancel rendering")
@@ -142,15 +153,18 @@ class MainWindow(FileActions, QMainWindow):
         edit_menu.addActions([self.delete_action, self.select_all_action])
         edit_menu.addSeparator()
         edit_menu.addActions([self.links_action, self.auto_link_action])
-        view_menu = bar.addMenu("&View")
+        self.view_menu = view_menu = bar.addMenu("&View")
         view_menu.addActions([self.zoom_in_action, self.zoom_out_action, self.fit_action,
                               self.show_links_action])
         view_menu.addSeparator()
-        for dock in self.findChildren(QDockWidget):
-            view_menu.addAction(dock.toggleViewAction())
+        view_menu.addSeparator()  # the docks go between the separators: canvas docks come and go
+        view_menu.addAction(self.reset_layout_action)
+        view_menu.aboutToShow.connect(self.refresh_dock_menu)
+        self.refresh_dock_menu()
         network_menu = bar.addMenu("&Network")
         network_menu.addActions([self.evaluate_action, self.writers_action, self.cancel_action,
                                  self.cluster_action])
+        build_help_menu(self)
         self._fill_recent_menu(self.workspace.recent_files())
 
     def _wire(self) -> None:
@@ -286,6 +300,8 @@ class MainWindow(FileActions, QMainWindow):
         self.autosave.stop()
         self.autosave.remove()   # a clean exit: the changes were saved or discarded on purpose
         self.evaluation.shutdown()
+        if self.remember_layout:
+            layout.save_layout(self, self.workspace.settings)
         event.accept()
 
 
@@ -296,6 +312,7 @@ def run_gui(path: str | Path | None = None, screenshot: str | Path | None = None
     app = QApplication.instance() or QApplication([sys.argv[0] if sys.argv else "vgraph"])
     app.setApplicationName("vgraph")
     window = MainWindow()
+    window.remember_layout = screenshot is None
     try:
         with log_exceptions(window):
             if size is not None:

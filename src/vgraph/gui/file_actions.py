@@ -25,6 +25,7 @@ from vgraph.errors import VGraphError, WritePathError
 from vgraph.gui.autosave import FoundAutosave
 from vgraph.io import SUPPORTED_EXTENSIONS
 
+UNTITLED = "untitled.json"
 NETWORK_FILTER = "vgraph networks (*.json);;All files (*)"
 # Open also takes a volume file: it opens as a new network around it (vgraph.volume_network).
 OPEN_FILTER = ("vgraph networks or volumes (*.json " + " ".join(f"*{e}" for e in SUPPORTED_EXTENSIONS)
@@ -68,8 +69,14 @@ class FileActions:
         return path
 
     def ask_save_path(self) -> str:
-        path, _ = QFileDialog.getSaveFileName(self, "Save network as", self._start_dir(), NETWORK_FILTER)
+        path, _ = QFileDialog.getSaveFileName(self, "Save network as", self.suggested_save_path(),
+                                              NETWORK_FILTER)
         return path
+
+    def suggested_save_path(self) -> str:
+        """Where Save As starts: the network's own file (a copy is usually a small rename of it),
+        or an untitled one in the current folder."""
+        return str(self.workspace.path) if self.workspace.path else str(Path.cwd() / UNTITLED)
 
     def _start_dir(self) -> str:
         return str(self.workspace.path.parent) if self.workspace.path else ""

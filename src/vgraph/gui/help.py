@@ -1,0 +1,171 @@
+"""The Help menu: the documentation pages (read from the installed package, no network), the
+keyboard shortcuts and About.
+
+Conventions:
+- The docs are the Markdown pages of docs/, installed as the package data ``vgraph/docs``; a source
+  checkout (or an editable install, which maps only the code) reads the repository's docs/ folder.
+- The shortcut list is built from the window's actions, so it cannot drift from what the keys do.
+- A link to another page opens that page in the same browser; any other link goes to the desktop.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from PySide6.QtCore import Qt, QUrl
+from PySide6.QtGui import QAction, QDesktopServices, QKeySequence
+from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QListWidget, QListWidgetItem,
+                               QMessageBox, QSplitter, QTableWidget, QTableWidgetItem, QTextBrowser,
+                               QVBoxLayout)
+
+import vgraph
+
+START_PAGE = "gui.md"
+
+
+def docs_folder() -> Path | None:
+    """Where the Markdown pages are: inside the installed package, else the source checkout's."""
+    package = Path(vgraph.__file__).resolve().parent
+    for folder in (package / "docs", package.parents[1] / "docs"):
+        if any(folder.glob("*.md")):
+            return folder
+    return None
+
+
+@dataclass(frozen=True)
+class Page:
+    path: Path
+    title: str
+
+
+def page_title(path: Path) -> str:
+    """The page's first level-1 heading without Markdown backticks; the file name if it has none."""
+    with path.open(encoding="utf-8") as text:
+        for line in text:
+            if line.startswith("# "):
+                return line[2:].strip().replace("`", "")
+    return path.stem
+
+
+def doc_pages(folder: Path | None = None) -> list[Page]:
+    folder = folder if folder is not None else docs_folder()
+    if folder is None:
+        return []
+    return sorted((Page(p, page_title(p)) for p in folder.glob("*.md")), key=lambda p: p.title.lower())
+
+
+class DocsDialog(QDialog):
+    """The page list on the left, the page (rendered Markdown) on the right."""
+
+    def __init__(self, parent=None, folder: Path | None = None):
+        super().__init__(parent)
+        self.setWindowTitle("vgraph documentation")
+        self.pages = doc_pages(folder)
+        self.list = QListWidget()
+        for page in self.pages:
+            item = QListWidgetItem(page.title)
+            item.setData(Qt.UserRole, str(page.path))
+            item.setToolTip(page.path.name)
+            self.list.addItem(item)
+        self.browser = QTextBrowser()
+        self.browser.setOpenLinks(False)  # page links are followed here, the rest by the desktop
+        self.browser.anchorClicked.connect(self._follow)
+        splitter = QSplitter()
+        splitter.addWidget(self.list)
+        splitter.addWidget(self.browser)
+        splitter.setStretchFactor(1, 1)
+        buttons = QDialogButtonBox(QDialogButtonBox.Close)
+        buttons.rejected.connect(self.reject)
+        layout = QVBoxLayout(self)
+        layout.addWidget(splitter, 1)
+        layout.addWidget(buttons)
+        self.list.currentRowChanged.connect(self._show_row)
+        if not self.pages:
+            self.browser.setMarkdown("No documentation pages were found in this installation.")
+        else:
+            names = [page.path.name for page in self.pages]
+            self.list.setCurrentRow(names.index(START_PAGE) if START_PAGE in names else 0)
+        self.resize(1000, 700)
+
+    def show_page(self, name: str) -> bool:
+        """Show the page whose file is ``name`` (e.g. "cli.md"); False if there is none."""
+        for row, page in enumerate(self.pages):
+            if page.path.name == name:
+                self.list.setCurrentRow(row)
+                return True
+        return False
+
+    def _show_row(self, row: int) -> None:
+        if 0 <= row < len(self.pages):
+            path = self.pages[row].path
+            self.browser.setSearchPaths([str(path.parent)])  # relative images resolve beside the page
+            self.browser.setMarkdown(path.read_text(encoding="utf-8"))
+
+    def _follow(self, url: QUrl) -> None:
+        target = url.path() if url.isRelative() or url.isLocalFile() else ""
+        name = Path(url.toLocalFile() if url.isLocalFile() else target).name
+        if name.endswith(".md") and self.show_page(name):
+            if url.fragment():
+                self.browser.scrollToAnchor(url.fragment())
+        elif url.isRelative() and url.fragment() and not target:
+            self.browser.scrollToAnchor(url.fragment())
+        else:
+            QDesktopServices.openUrl(url)
+
+
+def redo_keys(platform_keys: list[QKeySequence]) -> list[QKeySequence]:
+    """The platform's redo keys plus Ctrl+Y: GNOME and KDE give only Ctrl+Shift+Z, and people
+    coming from Windows press Ctrl+Y."""
+    ctrl_y = QKeySequence("Ctrl+Y")
+    return list(platform_keys) + ([] if ctrl_y in platform_keys else [ctrl_y])
+
+
+def shortcut_rows(window) -> list[tuple[str, str]]:
+    """(action text, its shortcuts) for every action of ``window`` that has a shortcut."""
+    rows = []
+    for action in window.findChildren(QAction):
+        keys = [k.toString(QKeySequence.NativeText) for k in action.shortcuts() if not k.isEmpty()]
+        if keys:
+            rows.append((action.text().replace("&", "").rstrip("."), ", ".join(keys)))
+    return sorted(set(rows))
+
+
+class ShortcutsDialog(QDialog):
+    def __init__(self, window):
+        super().__init__(window)
+        self.setWindowTitle("Keyboard shortcuts")
+        rows = shortcut_rows(window)
+        self.table = QTableWidget(len(rows), 2)
+        self.table.setHorizontalHeaderLabels(["Command", "Keys"])
+        self.table.verticalHeader().hide()
+        self.table.setEditTriggers(QTableWidget.NoEditTriggers)
+        for row, (text, keys) in enumerate(rows):
+            self.table.setItem(row, 0, QTableWidgetItem(text))
+            self.table.setItem(row, 1, QTableWidgetItem(keys))
+        self.table.resizeColumnsToContents()
+        self.table.horizontalHeader().setStretchLastSection(True)
+        buttons = QDialogButtonBox(QDialogButtonBox.Close)
+        buttons.rejected.connect(self.reject)
+        layout = QVBoxLayout(self)
+        layout.addWidget(self.table)
+        layout.addWidget(buttons)
+        self.resize(460, 560)
+
+
+def about_text() -> str:
+    return (f"<b>vgraph {vgraph.__version__}</b><p>A node-graph framework for volume visualization "
+            f"on one shared OpenGL context.</p><p>Help > Documentation has the manual; "
+            f"<code>vgraph --help</code> lists the commands.</p>")
+
+
+def build_help_menu(window) -> None:
+    menu = window.menuBar().addMenu("&Help")
+    window.docs_action = QAction("&Documentation", window)
+    window.docs_action.setShortcut(QKeySequence.HelpContents)
+    window.docs_action.triggered.connect(lambda *_: DocsDialog(window).exec())
+    window.shortcuts_action = QAction("&Keyboard Shortcuts", window)
+    window.shortcuts_action.triggered.connect(lambda *_: ShortcutsDialog(window).exec())
+    window.about_action = QAction("&About vgraph", window)
+    window.about_action.triggered.connect(lambda *_: QMessageBox.about(window, "About vgraph", about_text()))
+    menu.addActions([window.docs_action, window.shortcuts_action, window.about_action])

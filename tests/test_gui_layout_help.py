@@ -1,0 +1,150 @@
+"""The window as a daily tool: a first-run layout that fits the screen, the layout remembered
+between runs, the View menu's docks and Reset Layout, Ctrl+Y, Save As's suggested path, and the
+Help menu (docs read from the package, shortcuts built from the actions, About)."""
+
+from PySide6.QtCore import QSettings, Qt, QUrl
+from PySide6.QtGui import QKeySequence
+from PySide6.QtTest import QTest
+from PySide6.QtWidgets import QDockWidget
+
+from vgraph.gui import layout
+from vgraph.gui.help import DocsDialog, redo_keys, ShortcutsDialog, doc_pages, docs_folder, shortcut_rows
+
+from helpers.paths import REPO
+
+
+def new_window(qtbot, settings_path, renderer):
+    from vgraph.gui.app import MainWindow
+    window = MainWindow(QSettings(str(settings_path), QSettings.IniFormat), renderer)
+    window.show()
+    qtbot.waitExposed(window)
+    return window
+
+
+def close(window):
+    window.workspace.undo_stack.setClean()
+    window.close()
+    window.deleteLater()
+
+
+def test_first_run_fits_the_available_screen(window):
+    available = window.screen().availableGeometry()
+    assert window.width() <= available.width() and window.height() <= available.height()
+    assert abs(window.width() - int(available.width() * layout.FIRST_RUN_FRACTION)) <= 2
+    # the right column fits the widest editor (up to half the window)
+    column = window.properties_dock.width()
+    assert column >= min(layout.widest_editor_width(), window.width() // 2) - 8
+
+
+def test_geometry_and_dock_state_come_back_from_the_settings(qtbot, tmp_path, renderer):
+    window = new_window(qtbot, tmp_path / "settings.ini", renderer)   # closed here, not by a fixture
+    window.resize(700, 560)   # within the offscreen screen (800 x 800): Qt fits restored windows in
+    window.move(40, 30)
+    window.resizeDocks([window.properties_dock], [333], Qt.Horizontal)
+    window.removeDockWidget(window.log_dock)
+    window.addDockWidget(Qt.LeftDockWidgetArea, window.log_dock)
+    window.log_dock.show()
+    qtbot.wait(50)
+    size, width = window.size(), window.properties_dock.width()
+    assert window.dockWidgetArea(window.log_dock) == Qt.LeftDockWidgetArea
+    close(window)
+
+    again = new_window(qtbot, tmp_path / "settings.ini", renderer)
+    try:
+        qtbot.wait(50)
+        assert again.size() == size
+        assert again.dockWidgetArea(again.log_dock) == Qt.LeftDockWidgetArea
+        assert abs(again.properties_dock.width() - width) <= 2
+        layout.reset_layout(again)   # Reset Layout: the docks go home and the stored layout is gone
+        assert again.dockWidgetArea(again.log_dock) == Qt.BottomDockWidgetArea
+        assert again.workspace.settings.value(layout.STATE_KEY) is None
+    finally:
+        close(again)
+
+
+def test_a_closed_dock_comes_back_from_the_view_menu(window, qtbot):
+    window.workspace.add_processor("Canvas", id="canvas")
+    canvas_dock = window.canvases.docks["canvas"]
+    window.refresh_dock_menu()
+    docks = window.findChildren(QDockWidget)
+    listed = {action.text() for action in window.view_menu.actions()}
+    assert {dock.windowTitle() for dock in docks} <= listed and "Canvas: canvas" in listed
+    assert window.reset_layout_action in window.view_menu.actions()
+
+    canvas_dock.close()
+    qtbot.waitUntil(lambda: not canvas_dock.isVisible())
+    action = next(a for a in window.view_menu.actions() if a.text() == "Canvas: canvas")
+    assert not action.isChecked()
+    action.trigger()
+    qtbot.waitUntil(canvas_dock.isVisible)
+
+
+def test_ctrl_y_redoes(window, qtbot):
+    window.workspace.add_processor("FunctionSelector", id="f")
+    stack = window.workspace.undo_stack
+    window.activateWindow()
+    window.view.setFocus()
+    QTest.keyClick(window.view, Qt.Key_Z, Qt.ControlModifier)
+    qtbot.waitUntil(lambda: "f" not in window.workspace.network)
+    QTest.keyClick(window.view, Qt.Key_Y, Qt.ControlModifier)
+    qtbot.waitUntil(lambda: "f" in window.workspace.network)
+    assert stack.index() == 1
+    assert QKeySequence("Ctrl+Y") in window.redo_action.shortcuts()
+    assert QKeySequence.keyBindings(QKeySequence.Redo)[0] in window.redo_action.shortcuts()
+    # offscreen Qt already binds Ctrl+Y; GNOME and KDE do not, and the window adds it there
+    gnome = [QKeySequence("Ctrl+Shift+Z")]
+    assert redo_keys(gnome) == [QKeySequence("Ctrl+Shift+Z"), QKeySequence("Ctrl+Y")]
+    assert redo_keys(redo_keys(gnome)) == redo_keys(gnome)
+
+
+def test_save_as_suggests_the_current_file(window, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert window.suggested_save_path() == str(tmp_path / "untitled.json")
+    window.workspace.add_processor("FunctionSelector", id="f")
+    (tmp_path / "sub").mkdir()
+    assert window.save_network_as(tmp_path / "sub" / "mine.json")
+    assert window.suggested_save_path() == str(tmp_path / "sub" / "mine.json")
+
+
+def test_docs_dialog_lists_the_pages_and_shows_one(qtbot, monkeypatch):
+    from PySide6.QtNetwork import QNetworkAccessManager
+    monkeypatch.setattr(QNetworkAccessManager, "get", lambda *a: (_ for _ in ()).throw(AssertionError))
+    folder = docs_folder()
+    assert folder is not None
+    titles = {page.path.name: page.title for page in doc_pages()}
+    assert set(titles) == {p.name for p in (REPO / "docs").glob("*.md")}
+    assert titles["cli.md"] == "The vgraph command"   # backticks dropped from "# The `vgraph` command"
+    dialog = DocsDialog()
+    qtbot.addWidget(dialog)
+    assert dialog.list.count() == len(titles)
+    assert dialog.list.currentItem().text() == titles["gui.md"]    # opens on the GUI page
+    assert dialog.show_page("cli.md")
+    assert dialog.browser.toPlainText().startswith("The vgraph command")
+    assert "vgraph run" in dialog.browser.toPlainText()
+    dialog._follow(QUrl("network-format.md#processors"))   # a link between pages stays here
+    assert dialog.list.currentItem().text() == titles["network-format.md"]
+
+
+def test_docs_are_found_in_an_installed_layout(tmp_path, monkeypatch):
+    import vgraph
+    import vgraph.gui.help as help_module
+    package = tmp_path / "site" / "vgraph"
+    (package / "docs").mkdir(parents=True)
+    (package / "docs" / "gui.md").write_text("# The GUI\n\ntext\n")
+    monkeypatch.setattr(vgraph, "__file__", str(package / "__init__.py"))
+    assert help_module.docs_folder() == package / "docs"
+    assert [p.title for p in doc_pages()] == ["The GUI"]
+
+
+def test_shortcuts_dialog_lists_the_actions_keys(window, qtbot):
+    rows = dict(shortcut_rows(window))
+    assert "Ctrl+Y" in rows["Redo"] and rows["Save"] == "Ctrl+S"
+    window.save_action.setShortcut(QKeySequence("Ctrl+Alt+S"))  # built from the actions, not a list
+    dialog = ShortcutsDialog(window)
+    qtbot.addWidget(dialog)
+    cells = {dialog.table.item(r, 0).text(): dialog.table.item(r, 1).text()
+             for r in range(dialog.table.rowCount())}
+    assert cells["Save"] == "Ctrl+Alt+S" and "Ctrl+Y" in cells["Redo"]
+    help_menu = next(a.menu() for a in window.menuBar().actions() if a.text() == "&Help")
+    assert {a.text() for a in help_menu.actions()} == {"&Documentation", "&Keyboard Shortcuts",
+                                                       "&About vgraph"}
