@@ -86,7 +86,10 @@ class DocsDialog(QDialog):
         else:
             names = [page.path.name for page in self.pages]
             self.list.setCurrentRow(names.index(START_PAGE) if START_PAGE in names else 0)
-        self.resize(1000, 700)
+        self.resize(1100, 720)
+        # the titles are long ("Volumes larger than memory", ...): show them whole when they fit
+        titles = min(self.list.sizeHintForColumn(0) + 24, 380)
+        splitter.setSizes([titles, self.width() - titles])
 
     def show_page(self, name: str) -> bool:
         """Show the page whose file is ``name`` (e.g. "cli.md"); False if there is none."""
