@@ -89,13 +89,13 @@ def test_camera_near_and_far_are_shown_and_editable(window):
     ws.add_processor("EntryExitPoints", (0, 0), id="eep")
     editor = select(window, "eep")["camera"]
     near, far = editor.planes["near"], editor.planes["far"]
-    assert ws.network.get("eep.camera").near is None and near.text() == "automatic" and far.text() == "automatic"
+    assert ws.network.get("eep.camera").near is None and near.text() == "auto" and far.text() == "auto"
     near.setValue(0.25)
     far.setValue(40.0)
     camera = ws.network.get("eep.camera")
     assert (camera.near, camera.far) == (0.25, 40.0)
     ws.undo_stack.undo()                                 # the widget follows an undo
-    assert ws.network.get("eep.camera").far is None and far.text() == "automatic"
+    assert ws.network.get("eep.camera").far is None and far.text() == "auto"
     near.setValue(0.0)                                   # back to automatic
     assert ws.network.get("eep.camera").near is None
     ws.set_property("eep.camera", ws.network.get("eep.camera").model_dump() | {"near": 2.0, "far": 9.0})

@@ -300,7 +300,7 @@ class ColorEditor(PropertyEditor):
 class CameraEditor(PropertyEditor):
     """Projection, position, focus, up and field of view, near and far planes, whether it fits the
     data, and a Reset to the declared default. Typing a position or focus stores the camera (it
-    stops fitting). A plane at 0 shows "automatic": None, the renderer encloses the data."""
+    stops fitting). A plane at 0 shows "auto": None, the renderer encloses the data."""
 
     VECTORS = ("position", "focus", "up")
 
@@ -329,14 +329,14 @@ class CameraEditor(PropertyEditor):
         self.fit.toggled.connect(self._changed)
         grid.addWidget(self.fit, 5, 1, 1, 3)
         self.planes = {}
-        for column, name in ((0, "near"), (2, "far")):
+        grid.addWidget(QLabel("near, far"), 6, 0)
+        for column, name in enumerate(("near", "far"), start=1):
             spin = self._spin(0.0, 1e6)
-            spin.setSpecialValueText("automatic")   # shown at the minimum, 0, which means None
-            spin.setToolTip(f"{name} clipping plane, distance from the camera; 0: automatic "
-                            "(planes enclosing the data's bounding sphere)")
+            spin.setSpecialValueText("auto")   # shown at the minimum, 0, which means None
+            spin.setToolTip(f"{name} clipping plane, distance from the camera; 0 (auto): planes "
+                            "enclosing the data's bounding sphere, chosen every frame")
             self.planes[name] = spin
-            grid.addWidget(QLabel(name), 6, column)
-            grid.addWidget(spin, 6, column + 1)
+            grid.addWidget(spin, 6, column)
         self.layout_.addLayout(grid)
 
     def _spin(self, low, high) -> QDoubleSpinBox:

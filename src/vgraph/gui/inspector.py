@@ -1,8 +1,11 @@
 """The property inspector: the selected processor's properties as editors (see ``editors.py``).
 
 Conventions:
-- Editors are generated from the property declarations; labels carry the property's doc as a
-  tooltip and a mark when the property is linked.
+- Editors are generated from the property declarations; editors and labels carry the property's
+  doc, range or choices and default as a tooltip (``property_tooltip``), labels a mark when the
+  property is linked.
+- Under the status line: what the processor produced (``ProcessorStatus.data``: a volume's
+  dimensions, type, spacing and value range, a source's file size), as the render process reports it.
 - Edits go through the workspace (one undo command each; slider drags merge). A rejected value
   is reported through ``status_message`` and the editor shows the current value again.
 - ``interacting`` says when a drag in an editor (a slider, a TF point) starts and ends; editors
