@@ -127,6 +127,8 @@ def test_the_inspector_shows_what_the_render_process_loaded(window, data_dir, qt
     ws.set_property("src.path", str(data_dir / "mri_head_tiny/HeadMRVolume.mhd"))
     qtbot.waitUntil(lambda: "48 \u00d7 62 \u00d7 42 uint8" in window.inspector.data.text(), timeout=20000)
     assert not window.inspector.data.isHidden() and "file:" in window.inspector.data.text()
+    window.scene.clearSelection()
+    assert window.inspector.data.isHidden() and not window.inspector.data.text()
 
 
 def test_every_editor_has_its_declaration_as_tooltip(window):

@@ -99,7 +99,7 @@ class PropertyInspector(QWidget):
         self.editors.clear(), self.labels.clear()
         if self.processor_id is None:
             self.title.setText("<i>Select one processor to edit its properties.</i>")
-            self.status.clear(), self.data.clear()
+            self.status.clear(), self.data.clear(), self.data.hide()
             return
         processor = self.network[self.processor_id]
         self.title.setText(f"<b>{processor.id}</b> ({processor.type_name})<br><small>"
