@@ -58,7 +58,10 @@ def window(qtbot, tmp_path, renderer):
 
 @pytest.fixture
 def jobs(window, monkeypatch):
-    """Every job the window submits from now on (the shared render process still gets them)."""
+    """Every job the window submits from now on (the shared render process still gets them);
+    the window's first job (its empty network, sent by a timer) is done before recording starts,
+    so that the tests do not depend on whether that timer fired yet."""
+    window.evaluation.run(wait=True)
     renderer, submitted = window.evaluation.renderer, []
     submit = renderer.submit
     monkeypatch.setattr(renderer, "submit", lambda job: (submitted.append(job), submit(job))[1])

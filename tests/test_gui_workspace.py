@@ -141,6 +141,7 @@ def test_a_processor_error_shows_on_its_node_and_in_the_log_and_the_gui_goes_on(
     ws.add_processor("Collect", (0, 300), id="sink")
     ws.connect("n.value", "frag.value")
     ws.connect("frag.value", "sink.value")
+    window.evaluation.run(wait=True)  # the edits so far evaluated: the next finish is the failing job's
     window.scene.select_processor("frag")
     with qtbot.waitSignal(window.evaluation.finished, timeout=5000):
         window.inspector.editors["fail"].spin.setValue(1)
