@@ -12,6 +12,13 @@
 // nothing, so front-to-back skipping alone, against a maximum that restarts at 0 in every brick,
 // skipped even less than in the RayCaster.
 #ifdef COMPOSITING_MIP
+// Sample i's intensity clamped to [0, 1], or -1 where another brick owns it (never a maximum, never
+// a tie: the maximum starts at 0).
+float owned_value(Ray ray, int i) {
+    vec3 t = sample_point(ray, float(i));
+    return owns(t) ? min(intensity(t), 1.0) : -1.0;
+}
+
 #ifdef SKIP_EMPTY_BLOCKS
 // The stretch that starts at sample i: its end (the first sample past it) and its block's range.
 int stretch_end(Ray ray, int i, out vec2 range) {
@@ -42,11 +49,7 @@ void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {  
     int best_sample = -1;
     float ceiling = min(top, 1.0);
     for (int i = top_start; i < top_end && best < ceiling; ++i) {
-        vec3 t = sample_point(ray, float(i));
-        if (!owns(t)) {
-            continue;
-        }
-        float value = min(intensity(t), 1.0);
+        float value = owned_value(ray, i);
         if (value > best) {
             best = value;
             best_sample = i;
@@ -71,11 +74,7 @@ void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {  
             if (j > best_sample && best >= stretch_bound) {
                 break;
             }
-            vec3 t = sample_point(ray, float(j));
-            if (!owns(t)) {
-                continue;
-            }
-            float value = min(intensity(t), 1.0);
+            float value = owned_value(ray, j);
             if (value > best || (value == best && j < best_sample)) {
                 best = value;
                 best_sample = j;
@@ -91,11 +90,7 @@ void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {  
     float best = 0.0;
     depth_sample = -1.0;
     for (int i = span.first; i <= span.last; ++i) {
-        vec3 t = sample_point(ray, float(i));
-        if (!owns(t)) {
-            continue;
-        }
-        float value = min(intensity(t), 1.0);
+        float value = owned_value(ray, i);
         if (value > best) {
             best = value;
             depth_sample = float(i);
