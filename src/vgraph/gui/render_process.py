@@ -57,6 +57,7 @@ from vgraph.gui.evaluator import (EvaluationOutcome, ProcessorStatus, evaluate_v
                                   value_scales, view_cameras)
 from vgraph.gui.changes import Change, apply_changes
 from vgraph.gui.mirror import mirror
+from vgraph.gui.view_boxes import view_boxes
 from vgraph.network import Network
 from vgraph.registry import registry
 
@@ -102,6 +103,7 @@ class RenderResult:
     histograms: dict[str, np.ndarray] = field(default_factory=dict)
     value_scales: dict = field(default_factory=dict)
     view_cameras: dict = field(default_factory=dict)
+    view_boxes: dict = field(default_factory=dict)  # 'id.camera' -> the box it framed (canvas overlays)
     seconds: float = 0.0
     error: str | None = None   # the job as a whole failed (its network could not be built, a crash)
     needs_document: bool = False  # the changes could not be applied: send the whole network
@@ -153,6 +155,7 @@ class RenderServer:
             result.histograms = histograms(self.network)
             result.value_scales = value_scales(self.network)
             result.view_cameras = view_cameras(self.network)
+            result.view_boxes = view_boxes(self.network)
             incomplete = [frame for frame in self._frames(result.outcome.ran) if frame.get("complete") is False]
             result.refining = bool(incomplete)
             result.bricks_read = sum(frame.get("bricks_read", 0) for frame in incomplete)
