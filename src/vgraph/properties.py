@@ -21,6 +21,7 @@ from pydantic import (AfterValidator, BeforeValidator, Field, StrictBool, Strict
 
 from vgraph.camera import Camera
 from vgraph.errors import PropertyError
+from vgraph.labels import LabelTable
 from vgraph.ports import SNAKE_CASE
 from vgraph.transfer_function import TransferFunction, preset_or_file
 
@@ -242,6 +243,15 @@ class CameraProperty(Property):
         return Camera
 
 
+class LabelTableProperty(Property):
+    """A LabelTable (vgraph.labels): name, colour, opacity and visibility per label value."""
+
+    kind = "label_table"
+
+    def _value_type(self):
+        return LabelTable
+
+
 def _add_alpha(value):
     if isinstance(value, (list, tuple)) and len(value) == 3:
         return (*value, 1.0)
@@ -252,5 +262,5 @@ def _add_alpha(value):
 PROPERTY_KINDS: dict[str, type[Property]] = {
     cls.kind: cls for cls in (FloatProperty, IntProperty, BoolProperty, OptionProperty,
                               StringProperty, FilePathProperty, VectorProperty, DictProperty, ColorProperty,
-                              TransferFunctionProperty, CameraProperty)
+                              TransferFunctionProperty, CameraProperty, LabelTableProperty)
 }
