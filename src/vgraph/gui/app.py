@@ -45,6 +45,7 @@ from vgraph.gui.live_evaluation import LiveEvaluation
 from vgraph.gui.render_process import RenderProcess
 from vgraph.gui.log import LogPanel
 from vgraph.gui.palette import ProcessorPalette
+from vgraph.gui.progress_view import EvaluationProgress
 from vgraph.gui.scene import NetworkScene, NetworkView
 from vgraph.gui.workspace import Workspace
 
@@ -64,6 +65,7 @@ class MainWindow(FileActions, QMainWindow):
         self.properties_dock = self._dock("Properties", self.inspector, Qt.RightDockWidgetArea)
         self.log_dock = self._dock("Log", self.log, Qt.BottomDockWidgetArea)
         self.canvases = CanvasDocks(self, self.workspace, self.evaluation, above=self.properties_dock)
+        self.running = EvaluationProgress(self)  # which processor runs, how far (progress_view.py)
         self.failures: dict[str, str] = {}
         self.remember_layout = True  # a screenshot run leaves the user's layout alone
         self.blank_warnings: dict[str, str] = {}  # display id -> the empty-image warning logged
@@ -112,6 +114,7 @@ class MainWindow(FileActions, QMainWindow):
         self.open_action = self._action("&Open...", self.open_network, QKeySequence.Open)
         self.save_action = self._action("&Save", self.save_network, QKeySequence.Save)
         self.save_as_action = self._action("Save &As...", self.save_network_as, QKeySequence.SaveAs)
+        self.export_image_action = self._action("&Export Image...", self.export_image, "Ctrl+E")
         self.quit_action = self._action("&Quit", self.close, QKeySequence.Quit)
         self.undo_action = stack.createUndoAction(self, "&Undo")
         self.undo_action.setShortcut(QKeySequence.Undo)
@@ -145,7 +148,7 @@ class MainWindow(FileActions, QMainWindow):
         file_menu = bar.addMenu("&File")
         file_menu.addActions([self.new_action, self.open_action])
         self.recent_menu = file_menu.addMenu("Open &Recent")
-        file_menu.addActions([self.save_action, self.save_as_action])
+        file_menu.addActions([self.save_action, self.save_as_action, self.export_image_action])
         file_menu.addSeparator()
         file_menu.addAction(self.quit_action)
         edit_menu = bar.addMenu("&Edit")

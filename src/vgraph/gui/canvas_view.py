@@ -13,7 +13,11 @@ Interaction (on the camera returned by ``camera_property_for``, i.e. the nearest
   cursor.
 - a camera that fits the data (``Camera.fit_to_data``) keeps fitting while it rotates; zoom and pan
   start from the camera of the last frame (``view_cameras``, from the render process) and store it,
-  so the view does not jump. The context menu's View entries set a named view or fit to the data.
+  so the view does not jump. The context menu's View entries (and the toolbar, canvas_toolbar.py)
+  set a named view or fit to the data.
+- overlays (overlays.py): the data's box and an axes triad, drawn by Qt over the frame with the
+  camera and box the frame was rendered with (``set_view_geometry``), never into the frame, so
+  Save Image writes what ``vgraph run`` writes (image_export.py).
 
 ``dx, dy`` are Qt pixels (x right, y DOWN, hence the negated dy: the camera wants y up) measured from
 the press point; ``h`` is the height of the displayed frame (the visible height of the camera maps
@@ -42,7 +46,8 @@ from PySide6.QtWidgets import QFileDialog, QMenu, QWidget
 
 from vgraph.camera import VIEWS
 from vgraph.errors import OutputFileError, VGraphError
-from vgraph.imagefile import write_png
+from vgraph.gui.image_export import IMAGE_FILTER, suggested_image_path, write_frame
+from vgraph.gui.overlays import ViewGeometry, draw_overlays
 from vgraph.properties import CameraProperty
 
 BACKGROUND = QColor(32, 32, 36)
@@ -77,6 +82,7 @@ def camera_property_for(network, canvas_id: str) -> str | None:
 class CanvasView(QWidget):
     interacting = Signal(bool)
     problem = Signal(str)
+    activated = Signal(str)  # the canvas id, when the view gets the focus (File > Export Image's canvas)
 
     _keys = itertools.count(1)  # merge keys, unique across all views
 
@@ -89,6 +95,8 @@ class CanvasView(QWidget):
         self._frame: np.ndarray | None = None
         self._image: QImage | None = None
         self._message = ""
+        self._geometry: ViewGeometry | None = None  # the shown frame's camera and box
+        self._overlays = {"axes": False, "box": False}
         self._drag = None   # dict(mode, button, start, address, camera, key, active) while dragging
         self._wheel = None  # dict(address, camera, key, delta) during a wheel burst
         self._wheel_timer = QTimer(self)
@@ -98,6 +106,7 @@ class CanvasView(QWidget):
         # Right drags zoom, so the menu opens on a right click without movement (mouseReleaseEvent).
         self.setContextMenuPolicy(Qt.PreventContextMenu)
         self.setMinimumSize(64, 64)
+        self.setFocusPolicy(Qt.ClickFocus)  # the toolbar's keys work once the canvas is clicked
 
     # --- display --------------------------------------------------------------------------------
     def show_frame(self, rgba: np.ndarray, final: bool = True) -> None:
@@ -114,6 +123,25 @@ class CanvasView(QWidget):
 
     def frame(self) -> np.ndarray | None:
         return self._frame
+
+    def set_view_geometry(self, geometry: ViewGeometry | None) -> None:
+        """The camera and box of the frame shown (or about to be): where the overlays go."""
+        self._geometry = geometry
+        self.update()
+
+    def view_geometry(self) -> ViewGeometry | None:
+        return self._geometry
+
+    def set_axes_visible(self, on: bool) -> None:
+        self._overlays["axes"] = bool(on)
+        self.update()
+
+    def set_box_visible(self, on: bool) -> None:
+        self._overlays["box"] = bool(on)
+        self.update()
+
+    def overlays(self) -> dict[str, bool]:
+        return dict(self._overlays)
 
     def set_message(self, text: str) -> None:
         self._message = text or ""
@@ -137,6 +165,7 @@ class CanvasView(QWidget):
         if self._image is not None:
             painter.setRenderHint(QPainter.SmoothPixmapTransform, True)
             painter.drawImage(self.image_rect(), self._image)
+            draw_overlays(painter, self._geometry, self.image_rect(), **self._overlays)
         if self._message:
             box = painter.fontMetrics().boundingRect(self._message).adjusted(-4, -2, 4, 2)
             box.moveBottomLeft(self.rect().bottomLeft() + QPointF(4, -4).toPoint())
@@ -144,6 +173,10 @@ class CanvasView(QWidget):
             painter.setPen(QColor(230, 230, 230))
             painter.drawText(box, Qt.AlignCenter, self._message)
         painter.end()
+
+    def focusInEvent(self, event) -> None:
+        super().focusInEvent(event)
+        self.activated.emit(self.canvas_id)
 
     # --- camera edits ---------------------------------------------------------------------------
     def _begin_gesture(self) -> tuple[str, object] | None:
@@ -283,9 +316,13 @@ class CanvasView(QWidget):
                        "key": None, "active": True}
             self._apply(gesture, make_camera)
 
+    def suggested_path(self) -> str:
+        """Where the save dialog starts: the network's folder, '<network>_<canvas>.png'."""
+        return str(suggested_image_path(self.workspace.path, self.canvas_id))
+
     def ask_save_path(self) -> str:
-        path, _ = QFileDialog.getSaveFileName(self, "Save Image", f"{self.canvas_id}.png",
-                                              "PNG images (*.png)")
+        path, _ = QFileDialog.getSaveFileName(self, f"Save Image of {self.canvas_id}",
+                                              self.suggested_path(), IMAGE_FILTER)
         return path
 
     def save_image(self, path: str | Path | None = None) -> Path | None:
@@ -297,15 +334,10 @@ class CanvasView(QWidget):
             path = self.ask_save_path()
             if not path:
                 return None
-        path = Path(path)
-        if not path.suffix:
-            path = path.with_suffix(".png")
         try:
-            # write_png takes floats in [0, 1]; k / 255 rounds back to exactly k.
-            write_png(path, self._frame.astype(np.float64) / 255.0)
+            return write_frame(self._frame, path)
         except OutputFileError as error:
             return self._report(f"could not save {path}: {error.reason}")
-        return path
 
     def _report(self, text: str) -> None:
         self.set_message(text)

@@ -6,6 +6,11 @@ Conventions:
 - Frames from the render process go to the view of their display; a display that failed or is not
   ready shows why instead.
 - A drag on any canvas makes the evaluation interactive (reduced resolution) until it ends.
+- Each dock shows a ``CanvasPane``: the canvas toolbar (canvas_toolbar.py) above the view. A frame
+  comes with the camera and box it was rendered with (the same render result's ``view_cameras``
+  and ``view_boxes``, for the camera the view edits), for the overlays.
+- The *current* canvas (File > Export Image's) is the one last clicked into or brought to front,
+  else the first one.
 """
 
 from __future__ import annotations
@@ -13,9 +18,11 @@ from __future__ import annotations
 from PySide6.QtCore import QObject, Qt, Signal
 from PySide6.QtWidgets import QDockWidget, QMainWindow
 
-from vgraph.gui.canvas_view import CanvasView
+from vgraph.gui.canvas_toolbar import CanvasPane
+from vgraph.gui.canvas_view import CanvasView, camera_property_for
 from vgraph.gui.evaluator import EvaluationOutcome, is_display
 from vgraph.gui.live_evaluation import LiveEvaluation
+from vgraph.gui.overlays import ViewGeometry
 from vgraph.gui.workspace import Workspace
 from vgraph.network import Network
 
@@ -31,6 +38,9 @@ class CanvasDocks(QObject):
         self.network: Network | None = None
         self.docks: dict[str, QDockWidget] = {}
         self.views: dict[str, CanvasView] = {}
+        self.current_id: str | None = None
+        self._result = None   # the render result whose frames arrive next (view cameras and boxes)
+        evaluation.received.connect(self._received)
         evaluation.frames.connect(self.show_frames)
         evaluation.finished.connect(self.show_problems)
         evaluation.busy_changed.connect(self._busy)
@@ -60,10 +70,12 @@ class CanvasDocks(QObject):
         view = CanvasView(self.workspace, processor_id, view_cameras=lambda: self.evaluation.view_cameras)
         view.interacting.connect(self.evaluation.interactive)
         view.problem.connect(self.problem)
+        view.activated.connect(self._make_current)
         view.set_message("waiting for the render process")
         dock = QDockWidget(f"Canvas: {processor_id}", self.window)
         dock.setObjectName(f"canvas:{processor_id}")
-        dock.setWidget(view)
+        dock.setWidget(CanvasPane(view, self.workspace.settings))
+        dock.visibilityChanged.connect(lambda shown, pid=processor_id: shown and self._make_current(pid))
         siblings = list(self.docks.values())
         self.window.addDockWidget(Qt.RightDockWidgetArea, dock)
         if siblings:
@@ -79,12 +91,38 @@ class CanvasDocks(QObject):
     def _remove(self, processor_id: str) -> None:
         dock = self.docks.pop(processor_id)
         self.views.pop(processor_id)
+        if self.current_id == processor_id:
+            self.current_id = None
         self.window.removeDockWidget(dock)
         dock.deleteLater()
+
+    def _make_current(self, processor_id: str) -> None:
+        if processor_id in self.views:
+            self.current_id = processor_id
+
+    def current_view(self) -> CanvasView | None:
+        """The canvas last clicked into or brought to front (else the first), or None."""
+        if self.current_id in self.views:
+            return self.views[self.current_id]
+        return next(iter(self.views.values()), None)
+
+    def _received(self, result) -> None:
+        self._result = result
+
+    def view_geometry(self, processor_id: str) -> ViewGeometry | None:
+        """The camera and box of the frames that are arriving, for the camera ``processor_id``'s
+        view edits (None if that processor reported none)."""
+        address = camera_property_for(self.workspace.network, processor_id)
+        result = self._result
+        if address is None or result is None:
+            return None
+        camera, box = result.view_cameras.get(address), getattr(result, "view_boxes", {}).get(address)
+        return None if camera is None or box is None else ViewGeometry(camera, *box)
 
     def show_frames(self, frames: dict, final: bool) -> None:
         for processor_id, frame in frames.items():
             if processor_id in self.views:
+                self.views[processor_id].set_view_geometry(self.view_geometry(processor_id))
                 self.views[processor_id].show_frame(frame, final)
                 self.views[processor_id].set_message("" if final else "refining...")
 

@@ -12,6 +12,8 @@ Conventions:
 - A file whose writers would write outside its folder (``WritePathError``) opens only if the user
   allows it (``ask_allow_writes``, naming each processor and path); it is then loaded again with
   those paths' folders allowed. Cancel leaves the open network as it was.
+- Export Image saves the current canvas's frame (``CanvasDocks.current_view``); its dialog starts
+  in the network's folder with a suggested name (``image_export.suggested_image_path``).
 """
 
 from __future__ import annotations
@@ -155,6 +157,14 @@ class FileActions:
         self.view.fit_network()
         self.log.info(f"restored unsaved changes to {self.workspace.display_name()} from {found.path}")
         return True
+
+    def export_image(self, path: str | Path | None = None) -> Path | None:
+        """File > Export Image: the current canvas's frame as a PNG (asks where, unless given)."""
+        view = self.canvases.current_view()
+        if view is None:
+            self.show_message("Export Image: the network has no canvas")
+            return None
+        return view.save_image(path)
 
     def save_network(self) -> bool:
         if self.workspace.path is None:

@@ -1,0 +1,133 @@
+"""The toolbar above each canvas: fit to data, named views, save the image, and the overlays.
+
+``CanvasPane`` is what a canvas dock shows: a compact ``CanvasToolbar`` above its ``CanvasView``.
+
+Conventions:
+- Every action acts on its own canvas (on the camera ``camera_property_for`` finds, as the mouse
+  does) and is one undo step.
+- Shortcuts work while the canvas (or its toolbar) has the keyboard focus (click into the canvas),
+  so two canvases do not fight over a key: F fits, the digits turn to named views as on a
+  numeric keypad (1 front, 3 right, 7 top; with Ctrl the opposite side), 5 iso; A and B switch
+  the axes and the box. Tooltips name them; Help > Keyboard Shortcuts lists them.
+- Overlay switches are remembered per canvas id in the window's QSettings
+  (``canvas/<id>/axes``, ``canvas/<id>/box``): the triad is on and the box off the first time.
+"""
+
+from __future__ import annotations
+
+from PySide6.QtCore import QSettings, QSize, Qt
+from PySide6.QtGui import QAction, QKeySequence
+from PySide6.QtWidgets import QMenu, QStyle, QToolBar, QToolButton, QVBoxLayout, QWidget
+
+from vgraph.gui.canvas_view import CanvasView
+
+# name -> (menu text, shortcut); the order of the menu.
+VIEW_ACTIONS = {
+    "front": ("Front (anterior)", "1"),
+    "back": ("Back (posterior)", "Ctrl+1"),
+    "left": ("Left", "Ctrl+3"),
+    "right": ("Right", "3"),
+    "top": ("Top (superior)", "7"),
+    "bottom": ("Bottom (inferior)", "Ctrl+7"),
+    "iso": ("Iso", "5"),
+}
+FIT_KEY, AXES_KEY, BOX_KEY = "F", "A", "B"
+OVERLAY_DEFAULTS = {"axes": True, "box": False}
+
+
+def overlay_setting(canvas_id: str, overlay: str) -> str:
+    return f"canvas/{canvas_id}/{overlay}"
+
+
+class CanvasToolbar(QToolBar):
+    def __init__(self, view: CanvasView, settings: QSettings | None = None, parent: QWidget | None = None):
+        super().__init__(f"{view.canvas_id} tools", parent)
+        self.view, self.settings = view, settings
+        self.setIconSize(QSize(16, 16))
+        self.setToolButtonStyle(Qt.ToolButtonTextOnly)
+        self.fit_action = self._add("Fit", "Fit to data: frame the data again, keeping the direction",
+                                    FIT_KEY, view.fit_to_data)
+        self.view_actions = {name: self._make(text, f"Look at the data from the {name}", key,
+                                              lambda *_, name=name: view.set_view(name))
+                             for name, (text, key) in VIEW_ACTIONS.items()}
+        self.views_button = self._menu_button("View", "Named views (fit the data)",
+                                              self.view_actions.values())
+        self.addSeparator()
+        self.axes_action = self._add("Axes", "Show the orientation axes (x red, y green, z blue)",
+                                     AXES_KEY, view.set_axes_visible, checkable=True)
+        self.box_action = self._add("Box", "Show the data's bounding box", BOX_KEY,
+                                    view.set_box_visible, checkable=True)
+        self.addSeparator()
+        self.save_action = self._add("Save Image...", "Save the frame as a PNG, as `vgraph run` writes "
+                                     "it (no overlays); File > Export Image (Ctrl+E) does the same",
+                                     None, view.save_image)
+        self.save_action.setIcon(self.style().standardIcon(QStyle.SP_DialogSaveButton))
+        self.widgetForAction(self.save_action).setToolButtonStyle(Qt.ToolButtonIconOnly)
+        self._restore_overlays()
+        self.axes_action.toggled.connect(lambda on: self._remember("axes", on))
+        self.box_action.toggled.connect(lambda on: self._remember("box", on))
+
+    # --- building -------------------------------------------------------------------------------
+    def _make(self, text: str, tip: str, key: str | None, slot, checkable: bool = False) -> QAction:
+        action = QAction(text, self)
+        action.setCheckable(checkable)
+        if key:
+            action.setShortcut(QKeySequence(key))
+            # Only while this canvas has the focus: each canvas has the same keys.
+            action.setShortcutContext(Qt.WidgetWithChildrenShortcut)
+            tip = f"{tip} ({QKeySequence(key).toString(QKeySequence.NativeText)})"
+        action.setToolTip(tip)
+        if checkable:
+            action.toggled.connect(slot)
+        else:
+            action.triggered.connect(lambda *_: slot())
+        return action
+
+    def _add(self, text, tip, key, slot, checkable=False) -> QAction:
+        action = self._make(text, tip, key, slot, checkable)
+        self.addAction(action)
+        return action
+
+    def _menu_button(self, text: str, tip: str, actions) -> QToolButton:
+        button = QToolButton(self)
+        button.setText(text)
+        button.setToolTip(tip)
+        button.setPopupMode(QToolButton.InstantPopup)
+        menu = QMenu(button)
+        menu.addActions(list(actions))
+        button.setMenu(menu)
+        self.addWidget(button)
+        return button
+
+    def keyboard_actions(self) -> list[QAction]:
+        """The actions with shortcuts, to be added to the pane so the keys work in the view too."""
+        return [self.fit_action, *self.view_actions.values(), self.axes_action, self.box_action]
+
+    # --- overlays remembered --------------------------------------------------------------------
+    def _restore_overlays(self) -> None:
+        for name, action in (("axes", self.axes_action), ("box", self.box_action)):
+            on = OVERLAY_DEFAULTS[name]
+            if self.settings is not None:
+                on = self.settings.value(overlay_setting(self.view.canvas_id, name), on, type=bool)
+            action.setChecked(on)
+            # setChecked emits toggled only on a change: tell the view either way.
+            (self.view.set_axes_visible if name == "axes" else self.view.set_box_visible)(on)
+
+    def _remember(self, name: str, on: bool) -> None:
+        if self.settings is not None:
+            self.settings.setValue(overlay_setting(self.view.canvas_id, name), bool(on))
+
+
+class CanvasPane(QWidget):
+    """A canvas dock's widget: the toolbar above the view."""
+
+    def __init__(self, view: CanvasView, settings: QSettings | None = None, parent: QWidget | None = None):
+        super().__init__(parent)
+        self.view = view
+        self.toolbar = CanvasToolbar(view, settings, self)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setSpacing(0)
+        layout.addWidget(self.toolbar)
+        layout.addWidget(view, 1)
+        self.addActions(self.toolbar.keyboard_actions())
