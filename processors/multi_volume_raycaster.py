@@ -1,0 +1,180 @@
+"""MultiVolumeRayCaster: up to four volumes (channels) in one ray caster, each with its own transfer
+function, on the same or on different grids in one world space (in the spirit of Voreen's
+MultiVolumeRaycaster and Inviwo's MultichannelRaycaster).
+
+Conventions (the CPU reference vgraph.multivolume_reference states the same model as formulas):
+- Inports ``volume1`` (required) .. ``volume4`` (optional; any subset of 2..4 may be connected),
+  and the ``entry`` and ``exit`` images of an EntryExitPoints fed with ``volume1``: the rays are
+  those of the first volume's box (clipping planes and crop boxes of that EntryExitPoints apply to
+  every channel). Parts of other channels outside that box are not drawn: give the largest volume
+  as ``volume1``.
+- A ray position t (texture coordinates of volume1) maps to world space (VolumeGeometry) and on
+  to each channel's texture coordinates; the two affine maps are combined here into one
+  scale/offset per channel, so the shader does one multiply-add per channel and sample. A channel
+  contributes nothing at points outside its own box of voxel centres (grown as the rays' box is):
+  no data there, rather than its edge values smeared out by clamp-to-edge.
+- Samples every ``min(spacing of all channels) / sampling_rate`` world units, trilinear, each
+  channel normalised over its own value range and classified by its own TF (4096-entry LUT).
+  Opacity correction per channel: a TF's alpha is per sample at that channel's rate 1, so
+  ``a' = 1 - (1 - a)^(step / min(spacing of the channel))``.
+- ``blend`` (what a pixel shows):
+  ``accumulate``: the channels' samples at one point are mixed into one (Cai & Sakas 1999,
+  accumulation-level intermixing) - opacity ``1 - prod(1 - a'_k)``, colour the a'-weighted mean of
+  the channels' colours - and composited front to back like the RayCaster's dvr (early
+  termination). Order-independent; one channel gives exactly its own sample.
+  ``nearest_opaque``: the TF colour of the first sample where some channel's (uncorrected) TF
+  opacity reaches ``opacity_threshold``; where several do at that sample, the most opaque (then the
+  lowest-numbered) channel's; drawn opaque.
+  ``maximum``: each channel's maximum intensity along the ray (a MIP per channel, over the samples
+  inside its box) classified by its TF; colours added (premultiplied, ``min(sum a_k rgb_k, 1)``),
+  coverage ``1 - prod(1 - a_k)``: overlapping channels add up, as in fluorescence overlays.
+  With one channel accumulate equals the RayCaster's dvr and maximum its mip.
+- Outputs as the RayCaster's: ``image`` (premultiplied colour over ``background``) and, on demand,
+  ``depth``; the depth sample is the first with opacity (accumulate), the hit (nearest_opaque),
+  the maximum of the channel with the largest classified opacity (maximum).
+- Not here: shading, empty-space skipping, bricked volumes (each channel must fit a 3D texture).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vgraph import FloatProperty, Inport, OptionProperty, Outport, TransferFunctionProperty, VGraphError
+from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, RaycasterBase,
+                                             Sampling)
+from vgraph.gl.raycasting.geometry import VolumeGeometry
+from vgraph.gl.raycasting.targets import RenderTargets
+from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler
+from vgraph.image import Image
+from vgraph.transfer_function import TransferFunction
+from vgraph.volume import Volume
+
+SHADER = "multivolume/multivolume.frag.glsl"
+MAX_CHANNELS = 4
+CHANNEL_PORTS = tuple(f"volume{n}" for n in range(1, MAX_CHANNELS + 1))
+BLEND_MODES = ("accumulate", "nearest_opaque", "maximum")
+
+
+def _ramp(r, g, b, low=0.2, high=0.8, alpha=0.6) -> TransferFunction:
+    """A default TF: transparent below ``low``, rising to ``alpha`` in one colour at ``high``."""
+    return TransferFunction(points=[(0.0, r, g, b, 0.0), (low, r, g, b, 0.0), (high, r, g, b, alpha),
+                                    (1.0, r, g, b, alpha)])
+
+
+# One hue per channel, as microscopy viewers colour channels.
+DEFAULT_TFS = (_ramp(1.0, 0.55, 0.15), _ramp(0.2, 0.6, 1.0), _ramp(0.3, 0.95, 0.35), _ramp(0.95, 0.3, 0.9))
+
+
+@dataclass(frozen=True)
+class Channel:
+    """A connected channel: its inport number (1..4) and volume."""
+
+    number: int
+    volume: Volume
+
+    @property
+    def port(self) -> str:
+        return f"volume{self.number}"
+
+
+class MultiVolumeRayCaster(RaycasterBase):
+    """Several volumes (channels) in one ray caster, each with its own TF: accumulate, nearest opaque or maximum."""
+
+    category = "Volume rendering"
+    inports = ([Inport("volume1", Volume, "rays run in this volume's box")]
+               + [Inport(port, Volume, optional=True) for port in CHANNEL_PORTS[1:]]
+               + [Inport("entry", Image), Inport("exit", Image)])
+    outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
+    components = (EntryExit, CameraRays, Sampling, Background)
+
+    blend = OptionProperty("accumulate", choices=list(BLEND_MODES),
+                           doc="accumulate: channels mixed per sample, composited front to back; "
+                               "nearest_opaque: colour of the first channel to reach opacity_threshold; "
+                               "maximum: a MIP per channel, colours added")
+    transfer_function1 = TransferFunctionProperty(DEFAULT_TFS[0], doc="of volume1 (alpha per sample at rate 1)")
+    transfer_function2 = TransferFunctionProperty(DEFAULT_TFS[1], doc="of volume2")
+    transfer_function3 = TransferFunctionProperty(DEFAULT_TFS[2], doc="of volume3")
+    transfer_function4 = TransferFunctionProperty(DEFAULT_TFS[3], doc="of volume4")
+    opacity_threshold = FloatProperty(0.5, min=0.001, max=1.0,
+                                      doc="nearest_opaque: TF opacity at which a channel counts as hit")
+    early_termination = FloatProperty(0.99, min=0.01, max=1.0,
+                                      doc="accumulate: stop a ray once its opacity reaches this")
+
+    def __init__(self, id: str | None = None, **values):
+        super().__init__(id, **values)
+        self._targets = {True: RenderTargets(2), False: RenderTargets(1)}  # by: depth output wanted
+        self._luts = {number: TransferFunctionTexture() for number in range(1, MAX_CHANNELS + 1)}
+
+    def process(self, volume1: Volume, volume2: Volume | None, volume3: Volume | None,
+                volume4: Volume | None, entry: Image, exit: Image) -> dict:
+        channels = [Channel(number, volume)
+                    for number, volume in enumerate((volume1, volume2, volume3, volume4), start=1)
+                    if volume is not None]
+        for channel in channels:
+            channel.volume.require_samples(f"MultiVolumeRayCaster '{self.id}' ({channel.port})")
+        frame = self.frame(volume1, entry, exit)
+        with_depth = self.wants("depth")
+        targets = self._targets[with_depth]
+        self._targets[not with_depth].release()  # a scene keeps the images of one kind only
+        outputs = dict(zip(("image", "depth"), targets.ensure(frame.ctx, entry.size)))
+        own = self._channel_binding(frame, channels)
+        own.defines["DEPTH_OUTPUT"] = with_depth
+        self.draw(frame, SHADER, targets, own=own)
+        return outputs
+
+    def _channel_binding(self, frame, channels: list[Channel]) -> Binding:
+        """Defines, textures and uniforms of the channels. Shader slot k (0-based) holds the k-th
+        connected channel, whatever its inport number."""
+        rays = frame.geometry
+        step = min(float(np.min(c.volume.spacing)) for c in channels) / self.sampling_rate
+        mode = self.blend
+        binding = Binding(defines={"CHANNELS": len(channels), f"BLEND_{mode.upper()}": True},
+                          uniforms={"step_length": step})  # replaces Sampling's step of volume1 alone
+        rows = {name: [] for name in ("channel_scale", "channel_offset", "channel_low", "channel_high",
+                                      "channel_intensity", "channel_exponent")}
+        for slot, channel in enumerate(channels, start=1):
+            volume = channel.volume
+            geometry = VolumeGeometry.of(volume)
+            scale, offset = channel_map(rays, geometry)
+            low, high = channel_texture_box(geometry)
+            rows["channel_scale"].append(scale)
+            rows["channel_offset"].append(offset)
+            rows["channel_low"].append(low)
+            rows["channel_high"].append(high)
+            rows["channel_intensity"].append(volume.texture_scale_offset())
+            rows["channel_exponent"].append(step / float(geometry.spacing.min()))
+            tf = getattr(self, f"transfer_function{channel.number}")
+            binding.textures[f"volume{slot}"] = volume.texture(frame.ctx)
+            binding.samplers[f"volume{slot}"] = linear_sampler(frame.ctx)
+            binding.textures[f"transfer_function{slot}"] = self._luts[channel.number].update(frame.ctx, tf, volume)
+        for name, values in rows.items():
+            binding.uniforms[name] = np.asarray(values, dtype=np.float32)
+        if mode == "accumulate":
+            binding.uniforms["early_termination"] = self.early_termination
+        elif mode == "nearest_opaque":
+            binding.uniforms["opacity_threshold"] = self.opacity_threshold
+        return binding
+
+
+def channel_map(rays: VolumeGeometry, channel: VolumeGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """(scale, offset) taking texture coordinates of the rays' volume to the channel's:
+    t_channel = t * scale + offset (texture -> world of the first volume, world -> texture of the
+    channel). The identity, exactly, for a channel on the rays' own grid."""
+    if _same_grid(rays, channel):
+        return np.ones(3), np.zeros(3)
+    to_world_scale, to_world_offset = rays.texture_to_world
+    to_texture_scale, to_texture_offset = channel.world_to_texture
+    return to_world_scale * to_texture_scale, to_world_offset * to_texture_scale + to_texture_offset
+
+
+def channel_texture_box(channel: VolumeGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """The channel's grown box of voxel centres (VolumeGeometry.grown_box) in its texture space."""
+    scale, offset = channel.world_to_texture
+    low, high = channel.grown_box()
+    return low * scale + offset, high * scale + offset
+
+
+def _same_grid(a: VolumeGeometry, b: VolumeGeometry) -> bool:
+    return all(np.array_equal(x, y) for x, y in ((a.dims, b.dims), (a.spacing, b.spacing), (a.origin, b.origin)))

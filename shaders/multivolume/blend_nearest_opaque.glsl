@@ -1,0 +1,30 @@
+// BLEND_NEAREST_OPAQUE: the first sample along the ray where some channel's TF opacity (as the TF
+// gives it, not corrected for the step, so the hit does not move with the sampling rate) reaches
+// opacity_threshold; the pixel is that channel's TF colour, opaque. Where several channels reach
+// it at that sample, the most opaque wins (equal opacities: the lower slot). Depth: the hit.
+#ifdef BLEND_NEAREST_OPAQUE
+uniform float opacity_threshold;
+
+Result march(Ray ray) {
+    Result result = empty_result();
+    for (int i = 0; i < ray.samples; ++i) {
+        vec3 t = sample_point(ray, float(i));
+        result.taken++;
+        vec4 hit = vec4(0.0);
+        for (int k = 0; k < CHANNELS; ++k) {
+            vec3 tk;
+            if (!channel_point(k, t, tk)) continue;
+            vec4 color = channel_classify(k, channel_value(k, tk));
+            if (color.a >= opacity_threshold && color.a > hit.a) {
+                hit = color;
+            }
+        }
+        if (hit.a > 0.0) {
+            result.color = vec4(hit.rgb, 1.0);
+            result.depth_sample = float(i);
+            return result;
+        }
+    }
+    return result;
+}
+#endif

@@ -1,0 +1,36 @@
+#version 330
+// MultiVolumeRayCaster: one ray per pixel between the EntryExitPoints images of the first channel,
+// CHANNELS volumes sampled at the same world points (channels.glsl), blended by exactly one of
+// BLEND_ACCUMULATE, BLEND_NEAREST_OPAQUE, BLEND_MAXIMUM (only that one is compiled). Rays, the
+// depth output and the background are the RayCaster's parts (raycasting/*.glsl).
+//
+// Outputs: `color` = the blended colour over `background`; `depth` as the RayCaster's.
+#include "raycasting/ray.glsl"
+#include "raycasting/pixel_ray.glsl"
+#include "raycasting/depth_output.glsl"
+#include "raycasting/background.glsl"
+#include "multivolume/channels.glsl"
+#include "multivolume/blend_accumulate.glsl"
+#include "multivolume/blend_nearest_opaque.glsl"
+#include "multivolume/blend_maximum.glsl"
+
+layout(location = 0) out vec4 color;
+#ifdef DEPTH_OUTPUT
+layout(location = 1) out vec4 depth;
+#endif
+
+void main() {
+    Ray ray;
+    if (!pixel_ray(ray)) {
+        color = background;
+#ifdef DEPTH_OUTPUT
+        depth = no_depth(0);
+#endif
+        return;
+    }
+    Result result = march(ray);
+    color = over_background(result.color);
+#ifdef DEPTH_OUTPUT
+    depth = result_depth(ray, result);
+#endif
+}

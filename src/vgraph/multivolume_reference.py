@@ -1,0 +1,175 @@
+"""CPU reference of the MultiVolumeRayCaster (numpy, vectorised over rays): several volumes
+(channels), each with its own transfer function, sampled at the same world points of each ray and
+blended. Tests compare the GL images with it pixel by pixel.
+
+Model (rules of vgraph.numerics.reference_raycast unless said otherwise; arithmetic in float64):
+
+1. Rays: ``Camera.rays`` of the camera resolved on the FIRST channel's box, clipped to that box
+   (slab test) and to [near, far]. A ray that misses it is the background, exactly.
+2. Samples: ``step = min over channels of min(spacing) / sampling_rate``; sample i at
+   ``t_entry + i * step``, ``n = floor(length / step + 1e-3) + 1`` (the RayCaster's rule).
+3. Channel k at a world point p: inside its box of voxel centres grown by ``1e-5 * (max |corner| +
+   min spacing)`` (the GL rays' box rule), its trilinear normalised intensity (clamp-to-edge) is
+   classified by its TF's 4096-entry LUT, linear between entries: ``(rgb_k, a_k)``. Outside its
+   box the channel is absent (contributes nothing). The first channel is never tested: the rays
+   run in its box.
+4. ``accumulate``: ``a'_k = 1 - (1 - a_k) ** (step / min(spacing_k))``; per sample
+   ``alpha = 1 - prod(1 - a'_k)``, ``rgb = sum(a'_k rgb_k) / sum(a'_k)`` (over channels present
+   with a'_k > 0; none: alpha 0); front to back ``C += (1 - A) alpha rgb``, ``A += (1 - A) alpha``,
+   the ray stopping before a sample once ``A >= early_termination``.
+5. ``nearest_opaque``: the first sample where some present channel has ``a_k >= threshold`` (and
+   a_k > 0); among those the largest a_k, ties to the lower channel; ``C = rgb_k``, ``A = 1``.
+6. ``maximum``: ``m_k`` = max of ``clip(v_k, 0, 1)`` over the samples where channel k is present
+   (starting from 0); ``(rgb_k, a_k) = TF_k(m_k)`` for the channels present at some sample;
+   ``C = min(sum a_k rgb_k, 1)``, ``A = 1 - prod(1 - a_k)``.
+7. Pixel: ``rgb = C + (1 - A) bg.rgb``, ``alpha = A + (1 - A) bg.a``; float32 (H, W, 4), row 0 at
+   the top.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vgraph.camera import Camera
+from vgraph.errors import VGraphError
+from vgraph.numerics.reference_raycast import (VolumeSampler, _clip_to_box, lookup, sample_counts,
+                                               volume_box)
+from vgraph.transfer_function import TransferFunction
+from vgraph.volume import Volume
+
+BLENDS = ("accumulate", "nearest_opaque", "maximum")
+MAX_CHANNELS = 4
+CHANNEL_BOX_EPSILON = 1e-5  # relative growth of a channel's box (rule 3; the GL rays' box rule)
+
+
+@dataclass
+class _Channel:
+    """A channel made ready for sampling: sampler, LUT, grown box, reference step."""
+
+    sampler: VolumeSampler
+    lut: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    min_spacing: float
+
+    @classmethod
+    def of(cls, volume: Volume, transfer_function: TransferFunction) -> "_Channel":
+        low, high = volume_box(volume)
+        eps = CHANNEL_BOX_EPSILON * (max(np.abs(low).max(), np.abs(high).max()) + min(volume.spacing))
+        return cls(VolumeSampler(volume), transfer_function.for_volume(volume).lut().astype(np.float64),
+                   low - eps, high + eps, float(min(volume.spacing)))
+
+    def inside(self, points: np.ndarray) -> np.ndarray:
+        return np.all((points >= self.low) & (points <= self.high), axis=1)
+
+
+def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate",
+                    sampling_rate: float = 1.0, early_termination: float = 0.99,
+                    opacity_threshold: float = 0.5, background=(0.0, 0.0, 0.0, 1.0)) -> np.ndarray:
+    """Render ``channels``, a list of (Volume, TransferFunction), the first one bounding the rays,
+    as the MultiVolumeRayCaster does (model in the module docstring). ``size`` is (width, height)."""
+    if not 1 <= len(channels) <= MAX_CHANNELS:
+        raise VGraphError(f"multivolume reference: 1 to {MAX_CHANNELS} channels, got {len(channels)}")
+    if blend not in BLENDS:
+        raise VGraphError(f"multivolume reference: blend must be one of {BLENDS}, got {blend!r}")
+    width, height = (int(v) for v in size)
+    first = channels[0][0]
+    camera = camera.resolved(*volume_box(first), width / height)
+    origins, directions = (a.reshape(-1, 3) for a in camera.rays(width, height))
+    t_entry, t_exit = _clip_to_box(origins, directions, *volume_box(first),
+                                   camera.far_distance(directions), min(first.spacing))
+    ready = [_Channel.of(volume, tf) for volume, tf in channels]
+    step = min(c.min_spacing for c in ready) / sampling_rate
+    counts = sample_counts(t_entry, t_exit, step)
+    march = {"accumulate": _accumulate, "nearest_opaque": _nearest_opaque, "maximum": _maximum}[blend]
+    rgba = march(ready, origins, directions, t_entry, counts, step,
+                 early_termination=early_termination, threshold=opacity_threshold)
+    bg = np.asarray(background, dtype=np.float64)
+    coverage = rgba[:, 3:4]
+    image = np.concatenate([rgba[:, :3] + (1.0 - coverage) * bg[:3], coverage + (1.0 - coverage) * bg[3]], axis=1)
+    return image.reshape(height, width, 4).astype(np.float32)
+
+
+def _classified(channel: _Channel, points: np.ndarray, first: bool):
+    """(RGBA per point, present per point) of one channel (rule 3)."""
+    present = np.ones(len(points), dtype=bool) if first else channel.inside(points)
+    rgba = np.zeros((len(points), 4))
+    rgba[present] = lookup(channel.lut, channel.sampler(points[present]))
+    return rgba, present
+
+
+def _points(origins, directions, t_entry, rays, i, step):
+    return origins[rays] + (t_entry[rays] + i * step)[:, None] * directions[rays]
+
+
+def _accumulate(channels, origins, directions, t_entry, counts, step, *, early_termination, **_):
+    colour = np.zeros((len(origins), 3))
+    alpha = np.zeros(len(origins))
+    active = np.flatnonzero(counts > 0)
+    i = 0
+    while active.size:
+        points = _points(origins, directions, t_entry, active, i, step)
+        transparency = np.ones(len(active))
+        weight = np.zeros(len(active))
+        weighted = np.zeros((len(active), 3))
+        for k, channel in enumerate(channels):
+            rgba, _ = _classified(channel, points, k == 0)
+            corrected = 1.0 - (1.0 - rgba[:, 3]) ** (step / channel.min_spacing)  # 0 stays 0
+            transparency *= 1.0 - corrected
+            weight += corrected
+            weighted += corrected[:, None] * rgba[:, :3]
+        sample_alpha = np.where(weight > 0.0, 1.0 - transparency, 0.0)
+        sample_rgb = weighted / np.where(weight > 0.0, weight, 1.0)[:, None]
+        contribution = (1.0 - alpha[active]) * sample_alpha
+        colour[active] += contribution[:, None] * sample_rgb
+        alpha[active] += contribution
+        i += 1
+        active = active[(i < counts[active]) & (alpha[active] < early_termination)]
+    return np.concatenate([colour, alpha[:, None]], axis=1)
+
+
+def _nearest_opaque(channels, origins, directions, t_entry, counts, step, *, threshold, **_):
+    rgba = np.zeros((len(origins), 4))
+    active = np.flatnonzero(counts > 0)
+    i = 0
+    while active.size:
+        points = _points(origins, directions, t_entry, active, i, step)
+        hit = np.zeros((len(active), 4))
+        for k, channel in enumerate(channels):
+            sample, present = _classified(channel, points, k == 0)
+            better = present & (sample[:, 3] >= threshold) & (sample[:, 3] > hit[:, 3])
+            hit[better] = sample[better]
+        found = hit[:, 3] > 0.0
+        rgba[active[found], :3] = hit[found, :3]
+        rgba[active[found], 3] = 1.0
+        i += 1
+        active = active[~found]
+        active = active[i < counts[active]]
+    return rgba
+
+
+def _maximum(channels, origins, directions, t_entry, counts, step, **_):
+    maxima = np.zeros((len(channels), len(origins)))
+    met = np.zeros((len(channels), len(origins)), dtype=bool)
+    active = np.flatnonzero(counts > 0)
+    i = 0
+    while active.size:
+        points = _points(origins, directions, t_entry, active, i, step)
+        for k, channel in enumerate(channels):
+            present = np.ones(len(points), dtype=bool) if k == 0 else channel.inside(points)
+            rows = active[present]
+            values = np.clip(channel.sampler(points[present]), 0.0, 1.0)
+            maxima[k, rows] = np.maximum(maxima[k, rows], values)
+            met[k, rows] = True
+        i += 1
+        active = active[i < counts[active]]
+    colour = np.zeros((len(origins), 3))
+    transparency = np.ones(len(origins))
+    for k, channel in enumerate(channels):
+        sample = lookup(channel.lut, maxima[k])
+        sample[~met[k]] = 0.0
+        colour += sample[:, 3:4] * sample[:, :3]
+        transparency *= 1.0 - sample[:, 3]
+    return np.concatenate([np.minimum(colour, 1.0), (1.0 - transparency)[:, None]], axis=1)
