@@ -1,0 +1,179 @@
+"""SliceViewer: a plane through a volume as an image (the views of a multi-planar layout, MPR).
+
+Conventions (vgraph.slicing has the geometry's long form; docs/exploring.md shows it in use):
+- Orientation: axial = constant z, coronal = constant y, sagittal = constant x, shown as
+  vgraph.camera's named views show them (x right, y front, z up; radiological display): axial from
+  below (image right = -x, up = +y), coronal from the front (right = -x, up = +z), sagittal from the
+  left (right = -y, up = +z). ``custom``: the plane with ``normal`` (pointing towards the viewer;
+  image up = world z projected onto the plane, or world y when the normal is along z).
+- The plane passes through ``cursor``, a world point (None = the centre of the volume). Linking
+  the cursors of several SliceViewers makes them one shared cursor: in the GUI a click in one
+  slice moves the others (vgraph.gui.slice_clicks).
+- Everything is in world units with the volume's spacing and origin: the image fits the box of
+  the voxels' cells ([origin - spacing / 2, origin + (dims - 1/2) spacing]) projected onto the
+  plane, square pixels, aspect kept; ``zoom`` magnifies about the cursor. An axis-aligned slice of
+  n voxels drawn at n pixels therefore puts every pixel centre on a voxel centre.
+- interpolation: nearest (the voxel whose cell holds the point), linear (trilinear), cubic (the
+  cubic B-spline through the voxels, Cabral 2010 sec. 3.1-3.2: the volume's normalised
+  intensities are prefiltered once per volume on the CPU, mirror boundary, and evaluated by the
+  tricubic library's direct 64-fetch sum).
+- mapping: ``window`` gives grey = (value - (centre - width / 2)) / width clamped to [0, 1], opaque,
+  with ``window`` = (centre, width) in the volume's DATA values (as DICOM's WindowCenter and
+  WindowWidth; None = the whole value range); ``tf`` gives the transfer function's RGBA (not
+  premultiplied, as every vgraph Image).
+- Pixels outside the volume's cells are transparent black (0, 0, 0, 0); a plane that misses the
+  volume gives an empty image, not an error.
+- Output: an RGBA32F image at the render size (the Canvas's). ``last_plane`` is the plane of the
+  last image (vgraph.slicing.SlicePlane); ``pixel_to_world`` maps pixels of that image to world
+  points. The fragment shader (shaders/slice/) is compiled once per define set: only the chosen
+  interpolation and mapping.
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+
+from vgraph import (BoolProperty, ColorProperty, FloatProperty, Inport, OptionProperty, Outport,
+                    Processor, TransferFunctionProperty, VectorProperty, VGraphError)
+from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
+from vgraph.gl.raycasting.targets import RenderTargets
+from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler
+from vgraph.gl.shaders import programs
+from vgraph.image import Image
+from vgraph.numerics.bspline import prefilter
+from vgraph.slicing import ORIENTATIONS, SlicePlane, checked_plane
+from vgraph.transfer_function import PRESETS
+from vgraph.volume import Volume
+
+SHADER = "slice/slice.frag.glsl"
+INTERPOLATIONS = ("nearest", "linear", "cubic")
+MAPPINGS = ("window", "tf")
+
+
+class SliceViewer(Processor):
+    """A plane through the volume as an image: axial, coronal, sagittal or any normal."""
+
+    category = "Volume rendering"
+    inports = [Inport("volume", Volume)]
+    outports = [Outport("image", Image)]
+    renders_at_size = True
+
+    orientation = OptionProperty("axial", choices=[*ORIENTATIONS, "custom"],
+                                 doc="axial = constant z (seen from below), coronal = constant y "
+                                     "(from the front), sagittal = constant x (from the left); "
+                                     "custom: the plane with the given normal")
+    cursor = VectorProperty(None, size=3, optional=True,
+                            doc="world point the plane passes through (auto: the volume's centre); "
+                                "link it between viewers for a shared cursor")
+    normal = VectorProperty((0.0, 0.0, 1.0), size=3,
+                            doc="custom orientation: the plane's normal, towards the viewer")
+    interpolation = OptionProperty("linear", choices=list(INTERPOLATIONS),
+                                   doc="nearest voxel, trilinear, or cubic B-spline")
+    mapping = OptionProperty("window", choices=list(MAPPINGS),
+                             doc="window: grey values by window; tf: the transfer function's colours")
+    window = VectorProperty(None, size=2, optional=True,
+                            doc="(centre, width) in the volume's data values (auto: the whole "
+                                "value range)")
+    transfer_function = TransferFunctionProperty(PRESETS["grayscale"],
+                                                 doc="colours and opacities for mapping = tf")
+    zoom = FloatProperty(1.0, min=0.01, max=1000.0,
+                         doc="1 fits the volume; larger magnifies about the cursor")
+    crosshair = BoolProperty(False, doc="draw the cursor's row and column of pixels")
+    crosshair_color = ColorProperty((1.0, 0.8, 0.1, 1.0), doc="colour of the crosshair")
+
+    def __init__(self, id: str | None = None, **values):
+        super().__init__(id, **values)
+        self.last_plane: SlicePlane | None = None
+        self._target = RenderTargets(1)
+        self._lut = TransferFunctionTexture()
+        self._spline: tuple[weakref.ref, Volume] | None = None  # (volume, its B-spline coefficients)
+
+    # --- checks ---------------------------------------------------------------------------------
+    def check(self) -> None:
+        if self.orientation == "custom" and not np.linalg.norm(self.normal) > 0.0:
+            raise VGraphError(f"{self.id}.normal: the normal {tuple(self.normal)} has no direction; "
+                              f"give a non-zero (x, y, z) for the custom orientation")
+        if self.window is not None and not self.window[1] > 0.0:
+            raise VGraphError(f"{self.id}.window: the width (second number) must be positive, got "
+                              f"{self.window[1]:g}; the window is (centre, width) in data values")
+
+    # --- geometry -------------------------------------------------------------------------------
+    def plane(self, volume: Volume, size: tuple[int, int]) -> SlicePlane:
+        """Where an image of ``size`` (width, height) of ``volume`` lies in the world."""
+        return checked_plane(f"{self.id}", orientation=self.orientation, normal=self.normal,
+                             cursor=self.cursor, zoom=self.zoom, origin=volume.origin,
+                             spacing=volume.spacing, dims=volume.dims, size=tuple(size))
+
+    def pixel_to_world(self, column, row) -> np.ndarray:
+        """World points of pixel centres (column, row) of the last image, row 0 at the top;
+        fractional pixels allowed (SlicePlane.pixel_to_world)."""
+        if self.last_plane is None:
+            raise VGraphError(f"{self.id}: no slice drawn yet, so no pixel has a world position")
+        return self.last_plane.pixel_to_world(column, row, tuple(self.render_size))
+
+    # --- evaluation -----------------------------------------------------------------------------
+    def process(self, volume: Volume) -> Image:
+        volume.require_samples(f"SliceViewer '{self.id}'")
+        self.check()
+        size = tuple(int(v) for v in self.render_size)
+        plane = self.plane(volume, size)
+        ctx = self.gl
+        sampled = self._coefficients(volume) if self.interpolation == "cubic" else volume
+        defines = {f"INTERPOLATION_{self.interpolation.upper()}": True,
+                   f"MAPPING_{self.mapping.upper()}": True, "CROSSHAIR": self.crosshair}
+        program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, SHADER, defines, processor=self.id)
+        textures = {"volume": sampled.texture(ctx)}
+        if self.mapping == "tf":
+            textures["transfer_function"] = self._lut.update(ctx, self.transfer_function, volume)
+        (target,) = self._target.ensure(ctx, size)
+        fullscreen_pass(ctx, program, target, textures=textures,
+                        uniforms=self._uniforms(volume, sampled, plane, size),
+                        samplers={"volume": linear_sampler(ctx)} if self.interpolation == "linear" else None,
+                        optional={"volume_dims", "cursor_pixel", "crosshair_color"})
+        self.last_plane = plane
+        return target
+
+    def _uniforms(self, volume: Volume, sampled: Volume, plane: SlicePlane, size) -> dict:
+        spacing, origin = np.asarray(volume.spacing), np.asarray(volume.origin)
+        scale, offset = sampled.texture_scale_offset()
+        low, width = self._window_normalised(volume)
+        uniforms = {
+            "image_size": _vec(size),
+            "voxel_centre": _vec((np.asarray(plane.centre) - origin) / spacing),
+            "voxel_right": _vec(np.asarray(plane.right) / spacing),
+            "voxel_up": _vec(np.asarray(plane.up) / spacing),
+            "volume_size": _vec(volume.dims),
+            "volume_dims": tuple(int(n) for n in volume.dims),
+            "intensity_scale": float(scale), "intensity_offset": float(offset),
+            "window_low": low, "window_width": width}
+        if self.crosshair:
+            point = plane.centre if self.cursor is None else self.cursor
+            u, v = plane.uv_of(point)
+            uniforms["cursor_pixel"] = _vec((u * size[0], v * size[1]))
+            uniforms["crosshair_color"] = tuple(self.crosshair_color)
+        return uniforms
+
+    def _window_normalised(self, volume: Volume) -> tuple[float, float]:
+        """The window's lower end and width as normalised intensities of ``volume``."""
+        lo, hi = volume.value_range
+        centre, width = self.window if self.window is not None else ((lo + hi) / 2.0, hi - lo)
+        return float((centre - width / 2.0 - lo) / (hi - lo)), float(width / (hi - lo))
+
+    def _coefficients(self, volume: Volume) -> Volume:
+        """The volume's cubic B-spline coefficients of its normalised intensities (float32, so
+        one texture holds them for any data type), computed once per volume."""
+        if self._spline is not None and self._spline[0]() is volume:
+            return self._spline[1]
+        data = volume.normalized(volume.data).astype(np.float32)
+        if volume.nonfinite_count:  # a NaN would smear along whole lines of the recursive filter
+            data = np.nan_to_num(data, nan=0.0, posinf=1.0, neginf=0.0)
+        coefficients = volume.with_data(prefilter(data), declared_range=(0.0, 1.0),
+                                        is_spline_coefficients=True)
+        self._spline = (weakref.ref(volume), coefficients)
+        return coefficients
+
+
+def _vec(values) -> tuple[float, ...]:
+    return tuple(float(v) for v in values)

@@ -1,0 +1,34 @@
+#version 330
+// SliceViewer: one pass over the output image; each pixel is a point of the slice plane, sampled
+// from the volume (slice/reconstruction.glsl) and mapped to a colour (slice/mapping.glsl).
+// The plane arrives in voxel coordinates (voxel (i, j, k) at p = (i, j, k)), computed in float64
+// by vgraph.slicing: p = voxel_centre + (u - 0.5) voxel_right + (v - 0.5) voxel_up, with (u, v)
+// the pixel centre's image coordinate (v up, GL's bottom row first). Pixels outside the volume's
+// cells ([-0.5, n - 0.5] on every axis) are transparent black.
+#include "slice/reconstruction.glsl"
+#include "slice/mapping.glsl"
+
+uniform vec2 image_size;    // width, height in pixels
+uniform vec3 voxel_centre;  // voxel coordinate of the image centre
+uniform vec3 voxel_right;   // voxel-coordinate vector from the left edge to the right edge
+uniform vec3 voxel_up;      // ... from the bottom edge to the top edge
+uniform vec3 volume_size;   // voxels per axis (x, y, z)
+#ifdef CROSSHAIR
+uniform vec2 cursor_pixel;  // the cursor in window coordinates (gl_FragCoord units)
+uniform vec4 crosshair_color;
+#endif
+out vec4 color;
+
+void main() {
+    vec2 uv = gl_FragCoord.xy / image_size;  // pixel centres: (c + 0.5) / width, exactly
+    vec3 p = voxel_centre + (uv.x - 0.5) * voxel_right + (uv.y - 0.5) * voxel_up;
+    bool inside = all(greaterThanEqual(p, vec3(-0.5))) && all(lessThanEqual(p, volume_size - 0.5));
+    color = inside ? mapped(intensity_at(p)) : vec4(0.0);
+#ifdef CROSSHAIR
+    // The row and the column of pixels that hold the cursor: one pixel wide at any zoom.
+    vec2 distance = abs(gl_FragCoord.xy - cursor_pixel);
+    if (min(distance.x, distance.y) < 0.5) {
+        color = crosshair_color;
+    }
+#endif
+}
