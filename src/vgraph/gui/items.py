@@ -2,7 +2,8 @@
 
 Conventions:
 - Data flows downwards, as in Voreen: inports sit on a node's top edge, outports on its bottom
-  edge; a connection is a cubic curve leaving an outport downwards and entering an inport from above.
+  edge; a connection is a cubic curve leaving an outport downwards and entering an inport from above,
+  or, where that curve would run under an unrelated node, a path around it (edge_routing.py).
 - A port's colour is its data type's: fixed colours for the built-in types, and for any other
   type a hue derived from its name (stable across runs, so a plug-in type keeps its colour).
 - Items only draw; they hold the ids they show and never change the model. The scene owns them.
@@ -11,12 +12,15 @@ Conventions:
 
 from __future__ import annotations
 
+import math
 import zlib
+from typing import Mapping
 
 from PySide6.QtCore import QPointF, QRectF, Qt
 from PySide6.QtGui import QBrush, QColor, QFont, QFontMetrics, QPainterPath, QPainterPathStroker, QPen
 from PySide6.QtWidgets import QGraphicsEllipseItem, QGraphicsItem, QGraphicsPathItem
 
+from vgraph.gui.edge_routing import Box, Route, curve_controls, route
 from vgraph.gui.evaluator import ProcessorStatus
 from vgraph.network import Connection, Link
 from vgraph.ports import Port
@@ -24,6 +28,7 @@ from vgraph.processor import Processor
 
 NODE_WIDTH, NODE_HEIGHT = 168.0, 62.0
 PORT_RADIUS = 6.0
+CORNER_RADIUS = 10.0  # rounded corners of a routed connection
 
 KNOWN_TYPE_COLORS = {"Volume": "#2f6fd6", "Image": "#2e9e4f", "Geometry": "#e08a1e", "TetMesh": "#0f9d9a",
                      "float": "#8a63c9", "int": "#8a63c9", "str": "#8c8c8c"}
@@ -161,7 +166,10 @@ class _CurveItem(QGraphicsPathItem):
 
 
 class EdgeItem(_CurveItem):
-    """A connection between an outport and an inport, in the outport's data-type colour."""
+    """A connection between an outport and an inport, in the outport's data-type colour.
+
+    Its course is an ``edge_routing.Route``: the default curve, or a path around the nodes in its
+    way; the scene passes those nodes (``adjust``) and keeps the route for placing new nodes."""
 
     def __init__(self, connection: Connection, source: PortItem, target: PortItem):
         super().__init__()
@@ -171,10 +179,14 @@ class EdgeItem(_CurveItem):
         self.setFlags(QGraphicsItem.ItemIsSelectable)
         self.setZValue(0)
         self.setToolTip(str(connection))
+        self.route: Route | None = None
         self.adjust()
 
-    def adjust(self) -> None:
-        self.setPath(connection_path(self.source.scenePos(), self.target.scenePos()))
+    def adjust(self, obstacles: Mapping[str, Box] | None = None) -> None:
+        """Re-route between the ports' current places around ``obstacles`` (processor id: box)."""
+        start, end = self.source.scenePos(), self.target.scenePos()
+        self.route = route((start.x(), start.y()), (end.x(), end.y()), obstacles or {})
+        self.setPath(route_path(self.route))
 
     def paint(self, painter, option, widget=None) -> None:
         width = 4.0 if self.isSelected() else 2.2
@@ -185,10 +197,27 @@ class EdgeItem(_CurveItem):
 
 
 def connection_path(start: QPointF, end: QPointF) -> QPainterPath:
-    """Leaves ``start`` downwards and enters ``end`` from above."""
-    bend = max(40.0, abs(end.y() - start.y()) * 0.5)
+    """The default curve: leaves ``start`` downwards and enters ``end`` from above."""
+    (c1x, c1y), (c2x, c2y) = curve_controls((start.x(), start.y()), (end.x(), end.y()))
     path = QPainterPath(start)
-    path.cubicTo(start + QPointF(0, bend), end - QPointF(0, bend), end)
+    path.cubicTo(QPointF(c1x, c1y), QPointF(c2x, c2y), end)
+    return path
+
+
+def route_path(course: Route, radius: float = CORNER_RADIUS) -> QPainterPath:
+    """The route as drawn: the default curve, or the orthogonal path with rounded corners (a
+    corner's arc stays inside the clearance the router kept, as ``radius`` < the router's margin)."""
+    points = [QPointF(x, y) for x, y in course.points]
+    if course.curved:
+        return connection_path(points[0], points[-1])
+    path = QPainterPath(points[0])
+    for before, corner, after in zip(points, points[1:], points[2:]):
+        into, out = corner - before, after - corner
+        length_in, length_out = math.hypot(into.x(), into.y()), math.hypot(out.x(), out.y())
+        r = min(radius, length_in / 2, length_out / 2)
+        path.lineTo(corner - into * (r / length_in))
+        path.quadTo(corner, corner + out * (r / length_out))
+    path.lineTo(points[-1])
     return path
 
 

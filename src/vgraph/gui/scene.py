@@ -7,6 +7,9 @@ Conventions:
 - Nodes follow ``moved`` events (a move command, its undo and redo); a drag moves the node items
   itself and writes the positions back as one Move command on release.
 - Drops from the palette carry the processor type name as ``PROCESSOR_MIME_TYPE``.
+- Connections go around unrelated nodes (edge_routing.py). A node that moves re-routes its own
+  connections, those it now lies on and those that went around it; the rest keep their course.
+  New processors (added or dropped) go to the nearest spot covering no node and no connection.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from PySide6.QtGui import QPainter, QTransform
 from PySide6.QtWidgets import QGraphicsScene, QGraphicsView
 
 from vgraph.errors import VGraphError
+from vgraph.gui.edge_routing import MARGIN, Box, free_spot
 from vgraph.gui.evaluator import processor_status
 from vgraph.gui.interactions import ConnectInteraction
 from vgraph.gui.items import NODE_HEIGHT, NODE_WIDTH, EdgeItem, LinkItem, NodeItem, PortItem
@@ -71,6 +75,7 @@ class NetworkScene(QGraphicsScene):
             node = self.nodes.pop(details["processor"].id, None)
             if node is not None:
                 self.removeItem(node)
+                self._reroute_around(node.processor_id, None)
         elif event == "connected":
             self._add_edge(details["connection"])
         elif event == "disconnected":
@@ -90,12 +95,14 @@ class NetworkScene(QGraphicsScene):
         node = NodeItem(processor)
         self.nodes[processor.id] = node
         self.addItem(node)
+        self._reroute_around(processor.id, node_box(node))  # it may sit on a connection
         return node
 
     def _add_edge(self, connection: Connection) -> EdgeItem:
         source = self.nodes[connection.source].port("out", connection.outport)
         target = self.nodes[connection.target].port("in", connection.inport)
         edge = EdgeItem(connection, source, target)
+        edge.adjust(self.obstacles_of(edge))
         self.edges[connection] = edge
         self.addItem(edge)
         return edge
@@ -119,10 +126,27 @@ class NetworkScene(QGraphicsScene):
             if pid in self.network:
                 node.set_status(self.status_of(pid))
 
+    def obstacles_of(self, edge: EdgeItem) -> dict[str, Box]:
+        """The nodes a connection must not run under: all but its own two."""
+        ends = (edge.source.node, edge.target.node)
+        return {pid: node_box(node) for pid, node in self.nodes.items() if node not in ends}
+
+    def _reroute_around(self, processor_id: str, box: Box | None) -> None:
+        """Re-route the connections a node at ``box`` (None: gone) may change: those that went
+        around it (its old place) and those it now lies on."""
+        grown = box.inflated(MARGIN) if box is not None else None
+        for edge in self.edges.values():
+            if processor_id in (edge.connection.source, edge.connection.target):
+                continue
+            if processor_id in edge.route.avoided or (grown is not None and edge.route.crosses(grown)):
+                edge.adjust(self.obstacles_of(edge))
+
     def node_moved(self, node: NodeItem) -> None:
         for edge in self.edges.values():
             if node in (edge.source.node, edge.target.node):
-                edge.adjust()
+                edge.adjust(self.obstacles_of(edge))
+        if self.nodes.get(node.processor_id) is node:
+            self._reroute_around(node.processor_id, node_box(node))
         for item in self.link_items.values():
             if node in (item.source, item.target):
                 item.adjust()
@@ -147,15 +171,15 @@ class NetworkScene(QGraphicsScene):
         self.clearSelection()
         self.nodes[processor_id].setSelected(True)
 
-    def free_position(self, around: QPointF) -> tuple[float, float]:
-        """The first spot at or below ``around`` where a node overlaps no other (for processors
-        added by click): processors added one after another line up downwards, as data flows."""
-        x, y = around.x() - NODE_WIDTH / 2, around.y() - NODE_HEIGHT / 2
-        margin = 24.0
-        while any(abs(x - n.x()) < NODE_WIDTH + margin and abs(y - n.y()) < NODE_HEIGHT + margin
-                  for n in self.nodes.values()):
-            y += NODE_HEIGHT + 2 * margin
-        return x, y
+    def free_position(self, around: QPointF, centred: bool = True) -> tuple[float, float]:
+        """The top-left corner of the spot nearest ``around`` (the node's centre there, or its
+        corner if not ``centred``) where a new node covers no node and no connection; spots below
+        come first, so processors added one after another line up downwards, as data flows."""
+        x, y = around.x(), around.y()
+        if centred:
+            x, y = x - NODE_WIDTH / 2, y - NODE_HEIGHT / 2
+        return free_spot((x, y), (NODE_WIDTH, NODE_HEIGHT), [node_box(n) for n in self.nodes.values()],
+                         [edge.route.points for edge in self.edges.values()])
 
     # --- mouse ----------------------------------------------------------------------------------
     def mousePressEvent(self, event) -> None:
@@ -200,12 +224,16 @@ class NetworkScene(QGraphicsScene):
             return
         type_name = bytes(event.mimeData().data(PROCESSOR_MIME_TYPE)).decode()
         try:
-            processor = self.workspace.add_processor(type_name, (event.scenePos().x(), event.scenePos().y()))
+            processor = self.workspace.add_processor(type_name, self.free_position(event.scenePos(), centred=False))
         except VGraphError as error:
             self.status_message.emit(f"Cannot add {type_name}: {error}")
         else:
             self.select_processor(processor.id)
         event.acceptProposedAction()
+
+
+def node_box(node: NodeItem) -> Box:
+    return Box.of(node.x(), node.y(), NODE_WIDTH, NODE_HEIGHT)
 
 
 class NetworkView(QGraphicsView):
