@@ -1,0 +1,100 @@
+"""IsoSurfaceExtractor: the iso-surface of a volume as a triangle mesh (Geometry), by marching
+cubes (Lorensen & Cline 1987, as scikit-image implements it: skimage.measure.marching_cubes).
+
+Conventions:
+- ``iso_level`` is a normalised intensity over the volume's value range, as the RayCaster's
+  ``iso_level`` (link them to see the same surface both ways).
+- Vertices are in world units: voxel (i, j, k) is at origin + (i, j, k) * spacing, so anisotropic
+  spacing and the origin are kept. Triangles run counter-clockwise seen from the side of lower
+  values (the outside of an object brighter than its surroundings, as CT bone or skin), and the
+  normals (from the data's gradient) point there too.
+- ``region_min``/``region_max`` (world units) keep only the voxels between them: the surface is cut
+  open there, which lets a volume rendering behind show through (networks/head_skin_mesh_bone_volume.json).
+- With the optional ``scalars`` volume connected, each vertex gets that volume's value there
+  (trilinear, in its own data units; outside its box the nearest edge value): a GeometryRenderer
+  can colour the surface by it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vgraph import FloatProperty, Inport, IntProperty, Outport, Processor, PropertyError, VectorProperty, VGraphError
+from vgraph.camera import MAX_COORDINATE
+from vgraph.geometry import Geometry
+from vgraph.volume import Volume
+
+
+class IsoSurfaceExtractor(Processor):
+    """The surface where a volume reaches a level, as a mesh with normals (marching cubes)."""
+
+    category = "Geometry"
+    inports = [Inport("volume", Volume), Inport("scalars", Volume, optional=True)]
+    outports = [Outport("geometry", Geometry)]
+
+    iso_level = FloatProperty(0.5, min=0.0, max=1.0,
+                              doc="normalised intensity of the surface (as the RayCaster's iso_level)")
+    step_size = IntProperty(1, min=1, max=16, doc="voxels per marching-cubes cell: 2 or more gives a "
+                                                  "coarser mesh, faster")
+    region_min = VectorProperty(None, size=3, min=-MAX_COORDINATE, max=MAX_COORDINATE, optional=True,
+                                doc="world corner (x, y, z): only voxels at or above it; empty: no limit")
+    region_max = VectorProperty(None, size=3, min=-MAX_COORDINATE, max=MAX_COORDINATE, optional=True,
+                                doc="world corner (x, y, z): only voxels at or below it; empty: no limit")
+
+    def process(self, volume: Volume, scalars: Volume | None) -> Geometry:
+        volume.require_samples(f"IsoSurfaceExtractor '{self.id}'")
+        data, origin = self._region(volume)
+        low, high = volume.value_range
+        level = low + self.iso_level * (high - low)
+        values = np.nan_to_num(data.astype(np.float32), nan=low, posinf=high, neginf=low)
+        if not values.min() < level < values.max():
+            raise PropertyError(f"{self.id}.iso_level",
+                                f"no surface at {self.iso_level:g} (data value {level:g}): the "
+                                f"{'region' if self.region_min or self.region_max else 'volume'}'s values "
+                                f"span {volume.normalized(values.min()):.4g} .. "
+                                f"{volume.normalized(values.max()):.4g} in normalised intensity")
+        vertices, normals, triangles = marching_cubes(values, level, volume.spacing, self.step_size)
+        vertices += origin
+        scalar_values = None if scalars is None else sample_world(scalars, vertices)
+        return Geometry(vertices, triangles, normals=normals, scalars=scalar_values,
+                        source=f"{self.id} (iso {self.iso_level:g} of {volume.source or 'a volume'})")
+
+    def _region(self, volume: Volume) -> tuple[np.ndarray, np.ndarray]:
+        """The voxels within region_min .. region_max as a [z, y, x] view, and its origin (x, y, z)."""
+        dims = np.array(volume.dims)
+        low = np.zeros(3, int) if self.region_min is None else np.ceil(
+            volume.world_to_voxel(self.region_min) - 1e-9).astype(int)
+        high = dims - 1 if self.region_max is None else np.floor(
+            volume.world_to_voxel(self.region_max) + 1e-9).astype(int)
+        low, high = np.clip(low, 0, dims - 1), np.clip(high, 0, dims - 1)
+        if np.any(high - low < 1):
+            raise PropertyError(f"{self.id}.region_min", f"the region {self.region_min} .. "
+                                f"{self.region_max} holds fewer than 2 voxels along an axis of the "
+                                f"volume's box {volume.voxel_to_world((0, 0, 0)).tolist()} .. "
+                                f"{volume.voxel_to_world(dims - 1).tolist()}")
+        data = volume.data[low[2]:high[2] + 1, low[1]:high[1] + 1, low[0]:high[0] + 1]
+        return data, volume.voxel_to_world(low)
+
+
+def marching_cubes(values: np.ndarray, level: float, spacing, step_size: int = 1):
+    """(vertices, normals, triangles) of scikit-image's marching cubes on a [z, y, x] array, in
+    (x, y, z) world offsets from voxel (0, 0, 0), triangles counter-clockwise seen from the side of
+    lower values."""
+    from skimage.measure import marching_cubes as skimage_marching_cubes  # imported when used: slow import
+    if min(values.shape) < 2:
+        raise VGraphError(f"marching cubes needs at least 2 voxels along each axis, got {values.shape[::-1]}")
+    vertices, triangles, normals, _ = skimage_marching_cubes(
+        values, level, spacing=tuple(float(s) for s in spacing[::-1]), step_size=step_size,
+        allow_degenerate=False)
+    # scikit-image works in (z, y, x): reversing the axes mirrors the mesh, which turns its
+    # clockwise-from-outside triangles counter-clockwise; its normals already point to lower values.
+    return (np.ascontiguousarray(vertices[:, ::-1], dtype=np.float64),
+            np.ascontiguousarray(normals[:, ::-1]), triangles)
+
+
+def sample_world(volume: Volume, points: np.ndarray) -> np.ndarray:
+    """The volume's values at world points, trilinear, clamped to its box (scipy's map_coordinates)."""
+    from scipy.ndimage import map_coordinates
+    voxel = volume.world_to_voxel(points)  # (x, y, z) voxel coordinates
+    data = np.asarray(volume.data, dtype=np.float32)
+    return map_coordinates(data, voxel[:, ::-1].T, order=1, mode="nearest").astype(np.float32)

@@ -1,0 +1,49 @@
+#version 330
+// Entry and exit points cut at an opaque surface (Voreen's EEPGeometryIntegrator): where the
+// surface's depth (a GeometryRenderer's depth image, g = distance in world units from the
+// pixel's ray start on the near plane) lies before the entry point the ray is emptied (alpha 0:
+// the ray caster shows its background there); between entry and exit the exit point moves onto
+// the surface, on the line from entry to exit (so a jittered entry keeps its ray); beyond the
+// exit nothing changes.
+uniform sampler2D entry_points;
+uniform sampler2D exit_points;
+uniform sampler2D geometry_depth;
+uniform vec3 texture_to_world_scale;  // p = t * scale + offset (vgraph.gl.raycasting.geometry)
+uniform vec3 texture_to_world_offset;
+uniform vec2 viewport_size;
+uniform vec3 near_centre;   // Camera.rays: the pixel centre (ndc_x, ndc_y) starts at
+uniform vec3 near_right;    // near_centre + ndc_x near_right + ndc_y near_up
+uniform vec3 near_up;
+uniform vec3 direction_centre;  // ... in direction direction_centre + ndc_x direction_right
+uniform vec3 direction_right;   // + ndc_y direction_up (not normalised)
+uniform vec3 direction_up;
+
+layout(location = 0) out vec4 entry_out;
+layout(location = 1) out vec4 exit_out;
+
+float along_ray(vec3 t, vec3 origin, vec3 direction) {
+    return dot(t * texture_to_world_scale + texture_to_world_offset - origin, direction);
+}
+
+void main() {
+    ivec2 pixel = ivec2(gl_FragCoord.xy);
+    vec4 entry_point = texelFetch(entry_points, pixel, 0);
+    vec4 exit_point = texelFetch(exit_points, pixel, 0);
+    vec4 surface = texelFetch(geometry_depth, pixel, 0);
+    entry_out = entry_point;
+    exit_out = exit_point;
+    if (entry_point.a == 0.0 || exit_point.a == 0.0 || surface.a == 0.0) {
+        return;
+    }
+    vec2 ndc = gl_FragCoord.xy / viewport_size * 2.0 - 1.0;
+    vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
+    vec3 direction = normalize(direction_centre + ndc.x * direction_right + ndc.y * direction_up);
+    float entry_t = along_ray(entry_point.xyz, origin, direction);
+    float exit_t = along_ray(exit_point.xyz, origin, direction);
+    if (surface.g <= entry_t) {
+        entry_out = vec4(0.0);
+        exit_out = vec4(0.0);
+    } else if (surface.g < exit_t) {
+        exit_out = vec4(mix(entry_point.xyz, exit_point.xyz, (surface.g - entry_t) / (exit_t - entry_t)), 1.0);
+    }
+}
