@@ -32,7 +32,11 @@ Conventions (the CPU reference vgraph.multivolume_reference states the same mode
 - Outputs as the RayCaster's: ``image`` (premultiplied colour over ``background``) and, on demand,
   ``depth``; the depth sample is the first with opacity (accumulate), the hit (nearest_opaque),
   the maximum of the channel with the largest classified opacity (maximum).
-- Not here: shading, empty-space skipping, bricked volumes (each channel must fit a 3D texture).
+- ``shading`` (Blinn-Phong, the RayCaster's light properties) for accumulate (each channel's
+  colour shaded with its own gradient before the mix) and nearest_opaque (the hit's channel);
+  gradients by central differences one voxel of the channel away; maximum is never shaded.
+- Not here: other derivatives, empty-space skipping, bricked volumes (each channel must fit one 3D
+  texture).
 """
 
 from __future__ import annotations
@@ -41,9 +45,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vgraph import FloatProperty, Inport, OptionProperty, Outport, TransferFunctionProperty, VGraphError
-from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, RaycasterBase,
-                                             Sampling)
+from vgraph import FloatProperty, Inport, OptionProperty, Outport, TransferFunctionProperty
+from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, Light,
+                                             RaycasterBase, Sampling)
 from vgraph.gl.raycasting.geometry import VolumeGeometry
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler
@@ -55,6 +59,7 @@ SHADER = "multivolume/multivolume.frag.glsl"
 MAX_CHANNELS = 4
 CHANNEL_PORTS = tuple(f"volume{n}" for n in range(1, MAX_CHANNELS + 1))
 BLEND_MODES = ("accumulate", "nearest_opaque", "maximum")
+SHADED_BLENDS = ("accumulate", "nearest_opaque")
 
 
 def _ramp(r, g, b, low=0.2, high=0.8, alpha=0.6) -> TransferFunction:
@@ -87,7 +92,7 @@ class MultiVolumeRayCaster(RaycasterBase):
                + [Inport(port, Volume, optional=True) for port in CHANNEL_PORTS[1:]]
                + [Inport("entry", Image), Inport("exit", Image)])
     outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
-    components = (EntryExit, CameraRays, Sampling, Background)
+    components = (EntryExit, CameraRays, Sampling, Light, Background)
 
     blend = OptionProperty("accumulate", choices=list(BLEND_MODES),
                            doc="accumulate: channels mixed per sample, composited front to back; "
@@ -106,6 +111,10 @@ class MultiVolumeRayCaster(RaycasterBase):
         super().__init__(id, **values)
         self._targets = {True: RenderTargets(2), False: RenderTargets(1)}  # by: depth output wanted
         self._luts = {number: TransferFunctionTexture() for number in range(1, MAX_CHANNELS + 1)}
+
+    def shaded(self) -> bool:
+        """Whether this frame is shaded (the Light component asks)."""
+        return self.shading != "none" and self.blend in SHADED_BLENDS
 
     def process(self, volume1: Volume, volume2: Volume | None, volume3: Volume | None,
                 volume4: Volume | None, entry: Image, exit: Image) -> dict:
@@ -133,7 +142,9 @@ class MultiVolumeRayCaster(RaycasterBase):
         binding = Binding(defines={"CHANNELS": len(channels), f"BLEND_{mode.upper()}": True},
                           uniforms={"step_length": step})  # replaces Sampling's step of volume1 alone
         rows = {name: [] for name in ("channel_scale", "channel_offset", "channel_low", "channel_high",
-                                      "channel_intensity", "channel_exponent")}
+                                      "channel_intensity", "channel_exponent", "channel_voxel_step",
+                                      "channel_gradient_scale")}
+        first_spacing = float(rays.spacing.min())
         for slot, channel in enumerate(channels, start=1):
             volume = channel.volume
             geometry = VolumeGeometry.of(volume)
@@ -145,12 +156,20 @@ class MultiVolumeRayCaster(RaycasterBase):
             rows["channel_high"].append(high)
             rows["channel_intensity"].append(volume.texture_scale_offset())
             rows["channel_exponent"].append(step / float(geometry.spacing.min()))
+            rows["channel_voxel_step"].append(1.0 / geometry.dims)
+            # Central differences per world unit, rescaled so that shading.glsl's threshold on
+            # |g| (set for channel 0's spacing) tests each channel's own (channels.glsl).
+            intensity_scale = volume.texture_scale_offset()[0]
+            rows["channel_gradient_scale"].append(intensity_scale / (2.0 * geometry.spacing)
+                                                  * float(geometry.spacing.min()) / first_spacing)
             tf = getattr(self, f"transfer_function{channel.number}")
             binding.textures[f"volume{slot}"] = volume.texture(frame.ctx)
             binding.samplers[f"volume{slot}"] = linear_sampler(frame.ctx)
             binding.textures[f"transfer_function{slot}"] = self._luts[channel.number].update(frame.ctx, tf, volume)
+        shaded = self.shaded()
         for name, values in rows.items():
-            binding.uniforms[name] = np.asarray(values, dtype=np.float32)
+            if shaded or name not in ("channel_voxel_step", "channel_gradient_scale"):
+                binding.uniforms[name] = np.asarray(values, dtype=np.float32)
         if mode == "accumulate":
             binding.uniforms["early_termination"] = self.early_termination
         elif mode == "nearest_opaque":

@@ -14,7 +14,7 @@ from vgraph.errors import PortError
 from vgraph.implicit import sample
 from vgraph.multivolume_reference import render_channels
 from vgraph.network import Network
-from vgraph.numerics.reference_raycast import volume_box
+from vgraph.numerics.reference_raycast import Shading, volume_box
 from vgraph.testing import GivenVolume, ray_caster_network
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -114,6 +114,21 @@ def test_a_channel_on_another_grid_matches_the_cpu_reference(torus, other_grid, 
     np.testing.assert_allclose(gl, reference, atol=REFERENCE_TOLERANCE)
 
 
+@pytest.mark.parametrize("blend", ["accumulate", "nearest_opaque"])
+@pytest.mark.parametrize("second", ["shifted", "other_grid"])
+def test_shading_matches_the_cpu_reference(torus, other_grid, blend, second):
+    """Each channel shaded with its own gradient (per world unit of its own spacing)."""
+    channel_b = shifted(torus, (4, -3, 2)) if second == "shifted" else other_grid
+    camera = oblique_camera(torus)
+    gl = render_gl([torus, channel_b], camera, blend=blend, shading="blinn_phong", opacity_threshold=0.3,
+                   transfer_function1=ORANGE, transfer_function2=BLUE)
+    channels = [(torus, ORANGE), (channel_b, BLUE)]
+    reference = render_channels(channels, camera, SIZE, blend=blend, opacity_threshold=0.3, shading=Shading())
+    unshaded = render_channels(channels, camera, SIZE, blend=blend, opacity_threshold=0.3)
+    assert np.abs(reference - unshaded).max() > 0.3  # shading shows
+    np.testing.assert_allclose(gl, reference, atol=REFERENCE_TOLERANCE)
+
+
 # --- closed-form answers ------------------------------------------------------------------------
 def test_maximum_of_a_shifted_copy_is_the_first_channels_mip_moved_by_the_shift():
     """Red ramp on A, green ramp on B = A moved 3 voxels along +x: green = red moved 3 pixels
@@ -155,18 +170,20 @@ def test_a_channel_on_another_grid_shows_its_values_at_the_pixels_world_points()
 
 
 # --- one channel, order, gaps -------------------------------------------------------------------
-@pytest.mark.parametrize("blend, compositing, rate", [("accumulate", "dvr", 1.0), ("accumulate", "dvr", 2.5),
-                                                      ("maximum", "mip", 1.0), ("maximum", "mip", 0.5)])
-def test_one_channel_equals_the_raycaster(torus, blend, compositing, rate):
+@pytest.mark.parametrize("blend, compositing, rate, shading", [
+    ("accumulate", "dvr", 1.0, "none"), ("accumulate", "dvr", 2.5, "none"), ("accumulate", "dvr", 1.0, "blinn_phong"),
+    ("maximum", "mip", 1.0, "none"), ("maximum", "mip", 0.5, "none")])
+def test_one_channel_equals_the_raycaster(torus, blend, compositing, rate, shading):
     camera = oblique_camera(torus)
     network = ray_caster_network(torus, camera, "RayCaster", compositing=compositing, transfer_function=ORANGE,
-                                 sampling_rate=rate, background=(0.2, 0.1, 0.0, 1.0))
+                                 sampling_rate=rate, background=(0.2, 0.1, 0.0, 1.0), shading=shading)
     expected = network.evaluate("rc.image", size=SIZE)
     image = render_gl([torus], camera, blend=blend, transfer_function1=ORANGE, sampling_rate=rate,
-                      background=(0.2, 0.1, 0.0, 1.0))
+                      background=(0.2, 0.1, 0.0, 1.0), shading=shading)
     np.testing.assert_allclose(image, expected, atol=1e-6)
     expected_depth = network.evaluate("rc.depth", size=SIZE)
-    depth = render_gl([torus], camera, output="depth", blend=blend, transfer_function1=ORANGE, sampling_rate=rate)
+    depth = render_gl([torus], camera, output="depth", blend=blend, transfer_function1=ORANGE, sampling_rate=rate,
+                      shading=shading)
     np.testing.assert_allclose(depth[..., [0, 1, 3]], expected_depth[..., [0, 1, 3]], atol=1e-6)
 
 

@@ -76,3 +76,21 @@ float channel_opacity(int k, float alpha) {
     float exponent = channel_exponent[k];
     return (alpha >= 1.0 || exponent == 1.0) ? alpha : 1.0 - exp2(exponent * log2(1.0 - alpha));
 }
+
+#ifdef SHADING_BLINN_PHONG
+uniform vec3 channel_voxel_step[CHANNELS];       // one voxel of the channel in its texture space
+uniform vec3 channel_gradient_scale[CHANNELS];   // raw differences -> gradient (below)
+
+// Central differences one voxel of channel k away along each of its axes (the RayCaster's
+// `central` derivatives). The scale is intensity_scale / (2 h) per world unit, times
+// min(spacing_k) / min(spacing of channel 0): shading.glsl leaves a gradient unshaded below
+// 1e-6 / min(spacing of channel 0), which makes that test |g| * min(spacing_k) <= 1e-6, the
+// channel's own (the direction does not change).
+vec3 channel_gradient(int k, vec3 tk) {
+    vec3 h = channel_voxel_step[k];
+    vec3 g = vec3(channel_raw(k, tk + vec3(h.x, 0.0, 0.0)) - channel_raw(k, tk - vec3(h.x, 0.0, 0.0)),
+                  channel_raw(k, tk + vec3(0.0, h.y, 0.0)) - channel_raw(k, tk - vec3(0.0, h.y, 0.0)),
+                  channel_raw(k, tk + vec3(0.0, 0.0, h.z)) - channel_raw(k, tk - vec3(0.0, 0.0, h.z)));
+    return g * channel_gradient_scale[k];
+}
+#endif
