@@ -283,6 +283,7 @@ class BrickedRayCaster(RaycasterBase):
             self._set_blending(ctx)
         try:
             for number, (key, rect) in enumerate(bricks):
+                self.report_progress(number, len(bricks), "drawing bricks")  # reading those not in memory
                 target.framebuffer.scissor = rect
                 # The frame's uniforms once: a program keeps its uniform values between passes.
                 fullscreen_pass(ctx, program, target, {**textures, "volume": self.cache.texture(ctx, key),

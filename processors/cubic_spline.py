@@ -3,10 +3,10 @@
 import warnings
 
 import numpy as np
-from tqdm import tqdm
 
 from vgraph import BoolProperty, Inport, Outport, Processor, VGraphError
 from vgraph.numerics.bspline import prefilter
+from vgraph.progress import Steps
 from vgraph.volume import Volume
 
 PROGRESS_FROM_VOXELS = 128 ** 3  # smaller volumes filter in well under a second
@@ -41,6 +41,6 @@ class CubicSplineProcessor(Processor):
             warnings.warn(f"{self.id}: {volume.nonfinite_count} NaN/Inf voxels replaced by the "
                           f"value range's ends before filtering", stacklevel=2)
             data = np.nan_to_num(data.astype(np.float32), nan=lo, posinf=hi, neginf=lo)
-        with tqdm(total=100, desc=f"{self.id}: B-spline prefilter", unit="%",
-                  disable=data.size < PROGRESS_FROM_VOXELS or None) as bar:
-            return prefilter(data, progress=lambda done: bar.update(round(done * 100) - bar.n))
+        with Steps(100, "B-spline prefilter", unit="%",
+                   show=False if data.size < PROGRESS_FROM_VOXELS else None) as bar:
+            return prefilter(data, progress=lambda done: bar.set(round(done * 100)))

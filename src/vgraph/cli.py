@@ -88,7 +88,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="change a property before evaluating (after --view); VALUE is JSON where it "
                           "parses; a relative file path is relative to the current folder")
     run.add_argument("--profile", type=Path, metavar="PROFILE.json",
-                     help="write which processors ran and their times, and the one that failed")
+                     help="write which processors ran and their times (each with its GL work: the GL is "
+                          "finished after each processor), and the one that failed")
     run.add_argument("--plugin", action="append", metavar="MODULE", help="import a plug-in module")
     add_allow_write(run)
     run.add_argument("--cluster", metavar="local:N|tcp://HOST:PORT",
@@ -244,7 +245,7 @@ def set_view(network, name: str) -> None:
 def command_run(args) -> int:
     from vgraph.atomic import check_output_path, write_text_atomic
     from vgraph.cli_output import check_formats, requested_outputs, write_outputs
-    from vgraph.scheduler import blank_image_warning, default_target, target_type
+    from vgraph.scheduler import blank_image_warning, default_target, evaluate, target_type
 
     outputs = requested_outputs(args)  # refused before a long evaluation, not after
     if args.profile is not None:
@@ -261,7 +262,10 @@ def command_run(args) -> int:
         from vgraph.distributed.command import run_on_cluster
         return run_on_cluster(args, network, outputs, target)
     try:
-        report = network.update(*([target] if args.port else []), size=args.size)
+        # A profile waits for the GL after each processor, so each time holds its own GL work
+        # (docs/cli.md); a run without one lets the GL work overlap with the next processor.
+        report = evaluate(network, [target] if args.port else [], size=args.size,
+                          finish_each=args.profile is not None)
     finally:
         if args.profile and network.last_evaluation is not None:
             write_text_atomic(args.profile, json.dumps(network.last_evaluation.to_json(), indent=2) + "\n")

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 from vgraph.errors import PropertyError
 from vgraph.ports import Inport, Outport
+from vgraph.progress import report as report_progress
 from vgraph.properties import Invalidation, Property
 
 if TYPE_CHECKING:
@@ -137,6 +138,12 @@ class Processor:
         for an ``on_demand`` one only when something reads it (the scheduler sets ``wanted``)."""
         port = self.outport(outport)
         return port is None or not port.on_demand or outport in self.wanted
+
+    def report_progress(self, done: float, total: float, what: str = "") -> None:
+        """Say how far a long ``process()`` is: ``done`` of ``total`` steps of ``what`` ("reading
+        bricks"). The GUI shows it as a progress bar; nothing happens when nobody listens, so a
+        loop may call it every step (``vgraph.progress``)."""
+        report_progress(done, total, what)
 
     def initialize(self) -> None:
         """Called once, just before the first process(); never for processors not evaluated."""

@@ -6,6 +6,14 @@ initialised, so they compile no shader and upload no texture. Every evaluation i
 processors ran, in order, and how long each took; on a failure also the processor that failed, its
 time and its error). A failure inside a processor becomes a ProcessorError naming its id and type;
 the processor stays invalid and the network usable.
+
+Times: GL calls return before the GL has done the work, which lands on whoever waits for it first
+(a readback downstream, the next upload). With ``finish_each`` (``vgraph run --profile``, the
+GUI) the scheduler waits for the GL after each processor (``ctx.finish()``), so each record holds
+the processor's own GL work and the records add up to the evaluation's wall time. Without it the
+records say how long each ``process()`` call took, and the GL work of a processor may be counted
+with a later one or with none (docs/cli.md, ``--profile``). Each processor's start is announced to
+``vgraph.progress`` listeners (the GUI shows which processor runs).
 """
 
 from __future__ import annotations
@@ -17,7 +25,8 @@ import networkx as nx
 import numpy as np
 
 from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
-from vgraph.gl.context import collect_garbage
+from vgraph import progress
+from vgraph.gl.context import collect_garbage, get_context, has_context
 from vgraph.network import Network, split_address
 from vgraph.processor import Processor
 from vgraph.properties import Invalidation
@@ -42,6 +51,7 @@ class EvaluationReport:
     evaluated: list[EvaluationRecord] = field(default_factory=list)  # finished, in order
     total_seconds: float = 0.0
     failed: FailureRecord | None = None  # the processor whose failure ended the evaluation
+    gl_finished: bool = False  # each record includes its processor's GL work (``finish_each``)
 
     @property
     def ids(self) -> list[str]:
@@ -50,13 +60,17 @@ class EvaluationReport:
 
     def to_json(self) -> dict:
         """``{"evaluated": [{"id", "type", "seconds"}], "failed": null or {"id", "type",
-        "seconds", "error"}, "total_seconds"}`` (what ``vgraph run --profile`` writes)."""
+        "seconds", "error"}, "total_seconds", "gl_finished"}`` (what ``vgraph run --profile``
+        writes)."""
         return {"evaluated": [vars(r) for r in self.evaluated],
                 "failed": vars(self.failed) if self.failed else None,
-                "total_seconds": self.total_seconds}
+                "total_seconds": self.total_seconds, "gl_finished": self.gl_finished}
 
 
-def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None) -> EvaluationReport:
+def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None,
+             finish_each: bool = False) -> EvaluationReport:
+    """Run what ``targets`` need (module docstring); ``finish_each``: wait for the GL after each
+    processor, so that its record holds its GL work."""
     targets = list(targets) or [p.id for p in network.sinks()]
     target_ids = [_target_processor(network, t) for t in targets]
     size = _checked_size(size) if size is not None else default_size(network, target_ids)
@@ -69,7 +83,7 @@ def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None) 
             network.invalidate_downstream(pid)
     _mark_wanted_outputs(network, read)
 
-    report = EvaluationReport()
+    report = EvaluationReport(gl_finished=finish_each)
     network.last_evaluation = report
     start = time.perf_counter()
     try:
@@ -77,7 +91,7 @@ def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None) 
             processor = network.processors[pid]
             if processor.invalid_level != Invalidation.VALID:
                 try:
-                    report.evaluated.append(_run(network, processor))
+                    report.evaluated.append(_run(network, processor, finish_each))
                 except ProcessorError as error:
                     report.failed = FailureRecord(pid, processor.type_name, processor.last_seconds or 0.0,
                                                   error.reason)
@@ -118,14 +132,17 @@ def _mark_wanted_outputs(network: Network, read) -> None:
         processor.wanted = wanted
 
 
-def _run(network: Network, processor: Processor) -> EvaluationRecord:
+def _run(network: Network, processor: Processor, finish: bool = False) -> EvaluationRecord:
     start = time.perf_counter()
     try:
-        inputs = _gather_inputs(network, processor)
-        if not processor.initialized:
-            processor.initialize()
-            processor.initialized = True
-        outputs = _checked_outputs(processor, processor.process(**inputs))
+        with progress.running(processor.id, processor.type_name):
+            inputs = _gather_inputs(network, processor)
+            if not processor.initialized:
+                processor.initialize()
+                processor.initialized = True
+            outputs = _checked_outputs(processor, processor.process(**inputs))
+            if finish:
+                _finish_gl()
     except Exception as error:
         processor.last_error = _reason(error)
         processor.last_seconds = time.perf_counter() - start
@@ -139,6 +156,13 @@ def _run(network: Network, processor: Processor) -> EvaluationRecord:
     processor.evaluation_count += 1
     network.processor_evaluated(processor)
     return EvaluationRecord(processor.id, processor.type_name, processor.last_seconds)
+
+
+def _finish_gl() -> None:
+    """Wait until the GL has done what was issued so far (nothing to wait for, and no context
+    created, when no processor has used the GL)."""
+    if has_context():
+        get_context().finish()
 
 
 def _reason(error: Exception) -> str:

@@ -34,6 +34,7 @@ import numpy as np
 
 from vgraph.bricks.pyramid import BrickSource
 from vgraph.gl.context import release_quietly
+from vgraph.progress import report
 
 HALO = 2
 BLOCK = 8  # voxels per block edge of the empty-space skipping inside a brick
@@ -254,7 +255,8 @@ class BrickCache:
         counting ``count`` bricks and ``seconds`` the frame read already; at least one brick, so
         a frame that reads ahead always makes progress. Returns the bricks read."""
         read = 0
-        for key in keys:
+        for number, key in enumerate(keys):
+            report(number, len(keys), "reading bricks ahead")  # the GUI's progress bar
             if key in self.ram:
                 continue
             if read and limit.used_up(count + read, seconds):

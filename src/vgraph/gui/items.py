@@ -33,7 +33,7 @@ CORNER_RADIUS = 10.0  # rounded corners of a routed connection
 KNOWN_TYPE_COLORS = {"Volume": "#2f6fd6", "Image": "#2e9e4f", "Geometry": "#e08a1e", "TetMesh": "#0f9d9a",
                      "float": "#8a63c9", "int": "#8a63c9", "str": "#8c8c8c"}
 STATE_COLORS = {"evaluated": "#2e9e4f", "error": "#d23c3c", "invalid": "#d9a21b",
-                "not_ready": "#b5b5b5", "writer": "#7a8aa6"}
+                "not_ready": "#b5b5b5", "writer": "#7a8aa6", "running": "#2563eb"}
 HIGHLIGHT_COMPATIBLE, HIGHLIGHT_REFUSED = "#22c55e", "#9ca3af"
 
 
@@ -147,6 +147,12 @@ class NodeItem(QGraphicsItem):
         painter.drawText(QRectF(10, 23, NODE_WIDTH - 20, 15), Qt.AlignLeft | Qt.AlignVCenter, self.type_name)
         painter.setPen(state_color.darker(130))
         painter.drawText(QRectF(10, 39, NODE_WIDTH - 20, 15), Qt.AlignLeft | Qt.AlignVCenter, self.status.text)
+        if self.status.fraction is not None:  # running work with steps: a bar along the bottom edge
+            painter.setPen(Qt.NoPen)
+            painter.setBrush(QBrush(state_color.lighter(170)))
+            painter.drawRect(QRectF(10, NODE_HEIGHT - 7, NODE_WIDTH - 20, 3))
+            painter.setBrush(QBrush(state_color))
+            painter.drawRect(QRectF(10, NODE_HEIGHT - 7, (NODE_WIDTH - 20) * self.status.fraction, 3))
 
     def itemChange(self, change, value):
         if change == QGraphicsItem.ItemPositionHasChanged and self.scene() is not None:

@@ -32,6 +32,9 @@ Conventions:
 - ``set_cluster(setting)`` (a ``vgraph.gui.cluster.ClusterSetting``, or None) makes the render
   process draw the final frames on that cluster (coarse ones stay local) and renders again;
   ``progress(done, total)`` reports its tiles while such a frame is drawn.
+- ``running(progress)`` says which processor the render process runs now and how far its steps
+  are (a ``vgraph.progress.Progress``), each new report once; ``running(None)`` when the job it
+  belonged to is answered (``gui.progress_view`` shows it after a short delay).
 - ``status_of(processor_id)`` is what the render process last reported for that processor (the
   GUI's own copy of the network is never evaluated).
 - Nothing that goes wrong escapes: processor failures are in the outcome; a job that fails as a
@@ -89,6 +92,7 @@ class LiveEvaluation(QObject):
     info = Signal(str)          # a new render process took over
     stalled = Signal(float)     # seconds the overdue job has been running (each watchdog tick)
     progress = Signal(int, int)  # tiles done, total of a frame drawn on a cluster
+    running = Signal(object)    # vgraph.progress.Progress of the job in flight, None when it is answered
     received = Signal(object)   # every RenderResult as it arrives, before it is shown (timing)
 
     def __init__(self, workspace: Workspace, renderer: RenderProcess | None = None, parent=None,
@@ -109,6 +113,7 @@ class LiveEvaluation(QObject):
         self.load_limit = GUI_LOAD_LIMIT  # reading per frame in the render process (None: complete frames)
         self.cluster = None         # ClusterSetting: final frames drawn on a cluster (None: here)
         self._progress = None       # the last RenderProgress reported
+        self._running = None        # the last Progress reported through ``running``
         self._include_writers = False
         self._fresh = True          # the next job starts the render process's copy afresh
         self._resync = False        # the next job sends the whole document
@@ -275,11 +280,16 @@ class LiveEvaluation(QObject):
             self.poller.start()
 
     def _report_progress(self) -> None:
-        """Tiles done / total of a frame drawn on a cluster, each new count once."""
+        """Tiles done / total of a frame drawn on a cluster, and the processor running, each new
+        report once."""
         progress = getattr(self.renderer, "progress", None)
         if progress is not None and progress is not self._progress:
             self._progress = progress
             self.progress.emit(progress.done, progress.total)
+        running = getattr(self.renderer, "running", None)
+        if running is not self._running:
+            self._running = running
+            self.running.emit(running)
 
     def _receive(self, result: RenderResult, show: bool = True) -> None:
         self._report_progress()  # run(wait=True) receives without polling

@@ -28,6 +28,11 @@ Protocol (pickled objects over a ``multiprocessing`` pipe, one job in flight at 
   ``RenderProgress`` messages (tiles done / total) before the job's one ``RenderResult``. Coarse
   frames stay local. A cluster that cannot be reached falls back to local frames with a warning
   in the outcome.
+- Which processor runs: while a job is evaluated the render process sends ``ProcessorProgress``
+  messages (a ``vgraph.progress.Progress``: the processor that started, and how far the steps of
+  its work are: reading a file, prefiltering, bricks), at most one every ``PROGRESS_INTERVAL``
+  seconds for the same processor, so a fast frame costs a few small messages and a long read
+  does not flood the pipe. ``RenderProcess.running`` holds the last one of the job in flight.
 The render process keeps its network between jobs (``mirror`` applies a document as a diff; changes
 edit it in place), so unchanged processors keep their textures and outputs.
 
@@ -50,6 +55,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from tqdm import tqdm
 
+from vgraph import progress as progress_api
 from vgraph.bricks.cache import LoadLimit
 from vgraph.gui.cluster import ClusterRenderer, ClusterSetting, ClusterView
 from vgraph.errors import VGraphError
@@ -67,6 +73,7 @@ RECENT_JOBS = 20   # how many recent jobs say how long a job usually takes
 # drawing) and refines in the following jobs; short enough to feel immediate, long enough that a
 # frame reads a good share of what it needs (docs/bricked_raycaster.md, "In the GUI").
 GUI_LOAD_LIMIT = LoadLimit(seconds=0.25)
+PROGRESS_INTERVAL = 0.05  # seconds between two progress messages of one processor (a bar needs no more)
 
 
 @dataclass
@@ -92,6 +99,33 @@ class RenderProgress:
     version: int
     done: int
     total: int
+
+
+@dataclass
+class ProcessorProgress:
+    """Sent while a job is evaluated: which processor runs and how far it is."""
+    version: int
+    progress: progress_api.Progress
+
+
+class ProgressForwarder:
+    """A ``vgraph.progress`` listener that sends through ``send`` each processor's start, the
+    first report of each kind of work (``what``, ``total``) and its last step at once, and the
+    steps between at most every ``interval`` seconds."""
+
+    def __init__(self, send, version: int, interval: float = PROGRESS_INTERVAL):
+        self.send, self.version, self.interval = send, version, interval
+        self._last: tuple = (None, 0.0)   # ((processor, what, total), time.monotonic()) last sent
+
+    def __call__(self, progress: progress_api.Progress) -> None:
+        now = time.monotonic()
+        kind = (progress.processor, progress.what, progress.total)
+        last_kind, sent = self._last
+        last_step = progress.total > 0 and progress.done >= progress.total
+        if kind == last_kind and now - sent < self.interval and not last_step:
+            return
+        self._last = (kind, now)
+        self.send(ProcessorProgress(self.version, progress))
 
 
 @dataclass
@@ -146,8 +180,9 @@ class RenderServer:
             return result
         try:
             view = self._cluster_view(job)
-            result.outcome = evaluate_view(self.network, job.scale, job.include_writers,
-                                           draw=view.draw if view else None)
+            with progress_api.listening(ProgressForwarder(self.progress or _ignore, job.version)):
+                result.outcome = evaluate_view(self.network, job.scale, job.include_writers,
+                                               draw=view.draw if view else None)
             result.statuses = {pid: processor_status(self.network, p) for pid, p in self.network.processors.items()}
             if view is not None:
                 result.outcome.warnings.extend(view.messages)
@@ -249,6 +284,10 @@ class RenderServer:
             self.imported.add(module)
 
 
+def _ignore(message) -> None:
+    """Where progress goes when nobody asked for it (a RenderServer used without a pipe)."""
+
+
 def serve(connection) -> None:
     """The render process's main loop."""
     # Progress bars here need no inter-process lock; tqdm's default one is a semaphore that Python
@@ -304,6 +343,7 @@ class RenderProcess:
         self.recent_seconds: deque[float] = deque(maxlen=RECENT_JOBS)
         self.starts = 0                     # processes started so far
         self.progress: RenderProgress | None = None  # the last progress of the job in flight
+        self.running: progress_api.Progress | None = None  # the processor running in that job
 
     @property
     def job(self) -> RenderJob | None:
@@ -341,7 +381,7 @@ class RenderProcess:
             self.start()
         if not self.jobs:
             self.job_started = time.monotonic()
-            self.progress = None
+            self.progress = self.running = None
         job.sent = time.monotonic()
         self.jobs.append(job)
         try:
@@ -360,6 +400,9 @@ class RenderProcess:
                         return None
                     raise EOFError
                 result = self._connection.recv()
+                if isinstance(result, ProcessorProgress):
+                    self.running = result.progress
+                    continue
                 if not isinstance(result, RenderProgress):
                     break
                 self.progress = result
@@ -368,6 +411,7 @@ class RenderProcess:
                 self.recent_seconds.append(now - max(self.job_started, result.started))
             result.submitted, result.received = self.job.sent, now
             self.jobs.popleft()
+            self.running = None  # the next job announces its own
             self.job_started = now  # the next one (if any) runs from now
         except (EOFError, OSError):
             self._process.join(timeout=1.0)

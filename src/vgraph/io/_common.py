@@ -25,12 +25,12 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
-
 from vgraph.errors import VGraphError, VolumeFileError
+from vgraph.progress import Steps
 from vgraph.volume import Volume
 
-# Reads above this size show a tqdm bar (which tqdm itself hides when stderr is not a terminal).
+# Reads above this size show a tqdm bar (which tqdm itself hides when stderr is not a terminal);
+# every read reports its progress to a vgraph.progress listener (the GUI's status bar).
 PROGRESS_THRESHOLD_BYTES = 64 * 2**20
 _CHUNK_BYTES = 16 * 2**20
 # Text headers (.dat, .nhdr, .mhd, the NRRD data file LIST) are small; a "header" beyond this is
@@ -315,9 +315,10 @@ def _read_into(path, start: int, target: np.ndarray, nbytes: int) -> None:
     """Fill ``target`` (a uint8 view) from ``path`` in chunks, with a progress bar for big reads."""
     view = memoryview(target)
     done = 0
-    with open(path, "rb") as fh, tqdm(total=nbytes, unit="B", unit_scale=True,
-                                       desc=f"reading {Path(path).name}", leave=False,
-                                       disable=None if nbytes >= PROGRESS_THRESHOLD_BYTES else True) as bar:
+    # The listener (the GUI) hears every read; the terminal bar shows only for big ones.
+    with open(path, "rb") as fh, Steps(nbytes, f"reading {Path(path).name}",
+                                        show=None if nbytes >= PROGRESS_THRESHOLD_BYTES else False,
+                                        unit="B", unit_scale=True) as bar:
         fh.seek(start)
         while done < nbytes:
             got = fh.readinto(view[done:done + _CHUNK_BYTES])

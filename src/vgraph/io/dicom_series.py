@@ -36,13 +36,13 @@ import numpy as np
 import pydicom
 import pydicom.filereader
 from pydicom.uid import DeflatedExplicitVRLittleEndian
-from tqdm import tqdm
 
 from vgraph.errors import VolumeFileError
 from vgraph.io._common import (check_memory, check_origin, check_spacing, make_volume,
                                open_capped, regular_file)
 from vgraph.io._inflate import check_inflates_within, file_pieces
 from vgraph.io._values import rescaled
+from vgraph.progress import steps
 from vgraph.volume import Volume
 
 _SAME_ACROSS_SLICES = ("Rows", "Columns", "BitsAllocated", "PixelRepresentation", "SamplesPerPixel")
@@ -268,8 +268,8 @@ def _read_pixels(folder, ordered):
     count = rows * columns * len(ordered)
     check_memory(folder, count * (allocated // 8 + (8 if scaled else 0)), "Rows/Columns")
     stored = None
-    for index, (file, _) in enumerate(tqdm(ordered, desc=f"reading {folder.name}", unit="slice",
-                                           leave=False, disable=None if len(ordered) > 20 else True)):
+    for index, (file, _) in enumerate(steps(ordered, f"reading {folder.name}", unit="slice",
+                                            show=None if len(ordered) > 20 else False)):
         pixels = _slice_pixels(file)
         if pixels.shape != (rows, columns):
             raise VolumeFileError(file, f"pixel array has shape {pixels.shape}, expected "

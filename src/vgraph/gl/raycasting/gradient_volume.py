@@ -30,6 +30,7 @@ import numpy as np
 from vgraph.errors import VGraphError
 from vgraph.gl.context import release_quietly
 from vgraph.numerics.reference_raycast import SNORM16_MAX, central_differences, gradient_scale
+from vgraph.progress import steps
 from vgraph.volume import Volume
 
 SLAB_VOXELS = 2**22  # voxels per numpy slab: ~100 MB of float64 temporaries
@@ -94,10 +95,8 @@ def _slabs(volume: Volume, what: str):
     nz, ny, nx = volume.data.shape
     thickness = max(1, SLAB_VOXELS // (nx * ny))
     starts = range(0, nz, thickness)
-    if volume.data.size > PROGRESS_VOXELS:
-        from tqdm import tqdm
-        starts = tqdm(starts, desc=f"gradients ({what})", unit="slab", file=sys.stderr, leave=False)
-    for z0 in starts:
+    show = None if volume.data.size > PROGRESS_VOXELS else False  # the GUI hears every one
+    for z0 in steps(starts, f"gradients ({what})", show=show, unit="slab", file=sys.stderr):
         yield z0, min(z0 + thickness, nz)
 
 
