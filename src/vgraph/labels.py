@@ -11,8 +11,9 @@ Conventions (docs/exploring.md shows them with pictures):
   hidden background and draws every other label from the palette, opaque.
 - A label is *shown* when it is visible with opacity > 0; all other labels (hidden ones, label 0
   by default, unlisted ones under "hidden") are one class, the background.
-- Majority rule: at a sample point, the 8 nearest voxels (their centres around the point, the
-  indices clamped to the volume as GL's clamp-to-edge does) vote with their trilinear weights; each
+- Majority rule: at a sample point, the 8 nearest voxels (their centres around the point; a point
+  outside the box of the voxel centres is first clamped onto it, clamp-to-edge's weights, with
+  one slope on the faces) vote with their trilinear weights; each
   class sums the weights of its voxels and the class with the largest sum wins; on a tie, the
   smaller label value wins and the background loses to any label. So labels never blend as
   numbers (1 and 3 never make a 2), and between two labels the boundary is where their weight sums
@@ -156,12 +157,12 @@ def _whole_numbers(data: np.ndarray, consumer: str) -> np.ndarray:
     if not finite.all():
         z, y, x = np.argwhere(~finite)[0]
         raise VGraphError(f"{consumer}: label volumes need integer labels; voxel (x={x}, y={y}, "
-                          f"z={z}) is {data[z, y, x]}")
+                          f"z={z}) is {float(data[z, y, x])}")
     fractional = data != np.round(data)
     if fractional.any():
         z, y, x = np.argwhere(fractional)[0]
         raise VGraphError(f"{consumer}: label volumes need integer labels, but this {data.dtype} volume "
-                          f"has fractional values, e.g. {data[z, y, x]!r} at voxel (x={x}, y={y}, z={z}); "
+                          f"has fractional values, e.g. {float(data[z, y, x])!r} at voxel (x={x}, y={y}, z={z}); "
                           f"round or cast it to an integer type first")
     if np.abs(data).max() >= 2.0**63:
         raise VGraphError(f"{consumer}: label values must fit a 64-bit integer, got up to {np.abs(data).max()}")
@@ -177,8 +178,8 @@ def majority(classes: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.nd
     class per point, its weight sum, and the gradient of that sum per voxel step (x, y, z).
     ``classes`` [z, y, x] holds each voxel's class (LabelCodes.classes()[codes])."""
     dims = np.array(classes.shape[::-1])
-    p = np.asarray(points, dtype=np.float64) * dims - 0.5
-    base = np.floor(p)
+    p = np.clip(np.asarray(points, dtype=np.float64) * dims - 0.5, 0, dims - 1)  # into the box (the shader's why)
+    base = np.clip(np.floor(p), 0, np.maximum(dims - 2, 0))
     f = p - base
     base = base.astype(np.int64)
     votes = np.empty((8, len(p)), dtype=np.int64)

@@ -1,0 +1,134 @@
+"""LabelRayCaster: ray casting of a label volume (integer labels, e.g. a segmentation) coloured by a
+label table, as Voreen's segmentation ray caster and napari's labels layer do.
+
+Conventions (docs/exploring.md has pictures):
+- Labels are never interpolated as numbers. Each sample takes its label by the majority of
+  interpolation weights (vgraph.labels): the 8 voxels around the sample vote with their trilinear
+  weights, the label (or the background: every label that is not shown) with the largest sum wins.
+  Boundaries are smooth surfaces, half-way between voxel centres where two labels touch, and no
+  colour bleeds between labels: a sample has the colour of exactly one label.
+- The labels are read from their own texture: exact unsigned integer codes (R16UI, or R32UI for
+  more than 65536 distinct labels; vgraph.labels.label_codes), uploaded once per volume and GL
+  context and kept with the volume. The volume's value range plays no part. Float volumes are
+  accepted only when every value is a whole number; anything else is refused, naming the processor.
+- ``label_table``: colour, opacity and visibility per label (vgraph.labels.LabelTable); labels it
+  does not list get palette colours (or are hidden, ``unlisted = "hidden"``).
+- ``compositing``: composite (each shown label at its opacity per sample at rate 1, corrected for
+  the step, front to back with early termination) or first_hit (the first shown label's colour,
+  opaque: a surface view). ``shading`` blinn_phong lights samples with the gradient of the winning
+  label's weight sum as normal (no extra texture fetch; label interiors stay unshaded).
+- Samples as the RayCaster's: every min(spacing) / sampling_rate world units from the entry point
+  (raycasting/ray.glsl), so clipping planes in EntryExitPoints apply here too.
+  ``vgraph.numerics.reference_labels`` is the CPU reference of the picture.
+"""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from vgraph import Inport, OptionProperty, Outport, VGraphError
+from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, FrontToBack, Light,
+                                             RaycasterBase, Sampling)
+from vgraph.gl.raycasting.geometry import vec
+from vgraph.gl.raycasting.targets import RenderTargets
+from vgraph.image import Image
+from vgraph.labels import LabelCodes, LabelTable, label_codes
+from vgraph.properties import LabelTableProperty
+from vgraph.volume import Volume
+
+SHADER = "labels/label_raycaster.frag.glsl"
+COMPOSITING = ("composite", "first_hit")
+LABEL_ROW = 256  # codes per row of the colour table texture (shaders/labels/majority.glsl)
+_CACHE_KEY = "_label_codes"  # where a volume keeps its codes and their textures
+
+
+class LabelRayCaster(RaycasterBase):
+    """Ray casting of a label volume: a colour and opacity per label, smooth boundaries without
+    colour bleeding (majority of interpolation weights)."""
+
+    category = "Volume rendering"
+    inports = [Inport("labels", Volume), Inport("entry", Image), Inport("exit", Image)]
+    outports = [Outport("image", Image)]
+    components = (EntryExit, CameraRays, Sampling, FrontToBack, Light, Background)
+
+    label_table = LabelTableProperty(LabelTable.default(),
+                                     doc="per label value: name, colour, opacity, visible; unlisted "
+                                         "labels: palette colours or hidden")
+    compositing = OptionProperty("composite", choices=list(COMPOSITING),
+                                 doc="composite: labels at their opacities, front to back; first_hit: "
+                                     "the first shown label's colour, opaque")
+
+    def __init__(self, id: str | None = None, **values):
+        super().__init__(id, **values)
+        self._targets = RenderTargets(1)
+        self._colors = ColorTable()
+
+    def shaded(self) -> bool:
+        return self.shading != "none"
+
+    def process(self, labels: Volume, entry: Image, exit: Image) -> Image:
+        consumer = f"{self.id}.labels"  # the scheduler's ProcessorError names the processor too
+        labels.require_samples(consumer)
+        if labels.bricks is not None:
+            raise VGraphError(f"{consumer}: label volumes are drawn from one texture; this one is "
+                              f"bricked ({' x '.join(map(str, labels.dims))} voxels)")
+        frame = self.frame(labels, entry, exit)
+        codes, texture = label_textures(labels, frame.ctx, consumer)
+        colors = self._colors.update(frame.ctx, self.label_table, codes)
+        own = Binding(defines={f"COMPOSITING_{self.compositing.upper()}": True},
+                      textures={"labels": texture, "label_colors": colors},
+                      uniforms={"volume_dims": tuple(int(d) for d in labels.dims),
+                                "voxel_spacing": vec(frame.geometry.spacing)})
+        (image,) = self._targets.ensure(frame.ctx, entry.size)
+        self.draw(frame, SHADER, self._targets, own=own)
+        return image
+
+
+def label_textures(volume: Volume, ctx: moderngl.Context, consumer: str) -> tuple[LabelCodes, moderngl.Texture]:
+    """The volume's label codes and their integer 3D texture on ``ctx``, made once and kept with the
+    volume (its ``__dict__``, as its other derived data): another frame, table or ray caster of the
+    same volume reuses them; they go when the volume goes."""
+    cached = volume.__dict__.get(_CACHE_KEY)
+    if cached is None:
+        cached = volume.__dict__[_CACHE_KEY] = (label_codes(volume.data, consumer), {})
+    codes, textures = cached
+    texture = textures.get(id(ctx))
+    if texture is None or texture.ctx is not ctx:
+        limit = ctx.info["GL_MAX_3D_TEXTURE_SIZE"]
+        if max(volume.dims) > limit:
+            raise VGraphError(f"{consumer}: {' x '.join(map(str, volume.dims))} voxels exceed this GL's "
+                              f"3D texture limit of {limit} per axis")
+        dtype = "u2" if codes.codes.dtype == np.uint16 else "u4"
+        texture = ctx.texture3d(volume.dims, 1, np.ascontiguousarray(codes.codes).tobytes(), dtype=dtype,
+                                alignment=1)
+        # Integer textures are incomplete (read as 0) with linear filtering; texelFetch reads them.
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        texture.repeat_x = texture.repeat_y = texture.repeat_z = False
+        textures[id(ctx)] = texture
+    return codes, texture
+
+
+class ColorTable:
+    """The label table resolved per code (LabelTable.colors) as an RGBA32F texture of LABEL_ROW codes
+    a row, rewritten only when the table or the codes change."""
+
+    def __init__(self):
+        self.texture = None
+        self.key = None
+
+    def update(self, ctx: moderngl.Context, table: LabelTable, codes: LabelCodes) -> moderngl.Texture:
+        key = (table, codes, ctx)
+        if self.texture is not None and key == self.key and self.texture.ctx is ctx:
+            return self.texture
+        rows = max(1, math.ceil(codes.values.size / LABEL_ROW))
+        rgba = np.zeros((rows * LABEL_ROW, 4), dtype=np.float32)
+        rgba[:codes.values.size] = table.colors(codes.values)
+        if self.texture is None or self.texture.ctx is not ctx or self.texture.size != (LABEL_ROW, rows):
+            self.texture = ctx.texture((LABEL_ROW, rows), 4, dtype="f4")
+            self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.texture.write(rgba.tobytes())
+        self.key = key
+        return self.texture

@@ -1,0 +1,76 @@
+"""CPU reference of the LabelRayCaster (processors/label_raycaster.py), in numpy, float64.
+
+It takes the rays from the EntryExitPoints images (rgb = texture coordinates, alpha = hit), as the
+shader does, and follows the same rules: sample i at entry + i * step, step = min(spacing) /
+sampling_rate world units, samples = floor(length / step + 1e-3) + 1 (raycasting/ray.glsl); the
+label of each sample by the majority of interpolation weights (vgraph.labels.majority); composite
+(front to back, opacity corrected to 1 - (1 - a)^(1 / sampling_rate), early termination) or
+first_hit (the first shown label, opaque); optional Blinn-Phong with a headlight
+(numerics.reference_raycast's model); the result over the background.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vgraph.labels import BACKGROUND, LabelTable, label_codes, majority
+from vgraph.numerics.reference_raycast import GRADIENT_EPSILON
+from vgraph.volume import Volume
+
+
+def render_labels(volume: Volume, table: LabelTable, entry: np.ndarray, exit: np.ndarray, *,
+                  mode: str = "composite", sampling_rate: float = 1.0, early_termination: float = 0.99,
+                  background=(0.0, 0.0, 0.0, 1.0), shading: dict | None = None) -> np.ndarray:
+    """The picture (H, W, 4) from entry and exit images (H, W, 4) as Image.to_numpy() gives them.
+    ``shading``: None, or {"ambient", "diffuse", "specular", "shininess"} of a headlight."""
+    codes = label_codes(volume.data, "reference")
+    classes = codes.classes(table)[codes.codes.astype(np.int64)]
+    colors = table.colors(codes.values).astype(np.float64)
+    spacing = np.asarray(volume.spacing, dtype=np.float64)
+    dims = np.array(volume.dims, dtype=np.float64)
+    hit = (entry[..., 3] != 0.0) & (exit[..., 3] != 0.0)
+    start, end = entry[hit][:, :3].astype(np.float64), exit[hit][:, :3].astype(np.float64)
+    along = end - start
+    length = np.linalg.norm(along * dims * spacing, axis=1)
+    step_length = spacing.min() / sampling_rate
+    samples = np.floor(length / step_length + 1e-3).astype(np.int64) + 1
+    step = np.where(length[:, None] > 0.0, along * (step_length / np.maximum(length, 1e-300))[:, None], 0.0)
+    direction = along * dims * spacing / np.maximum(length, 1e-300)[:, None]
+    total = np.zeros((len(start), 4))
+    active = np.ones(len(start), dtype=bool)
+    exponent = 1.0 / sampling_rate
+    for i in range(int(samples.max(initial=0))):
+        rays = np.flatnonzero(active & (i < samples))
+        if rays.size == 0:
+            break
+        winner, _, slope = majority(classes, start[rays] + i * step[rays])
+        shown = winner != BACKGROUND
+        rays, winner, slope = rays[shown], winner[shown], slope[shown]
+        rgb = colors[winner, :3]
+        if shading is not None:
+            rgb = _headlight(rgb, slope / spacing, direction[rays], shading, spacing.min())
+        if mode == "first_hit":
+            total[rays] = np.concatenate([rgb, np.ones((len(rays), 1))], axis=1)
+            active[rays] = False
+            continue
+        alpha = 1.0 - (1.0 - colors[winner, 3]) ** exponent
+        weight = (1.0 - total[rays, 3]) * alpha
+        total[rays, :3] += weight[:, None] * rgb
+        total[rays, 3] += weight
+        active[rays[total[rays, 3] >= early_termination]] = False
+    picture = np.zeros(entry.shape[:2] + (4,))
+    picture[hit] = total
+    bg = np.asarray(background, dtype=np.float64)
+    return np.concatenate([picture[..., :3] + (1.0 - picture[..., 3:]) * bg[:3],
+                           picture[..., 3:] + (1.0 - picture[..., 3:]) * bg[3]], axis=-1)
+
+
+def _headlight(rgb, gradient, direction, shading, min_spacing):
+    """raycasting/shading.glsl with LIGHT_HEADLIGHT: L = V = H = the viewer, two-sided."""
+    norm = np.linalg.norm(gradient, axis=1)
+    lit = norm > GRADIENT_EPSILON / min_spacing
+    lambert = np.abs((gradient * direction).sum(axis=1)) / np.where(lit, norm, 1.0)
+    gloss = np.where(lambert > 0.0, lambert ** shading["shininess"], 0.0)
+    shaded = np.clip((shading["ambient"] + shading["diffuse"] * lambert)[:, None] * rgb
+                     + shading["specular"] * gloss[:, None], 0.0, 1.0)
+    return np.where(lit[:, None], shaded, rgb)
