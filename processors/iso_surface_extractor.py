@@ -53,8 +53,9 @@ class IsoSurfaceExtractor(Processor):
                                 f"{'region' if self.region_min or self.region_max else 'volume'}'s values "
                                 f"span {volume.normalized(values.min()):.4g} .. "
                                 f"{volume.normalized(values.max()):.4g} in normalised intensity")
-        vertices, normals, triangles = marching_cubes(values, level, volume.spacing, self.step_size)
+        vertices, triangles = marching_cubes(values, level, volume.spacing, self.step_size)
         vertices += origin
+        normals = gradient_normals(volume, values, origin, vertices, triangles)
         scalar_values = None if scalars is None else sample_world(scalars, vertices)
         return Geometry(vertices, triangles, normals=normals, scalars=scalar_values,
                         source=f"{self.id} (iso {self.iso_level:g} of {volume.source or 'a volume'})")
@@ -77,19 +78,40 @@ class IsoSurfaceExtractor(Processor):
 
 
 def marching_cubes(values: np.ndarray, level: float, spacing, step_size: int = 1):
-    """(vertices, normals, triangles) of scikit-image's marching cubes on a [z, y, x] array, in
+    """(vertices, triangles) of scikit-image's marching cubes on a [z, y, x] array, vertices in
     (x, y, z) world offsets from voxel (0, 0, 0), triangles counter-clockwise seen from the side of
     lower values."""
     from skimage.measure import marching_cubes as skimage_marching_cubes  # imported when used: slow import
     if min(values.shape) < 2:
         raise VGraphError(f"marching cubes needs at least 2 voxels along each axis, got {values.shape[::-1]}")
-    vertices, triangles, normals, _ = skimage_marching_cubes(
+    vertices, triangles, _, _ = skimage_marching_cubes(
         values, level, spacing=tuple(float(s) for s in spacing[::-1]), step_size=step_size,
         allow_degenerate=False)
     # scikit-image works in (z, y, x): reversing the axes mirrors the mesh, which turns its
-    # clockwise-from-outside triangles counter-clockwise; its normals already point to lower values.
-    return (np.ascontiguousarray(vertices[:, ::-1], dtype=np.float64),
-            np.ascontiguousarray(normals[:, ::-1]), triangles)
+    # clockwise-from-outside triangles counter-clockwise.
+    return np.ascontiguousarray(vertices[:, ::-1], dtype=np.float64), triangles
+
+
+def gradient_normals(volume: Volume, values: np.ndarray, origin: np.ndarray, vertices: np.ndarray,
+                     triangles: np.ndarray) -> np.ndarray:
+    """Unit normals towards lower values: minus the gradient of the trilinear field at each vertex,
+    by central differences one voxel apart in world units (so anisotropic spacing gives true
+    normals; scikit-image's own normals were off by up to 25 degrees on a sphere with spacing
+    0.7 x 1.1 x 1.6), six interpolations instead of a gradient volume. Where the gradient vanishes,
+    the faces' normals."""
+    from scipy.ndimage import map_coordinates
+    spacing = np.asarray(volume.spacing, dtype=np.float64)
+    voxel = ((vertices - origin) / spacing)[:, ::-1].T  # [z, y, x] coordinates in ``values``
+    gradient = np.empty_like(vertices)
+    for axis in range(3):  # x, y, z
+        offset = np.zeros((3, 1))
+        offset[2 - axis] = 1.0
+        ahead = map_coordinates(values, voxel + offset, order=1, mode="nearest")
+        behind = map_coordinates(values, voxel - offset, order=1, mode="nearest")
+        gradient[:, axis] = (ahead - behind) / (2.0 * spacing[axis])
+    length = np.linalg.norm(gradient, axis=1, keepdims=True)
+    faces = Geometry(vertices, triangles).vertex_normals()
+    return np.where(length > 0.0, -gradient / np.where(length > 0.0, length, 1.0), faces)
 
 
 def sample_world(volume: Volume, points: np.ndarray) -> np.ndarray:
