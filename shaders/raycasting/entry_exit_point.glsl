@@ -12,6 +12,12 @@
 // of the voxel centres, alpha = 1. Rays that miss are discarded (the image is cleared to 0). With
 // ENTRY, entry points may be jittered: moved towards the exit point (read from the exit image,
 // drawn before) by a per-pixel pseudo-random fraction of `jitter` world units, never past it.
+//
+// CLIP_PLANES = n (vgraph.clipping; only defined for n > 0, so scenes without planes compile the
+// same program as before): the interval is also cut to the kept side of n planes, dot(p, normal)
+// >= offset. A ray whose front face lies in the removed part now starts on the plane: the cut
+// shows the inside (capping), for every ray caster, as they march from entry to exit point. A
+// crop box needs no code here: EntryExitPoints narrows box_min/box_max (and the hit box) to it.
 uniform vec2 viewport_size;
 uniform vec3 near_centre;  // near-plane point of pixel centre (ndc_x, ndc_y):
 uniform vec3 near_right;   //   near_centre + ndc_x * near_right + ndc_y * near_up
@@ -29,6 +35,27 @@ uniform vec3 world_to_texture_scale;  // t = p * scale + offset
 uniform vec3 world_to_texture_offset;
 uniform vec3 texture_box_min;  // 0.5 / dims
 uniform vec3 texture_box_max;  // 1 - 0.5 / dims
+
+#ifdef CLIP_PLANES
+uniform vec3 clip_normals[CLIP_PLANES];  // world, unit
+uniform float clip_offsets[CLIP_PLANES];
+
+// The part of [interval.x, interval.y] on the kept side of every plane (empty: y < x).
+vec2 clip_interval(vec3 origin, vec3 direction, vec2 interval) {
+    for (int i = 0; i < CLIP_PLANES; ++i) {
+        float height = dot(origin, clip_normals[i]) - clip_offsets[i];  // >= 0: kept
+        float rate = dot(direction, clip_normals[i]);
+        if (rate > 0.0) {
+            interval.x = max(interval.x, -height / rate);
+        } else if (rate < 0.0) {
+            interval.y = min(interval.y, -height / rate);
+        } else if (height < 0.0) {
+            interval.y = -1.0;  // parallel to the plane, on the removed side
+        }
+    }
+    return interval;
+}
+#endif
 
 #ifdef ENTRY
 uniform sampler2D exit_points;
@@ -71,6 +98,12 @@ vec4 box_point() {
     }
     vec2 exact = slab_interval(origin, inverse, box_min, box_max);
     vec2 interval = exact.y < exact.x ? grown : exact;  // a grazing ray: only the grown box
+#ifdef CLIP_PLANES
+    interval = clip_interval(origin, direction, interval);
+    if (interval.y < interval.x) {
+        discard;  // the ray's part in the box is all on the removed side
+    }
+#endif
     float enter = interval.x;
     float leave = interval.y;
 #ifdef ENTRY

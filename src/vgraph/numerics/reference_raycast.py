@@ -62,6 +62,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vgraph.camera import Camera
+from vgraph.clipping import clip_intervals, cropped_box
 from vgraph.errors import VGraphError
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -98,9 +99,10 @@ def volume_box(volume: Volume) -> tuple[np.ndarray, np.ndarray]:
 def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, size,
            *, mode: str = "dvr", sampling_rate: float = 1.0, early_termination: float = 0.99,
            background=(0.0, 0.0, 0.0, 1.0), shading: Shading | None = None,
-           return_samples: bool = False, chunk_rays: int = 65536):
+           return_samples: bool = False, chunk_rays: int = 65536, clip_planes=(), crop_box=None):
     """Render ``volume`` as the GL ray caster does (model in the module docstring).
 
+    ``clip_planes`` and ``crop_box`` cut each ray's interval before sampling (vgraph.clipping).
     ``size`` is (width, height). Returns the float32 (H, W, 4) image, row 0 at the top, and with
     ``return_samples=True`` also the int32 (H, W) number of samples each ray took."""
     width, height, background = _check_arguments(volume, size, mode, sampling_rate,
@@ -109,8 +111,12 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
     camera = camera.resolved(*volume_box(volume), width / height)  # as the GL renderers do
     origins, directions = camera.rays(width, height)
     origins, directions = origins.reshape(-1, 3), directions.reshape(-1, 3)
-    t_entry, t_exit = _clip_to_box(origins, directions, *volume_box(volume),
+    box = cropped_box(*volume_box(volume), crop_box)  # the crop box narrows the box (rule 2)
+    t_entry, t_exit = _clip_to_box(origins, directions, *(box or volume_box(volume)),
                                    camera.far_distance(directions), min(volume.spacing))
+    if box is None:  # the crop box leaves nothing: every ray misses
+        t_exit[:] = -np.inf
+    t_entry, t_exit = clip_intervals(origins, directions, t_entry, t_exit, clip_planes)
     step = min(volume.spacing) / sampling_rate
     counts = sample_counts(t_entry, t_exit, step)
     sampler = VolumeSampler(volume)
