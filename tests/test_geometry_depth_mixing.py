@@ -10,28 +10,15 @@ from vgraph import ProcessorError
 from vgraph.camera import Camera
 from vgraph.geometry import Geometry
 from vgraph.network import Network
-from vgraph.ports import Outport
-from vgraph.processor import Processor
 from vgraph.testing import GivenVolume
 from vgraph.volume import Volume
+
+from helpers.geometry import GivenGeometry
 
 SIZE = (72, 60)
 ALPHA = 0.02           # opacity of one fog sample at sampling rate 1 (one step of min spacing)
 FOG, SURFACE = (0.0, 0.0, 1.0), (1.0, 0.0, 0.0)  # blue fog, red sphere: red is the transmittance
 SPACING, ORIGIN, DIMS = (0.05, 0.04, 0.06), (-0.6, 0.3, 1.0), (25, 31, 21)
-
-
-class GivenGeometry(Processor):
-    """Outputs the geometry it was made with (as GivenVolume does a volume)."""
-
-    outports = [Outport("geometry", Geometry)]
-
-    def __init__(self, id=None, geometry=None, **values):
-        super().__init__(id, **values)
-        self.geometry = geometry
-
-    def process(self):
-        return self.geometry
 
 
 def fog_volume() -> Volume:
