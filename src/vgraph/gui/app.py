@@ -1,7 +1,7 @@
 """The main window and ``run_gui`` (``vgraph gui [NETWORK.json]``).
 
-Layout: the network editor in the middle, the processor palette on the left, the canvases and the
-property inspector on the right, the log at the bottom, messages (such as why a connection is
+Layout: the network editor in the middle, the processor palette and the canvases below it on the
+left, the property inspector on the right, the log at the bottom, messages (such as why a connection is
 refused) in the status bar. The first-run size, the layout kept between runs, the View menu's
 docks and Reset Layout are in ``layout.py``; the Help menu is ``help.py``.
 
@@ -64,7 +64,7 @@ class MainWindow(FileActions, QMainWindow):
         self.palette_dock = self._dock("Processors", self.palette, Qt.LeftDockWidgetArea)
         self.properties_dock = self._dock("Properties", self.inspector, Qt.RightDockWidgetArea)
         self.log_dock = self._dock("Log", self.log, Qt.BottomDockWidgetArea)
-        self.canvases = CanvasDocks(self, self.workspace, self.evaluation, above=self.properties_dock)
+        self.canvases = CanvasDocks(self, self.workspace, self.evaluation)
         self.running = EvaluationProgress(self)  # which processor runs, how far (progress_view.py)
         self.failures: dict[str, str] = {}
         self.remember_layout = True  # a screenshot run leaves the user's layout alone

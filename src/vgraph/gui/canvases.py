@@ -2,7 +2,8 @@
 
 Conventions:
 - A display gets its dock when it is added (or a network is opened) and loses it when removed;
-  docks of one window are tabbed together, titled "Canvas: <id>".
+  docks of one window are tabbed together, titled "Canvas: <id>", below the palette
+  (``layout.place_canvas``).
 - Frames from the render process go to the view of their display; a display that failed or is not
   ready shows why instead.
 - A drag on any canvas makes the evaluation interactive (reduced resolution) until it ends.
@@ -15,9 +16,10 @@ Conventions:
 
 from __future__ import annotations
 
-from PySide6.QtCore import QObject, Qt, Signal
+from PySide6.QtCore import QObject, Signal
 from PySide6.QtWidgets import QDockWidget, QMainWindow
 
+from vgraph.gui import layout
 from vgraph.gui.canvas_toolbar import CanvasPane
 from vgraph.gui.canvas_view import CanvasView, camera_property_for
 from vgraph.gui.evaluator import EvaluationOutcome, is_display
@@ -30,11 +32,9 @@ from vgraph.network import Network
 class CanvasDocks(QObject):
     problem = Signal(str)  # a canvas could not do what was asked (e.g. save its image)
 
-    def __init__(self, window: QMainWindow, workspace: Workspace, evaluation: LiveEvaluation,
-                 above: QDockWidget):
+    def __init__(self, window: QMainWindow, workspace: Workspace, evaluation: LiveEvaluation):
         super().__init__(window)
         self.window, self.workspace, self.evaluation = window, workspace, evaluation
-        self.above = above  # the first canvas goes above this dock (the inspector)
         self.network: Network | None = None
         self.docks: dict[str, QDockWidget] = {}
         self.views: dict[str, CanvasView] = {}
@@ -76,14 +76,7 @@ class CanvasDocks(QObject):
         dock.setObjectName(f"canvas:{processor_id}")
         dock.setWidget(CanvasPane(view, self.workspace.settings))
         dock.visibilityChanged.connect(lambda shown, pid=processor_id: shown and self._make_current(pid))
-        siblings = list(self.docks.values())
-        self.window.addDockWidget(Qt.RightDockWidgetArea, dock)
-        if siblings:
-            self.window.tabifyDockWidget(siblings[-1], dock)
-        else:
-            self.window.splitDockWidget(dock, self.above, Qt.Vertical)
-            height = self.window.height()
-            self.window.resizeDocks([dock, self.above], [height // 2, height // 2], Qt.Vertical)
+        layout.place_canvas(self.window, dock, list(self.docks.values()))
         dock.show()  # a dock added to a window already shown stays hidden otherwise
         dock.raise_()
         self.docks[processor_id], self.views[processor_id] = dock, view

@@ -3,8 +3,14 @@ View menu's list of docks and View > Reset Layout.
 
 Conventions:
 - The first run fits the screen it opens on (``FIRST_RUN_FRACTION`` of the available geometry), not
-  a fixed size that a laptop screen cuts off; the right column (canvases, inspector) is as wide as
-  the widest property editor, so the inspector needs no horizontal scroll bar.
+  a fixed size that a laptop screen cuts off.
+- Columns: the palette with the canvases below it on the left, the network editor in the middle,
+  the property inspector on the right, the log under the left and middle columns. The inspector
+  is as wide as the widest property editor (no horizontal scroll bar) and runs the window's full
+  height (a RayCaster's form down to its transfer-function editor is ~700 px: it did not fit
+  under a canvas at 1280 x 800). The canvas column takes ``CANVAS_FRACTION`` of the width, less
+  if the network editor would get under ``MIN_NETWORK_WIDTH``; the canvases get
+  ``CANVAS_SHARE`` of its height, the palette the rest.
 - Geometry and dock state go into the window's QSettings when it closes and come back when a
   window starts with the same settings; a stored state that Qt refuses falls back to the first-run
   layout. Canvas docks come and go with the network, so a restored state places only the fixed docks.
@@ -20,10 +26,13 @@ from PySide6.QtWidgets import QDockWidget, QFormLayout, QLabel, QMainWindow, QMe
 FIRST_RUN_FRACTION = 0.85
 GEOMETRY_KEY = "window/geometry"
 STATE_KEY = "window/state"
-STATE_VERSION = 1          # raise when the fixed docks change, so an old state is not applied
+STATE_VERSION = 2          # raise when the fixed docks change, so an old state is not applied
 FALLBACK_SIZE = (1280, 800)  # no screen (should not happen, even offscreen)
 # The inspector's margins, the scroll area's frame and its vertical scroll bar around the form.
 INSPECTOR_CHROME = 48
+CANVAS_FRACTION = 0.3      # of the window's width, for the canvas column ...
+MIN_NETWORK_WIDTH = 300    # ... as long as the network editor keeps this much
+CANVAS_SHARE = 2 / 3       # of the left column's height, for the canvases (the palette above)
 
 
 def first_run_size(window: QMainWindow) -> tuple[int, int]:
@@ -54,18 +63,55 @@ def widest_editor_width() -> int:
     return width + INSPECTOR_CHROME
 
 
+def inspector_width(width: int) -> int:
+    """The widest editor's width, at least 9/25 of the window and at most half of it."""
+    return max(width * 9 // 25, min(widest_editor_width(), width // 2))
+
+
+def canvas_column_width(window) -> int:
+    width = window.width()
+    room = width - inspector_width(width) - MIN_NETWORK_WIDTH
+    return max(window.palette_dock.minimumSizeHint().width(), min(int(width * CANVAS_FRACTION), room))
+
+
 def arrange(window, width: int, height: int) -> None:
-    """Size the window; the right column gets the widest editor's width, at least a third of the
-    window and at most half of it (the network editor stays usable)."""
+    """Size the window and its columns (see the module docstring)."""
     window.resize(width, height)
-    column = max(width * 9 // 25, min(widest_editor_width(), width // 2))
-    window.resizeDocks([window.properties_dock], [column], Qt.Horizontal)
+    window.setCorner(Qt.BottomRightCorner, Qt.RightDockWidgetArea)  # the inspector runs to the bottom
+    window.resizeDocks([window.properties_dock], [inspector_width(width)], Qt.Horizontal)
     window.resizeDocks([window.log_dock], [max(100, height // 8)], Qt.Vertical)
+    canvases = [dock for dock in window.canvases.docks.values() if not dock.isFloating()]
+    if canvases:
+        _size_canvas_column(window, canvases[0])
+
+
+def place_canvas(window, dock: QDockWidget, siblings: list[QDockWidget]) -> None:
+    """Put a new canvas dock where the layout wants it: the first below the palette (widening the
+    left column), the others tabbed with the first."""
+    if siblings:
+        window.addDockWidget(Qt.LeftDockWidgetArea, dock)
+        window.tabifyDockWidget(siblings[0], dock)
+        return
+    palette = window.palette_dock
+    window.addDockWidget(Qt.LeftDockWidgetArea, dock)
+    if window.dockWidgetArea(palette) == Qt.LeftDockWidgetArea and not palette.isFloating():
+        window.splitDockWidget(palette, dock, Qt.Vertical)
+    _size_canvas_column(window, dock)
+
+
+def _size_canvas_column(window, dock: QDockWidget) -> None:
+    window.resizeDocks([dock], [canvas_column_width(window)], Qt.Horizontal)
+    palette = window.palette_dock
+    if window.dockWidgetArea(palette) == window.dockWidgetArea(dock) and palette.isVisible():
+        column = palette.height() + dock.height() or window.height()
+        share = int(column * CANVAS_SHARE)
+        window.resizeDocks([palette, dock], [column - share, share], Qt.Vertical)
 
 
 def restore_layout(window, settings: QSettings) -> bool:
     """Put back the geometry and dock layout of the last run; False (and nothing changed) if
     there is none or Qt refuses it."""
+    window.setCorner(Qt.BottomRightCorner, Qt.RightDockWidgetArea)
     geometry, state = settings.value(GEOMETRY_KEY), settings.value(STATE_KEY)
     if geometry is None or state is None:
         return False
@@ -79,8 +125,8 @@ def save_layout(window, settings: QSettings) -> None:
 
 
 def reset_layout(window) -> None:
-    """The first-run layout: every fixed dock shown in its own area, the canvases above the
-    inspector, the window fitted to the screen again."""
+    """The first-run layout: every fixed dock shown in its own area, the canvases below the
+    palette, the window fitted to the screen again."""
     if window.isMaximized() or window.isFullScreen():
         window.showNormal()
     for dock, area in window.home_areas().items():
@@ -90,11 +136,7 @@ def reset_layout(window) -> None:
     canvases = list(window.canvases.docks.values())
     for index, dock in enumerate(canvases):
         dock.setFloating(False)
-        window.addDockWidget(Qt.RightDockWidgetArea, dock)
-        if index == 0:
-            window.splitDockWidget(dock, window.properties_dock, Qt.Vertical)
-        else:
-            window.tabifyDockWidget(canvases[0], dock)
+        place_canvas(window, dock, canvases[:index])
         dock.show()
     arrange(window, *first_run_size(window))
     settings = window.workspace.settings

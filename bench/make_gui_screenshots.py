@@ -1,0 +1,98 @@
+"""The GUI screenshots of docs/gui.md: the whole main window at 1280 x 800 and 1920 x 1080 with
+networks/raycast_head.json loaded, rendered and its RayCaster selected (the inspector shows the
+camera and the transfer-function editor), the canvas with its toolbar and the axes and box overlays.
+
+    xvfb-run -s "-screen 0 1920x1080x24" .venv/bin/python bench/make_gui_screenshots.py
+    QT_QPA_PLATFORM=offscreen .venv/bin/python bench/make_gui_screenshots.py   # no X server
+        [--network networks/raycast_head.json] [--select rc] [--out docs/images]
+        [--sizes 1280x800 1920x1080]
+
+Each size gets a fresh window with its own settings file (the user's remembered layout is not
+used), laid out as a first run on a screen of that size (``layout.arrange``), so the pictures show
+what a new user sees. Writes <out>/gui_<W>x<H>.png and prints, per size, whether the inspector
+needed a horizontal scroll bar and whether the TF editor and the camera editor are fully visible.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def visible_fully(widget) -> bool:
+    """The widget's whole rectangle shows inside the inspector's scroll viewport."""
+    from PySide6.QtCore import QRect
+    from PySide6.QtWidgets import QScrollArea
+    if widget is None or not widget.isVisible():
+        return False
+    area = widget.parent()
+    while area is not None and not isinstance(area, QScrollArea):
+        area = area.parent()
+    if area is None:
+        return True
+    viewport = area.viewport()
+    top_left = widget.mapTo(viewport, widget.rect().topLeft())
+    return QRect(0, 0, viewport.width(), viewport.height()).contains(QRect(top_left, widget.size()))
+
+
+def shoot(network: Path, select: str, size: tuple[int, int], out: Path) -> dict:
+    from PySide6.QtCore import QSettings
+    from PySide6.QtWidgets import QApplication, QScrollArea
+
+    from vgraph.gui.app import MainWindow, save_screenshot
+    from vgraph.gui.canvas_toolbar import overlay_setting
+    from vgraph.gui.transfer_function_editor import TransferFunctionEditor
+
+    app = QApplication.instance() or QApplication([sys.argv[0]])
+    app.setApplicationName("vgraph")
+    with tempfile.TemporaryDirectory() as folder:
+        settings = QSettings(str(Path(folder) / "settings.ini"), QSettings.IniFormat)
+        settings.setValue(overlay_setting("canvas", "box"), True)   # show both overlays
+        window = MainWindow(settings)
+        window.remember_layout = False
+        window.arrange(*size)
+        window.show()
+        window.workspace.open(network)
+        window.view.fit_network()
+        window.scene.select_processor(select)
+        window.evaluation.run(wait=True)
+        for _ in range(5):
+            app.processEvents()
+        scroll = window.inspector.findChild(QScrollArea)
+        editors = window.inspector.findChildren(TransferFunctionEditor)
+        report = {
+            "window": (window.width(), window.height()),
+            "inspector horizontal scroll bar": bool(scroll and scroll.horizontalScrollBar().isVisible()),
+            "TF editor fully visible": bool(editors) and all(visible_fully(e) for e in editors),
+        }
+        path = out / f"gui_{size[0]}x{size[1]}.png"
+        save_screenshot(window, path)
+        window.deleteLater()
+        app.processEvents()
+    return report
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--network", type=Path, default=REPO / "networks" / "raycast_head.json")
+    parser.add_argument("--select", default="rc", help="processor shown in the inspector")
+    parser.add_argument("--out", type=Path, default=REPO / "docs" / "images")
+    parser.add_argument("--sizes", nargs="+", default=["1280x800", "1920x1080"])
+    args = parser.parse_args(argv)
+    if not os.environ.get("DISPLAY") and "QT_QPA_PLATFORM" not in os.environ:
+        os.environ["QT_QPA_PLATFORM"] = "offscreen"
+    args.out.mkdir(parents=True, exist_ok=True)
+    for text in args.sizes:
+        width, height = (int(v) for v in text.lower().split("x"))
+        report = shoot(args.network.resolve(), args.select, (width, height), args.out)
+        print(f"{width}x{height}: " + ", ".join(f"{k}: {v}" for k, v in report.items()))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
