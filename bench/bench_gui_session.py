@@ -152,7 +152,9 @@ class FrameLog:
     def __init__(self, window):
         from PySide6.QtCore import QEvent, QObject
         self.frames: list[list] = []   # [time given, final, time first painted or None]
+        self.results: list = []        # every RenderResult received (the render process's timestamps)
         window.evaluation.frames.connect(self._given)
+        window.evaluation.received.connect(self.results.append)
         log = self
 
         class Painted(QObject):
@@ -174,23 +176,38 @@ class FrameLog:
                 return painted
         return None
 
+    def render_time_of(self, painted: float) -> str:
+        """What the render process did for the full frame painted at ``painted``."""
+        full = [r for r in self.results if r.scale == 1.0 and r.outcome.frames and r.received <= painted]
+        if not full:
+            return ""
+        result = full[-1]
+        return (f"render process: started {painted - result.started:.2f} s before the paint, "
+                f"evaluated in {result.seconds:.2f} s")
+
     def shown_between(self, start: float, end: float) -> int:
         return sum(1 for _, _, painted in self.frames if painted is not None and start <= painted <= end)
 
 
 # --- the session ---------------------------------------------------------------------------------
-def session(window, user, frames: FrameLog, folder: Path, quick: bool, waits: list[Wait]):
-    """The user's steps (a generator: yields what to wait for; see ``Stepper``)."""
+def session(window, user, frames: FrameLog, folder: Path, quick: bool, waits: list[Wait],
+            opened: float = LAUNCHED):
+    """The user's steps (a generator: yields what to wait for; see ``Stepper``); ``opened``: when
+    the network was opened."""
     from PySide6.QtCore import QPointF
     from PySide6.QtWidgets import QApplication, QFileDialog, QScrollArea
     from vgraph.gui.items import NODE_HEIGHT, NODE_WIDTH
 
     def refined(step: str, mark: float, detail: str = ""):
         yield lambda: frames.refined_after(mark) is not None and window.evaluation.idle()
-        waits.append(Wait(step, "refined image", round(frames.refined_after(mark) - mark, 3), detail))
+        painted = frames.refined_after(mark)
+        waits.append(Wait(step, "refined image", round(painted - mark, 3),
+                          "; ".join(d for d in (detail, frames.render_time_of(painted)) if d)))
 
     yield lambda: frames.refined_after(LAUNCHED) is not None
-    waits.append(Wait("launch", "first image", round(frames.refined_after(LAUNCHED) - LAUNCHED, 3)))
+    first = frames.refined_after(LAUNCHED)
+    waits.append(Wait("launch", "first image", round(first - LAUNCHED, 3),
+                      f"{first - opened:.1f} s after the network was opened; {frames.render_time_of(first)}"))
 
     # Edit a property: the RayCaster in the editor, its sampling rate in the inspector.
     view = window.view
@@ -381,7 +398,7 @@ def run_session(args, folder: Path) -> tuple[list[Wait], "object"]:
     window.workspace.network.set(f"{CANVAS}.size", [args.size, args.size])  # the bench's, not an edit
     frames = FrameLog(window)
     try:
-        Stepper(session(window, user, frames, folder, args.quick, waits)).run()
+        Stepper(session(window, user, frames, folder, args.quick, waits, opened)).run()
         shot = window.grab()
     finally:
         window.workspace.undo_stack.setClean()
