@@ -25,9 +25,10 @@ void main() {
     bool inside = all(greaterThanEqual(p, vec3(-0.5))) && all(lessThanEqual(p, volume_size - 0.5));
     color = inside ? mapped(intensity_at(p)) : vec4(0.0);
 #ifdef CROSSHAIR
-    // The row and the column of pixels that hold the cursor: one pixel wide at any zoom.
-    vec2 distance = abs(gl_FragCoord.xy - cursor_pixel);
-    if (min(distance.x, distance.y) < 0.5) {
+    // The row and the column of pixels that hold the cursor: one pixel wide at any zoom (a
+    // cursor on a pixel border belongs to the pixel above / to the right).
+    bvec2 on_cursor = equal(ivec2(floor(gl_FragCoord.xy)), ivec2(floor(cursor_pixel)));
+    if (any(on_cursor)) {
         color = crosshair_color;
     }
 #endif

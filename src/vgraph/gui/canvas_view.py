@@ -46,6 +46,7 @@ from PySide6.QtWidgets import QFileDialog, QMenu, QWidget
 
 from vgraph.camera import VIEWS
 from vgraph.errors import OutputFileError, VGraphError
+from vgraph.gui import slice_clicks
 from vgraph.gui.image_export import IMAGE_FILTER, suggested_image_path, write_frame
 from vgraph.gui.overlays import ViewGeometry, draw_overlays
 from vgraph.properties import CameraProperty
@@ -264,6 +265,8 @@ class CanvasView(QWidget):
             self.interacting.emit(False)
         elif drag["mode"] == "zoom" and (event.position() - drag["start"]).manhattanLength() < CLICK_SLOP:
             self.context_menu().exec(event.globalPosition().toPoint())
+        elif drag["mode"] == "rotate" and (event.position() - drag["start"]).manhattanLength() < CLICK_SLOP:
+            slice_clicks.click(self, event.position())  # a left click in a slice moves its cursor
         event.accept()
 
     def wheelEvent(self, event) -> None:

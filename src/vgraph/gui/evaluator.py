@@ -32,6 +32,7 @@ import numpy as np
 
 from vgraph.camera import Camera
 from vgraph.errors import ProcessorError, VGraphWarning
+from vgraph.gui.slice_clicks import slice_planes
 from vgraph.image import Image
 from vgraph.imagefile import to_uint8
 from vgraph.mesh import TetMesh
@@ -171,11 +172,13 @@ def _classified_volumes(network: Network):
                 break
 
 
-def view_cameras(network: Network) -> dict[str, Camera]:
+def view_cameras(network: Network) -> dict:
     """'id.camera' -> the concrete camera of the last frame, for processors that resolved one
-    (a camera that fits the data or chooses its near/far needs it to zoom and pan from)."""
+    (a camera that fits the data or chooses its near/far needs it to zoom and pan from); and
+    'id.slice_plane' -> a SliceViewer's plane, where a click in its canvas lands (gui.slice_clicks)."""
     return {f"{pid}.camera": processor.view_camera for pid, processor in network.processors.items()
-            if isinstance(getattr(processor, "view_camera", None), Camera) and "camera" in processor.properties}
+            if isinstance(getattr(processor, "view_camera", None), Camera) and "camera" in processor.properties
+            } | slice_planes(network)
 
 
 # --- what a node shows --------------------------------------------------------------------------
