@@ -11,6 +11,7 @@ Interaction (on the camera returned by ``camera_property_for``, i.e. the nearest
 - wheel: zoom by ``WHEEL_ZOOM = 1.1`` per 120-unit notch, forward zooms in;
 - middle drag or shift + left drag: pan, ``Camera.pan(dx / h, -dy / h)``, so the scene follows the
   cursor.
+- ctrl + left drag: moves the first clip plane upstream along its normal (clip_drag.py).
 - a camera that fits the data (``Camera.fit_to_data``) keeps fitting while it rotates; zoom and pan
   start from the camera of the last frame (``view_cameras``, from the render process) and store it,
   so the view does not jump. The context menu's View entries (and the toolbar, canvas_toolbar.py)
@@ -46,6 +47,7 @@ from PySide6.QtWidgets import QFileDialog, QMenu, QWidget
 
 from vgraph.camera import VIEWS
 from vgraph.errors import OutputFileError, VGraphError
+from vgraph.gui import clip_drag
 from vgraph.gui import slice_clicks
 from vgraph.gui.image_export import IMAGE_FILTER, suggested_image_path, write_frame
 from vgraph.gui.overlays import ViewGeometry, draw_overlays
@@ -219,6 +221,10 @@ class CanvasView(QWidget):
     def mousePressEvent(self, event) -> None:
         if self._drag is not None:
             return  # a second button during a drag does not change the gesture
+        if clip_drag.wanted(event):  # Ctrl + left drag moves a clip plane (clip_drag.py)
+            self._drag = clip_drag.begin(self, event, ("canvas", next(self._keys)))
+            event.accept()
+            return
         button = event.button()
         if button == Qt.LeftButton:
             mode = "pan" if event.modifiers() & Qt.ShiftModifier else "rotate"
@@ -239,6 +245,10 @@ class CanvasView(QWidget):
     def mouseMoveEvent(self, event) -> None:
         drag = self._drag
         if drag is None:
+            return
+        if drag["mode"] == "clip":
+            clip_drag.move(self, drag, event)
+            event.accept()
             return
         offset = event.position() - drag["start"]
         dx, dy = offset.x(), offset.y()
