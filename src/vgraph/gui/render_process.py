@@ -32,7 +32,7 @@ Protocol (pickled objects over a ``multiprocessing`` pipe, one job in flight at 
   messages (a ``vgraph.progress.Progress``: the processor that started, and how far the steps of
   its work are: reading a file, prefiltering, bricks), at most one every ``PROGRESS_INTERVAL``
   seconds for the same processor, so a fast frame costs a few small messages and a long read
-  does not flood the pipe. ``RenderProcess.running`` holds the last one of the job in flight.
+  does not flood the pipe (``progress_messages``). ``RenderProcess.running`` holds the last one of the job in flight.
 The render process keeps its network between jobs (``mirror`` applies a document as a diff; changes
 edit it in place), so unchanged processors keep their textures and outputs.
 
@@ -63,6 +63,7 @@ from vgraph.gui.evaluator import (EvaluationOutcome, ProcessorStatus, evaluate_v
                                   value_scales, view_cameras)
 from vgraph.gui.changes import Change, apply_changes
 from vgraph.gui.mirror import mirror
+from vgraph.gui.progress_messages import ProcessorProgress, ProgressForwarder
 from vgraph.gui.view_boxes import view_boxes
 from vgraph.network import Network
 from vgraph.registry import registry
@@ -73,7 +74,6 @@ RECENT_JOBS = 20   # how many recent jobs say how long a job usually takes
 # drawing) and refines in the following jobs; short enough to feel immediate, long enough that a
 # frame reads a good share of what it needs (docs/bricked_raycaster.md, "In the GUI").
 GUI_LOAD_LIMIT = LoadLimit(seconds=0.25)
-PROGRESS_INTERVAL = 0.05  # seconds between two progress messages of one processor (a bar needs no more)
 
 
 @dataclass
@@ -99,33 +99,6 @@ class RenderProgress:
     version: int
     done: int
     total: int
-
-
-@dataclass
-class ProcessorProgress:
-    """Sent while a job is evaluated: which processor runs and how far it is."""
-    version: int
-    progress: progress_api.Progress
-
-
-class ProgressForwarder:
-    """A ``vgraph.progress`` listener that sends through ``send`` each processor's start, the
-    first report of each kind of work (``what``, ``total``) and its last step at once, and the
-    steps between at most every ``interval`` seconds."""
-
-    def __init__(self, send, version: int, interval: float = PROGRESS_INTERVAL):
-        self.send, self.version, self.interval = send, version, interval
-        self._last: tuple = (None, 0.0)   # ((processor, what, total), time.monotonic()) last sent
-
-    def __call__(self, progress: progress_api.Progress) -> None:
-        now = time.monotonic()
-        kind = (progress.processor, progress.what, progress.total)
-        last_kind, sent = self._last
-        last_step = progress.total > 0 and progress.done >= progress.total
-        if kind == last_kind and now - sent < self.interval and not last_step:
-            return
-        self._last = (kind, now)
-        self.send(ProcessorProgress(self.version, progress))
 
 
 @dataclass
