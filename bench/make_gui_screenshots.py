@@ -24,27 +24,12 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 
 
-def visible_fully(widget) -> bool:
-    """The widget's whole rectangle shows inside the inspector's scroll viewport."""
-    from PySide6.QtCore import QRect
-    from PySide6.QtWidgets import QScrollArea
-    if widget is None or not widget.isVisible():
-        return False
-    area = widget.parent()
-    while area is not None and not isinstance(area, QScrollArea):
-        area = area.parent()
-    if area is None:
-        return True
-    viewport = area.viewport()
-    top_left = widget.mapTo(viewport, widget.rect().topLeft())
-    return QRect(0, 0, viewport.width(), viewport.height()).contains(QRect(top_left, widget.size()))
-
-
 def shoot(network: Path, select: str, size: tuple[int, int], out: Path) -> dict:
     from PySide6.QtCore import QSettings
     from PySide6.QtWidgets import QApplication, QScrollArea
 
     from vgraph.gui.app import MainWindow, save_screenshot
+    from vgraph.gui.layout import shown_whole
     from vgraph.gui.canvas_toolbar import overlay_setting
     from vgraph.gui.transfer_function_editor import TransferFunctionEditor
 
@@ -68,7 +53,10 @@ def shoot(network: Path, select: str, size: tuple[int, int], out: Path) -> dict:
         report = {
             "window": (window.width(), window.height()),
             "inspector horizontal scroll bar": bool(scroll and scroll.horizontalScrollBar().isVisible()),
-            "TF editor fully visible": bool(editors) and all(visible_fully(e) for e in editors),
+            "TF editor fully visible": bool(editors) and all(shown_whole(e) for e in editors),
+            "camera editor fully visible": shown_whole(window.inspector.editors.get("camera")),
+            "canvas shows its frame": all(v.frame() is not None and shown_whole(v)
+                                          for v in window.canvases.views.values()),
         }
         path = out / f"gui_{size[0]}x{size[1]}.png"
         save_screenshot(window, path)

@@ -371,3 +371,29 @@ def test_reported_camera_and_box_project_onto_the_rendered_box(gl):
     # pixel c covers [c, c + 1): the silhouette's pixels are those whose centres the hull covers
     assert cols.min() == math.ceil(points[:, 0].min() - 0.5) and cols.max() == math.floor(points[:, 0].max() - 0.5)
     assert rows.min() == math.ceil(points[:, 1].min() - 0.5) and rows.max() == math.floor(points[:, 1].max() - 0.5)
+
+
+@pytest.mark.parametrize("size", [(1280, 800), (1920, 1080)])
+def test_nothing_is_cut_off_at_common_screen_sizes(window, qtbot, data_dir, size):
+    """The head network at 1280 x 800 and 1920 x 1080 (docs/gui.md's screenshots): the canvas
+    below the palette shows its frame, and the RayCaster's inspector shows the camera editor and
+    the transfer-function editor whole, without a horizontal scroll bar."""
+    from PySide6.QtWidgets import QScrollArea
+    from vgraph.gui import layout
+    from vgraph.gui.transfer_function_editor import TransferFunctionEditor
+
+    window.arrange(*size)
+    assert window.open_network(REPO / "networks" / "raycast_head.json")
+    window.scene.select_processor("rc")
+    window.evaluation.run(wait=True)
+    qtbot.waitUntil(lambda: window.canvases.views["canvas"].frame() is not None, timeout=60000)
+    qtbot.wait(50)
+    dock = window.canvases.docks["canvas"]
+    assert window.dockWidgetArea(dock) == window.dockWidgetArea(window.palette_dock) == Qt.LeftDockWidgetArea
+    assert dock.y() > window.palette_dock.y()
+    assert layout.shown_whole(window.canvases.views["canvas"])
+    assert window.canvases.views["canvas"].image_rect().width() >= 250
+    scroll = window.inspector.findChild(QScrollArea)
+    assert not scroll.horizontalScrollBar().isVisible()
+    [tf_editor] = window.inspector.findChildren(TransferFunctionEditor)
+    assert layout.shown_whole(tf_editor) and layout.shown_whole(window.inspector.editors["camera"])

@@ -1,8 +1,8 @@
 """The main window and ``run_gui`` (``vgraph gui [NETWORK.json]``).
 
 Layout: the network editor in the middle, the processor palette and the canvases below it on the
-left, the property inspector on the right, the log at the bottom, messages (such as why a connection is
-refused) in the status bar. The first-run size, the layout kept between runs, the View menu's
+left, the property inspector on the right, the log at the bottom, messages (such as why a
+connection is refused) in the status bar. The first-run size, the layout kept between runs, the View menu's
 docks and Reset Layout are in ``layout.py``; the Help menu is ``help.py``.
 
 Conventions:

@@ -19,9 +19,9 @@ Conventions:
 
 from __future__ import annotations
 
-from PySide6.QtCore import QSettings, Qt
+from PySide6.QtCore import QPoint, QRect, QSettings, Qt
 from PySide6.QtGui import QGuiApplication
-from PySide6.QtWidgets import QDockWidget, QFormLayout, QLabel, QMainWindow, QMenu, QWidget
+from PySide6.QtWidgets import QDockWidget, QFormLayout, QLabel, QMainWindow, QMenu, QScrollArea, QWidget
 
 FIRST_RUN_FRACTION = 0.85
 GEOMETRY_KEY = "window/geometry"
@@ -141,6 +141,21 @@ def reset_layout(window) -> None:
     arrange(window, *first_run_size(window))
     settings = window.workspace.settings
     settings.remove(GEOMETRY_KEY), settings.remove(STATE_KEY)
+
+
+def shown_whole(widget: QWidget) -> bool:
+    """Whether all of ``widget`` is on screen: visible, and inside the viewport of the scroll area
+    holding it, if any (the check behind docs/gui.md's screenshots: nothing cut off)."""
+    if widget is None or not widget.isVisible():
+        return False
+    area = widget.parent()
+    while area is not None and not isinstance(area, QScrollArea):
+        area = area.parent()
+    if area is None:
+        return True
+    viewport = area.viewport()
+    corner = widget.mapTo(viewport, QPoint(0, 0))
+    return viewport.rect().contains(QRect(corner, widget.size()))
 
 
 def fill_dock_menu(menu: QMenu, window: QMainWindow, before) -> None:
