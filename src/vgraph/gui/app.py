@@ -2,8 +2,8 @@
 
 Layout: the network editor in the middle, the processor palette and the canvases below it on the
 left, the property inspector on the right, the log at the bottom, messages (such as why a
-connection is refused) in the status bar. The first-run size, the layout kept between runs, the View menu's
-docks and Reset Layout are in ``layout.py``; the Help menu is ``help.py``.
+connection is refused) in the status bar. The first-run size, the layout kept between runs, the
+View menu's docks and Reset Layout are in ``layout.py``; the Help menu is ``help.py``.
 
 Conventions:
 - The window wires views to the Workspace; it holds no model state of its own.
