@@ -30,8 +30,9 @@ import moderngl
 import numpy as np
 
 from vgraph import Inport, OptionProperty, Outport, VGraphError
-from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, FrontToBack, Light,
-                                             RaycasterBase, Sampling)
+from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EmptySpace, EntryExit, FrontToBack,
+                                             Light, RaycasterBase, Sampling)
+from vgraph.gl.raycasting.empty_space import BLOCK, radii_if_worthwhile
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
@@ -52,7 +53,7 @@ class LabelRayCaster(RaycasterBase):
     category = "Volume rendering"
     inports = [Inport("labels", Volume), Inport("entry", Image), Inport("exit", Image)]
     outports = [Outport("image", Image)]
-    components = (EntryExit, CameraRays, Sampling, FrontToBack, Light, Background)
+    components = (EntryExit, CameraRays, Sampling, FrontToBack, Light, EmptySpace, Background)
 
     label_table = LabelTableProperty(LabelTable.default(),
                                      doc="per label value: name, colour, opacity, visible; unlisted "
@@ -65,6 +66,7 @@ class LabelRayCaster(RaycasterBase):
         super().__init__(id, **values)
         self._targets = RenderTargets(1)
         self._colors = ColorTable()
+        self._codes: LabelCodes | None = None  # of the frame being drawn (skip_values reads them)
 
     def shaded(self) -> bool:
         return self.shading != "none"
@@ -77,6 +79,7 @@ class LabelRayCaster(RaycasterBase):
                               f"bricked ({' x '.join(map(str, labels.dims))} voxels)")
         frame = self.frame(labels, entry, exit)
         codes, texture = label_textures(labels, frame.ctx, consumer)
+        self._codes = codes
         colors = self._colors.update(frame.ctx, self.label_table, codes)
         own = Binding(defines={f"COMPOSITING_{self.compositing.upper()}": True},
                       textures={"labels": texture, "label_colors": colors},
@@ -85,6 +88,13 @@ class LabelRayCaster(RaycasterBase):
         (image,) = self._targets.ensure(frame.ctx, entry.size)
         self.draw(frame, SHADER, self._targets, own=own)
         return image
+
+    def skip_values(self, frame):
+        """Empty-space skipping (components.EmptySpace): blocks whose voxels, with the one-voxel
+        margin the majority rule reads, hold no shown label are empty. Ray bounds follow from them
+        ("opacity": empty blocks contribute nothing), so the image is the same, only cheaper."""
+        codes, table = self._codes, self.label_table
+        return ("opacity", table), lambda low, high: radii_if_worthwhile(shown_blocks(codes, table))
 
 
 def label_textures(volume: Volume, ctx: moderngl.Context, consumer: str) -> tuple[LabelCodes, moderngl.Texture]:
@@ -109,6 +119,18 @@ def label_textures(volume: Volume, ctx: moderngl.Context, consumer: str) -> tupl
         texture.repeat_x = texture.repeat_y = texture.repeat_z = False
         textures[id(ctx)] = texture
     return codes, texture
+
+
+def shown_blocks(codes: LabelCodes, table: LabelTable) -> np.ndarray:
+    """Per empty-space block [bz, by, bx]: whether a voxel of it holds a shown label; block b
+    covers voxels [b * BLOCK - 1, (b + 1) * BLOCK + 1] on each axis (empty_space.block_ranges)."""
+    shown = (table.colors(codes.values)[:, 3] > 0.0)[codes.codes]
+    for axis in range(3):
+        moved = np.moveaxis(shown, axis, 0)
+        n = moved.shape[0]
+        shown = np.moveaxis(np.stack([moved[max(b * BLOCK - 1, 0):min((b + 1) * BLOCK + 2, n)].any(axis=0)
+                                      for b in range(-(-n // BLOCK))]), 0, axis)
+    return shown
 
 
 class ColorTable:

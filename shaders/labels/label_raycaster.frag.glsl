@@ -2,12 +2,14 @@
 // LabelRayCaster: one ray per pixel between the EntryExitPoints images through a label volume,
 // labels reconstructed by the majority of interpolation weights (majority.glsl), coloured by the
 // label table. Defines: exactly one COMPOSITING_* (COMPOSITE, FIRST_HIT), SHADING_BLINN_PHONG with
-// LIGHT_HEADLIGHT. Output: premultiplied colour over `background`.
+// LIGHT_HEADLIGHT, SKIP_EMPTY_SPACE and RAY_BOUNDS (over blocks without shown labels). Output:
+// premultiplied colour over `background`.
 #include "raycasting/ray.glsl"
 #include "raycasting/pixel_ray.glsl"
 #include "raycasting/depth_output.glsl"
 #include "raycasting/background.glsl"
 #include "raycasting/shading.glsl"
+#include "raycasting/march.glsl"
 #include "labels/majority.glsl"
 #include "labels/label_shading.glsl"
 #include "labels/compositing_composite.glsl"

@@ -29,13 +29,22 @@ Label majority_label(vec3 t) {
     vec3 base = clamp(floor(p), vec3(0.0), vec3(max(volume_dims - 2, ivec3(0))));
     vec3 f = p - base;
     ivec3 corner0 = ivec3(base);
+    uint codes[8];
+    bool one_code = true;
+    for (int c = 0; c < 8; ++c) {
+        ivec3 voxel = min(corner0 + ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1), volume_dims - 1);
+        codes[c] = texelFetch(labels, voxel, 0).r;
+        one_code = one_code && codes[c] == codes[0];
+    }
+    if (one_code) {  // inside a label or the background (most samples): all weight, no slope
+        return Label(code_color(codes[0]).a > 0.0 ? codes[0] : BACKGROUND, 1.0, vec3(0.0));
+    }
     uint votes[8];
     float weights[8];
     vec3 slopes[8];
     for (int c = 0; c < 8; ++c) {
         ivec3 offset = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        ivec3 voxel = clamp(corner0 + offset, ivec3(0), volume_dims - 1);
-        uint code = texelFetch(labels, voxel, 0).r;
+        uint code = codes[c];
         votes[c] = code_color(code).a > 0.0 ? code : BACKGROUND;
         vec3 axis = mix(1.0 - f, f, vec3(offset));  // per-axis weights of this corner
         weights[c] = axis.x * axis.y * axis.z;
