@@ -47,7 +47,7 @@ REPO = Path(__file__).resolve().parents[1]
 NETWORK = REPO / "networks" / "raycast_head.json"
 CANVAS, RAY_CASTER = "canvas", "rc"
 MOVE_S = 0.016          # one mouse move per 60 Hz frame
-WAIT_TIMEOUT_S = 180.0  # a step that takes longer has failed
+WAIT_TIMEOUT_S = 180.0  # a step that takes longer has failed (60 s with --quick)
 
 
 @dataclass
@@ -298,11 +298,12 @@ def _ancestors(widget):
 class Stepper:
     """Runs the session generator from a timer, so it goes on inside nested event loops (the
     Save As dialog's). It yields a number (seconds to wait), a subprocess (wait until it exits) or
-    a callable (wait until it returns true); a wait longer than WAIT_TIMEOUT_S fails the session."""
+    a callable (wait until it returns true); a wait longer than ``timeout`` fails the session."""
 
-    def __init__(self, steps):
+    def __init__(self, steps, timeout: float = WAIT_TIMEOUT_S):
         from PySide6.QtCore import QEventLoop, QTimer
         self.steps, self.waiting, self.since = steps, None, 0.0
+        self.timeout = timeout
         self.error: BaseException | None = None
         self.done, self._busy = False, False
         self.loop = QEventLoop()
@@ -332,8 +333,8 @@ class Stepper:
             return
         if self._ready():
             self._advance()
-        elif time.monotonic() - self.since > WAIT_TIMEOUT_S:
-            self._advance(TimeoutError(f"waited {WAIT_TIMEOUT_S:.0f} s for {self.waiting!r}"))
+        elif time.monotonic() - self.since > self.timeout:
+            self._advance(TimeoutError(f"waited {self.timeout:.0f} s for {self.waiting!r}"))
 
     def _advance(self, error: BaseException | None = None) -> None:
         self._busy = True
@@ -349,7 +350,11 @@ class Stepper:
             self._busy = False
 
     def _finish(self) -> None:
+        from PySide6.QtWidgets import QApplication
         self.done = True
+        dialog = QApplication.activeModalWidget()
+        if dialog is not None:   # a failure while a dialog is up: its event loop would keep ours
+            dialog.close()
         self.loop.quit()
 
 
@@ -398,7 +403,8 @@ def run_session(args, folder: Path) -> tuple[list[Wait], "object"]:
     window.workspace.network.set(f"{CANVAS}.size", [args.size, args.size])  # the bench's, not an edit
     frames = FrameLog(window)
     try:
-        Stepper(session(window, user, frames, folder, args.quick, waits, opened)).run()
+        Stepper(session(window, user, frames, folder, args.quick, waits, opened),
+                60.0 if args.quick else WAIT_TIMEOUT_S).run()
         shot = window.grab()
     finally:
         window.workspace.undo_stack.setClean()
