@@ -53,14 +53,19 @@ def test_a_slow_source_shows_its_name_steps_node_and_a_stale_frame_until_the_fra
     assert running.bar.value() == 500               # step 5 of 10
     assert node.status.state == "running" and node.status.fraction == 0.5
     assert "waiting for the gate 50%" in node.status.text
-    assert view.message().startswith(STALE_PREFIX + "source (SlowSource)")
+    downstream = {pid: window.scene.nodes[pid].status for pid in ("eep", "rc", "canvas")}
+    assert all(status.state == "invalid" and status.text == "waiting for source"
+               for status in downstream.values()), downstream
+    assert view.message() == STALE_PREFIX + "source 50%"
     np.testing.assert_array_equal(view.frame(), old)  # the old frame stays up meanwhile
 
     gate.touch()
     qtbot.waitUntil(window.evaluation.idle, timeout=20000)
     qtbot.waitUntil(lambda: not running.visible, timeout=5000)
     assert not running.bar.isVisible()
-    assert node.status.state == "evaluated" and node.status.fraction is None
+    assert all(window.scene.nodes[pid].status.state == "evaluated"
+               for pid in ("source", "eep", "rc", "canvas"))
+    assert node.status.fraction is None
     assert view.message() == ""
     assert not np.array_equal(view.frame(), old)     # the new sphere, sampled at 40^3
 

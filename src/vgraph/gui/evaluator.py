@@ -280,5 +280,11 @@ def running_status(progress) -> ProcessorStatus:
     return ProcessorStatus("running", text, f"running now: {progress.describe()}", fraction=fraction)
 
 
+def waiting_status(upstream: str) -> ProcessorStatus:
+    """What a node downstream of the running processor ``upstream`` shows: it runs after it."""
+    return ProcessorStatus("invalid", f"waiting for {upstream}",
+                           f"runs again once {upstream} (running now) is done")
+
+
 def format_seconds(seconds: float) -> str:
     return f"{seconds * 1000:.1f} ms" if seconds < 1 else f"{seconds:.2f} s"

@@ -9,18 +9,21 @@ anything flicker), the window shows:
   head.raw"), and a progress bar when that work has steps (reading a file, prefiltering,
   bricks); only the label for work without steps;
 - on the node: the running state (its own colour, the step and percentage as the status line);
-- on each canvas that shows an older frame: a note that the frame is being updated (the old
-  frame stays up: a blank canvas for every long load would be worse).
+  the nodes downstream of it as waiting for it (they run again after it; before, they stayed
+  green, as if nothing were happening);
+- on each canvas that shows an older frame: a note that the frame is being updated ("updating:
+  source 45%"; the old frame stays up: a blank canvas for every long load would be worse).
 
 All of it goes when the job is answered (its frames and statuses replace it) or cancelled.
 """
 
 from __future__ import annotations
 
+import networkx as nx
 from PySide6.QtCore import QObject, QTimer
 from PySide6.QtWidgets import QLabel, QProgressBar
 
-from vgraph.gui.evaluator import running_status
+from vgraph.gui.evaluator import running_status, waiting_status
 
 SHOW_AFTER_SECONDS = 0.3
 STALE_PREFIX = "updating: "   # the canvas note; a note of another kind is never touched
@@ -44,7 +47,7 @@ class EvaluationProgress(QObject):
         self.label.hide()
         self.bar.hide()
         self.current = None          # the last Progress received
-        self.shown_node: str | None = None   # the node drawn as running
+        self.marked: set[str] = set()   # the nodes drawn as running or waiting
         self.timer = QTimer(self)    # shows a progress that arrived before the delay was over
         self.timer.setSingleShot(True)
         self.timer.timeout.connect(self._show)
@@ -80,22 +83,30 @@ class EvaluationProgress(QObject):
             self.bar.setValue(round(fraction * 1000))
             self.bar.setFormat(f"{fraction * 100:.0f}%")
             self.bar.show()
-        self._mark_node(progress)
-        for view in self.window.canvases.views.values():
+        self._mark_nodes(progress)
+        note = STALE_PREFIX + progress.processor + (f" {fraction * 100:.0f}%" if fraction is not None else "")
+        for view in self.window.canvases.views.values():  # short: a canvas dock is often narrow
             if view.frame() is not None and (not view.message() or view.message().startswith(STALE_PREFIX)):
-                view.set_message(f"{STALE_PREFIX}{progress.describe()}")
+                view.set_message(note)
 
-    def _mark_node(self, progress) -> None:
-        nodes = self.window.scene.nodes
-        if self.shown_node is not None and self.shown_node != progress.processor:
-            self._restore_node()
-        node = nodes.get(progress.processor)
-        if node is not None:
-            node.set_status(running_status(progress))
-            self.shown_node = progress.processor
+    def _mark_nodes(self, progress) -> None:
+        """The running node as running, the nodes downstream of it as waiting (they run again
+        after it); nodes marked before and no longer meant get their last status back."""
+        network = self.window.workspace.network
+        marks = {}
+        if progress.processor in network:
+            marks = {pid: waiting_status(progress.processor)
+                     for pid in nx.descendants(network.graph, progress.processor)}
+            marks[progress.processor] = running_status(progress)
+        for pid in set(self.marked) - set(marks):
+            self._restore_node(pid)
+        for pid, status in marks.items():
+            node = self.window.scene.nodes.get(pid)
+            if node is not None:
+                node.set_status(status)
+        self.marked = set(marks)
 
-    def _restore_node(self) -> None:
-        pid, self.shown_node = self.shown_node, None
+    def _restore_node(self, pid: str) -> None:
         node = self.window.scene.nodes.get(pid)
         if node is not None and pid in self.window.workspace.network:
             node.set_status(self.evaluation.status_of(pid))
@@ -105,8 +116,9 @@ class EvaluationProgress(QObject):
         self.timer.stop()
         self.label.hide()
         self.bar.hide()
-        if self.shown_node is not None:
-            self._restore_node()
+        for pid in self.marked:
+            self._restore_node(pid)
+        self.marked = set()
         for view in self.window.canvases.views.values():
             if view.message().startswith(STALE_PREFIX):
                 view.set_message("")
