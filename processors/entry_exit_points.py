@@ -33,7 +33,7 @@ import numpy as np
 
 from vgraph import CameraProperty, FloatProperty, Inport, Outport, Processor, VGraphError
 from vgraph.clipping import ClipPlanesProperty, CropBoxProperty, cropped_box, plane_uniforms
-from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, bind_textures, fullscreen_pass, set_uniform
+from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, bind_textures, fullscreen_pass, set_uniforms
 from vgraph.gl.shaders import programs
 from vgraph.gl.raycasting.geometry import (BOX_EPSILON, DEFAULT_CAMERA, PROXY_MARGIN, VolumeGeometry,
                                            plane_cuts_box, plane_frame, ray_uniforms, vec, view_camera)
@@ -191,8 +191,7 @@ class EntryExitPoints(Processor):
         faces = programs.program(ctx, *FACE_SHADERS, defines, processor=self.id)
         self.passes.append((FACE_SHADERS[1], defines))
         bind_textures(faces, textures)
-        for name, value in {**uniforms, **faces_only}.items():
-            set_uniform(faces, name, value)
+        set_uniforms(faces, {**uniforms, **faces_only})
         ctx.front_face, ctx.cull_face = "ccw", culled
         ctx.enable(moderngl.CULL_FACE)
         try:

@@ -20,7 +20,10 @@ from __future__ import annotations
 
 import functools
 import math
+import weakref
+from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 
@@ -40,8 +43,17 @@ DEFAULT_CAMERA = Camera(**{**Camera.looking_at_box(*UNIT_BOX, direction=(-0.45, 
 def view_camera(camera: Camera, volume: Volume, size) -> Camera:
     """The concrete camera that renders ``volume`` at ``size`` (Camera.resolved on its box): every
     processor of one view resolves the same camera, so entry points and ray casters agree."""
+    last = _last_view[0]
+    if last is not None and last[0] is camera and last[1]() is volume and last[2] == size:
+        return last[3]  # the second processor of a frame: no hashing of the camera's fields
     box_min, box_max = VolumeGeometry.of(volume).box
-    return _resolved(camera, tuple(box_min), tuple(box_max), size[0] / size[1])
+    resolved = _resolved(camera, tuple(box_min), tuple(box_max), size[0] / size[1])
+    _last_view[0] = (camera, weakref.ref(volume), tuple(size), resolved)
+    return resolved
+
+
+# (camera, volume (weakly: this must not keep a volume alive), size, resolved camera) of the last call
+_last_view: list = [None]
 
 
 @functools.lru_cache(maxsize=32)
@@ -120,17 +132,34 @@ def plane_frame(camera: Camera, size, plane: str = "near") -> tuple[np.ndarray, 
 
 def plane_cuts_box(camera: Camera, plane: str, box_min, box_max) -> bool:
     """Whether the near or far plane passes through the box (only then does it cap any ray)."""
-    corners = np.array([[(box_min, box_max)[(i >> axis) & 1][axis] for axis in range(3)] for i in range(8)])
-    depths = (corners - np.asarray(camera.position)) @ camera.basis()[2]
+    # The box's depth range along the view axis: its centre's depth +- the half-extent's reach.
+    forward = camera.basis()[2]
+    low, high = np.asarray(box_min, dtype=np.float64), np.asarray(box_max, dtype=np.float64)
+    centre_depth = float(((low + high) / 2.0 - np.asarray(camera.position)) @ forward)
+    reach = float(np.abs(forward) @ ((high - low) / 2.0))
     plane_depth = camera.near if plane == "near" else camera.far
-    return bool(depths.min() < plane_depth < depths.max())
+    return centre_depth - reach < plane_depth < centre_depth + reach
 
 
-def ray_uniforms(camera: Camera, size) -> dict[str, tuple[float, ...]]:
+def ray_uniforms(camera: Camera, size) -> Mapping[str, tuple[float, ...]]:
     """Uniforms of the pixel rays (Camera.rays): origin near_centre + x near_right + y near_up and
     direction direction_centre + x direction_right + y direction_up (not normalised) for the pixel
     centre at NDC (x, y). Directions are given on their own, not as origin - eye, which would lose
-    digits in float32 when the near plane is close to the eye."""
+    digits in float32 when the near plane is close to the eye. Read-only: the processors of one
+    frame share the camera (view_camera) and so share these."""
+    size = tuple(size)
+    last = _last_rays[0]
+    if last is not None and last[0] is camera and last[1] == size:
+        return last[2]
+    rays = MappingProxyType(_ray_uniforms(camera, size))
+    _last_rays[0] = (camera, size, rays)
+    return rays
+
+
+_last_rays: list = [None]  # (camera, size, uniforms) of the last call: a frame asks three times
+
+
+def _ray_uniforms(camera: Camera, size) -> dict[str, tuple[float, ...]]:
     near = plane_frame(camera, size, "near")
     forward = camera.basis()[2]
     if camera.projection == "perspective":  # through the near-plane point, from the eye

@@ -32,7 +32,7 @@ import os
 import moderngl
 import numpy as np
 
-from vgraph.gl.passes import set_uniform
+from vgraph.gl.passes import set_uniforms
 from vgraph.gl.raycasting.empty_space import BLOCK
 from vgraph.gl.raycasting.geometry import VolumeGeometry, ray_uniforms, vec
 from vgraph.gl.shaders import programs
@@ -171,8 +171,7 @@ class RayBounds:
                     "tile_spread": half_x * length("direction_right") + half_y * length("direction_up"),
                     "viewport_size": (float(size[0]), float(size[1])), "ray_bounds_tile": TILE,
                     "near_to_far": float(camera.far - camera.near), **rays}
-        for name, value in uniforms.items():
-            set_uniform(program, name, value)
+        set_uniforms(program, uniforms)
         self._framebuffer.use()
         self._framebuffer.clear(FAR, FAR, 0.0, 0.0)
         ctx.viewport = (0, 0, *coarse)
