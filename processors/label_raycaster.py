@@ -47,8 +47,9 @@ _CACHE_KEY = "_label_codes"  # where a volume keeps its codes and their textures
 
 
 class LabelRayCaster(RaycasterBase):
-    """Ray casting of a label volume: a colour and opacity per label, smooth boundaries without
-    colour bleeding (majority of interpolation weights)."""
+    """Ray casting of integer labels: a colour and opacity per label, smooth boundaries, no bleeding.
+
+    Each sample's label is the majority of its 8 voxels' interpolation weights (module docstring)."""
 
     category = "Volume rendering"
     inports = [Inport("labels", Volume), Inport("entry", Image), Inport("exit", Image)]
@@ -146,6 +147,9 @@ class ColorTable:
         if self.texture is not None and key == self.key and self.texture.ctx is ctx:
             return self.texture
         rows = max(1, math.ceil(codes.values.size / LABEL_ROW))
+        if rows > ctx.info["GL_MAX_TEXTURE_SIZE"]:
+            raise VGraphError(f"{codes.values.size} distinct labels exceed this GL's colour table of "
+                              f"{LABEL_ROW * ctx.info['GL_MAX_TEXTURE_SIZE']} labels")
         rgba = np.zeros((rows * LABEL_ROW, 4), dtype=np.float32)
         rgba[:codes.values.size] = table.colors(codes.values)
         if self.texture is None or self.texture.ctx is not ctx or self.texture.size != (LABEL_ROW, rows):

@@ -17,7 +17,7 @@ from __future__ import annotations
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (QAbstractItemView, QCheckBox, QColorDialog, QComboBox, QDoubleSpinBox, QHBoxLayout,
-                               QHeaderView, QLabel, QPushButton, QTableWidget, QTableWidgetItem, QVBoxLayout)
+                               QHeaderView, QLabel, QPushButton, QSizePolicy, QTableWidget, QTableWidgetItem, QVBoxLayout)
 
 from vgraph.gui.editors import PropertyEditor, list_popup, register_editor, spin_value
 from vgraph.labels import LabelTable, palette_color
@@ -25,6 +25,7 @@ from vgraph.labels import LabelTable, palette_color
 COLUMNS = ("label", "name", "colour", "opacity", "visible")
 VALUE, NAME, COLOUR, OPACITY, VISIBLE = range(len(COLUMNS))
 DECIMALS = 6
+VISIBLE_ROWS = 8  # rows shown before the table scrolls
 
 
 def _hex(rgb) -> str:
@@ -67,6 +68,7 @@ class LabelTableEditor(PropertyEditor):
         buttons.addWidget(self.unlisted_opacity)
         column.addLayout(buttons)
         self.layout_.addLayout(column)
+        self.setSizePolicy(QSizePolicy.Preferred, QSizePolicy.Maximum)  # no gap below the table
 
     @property
     def current(self) -> LabelTable:
@@ -90,9 +92,18 @@ class LabelTableEditor(PropertyEditor):
                 self._show_row(row, entry)
         finally:
             self.table.blockSignals(False)
+        self._fit_rows(len(value.labels))
         self.unlisted.setCurrentText(value.unlisted)
         self.unlisted_opacity.setValue(value.unlisted_opacity)
         self.unlisted_opacity.setEnabled(value.unlisted == "palette")
+
+    def _fit_rows(self, count: int) -> None:
+        """As tall as its rows (at least 2, at most VISIBLE_ROWS; more scroll): no empty area."""
+        self.table.resizeRowsToContents()
+        row = self.table.rowHeight(0) if count else self.table.verticalHeader().defaultSectionSize()
+        shown = min(max(count, 2), VISIBLE_ROWS)
+        self.table.setFixedHeight(self.table.horizontalHeader().height() + shown * row
+                                  + 2 * self.table.frameWidth() + 2)
 
     def _show_row(self, row: int, entry) -> None:
         self.table.setItem(row, VALUE, QTableWidgetItem(str(entry.value)))
