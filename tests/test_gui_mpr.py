@@ -1,7 +1,7 @@
 """The multi-planar layout in the GUI: a click in the axial slice of networks/mpr_mri_head.json
 moves the shared cursor there (the coronal and sagittal viewers follow through their linked
 cursor properties, and their images change), as one undo step; a click beside the image or in a
-3D canvas moves nothing."""
+3D canvas moves nothing; View > Tile Canvases puts the four views in a grid."""
 
 import numpy as np
 import pytest
@@ -86,3 +86,15 @@ def test_the_slice_a_canvas_shows_is_found_upstream(mpr):
     network = mpr.workspace.network
     assert slice_viewer_for(network, "sagittal_canvas") == "sagittal"
     assert slice_viewer_for(network, "canvas") is None
+
+
+def test_tile_canvases_shows_the_four_views_side_by_side(mpr, qtbot):
+    docks = [mpr.canvases.docks[c] for c in ("axial_canvas", "coronal_canvas", "sagittal_canvas", "canvas")]
+    assert mpr.tabifiedDockWidgets(docks[0])  # tabbed together by default
+    mpr.tile_canvases_action.trigger()  # View > Tile Canvases
+    qtbot.waitUntil(lambda: all(dock.isVisible() for dock in docks))
+    assert all(not mpr.tabifiedDockWidgets(dock) for dock in docks)
+    top_left, top_right, bottom_left, bottom_right = (dock.geometry() for dock in docks)
+    assert top_left.top() == top_right.top() < bottom_left.top() == bottom_right.top()
+    assert top_left.left() == bottom_left.left() < top_right.left() == bottom_right.left()
+    assert all(mpr.canvases.views[c].isVisible() for c in mpr.canvases.views)

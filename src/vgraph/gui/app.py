@@ -39,6 +39,7 @@ from vgraph.gui.evaluator import EvaluationOutcome, format_seconds
 from vgraph.gui.file_actions import FileActions
 from vgraph.gui.help import build_help_menu, redo_keys
 from vgraph.gui import layout
+from vgraph.gui import canvas_grid
 from vgraph.gui.inspector import PropertyInspector
 from vgraph.gui.links import LinkDialog
 from vgraph.gui.live_evaluation import LiveEvaluation
@@ -135,6 +136,8 @@ class MainWindow(FileActions, QMainWindow):
                                            "Ctrl+R")
         self.cancel_action = self._action("&Cancel Rendering", self.cancel_rendering)
         self.reset_layout_action = self._action("&Reset Layout", lambda: layout.reset_layout(self))
+        self.tile_canvases_action = self._action(  # side by side, e.g. a multi-planar layout
+            "&Tile Canvases", lambda: canvas_grid.tile_canvases(self, list(self.canvases.docks.values())))
         self.cancel_action.setEnabled(False)
         self.cluster_action = self._action("Render on C&luster...", self.edit_cluster)
         self.cancel_button = QPushButton("Cancel rendering")
@@ -162,7 +165,7 @@ class MainWindow(FileActions, QMainWindow):
                               self.show_links_action])
         view_menu.addSeparator()
         view_menu.addSeparator()  # the docks go between the separators: canvas docks come and go
-        view_menu.addAction(self.reset_layout_action)
+        view_menu.addActions([self.tile_canvases_action, self.reset_layout_action])
         view_menu.aboutToShow.connect(self.refresh_dock_menu)
         self.refresh_dock_menu()
         network_menu = bar.addMenu("&Network")
