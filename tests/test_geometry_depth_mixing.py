@@ -159,3 +159,22 @@ def test_images_of_different_sizes_are_refused(gl):
     network.add("ImageCompositor", id="mix")
     with pytest.raises(Exception, match="one size"):
         network.processors["mix"].process(Image.empty(gl, (8, 8)), Image.empty(gl, (8, 9)))
+
+
+def test_the_head_example_shows_skin_mesh_and_bone_volume_from_the_cli(tmp_path):
+    """networks/head_skin_mesh_bone_volume.json: the skin mesh (cut at x = 100) covers one side
+    of the face, the bone volume shows on the other, over a black background."""
+    from vgraph.cli import main
+    from helpers.paths import DATA, REPO
+    if not DATA.is_dir():
+        pytest.skip(f"shared data sets not found at {DATA}")
+    out = tmp_path / "head.npy"
+    assert main(["run", str(REPO / "networks" / "head_skin_mesh_bone_volume.json"), "--size", "96x96",
+                 "--npy", str(out), "-o", str(tmp_path / "head.png")]) == 0
+    image = np.load(out)
+    skin = (image[..., 0] > image[..., 2] + 0.1) & (image[..., 3] == 1.0)  # the mesh's skin colour
+    bone = (np.abs(image[..., 0] - image[..., 2]) < 0.12) & (image[..., :3].min(axis=-1) > 0.3)  # whitish
+    assert skin.sum() > 200 and bone.sum() > 500
+    # the camera looks from +x: the bone (skin cut away there) is left, the skin right of it
+    assert np.mean(np.nonzero(bone)[1]) < np.mean(np.nonzero(skin)[1])
+    np.testing.assert_allclose(image[[0, 0, -1, -1], [0, -1, 0, -1], :3], 0.0, atol=1e-6)

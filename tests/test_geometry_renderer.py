@@ -124,7 +124,8 @@ def test_scalars_are_coloured_through_the_colour_map(gl):
     table = colormap_table("jet").astype(np.float64)
     position = (points[..., 2] - low) / (high - low) * (len(table) - 1)
     expected = np.stack([np.interp(position, np.arange(len(table)), table[:, c]) for c in range(3)], axis=-1)
-    np.testing.assert_allclose(image[..., :3][inner], expected[inner], atol=0.01)
+    # viewed along y, a pixel fixes x and z: the face's interpolated z is the sphere's (5e-7 measured)
+    np.testing.assert_allclose(image[..., :3][inner], expected[inner], atol=1e-4)
     # a range of one's own: values beyond it take the map's ends
     image, _ = render(heights, camera, shading="none", colormap="jet", scalar_range=(high + 1, high + 2))
     np.testing.assert_allclose(image[..., :3][inner], np.broadcast_to(table[0, :3], expected[inner].shape), atol=1e-5)
