@@ -25,8 +25,8 @@ from vgraph.gui.workspace import Workspace
 from helpers.paths import REPO
 
 BOX = ((0.0, 0.0, 0.0), (200.0, 200.0, 100.0))
-# (viewing direction = focus - position, up) of each named view, from the views' definitions in
-# docs/gui.md: x right, y to the front, z up; "top" looks down -z with +y up.
+# (viewing direction = focus - position, up) of each named view, as docs/conventions.md and
+# docs/rendering.md define them: x right, y to the front, z up; "top" looks down -z with +y up.
 EXPECTED_VIEWS = {
     "front": ((0, -1, 0), (0, 0, 1)), "back": ((0, 1, 0), (0, 0, 1)),
     "left": ((1, 0, 0), (0, 0, 1)), "right": ((-1, 0, 0), (0, 0, 1)),
