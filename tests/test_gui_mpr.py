@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QPoint, Qt
 
-from vgraph.gui.slice_clicks import OUTSIDE, slice_viewer_for
+from vgraph.gui.slice_clicks import OUTSIDE, slice_outlines, slice_viewer_for
 
 from helpers.paths import DATA, REPO
 
@@ -98,3 +98,9 @@ def test_tile_canvases_shows_the_four_views_side_by_side(mpr, qtbot):
     assert top_left.top() == top_right.top() < bottom_left.top() == bottom_right.top()
     assert top_left.left() == bottom_left.left() < top_right.left() == bottom_right.left()
     assert all(mpr.canvases.views[c].isVisible() for c in mpr.canvases.views)
+
+
+def test_the_slices_outlines_for_a_3d_overlay(mpr):
+    outlines = slice_outlines(mpr.evaluation.view_cameras)
+    assert set(outlines) == {"axial", "coronal", "sagittal"}
+    assert all(len(outline) == 4 for outline in outlines.values())  # axis-aligned: rectangles

@@ -142,6 +142,26 @@ def test_a_plane_outside_the_volume_is_an_empty_image_and_the_border_is_transpar
     assert image[16, 16, 3] == 1.0
 
 
+def test_the_outline_is_where_the_plane_cuts_the_volumes_box():
+    volume = random_volume(spacing=(1.2, 0.7, 2.0))
+    low = np.array(volume.origin) - 0.5 * np.array(volume.spacing)
+    high = low + np.array(volume.dims) * np.array(volume.spacing)
+    _, axial = slice_image(volume, (16, 16), orientation="axial", cursor=(5.0, 0.0, 4.0))
+    outline = axial.last_plane.outline()
+    expected = [[high[0], low[1], 4.0], [low[0], low[1], 4.0], [low[0], high[1], 4.0], [high[0], high[1], 4.0]]
+    np.testing.assert_allclose(outline, expected)  # counter-clockwise in the image, from bottom left
+    _, oblique = slice_image(volume, (16, 16), orientation="custom", normal=(1.0, 2.0, 3.0),
+                             cursor=(7.0, 1.0, 5.5))
+    plane, outline = oblique.last_plane, oblique.last_plane.outline()
+    assert 3 <= len(outline) <= 6
+    np.testing.assert_allclose((outline - (7.0, 1.0, 5.5)) @ plane.normal, 0.0, atol=1e-9)  # on the plane
+    on_faces = np.isclose(outline, low) | np.isclose(outline, high)
+    assert on_faces.any(axis=1).all()  # on the box's surface
+    assert np.all((outline >= low - 1e-9) & (outline <= high + 1e-9))
+    _, missing = slice_image(volume, (16, 16), orientation="axial", cursor=(0.0, 0.0, 100.0))
+    assert missing.last_plane.outline().shape == (0, 3)
+
+
 # --- mapping --------------------------------------------------------------------------------------------
 def test_window_centre_and_width_are_data_values():
     values = np.array([500, 700, 900, 1000, 1100, 1300, 2000])

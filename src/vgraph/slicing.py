@@ -42,6 +42,8 @@ class SlicePlane:
     right: tuple[float, float, float]   # world vector from the left edge to the right edge
     up: tuple[float, float, float]      # world vector from the bottom edge to the top edge
     normal: tuple[float, float, float]  # unit, towards the viewer
+    box_low: tuple[float, float, float] | None = None   # the volume's cell box (cell_box), for
+    box_size: tuple[float, float, float] | None = None  # outline(): where the plane cuts it
 
     def world_at(self, u, v) -> np.ndarray:
         """World points (..., 3) at image coordinates u, v (module docstring)."""
@@ -68,6 +70,33 @@ class SlicePlane:
         """The image's four corners in the world (4, 3): bottom-left, bottom-right, top-right,
         top-left (for drawing the plane's outline in a 3D view)."""
         return self.world_at(np.array([0.0, 1.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0, 1.0]))
+
+
+    def outline(self) -> np.ndarray:
+        """Where the plane cuts the volume's cell box: the polygon's corners (k, 3), k = 0 or 3
+        to 6, in order around it (counter-clockwise as the image shows them), for drawing the
+        slice in a 3D view. Empty when the plane misses the box or the box is unknown."""
+        if self.box_low is None or self.box_size is None:
+            return np.zeros((0, 3))
+        low, size = np.asarray(self.box_low), np.asarray(self.box_size)
+        corners = low + size * _CORNER_BITS
+        depth = (corners - np.asarray(self.centre)) @ np.asarray(self.normal)
+        points = []
+        for a, b in _BOX_EDGES:
+            if (depth[a] <= 0.0) != (depth[b] <= 0.0):  # the edge crosses the plane
+                t = depth[a] / (depth[a] - depth[b])
+                points.append(corners[a] + t * (corners[b] - corners[a]))
+        if len(points) < 3:
+            return np.zeros((0, 3))
+        points = np.array(points)
+        uv = self.uv_of(points) - self.uv_of(points.mean(axis=0))
+        return points[np.argsort(np.arctan2(uv[:, 1], uv[:, 0]))]
+
+
+# Corner k of a box takes the high side along axis a where bit a of k is set; edges join corners
+# one bit apart.
+_CORNER_BITS = np.array([[(k >> axis) & 1 for axis in range(3)] for k in range(8)], dtype=np.float64)
+_BOX_EDGES = [(k, k | 1 << axis) for k in range(8) for axis in range(3) if not k & 1 << axis]
 
 
 def plane_axes(orientation: str, normal=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -119,7 +148,8 @@ def slice_plane(orientation: str, normal, cursor, zoom: float, origin, spacing, 
     in_plane = towards - (towards @ n) * n
     centre = point + in_plane / zoom
     return SlicePlane(centre=_tuple(centre), right=_tuple(right * pixel * width),
-                      up=_tuple(up * pixel * height), normal=_tuple(n))
+                      up=_tuple(up * pixel * height), normal=_tuple(n), box_low=_tuple(low),
+                      box_size=_tuple(extent))
 
 
 def checked_plane(where: str, **arguments) -> SlicePlane:

@@ -33,6 +33,14 @@ def slice_planes(network) -> dict[str, SlicePlane]:
             if isinstance(getattr(processor, "last_plane", None), SlicePlane)}
 
 
+def slice_outlines(view_cameras: dict) -> dict[str, np.ndarray]:
+    """Viewer id -> where its plane cuts the volume's box (SlicePlane.outline, (k, 3) world
+    points), from the render result's ``view_cameras``: for an overlay that shows the slices'
+    planes in a 3D canvas (project the corners with that canvas's camera, as its box edges)."""
+    return {key[:-len(PLANE_SUFFIX)]: plane.outline() for key, plane in view_cameras.items()
+            if key.endswith(PLANE_SUFFIX) and isinstance(plane, SlicePlane) and len(plane.outline())}
+
+
 def slice_viewer_for(network, canvas_id: str) -> str | None:
     """The id of the SliceViewer whose image the canvas shows: the nearest upstream processor
     with a slice plane (image processors in between keep the image's geometry), or None."""
