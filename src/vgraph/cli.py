@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 import traceback
 import warnings
 from contextlib import contextmanager
@@ -245,7 +246,7 @@ def set_view(network, name: str) -> None:
 def command_run(args) -> int:
     from vgraph.atomic import check_output_path, write_text_atomic
     from vgraph.cli_output import check_formats, requested_outputs, write_outputs
-    from vgraph.scheduler import blank_image_warning, default_target, evaluate, target_type
+    from vgraph.scheduler import blank_image_warning, default_target, evaluate, finish_gl, target_type
 
     outputs = requested_outputs(args)  # refused before a long evaluation, not after
     if args.profile is not None:
@@ -261,11 +262,14 @@ def command_run(args) -> int:
     if args.cluster is not None or args.split is not None or args.tiles is not None:
         from vgraph.distributed.command import run_on_cluster
         return run_on_cluster(args, network, outputs, target)
+    started = time.perf_counter()
     try:
         # A profile waits for the GL after each processor, so each time holds its own GL work
         # (docs/cli.md); a run without one lets the GL work overlap with the next processor.
         report = evaluate(network, [target] if args.port else [], size=args.size,
                           finish_each=args.profile is not None)
+        finish_gl()  # what is still queued belongs to the evaluation's time printed below
+        seconds = time.perf_counter() - started
     finally:
         if args.profile and network.last_evaluation is not None:
             write_text_atomic(args.profile, json.dumps(network.last_evaluation.to_json(), indent=2) + "\n")
@@ -275,7 +279,7 @@ def command_run(args) -> int:
     else:
         say_nothing_was_written(network, report, profile=args.profile)
     ran = ", ".join(report.ids) or "nothing (all valid)"
-    print(f"evaluated {ran} in {report.total_seconds:.3f} s", file=sys.stderr)
+    print(f"evaluated {ran} in {seconds:.3f} s", file=sys.stderr)
     return EXIT_OK
 
 

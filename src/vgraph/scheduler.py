@@ -142,7 +142,7 @@ def _run(network: Network, processor: Processor, finish: bool = False) -> Evalua
                 processor.initialized = True
             outputs = _checked_outputs(processor, processor.process(**inputs))
             if finish:
-                _finish_gl()
+                finish_gl()
     except Exception as error:
         processor.last_error = _reason(error)
         processor.last_seconds = time.perf_counter() - start
@@ -158,7 +158,7 @@ def _run(network: Network, processor: Processor, finish: bool = False) -> Evalua
     return EvaluationRecord(processor.id, processor.type_name, processor.last_seconds)
 
 
-def _finish_gl() -> None:
+def finish_gl() -> None:
     """Wait until the GL has done what was issued so far (nothing to wait for, and no context
     created, when no processor has used the GL)."""
     if has_context():
