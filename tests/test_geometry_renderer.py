@@ -158,3 +158,31 @@ def test_with_a_volume_connected_the_view_is_the_entry_exit_points_view(gl):
     network.update("eep.entry", "gr.image", size=(48, 40))
     assert network["gr"].view_camera == network["eep"].view_camera
 
+
+
+def test_a_surface_file_renders_from_a_json_network_on_the_cli(tmp_path):
+    """SurfaceSource -> GeometryRenderer -> Canvas, saved as .json and run by `vgraph run`: without
+    a volume the default camera frames the mesh, so it fills the middle of the picture."""
+    import json
+
+    import meshio
+
+    from vgraph.cli import main
+    sphere = Geometry.sphere((10.0, -4.0, 2.0), 3.0, 3)
+    meshio.write_points_cells(tmp_path / "ball.stl", sphere.vertices.astype(np.float64),
+                              [("triangle", sphere.triangles)])
+    network = {"format": "vgraph-network", "version": 2, "processors": [
+        {"id": "surface", "type": "SurfaceSource", "properties": {"path": "ball.stl"}},
+        {"id": "gr", "type": "GeometryRenderer", "properties": {"color": [0.2, 0.6, 1.0, 1.0]}},
+        {"id": "canvas", "type": "Canvas", "properties": {"size": [64, 48]}}],
+        "connections": [{"from": "surface.geometry", "to": "gr.geometry"},
+                        {"from": "gr.image", "to": "canvas.image"}], "links": []}
+    (tmp_path / "ball.json").write_text(json.dumps(network))
+    assert main(["run", str(tmp_path / "ball.json"), "--npy", str(tmp_path / "ball.npy"),
+                 "-o", str(tmp_path / "ball.png")]) == 0
+    image = np.load(tmp_path / "ball.npy")
+    drawn = image[..., 2] > 0.1
+    assert image.shape == (48, 64, 4) and 0.1 < drawn.mean() < 0.8
+    np.testing.assert_allclose(image[[0, 0, -1, -1], [0, -1, 0, -1]], [[0.0, 0.0, 0.0, 1.0]] * 4)
+    # the middle faces the headlight: (ambient + diffuse) colour + specular = colour + 0.2
+    np.testing.assert_allclose(image[23:25, 31:33, :3].mean(axis=(0, 1)), [0.4, 0.8, 1.0], atol=0.02)
