@@ -8,9 +8,10 @@ installs a listener with ``listening(callback)``; ``callback`` receives a ``Prog
 each announcement and report. With nobody listening, ``report`` returns at once, so code may
 report as often as it likes (a per-chunk call costs a function call and a test).
 
-Why a process-wide listener and not a context variable: the prefilter reports from a thread pool,
-and a context variable does not follow the work into the pool's threads. One evaluation runs at a
-time per process (one GL context), so one current processor is enough.
+Why a process-wide listener and not a context variable: work that a processor hands to a thread
+pool may report from the pool's threads, where a context variable set by the scheduler is not
+seen. One evaluation runs at a time per process (one GL context), so one current processor is
+enough.
 
 ``Steps`` is the helper for a loop with steps: it shows a tqdm bar on the terminal (as the
 readers did before) and reports the same counts to the listener.
