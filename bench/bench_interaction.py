@@ -27,7 +27,7 @@ bench/results/interaction_<time>.csv and .png.
 
 ``--overhead`` measures instead, without the GUI, the Python time per frame of the render process's
 ``network.update`` on a cached network when only the camera changes (the frame drawn at 8 x 8
-pixels; the time inside GL draws and clears subtracted): the scheduler and the uniform set-up. It
+pixels; the time inside GL draws, clears and uniform writes subtracted): the scheduler and the uniform set-up. It
 is the CPU time of the calling thread (``time.thread_time``), so waiting for a core on a loaded
 machine does not count; llvmpipe's own threads do not either. It also counts the Python function
 calls per frame, a figure the load cannot blur.
@@ -316,8 +316,11 @@ def python_overhead(path: Path, frames: int = 300) -> tuple[float, float, float,
             finally:
                 in_gl[0] += time.thread_time() - start
         setattr(cls, name, wrapper)
+    # GL calls: draws, clears and uniform writes (a write waits while llvmpipe still draws with the
+    # program: up to 0.2 ms per frame on the bonsai, driver time, not ours).
     timed(moderngl.VertexArray, "render")
     timed(moderngl.Framebuffer, "clear")
+    timed(moderngl.Uniform, "write")
     network = load_network(path)
     network.update(CANVAS, size=(8, 8))
     camera = network.get(f"{RAY_CASTER}.camera")

@@ -292,6 +292,9 @@ class ProgramCache:
     def __init__(self):
         self._programs: dict[tuple, object] = {}
         self._sources: dict[int, ProgramSource] = {}  # by id(program), while it is cached
+        # The same programs by the defines exactly as given (values with their types: 1 and 1.0
+        # are different define text), so a frame's lookups need not format and check each define.
+        self._given: dict[tuple, object] = {}
         self.compile_count = 0
 
     def source_of(self, program) -> ProgramSource | None:
@@ -303,6 +306,14 @@ class ProgramCache:
                 processor: str | None = None, geometry: str | None = None) -> moderngl.Program:
         """The program of ``vertex`` (+ optional ``geometry``) + ``fragment`` shader files composed
         with ``defines``."""
+        given = (ctx, vertex, geometry, fragment,
+                 tuple((name, value.__class__, value) for name, value in (defines or {}).items()))
+        try:
+            program = self._given.get(given)
+        except TypeError:  # an unhashable define value: _define_key below says what is wrong
+            given = program = None
+        if program is not None:
+            return program
         key = (ctx, "program", vertex, geometry, fragment, self._define_key(defines, processor))
         if key not in self._programs:
             sources = {"vertex": compose(vertex, defines, processor=processor)}
@@ -314,6 +325,8 @@ class ProgramCache:
                                     geometry_shader=sources["geometry"].text if geometry else None,
                                     fragment_shader=sources["fragment"].text),
                 sources, processor)
+        if given is not None:
+            self._given[given] = self._programs[key]
         return self._programs[key]
 
     def compute(self, ctx: moderngl.Context, name: str, defines: dict[str, object] | None = None,
@@ -332,6 +345,7 @@ class ProgramCache:
             program = self._programs.pop(key)
             self._sources.pop(id(program), None)
             program.release()
+        self._given = {key: program for key, program in self._given.items() if ctx is not None and key[0] is not ctx}
 
     def forget_context(self, ctx: moderngl.Context) -> None:
         """Drop the programs of a context that is going away."""
