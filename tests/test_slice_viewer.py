@@ -9,13 +9,13 @@ from scipy import ndimage
 
 from vgraph import Network, PropertyError, VGraphError
 from vgraph.cli import main
-from vgraph.fileformat import load_network
+from vgraph.gl.shaders import programs
 from vgraph.processors.slice_viewer import SliceViewer
 from vgraph.slicing import plane_axes
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
-from helpers.paths import REPO
+from helpers.paths import DATA, REPO
 
 # Measured on llvmpipe: nearest 8e-8 (float32 normalisation), linear at voxel centres 1.8e-7, on
 # an oblique plane 4.9e-7 (float32 voxel coordinates and filter weights), cubic 6.1e-7.
@@ -224,3 +224,37 @@ def test_a_network_file_with_a_zero_normal_does_not_validate(tmp_path):
     net.connect("slice.image", "canvas.image")
     net.save(tmp_path / "bad.json")
     assert main(["validate", str(tmp_path / "bad.json")]) != 0
+
+
+def test_only_the_chosen_interpolation_and_mapping_are_compiled():
+    volume = random_volume()
+    viewer = SliceViewer("slice")
+    viewer.render_size = (16, 16)
+    programs.clear()
+
+    def compiles(**changes):
+        before = programs.compile_count
+        for name, value in changes.items():
+            viewer.set_property(name, value)
+        viewer.process(volume)
+        return programs.compile_count - before
+
+    assert compiles() == 1
+    assert compiles(cursor=(4.0, 2.0, 3.0), window=(0.5, 0.2), zoom=2.0, orientation="sagittal") == 0
+    assert compiles(interpolation="cubic") == 1
+    assert compiles(mapping="tf") == 1
+    assert compiles(interpolation="linear", mapping="window") == 0  # cached
+
+
+def test_the_mpr_network_runs_from_the_cli(tmp_path):
+    if not DATA.is_dir():
+        pytest.skip(f"shared data sets not found at {DATA}")
+    out = tmp_path / "coronal.npy"
+    assert main(["run", str(REPO / "networks" / "mpr_mri_head.json"), "--port", "coronal.image",
+                 "--size", "64x64", "--data", str(out)]) == 0
+    image = np.load(out)
+    # The head's box is 160 x 143.7 world units across x and z: full width, transparent rows
+    # above and below; the crosshair (at the volume's centre) crosses the middle.
+    assert image.shape == (64, 64, 4)
+    assert np.all(image[0, :20, 3] == 0.0) and image[32, 10, 3] == 1.0  # (the crosshair: column 32)
+    np.testing.assert_allclose(image[32, 10, :3], image[32, 10, 0])  # grey in the window
