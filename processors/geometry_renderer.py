@@ -24,7 +24,7 @@ import moderngl
 import numpy as np
 
 from vgraph import (CameraProperty, ColorProperty, Inport, OptionProperty, Outport, Processor,
-                    PropertyError, VectorProperty, VGraphError)
+                    PropertyError, VectorProperty)
 from vgraph.geometry import Geometry
 from vgraph.gl.context import bind_default_framebuffer
 from vgraph.gl.curvature import COLORMAPS, colormap_table
@@ -71,6 +71,7 @@ class GeometryRenderer(Processor):
         super().__init__(id, **values)
         self._target: dict = {}  # ctx, size, images, framebuffer, depth renderbuffer
         self._mesh: dict = {}    # ctx, geometry, buffers, vertex arrays by program
+        self._colormap_texture: tuple | None = None  # ((ctx, name), texture)
         self.view_camera = None
 
     # --- evaluation -----------------------------------------------------------------------------
@@ -159,14 +160,16 @@ class GeometryRenderer(Processor):
         return uniforms
 
     def _colormap(self, ctx):
+        """The colour map as a 256 x 1 RGBA32F texture with linear filtering (the shader samples
+        texel centres), made when the map or the context changes."""
         key = (ctx, self.colormap)
-        if self._mesh.get("colormap_key") != key:
+        if self._colormap_texture is None or self._colormap_texture[0] != key:
             table = colormap_table(self.colormap)
             texture = ctx.texture((len(table), 1), 4, table.tobytes(), dtype="f4")
             texture.repeat_x = texture.repeat_y = False
             texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            self._mesh.update(colormap_key=key, colormap=texture)
-        return self._mesh["colormap"]
+            self._colormap_texture = (key, texture)
+        return self._colormap_texture[1]
 
     def _targets(self, ctx, size):
         """The colour and depth images with one framebuffer holding both and a depth buffer,
@@ -199,9 +202,6 @@ class GeometryRenderer(Processor):
             scalars = geometry.scalars if geometry.scalars is not None else np.zeros(count, np.float32)
             interleaved = np.concatenate([geometry.vertices, geometry.vertex_normals(), colors,
                                           scalars[:, None]], axis=1).astype(np.float32)
-            if not np.all(np.isfinite(geometry.vertices)):
-                raise VGraphError(f"{self.id}: the geometry{' from ' + geometry.source if geometry.source else ''} "
-                                  f"has non-finite vertex coordinates")
             mesh.update(ctx=ctx, geometry=geometry, arrays={},
                         vertices=ctx.buffer(np.ascontiguousarray(interleaved).tobytes()),
                         indices=ctx.buffer(np.ascontiguousarray(geometry.triangles, np.int32).tobytes()))

@@ -186,3 +186,13 @@ def test_a_surface_file_renders_from_a_json_network_on_the_cli(tmp_path):
     np.testing.assert_allclose(image[[0, 0, -1, -1], [0, -1, 0, -1]], [[0.0, 0.0, 0.0, 1.0]] * 4)
     # the middle faces the headlight: (ambient + diffuse) colour + specular = colour + 0.2
     np.testing.assert_allclose(image[23:25, 31:33, :3].mean(axis=(0, 1)), [0.4, 0.8, 1.0], atol=0.02)
+
+
+def test_a_geometry_refuses_non_finite_vertices_and_wrong_shapes():
+    from vgraph import VGraphError
+    with pytest.raises(VGraphError, match="geometry from bad.obj has non-finite vertex coordinates"):
+        Geometry([[0.0, 0.0, 0.0], [1.0, np.nan, 0.0], [0.0, 1.0, 0.0]], [[0, 1, 2]], source="bad.obj")
+    with pytest.raises(VGraphError, match=r"geometry scalars must be \(3,\) \(one per vertex\)"):
+        Geometry(np.eye(3), [[0, 1, 2]], scalars=[1.0, 2.0])
+    with pytest.raises(VGraphError, match="index vertices that do not exist"):
+        Geometry(np.eye(3), [[0, 1, 3]])

@@ -32,6 +32,9 @@ class Geometry:
             raise VGraphError(f"geometry vertices must be (N, 3), got {self.vertices.shape}")
         if self.triangles.ndim != 2 or self.triangles.shape[1] != 3:
             raise VGraphError(f"geometry triangles must be (M, 3), got {self.triangles.shape}")
+        if not np.all(np.isfinite(self.vertices)):
+            raise VGraphError(f"geometry{' from ' + self.source if self.source else ''} has non-finite "
+                              f"vertex coordinates (or beyond float32's range)")
         if self.triangles.size and (self.triangles.min() < 0 or self.triangles.max() >= len(self.vertices)):
             raise VGraphError("geometry triangles index vertices that do not exist")
         count = len(self.vertices)
