@@ -16,7 +16,7 @@ from PySide6.QtWidgets import QDockWidget
 
 from vgraph.camera import Camera
 from vgraph.gui import canvas_view, overlays
-from vgraph.gui.canvas_toolbar import CanvasPane
+from vgraph.gui.canvas_toolbar import STILL_REFINING, CanvasPane
 from vgraph.gui.canvas_view import CanvasView
 from vgraph.gui.image_export import suggested_image_path
 from vgraph.gui.overlays import ViewGeometry
@@ -190,6 +190,22 @@ def test_toolbar_save_writes_the_frame_not_the_overlays(ws, qtbot, settings, tmp
     pane.toolbar.save_action.trigger()
     with PIL.Image.open(tmp_path / "shot.png") as image:
         assert image.mode == "RGBA" and np.array_equal(np.asarray(image), frame)
+
+
+def test_a_coarse_frame_is_not_saved_from_the_toolbar(ws, qtbot, settings, tmp_path, monkeypatch):
+    """A frame still refining is not what `vgraph run` writes: the user is told to wait."""
+    pane = make_pane(qtbot, ws, settings)
+    view, problems = pane.view, []
+    view.problem.connect(problems.append)
+    monkeypatch.setattr(view, "ask_save_path", lambda: str(tmp_path / "shot.png"))
+    view.show_frame(np.zeros((8, 8, 4), np.uint8), final=False)
+    pane.toolbar.save_action.trigger()
+    assert not (tmp_path / "shot.png").exists()
+    assert problems == [STILL_REFINING] and view.message() == STILL_REFINING
+    view.show_frame(np.full((8, 8, 4), 9, np.uint8), final=True)
+    pane.toolbar.save_action.trigger()
+    with PIL.Image.open(tmp_path / "shot.png") as image:
+        assert np.array_equal(np.asarray(image), np.full((8, 8, 4), 9, np.uint8))
 
 
 # --- overlays -------------------------------------------------------------------------------------

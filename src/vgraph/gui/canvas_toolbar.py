@@ -9,6 +9,9 @@ Conventions:
   so two canvases do not fight over a key: F fits, the digits turn to named views as on a
   numeric keypad (1 front, 3 right, 7 top; with Ctrl the opposite side), 5 iso; A and B switch
   the axes and the box. Tooltips name them; Help > Keyboard Shortcuts lists them.
+- Save Image (and File > Export Image) saves only a complete frame: a coarse one (drawn while a
+  drag lasts, or while a bricked volume still reads, "refining...") is not what ``vgraph run``
+  writes, so the user is told to wait instead (``save_complete_frame``).
 - Overlay switches are remembered per canvas id in the window's QSettings
   (``canvas/<id>/axes``, ``canvas/<id>/box``): the triad is on and the box off the first time.
 """
@@ -33,6 +36,16 @@ VIEW_ACTIONS = {
 }
 FIT_KEY, AXES_KEY, BOX_KEY = "F", "A", "B"
 OVERLAY_DEFAULTS = {"axes": True, "box": False}
+STILL_REFINING = "the frame is still refining: save it when 'refining...' is gone"
+
+
+def save_complete_frame(view: CanvasView, path=None):
+    """``view.save_image(path)`` if its frame is complete (final); otherwise say why not."""
+    if view.frame() is not None and not view.is_final:
+        view.set_message(STILL_REFINING)
+        view.problem.emit(STILL_REFINING)
+        return None
+    return view.save_image(path)
 
 
 def overlay_setting(canvas_id: str, overlay: str) -> str:
@@ -60,7 +73,7 @@ class CanvasToolbar(QToolBar):
         self.addSeparator()
         self.save_action = self._add("Save Image...", "Save the frame as a PNG, as `vgraph run` writes "
                                      "it (no overlays); File > Export Image (Ctrl+E) does the same",
-                                     None, view.save_image)
+                                     None, lambda: save_complete_frame(view))
         self.save_action.setIcon(self.style().standardIcon(QStyle.SP_DialogSaveButton))
         self.widgetForAction(self.save_action).setToolButtonStyle(Qt.ToolButtonIconOnly)
         self._restore_overlays()

@@ -25,6 +25,7 @@ from PySide6.QtWidgets import QFileDialog, QMessageBox
 
 from vgraph.errors import VGraphError, WritePathError
 from vgraph.gui.autosave import FoundAutosave
+from vgraph.gui.canvas_toolbar import save_complete_frame
 from vgraph.io import SUPPORTED_EXTENSIONS
 
 UNTITLED = "untitled.json"
@@ -164,7 +165,7 @@ class FileActions:
         if view is None:
             self.show_message("Export Image: the network has no canvas")
             return None
-        return view.save_image(path)
+        return save_complete_frame(view, path)
 
     def save_network(self) -> bool:
         if self.workspace.path is None:
