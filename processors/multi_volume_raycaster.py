@@ -98,10 +98,14 @@ class MultiVolumeRayCaster(RaycasterBase):
                            doc="accumulate: channels mixed per sample, composited front to back; "
                                "nearest_opaque: colour of the first channel to reach opacity_threshold; "
                                "maximum: a MIP per channel, colours added")
-    transfer_function1 = TransferFunctionProperty(DEFAULT_TFS[0], doc="of volume1 (alpha per sample at rate 1)")
-    transfer_function2 = TransferFunctionProperty(DEFAULT_TFS[1], doc="of volume2")
-    transfer_function3 = TransferFunctionProperty(DEFAULT_TFS[2], doc="of volume3")
-    transfer_function4 = TransferFunctionProperty(DEFAULT_TFS[3], doc="of volume4")
+    transfer_function1 = TransferFunctionProperty(DEFAULT_TFS[0], label="Transfer function (volume1)",
+                                                  doc="of volume1 (alpha per sample at rate 1)")
+    transfer_function2 = TransferFunctionProperty(DEFAULT_TFS[1], label="Transfer function (volume2)",
+                                                  doc="of volume2")
+    transfer_function3 = TransferFunctionProperty(DEFAULT_TFS[2], label="Transfer function (volume3)",
+                                                  doc="of volume3")
+    transfer_function4 = TransferFunctionProperty(DEFAULT_TFS[3], label="Transfer function (volume4)",
+                                                  doc="of volume4")
     opacity_threshold = FloatProperty(0.5, min=0.001, max=1.0,
                                       doc="nearest_opaque: TF opacity at which a channel counts as hit")
     early_termination = FloatProperty(0.99, min=0.01, max=1.0,

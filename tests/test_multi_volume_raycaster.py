@@ -114,6 +114,29 @@ def test_a_channel_on_another_grid_matches_the_cpu_reference(torus, other_grid, 
     np.testing.assert_allclose(gl, reference, atol=REFERENCE_TOLERANCE)
 
 
+GREEN = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.3, 0.2, 0.9, 0.3, 0.0), (0.55, 0.3, 1.0, 0.4, 0.5),
+                                 (1.0, 0.5, 1.0, 0.5, 0.7)])
+MAGENTA = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.35, 0.9, 0.2, 0.8, 0.0), (0.7, 1.0, 0.4, 0.9, 0.6),
+                                   (1.0, 1.0, 0.6, 1.0, 0.6)])
+
+
+@pytest.mark.parametrize("count", [3, 4])
+@pytest.mark.parametrize("blend, shading", [("accumulate", "blinn_phong"), ("nearest_opaque", "none"),
+                                            ("maximum", "none")])
+def test_three_and_four_channels_match_the_cpu_reference(torus, other_grid, count, blend, shading):
+    volumes = [torus, shifted(torus, (4, -3, 2)), other_grid, shifted(torus, (-5, 2, 0))][:count]
+    tfs = [ORANGE, BLUE, GREEN, MAGENTA][:count]
+    camera = oblique_camera(torus)
+    properties = {f"transfer_function{n}": tf for n, tf in enumerate(tfs, start=1)}
+    gl = render_gl(volumes, camera, blend=blend, shading=shading, opacity_threshold=0.3, **properties)
+    channels = list(zip(volumes, tfs))
+    shade = Shading() if shading != "none" else None
+    reference = render_channels(channels, camera, SIZE, blend=blend, opacity_threshold=0.3, shading=shade)
+    fewer = render_channels(channels[:-1], camera, SIZE, blend=blend, opacity_threshold=0.3, shading=shade)
+    assert np.abs(reference - fewer).max() > 0.1  # the last channel shows
+    np.testing.assert_allclose(gl, reference, atol=REFERENCE_TOLERANCE)
+
+
 @pytest.mark.parametrize("blend", ["accumulate", "nearest_opaque"])
 @pytest.mark.parametrize("second", ["shifted", "other_grid"])
 def test_shading_matches_the_cpu_reference(torus, other_grid, blend, second):

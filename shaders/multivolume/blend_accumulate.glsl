@@ -8,32 +8,58 @@
 #ifdef BLEND_ACCUMULATE
 uniform float early_termination;
 
-vec4 mixed_sample(vec3 t, vec3 view) {
-    float transparency = 1.0;
-    float weight = 0.0;
-    vec3 weighted = vec3(0.0);
-    for (int k = 0; k < CHANNELS; ++k) {
-        vec3 tk;
-        if (!channel_point(k, t, tk)) continue;
-        vec4 color = channel_classify(k, channel_value(k, tk));
-        if (color.a > 0.0) {
-            float alpha = channel_opacity(k, color.a);
-#ifdef SHADING_BLINN_PHONG
-            color.rgb = shade(color.rgb, channel_gradient(k, tk), view);
-#endif
-            transparency *= 1.0 - alpha;
-            weight += alpha;
-            weighted += alpha * color.rgb;
-        }
+// The running mix of one sample's channels.
+struct Mix {
+    float transparency;  // prod(1 - a'_k)
+    float weight;        // sum a'_k
+    vec3 weighted;       // sum a'_k rgb_k
+};
+
+void mix_channel(int k, vec3 t, vec3 view, bool shaded, inout Mix mixed) {
+    vec3 tk;
+    if (!channel_point(k, t, tk)) {
+        return;
     }
-    return weight > 0.0 ? vec4(weighted / weight, 1.0 - transparency) : vec4(0.0);
+    vec4 color = channel_classify(k, channel_value(k, tk));
+    if (color.a > 0.0) {
+        float alpha = channel_opacity(k, color.a);
+#ifdef SHADING_BLINN_PHONG
+        if (shaded) {
+            color.rgb = shade(color.rgb, channel_gradient(k, tk), view);
+        }
+#endif
+        mixed.transparency *= 1.0 - alpha;
+        mixed.weight += alpha;
+        mixed.weighted += alpha * color.rgb;
+    }
+}
+
+// The mixed sample at t; `shaded` is a literal at each call, so the compiler drops the branch.
+vec4 mixed_sample(vec3 t, vec3 view, bool shaded) {
+    Mix mixed = Mix(1.0, 0.0, vec3(0.0));
+#define MIX_CHANNEL(k) mix_channel(k, t, view, shaded, mixed)
+    FOR_EACH_CHANNEL(MIX_CHANNEL);
+    return mixed.weight > 0.0 ? vec4(mixed.weighted / mixed.weight, 1.0 - mixed.transparency) : vec4(0.0);
 }
 
 Result march(Ray ray) {
     Result result = empty_result();
     vec4 sum = vec4(0.0);
-    for (int i = 0; i < ray.samples; ++i) {
-        vec4 color = mixed_sample(sample_point(ray, float(i)), -ray.direction);
+    int i = 0;
+#ifdef SHADING_BLINN_PHONG
+    // First the samples up to the first visible one, without the shading code (as the RayCaster's
+    // dvr does: SIMD GL runs a branch for a group of pixels when one of them takes it, so rays
+    // still in empty space would wait for their neighbours' shading. llvmpipe, one shaded channel:
+    // 2.4x the RayCaster's time without this loop, 1.1-1.3x with it).
+    for (; i < ray.samples; ++i) {
+        if (mixed_sample(sample_point(ray, float(i)), -ray.direction, false).a > 0.0) {
+            break;
+        }
+        result.taken++;
+    }
+#endif
+    for (; i < ray.samples; ++i) {
+        vec4 color = mixed_sample(sample_point(ray, float(i)), -ray.direction, true);
         result.taken++;
         if (color.a > 0.0) {
             if (result.depth_sample < 0.0) {

@@ -6,29 +6,37 @@
 #ifdef BLEND_NEAREST_OPAQUE
 uniform float opacity_threshold;
 
+// The most opaque channel so far at one sample that reaches the threshold (color.a 0: none).
+struct Hit {
+    vec4 color;
+    int channel;
+    vec3 point;  // in the channel's texture space
+};
+
+void test_channel(int k, vec3 t, inout Hit hit) {
+    vec3 tk;
+    if (!channel_point(k, t, tk)) {
+        return;
+    }
+    vec4 color = channel_classify(k, channel_value(k, tk));
+    if (color.a >= opacity_threshold && color.a > hit.color.a) {
+        hit = Hit(color, k, tk);
+    }
+}
+
 Result march(Ray ray) {
     Result result = empty_result();
     for (int i = 0; i < ray.samples; ++i) {
         vec3 t = sample_point(ray, float(i));
         result.taken++;
-        vec4 hit = vec4(0.0);
-        int hit_channel = 0;
-        vec3 hit_point = t;
-        for (int k = 0; k < CHANNELS; ++k) {
-            vec3 tk;
-            if (!channel_point(k, t, tk)) continue;
-            vec4 color = channel_classify(k, channel_value(k, tk));
-            if (color.a >= opacity_threshold && color.a > hit.a) {
-                hit = color;
-                hit_channel = k;
-                hit_point = tk;
-            }
-        }
-        if (hit.a > 0.0) {
+        Hit hit = Hit(vec4(0.0), 0, t);
+#define TEST_CHANNEL(k) test_channel(k, t, hit)
+        FOR_EACH_CHANNEL(TEST_CHANNEL);
+        if (hit.color.a > 0.0) {
 #ifdef SHADING_BLINN_PHONG
-            hit.rgb = shade(hit.rgb, channel_gradient(hit_channel, hit_point), -ray.direction);
+            hit.color.rgb = shade(hit.color.rgb, channel_gradient(hit.channel, hit.point), -ray.direction);
 #endif
-            result.color = vec4(hit.rgb, 1.0);
+            result.color = vec4(hit.color.rgb, 1.0);
             result.depth_sample = float(i);
             return result;
         }
