@@ -207,3 +207,23 @@ def test_routing_a_crowded_grid_finds_clear_paths():
         others = {k: v for k, v in boxes.items() if k not in (a, b)}
         course = route((source.left + 84, source.bottom), (target.left + 84, target.top), others)
         assert not any(course.crosses(box) for box in others.values()), (a, b)
+
+
+def test_two_connections_around_the_same_node_take_different_lanes(scene):
+    """Both go round `mid` on the same side: in different lanes, so each can be followed."""
+    workspace = scene.workspace
+    workspace.add_processor("Number", (0, -150), id="b")
+    workspace.add_processor("Collect", (0, 450), id="sink2")
+    workspace.add_processor("Number", (0, 150), id="mid")
+    workspace.connect("b.value", "sink2.value")
+    first, second = scene.edges[EDGE], scene.edges[Connection("b", "value", "sink2", "value")]
+    assert first.route.avoided == {"mid"} and second.route.avoided == {"a", "mid", "sink"}
+
+    def channel(edge):   # the x of the longest vertical run
+        points = edge.route.points
+        runs = [(abs(q[1] - p[1]), p[0]) for p, q in zip(points, points[1:]) if p[0] == q[0]]
+        return max(runs)[1]
+    assert abs(channel(first) - channel(second)) >= 4.0
+    for edge in (first, second):
+        for pid in edge.route.avoided:
+            assert not drawn(edge).intersects(node_rect(scene, pid)), pid

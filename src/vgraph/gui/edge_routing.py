@@ -28,6 +28,7 @@ MARGIN = 12.0        # clearance kept between a connection and a node it passes
 STUB = 22.0          # a route leaves an outport / enters an inport vertically for this long
 BEND_COST = 30.0     # a bend costs as much as this much extra length: prefer fewer corners
 CURVE_SAMPLES = 20   # segments of the polyline that stands for the cubic in hit tests
+LANE_STEP = 5.0      # routes in lanes this far apart (see ``route``'s lane), so they do not merge
 MAX_CHECKS = 5000    # route candidates tested at most; beyond, the default curve is kept
 SHORTLIST = 4        # heights tried for each horizontal leg besides the stub's own
 
@@ -128,10 +129,15 @@ def boxes_hit(points: Sequence[Point], boxes: Mapping[object, Box]) -> frozenset
 
 
 # --- routing -------------------------------------------------------------------------------------
-def route(start: Point, end: Point, obstacles: Mapping[object, Box], margin: float = MARGIN) -> Route:
+def route(start: Point, end: Point, obstacles: Mapping[object, Box], margin: float = MARGIN,
+          lane: float = 0.0) -> Route:
     """The default curve if it clears every obstacle (by ``margin``), else the cheapest clear
     orthogonal route: down from ``start``, across to a vertical channel, along it, across to
-    above ``end`` and down into it. Keeps the curve when no candidate is clear (a crowded spot)."""
+    above ``end`` and down into it. Keeps the curve when no candidate is clear (a crowded spot).
+
+    ``lane`` (>= 0) moves the route's channel and legs that much further from the nodes they pass
+    (and its stubs longer): connections given different lanes do not run on top of each other
+    where they take the same channel."""
     curve = default_curve(start, end)
     grown = {key: box.inflated(margin) for key, box in obstacles.items()}
     hit = boxes_hit(curve, grown)
@@ -139,7 +145,7 @@ def route(start: Point, end: Point, obstacles: Mapping[object, Box], margin: flo
         return Route(curve, True)
     legs = _LegTest(list(grown.values()))
     (x0, y0), (x1, y1) = start, end
-    for _, a, b, c in sorted(_candidates(start, end, grown.values()))[:MAX_CHECKS]:
+    for _, a, b, c in sorted(_candidates(start, end, grown.values(), lane))[:MAX_CHECKS]:
         if (legs.vertical(x0, y0, a) and legs.horizontal(a, x0, c) and legs.vertical(c, a, b)
                 and legs.horizontal(b, c, x1) and legs.vertical(x1, b, y1)):
             return Route(_simplified([start, (x0, a), (c, a), (c, b), (x1, b), end]), False, hit)
@@ -169,20 +175,20 @@ class _LegTest:
         return self.known[key]
 
 
-def _candidates(start: Point, end: Point, boxes: Iterable[Box]) -> list[tuple[float, float, float, float]]:
+def _candidates(start: Point, end: Point, boxes: Iterable[Box], lane: float) -> list[tuple[float, float, float, float]]:
     """(cost, a, b, c) of every route through a vertical channel x = c at a node's side (or below
     a port), leaving the outport's stub at height a and reaching the inport's at height b.
     Costed without building the polylines: most are never tested."""
     boxes = list(boxes)
     (x0, y0), (x1, y1) = start, end
-    leave, enter = y0 + STUB, y1 - STUB
+    leave, enter = y0 + STUB + lane, y1 - STUB - lane
     channels = {x0, x1}
     for box in boxes:
-        channels.update((box.left, box.right))
+        channels.update((box.left - lane, box.right + lane))
     # The leg from the outport runs at the stub's height or just below a node under it; the leg
     # into the inport at the stub's height or just above a node over it. The nearest few suffice.
-    lows = [leave] + sorted(b.bottom for b in boxes if b.bottom > leave)[:SHORTLIST]
-    highs = [enter] + sorted((b.top for b in boxes if b.top < enter), reverse=True)[:SHORTLIST]
+    lows = [leave] + sorted(b.bottom + lane for b in boxes if b.bottom + lane > leave)[:SHORTLIST]
+    highs = [enter] + sorted((b.top - lane for b in boxes if b.top - lane < enter), reverse=True)[:SHORTLIST]
     found = []
     for a in lows:
         for b in highs:

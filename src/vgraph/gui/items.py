@@ -186,12 +186,13 @@ class EdgeItem(_CurveItem):
         self.setZValue(0)
         self.setToolTip(str(connection))
         self.route: Route | None = None
+        self.lane = 0.0   # the scene spreads routed connections over lanes (edge_routing.route)
         self.adjust()
 
     def adjust(self, obstacles: Mapping[str, Box] | None = None) -> None:
         """Re-route between the ports' current places around ``obstacles`` (processor id: box)."""
         start, end = self.source.scenePos(), self.target.scenePos()
-        self.route = route((start.x(), start.y()), (end.x(), end.y()), obstacles or {})
+        self.route = route((start.x(), start.y()), (end.x(), end.y()), obstacles or {}, lane=self.lane)
         self.setPath(route_path(self.route))
 
     def paint(self, painter, option, widget=None) -> None:

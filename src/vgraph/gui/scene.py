@@ -19,7 +19,7 @@ from PySide6.QtGui import QPainter, QTransform
 from PySide6.QtWidgets import QGraphicsScene, QGraphicsView
 
 from vgraph.errors import VGraphError
-from vgraph.gui.edge_routing import MARGIN, Box, free_spot
+from vgraph.gui.edge_routing import LANE_STEP, MARGIN, Box, free_spot
 from vgraph.gui.evaluator import processor_status
 from vgraph.gui.interactions import ConnectInteraction
 from vgraph.gui.items import NODE_HEIGHT, NODE_WIDTH, EdgeItem, LinkItem, NodeItem, PortItem
@@ -28,6 +28,7 @@ from vgraph.network import Connection, Link, Network
 
 PROCESSOR_MIME_TYPE = "application/x-vgraph-processor-type"
 SCENE_EXTENT = 20000.0
+LANES = 4  # routed connections take lanes 0, 1, 2, 3, 0, ... in the order they were made
 STRUCTURE_EVENTS = {"processor_added", "processor_removed", "connected", "disconnected",
                     "linked", "unlinked"}
 
@@ -102,6 +103,7 @@ class NetworkScene(QGraphicsScene):
         source = self.nodes[connection.source].port("out", connection.outport)
         target = self.nodes[connection.target].port("in", connection.inport)
         edge = EdgeItem(connection, source, target)
+        edge.lane = LANE_STEP * (len(self.edges) % LANES)
         edge.adjust(self.obstacles_of(edge))
         self.edges[connection] = edge
         self.addItem(edge)
