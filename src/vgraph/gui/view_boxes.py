@@ -21,7 +21,8 @@ Box = tuple[tuple[float, float, float], tuple[float, float, float]]
 def view_boxes(network: Network) -> dict[str, Box]:
     boxes = {}
     for processor_id, processor in network.processors.items():
-        if not isinstance(getattr(processor, "view_camera", None), Camera) or "camera" not in processor.properties:
+        camera = getattr(processor, "view_camera", None)
+        if not isinstance(camera, Camera) or "camera" not in processor.properties:
             continue
         box = _drawn_box(network, processor_id)
         if box is not None:
