@@ -150,6 +150,18 @@ def test_touching_labels_show_only_their_own_colours(mode):
     assert seen == {RED, BLUE, (0.0, 0.0, 0.0)}
 
 
+def test_a_clip_plane_in_the_entry_exit_points_cuts_the_labels():
+    """A plane keeping x >= 9.2 voxels removes label 1 (x < 8) and shows label 3's inside from the
+    cut: GL equals the reference on the clipped entry and exit points."""
+    boxes = touching_boxes()
+    network = label_network(boxes, oblique_camera(boxes), label_table=BOX_TABLE, compositing="first_hit")
+    network.set("eep.clip_planes", [{"normal": (1.0, 0.0, 0.0), "point": (9.2, 0.0, 0.0)}])
+    gl = network.evaluate("lrc.image", size=SIZE)
+    entry, exit_ = network.evaluate("eep.entry", size=SIZE), network.evaluate("eep.exit", size=SIZE)
+    np.testing.assert_allclose(gl, render_labels(boxes, BOX_TABLE, entry, exit_, mode="first_hit"), atol=TOLERANCE)
+    assert colours(gl) == {BLUE, (0.0, 0.0, 0.0)}
+
+
 def test_the_boundary_between_two_labels_is_half_way_between_voxel_centres():
     """Seen from above at 4 pixels a voxel, the columns left of x = 7.5 voxels are label 1 and
     those right of it label 3 (the weights tie at 7.5, half-way between the centres of voxels 7
@@ -168,7 +180,7 @@ def test_the_boundary_between_two_labels_is_half_way_between_voxel_centres():
 def test_majority_rule_never_makes_intermediate_labels_and_ties_half_way():
     data = np.array([[[1, 3]]])                                 # two voxels along x
     x = np.linspace(0.25, 0.75, 101)                           # centre of voxel 0 to centre of voxel 1
-    winner, weight, _ = majority(data, np.stack([x, np.full_like(x, 0.5), np.full_like(x, 0.5)], axis=1))
+    winner, weight, _, _ = majority(data, np.stack([x, np.full_like(x, 0.5), np.full_like(x, 0.5)], axis=1))
     assert set(winner) == {1, 3}
     np.testing.assert_array_equal(winner, np.where(x <= 0.5, 1, 3))   # the tie at 0.5: the smaller label
     assert weight.min() == pytest.approx(0.5)

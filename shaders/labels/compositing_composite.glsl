@@ -17,7 +17,7 @@ vec4 march(Ray ray) {
             vec4 color = code_color(label.code);
             float alpha = 1.0 - pow(1.0 - color.a, opacity_exponent);
             float weight = (1.0 - sum.a) * alpha;
-            sum += vec4(weight * label_shade(color.rgb, label, ray), weight);
+            sum += vec4(weight * label_shade(color.rgb, label.slope, ray), weight);
             if (sum.a >= early_termination) {
                 break;
             }

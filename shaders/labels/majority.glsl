@@ -19,7 +19,8 @@ vec4 code_color(uint code) {
 struct Label {
     uint code;      // the winning class: a code, or BACKGROUND
     float weight;   // its weight sum
-    vec3 slope;     // d(weight) / d(voxel index) along x, y, z: the boundary's normal direction
+    vec3 slope;     // d(weight) / d(voxel index) along x, y, z: normal of the label's boundary
+    vec3 surface;   // the same for all shown labels together: normal of their outer surface
 };
 
 Label majority_label(vec3 t) {
@@ -37,11 +38,12 @@ Label majority_label(vec3 t) {
         one_code = one_code && codes[c] == codes[0];
     }
     if (one_code) {  // inside a label or the background (most samples): all weight, no slope
-        return Label(code_color(codes[0]).a > 0.0 ? codes[0] : BACKGROUND, 1.0, vec3(0.0));
+        return Label(code_color(codes[0]).a > 0.0 ? codes[0] : BACKGROUND, 1.0, vec3(0.0), vec3(0.0));
     }
     uint votes[8];
     float weights[8];
     vec3 slopes[8];
+    vec3 surface = vec3(0.0);
     for (int c = 0; c < 8; ++c) {
         ivec3 offset = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
         uint code = codes[c];
@@ -49,8 +51,9 @@ Label majority_label(vec3 t) {
         vec3 axis = mix(1.0 - f, f, vec3(offset));  // per-axis weights of this corner
         weights[c] = axis.x * axis.y * axis.z;
         slopes[c] = (vec3(offset) * 2.0 - 1.0) * vec3(axis.y * axis.z, axis.x * axis.z, axis.x * axis.y);
+        surface += votes[c] != BACKGROUND ? slopes[c] : vec3(0.0);
     }
-    Label best = Label(BACKGROUND, -1.0, vec3(0.0));
+    Label best = Label(BACKGROUND, -1.0, vec3(0.0), surface);
     for (int c = 0; c < 8; ++c) {
         float sum = 0.0;
         vec3 slope = vec3(0.0);
@@ -61,7 +64,7 @@ Label majority_label(vec3 t) {
             }
         }
         if (sum > best.weight || (sum == best.weight && votes[c] < best.code)) {
-            best = Label(votes[c], sum, slope);
+            best = Label(votes[c], sum, slope, surface);
         }
     }
     return best;

@@ -173,9 +173,10 @@ def _whole_numbers(data: np.ndarray, consumer: str) -> np.ndarray:
 CORNERS = np.array([(c & 1, (c >> 1) & 1, (c >> 2) & 1) for c in range(8)])  # (x, y, z) offsets
 
 
-def majority(classes: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def majority(classes: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, ...]:
     """The majority rule at texture coordinates ``points`` (N, 3), (x, y, z) in [0, 1]: the winning
-    class per point, its weight sum, and the gradient of that sum per voxel step (x, y, z).
+    class per point, its weight sum, the gradient of that sum per voxel step (x, y, z), and the
+    gradient of the weight sum of all shown classes together (the normal of their outer surface).
     ``classes`` [z, y, x] holds each voxel's class (LabelCodes.classes()[codes])."""
     dims = np.array(classes.shape[::-1])
     p = np.clip(np.asarray(points, dtype=np.float64) * dims - 0.5, 0, dims - 1)  # into the box (the shader's why)
@@ -201,4 +202,5 @@ def majority(classes: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.nd
     winner = votes[order, columns]
     member = votes == winner[None, :]
     gradient = (member[:, :, None] * slopes).sum(axis=0)
-    return winner, sums[order, columns], gradient
+    surface = ((votes != BACKGROUND)[:, :, None] * slopes).sum(axis=0)
+    return winner, sums[order, columns], gradient, surface
