@@ -170,7 +170,7 @@ def test_the_head_example_shows_skin_mesh_and_bone_volume_from_the_cli(tmp_path)
         pytest.skip(f"shared data sets not found at {DATA}")
     out = tmp_path / "head.npy"
     assert main(["run", str(REPO / "networks" / "head_skin_mesh_bone_volume.json"), "--size", "96x96",
-                 "--npy", str(out), "-o", str(tmp_path / "head.png")]) == 0
+                 "--data", str(out), "-o", str(tmp_path / "head.png")]) == 0
     image = np.load(out)
     skin = (image[..., 0] > image[..., 2] + 0.1) & (image[..., 3] == 1.0)  # the mesh's skin colour
     bone = (np.abs(image[..., 0] - image[..., 2]) < 0.12) & (image[..., :3].min(axis=-1) > 0.3)  # whitish

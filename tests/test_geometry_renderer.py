@@ -178,7 +178,7 @@ def test_a_surface_file_renders_from_a_json_network_on_the_cli(tmp_path):
         "connections": [{"from": "surface.geometry", "to": "gr.geometry"},
                         {"from": "gr.image", "to": "canvas.image"}], "links": []}
     (tmp_path / "ball.json").write_text(json.dumps(network))
-    assert main(["run", str(tmp_path / "ball.json"), "--npy", str(tmp_path / "ball.npy"),
+    assert main(["run", str(tmp_path / "ball.json"), "--data", str(tmp_path / "ball.npy"),
                  "-o", str(tmp_path / "ball.png")]) == 0
     image = np.load(tmp_path / "ball.npy")
     drawn = image[..., 2] > 0.1
