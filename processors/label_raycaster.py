@@ -15,8 +15,12 @@ Conventions (docs/exploring.md has pictures):
   does not list get palette colours (or are hidden, ``unlisted = "hidden"``).
 - ``compositing``: composite (each shown label at its opacity per sample at rate 1, corrected for
   the step, front to back with early termination) or first_hit (the first shown label's colour,
-  opaque: a surface view). ``shading`` blinn_phong lights samples with the gradient of the winning
-  label's weight sum as normal (no extra texture fetch; label interiors stay unshaded).
+  opaque: a surface view; the hit refined by halvings of the step to the boundary). ``shading``
+  blinn_phong lights samples with a gradient of the weight sums as normal, which the rule has
+  already (no extra fetch): composite the winning label's (label interiors stay unshaded), first_hit
+  that of all shown labels together (their outer surface; no seam where two labels touch).
+- Empty-space skipping: blocks whose voxels (with the rule's one-voxel margin) hold no shown label
+  are jumped over and bound the rays (components.EmptySpace); the picture does not change.
 - Samples as the RayCaster's: every min(spacing) / sampling_rate world units from the entry point
   (raycasting/ray.glsl), so clipping planes in EntryExitPoints apply here too.
   ``vgraph.numerics.reference_labels`` is the CPU reference of the picture.

@@ -43,7 +43,8 @@ def test_a_colour_chosen_in_the_editor_changes_the_picture(window, jobs, monkeyp
     editor.table.cellWidget(DENSE, 2).click()
     window.evaluation.run(wait=True)
     entry = window.workspace.network.get("labels.label_table").labels[DENSE]
-    assert entry.color == pytest.approx((0.1, 0.9, 0.2), abs=1e-4) and entry.name == "dense parts" and entry.opacity == 1.0
+    assert entry.color == pytest.approx((0.1, 0.9, 0.2), abs=1e-4)       # QColor keeps 16 bits
+    assert entry.name == "dense parts" and entry.opacity == 1.0
     assert window.inspector.editors["label_table"].table.cellWidget(DENSE, 2).text() == "#1ae633"
     after = window.canvases.views["canvas"].frame()
     orange, green = orange_and_green(after)

@@ -79,7 +79,8 @@ def blobs():
     """Four labels (0, 1, 2, 5) from smoothed noise: curved boundaries, junctions of three labels."""
     noise = ndimage.gaussian_filter(np.random.default_rng(3).random((14, 12, 16)), 2.0)
     classes = np.digitize(noise, np.quantile(noise, [0.4, 0.6, 0.8]))
-    return Volume(np.array([0, 1, 2, 5], dtype=np.uint8)[classes], spacing=(0.8, 1.0, 0.5), origin=(1.0, -2.0, 3.0))
+    return Volume(np.array([0, 1, 2, 5], dtype=np.uint8)[classes], spacing=(0.8, 1.0, 0.5),
+                  origin=(1.0, -2.0, 3.0))
 
 
 def touching_boxes(dtype=np.uint8, low=1, high=3) -> Volume:
@@ -96,7 +97,8 @@ BOX_TABLE = table((1, RED, 1.0), (2, GREEN, 1.0), (3, BLUE, 1.0))
 # --- against the numpy reference ----------------------------------------------------------------
 @pytest.mark.parametrize("mode, rate, shaded, rules", [
     ("composite", 1.0, False, {}), ("composite", 2.5, False, {}), ("composite", 1.0, True, {}),
-    ("first_hit", 1.0, False, {}), ("first_hit", 0.7, True, {}), ("composite", 1.0, False, {"unlisted": "hidden"})])
+    ("first_hit", 1.0, False, {}), ("first_hit", 0.7, True, {}),
+    ("composite", 1.0, False, {"unlisted": "hidden"})])
 def test_matches_the_numpy_reference(blobs, mode, rate, shaded, rules):
     labels = table((1, (0.9, 0.6, 0.2), 0.3), (2, (0.2, 0.5, 0.9), 0.15), **rules)  # 5: unlisted
     gl, reference = render_both(blobs, oblique_camera(blobs), shading=HEADLIGHT if shaded else None,
@@ -144,7 +146,8 @@ def test_touching_labels_show_only_their_own_colours(mode):
     """Labels 1 and 3 side by side: no purple average and no label 2 (green) anywhere, from an
     oblique view whose rays cross the boundary between the voxel centres."""
     boxes = touching_boxes()
-    gl, reference = render_both(boxes, oblique_camera(boxes), size=(96, 80), label_table=BOX_TABLE, compositing=mode)
+    gl, reference = render_both(boxes, oblique_camera(boxes), size=(96, 80), label_table=BOX_TABLE,
+                                compositing=mode)
     np.testing.assert_allclose(gl, reference, atol=TOLERANCE)
     seen = colours(gl)
     assert seen == {RED, BLUE, (0.0, 0.0, 0.0)}
@@ -213,11 +216,13 @@ def test_whole_floats_render_as_integers_and_fractional_floats_are_refused():
     boxes = touching_boxes()
     as_float = Volume(boxes.data.astype(np.float32))
     camera = oblique_camera(boxes)
-    np.testing.assert_array_equal(label_network(as_float, camera, label_table=BOX_TABLE).evaluate("lrc.image", size=SIZE),
-                                  label_network(boxes, camera, label_table=BOX_TABLE).evaluate("lrc.image", size=SIZE))
+    picture = lambda volume: label_network(volume, camera, label_table=BOX_TABLE).evaluate(  # noqa: E731
+        "lrc.image", size=SIZE)
+    np.testing.assert_array_equal(picture(as_float), picture(boxes))
     data = as_float.data.copy()
     data[3, 4, 5] = 2.5
-    with pytest.raises(ProcessorError, match=r"'lrc' \(LabelRayCaster\): lrc.labels: .*fractional values, e.g. 2.5 at voxel "
+    with pytest.raises(ProcessorError, match=r"'lrc' \(LabelRayCaster\): lrc.labels: .*"
+                                             r"fractional values, e.g. 2.5 at voxel "
                                              r"\(x=5, y=4, z=3\)"):
         label_network(Volume(data), camera).evaluate("lrc.image", size=SIZE)
 

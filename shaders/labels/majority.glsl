@@ -1,8 +1,8 @@
 // Labels at a sample point by the majority of interpolation weights (vgraph.labels has the CPU
 // reference): the 8 voxels whose centres surround the point (the point clamped into the box of
-// the voxel centres, as clamp-to-edge filtering weighs) vote with their trilinear weights; each class (a shown label, or
-// the background for every label that is not shown) sums the weights of its voxels; the largest
-// sum wins, on a tie the smaller code, and the background (the largest code) loses every tie.
+// the voxel centres, as clamp-to-edge filtering weighs) vote with their trilinear weights; each
+// class (a shown label, or the background for every label that is not shown) sums the weights of
+// its voxels; the largest sum wins, on a tie the smaller code, and the background (the largest code) loses every tie.
 // Labels are read exactly by texelFetch from an unsigned integer texture: never interpolated as
 // numbers, so labels 1 and 3 never make a 2.
 uniform usampler3D labels;        // codes (vgraph.labels.LabelCodes), R16UI or R32UI

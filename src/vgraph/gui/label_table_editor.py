@@ -16,8 +16,9 @@ from __future__ import annotations
 
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QColor
-from PySide6.QtWidgets import (QAbstractItemView, QCheckBox, QColorDialog, QComboBox, QDoubleSpinBox, QHBoxLayout,
-                               QHeaderView, QLabel, QPushButton, QSizePolicy, QTableWidget, QTableWidgetItem, QVBoxLayout)
+from PySide6.QtWidgets import (QAbstractItemView, QCheckBox, QColorDialog, QComboBox, QDoubleSpinBox,
+                               QHBoxLayout, QHeaderView, QLabel, QPushButton, QSizePolicy, QTableWidget,
+                               QTableWidgetItem, QVBoxLayout)
 
 from vgraph.gui.editors import PropertyEditor, list_popup, register_editor, spin_value
 from vgraph.labels import LabelTable, palette_color
@@ -63,8 +64,8 @@ class LabelTableEditor(PropertyEditor):
         buttons.addWidget(self.unlisted)
         self.unlisted_opacity = self._opacity_spin()
         self.unlisted_opacity.setToolTip("opacity of unlisted labels drawn with palette colours")
-        self.unlisted_opacity.valueChanged.connect(
-            lambda _: self._emit_with(unlisted_opacity=spin_value(self.unlisted_opacity, self.current.unlisted_opacity)))
+        self.unlisted_opacity.valueChanged.connect(lambda _: self._emit_with(
+            unlisted_opacity=spin_value(self.unlisted_opacity, self.current.unlisted_opacity)))
         buttons.addWidget(self.unlisted_opacity)
         column.addLayout(buttons)
         self.layout_.addLayout(column)
@@ -137,7 +138,8 @@ class LabelTableEditor(PropertyEditor):
                 value = text  # the workspace refuses it and says why
             rows.append({"value": value, "name": self.table.item(row, NAME).text(),
                          "color": list(exact.color) if exact else [1.0, 1.0, 1.0],
-                         "opacity": spin_value(self.table.cellWidget(row, OPACITY), exact.opacity if exact else None),
+                         "opacity": spin_value(self.table.cellWidget(row, OPACITY),
+                                               exact.opacity if exact else None),
                          "visible": self.table.cellWidget(row, VISIBLE).isChecked()})
         return rows
 
