@@ -178,3 +178,20 @@ def test_the_head_example_shows_skin_mesh_and_bone_volume_from_the_cli(tmp_path)
     # the camera looks from +x: the bone (skin cut away there) is left, the skin right of it
     assert np.mean(np.nonzero(bone)[1]) < np.mean(np.nonzero(skin)[1])
     np.testing.assert_allclose(image[[0, 0, -1, -1], [0, -1, 0, -1], :3], 0.0, atol=1e-6)
+
+
+def test_the_head_example_renders_in_the_window_as_on_the_cli(window, data_dir):
+    """The GUI's render process draws the skin mesh and bone volume as `vgraph run` does."""
+    import vgraph
+    from helpers.paths import REPO
+    path = REPO / "networks" / "head_skin_mesh_bone_volume.json"
+    assert window.open_network(path)
+    window.evaluation.run(wait=True)
+    view = window.canvases.views["canvas"]
+    frame = view.frame()
+    expected = vgraph.imagefile.to_uint8(vgraph.load(path).evaluate("canvas"))
+    assert frame.shape == expected.shape and view.is_final
+    assert np.abs(frame.astype(int) - expected).max() <= 1
+    network = window.workspace.network
+    assert all(network.get(f"{pid}.camera") == network.get("eep.camera")
+               for pid in ("skin_renderer", "cut_rays", "bone"))
