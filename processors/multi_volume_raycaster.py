@@ -45,13 +45,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vgraph import FloatProperty, Inport, OptionProperty, Outport, TransferFunctionProperty
+from vgraph import FloatProperty, Inport, OptionProperty, Outport, TransferFunctionProperty, VGraphError
 from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, Light,
                                              RaycasterBase, Sampling)
 from vgraph.gl.raycasting.geometry import VolumeGeometry
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler
 from vgraph.image import Image
+from vgraph.processors.raycaster import needs_bricks
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
@@ -106,6 +107,9 @@ class MultiVolumeRayCaster(RaycasterBase):
                                                   doc="of volume3")
     transfer_function4 = TransferFunctionProperty(DEFAULT_TFS[3], label="Transfer function (volume4)",
                                                   doc="of volume4")
+    sampling_rate = FloatProperty(1.0, min=0.05, max=16.0,
+                                  doc="samples per voxel of the smallest spacing of all channels "
+                                      "(a world-space step)")
     opacity_threshold = FloatProperty(0.5, min=0.001, max=1.0,
                                       doc="nearest_opaque: TF opacity at which a channel counts as hit")
     early_termination = FloatProperty(0.99, min=0.01, max=1.0,
@@ -126,7 +130,7 @@ class MultiVolumeRayCaster(RaycasterBase):
                     for number, volume in enumerate((volume1, volume2, volume3, volume4), start=1)
                     if volume is not None]
         for channel in channels:
-            channel.volume.require_samples(f"MultiVolumeRayCaster '{self.id}' ({channel.port})")
+            self._check(channel)
         frame = self.frame(volume1, entry, exit)
         with_depth = self.wants("depth")
         targets = self._targets[with_depth]
@@ -136,6 +140,16 @@ class MultiVolumeRayCaster(RaycasterBase):
         own.defines["DEPTH_OUTPUT"] = with_depth
         self.draw(frame, SHADER, targets, own=own)
         return outputs
+
+    def _check(self, channel: Channel) -> None:
+        volume = channel.volume
+        volume.require_samples(f"MultiVolumeRayCaster '{self.id}' ({channel.port})")
+        if needs_bricks(volume, self.gl):
+            raise VGraphError(f"{self.id}.{channel.port}: {volume.source or 'the volume'} "
+                              f"({' x '.join(map(str, volume.dims))} voxels) does not fit one GL 3D texture "
+                              f"(limit {self.gl.info['GL_MAX_3D_TEXTURE_SIZE']} per axis) or its memory "
+                              f"budget; the MultiVolumeRayCaster samples each channel from one texture: "
+                              f"crop or downsample it, or render it alone with the RayCaster (brick by brick)")
 
     def _channel_binding(self, frame, channels: list[Channel]) -> Binding:
         """Defines, textures and uniforms of the channels. Shader slot k (0-based) holds the k-th

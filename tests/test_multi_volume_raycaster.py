@@ -272,6 +272,16 @@ def test_spline_coefficients_are_refused_naming_the_channel(torus):
         render_gl([torus, coefficients], oblique_camera(torus))
 
 
+def test_a_channel_too_large_for_one_texture_is_refused_naming_it(torus, monkeypatch):
+    """(A volume wider than the GL's 3D-texture limit would take gigabytes here: the test makes the
+    second channel count as one.)"""
+    import vgraph.processors.multi_volume_raycaster as module
+    big = shifted(torus, (1, 0, 0))
+    monkeypatch.setattr(module, "needs_bricks", lambda volume, ctx: volume is big)
+    with pytest.raises(ProcessorError, match=r"mv.volume2: .*does not fit one GL 3D texture"):
+        render_gl([torus, big], oblique_camera(torus))
+
+
 # --- the example network ------------------------------------------------------------------------
 def test_the_hydrogen_neghip_network_renders_both_channels_from_the_cli(tmp_path):
     if not DATA.is_dir():
