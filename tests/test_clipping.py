@@ -101,6 +101,16 @@ def test_a_camera_inside_the_kept_part_and_orthographic_views(torus, projection)
     np.testing.assert_allclose(gl, reference, atol=REFERENCE_TOLERANCE)
 
 
+def test_a_tile_of_the_view_is_that_part_of_the_clipped_picture(torus):
+    """Tiles (Camera.tile, as vgraph.distributed draws them) cut with the same world planes."""
+    planes = (ClipPlane(normal=(1.0, 0.3, -0.2), point=(0.0, 0.0, 0.0)),)
+    full = oblique_camera(torus)
+    whole = render_gl(torus, full, (64, 48), transfer_function=COLOURED, clip_planes=planes)
+    tile = render_gl(torus, full.tile(24, 8, 32, 28, 64, 48), (32, 28), transfer_function=COLOURED,
+                     clip_planes=planes)
+    np.testing.assert_allclose(tile, whole[8:36, 24:56], atol=REFERENCE_TOLERANCE)
+
+
 # --- clipped = the volume with the clipped part zeroed ------------------------------------------------
 def aligned_volume(seed=0, shape=(9, 6, 10)):
     data = np.random.default_rng(seed).random(shape).astype(np.float32)
@@ -168,10 +178,13 @@ def test_shading_at_the_cut_keeps_the_volumes_gradient():
 
 
 # --- misses, crop boxes, interval model ---------------------------------------------------------------
-def test_rays_with_nothing_left_are_misses_in_both_images(torus):
+@pytest.mark.parametrize("jitter", [0.0, 1.0])
+def test_rays_with_nothing_left_are_misses_in_both_images(torus, jitter):
+    """Jittered entry points move towards the exit point, so they stay on the kept side too."""
     planes = (ClipPlane(normal=(1.0, 0.0, 0.0), point=(0.2, 0.0, 0.0)),)
     network = rendering_network(torus, oblique_camera(torus), transfer_function=COLOURED)
     network.set("eep.clip_planes", planes)
+    network.set("eep.jitter", jitter)
     entry, exit_points = network.evaluate("eep.entry", size=SIZE), network.evaluate("eep.exit", size=SIZE)
     np.testing.assert_array_equal(entry[..., 3] > 0, exit_points[..., 3] > 0)
     assert 0.1 < np.mean(entry[..., 3] > 0) < 0.6
