@@ -1,4 +1,4 @@
-"""The scripted session of bench/gui_session.py, run in the test window with Qt events (no X
+"""The scripted session of bench/bench_gui_session.py, run in the test window with Qt events (no X
 server): every step must take effect (the edits reach the network and the saved files), so the
 bench's timings time real work. The launch itself (a fresh process) is the bench's own."""
 
