@@ -413,3 +413,23 @@ def test_nothing_is_cut_off_at_common_screen_sizes(window, qtbot, data_dir, size
     assert not scroll.horizontalScrollBar().isVisible()
     [tf_editor] = window.inspector.findChildren(TransferFunctionEditor)
     assert layout.shown_whole(tf_editor) and layout.shown_whole(window.inspector.editors["camera"])
+
+
+def test_reset_layout_puts_the_canvases_back_below_the_palette(window, qtbot):
+    from vgraph.gui import layout
+
+    window.workspace.add_processor("Canvas", id="canvas")
+    window.workspace.add_processor("Canvas", id="second")
+    first, second = window.canvases.docks["canvas"], window.canvases.docks["second"]
+    assert window.dockWidgetArea(first) == Qt.LeftDockWidgetArea
+    assert window.tabifiedDockWidgets(first) == [second]          # the second is tabbed with it
+    window.addDockWidget(Qt.RightDockWidgetArea, first)
+    second.setFloating(True)
+    layout.reset_layout(window)
+    qtbot.wait(50)
+    for dock in (first, second):
+        assert not dock.isFloating() and window.dockWidgetArea(dock) == Qt.LeftDockWidgetArea
+    assert second in window.tabifiedDockWidgets(first)
+    front = max((first, second), key=lambda dock: dock.y())   # the tab behind is moved out of sight
+    assert front.y() > window.palette_dock.y() + window.palette_dock.height() - 8
+    assert window.dockWidgetArea(window.properties_dock) == Qt.RightDockWidgetArea
