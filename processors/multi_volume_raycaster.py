@@ -86,7 +86,8 @@ class Channel:
 
 
 class MultiVolumeRayCaster(RaycasterBase):
-    """Several volumes (channels) in one ray caster, each with its own TF: accumulate, nearest opaque or maximum."""
+    """Several volumes (channels) in one ray caster, each with its own TF; accumulate, nearest opaque or
+    maximum."""
 
     category = "Volume rendering"
     inports = ([Inport("volume1", Volume, "rays run in this volume's box")]
@@ -149,50 +150,52 @@ class MultiVolumeRayCaster(RaycasterBase):
                               f"({' x '.join(map(str, volume.dims))} voxels) does not fit one GL 3D texture "
                               f"(limit {self.gl.info['GL_MAX_3D_TEXTURE_SIZE']} per axis) or its memory "
                               f"budget; the MultiVolumeRayCaster samples each channel from one texture: "
-                              f"crop or downsample it, or render it alone with the RayCaster (brick by brick)")
+                              f"crop or downsample it, or render it alone with the RayCaster (brick by "
+                              f"brick)")
 
     def _channel_binding(self, frame, channels: list[Channel]) -> Binding:
         """Defines, textures and uniforms of the channels. Shader slot k (0-based) holds the k-th
         connected channel, whatever its inport number."""
-        rays = frame.geometry
         step = min(float(np.min(c.volume.spacing)) for c in channels) / self.sampling_rate
         mode = self.blend
         binding = Binding(defines={"CHANNELS": len(channels), f"BLEND_{mode.upper()}": True},
                           uniforms={"step_length": step})  # replaces Sampling's step of volume1 alone
-        rows = {name: [] for name in ("channel_scale", "channel_offset", "channel_low", "channel_high",
-                                      "channel_intensity", "channel_exponent", "channel_voxel_step",
-                                      "channel_gradient_scale")}
-        first_spacing = float(rays.spacing.min())
+        rows = [channel_uniforms(frame.geometry, channel.volume, step) for channel in channels]
+        names = rows[0].keys() if self.shaded() else UNSHADED_UNIFORMS
+        binding.uniforms.update({name: np.asarray([row[name] for row in rows], dtype=np.float32)
+                                 for name in names})
         for slot, channel in enumerate(channels, start=1):
-            volume = channel.volume
-            geometry = VolumeGeometry.of(volume)
-            scale, offset = channel_map(rays, geometry)
-            low, high = channel_texture_box(geometry)
-            rows["channel_scale"].append(scale)
-            rows["channel_offset"].append(offset)
-            rows["channel_low"].append(low)
-            rows["channel_high"].append(high)
-            rows["channel_intensity"].append(volume.texture_scale_offset())
-            rows["channel_exponent"].append(step / float(geometry.spacing.min()))
-            rows["channel_voxel_step"].append(1.0 / geometry.dims)
-            # Central differences per world unit, rescaled so that shading.glsl's threshold on
-            # |g| (set for channel 0's spacing) tests each channel's own (channels.glsl).
-            intensity_scale = volume.texture_scale_offset()[0]
-            rows["channel_gradient_scale"].append(intensity_scale / (2.0 * geometry.spacing)
-                                                  * float(geometry.spacing.min()) / first_spacing)
             tf = getattr(self, f"transfer_function{channel.number}")
-            binding.textures[f"volume{slot}"] = volume.texture(frame.ctx)
+            binding.textures[f"volume{slot}"] = channel.volume.texture(frame.ctx)
             binding.samplers[f"volume{slot}"] = linear_sampler(frame.ctx)
-            binding.textures[f"transfer_function{slot}"] = self._luts[channel.number].update(frame.ctx, tf, volume)
-        shaded = self.shaded()
-        for name, values in rows.items():
-            if shaded or name not in ("channel_voxel_step", "channel_gradient_scale"):
-                binding.uniforms[name] = np.asarray(values, dtype=np.float32)
+            binding.textures[f"transfer_function{slot}"] = self._luts[channel.number].update(
+                frame.ctx, tf, channel.volume)
         if mode == "accumulate":
             binding.uniforms["early_termination"] = self.early_termination
         elif mode == "nearest_opaque":
             binding.uniforms["opacity_threshold"] = self.opacity_threshold
         return binding
+
+
+UNSHADED_UNIFORMS = ("channel_scale", "channel_offset", "channel_low", "channel_high", "channel_intensity",
+                     "channel_exponent")
+
+
+def channel_uniforms(rays: VolumeGeometry, volume: Volume, step: float) -> dict[str, object]:
+    """One channel's row of the uniform arrays of multivolume/channels.glsl (UNSHADED_UNIFORMS, and
+    for shading channel_voxel_step and channel_gradient_scale)."""
+    geometry = VolumeGeometry.of(volume)
+    scale, offset = channel_map(rays, geometry)
+    low, high = channel_texture_box(geometry)
+    intensity_scale, intensity_offset = volume.texture_scale_offset()
+    own_spacing = float(geometry.spacing.min())
+    # Central differences per world unit, rescaled so that shading.glsl's threshold on |g| (set
+    # for the rays' volume's spacing) tests each channel's own (channels.glsl says why).
+    gradient_scale = intensity_scale / (2.0 * geometry.spacing) * own_spacing / float(rays.spacing.min())
+    return {"channel_scale": scale, "channel_offset": offset, "channel_low": low, "channel_high": high,
+            "channel_intensity": (intensity_scale, intensity_offset),
+            "channel_exponent": step / own_spacing,  # opacity correction for the channel's own step
+            "channel_voxel_step": 1.0 / geometry.dims, "channel_gradient_scale": gradient_scale}
 
 
 def channel_map(rays: VolumeGeometry, channel: VolumeGeometry) -> tuple[np.ndarray, np.ndarray]:
@@ -214,4 +217,5 @@ def channel_texture_box(channel: VolumeGeometry) -> tuple[np.ndarray, np.ndarray
 
 
 def _same_grid(a: VolumeGeometry, b: VolumeGeometry) -> bool:
-    return all(np.array_equal(x, y) for x, y in ((a.dims, b.dims), (a.spacing, b.spacing), (a.origin, b.origin)))
+    return all(np.array_equal(x, y)
+               for x, y in ((a.dims, b.dims), (a.spacing, b.spacing), (a.origin, b.origin)))

@@ -62,7 +62,8 @@ def aligned_camera(volume):
     sees the voxel column x = col, y = ny - 1 - row."""
     lo, hi = volume_box(volume)
     centre = (lo + hi) / 2
-    return Camera(projection="orthographic", position=(centre[0], centre[1], hi[2] + 5.0), focus=tuple(centre),
+    return Camera(projection="orthographic", position=(centre[0], centre[1], hi[2] + 5.0),
+                  focus=tuple(centre),
                   near=1.0, far=50.0, parallel_scale=volume.dims[1] * volume.spacing[1] / 2)
 
 
@@ -194,19 +195,20 @@ def test_a_channel_on_another_grid_shows_its_values_at_the_pixels_world_points()
 
 # --- one channel, order, gaps -------------------------------------------------------------------
 @pytest.mark.parametrize("blend, compositing, rate, shading", [
-    ("accumulate", "dvr", 1.0, "none"), ("accumulate", "dvr", 2.5, "none"), ("accumulate", "dvr", 1.0, "blinn_phong"),
+    ("accumulate", "dvr", 1.0, "none"), ("accumulate", "dvr", 2.5, "none"),
+    ("accumulate", "dvr", 1.0, "blinn_phong"),
     ("maximum", "mip", 1.0, "none"), ("maximum", "mip", 0.5, "none")])
 def test_one_channel_equals_the_raycaster(torus, blend, compositing, rate, shading):
     camera = oblique_camera(torus)
-    network = ray_caster_network(torus, camera, "RayCaster", compositing=compositing, transfer_function=ORANGE,
-                                 sampling_rate=rate, background=(0.2, 0.1, 0.0, 1.0), shading=shading)
+    network = ray_caster_network(torus, camera, "RayCaster", compositing=compositing, shading=shading,
+                                 transfer_function=ORANGE, sampling_rate=rate, background=(0.2, 0.1, 0.0, 1.0))
     expected = network.evaluate("rc.image", size=SIZE)
     image = render_gl([torus], camera, blend=blend, transfer_function1=ORANGE, sampling_rate=rate,
                       background=(0.2, 0.1, 0.0, 1.0), shading=shading)
     np.testing.assert_allclose(image, expected, atol=1e-6)
     expected_depth = network.evaluate("rc.depth", size=SIZE)
-    depth = render_gl([torus], camera, output="depth", blend=blend, transfer_function1=ORANGE, sampling_rate=rate,
-                      shading=shading)
+    depth = render_gl([torus], camera, output="depth", blend=blend, transfer_function1=ORANGE,
+                      sampling_rate=rate, shading=shading)
     np.testing.assert_allclose(depth[..., [0, 1, 3]], expected_depth[..., [0, 1, 3]], atol=1e-6)
 
 
@@ -288,7 +290,8 @@ def test_the_hydrogen_neghip_network_renders_both_channels_from_the_cli(tmp_path
         pytest.skip(f"shared data sets not found at {DATA}")
     network = REPO / "networks" / "two_channels_hydrogen_neghip.json"
     out = tmp_path / "image.npy"
-    assert main(["run", str(network), "--size", "96x80", "--npy", str(out), "-o", str(tmp_path / "image.png")]) == 0
+    assert main(["run", str(network), "--size", "96x80", "--npy", str(out),
+                 "-o", str(tmp_path / "image.png")]) == 0
     image = np.load(out)
     assert image.shape == (80, 96, 4) and np.isfinite(image).all()
     drawn = image[..., :3].max(axis=-1) > 0.02

@@ -93,7 +93,8 @@ def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate"
                  early_termination=early_termination, threshold=opacity_threshold, shading=shading)
     bg = np.asarray(background, dtype=np.float64)
     coverage = rgba[:, 3:4]
-    image = np.concatenate([rgba[:, :3] + (1.0 - coverage) * bg[:3], coverage + (1.0 - coverage) * bg[3]], axis=1)
+    image = np.concatenate([rgba[:, :3] + (1.0 - coverage) * bg[:3], coverage + (1.0 - coverage) * bg[3]],
+                           axis=1)
     return image.reshape(height, width, 4).astype(np.float32)
 
 
@@ -149,7 +150,8 @@ def _nearest_opaque(channels, origins, directions, t_entry, counts, step, *, thr
             sample, present = _classified(channel, points, k == 0)
             better = present & (sample[:, 3] >= threshold) & (sample[:, 3] > hit[:, 3])
             if shading is not None:
-                sample[:, :3] = _shade(channel.sampler, shading, points, directions[active], sample[:, :3], better)
+                sample[:, :3] = _shade(channel.sampler, shading, points, directions[active], sample[:, :3],
+                                       better)
             hit[better] = sample[better]
         found = hit[:, 3] > 0.0
         rgba[active[found], :3] = hit[found, :3]
