@@ -48,6 +48,7 @@ import numpy as np
 from vgraph import FloatProperty, Inport, OptionProperty, Outport, TransferFunctionProperty, VGraphError
 from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, Light,
                                              RaycasterBase, Sampling)
+from vgraph.gl.raycasting.empty_space import visible_under
 from vgraph.gl.raycasting.geometry import VolumeGeometry
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler
@@ -124,6 +125,19 @@ class MultiVolumeRayCaster(RaycasterBase):
     def shaded(self) -> bool:
         """Whether this frame is shaded (the Light component asks)."""
         return self.shading != "none" and self.blend in SHADED_BLENDS
+
+    def visible_content(self) -> str | None:
+        """Which channels have voxels their TF shows (for the blank-image warning). Not said for
+        nearest_opaque, whose threshold may hide what has some opacity."""
+        if self.blend == "nearest_opaque":
+            return None
+        seen = []
+        for port in CHANNEL_PORTS:
+            volume = self.inputs.get(port)
+            content = visible_under(volume, getattr(self, f"transfer_function{port[-1]}")) if volume else None
+            if content:
+                seen.append(f"{port}: {content}")
+        return "; ".join(seen) or None
 
     def process(self, volume1: Volume, volume2: Volume | None, volume3: Volume | None,
                 volume4: Volume | None, entry: Image, exit: Image) -> dict:

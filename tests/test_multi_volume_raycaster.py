@@ -14,6 +14,7 @@ from vgraph.errors import PortError
 from vgraph.implicit import sample
 from vgraph.multivolume_reference import render_channels
 from vgraph.network import Network
+from vgraph.scheduler import BlankImageWarning
 from vgraph.numerics.reference_raycast import Shading, volume_box
 from vgraph.testing import GivenVolume, ray_caster_network
 from vgraph.transfer_function import TransferFunction
@@ -241,6 +242,15 @@ def test_nearest_opaque_depth_marks_the_hits(torus):
     assert 0.1 < hit.mean() < 0.9
     np.testing.assert_array_equal(depth[..., 3] == 1.0, hit)
     assert np.all((depth[hit, 0] > 0.0) & (depth[hit, 0] < 1.0))
+
+
+def test_an_empty_picture_of_visible_channels_is_warned_about(torus):
+    """The scheduler's blank-image warning: the camera looks away from the volumes."""
+    away = Camera(position=(0.0, 0.0, 5.0), focus=(0.0, 0.0, 9.0), near=0.1, far=3.0)
+    network = multivolume_network([torus, shifted(torus, (3, 0, 0))], away, transfer_function1=ORANGE,
+                                  transfer_function2=BLUE)
+    with pytest.warns(BlankImageWarning, match=r"mv \(MultiVolumeRayCaster\).*volume1: .*volume2: "):
+        network.evaluate("mv.image", size=SIZE)
 
 
 # --- errors -------------------------------------------------------------------------------------
