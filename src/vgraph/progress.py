@@ -111,13 +111,13 @@ def _tell(progress: Progress) -> None:
 
 
 class Steps:
-    """A tqdm bar (on stderr, shown as tqdm decides: ``show`` None = when stderr is a terminal,
-    False = never) that also reports its counts to the listener, always."""
+    """A tqdm bar (on stderr; ``show``: True = always, None = when stderr is a terminal, False =
+    never) that also reports its counts to the listener, always."""
 
     def __init__(self, total: float, what: str, show: bool | None = None, **tqdm_options):
         self.total, self.what, self.done = total, what, 0.0
-        self.bar = tqdm(total=total, desc=what, leave=False, disable=True if show is False else None,
-                        **tqdm_options)
+        disable = {True: False, None: None, False: True}[show]  # tqdm's word for it
+        self.bar = tqdm(total=total, desc=what, leave=False, disable=disable, **tqdm_options)
         report(0, total, what)
 
     def update(self, steps: float = 1) -> None:

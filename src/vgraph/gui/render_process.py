@@ -142,6 +142,7 @@ class RenderServer:
         self.imported: set[str] = set()
         self.cluster = ClusterRenderer()  # the Client, kept between jobs
         self.progress = None              # progress(RenderProgress) while a frame is drawn on a cluster
+        self.running = None               # running(ProcessorProgress) while a job is evaluated
 
     def close(self) -> None:
         self.cluster.close()
@@ -153,7 +154,7 @@ class RenderServer:
             return result
         try:
             view = self._cluster_view(job)
-            with progress_api.listening(ProgressForwarder(self.progress or _ignore, job.version)):
+            with progress_api.listening(ProgressForwarder(self.running or _ignore, job.version)):
                 result.outcome = evaluate_view(self.network, job.scale, job.include_writers,
                                                draw=view.draw if view else None)
             result.statuses = {pid: processor_status(self.network, p) for pid, p in self.network.processors.items()}
@@ -267,7 +268,7 @@ def serve(connection) -> None:
     # reports as leaked whenever a render process is killed.
     tqdm.set_lock(threading.RLock())
     server = RenderServer()
-    server.progress = connection.send
+    server.progress = server.running = connection.send
     try:
         while True:
             try:

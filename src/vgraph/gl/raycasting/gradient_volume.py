@@ -95,7 +95,7 @@ def _slabs(volume: Volume, what: str):
     nz, ny, nx = volume.data.shape
     thickness = max(1, SLAB_VOXELS // (nx * ny))
     starts = range(0, nz, thickness)
-    show = None if volume.data.size > PROGRESS_VOXELS else False  # the GUI hears every one
+    show = volume.data.size > PROGRESS_VOXELS  # on stderr; the GUI hears every one
     for z0 in steps(starts, f"gradients ({what})", show=show, unit="slab", file=sys.stderr):
         yield z0, min(z0 + thickness, nz)
 
