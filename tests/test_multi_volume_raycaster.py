@@ -310,3 +310,25 @@ def test_the_hydrogen_neghip_network_renders_both_channels_from_the_cli(tmp_path
     # Both hues are there: hydrogen orange (red > blue), neghip blue (blue > red).
     assert ((image[..., 0] > image[..., 2] + 0.1) & drawn).mean() > 0.01
     assert ((image[..., 2] > image[..., 0] + 0.1) & drawn).mean() > 0.01
+
+
+def test_the_gui_shows_the_network_and_switches_the_blend_mode(window, jobs):
+    """Opened in the GUI: the inspector has an editor per channel's TF, and a blend picked there
+    gives on the canvas exactly the CLI's picture of that blend."""
+    if not DATA.is_dir():
+        pytest.skip(f"shared data sets not found at {DATA}")
+    import vgraph
+    from vgraph.imagefile import to_uint8
+    path = REPO / "networks" / "two_channels_hydrogen_neghip.json"
+    assert window.open_network(path)
+    assert not window.evaluation.run(wait=True).failed
+    window.scene.select_processor("mv")
+    assert {f"transfer_function{n}" for n in range(1, 5)} <= set(window.inspector.editors)
+    window.inspector.editors["blend"].combo.setCurrentText("maximum")
+    outcome = window.evaluation.run(wait=True)
+    assert not outcome.failed and "canvas" in outcome.frames
+    view = window.canvases.views["canvas"]
+    assert view.is_final
+    network = vgraph.load(path)
+    network.set("mv.blend", "maximum")
+    np.testing.assert_array_equal(view.frame(), to_uint8(network.evaluate("canvas")))
