@@ -227,3 +227,19 @@ def test_two_connections_around_the_same_node_take_different_lanes(scene):
     for edge in (first, second):
         for pid in edge.route.avoided:
             assert not drawn(edge).intersects(node_rect(scene, pid)), pid
+
+
+def test_a_connection_to_an_inport_above_goes_around_its_own_nodes(scene):
+    """Side by side (the inport higher than the outport): the curve would cut through both nodes."""
+    scene.workspace.move({"sink": (260.0, 0.0)})
+    edge = scene.edges[EDGE]
+    start, end = ports(scene)
+    assert connection_path(start, end).intersects(node_rect(scene, "sink"))   # the old drawing
+    assert not edge.route.curved
+    for pid in ("a", "sink"):   # a little inside: the path starts and ends on their edges
+        assert not drawn(edge).intersects(node_rect(scene, pid).adjusted(3, 3, -3, -3)), pid
+    path = edge.path()
+    first, last = path.elementAt(0), path.elementAt(path.elementCount() - 1)
+    assert (first.x, first.y) == (start.x(), start.y()) and (last.x, last.y) == (end.x(), end.y())
+    scene.workspace.move({"sink": (0.0, 300.0)})   # back below: the curve again
+    assert same_path(edge.path(), connection_path(*ports(scene)))

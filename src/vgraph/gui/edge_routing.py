@@ -130,10 +130,14 @@ def boxes_hit(points: Sequence[Point], boxes: Mapping[object, Box]) -> frozenset
 
 # --- routing -------------------------------------------------------------------------------------
 def route(start: Point, end: Point, obstacles: Mapping[object, Box], margin: float = MARGIN,
-          lane: float = 0.0) -> Route:
+          lane: float = 0.0, ends: tuple[Box, Box] | None = None) -> Route:
     """The default curve if it clears every obstacle (by ``margin``), else the cheapest clear
     orthogonal route: down from ``start``, across to a vertical channel, along it, across to
     above ``end`` and down into it. Keeps the curve when no candidate is clear (a crowded spot).
+
+    ``ends``: the boxes of the connection's own two nodes (source, target). The curve may pass
+    close to them but not through them (it does when the inport is above the outport); a route
+    keeps the margin from them too, except along its first and last legs, which start on them.
 
     ``lane`` (>= 0) moves the route's channel and legs that much further from the nodes they pass
     (and its stubs longer): connections given different lanes do not run on top of each other
@@ -141,13 +145,18 @@ def route(start: Point, end: Point, obstacles: Mapping[object, Box], margin: flo
     curve = default_curve(start, end)
     grown = {key: box.inflated(margin) for key, box in obstacles.items()}
     hit = boxes_hit(curve, grown)
-    if not hit:
+    through_own = ends is not None and any(polyline_hits(curve, box) for box in ends)
+    if not hit and not through_own:
         return Route(curve, True)
-    legs = _LegTest(list(grown.values()))
+    others = list(grown.values())
+    source, target = [box.inflated(margin) for box in ends] if ends is not None else ([], [])
+    first = _LegTest(others + ([target] if ends else []))   # leaves the source: may touch it
+    last = _LegTest(others + ([source] if ends else []))    # enters the target
+    middle = _LegTest(others + ([source, target] if ends else []))
     (x0, y0), (x1, y1) = start, end
-    for _, a, b, c in sorted(_candidates(start, end, grown.values(), lane))[:MAX_CHECKS]:
-        if (legs.vertical(x0, y0, a) and legs.horizontal(a, x0, c) and legs.vertical(c, a, b)
-                and legs.horizontal(b, c, x1) and legs.vertical(x1, b, y1)):
+    for _, a, b, c in sorted(_candidates(start, end, middle.boxes, lane))[:MAX_CHECKS]:
+        if (first.vertical(x0, y0, a) and middle.horizontal(a, x0, c) and middle.vertical(c, a, b)
+                and middle.horizontal(b, c, x1) and last.vertical(x1, b, y1)):
             return Route(_simplified([start, (x0, a), (c, a), (c, b), (x1, b), end]), False, hit)
     return Route(curve, True, hit)
 
@@ -157,7 +166,7 @@ class _LegTest:
     route share most of their legs, so a search tests each leg once."""
 
     def __init__(self, boxes: list[Box]):
-        self.boxes = [(b.left, b.top, b.right, b.bottom) for b in boxes]
+        self.boxes = [(b.left, b.top, b.right, b.bottom) for b in boxes]  # tuples: the tests' inner loop
         self.known: dict[tuple, bool] = {}
 
     def vertical(self, x: float, y_from: float, y_to: float) -> bool:
@@ -175,11 +184,11 @@ class _LegTest:
         return self.known[key]
 
 
-def _candidates(start: Point, end: Point, boxes: Iterable[Box], lane: float) -> list[tuple[float, float, float, float]]:
+def _candidates(start: Point, end: Point, boxes: Iterable[tuple], lane: float) -> list[tuple[float, float, float, float]]:
     """(cost, a, b, c) of every route through a vertical channel x = c at a node's side (or below
     a port), leaving the outport's stub at height a and reaching the inport's at height b.
     Costed without building the polylines: most are never tested."""
-    boxes = list(boxes)
+    boxes = [Box(*box) for box in boxes]
     (x0, y0), (x1, y1) = start, end
     leave, enter = y0 + STUB + lane, y1 - STUB - lane
     channels = {x0, x1}

@@ -192,7 +192,8 @@ class EdgeItem(_CurveItem):
     def adjust(self, obstacles: Mapping[str, Box] | None = None) -> None:
         """Re-route between the ports' current places around ``obstacles`` (processor id: box)."""
         start, end = self.source.scenePos(), self.target.scenePos()
-        self.route = route((start.x(), start.y()), (end.x(), end.y()), obstacles or {}, lane=self.lane)
+        ends = tuple(Box.of(n.x(), n.y(), NODE_WIDTH, NODE_HEIGHT) for n in (self.source.node, self.target.node))
+        self.route = route((start.x(), start.y()), (end.x(), end.y()), obstacles or {}, lane=self.lane, ends=ends)
         self.setPath(route_path(self.route))
 
     def paint(self, painter, option, widget=None) -> None:
