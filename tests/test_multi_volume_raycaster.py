@@ -154,6 +154,24 @@ def test_shading_matches_the_cpu_reference(torus, other_grid, blend, second):
     np.testing.assert_allclose(gl, reference, atol=REFERENCE_TOLERANCE)
 
 
+def test_clip_planes_and_crop_box_of_the_entry_exit_points_cut_every_channel(torus, other_grid):
+    """The rays come from EntryExitPoints: its planes and crop box cut all channels alike."""
+    planes = [{"normal": [1.0, 0.3, 0.0], "point": [0.1, 0.0, 0.0]}]
+    crop = (-1.0, -1.0, -0.4, 1.0, 1.0, 1.0)
+    camera = oblique_camera(torus)
+    network = multivolume_network([torus, other_grid], camera, transfer_function1=ORANGE,
+                                  transfer_function2=BLUE, shading="blinn_phong")
+    network.set("eep.clip_planes", planes)
+    network.set("eep.crop_box", crop)
+    gl = network.evaluate("mv.image", size=SIZE)
+    channels = [(torus, ORANGE), (other_grid, BLUE)]
+    reference = render_channels(channels, camera, SIZE, shading=Shading(), crop_box=crop,
+                                clip_planes=network.get("eep.clip_planes"))
+    whole = render_channels(channels, camera, SIZE, shading=Shading())
+    assert np.abs(reference - whole).max() > 0.3
+    np.testing.assert_allclose(gl, reference, atol=REFERENCE_TOLERANCE)
+
+
 # --- closed-form answers ------------------------------------------------------------------------
 def test_maximum_of_a_shifted_copy_is_the_first_channels_mip_moved_by_the_shift():
     """Red ramp on A, green ramp on B = A moved 3 voxels along +x: green = red moved 3 pixels

@@ -5,7 +5,8 @@ blended. Tests compare the GL images with it pixel by pixel.
 Model (rules of vgraph.numerics.reference_raycast unless said otherwise; arithmetic in float64):
 
 1. Rays: ``Camera.rays`` of the camera resolved on the FIRST channel's box, clipped to that box
-   (slab test) and to [near, far]. A ray that misses it is the background, exactly.
+   (slab test; narrowed by ``crop_box``), to [near, far] and to the kept side of ``clip_planes``
+   (vgraph.clipping, as EntryExitPoints cuts them). A ray with nothing left is the background.
 2. Samples: ``step = min over channels of min(spacing) / sampling_rate``; sample i at
    ``t_entry + i * step``, ``n = floor(length / step + 1e-3) + 1`` (the RayCaster's rule).
 3. Channel k at a world point p: inside its box of voxel centres grown by ``1e-5 * (max |corner| +
@@ -37,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vgraph.camera import Camera
+from vgraph.clipping import clip_intervals, cropped_box
 from vgraph.errors import VGraphError
 from vgraph.numerics.reference_raycast import (Shading, VolumeSampler, _clip_to_box, _shade, lookup,
                                                sample_counts, volume_box)
@@ -72,9 +74,10 @@ class _Channel:
 def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate",
                     sampling_rate: float = 1.0, early_termination: float = 0.99,
                     opacity_threshold: float = 0.5, background=(0.0, 0.0, 0.0, 1.0),
-                    shading: Shading | None = None) -> np.ndarray:
+                    shading: Shading | None = None, clip_planes=(), crop_box=None) -> np.ndarray:
     """Render ``channels``, a list of (Volume, TransferFunction), the first one bounding the rays,
-    as the MultiVolumeRayCaster does (model in the module docstring). ``size`` is (width, height)."""
+    as the MultiVolumeRayCaster does (model in the module docstring). ``size`` is (width, height);
+    ``clip_planes`` and ``crop_box`` are those of the EntryExitPoints."""
     if not 1 <= len(channels) <= MAX_CHANNELS:
         raise VGraphError(f"multivolume reference: 1 to {MAX_CHANNELS} channels, got {len(channels)}")
     if blend not in BLENDS:
@@ -83,8 +86,12 @@ def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate"
     first = channels[0][0]
     camera = camera.resolved(*volume_box(first), width / height)
     origins, directions = (a.reshape(-1, 3) for a in camera.rays(width, height))
-    t_entry, t_exit = _clip_to_box(origins, directions, *volume_box(first),
+    box = cropped_box(*volume_box(first), crop_box)
+    t_entry, t_exit = _clip_to_box(origins, directions, *(box or volume_box(first)),
                                    camera.far_distance(directions), min(first.spacing))
+    if box is None:  # the crop box leaves nothing: every ray misses
+        t_exit[:] = -np.inf
+    t_entry, t_exit = clip_intervals(origins, directions, t_entry, t_exit, clip_planes)
     ready = [_Channel.of(volume, tf) for volume, tf in channels]
     step = min(c.min_spacing for c in ready) / sampling_rate
     counts = sample_counts(t_entry, t_exit, step)
