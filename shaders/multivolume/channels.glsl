@@ -3,7 +3,7 @@
 // EntryExitPoints box); channel k's texture coordinate is t * channel_scale[k] + channel_offset[k]
 // (texture -> world of the first channel, then world -> texture of channel k, combined on the
 // CPU; the identity for channel 0 and for channels on its grid). Slot k holds the k-th connected
-// channel (volume{k+1}, transfer_function{k+1}).
+// channel in the samplers volume{k+1} and transfer_function{k+1}, whatever inport it came from.
 uniform sampler3D volume1;
 uniform sampler2D transfer_function1;
 #if CHANNELS >= 2
