@@ -17,8 +17,9 @@ Conventions (docs/exploring.md has pictures):
   the step, front to back with early termination) or first_hit (the first shown label's colour,
   opaque: a surface view; the hit refined by halvings of the step to the boundary). ``shading``
   blinn_phong lights samples with a gradient of the weight sums as normal, which the rule has
-  already (no extra fetch): composite the winning label's (label interiors stay unshaded), first_hit
-  that of all shown labels together (their outer surface; no seam where two labels touch).
+  already (no extra fetch): next to the background that of all shown labels together (their outer
+  surface; no seam where two labels touch), elsewhere the winning label's own boundary (label
+  interiors stay unshaded).
 - Empty-space skipping: blocks whose voxels (with the rule's one-voxel margin) hold no shown label
   are jumped over and bound the rays (components.EmptySpace); the picture does not change.
 - Samples as the RayCaster's: every min(spacing) / sampling_rate world units from the entry point

@@ -23,7 +23,7 @@ from vgraph.volume import Volume
 from helpers.paths import REPO
 
 SIZE = (56, 44)
-# Max |GL - reference| per channel; measured on llvmpipe: <= 1.4e-6 (float32 weights and pow).
+# Max |GL - reference| per channel; measured on llvmpipe: <= 1.7e-6 (float32 weights and pow).
 TOLERANCE = 2e-5
 RED, GREEN, BLUE = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 HEADLIGHT = {"ambient": 0.3, "diffuse": 0.7, "specular": 0.2, "shininess": 32.0}
@@ -183,7 +183,7 @@ def test_the_boundary_between_two_labels_is_half_way_between_voxel_centres():
 def test_majority_rule_never_makes_intermediate_labels_and_ties_half_way():
     data = np.array([[[1, 3]]])                                 # two voxels along x
     x = np.linspace(0.25, 0.75, 101)                           # centre of voxel 0 to centre of voxel 1
-    winner, weight, _, _ = majority(data, np.stack([x, np.full_like(x, 0.5), np.full_like(x, 0.5)], axis=1))
+    winner, weight, _ = majority(data, np.stack([x, np.full_like(x, 0.5), np.full_like(x, 0.5)], axis=1))
     assert set(winner) == {1, 3}
     np.testing.assert_array_equal(winner, np.where(x <= 0.5, 1, 3))   # the tie at 0.5: the smaller label
     assert weight.min() == pytest.approx(0.5)

@@ -1,7 +1,7 @@
 // COMPOSITING_COMPOSITE: every shown label's colour at its opacity, front-to-back (Inacio 2009
 // eq. 2.3-2.4): C += (1 - A) a' rgb, A += (1 - A) a', a' = 1 - (1 - opacity)^(1 / sampling_rate)
 // (opacity is per sample at rate 1), shaded where SHADING_BLINN_PHONG (inside a label the weight
-// sum has no slope and the colour stays unshaded). Background samples add nothing. The ray stops
+// sums have no slope and the colour stays unshaded). Background samples add nothing. The ray stops
 // once A >= early_termination. With SKIP_EMPTY_SPACE, blocks without shown labels are jumped over.
 #ifdef COMPOSITING_COMPOSITE
 uniform float early_termination;
@@ -17,7 +17,7 @@ vec4 march(Ray ray) {
             vec4 color = code_color(label.code);
             float alpha = 1.0 - pow(1.0 - color.a, opacity_exponent);
             float weight = (1.0 - sum.a) * alpha;
-            sum += vec4(weight * label_shade(color.rgb, label.slope, ray), weight);
+            sum += vec4(weight * label_shade(color.rgb, label, ray), weight);
             if (sum.a >= early_termination) {
                 break;
             }

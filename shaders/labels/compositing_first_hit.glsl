@@ -31,7 +31,7 @@ vec4 march(Ray ray) {
             if (cursor.i > 0) {
                 label = refined_hit(ray, float(cursor.i - 1), float(cursor.i), label);
             }
-            return vec4(label_shade(code_color(label.code).rgb, label.surface, ray), 1.0);
+            return vec4(label_shade(code_color(label.code).rgb, label, ray), 1.0);
         }
         ++cursor.i;
     }

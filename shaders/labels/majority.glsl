@@ -19,8 +19,10 @@ vec4 code_color(uint code) {
 struct Label {
     uint code;      // the winning class: a code, or BACKGROUND
     float weight;   // its weight sum
-    vec3 slope;     // d(weight) / d(voxel index) along x, y, z: normal of the label's boundary
-    vec3 surface;   // the same for all shown labels together: normal of their outer surface
+    vec3 normal;    // for shading, per voxel step (x, y, z): where the 8 voxels include background,
+                    // d(weight of all shown labels) / d(voxel index), the normal of their outer
+                    // surface (no seam where two labels touch); else d(weight) / d(voxel index),
+                    // the label's own boundary with another label
 };
 
 Label majority_label(vec3 t) {
@@ -38,12 +40,13 @@ Label majority_label(vec3 t) {
         one_code = one_code && codes[c] == codes[0];
     }
     if (one_code) {  // inside a label or the background (most samples): all weight, no slope
-        return Label(code_color(codes[0]).a > 0.0 ? codes[0] : BACKGROUND, 1.0, vec3(0.0), vec3(0.0));
+        return Label(code_color(codes[0]).a > 0.0 ? codes[0] : BACKGROUND, 1.0, vec3(0.0));
     }
     uint votes[8];
     float weights[8];
     vec3 slopes[8];
     vec3 surface = vec3(0.0);
+    bool background = false;
     for (int c = 0; c < 8; ++c) {
         ivec3 offset = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
         uint code = codes[c];
@@ -52,8 +55,9 @@ Label majority_label(vec3 t) {
         weights[c] = axis.x * axis.y * axis.z;
         slopes[c] = (vec3(offset) * 2.0 - 1.0) * vec3(axis.y * axis.z, axis.x * axis.z, axis.x * axis.y);
         surface += votes[c] != BACKGROUND ? slopes[c] : vec3(0.0);
+        background = background || votes[c] == BACKGROUND;
     }
-    Label best = Label(BACKGROUND, -1.0, vec3(0.0), surface);
+    Label best = Label(BACKGROUND, -1.0, vec3(0.0));
     for (int c = 0; c < 8; ++c) {
         float sum = 0.0;
         vec3 slope = vec3(0.0);
@@ -64,8 +68,11 @@ Label majority_label(vec3 t) {
             }
         }
         if (sum > best.weight || (sum == best.weight && votes[c] < best.code)) {
-            best = Label(votes[c], sum, slope, surface);
+            best = Label(votes[c], sum, slope);
         }
+    }
+    if (background) {
+        best.normal = surface;
     }
     return best;
 }

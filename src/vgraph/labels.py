@@ -173,11 +173,13 @@ def _whole_numbers(data: np.ndarray, consumer: str) -> np.ndarray:
 CORNERS = np.array([(c & 1, (c >> 1) & 1, (c >> 2) & 1) for c in range(8)])  # (x, y, z) offsets
 
 
-def majority(classes: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, ...]:
+def majority(classes: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The majority rule at texture coordinates ``points`` (N, 3), (x, y, z) in [0, 1]: the winning
-    class per point, its weight sum, the gradient of that sum per voxel step (x, y, z), and the
-    gradient of the weight sum of all shown classes together (the normal of their outer surface).
-    ``classes`` [z, y, x] holds each voxel's class (LabelCodes.classes()[codes])."""
+    class per point, its weight sum, and the shading normal per voxel step (x, y, z): where the 8
+    voxels include background, the gradient of the weight sum of all shown classes together (their
+    outer surface: no seam where two labels touch), else the gradient of the winner's sum (its
+    boundary with another label). ``classes`` [z, y, x] holds each voxel's class
+    (LabelCodes.classes()[codes])."""
     dims = np.array(classes.shape[::-1])
     p = np.clip(np.asarray(points, dtype=np.float64) * dims - 0.5, 0, dims - 1)  # into the box (the shader's why)
     base = np.clip(np.floor(p), 0, np.maximum(dims - 2, 0))
@@ -202,5 +204,7 @@ def majority(classes: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, ...]:
     winner = votes[order, columns]
     member = votes == winner[None, :]
     gradient = (member[:, :, None] * slopes).sum(axis=0)
-    surface = ((votes != BACKGROUND)[:, :, None] * slopes).sum(axis=0)
-    return winner, sums[order, columns], gradient, surface
+    background = votes == BACKGROUND
+    surface = (~background[:, :, None] * slopes).sum(axis=0)
+    normal = np.where(background.any(axis=0)[:, None], surface, gradient)
+    return winner, sums[order, columns], normal

@@ -4,10 +4,10 @@ It takes the rays from the EntryExitPoints images (rgb = texture coordinates, al
 shader does, and follows the same rules: sample i at entry + i * step, step = min(spacing) /
 sampling_rate world units, samples = floor(length / step + 1e-3) + 1 (raycasting/ray.glsl); the
 label of each sample by the majority of interpolation weights (vgraph.labels.majority); composite
-(front to back, opacity corrected to 1 - (1 - a)^(1 / sampling_rate), early termination; shading
-by the winning label's slope) or first_hit (the first shown label, opaque, its hit refined by
-halvings of the step, shading by the surface slope of all shown labels); optional Blinn-Phong with
-a headlight (numerics.reference_raycast's model); the result over the background.
+(front to back, opacity corrected to 1 - (1 - a)^(1 / sampling_rate), early termination) or
+first_hit (the first shown label, opaque, its hit refined by halvings of the step); optional
+Blinn-Phong with a headlight (numerics.reference_raycast's model) and the majority rule's normal;
+the result over the background.
 """
 
 from __future__ import annotations
@@ -46,21 +46,18 @@ def render_labels(volume: Volume, table: LabelTable, entry: np.ndarray, exit: np
         rays = np.flatnonzero(active & (i < samples))
         if rays.size == 0:
             break
-        winner, _, slope, surface = majority(classes, start[rays] + i * step[rays])
+        winner, _, normal = majority(classes, start[rays] + i * step[rays])
         shown = winner != BACKGROUND
-        rays, winner, slope, surface = rays[shown], winner[shown], slope[shown], surface[shown]
+        rays, winner, normal = rays[shown], winner[shown], normal[shown]
+        if mode == "first_hit" and i > 0:
+            winner, normal = _refined_hit(classes, start[rays], step[rays], i, winner, normal)
+        rgb = colors[winner, :3]
+        if shading is not None:
+            rgb = _headlight(rgb, normal / spacing, direction[rays], shading, spacing.min())
         if mode == "first_hit":
-            if i > 0:
-                winner, surface = _refined_hit(classes, start[rays], step[rays], i, winner, surface)
-            rgb = colors[winner, :3]
-            if shading is not None:
-                rgb = _headlight(rgb, surface / spacing, direction[rays], shading, spacing.min())
             total[rays] = np.concatenate([rgb, np.ones((len(rays), 1))], axis=1)
             active[rays] = False
             continue
-        rgb = colors[winner, :3]
-        if shading is not None:
-            rgb = _headlight(rgb, slope / spacing, direction[rays], shading, spacing.min())
         alpha = 1.0 - (1.0 - colors[winner, 3]) ** exponent
         weight = (1.0 - total[rays, 3]) * alpha
         total[rays, :3] += weight[:, None] * rgb
@@ -73,19 +70,19 @@ def render_labels(volume: Volume, table: LabelTable, entry: np.ndarray, exit: np
                            picture[..., 3:] + (1.0 - picture[..., 3:]) * bg[3]], axis=-1)
 
 
-def _refined_hit(classes, start, step, i, winner, surface):
+def _refined_hit(classes, start, step, i, winner, normal):
     """compositing_first_hit.glsl: HIT_REFINEMENT halvings of [i - 1, i] towards where the majority
-    turns to a shown label; the label and surface slope at the last shown point."""
+    turns to a shown label; the label and normal at the last shown point."""
     outside, inside = np.full(len(start), i - 1.0), np.full(len(start), float(i))
     for _ in range(HIT_REFINEMENT):
         middle = 0.5 * (outside + inside)
-        here, _, _, here_surface = majority(classes, start + middle[:, None] * step)
+        here, _, here_normal = majority(classes, start + middle[:, None] * step)
         shown = here != BACKGROUND
         inside = np.where(shown, middle, inside)
         outside = np.where(shown, outside, middle)
         winner = np.where(shown, here, winner)
-        surface = np.where(shown[:, None], here_surface, surface)
-    return winner, surface
+        normal = np.where(shown[:, None], here_normal, normal)
+    return winner, normal
 
 
 def _headlight(rgb, gradient, direction, shading, min_spacing):
