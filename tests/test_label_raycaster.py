@@ -165,6 +165,37 @@ def test_a_clip_plane_in_the_entry_exit_points_cuts_the_labels():
     assert colours(gl) == {BLUE, (0.0, 0.0, 0.0)}
 
 
+def test_rays_stop_at_opaque_geometry_through_geometry_entry_exit():
+    """A wall (the iso-surface x = 10.5 of a ramp) cuts the rays through GeometryEntryExit: labels
+    behind it vanish (transparent, to be composited over the wall's image), the rest as the
+    reference draws it on the cut entry and exit points."""
+    boxes = touching_boxes()
+    ramp = Volume(np.broadcast_to(np.arange(16, dtype=np.float32), boxes.data.shape).copy())
+    network = label_network(boxes, oblique_camera(boxes), label_table=BOX_TABLE, compositing="first_hit",
+                            background=(0.0, 0.0, 0.0, 0.0))
+    uncut = network.evaluate("lrc.image", size=SIZE)
+    network.add(GivenVolume(id="ramp", volume=ramp))
+    network.add("IsoSurfaceExtractor", id="wall", iso_level=10.5 / 15)
+    network.add("GeometryRenderer", id="wall_renderer")
+    network.add("GeometryEntryExit", id="cut")
+    network.link("eep.camera", "wall_renderer.camera")
+    network.link("eep.camera", "cut.camera")
+    for connection in network.inputs_of("lrc", "entry") + network.inputs_of("lrc", "exit"):
+        network.disconnect(connection)
+    for source, target in (("ramp.volume", "wall.volume"), ("wall.geometry", "wall_renderer.geometry"),
+                           ("src.volume", "wall_renderer.volume"), ("src.volume", "cut.volume"),
+                           ("eep.entry", "cut.entry"), ("eep.exit", "cut.exit"),
+                           ("wall_renderer.depth", "cut.depth"), ("cut.entry", "lrc.entry"),
+                           ("cut.exit", "lrc.exit")):
+        network.connect(source, target)
+    cut = network.evaluate("lrc.image", size=SIZE)
+    entry, exit_ = network.evaluate("cut.entry", size=SIZE), network.evaluate("cut.exit", size=SIZE)
+    reference = render_labels(boxes, BOX_TABLE, entry, exit_, mode="first_hit", background=(0.0, 0.0, 0.0, 0.0))
+    np.testing.assert_allclose(cut, reference, atol=TOLERANCE)
+    hidden = np.abs(cut - uncut).max(axis=-1) > 0.5
+    assert hidden.sum() > 10 and (cut[hidden] == 0.0).all()
+
+
 def test_the_boundary_between_two_labels_is_half_way_between_voxel_centres():
     """Seen from above at 4 pixels a voxel, the columns left of x = 7.5 voxels are label 1 and
     those right of it label 3 (the weights tie at 7.5, half-way between the centres of voxels 7
