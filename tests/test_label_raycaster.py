@@ -11,7 +11,7 @@ from scipy import ndimage
 
 from vgraph import ProcessorError
 from vgraph.camera import Camera
-from vgraph.errors import NetworkFileError, PropertyError
+from vgraph.errors import NetworkFileError, PropertyError, VGraphError
 from vgraph.fileformat import load_network, save_network
 from vgraph.labels import BACKGROUND, LabelEntry, LabelTable, label_codes, majority, palette_color
 from vgraph.network import Network
@@ -256,6 +256,13 @@ def test_whole_floats_render_as_integers_and_fractional_floats_are_refused():
                                              r"fractional values, e.g. 2.5 at voxel "
                                              r"\(x=5, y=4, z=3\)"):
         label_network(Volume(data), camera).evaluate("lrc.image", size=SIZE)
+
+
+def test_label_values_beyond_64_bit_signed_integers_are_refused():
+    data = np.zeros((2, 2, 2), dtype=np.uint64)
+    data[0, 0, 0] = 2**63
+    with pytest.raises(VGraphError, match="vol: label values must fit a 64-bit signed integer, got 9223372036854775808"):
+        label_codes(data, "vol")
 
 
 def test_the_codes_texture_is_made_once_per_volume_whatever_the_table():

@@ -145,6 +145,8 @@ def label_codes(data: np.ndarray, consumer: str) -> LabelCodes:
     if data.size == 0:
         raise VGraphError(f"{consumer}: the label volume is empty")
     low, high = int(data.min()), int(data.max())
+    if high > np.iinfo(np.int64).max:
+        raise VGraphError(f"{consumer}: label values must fit a 64-bit signed integer, got {high}")
     if low >= 0 and high <= DIRECT_CODES:
         return LabelCodes(data.astype(np.uint16, copy=False), np.arange(high + 1, dtype=np.int64))
     values, inverse = np.unique(data, return_inverse=True)
