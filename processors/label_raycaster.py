@@ -99,8 +99,9 @@ class LabelRayCaster(RaycasterBase):
         """Empty-space skipping (components.EmptySpace): blocks whose voxels, with the one-voxel
         margin the majority rule reads, hold no shown label are empty. Ray bounds follow from them
         ("opacity": empty blocks contribute nothing), so the image is the same, only cheaper."""
-        codes, table = self._codes, self.label_table
-        return ("opacity", table), lambda low, high: radii_if_worthwhile(shown_blocks(codes, table))
+        codes = self._codes
+        shown = self.label_table.colors(codes.values)[:, 3] > 0.0  # only this matters, not the colours
+        return ("opacity", shown.tobytes()), lambda low, high: radii_if_worthwhile(shown_blocks(codes, shown))
 
 
 def label_textures(volume: Volume, ctx: moderngl.Context, consumer: str) -> tuple[LabelCodes, moderngl.Texture]:
@@ -127,10 +128,11 @@ def label_textures(volume: Volume, ctx: moderngl.Context, consumer: str) -> tupl
     return codes, texture
 
 
-def shown_blocks(codes: LabelCodes, table: LabelTable) -> np.ndarray:
-    """Per empty-space block [bz, by, bx]: whether a voxel of it holds a shown label; block b
-    covers voxels [b * BLOCK - 1, (b + 1) * BLOCK + 1] on each axis (empty_space.block_ranges)."""
-    shown = (table.colors(codes.values)[:, 3] > 0.0)[codes.codes]
+def shown_blocks(codes: LabelCodes, shown_codes: np.ndarray) -> np.ndarray:
+    """Per empty-space block [bz, by, bx]: whether a voxel of it holds a shown code (``shown_codes``
+    per code); block b covers voxels [b * BLOCK - 1, (b + 1) * BLOCK + 1] on each axis
+    (empty_space.block_ranges)."""
+    shown = shown_codes[codes.codes]
     for axis in range(3):
         moved = np.moveaxis(shown, axis, 0)
         n = moved.shape[0]
