@@ -11,11 +11,11 @@ Conventions (docs/exploring.md shows them with pictures):
   hidden background and draws every other label from the palette, opaque.
 - A label is *shown* when it is visible with opacity > 0; all other labels (hidden ones, label 0
   by default, unlisted ones under "hidden") are one class, the background.
-- Majority rule: at a sample point, the 8 nearest voxels (their centres around the point; a point
-  outside the box of the voxel centres is first clamped onto it, clamp-to-edge's weights, with
-  one slope on the faces) vote with their trilinear weights; each
-  class sums the weights of its voxels and the class with the largest sum wins; on a tie, the
-  smaller label value wins and the background loses to any label. So labels never blend as
+- Majority rule: at a sample point, the 8 voxels whose centres surround it vote with their
+  trilinear weights (a point outside the box of the voxel centres is first clamped onto it: the
+  weights of clamp-to-edge filtering); each class sums the weights of its voxels and the class
+  with the largest sum wins; on a tie, the smaller label value wins and the background loses to
+  any label. So labels never blend as
   numbers (1 and 3 never make a 2), and between two labels the boundary is where their weight sums
   tie: half-way between the voxel centres for two touching blocks, a smooth surface in general
   (for one label against background it is the 0.5 iso-surface of its trilinear indicator).
