@@ -90,14 +90,6 @@ class LabelTable(BaseModel):
         return cls(labels=(LabelEntry(value=0, name="background", color=(0.0, 0.0, 0.0), opacity=0.0,
                                       visible=False),))
 
-    def entry(self, value: int) -> LabelEntry:
-        """The label's row, or the row an unlisted label gets."""
-        for entry in self.labels:
-            if entry.value == value:
-                return entry
-        return LabelEntry(value=value, color=palette_color(value), opacity=self.unlisted_opacity,
-                          visible=self.unlisted == "palette")
-
     def with_entry(self, entry: LabelEntry) -> "LabelTable":
         """A copy with ``entry`` replacing the row of its value (or added, rows kept sorted)."""
         rows = [row for row in self.labels if row.value != entry.value] + [entry]
