@@ -78,7 +78,8 @@ class LabelRayCaster(RaycasterBase):
         return self.shading != "none"
 
     def process(self, labels: Volume, entry: Image, exit: Image) -> Image:
-        consumer = f"{self.id}.labels"  # the scheduler's ProcessorError names the processor too
+        # The scheduler's ProcessorError names the processor too; the file says which data.
+        consumer = f"{self.id}.labels" + (f" ({labels.source})" if labels.source else "")
         labels.require_samples(consumer)
         if labels.bricks is not None:
             raise VGraphError(f"{consumer}: label volumes are drawn from one texture; this one is "
@@ -94,6 +95,16 @@ class LabelRayCaster(RaycasterBase):
         (image,) = self._targets.ensure(frame.ctx, entry.size)
         self.draw(frame, SHADER, self._targets, own=own)
         return image
+
+    def visible_content(self) -> str | None:
+        """The share of voxels holding shown labels (for the scheduler's empty-image warning)."""
+        volume = self.inputs.get("labels")
+        cached = volume.__dict__.get(_CACHE_KEY) if volume is not None else None
+        if cached is None:  # not drawn (refused, or never run)
+            return None
+        codes = cached[0]
+        share = (self.label_table.colors(codes.values)[:, 3] > 0.0)[codes.codes].mean()
+        return f"{share:.0%} of the voxels hold shown labels" if share > 0 else None
 
     def skip_values(self, frame):
         """Empty-space skipping (components.EmptySpace): blocks whose voxels, with the one-voxel

@@ -16,6 +16,7 @@ from vgraph.fileformat import load_network, save_network
 from vgraph.gl.raycasting.components import EmptySpace
 from vgraph.labels import BACKGROUND, LabelEntry, LabelTable, label_codes, majority, palette_color
 from vgraph.network import Network
+from vgraph.scheduler import BlankImageWarning
 from vgraph.numerics.reference_labels import render_labels
 from vgraph.numerics.reference_raycast import volume_box
 from vgraph.testing import GivenVolume
@@ -253,10 +254,10 @@ def test_whole_floats_render_as_integers_and_fractional_floats_are_refused():
     np.testing.assert_array_equal(picture(as_float), picture(boxes))
     data = as_float.data.copy()
     data[3, 4, 5] = 2.5
-    with pytest.raises(ProcessorError, match=r"'lrc' \(LabelRayCaster\): lrc.labels: .*"
+    with pytest.raises(ProcessorError, match=r"'lrc' \(LabelRayCaster\): lrc.labels \(seg.nrrd\): .*"
                                              r"fractional values, e.g. 2.5 at voxel "
                                              r"\(x=5, y=4, z=3\)"):
-        label_network(Volume(data), camera).evaluate("lrc.image", size=SIZE)
+        label_network(Volume(data, source="seg.nrrd"), camera).evaluate("lrc.image", size=SIZE)
 
 
 def test_label_values_beyond_64_bit_signed_integers_are_refused():
@@ -280,6 +281,17 @@ def test_the_codes_texture_and_skip_blocks_are_kept_when_only_colours_change():
     assert boxes.__dict__["_label_codes"] is cached and next(iter(cached[1].values())) is texture
     assert blocks.key is skip_key                                 # a new colour: the same empty blocks
     assert (np.abs(second - first).max(axis=-1) > 0.5).any()     # label 1 turned from red to green
+
+
+def test_an_empty_picture_of_shown_labels_warns_and_one_of_hidden_labels_does_not(recwarn):
+    boxes = touching_boxes()
+    away = Camera(position=(7.5, 4.5, 60.0), focus=(7.5, 4.5, 100.0))
+    with pytest.warns(BlankImageWarning, match=r"lrc \(LabelRayCaster\) rendered an empty image although "
+                                               r"\d+% of the voxels hold shown labels"):
+        label_network(boxes, away).evaluate("lrc.image", size=SIZE)
+    recwarn.clear()
+    label_network(boxes, away, label_table={"labels": [], "unlisted": "hidden"}).evaluate("lrc.image", size=SIZE)
+    assert not [w for w in recwarn if issubclass(w.category, BlankImageWarning)]
 
 
 # --- the label table ----------------------------------------------------------------------------
