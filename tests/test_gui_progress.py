@@ -10,14 +10,23 @@ guessed sleep.
 import json
 
 import numpy as np
+import pytest
 
 import vgraph
 from helpers.paths import REPO
 from helpers.slow_source import SlowSource
 from vgraph.gui.progress_view import STALE_PREFIX
 from vgraph.progress import Progress
+from vgraph.registry import registry
 
-vgraph.register(SlowSource)
+
+@pytest.fixture
+def slow_source():
+    """SlowSource known to the window's process for one test only: registered for good it would
+    show in every later test's palette (and match searches for its base type)."""
+    vgraph.register(SlowSource)
+    yield SlowSource
+    registry.types.pop(SlowSource.type_name, None)
 
 
 def slow_network(tmp_path, gate):
@@ -35,7 +44,7 @@ def slow_network(tmp_path, gate):
 
 
 def test_a_slow_source_shows_its_name_steps_node_and_a_stale_frame_until_the_frame_arrives(
-        window, jobs, qtbot, tmp_path):
+        slow_source, window, jobs, qtbot, tmp_path):
     gate = tmp_path / "gate"
     gate.touch()                                    # the first frame runs straight through
     assert window.open_network(slow_network(tmp_path, gate))

@@ -16,7 +16,7 @@ GATE_TIMEOUT = 60.0
 
 
 class SlowSource(FunctionSelector):
-    """A FunctionSelector that reports ``steps`` steps and waits for its gate file half-way."""
+    """Test source: reports ``steps`` steps and waits for its gate file half-way."""
     category = "Test"
     gate = StringProperty("", doc="a file that must exist before the second half of the steps")
     steps = IntProperty(10, min=2, max=1000)

@@ -30,6 +30,9 @@ STALE_PREFIX = "updating: "   # the canvas note; a note of another kind is never
 
 
 class EvaluationProgress(QObject):
+    """The window's display of the job in flight (module docstring): ``label`` and ``bar`` in the
+    status bar, the nodes it marks, the canvases' notes."""
+
     def __init__(self, window):
         super().__init__(window)
         self.window = window
