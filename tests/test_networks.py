@@ -1,6 +1,7 @@
 """Every network shipped in networks/ validates and runs from the CLI; the rendering ones (ray
-casters and projected tetrahedra of both shared meshes and the culled bonsai) draw their subject in
-the middle of the canvas and leave the corners to the background."""
+casters, projected tetrahedra of both shared meshes and the culled bonsai, the MPR's axial slice,
+two channels, labels, a mesh with a volume) draw their subject in the middle of the canvas and leave
+the corners to the background."""
 
 import numpy as np
 import pytest
@@ -11,8 +12,12 @@ from helpers.paths import DATA, REPO
 
 NETWORKS = sorted((REPO / "networks").glob("*.json"))
 RENDERERS = ["raycast_sphere", "raycast_head", "mip_engine", "curvature_torus", "curvature_volume",
-             "tets_lox_post", "tets_disk_out_ref", "tets_bonsai"]
-ON_SHARED_DATA = {"raycast_head", "mip_engine", "tets_lox_post", "tets_disk_out_ref", "tets_bonsai"}
+             "tets_lox_post", "tets_disk_out_ref", "tets_bonsai",
+             "mpr_mri_head", "head_skin_mesh_bone_volume", "two_channels_hydrogen_neghip", "labels_engine"]
+# mpr_mri_head's first Canvas (what `vgraph run` draws) is the axial slice. clip_engine is not in the list:
+# its background is dark grey (0.08, 0.08, 0.1), not the black corners this test expects.
+ON_SHARED_DATA = {"raycast_head", "mip_engine", "tets_lox_post", "tets_disk_out_ref", "tets_bonsai", "mpr_mri_head",
+                  "head_skin_mesh_bone_volume", "two_channels_hydrogen_neghip"}
 
 
 @pytest.mark.parametrize("network", NETWORKS, ids=lambda p: p.stem)
