@@ -59,6 +59,7 @@ def test_the_scheduler_announces_each_processor_and_passes_on_its_steps():
         ("sink", "Collect", "", 0, 0)]
     assert [p.fraction for p in heard] == [None, pytest.approx(1 / 3), pytest.approx(2 / 3), 1.0, None]
     assert heard[1].describe() == "count (Counter): counting 33%"
+    assert Progress("", "", "histograms").describe() == "histograms"  # work of no processor
     assert heard[0].started == heard[3].started   # one start per processor run
     assert progress.current() is None             # nothing runs after the evaluation
 
@@ -128,3 +129,18 @@ def test_the_forwarder_sends_starts_new_work_and_last_steps_at_once_and_thins_th
     for done in range(4):
         forward(Progress("a", "A", "reading", done, 10))
     assert len(every) == 4
+
+
+def test_a_compressed_volume_reports_its_decompression(tmp_path):
+    import nibabel
+    data = np.arange(24 * 20 * 16, dtype=np.int16).reshape(16, 20, 24)
+    path = tmp_path / "counts.nii.gz"
+    nibabel.save(nibabel.Nifti1Image(data.transpose(2, 1, 0), np.eye(4)), path)
+    network = Network()
+    network.add("VolumeSource", id="src", path=str(path))
+    heard = []
+    with listening(heard.append):
+        network.update("src.volume")
+    steps = [p for p in heard if p.what == "decompressing counts.nii.gz"]
+    assert steps and steps[-1].done == steps[-1].total and steps[-1].fraction == 1.0
+    np.testing.assert_array_equal(network.output("src.volume").data, data)

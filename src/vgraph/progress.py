@@ -30,7 +30,8 @@ from tqdm import tqdm
 @dataclass(frozen=True)
 class Progress:
     """``processor`` (an id, of type ``type_name``) runs; it has done ``done`` of ``total`` steps
-    of ``what`` (``total`` 0: no steps known, only that it runs)."""
+    of ``what`` (``total`` 0: no steps known, only that it runs). ``processor`` "": work of the
+    evaluating program that belongs to no processor (the GUI's histograms)."""
     processor: str
     type_name: str
     what: str = ""
@@ -47,9 +48,9 @@ class Progress:
 
     def describe(self) -> str:
         """One line for a status bar: 'source (VolumeSource): reading head.raw 45%'."""
-        line = f"{self.processor} ({self.type_name})"
+        line = f"{self.processor} ({self.type_name})" if self.processor else ""
         if self.what:
-            line += f": {self.what}"
+            line += f": {self.what}" if line else self.what
         fraction = self.fraction
         if fraction is not None:
             line += f" {fraction * 100:.0f}%"

@@ -77,7 +77,7 @@ class EvaluationProgress(QObject):
         progress = self.current
         if progress is None or not self.evaluation.renderer.busy:
             return
-        self.label.setText(f"running {progress.describe()}")
+        self.label.setText(f"running {progress.describe()}" if progress.processor else progress.describe())
         self.label.show()
         fraction = progress.fraction
         if fraction is None:
@@ -87,7 +87,8 @@ class EvaluationProgress(QObject):
             self.bar.setFormat(f"{fraction * 100:.0f}%")
             self.bar.show()
         self._mark_nodes(progress)
-        note = STALE_PREFIX + progress.processor + (f" {fraction * 100:.0f}%" if fraction is not None else "")
+        note = STALE_PREFIX + (progress.processor or "finishing") + (
+            f" {fraction * 100:.0f}%" if fraction is not None else "")
         for view in self.window.canvases.views.values():  # short: a canvas dock is often narrow
             if view.frame() is not None and (not view.message() or view.message().startswith(STALE_PREFIX)):
                 view.set_message(note)

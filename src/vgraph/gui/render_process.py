@@ -157,11 +157,14 @@ class RenderServer:
             with progress_api.listening(ProgressForwarder(self.running or _ignore, job.version)):
                 result.outcome = evaluate_view(self.network, job.scale, job.include_writers,
                                                draw=view.draw if view else None)
-            result.statuses = {pid: processor_status(self.network, p) for pid, p in self.network.processors.items()}
+                with progress_api.running("", ""):  # the window's own share, no processor's
+                    progress_api.report(0, 0, "histograms and statuses for the window")
+                    result.statuses = {pid: processor_status(self.network, p)
+                                       for pid, p in self.network.processors.items()}
+                    result.histograms = histograms(self.network)
             if view is not None:
                 result.outcome.warnings.extend(view.messages)
                 result.statuses = view.statuses(result.statuses)
-            result.histograms = histograms(self.network)
             result.value_scales = value_scales(self.network)
             result.view_cameras = view_cameras(self.network)
             result.view_boxes = view_boxes(self.network)

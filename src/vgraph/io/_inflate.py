@@ -1,5 +1,6 @@
 """Bounded decompression for the readers: gzip, bzip2, zlib, raw deflate and LZMA streams are
-inflated piece by piece into a buffer of exactly the size the header declares.
+inflated piece by piece into a buffer of exactly the size the header declares, reporting how
+far they are to a ``vgraph.progress`` listener (the GUI's status bar).
 
 A few compressed bytes can stand for gigabytes (deflate reaches 1032:1, bzip2 millions to one),
 so a reader must never inflate a whole stream and compare sizes afterwards. Here every call to
@@ -17,8 +18,10 @@ import os
 import sys
 import zlib
 from collections.abc import Iterable, Iterator
+from pathlib import Path
 
 from vgraph.errors import VolumeFileError
+from vgraph.progress import report
 
 INPUT_CHUNK_BYTES = 1 * 2**20
 
@@ -51,6 +54,7 @@ def inflate_into(target, pieces: Iterable[bytes], method: str, file, field: str,
     view = memoryview(target).cast("B")
     expected = skip + len(view)
     done = 0
+    step = f"decompressing {Path(file).name}"  # for a progress listener (the GUI's status bar)
     try:
         for data in _inflated(pieces, method, expected, file, codec_field or field, what,
                               partial=partial):
@@ -62,6 +66,7 @@ def inflate_into(target, pieces: Iterable[bytes], method: str, file, field: str,
             if start < len(data):
                 view[done + start - skip:done + len(data) - skip] = data[start:]
             done += len(data)
+            report(min(done, expected), expected, step)
             if partial and done >= expected:
                 return
     except _TooLong:
