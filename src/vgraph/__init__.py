@@ -16,7 +16,7 @@ from vgraph.network import bind_services as _bind_services
 from vgraph.ports import Inport, Outport
 from vgraph.processor import Processor
 from vgraph.properties import (BoolProperty, CameraProperty, ColorProperty, DictProperty, FilePathProperty,
-                               FloatProperty, IntProperty, Invalidation, OptionProperty,
+                               FloatProperty, IntProperty, Invalidation, LabelTableProperty, OptionProperty,
                                StringProperty, TransferFunctionProperty, VectorProperty)
 from vgraph.registry import registry
 from vgraph.volume import Volume
@@ -52,7 +52,8 @@ def register(processor_class):
 __all__ = [
     "load", "register", "registry", "Network", "Processor", "Inport", "Outport", "Volume",
     "Invalidation", "BoolProperty", "CameraProperty", "ColorProperty", "DictProperty", "FilePathProperty",
-    "FloatProperty", "IntProperty", "OptionProperty", "StringProperty", "TransferFunctionProperty",
-    "VectorProperty", "VGraphError", "NetworkFileError", "PortError", "CycleError", "ProcessorError",
-    "OutputFileError", "PropertyError", "ShaderError", "VGraphWarning", "VolumeFileError", "WritePathError",
+    "FloatProperty", "IntProperty", "LabelTableProperty", "OptionProperty", "StringProperty",
+    "TransferFunctionProperty", "VectorProperty", "VGraphError", "NetworkFileError", "PortError", "CycleError",
+    "ProcessorError", "OutputFileError", "PropertyError", "ShaderError", "VGraphWarning", "VolumeFileError",
+    "WritePathError",
 ]
