@@ -15,6 +15,15 @@ Conventions (vgraph.gl.raycasting.geometry has the long form):
   near-plane capping (where the near plane cuts the box, e.g. a camera inside the volume, the ray
   starts on the near plane, as Camera.rays does).
 - Rays are those of Camera.rays: one per pixel centre, row 0 at the top after Image.to_numpy().
+- Several volumes (the channels of a MultiVolumeRayCaster): the optional inports ``volume2`` ..
+  ``volume4`` make the box the UNION of the connected volumes' boxes (rays_box), so every channel is
+  drawn whole. The rgb stay texture coordinates of ``volume`` (the first), now clamped to the union
+  box: outside the first volume's box they leave [0.5 / dims, 1 - 0.5 / dims], even [0, 1]. Only
+  ray casters that sample every connected volume at such points (the MultiVolumeRayCaster) should
+  take these images: a single-volume ray caster would smear the first volume's edge voxels there.
+  With nothing extra connected everything is as before, bit for bit. The camera is resolved on the
+  same union box (rays_camera); the MultiVolumeRayCaster resolves its own on the union of its
+  channels, so connect the same volumes to both.
 - The default camera fits the data (Camera.fit_to_data: each volume that arrives is framed, keeping
   the view direction) and chooses near/far from the volume's box every frame, so a volume from a
   file shows without setting a camera first; a stored camera stays as stored. ``view_camera`` is
@@ -28,6 +37,8 @@ Conventions (vgraph.gl.raycasting.geometry has the long form):
 
 from __future__ import annotations
 
+import functools
+
 import moderngl
 import numpy as np
 
@@ -35,6 +46,7 @@ from vgraph import CameraProperty, FloatProperty, Inport, Outport, Processor, VG
 from vgraph.clipping import ClipPlanesProperty, CropBoxProperty, cropped_box, plane_uniforms
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, bind_textures, fullscreen_pass, set_uniforms
 from vgraph.gl.shaders import programs
+from vgraph.camera import Camera
 from vgraph.gl.raycasting.geometry import (BOX_EPSILON, DEFAULT_CAMERA, PROXY_MARGIN, VolumeGeometry,
                                            plane_cuts_box, plane_frame, ray_uniforms, vec, view_camera)
 from vgraph.gl.raycasting.targets import RenderTargets
@@ -45,17 +57,48 @@ FACE_SHADERS = ("raycasting/entry_exit.vert.glsl", "raycasting/entry_exit.frag.g
 CAP_SHADER = "raycasting/plane_cap.frag.glsl"
 
 
-def grown_box_of(geometry: VolumeGeometry, box_min, box_max):
-    """The (cropped) box grown as VolumeGeometry.grown_box grows the whole one: rays meeting it hit.
-    Without a crop box this is grown_box() itself."""
-    whole_min, whole_max = geometry.box
-    eps = BOX_EPSILON * (max(np.abs(whole_min).max(), np.abs(whole_max).max()) + geometry.spacing.min())
+EXTRA_VOLUMES = ("volume2", "volume3", "volume4")  # optional inports that widen the box
+
+
+def rays_box(volumes) -> tuple[np.ndarray, np.ndarray, float]:
+    """(min, max, min spacing) of the box the rays span: the union of the volumes' boxes of voxel
+    centres (world units) and the smallest spacing of all of them (it scales BOX_EPSILON and the
+    jitter). One volume: its own box and spacing, exactly."""
+    geometries = [VolumeGeometry.of(volume) for volume in volumes]
+    low, high = geometries[0].box
+    for geometry in geometries[1:]:
+        low, high = np.minimum(low, geometry.box[0]), np.maximum(high, geometry.box[1])
+    return low, high, min(float(geometry.spacing.min()) for geometry in geometries)
+
+
+def rays_camera(camera: Camera, volumes, size) -> Camera:
+    """The concrete camera of a frame whose rays span rays_box(volumes): view_camera's for one
+    volume (unchanged), else the camera resolved on the union box. Every processor of the view must
+    resolve it on the same volumes (EntryExitPoints and the MultiVolumeRayCaster do)."""
+    if len(volumes) == 1:
+        return view_camera(camera, volumes[0], size)
+    low, high, _ = rays_box(volumes)
+    return _resolved_on(camera, tuple(low), tuple(high), size[0] / size[1])
+
+
+@functools.lru_cache(maxsize=32)
+def _resolved_on(camera: Camera, box_min: tuple, box_max: tuple, aspect: float) -> Camera:
+    # Remembered: a camera drag resolves it in both processors of every frame.
+    return camera.resolved(np.array(box_min), np.array(box_max), aspect)
+
+
+def grown_box_of(whole: tuple, min_spacing: float, box_min, box_max):
+    """The (cropped) box grown as VolumeGeometry.grown_box grows the ``whole`` one (the growth
+    depends on the whole box, not the crop): rays meeting it hit. Without a crop box and with one
+    volume this is that volume's grown_box() itself."""
+    whole_min, whole_max = whole
+    eps = BOX_EPSILON * (max(np.abs(whole_min).max(), np.abs(whole_max).max()) + min_spacing)
     return box_min - eps, box_max + eps
 
 
-def proxy_box_of(geometry: VolumeGeometry, hit_min, hit_max):
+def proxy_box_of(min_spacing: float, hit_min, hit_max):
     """The box rasterised to find the pixels to compute (VolumeGeometry.proxy_box for a cropped box)."""
-    margin = PROXY_MARGIN * (float((hit_max - hit_min).max()) + geometry.spacing.min())
+    margin = PROXY_MARGIN * (float((hit_max - hit_min).max()) + min_spacing)
     return hit_min - margin, hit_max + margin
 
 
@@ -79,10 +122,13 @@ def cube_triangles() -> np.ndarray:
 
 
 class EntryExitPoints(Processor):
-    """Entry and exit points of the view rays through the volume's box (texture coordinates)."""
+    """Entry and exit points of the view rays through the volume's box (texture coordinates), or
+    through the union of several volumes' boxes."""
 
     category = "Volume rendering"
-    inports = [Inport("volume", Volume)]
+    inports = ([Inport("volume", Volume, "rgb are its texture coordinates")]
+               + [Inport(port, Volume, "widens the box to the union (for a MultiVolumeRayCaster)",
+                         optional=True) for port in EXTRA_VOLUMES])
     outports = [Outport("entry", Image), Outport("exit", Image)]
     renders_at_size = True
 
@@ -102,15 +148,17 @@ class EntryExitPoints(Processor):
         super().__init__(id, **values)
         self._entry, self._exit = RenderTargets(1), RenderTargets(1)
         self._cube: tuple | None = None  # (ctx, vertex buffer, {program: vertex array})
-        self._volume_cache: tuple | None = None  # (volume, crop box, _volume_uniforms of them)
+        self._volume_cache: tuple | None = None  # (volumes, crop box, _volume_uniforms of them)
         self.passes: list[tuple[str, dict]] = []  # (shader, defines) of each pass of the last frame
 
-    def process(self, volume: Volume) -> dict:
+    def process(self, volume: Volume, volume2: Volume | None = None, volume3: Volume | None = None,
+                volume4: Volume | None = None) -> dict:
         ctx = self.gl
         size = self.render_size
-        self.view_camera = view_camera(self.camera, volume, size)
+        volumes = tuple(v for v in (volume, volume2, volume3, volume4) if v is not None)
+        self.view_camera = rays_camera(self.camera, volumes, size)
         (entry,), (exit_points,) = self._entry.ensure(ctx, size), self._exit.ensure(ctx, size)
-        uniforms = self._uniforms(volume, size, self.view_camera)
+        uniforms = self._uniforms(volumes, size, self.view_camera)
         self.passes = []
         if uniforms is None:  # the crop box leaves nothing: every ray misses
             for image in (entry, exit_points):
@@ -123,23 +171,26 @@ class EntryExitPoints(Processor):
 
     def frame_volume(self, volume: Volume | None = None) -> None:
         """Store a camera that frames the volume's box (keeping direction and up; see
-        Camera.framing) with near/far enclosing it. Uses the last volume received unless one is
-        given."""
-        volume = volume if volume is not None else self.inputs.get("volume")
-        if volume is None:
+        Camera.framing) with near/far enclosing it. Uses the last volumes received (their union
+        box) unless one is given."""
+        if volume is not None:
+            volumes = (volume,)
+        else:
+            volumes = tuple(v for v in (self.inputs.get(p) for p in ("volume", *EXTRA_VOLUMES)) if v is not None)
+        if not volumes:
             raise VGraphError(f"{self.id}: frame_volume() needs a volume: evaluate the network "
                               "first or pass one")
         width, height = self.render_size
         fitting = self.camera.model_copy(update={"fit_to_data": True, "near": None, "far": None})
-        framed = fitting.resolved(*VolumeGeometry.of(volume).box, width / height)
+        framed = fitting.resolved(*rays_box(volumes)[:2], width / height)
         if framed != self.camera:
             self.camera = framed  # a linked ray caster's camera follows
 
     # --- drawing --------------------------------------------------------------------------------
-    def _uniforms(self, volume: Volume, size, camera) -> dict | None:
+    def _uniforms(self, volumes: tuple, size, camera) -> dict | None:
         """Uniforms of the point computation (entry_exit_point.glsl), and under "faces" and "cap"
         those of the two ways of drawing it; None when the crop box leaves nothing."""
-        cached = self._volume_uniforms(volume)
+        cached = self._volume_uniforms(volumes)
         if cached is None:
             return None
         boxes, proxy, self._hit_box, min_spacing = cached
@@ -152,31 +203,40 @@ class EntryExitPoints(Processor):
                 "viewport_size": (float(size[0]), float(size[1])),
                 **ray_uniforms(camera, size)}
 
-    def _volume_uniforms(self, volume: Volume):
-        """What depends on the volume alone, worked out once per volume (a camera drag asks
+    def _volume_uniforms(self, volumes: tuple):
+        """What depends on the volumes alone, worked out once per volume set (a camera drag asks
         every frame): (box uniforms, proxy uniforms of faces and cap, the hit box, min spacing), or
-        None when the crop box leaves nothing of the volume's box."""
+        None when the crop box leaves nothing of the rays' box."""
         crop = self.crop_box
-        if self._volume_cache is None or self._volume_cache[0] is not volume or self._volume_cache[1] != crop:
-            geometry = VolumeGeometry.of(volume)
-            kept = cropped_box(*geometry.box, crop)
-            if kept is None:
-                self._volume_cache = (volume, crop, None)
-                return None
-            box_min, box_max = kept
-            hit_min, hit_max = hit_box = grown_box_of(geometry, box_min, box_max)
-            proxy_min, proxy_max = proxy_box_of(geometry, *hit_box)
-            scale, offset = geometry.world_to_texture
-            texture_min, texture_max = geometry.texture_box
-            boxes = {"box_min": vec(box_min), "box_max": vec(box_max),
-                     "hit_box_min": vec(hit_min), "hit_box_max": vec(hit_max),
-                     "world_to_texture_scale": vec(scale), "world_to_texture_offset": vec(offset),
-                     "texture_box_min": vec(texture_min), "texture_box_max": vec(texture_max),
-                     "texture_to_world_scale": vec(geometry.texture_to_world[0])}
-            proxies = {"faces": {"proxy_min": vec(proxy_min), "proxy_size": vec(proxy_max - proxy_min)},
-                     "cap": {"proxy_min": vec(proxy_min), "proxy_max": vec(proxy_max)}}
-            self._volume_cache = (volume, crop, (boxes, proxies, hit_box, float(geometry.spacing.min())))
+        cache = self._volume_cache
+        if (cache is None or len(cache[0]) != len(volumes) or any(a is not b for a, b in zip(cache[0], volumes))
+                or cache[1] != crop):
+            self._volume_cache = (volumes, crop, self._box_uniforms(volumes, crop))
         return self._volume_cache[2]
+
+    @staticmethod
+    def _box_uniforms(volumes: tuple, crop):
+        geometry = VolumeGeometry.of(volumes[0])  # the texture space of the outputs
+        whole_min, whole_max, min_spacing = rays_box(volumes)
+        kept = cropped_box(whole_min, whole_max, crop)
+        if kept is None:
+            return None
+        box_min, box_max = kept
+        hit_min, hit_max = hit_box = grown_box_of((whole_min, whole_max), min_spacing, box_min, box_max)
+        proxy_min, proxy_max = proxy_box_of(min_spacing, *hit_box)
+        scale, offset = geometry.world_to_texture
+        if len(volumes) == 1:
+            texture_min, texture_max = geometry.texture_box  # as before, to the last bit
+        else:  # the union box in the first volume's texture space: may leave [0, 1]
+            texture_min, texture_max = whole_min * scale + offset, whole_max * scale + offset
+        boxes = {"box_min": vec(box_min), "box_max": vec(box_max),
+                 "hit_box_min": vec(hit_min), "hit_box_max": vec(hit_max),
+                 "world_to_texture_scale": vec(scale), "world_to_texture_offset": vec(offset),
+                 "texture_box_min": vec(texture_min), "texture_box_max": vec(texture_max),
+                 "texture_to_world_scale": vec(geometry.texture_to_world[0])}
+        proxies = {"faces": {"proxy_min": vec(proxy_min), "proxy_size": vec(proxy_max - proxy_min)},
+                   "cap": {"proxy_min": vec(proxy_min), "proxy_max": vec(proxy_max)}}
+        return boxes, proxies, hit_box, min_spacing
 
     def _draw(self, ctx, target: Image, culled: str, defines: dict, uniforms: dict, plane: str,
               exit_points: Image | None = None) -> None:

@@ -4,15 +4,20 @@ MultiVolumeRaycaster and Inviwo's MultichannelRaycaster).
 
 Conventions (the CPU reference vgraph.multivolume_reference states the same model as formulas):
 - Inports ``volume1`` (required) .. ``volume4`` (optional; any subset of 2..4 may be connected),
-  and the ``entry`` and ``exit`` images of an EntryExitPoints fed with ``volume1``: the rays are
-  those of the first volume's box (clipping planes and crop boxes of that EntryExitPoints apply to
-  every channel). Parts of other channels outside that box are not drawn: give the largest volume
-  as ``volume1``.
-- A ray position t (texture coordinates of volume1) maps to world space (VolumeGeometry) and on
-  to each channel's texture coordinates; the two affine maps are combined here into one
-  scale/offset per channel, so the shader does one multiply-add per channel and sample. A channel
-  contributes nothing at points outside its own box of voxel centres (grown as the rays' box is):
-  no data there, rather than its edge values smeared out by clamp-to-edge.
+  and the ``entry`` and ``exit`` images of an EntryExitPoints fed with the same volumes (its
+  ``volume`` = volume1, its ``volume2`` .. ``volume4`` the others, in any order): the rays span the
+  UNION of the channels' boxes, so each channel is drawn whole (clipping planes and crop boxes of
+  that EntryExitPoints apply to every channel). The camera is resolved on that union box
+  (entry_exit_points.rays_camera), as the EntryExitPoints resolves it. Fed with volume1 alone, the
+  EntryExitPoints gives rays of volume1's box only: the colours are still right there, but the
+  other channels are cut at volume1's box.
+- A ray position t (texture coordinates of volume1, outside [0, 1] where the union leaves volume1's
+  box) maps to world space (VolumeGeometry) and on to each channel's texture coordinates; the two
+  affine maps are combined here into one scale/offset per channel, so the shader does one
+  multiply-add per channel and sample. A channel contributes nothing at points outside its own box
+  of voxel centres (grown as the rays' box is): no data there, rather than its edge values smeared
+  out by clamp-to-edge. With two or more channels this holds for volume1 too; a lone channel is
+  never tested (its rays are its own box: exactly the RayCaster's samples).
 - Samples every ``min(spacing of all channels) / sampling_rate`` world units, trilinear, each
   channel normalised over its own value range and classified by its own TF (4096-entry LUT).
   Opacity correction per channel: a TF's alpha is per sample at that channel's rate 1, so
@@ -41,7 +46,7 @@ Conventions (the CPU reference vgraph.multivolume_reference states the same mode
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -53,6 +58,7 @@ from vgraph.gl.raycasting.geometry import VolumeGeometry
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler
 from vgraph.image import Image
+from vgraph.processors.entry_exit_points import rays_camera
 from vgraph.processors.raycaster import needs_bricks
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -91,7 +97,10 @@ class MultiVolumeRayCaster(RaycasterBase):
     maximum."""
 
     category = "Volume rendering"
-    inports = ([Inport("volume1", Volume, "rays run in this volume's box")]
+    # Which volume each TF classifies: the GUI's TF editors show that volume's histogram and value
+    # scale (gui/evaluator.py reads this; without it a processor's TFs get its first volume's).
+    transfer_function_inports = {f"transfer_function{n}": f"volume{n}" for n in range(1, MAX_CHANNELS + 1)}
+    inports = ([Inport("volume1", Volume, "ray positions are in this volume's texture space")]
                + [Inport(port, Volume, optional=True) for port in CHANNEL_PORTS[1:]]
                + [Inport("entry", Image), Inport("exit", Image)])
     outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
@@ -147,6 +156,9 @@ class MultiVolumeRayCaster(RaycasterBase):
         for channel in channels:
             self._check(channel)
         frame = self.frame(volume1, entry, exit)
+        if len(channels) > 1:  # the rays' camera is resolved on the union box, as EntryExitPoints does
+            self.view_camera = rays_camera(self.camera, [c.volume for c in channels], entry.size)
+            frame = replace(frame, camera=self.view_camera)
         with_depth = self.wants("depth")
         targets = self._targets[with_depth]
         self._targets[not with_depth].release()  # a scene keeps the images of one kind only

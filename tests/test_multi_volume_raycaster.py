@@ -34,9 +34,13 @@ RED_RAMP = TransferFunction(points=[(0.0, 1, 0, 0, 0), (1.0, 1, 0, 0, 1)])  # al
 GREEN_RAMP = TransferFunction(points=[(0.0, 0, 1, 0, 0), (1.0, 0, 1, 0, 1)])
 
 
+EEP_PORTS = ("volume", "volume2", "volume3", "volume4")
+
+
 def multivolume_network(volumes, camera, ports=None, **properties) -> Network:
     """GivenVolume 'src{n}' per volume -> MultiVolumeRayCaster 'mv' (on inports ``ports``, by
-    default volume1, volume2, ...); the first volume also feeds the EntryExitPoints 'eep'."""
+    default volume1, volume2, ...); all volumes also feed the EntryExitPoints 'eep' (its
+    ``volume``, ``volume2``, ...), so the rays span the union of their boxes."""
     network = Network()
     network.add("EntryExitPoints", id="eep", camera=camera)
     network.add("MultiVolumeRayCaster", id="mv", **properties)
@@ -45,7 +49,8 @@ def multivolume_network(volumes, camera, ports=None, **properties) -> Network:
     for n, (volume, port) in enumerate(zip(volumes, ports), start=1):
         network.add(GivenVolume(id=f"src{n}", volume=volume))
         network.connect(f"src{n}.volume", f"mv.{port}")
-    for source, target in (("src1.volume", "eep.volume"), ("eep.entry", "mv.entry"), ("eep.exit", "mv.exit")):
+        network.connect(f"src{n}.volume", f"eep.{EEP_PORTS[n - 1]}")
+    for source, target in (("eep.entry", "mv.entry"), ("eep.exit", "mv.exit")):
         network.connect(source, target)
     return network
 
@@ -232,7 +237,7 @@ def test_one_channel_equals_the_raycaster(torus, blend, compositing, rate, shadi
 
 
 def test_accumulate_does_not_depend_on_the_order_of_the_channels(torus):
-    """Mixing is symmetric; the rays are the first channel's box, so both channels share one box."""
+    """Mixing is symmetric (the rays span the union of the boxes, whichever channel is first)."""
     b = Volume(torus.data[:, ::-1, :].copy(), spacing=torus.spacing, origin=torus.origin)
     camera = oblique_camera(torus)
     ab = render_gl([torus, b], camera, transfer_function1=ORANGE, transfer_function2=BLUE)

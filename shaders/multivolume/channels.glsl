@@ -1,6 +1,7 @@
 // The channels of the MultiVolumeRayCaster: CHANNELS (1..4) volumes, each with its own transfer
-// function, sampled at one ray position. Rays run in the texture space of the first channel (its
-// EntryExitPoints box); channel k's texture coordinate is t * channel_scale[k] + channel_offset[k]
+// function, sampled at one ray position. Rays run in the texture space of the first channel over
+// the union of the channels' boxes (EntryExitPoints fed with all of them: coordinates outside
+// [0, 1] where the union leaves the first box); channel k's texture coordinate is t * channel_scale[k] + channel_offset[k]
 // (texture -> world of the first channel, then world -> texture of channel k, combined on the
 // CPU; the identity for channel 0 and for channels on its grid). Slot k holds the k-th connected
 // channel in the samplers volume{k+1} and transfer_function{k+1}, whatever inport it came from.
@@ -42,10 +43,12 @@ uniform float channel_exponent[CHANNELS];  // opacity correction: step / min(spa
 
 // Channel k's coordinates of ray position t; false where they lie outside the channel's box (it
 // has no data there and contributes nothing, instead of its edge values smeared by clamp-to-edge).
-// Channel 0 is always inside: the rays run in its box.
+// Channel 0 is tested too (the union rays leave its box), unless it is alone: then the rays are
+// its own box and it samples exactly as the RayCaster does.
 bool channel_point(int k, vec3 t, out vec3 tk) {
     tk = t * channel_scale[k] + channel_offset[k];
-    return k == 0 || (all(greaterThanEqual(tk, channel_low[k])) && all(lessThanEqual(tk, channel_high[k])));
+    return (CHANNELS == 1 && k == 0)
+        || (all(greaterThanEqual(tk, channel_low[k])) && all(lessThanEqual(tk, channel_high[k])));
 }
 
 // Trilinear (the textures are bound with a linear sampler); explicit LOD: no derivatives in loops.

@@ -9,7 +9,8 @@
 // pixel, errors of ~1e-3 voxel and ragged edges).
 //
 // Stored: rgb = texture coordinates of the entry point (ENTRY) or exit point, clamped to the box
-// of the voxel centres, alpha = 1. Rays that miss are discarded (the image is cleared to 0). With
+// of the voxel centres (with EntryExitPoints' volume2..volume4 connected: to the union of the
+// volumes' boxes, in the first volume's texture space, so they may leave [0, 1]), alpha = 1. Rays that miss are discarded (the image is cleared to 0). With
 // ENTRY, entry points may be jittered: moved towards the exit point (read from the exit image,
 // drawn before) by a per-pixel pseudo-random fraction of `jitter` world units, never past it.
 //
@@ -27,13 +28,13 @@ uniform vec3 direction_right;   // (given apart from the points: near_point - ey
 uniform vec3 direction_up;      //  digits when the near plane is close to the eye)
 uniform float near_to_far;      // far - near
 
-uniform vec3 box_min;      // world: the box of the voxel centres
+uniform vec3 box_min;      // world: the box of the voxel centres (or the union of several)
 uniform vec3 box_max;
 uniform vec3 hit_box_min;  // the same grown by BOX_EPSILON: rays meeting it count as hits
 uniform vec3 hit_box_max;
 uniform vec3 world_to_texture_scale;  // t = p * scale + offset
 uniform vec3 world_to_texture_offset;
-uniform vec3 texture_box_min;  // 0.5 / dims
+uniform vec3 texture_box_min;  // 0.5 / dims (several volumes: the union box's corner)
 uniform vec3 texture_box_max;  // 1 - 0.5 / dims
 
 #ifdef CLIP_PLANES

@@ -4,16 +4,18 @@ blended. Tests compare the GL images with it pixel by pixel.
 
 Model (rules of vgraph.numerics.reference_raycast unless said otherwise; arithmetic in float64):
 
-1. Rays: ``Camera.rays`` of the camera resolved on the FIRST channel's box, clipped to that box
-   (slab test; narrowed by ``crop_box``), to [near, far] and to the kept side of ``clip_planes``
-   (vgraph.clipping, as EntryExitPoints cuts them). A ray with nothing left is the background.
+1. Rays: ``Camera.rays`` of the camera resolved on the UNION of the channels' boxes of voxel
+   centres (EntryExitPoints fed with all channels), clipped to that box (slab test, grown by
+   ``1e-5 * (max |corner| + min spacing of all channels)``; narrowed by ``crop_box``), to
+   [near, far] and to the kept side of ``clip_planes`` (vgraph.clipping, as EntryExitPoints cuts
+   them). A ray with nothing left is the background. One channel: its own box, as before.
 2. Samples: ``step = min over channels of min(spacing) / sampling_rate``; sample i at
    ``t_entry + i * step``, ``n = floor(length / step + 1e-3) + 1`` (the RayCaster's rule).
 3. Channel k at a world point p: inside its box of voxel centres grown by ``1e-5 * (max |corner| +
    min spacing)`` (the GL rays' box rule), its trilinear normalised intensity (clamp-to-edge) is
    classified by its TF's 4096-entry LUT, linear between entries: ``(rgb_k, a_k)``. Outside its
-   box the channel is absent (contributes nothing). The first channel is never tested: the rays
-   run in its box.
+   box the channel is absent (contributes nothing). Every channel is tested, the first too (the
+   union rays leave its box), except a lone channel: its rays are its own box.
 4. ``accumulate``: ``a'_k = 1 - (1 - a_k) ** (step / min(spacing_k))``; per sample
    ``alpha = 1 - prod(1 - a'_k)``, ``rgb = sum(a'_k rgb_k) / sum(a'_k)`` (over channels present
    with a'_k > 0; none: alpha 0); front to back ``C += (1 - A) alpha rgb``, ``A += (1 - A) alpha``,
@@ -75,20 +77,20 @@ def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate"
                     sampling_rate: float = 1.0, early_termination: float = 0.99,
                     opacity_threshold: float = 0.5, background=(0.0, 0.0, 0.0, 1.0),
                     shading: Shading | None = None, clip_planes=(), crop_box=None) -> np.ndarray:
-    """Render ``channels``, a list of (Volume, TransferFunction), the first one bounding the rays,
-    as the MultiVolumeRayCaster does (model in the module docstring). ``size`` is (width, height);
+    """Render ``channels``, a list of (Volume, TransferFunction), the rays spanning the union of
+    their boxes, as the MultiVolumeRayCaster does (model in the module docstring). ``size`` is (width, height);
     ``clip_planes`` and ``crop_box`` are those of the EntryExitPoints."""
     if not 1 <= len(channels) <= MAX_CHANNELS:
         raise VGraphError(f"multivolume reference: 1 to {MAX_CHANNELS} channels, got {len(channels)}")
     if blend not in BLENDS:
         raise VGraphError(f"multivolume reference: blend must be one of {BLENDS}, got {blend!r}")
     width, height = (int(v) for v in size)
-    first = channels[0][0]
-    camera = camera.resolved(*volume_box(first), width / height)
+    union = _union_box([volume for volume, _ in channels])
+    camera = camera.resolved(*union, width / height)
     origins, directions = (a.reshape(-1, 3) for a in camera.rays(width, height))
-    box = cropped_box(*volume_box(first), crop_box)
-    t_entry, t_exit = _clip_to_box(origins, directions, *(box or volume_box(first)),
-                                   camera.far_distance(directions), min(first.spacing))
+    box = cropped_box(*union, crop_box)
+    t_entry, t_exit = _clip_to_box(origins, directions, *(box or union), camera.far_distance(directions),
+                                   min(min(volume.spacing) for volume, _ in channels))
     if box is None:  # the crop box leaves nothing: every ray misses
         t_exit[:] = -np.inf
     t_entry, t_exit = clip_intervals(origins, directions, t_entry, t_exit, clip_planes)
@@ -105,9 +107,15 @@ def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate"
     return image.reshape(height, width, 4).astype(np.float32)
 
 
-def _classified(channel: _Channel, points: np.ndarray, first: bool):
+def _union_box(volumes) -> tuple[np.ndarray, np.ndarray]:
+    """World (min, max) of the union of the volumes' boxes of voxel centres (rule 1)."""
+    boxes = [volume_box(volume) for volume in volumes]
+    return (np.min([low for low, _ in boxes], axis=0), np.max([high for _, high in boxes], axis=0))
+
+
+def _classified(channel: _Channel, points: np.ndarray, alone: bool):
     """(RGBA per point, present per point) of one channel (rule 3)."""
-    present = np.ones(len(points), dtype=bool) if first else channel.inside(points)
+    present = np.ones(len(points), dtype=bool) if alone else channel.inside(points)
     rgba = np.zeros((len(points), 4))
     rgba[present] = lookup(channel.lut, channel.sampler(points[present]))
     return rgba, present
@@ -128,7 +136,7 @@ def _accumulate(channels, origins, directions, t_entry, counts, step, *, early_t
         weight = np.zeros(len(active))
         weighted = np.zeros((len(active), 3))
         for k, channel in enumerate(channels):
-            rgba, _ = _classified(channel, points, k == 0)
+            rgba, _ = _classified(channel, points, len(channels) == 1)
             corrected = 1.0 - (1.0 - rgba[:, 3]) ** (step / channel.min_spacing)  # 0 stays 0
             if shading is not None:
                 rgba[:, :3] = _shade(channel.sampler, shading, points, directions[active], rgba[:, :3],
@@ -154,7 +162,7 @@ def _nearest_opaque(channels, origins, directions, t_entry, counts, step, *, thr
         points = _points(origins, directions, t_entry, active, i, step)
         hit = np.zeros((len(active), 4))
         for k, channel in enumerate(channels):
-            sample, present = _classified(channel, points, k == 0)
+            sample, present = _classified(channel, points, len(channels) == 1)
             better = present & (sample[:, 3] >= threshold) & (sample[:, 3] > hit[:, 3])
             if shading is not None:
                 sample[:, :3] = _shade(channel.sampler, shading, points, directions[active], sample[:, :3],
@@ -177,7 +185,7 @@ def _maximum(channels, origins, directions, t_entry, counts, step, **_):
     while active.size:
         points = _points(origins, directions, t_entry, active, i, step)
         for k, channel in enumerate(channels):
-            present = np.ones(len(points), dtype=bool) if k == 0 else channel.inside(points)
+            present = np.ones(len(points), dtype=bool) if len(channels) == 1 else channel.inside(points)
             rows = active[present]
             values = np.clip(channel.sampler(points[present]), 0.0, 1.0)
             maxima[k, rows] = np.maximum(maxima[k, rows], values)
