@@ -4,7 +4,12 @@ Conventions:
 - Editors are generated from the property declarations; editors and labels carry the property's
   doc, range or choices and default as a tooltip (``property_tooltip``), labels a mark when the
   property is linked.
-- Under the status line: what the processor produced (``ProcessorStatus.data``: a volume's
+- Under the status line, how long the processor takes: while it runs (once the job has run
+  ``progress_view.SHOW_AFTER_SECONDS``, so a drag's fast frames do not flicker) "running: <what>
+  45%", from ``LiveEvaluation.running``; after, "took 120.0 ms (38 % of the frame)": its last
+  run's time (``ProcessorStatus.seconds``) against the whole job's (``RenderResult.seconds``, what
+  the status bar says), or "when it last ran" if the last frame reused its output.
+- Under that: what the processor produced (``ProcessorStatus.data``: a volume's
   dimensions, type, spacing and value range, a source's file size), as the render process reports it.
 - Edits go through the workspace (one undo command each; slider drags merge). A rejected value
   is reported through ``status_message`` and the editor shows the current value again.
@@ -16,7 +21,7 @@ Conventions:
 
 from __future__ import annotations
 
-from PySide6.QtCore import Qt, Signal
+from PySide6.QtCore import QTimer, Qt, Signal
 from PySide6.QtWidgets import QFormLayout, QLabel, QScrollArea, QVBoxLayout, QWidget
 
 from vgraph.errors import VGraphError
@@ -24,7 +29,8 @@ from vgraph.gui import transfer_function_editor  # noqa: F401  (registers the TF
 from vgraph.gui import clip_planes_editor  # noqa: F401  (registers the clip-planes editor)
 from vgraph.gui import label_table_editor  # noqa: F401  (registers the label-table editor)
 from vgraph.gui.editors import PropertyEditor, editor_for
-from vgraph.gui.evaluator import processor_status
+from vgraph.gui.evaluator import ProcessorStatus, format_seconds, processor_status
+from vgraph.gui.progress_view import SHOW_AFTER_SECONDS
 from vgraph.gui.workspace import Workspace
 from vgraph.network import Network
 
@@ -45,11 +51,31 @@ def property_tooltip(prop) -> str:
     return "\n".join(lines)
 
 
+def running_text(progress) -> str:
+    """The timing line while the processor runs: 'running: reading head.raw 45%'."""
+    fraction = progress.fraction
+    share = f"{fraction * 100:.0f}%" if fraction is not None else ""
+    what = " ".join(part for part in (progress.what, share) if part)
+    return f"running: {what}" if what else "running now"
+
+
+def timing_text(status: ProcessorStatus, ran_last_frame: bool, frame_seconds: float | None) -> str:
+    """The timing line after a run: its time and its share of the frame it ran in."""
+    if status.seconds is None:
+        return ""
+    took = f"took {format_seconds(status.seconds)}"
+    if not ran_last_frame:
+        return f"{took} when it last ran (the last frame reused its output)"
+    if frame_seconds:  # the processors' times are parts of the job's, which also sends the frame
+        return f"{took} ({min(100.0, 100.0 * status.seconds / frame_seconds):.0f} % of the frame)"
+    return took
+
+
 class PropertyInspector(QWidget):
     status_message = Signal(str)
     interacting = Signal(bool)
 
-    def __init__(self, workspace: Workspace, parent=None, status_of=None):
+    def __init__(self, workspace: Workspace, parent=None, status_of=None, evaluation=None):
         super().__init__(parent)
         self.workspace = workspace
         self.status_of = status_of or (lambda pid: processor_status(self.network, self.network[pid]))
@@ -66,6 +92,15 @@ class PropertyInspector(QWidget):
         self.status = QLabel()
         self.status.setWordWrap(True)
         self.status.setTextInteractionFlags(Qt.TextSelectableByMouse)
+        self.timing = QLabel()   # running now, or the last run's time and share of the frame
+        self.timing.setObjectName("processor_timing")
+        self.evaluation = None       # the LiveEvaluation whose progress and frames the timing follows
+        self.frame_seconds: float | None = None  # the whole job of the last frame shown
+        self.ran_last_frame: set[str] | None = None  # None: no frame known (every run counts as the last)
+        self.running = None          # the Progress of the selected processor, while it runs
+        self.running_timer = QTimer(self)   # shows a report that came before the delay was over
+        self.running_timer.setSingleShot(True)
+        self.running_timer.timeout.connect(self._show_timing)
         self.data = QLabel()   # what the processor produced (dims, type, ...), from the render process
         self.data.setWordWrap(True)
         self.data.setTextInteractionFlags(Qt.TextSelectableByMouse)
@@ -77,10 +112,21 @@ class PropertyInspector(QWidget):
         layout = QVBoxLayout(self)
         layout.addWidget(self.title)
         layout.addWidget(self.status)
+        layout.addWidget(self.timing)
         layout.addWidget(self.data)
         layout.addWidget(scroll, 1)
         workspace.network_replaced.connect(self._follow)
         self._follow(workspace.network)
+        # The window passes LiveEvaluation.status_of; its evaluation is the one to follow.
+        evaluation = evaluation if evaluation is not None else getattr(status_of, "__self__", None)
+        if hasattr(evaluation, "running") and hasattr(evaluation, "finished"):
+            self.attach(evaluation)
+
+    def attach(self, evaluation) -> None:
+        """Follow ``evaluation`` (a LiveEvaluation): its running processor and its frames' times."""
+        self.evaluation = evaluation
+        evaluation.running.connect(self._progress)
+        evaluation.finished.connect(self._frame_finished)
 
     def _follow(self, network: Network) -> None:
         self.detach()
@@ -102,6 +148,8 @@ class PropertyInspector(QWidget):
         if self.processor_id is None:
             self.title.setText("<i>Select one processor to edit its properties.</i>")
             self.status.clear(), self.data.clear(), self.data.hide()
+            self.running = None
+            self._show_timing()
             return
         processor = self.network[self.processor_id]
         self.title.setText(f"<b>{processor.id}</b> ({processor.type_name})<br><small>"
@@ -131,6 +179,41 @@ class PropertyInspector(QWidget):
             self.status.setText(f"{status.state.replace('_', ' ')}: {status.detail}")
             self.data.setText(status.data)
             self.data.setVisible(bool(status.data))
+            self._show_timing()
+
+    # --- timing ---------------------------------------------------------------------------------
+    def _progress(self, progress) -> None:
+        """A report from the render process (None: the job is answered)."""
+        mine = progress is not None and progress.processor == self.processor_id
+        self.running = progress if mine else None
+        if not mine:
+            self.running_timer.stop()
+            self._show_timing()
+            return
+        waited = self.evaluation.renderer.elapsed() if self.evaluation is not None else SHOW_AFTER_SECONDS
+        if waited >= SHOW_AFTER_SECONDS:
+            self._show_timing()
+        elif not self.running_timer.isActive():
+            self.running_timer.start(max(1, int((SHOW_AFTER_SECONDS - waited) * 1000)))
+
+    def _frame_finished(self, outcome) -> None:
+        result = self.evaluation.last_result   # set before ``finished`` is emitted
+        self.frame_seconds = result.seconds if result is not None else None
+        self.ran_last_frame = set(outcome.ran)
+        self.running = None
+        self.running_timer.stop()
+        self.refresh_status()
+
+    def _show_timing(self) -> None:
+        text = ""
+        if self.processor_id is not None:
+            if self.running is not None and self.running.processor == self.processor_id:
+                text = running_text(self.running)
+            else:
+                ran = self.ran_last_frame is None or self.processor_id in self.ran_last_frame
+                text = timing_text(self.status_of(self.processor_id), ran, self.frame_seconds)
+        self.timing.setText(text)
+        self.timing.setVisible(bool(text))
 
     def set_histograms(self, histograms: dict) -> None:
         """Histograms of the volumes arriving at processors (from the render process), shown by

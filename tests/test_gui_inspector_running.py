@@ -1,0 +1,126 @@
+"""Issue #17: the inspector says that the selected processor runs now and how far it is, and
+after the frame how long it took and which share of the frame that was.
+
+The slow processor (helpers.slow_source.SlowSource) waits half-way for a gate file the test
+creates, so the test looks at the inspector while the work is under way for certain.
+"""
+
+import json
+import re
+
+import pytest
+
+import vgraph
+from helpers.paths import REPO
+from helpers.slow_source import SlowSource
+from vgraph.gui.evaluator import ProcessorStatus
+from vgraph.gui.inspector import running_text, timing_text
+from vgraph.progress import Progress
+from vgraph.registry import registry
+
+TOOK = re.compile(r"took ([0-9.]+) (ms|s) \((\d+) % of the frame\)")
+
+
+@pytest.fixture
+def slow_source():
+    vgraph.register(SlowSource)
+    yield SlowSource
+    registry.types.pop(SlowSource.type_name, None)
+
+
+def slow_network(tmp_path, gate):
+    """raycast_sphere.json with its FunctionSelector replaced by a SlowSource held by ``gate``."""
+    document = json.loads((REPO / "networks" / "raycast_sphere.json").read_text())
+    for processor in document["processors"]:
+        if processor["id"] == "source":
+            processor["type"] = "SlowSource"
+            processor["properties"].update(gate=str(gate), steps=10, resolution=32)
+        if processor["id"] == "canvas":
+            processor["properties"]["size"] = [64, 64]
+    path = tmp_path / "slow.json"
+    path.write_text(json.dumps(document))
+    return path
+
+
+def seconds_of(match) -> float:
+    value, unit = float(match.group(1)), match.group(2)
+    return value / 1000 if unit == "ms" else value
+
+
+def test_the_selected_processor_shows_running_then_its_time_and_share_of_the_frame(
+        slow_source, window, jobs, qtbot, tmp_path):
+    gate = tmp_path / "gate"
+    gate.touch()
+    assert window.open_network(slow_network(tmp_path, gate))
+    window.evaluation.run(wait=True)
+    window.scene.select_processor("source")
+    inspector = window.inspector
+    assert TOOK.fullmatch(inspector.timing.text()), inspector.timing.text()
+
+    gate.unlink()                                   # the next evaluation stops half-way
+    window.workspace.set_property("source.resolution", 40)
+    qtbot.waitUntil(lambda: inspector.timing.text().startswith("running"), timeout=20000)
+    assert inspector.timing.text() == "running: waiting for the gate 50%"
+    assert inspector.timing.isVisible()
+
+    gate.touch()
+    qtbot.waitUntil(window.evaluation.idle, timeout=20000)
+    qtbot.waitUntil(lambda: TOOK.fullmatch(inspector.timing.text()) is not None, timeout=5000)
+    match = TOOK.fullmatch(inspector.timing.text())
+    status = window.evaluation.status_of("source")
+    frame = window.evaluation.last_result.seconds
+    assert "source" in window.evaluation.last_outcome.ran
+    assert seconds_of(match) == pytest.approx(status.seconds, abs=0.0006)   # shown to 0.1 ms
+    assert int(match.group(3)) == round(100 * status.seconds / frame)
+    assert status.seconds > 0.0 and 0 < int(match.group(3)) <= 100
+
+
+def test_a_processor_the_last_frame_did_not_run_says_so(slow_source, window, jobs, qtbot, tmp_path):
+    gate = tmp_path / "gate"
+    gate.touch()
+    assert window.open_network(slow_network(tmp_path, gate))
+    window.evaluation.run(wait=True)
+    window.scene.select_processor("source")
+    before = window.evaluation.status_of("source").seconds
+    window.workspace.set_property("rc.sampling_rate", 2.0)   # the ray caster runs, not the source
+    window.evaluation.run(wait=True)
+    assert "source" not in window.evaluation.last_outcome.ran and "rc" in window.evaluation.last_outcome.ran
+    text = window.inspector.timing.text()
+    assert text.endswith("when it last ran (the last frame reused its output)"), text
+    assert window.evaluation.status_of("source").seconds == before
+
+    window.scene.select_processor("rc")                      # it ran: its share of that frame
+    assert TOOK.fullmatch(window.inspector.timing.text()), window.inspector.timing.text()
+
+
+def test_reports_of_other_processors_or_before_the_delay_do_not_show(window, jobs, monkeypatch):
+    ws = window.workspace
+    ws.add_processor("FunctionSelector", (0, 0), id="f")
+    window.evaluation.run(wait=True)
+    window.scene.select_processor("f")
+    inspector = window.inspector
+    shown = inspector.timing.text()
+    monkeypatch.setattr(window.evaluation.renderer, "elapsed", lambda: 5.0)   # a long job
+    inspector._progress(Progress("other", "VolumeSource", "reading", 1, 4))
+    assert inspector.timing.text() == shown                  # not the selected processor
+    inspector._progress(Progress("f", "FunctionSelector", "sampling", 1, 4))
+    assert inspector.timing.text() == "running: sampling 25%"
+    inspector._progress(None)                                # the job was answered
+    assert inspector.timing.text() == shown
+
+    monkeypatch.setattr(window.evaluation.renderer, "elapsed", lambda: 0.0)   # a job just started
+    inspector._progress(Progress("f", "FunctionSelector", "sampling", 1, 4))
+    assert inspector.timing.text() == shown and inspector.running_timer.isActive()
+    inspector._progress(None)
+    assert not inspector.running_timer.isActive() and inspector.timing.text() == shown
+
+
+def test_timing_lines():
+    status = ProcessorStatus("evaluated", "", "", seconds=0.12)
+    assert timing_text(status, True, 0.12 / 0.38) == "took 120.0 ms (38 % of the frame)"
+    assert timing_text(status, True, None) == "took 120.0 ms"
+    assert timing_text(status, False, 0.5) == "took 120.0 ms when it last ran (the last frame reused its output)"
+    assert timing_text(ProcessorStatus("invalid", "", ""), True, 0.5) == ""
+    assert running_text(Progress("src", "VolumeSource", "reading head.raw", 45, 100)) == "running: reading head.raw 45%"
+    assert running_text(Progress("src", "VolumeSource")) == "running now"
+    assert running_text(Progress("src", "VolumeSource", "", 1, 2)) == "running: 50%"
