@@ -124,3 +124,55 @@ def test_timing_lines():
     assert running_text(Progress("src", "VolumeSource", "reading head.raw", 45, 100)) == "running: reading head.raw 45%"
     assert running_text(Progress("src", "VolumeSource")) == "running now"
     assert running_text(Progress("src", "VolumeSource", "", 1, 2)) == "running: 50%"
+
+
+# --- the camera editor's automatic planes show the planes of the last frame ------------------------
+def auto_plane_network(tmp_path):
+    """raycast_sphere.json with automatic near/far planes (its cameras are linked)."""
+    document = json.loads((REPO / "networks" / "raycast_sphere.json").read_text())
+    for processor in document["processors"]:
+        if "camera" in processor["properties"]:
+            processor["properties"]["camera"].update(near=None, far=None)
+        if processor["id"] == "canvas":
+            processor["properties"]["size"] = [64, 64]
+    path = tmp_path / "auto_planes.json"
+    path.write_text(json.dumps(document))
+    return path
+
+
+def test_automatic_near_far_boxes_show_the_planes_the_last_frame_used(window, jobs, tmp_path):
+    from PySide6.QtGui import QPalette
+    from vgraph.gui.camera_editor import plane_text
+    assert window.open_network(auto_plane_network(tmp_path))
+    window.evaluation.run(wait=True)
+    window.scene.select_processor("rc")
+    editor = window.inspector.editors["camera"]
+    used = window.evaluation.view_cameras["rc.camera"]
+    distance = sum((p - f) ** 2 for p, f in zip(used.position, used.focus)) ** 0.5
+    assert 0 < used.near < distance < used.far                # planes around the data at the focus
+    near, far = editor.planes["near"], editor.planes["far"]
+    assert near.lineEdit().text() == f"auto ({plane_text(used.near)})"
+    assert far.lineEdit().text() == f"auto ({plane_text(used.far)})"
+    assert f"near {used.near:.4g}, far {used.far:.4g}" in near.toolTip()
+    grey = editor.palette().color(QPalette.PlaceholderText)
+    assert near.lineEdit().palette().color(QPalette.Text) == grey
+
+    camera = window.workspace.network.get("rc.camera")        # twice as far: the planes move out
+    window.workspace.set_property("rc.camera", camera.model_dump() | {
+        "position": tuple(2 * c for c in camera.position)})
+    window.evaluation.run(wait=True)
+    moved = window.evaluation.view_cameras["rc.camera"]
+    assert moved.far > used.far
+    assert far.lineEdit().text() == f"auto ({plane_text(moved.far)})"
+
+    window.workspace.set_property("rc.camera", window.workspace.network.get("rc.camera").model_dump()
+                                  | {"near": 1.5})           # an explicit plane is a number, not grey
+    assert near.value() == 1.5 and near.lineEdit().text() == "1.5000"
+    assert near.lineEdit().palette().color(QPalette.Text) != grey
+    assert far.lineEdit().text().startswith("auto (")
+
+
+def test_plane_text_is_short():
+    from vgraph.gui.camera_editor import plane_text
+    assert [plane_text(v) for v in (0.123456, 3.4, 12.345, 4321.5, 2.5e6)] == \
+        ["0.123", "3.4", "12.3", "4322", "2.5e+06"]

@@ -9,7 +9,7 @@ Conventions:
   which validates and reports a rejection, and then shows the current value again.
 - ``problem(str)`` reports input an editor cannot even turn into a value (e.g. malformed JSON).
 - ``EDITOR_TYPES`` maps a property kind to its editor; ``register_editor`` adds or replaces one
-  (the transfer-function editor, in its own module, registers itself this way).
+  (the transfer-function and camera editors, in their own modules, register themselves this way).
 """
 
 from __future__ import annotations
@@ -21,10 +21,9 @@ from pathlib import Path
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (QCheckBox, QColorDialog, QComboBox, QDoubleSpinBox, QFileDialog,
-                               QGridLayout, QHBoxLayout, QLabel, QLineEdit, QPushButton, QSizePolicy,
+                               QHBoxLayout, QLineEdit, QPushButton, QSizePolicy,
                                QSlider, QSpinBox, QToolButton, QWidget)
 
-from vgraph.camera import Camera
 from vgraph.processor import Processor
 from vgraph.properties import Property
 
@@ -297,78 +296,6 @@ class ColorEditor(PropertyEditor):
         self.button.setStyleSheet(f"background-color: {color.name()}; color: {ink};")
 
 
-class CameraEditor(PropertyEditor):
-    """Projection, position, focus, up and field of view, near and far planes, whether it fits the
-    data, and a Reset to the declared default. Typing a position or focus stores the camera (it
-    stops fitting). A plane at 0 shows "auto": None, the renderer encloses the data."""
-
-    VECTORS = ("position", "focus", "up")
-
-    def build(self):
-        grid = QGridLayout()
-        self.projection = list_popup(QComboBox())
-        self.projection.addItems(["perspective", "orthographic"])
-        self.projection.currentTextChanged.connect(self._changed)
-        grid.addWidget(QLabel("projection"), 0, 0)
-        grid.addWidget(self.projection, 0, 1, 1, 3)
-        self.vectors: dict[str, list[QDoubleSpinBox]] = {}
-        for row, name in enumerate(self.VECTORS, start=1):
-            grid.addWidget(QLabel(name), row, 0)
-            self.vectors[name] = [self._spin(-1e6, 1e6) for _ in range(3)]
-            for column, spin in enumerate(self.vectors[name], start=1):
-                grid.addWidget(spin, row, column)
-        self.fov = self._spin(0.1, 179.9)
-        grid.addWidget(QLabel("fov"), 4, 0)
-        grid.addWidget(self.fov, 4, 1)
-        self.reset = QPushButton("Reset")
-        self.reset.clicked.connect(lambda: self.emit(self.prop.default))
-        grid.addWidget(self.reset, 4, 3)
-        self.fit = QCheckBox("fit to data")
-        self.fit.setToolTip("frame whatever volume arrives, keeping the direction; near and far "
-                            "planes follow the data unless set in the .json")
-        self.fit.toggled.connect(self._changed)
-        grid.addWidget(self.fit, 5, 1, 1, 3)
-        self.planes = {}
-        grid.addWidget(QLabel("near, far"), 6, 0)
-        for column, name in enumerate(("near", "far"), start=1):
-            spin = self._spin(0.0, 1e6)
-            spin.setSpecialValueText("auto")   # shown at the minimum, 0, which means None
-            spin.setToolTip(f"{name} clipping plane, distance from the camera; 0 (auto): planes "
-                            "enclosing the data's bounding sphere, chosen every frame")
-            self.planes[name] = spin
-            grid.addWidget(spin, 6, column)
-        self.layout_.addLayout(grid)
-
-    def _spin(self, low, high) -> QDoubleSpinBox:
-        spin = QDoubleSpinBox()
-        spin.setRange(low, high)
-        spin.setDecimals(4)
-        spin.setKeyboardTracking(False)
-        spin.valueChanged.connect(self._changed)
-        return narrow(spin)
-
-    def _changed(self, *_):
-        current: Camera = self.processor.property_values[self.prop.name]
-        changes = {name: tuple(spin_value(s, exact) for s, exact in zip(spins, getattr(current, name)))
-                   for name, spins in self.vectors.items()}
-        changes |= {"projection": self.projection.currentText(), "fov": spin_value(self.fov, current.fov)}
-        changes |= {name: (spin_value(spin, getattr(current, name)) or None)
-                    for name, spin in self.planes.items()}
-        moved = changes["position"] != current.position or changes["focus"] != current.focus
-        changes["fit_to_data"] = self.fit.isChecked() and not moved
-        self.emit(current.model_dump() | changes)
-
-    def _show(self, value: Camera):
-        self.projection.setCurrentText(value.projection)
-        for name, spins in self.vectors.items():
-            for spin, component in zip(spins, getattr(value, name)):
-                spin.setValue(component)
-        self.fov.setValue(value.fov)
-        self.fit.setChecked(value.fit_to_data)
-        for name, spin in self.planes.items():
-            spin.setValue(getattr(value, name) or 0.0)
-
-
 class JsonEditor(PropertyEditor):
     """Any value as JSON text: the fallback for property kinds without an editor."""
 
@@ -401,7 +328,7 @@ class DictEditor(JsonEditor):
 EDITOR_TYPES: dict[str, type[PropertyEditor]] = {
     "float": FloatEditor, "int": IntEditor, "bool": BoolEditor, "option": OptionEditor,
     "string": StringEditor, "file_path": FilePathEditor, "vector": VectorEditor, "dict": DictEditor,
-    "color": ColorEditor, "camera": CameraEditor,
+    "color": ColorEditor,
 }
 
 

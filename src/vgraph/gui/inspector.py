@@ -11,6 +11,8 @@ Conventions:
   the status bar says), or "when it last ran" if the last frame reused its output.
 - Under that: what the processor produced (``ProcessorStatus.data``: a volume's
   dimensions, type, spacing and value range, a source's file size), as the render process reports it.
+- Editors that show what the last frame resolved (the camera editor's automatic near/far) get
+  the frame's concrete cameras (``LiveEvaluation.view_cameras``) with every frame.
 - Edits go through the workspace (one undo command each; slider drags merge). A rejected value
   is reported through ``status_message`` and the editor shows the current value again.
 - ``interacting`` says when a drag in an editor (a slider, a TF point) starts and ends; editors
@@ -28,6 +30,7 @@ from vgraph.errors import VGraphError
 from vgraph.gui import transfer_function_editor  # noqa: F401  (registers the TF editor)
 from vgraph.gui import clip_planes_editor  # noqa: F401  (registers the clip-planes editor)
 from vgraph.gui import label_table_editor  # noqa: F401  (registers the label-table editor)
+from vgraph.gui import camera_editor  # noqa: F401  (registers the camera editor)
 from vgraph.gui.editors import PropertyEditor, editor_for
 from vgraph.gui.evaluator import ProcessorStatus, format_seconds, processor_status
 from vgraph.gui.progress_view import SHOW_AFTER_SECONDS
@@ -167,6 +170,7 @@ class PropertyInspector(QWidget):
         self.refresh_status()
         self.set_histograms(self.histograms)
         self.set_value_scales(self.value_scales)
+        self._show_view_cameras()
 
     def _set_dragging(self, on: bool) -> None:
         if on != self._dragging:
@@ -203,6 +207,7 @@ class PropertyInspector(QWidget):
         self.running = None
         self.running_timer.stop()
         self.refresh_status()
+        self._show_view_cameras()
 
     def _show_timing(self) -> None:
         text = ""
@@ -219,16 +224,24 @@ class PropertyInspector(QWidget):
         """Histograms of the volumes arriving at processors (from the render process), shown by
         editors that can use one (the transfer-function editor)."""
         self.histograms = histograms
-        for editor in self.editors.values():
+        for name, editor in self.editors.items():  # keyed by property: each TF its own volume's
             if hasattr(editor, "set_histogram"):
-                editor.set_histogram(histograms.get(self.processor_id))
+                editor.set_histogram(histograms.get(f"{self.processor_id}.{name}"))
 
     def set_value_scales(self, scales: dict) -> None:
         """Value scales of the same volumes, for TFs in data units or percentiles."""
         self.value_scales = scales
-        for editor in self.editors.values():
+        for name, editor in self.editors.items():
             if hasattr(editor, "set_value_scale"):
-                editor.set_value_scale(scales.get(self.processor_id))
+                editor.set_value_scale(scales.get(f"{self.processor_id}.{name}"))
+
+    def _show_view_cameras(self) -> None:
+        """The concrete cameras of the last frame to the editors that show them (the camera
+        editor's automatic near/far)."""
+        cameras = self.evaluation.view_cameras if self.evaluation is not None else {}
+        for name, editor in self.editors.items():
+            if hasattr(editor, "set_view_camera"):
+                editor.set_view_camera(cameras.get(f"{self.processor_id}.{name}"))
 
     def _refresh_links(self) -> None:
         processor = self.network[self.processor_id]
