@@ -355,3 +355,67 @@ def test_the_gui_shows_the_network_and_switches_the_blend_mode(window, jobs):
     network = vgraph.load(path)
     network.set("mv.blend", "maximum")
     np.testing.assert_array_equal(view.frame(), to_uint8(network.evaluate("canvas")))
+
+
+# --- the TF editors in the GUI ------------------------------------------------------------------
+def test_each_transfer_function_is_paired_with_its_channels_volume_for_the_editors(torus, other_grid):
+    """gui.evaluator gives each TF property the histogram and value scale of the volume it
+    classifies (the MultiVolumeRayCaster's declared pairing); a RayCaster's single TF keeps its
+    volume's; a TF whose channel is not connected gets none."""
+    from vgraph.gui.evaluator import histograms, value_scales
+    from vgraph.processors.multi_volume_raycaster import MultiVolumeRayCaster
+    from vgraph.testing import ray_caster_network
+    from vgraph.transfer_function import ValueScale
+    pairing = MultiVolumeRayCaster.transfer_function_inports
+    assert set(pairing) == {f"transfer_function{n}" for n in range(1, 5)}
+    assert set(pairing.values()) <= {port.name for port in MultiVolumeRayCaster.inports}
+    network = multivolume_network([torus, other_grid], oblique_camera(torus))
+    network.evaluate("mv.image", size=SIZE)
+    counts, scales = histograms(network), value_scales(network)
+    np.testing.assert_array_equal(counts["mv.transfer_function1"], torus.histogram()[0])
+    np.testing.assert_array_equal(counts["mv.transfer_function2"], other_grid.histogram()[0])
+    assert not np.array_equal(counts["mv.transfer_function1"], counts["mv.transfer_function2"])
+    assert scales["mv.transfer_function2"] == ValueScale.of(other_grid) != scales["mv.transfer_function1"]
+    assert "mv.transfer_function3" not in counts and "mv.transfer_function3" not in scales
+    np.testing.assert_array_equal(counts["mv"], torus.histogram()[0])  # the processor's first volume
+    single = ray_caster_network(other_grid, oblique_camera(other_grid))
+    single.evaluate("rc.image", size=SIZE)
+    np.testing.assert_array_equal(histograms(single)["rc.transfer_function"], other_grid.histogram()[0])
+    assert value_scales(single)["rc.transfer_function"] == ValueScale.of(other_grid)
+
+
+def test_the_gui_editor_of_transfer_function2_shows_volume2s_histogram_and_values(window, jobs, tmp_path):
+    """Two channels of different values (uint8 0..40 and float32 500..3000) from files: in the
+    inspector, transfer_function2's editor plots volume2's histogram over volume2's value range,
+    transfer_function1's volume1's, and transfer_function3's (no channel) none."""
+    import vgraph
+    from vgraph.transfer_function import ValueScale
+    rng = np.random.default_rng(3)
+    np.save(tmp_path / "one.npy", rng.integers(0, 41, (12, 14, 16)).astype(np.uint8))
+    np.save(tmp_path / "two.npy", (500.0 + 2500.0 * rng.random((10, 12, 9)) ** 3).astype(np.float32))
+    network = Network(base_dir=tmp_path)
+    network.add("VolumeSource", id="one", path="one.npy")
+    network.add("VolumeSource", id="two", path="two.npy")
+    network.add("EntryExitPoints", id="eep")
+    network.add("MultiVolumeRayCaster", id="mv")
+    network.add("Canvas", id="canvas", size=(32, 32))
+    network.link("eep.camera", "mv.camera")
+    for source, target in [("one.volume", "eep.volume"), ("two.volume", "eep.volume2"),
+                           ("one.volume", "mv.volume1"), ("two.volume", "mv.volume2"),
+                           ("eep.entry", "mv.entry"), ("eep.exit", "mv.exit"), ("mv.image", "canvas.image")]:
+        network.connect(source, target)
+    path = tmp_path / "channels.json"
+    network.save(path)
+    assert window.open_network(path)
+    assert not window.evaluation.run(wait=True).failed
+    window.scene.select_processor("mv")
+    editors = window.inspector.editors
+    local = vgraph.load(path)
+    local.evaluate("canvas")
+    volumes = {n: local[source].outputs["volume"] for n, source in ((1, "one"), (2, "two"))}
+    for n, volume in volumes.items():
+        plot = editors[f"transfer_function{n}"].plot
+        np.testing.assert_array_equal(plot.counts, volume.histogram()[0])
+        assert plot.scale == ValueScale.of(volume)
+    assert editors["transfer_function2"].plot.scale.value_range[0] >= 500.0  # volume2's, not volume1's
+    assert editors["transfer_function3"].plot.counts is None and editors["transfer_function3"].plot.scale is None

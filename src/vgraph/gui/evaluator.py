@@ -146,30 +146,55 @@ def display_size(processor: Processor, scale: float) -> tuple[int, int]:
 
 
 def histograms(network: Network) -> dict[str, np.ndarray]:
-    """For each processor with a transfer function: the histogram (256 bins over the value range)
-    of the volume arriving at its first connected volume inport, for the TF editor."""
-    return {pid: volume.histogram()[0] for pid, volume in _classified_volumes(network)}
+    """For each processor with a transfer function, the histogram (256 bins over the value range)
+    of the data each TF classifies, under 'id.<TF property>' (classified_inputs), for that TF's
+    editor; and under 'id' that of the processor's first connected volume (for scripts)."""
+    return _measured(network, lambda data: data.histogram()[0])
 
 
 def value_scales(network: Network) -> dict[str, ValueScale]:
-    """For the same processors: the ValueScale of that volume (TFs in data units, percentiles)."""
-    return {pid: ValueScale.of(volume) for pid, volume in _classified_volumes(network)}
+    """Under the same keys: the ValueScale of that data (TFs in data units, percentiles)."""
+    return _measured(network, ValueScale.of)
 
 
 CLASSIFIED = (Volume, TetMesh)  # data a transfer function classifies: histogram, value range, percentiles
 
 
-def _classified_volumes(network: Network):
-    """(processor id, data) for each processor with a transfer function and a volume or mesh arrived."""
+def _measured(network: Network, measure) -> dict:
+    """``measure`` of each classified input by key, once per data object (several keys may share one)."""
+    measured, by_data = {}, {}
+    for key, data in classified_inputs(network):
+        if id(data) not in by_data:
+            by_data[id(data)] = measure(data)
+        measured[key] = by_data[id(data)]
+    return measured
+
+
+def classified_inputs(network: Network):
+    """(key, data) of what the transfer functions classify: 'id' -> the processor's first
+    connected volume or mesh, and 'id.<TF property>' -> the data of the inport the processor pairs
+    with that TF in its ``transfer_function_inports`` class attribute (the MultiVolumeRayCaster:
+    transfer_function2 -> volume2), or the first one for a TF it does not pair (the RayCaster's
+    single TF). A TF whose paired inport has no data gets no key: its editor shows no histogram."""
     for processor in network.processors.values():
-        if not any(isinstance(p, TransferFunctionProperty) for p in processor.properties.values()):
+        tfs = [name for name, p in processor.properties.items() if isinstance(p, TransferFunctionProperty)]
+        if not tfs:
             continue
+        arrived = {}  # inport -> data, in inport order
         for inport in processor.inports:
             sources = network.inputs_of(processor.id, inport.name) if issubclass(inport.data_type, CLASSIFIED) else []
             data = network[sources[0].source].outputs.get(sources[0].outport) if sources else None
             if isinstance(data, CLASSIFIED):
-                yield processor.id, data
-                break
+                arrived[inport.name] = data
+        if not arrived:
+            continue
+        first = next(iter(arrived.values()))
+        yield processor.id, first
+        pairing = getattr(processor, "transfer_function_inports", {})
+        for name in tfs:
+            data = arrived.get(pairing[name]) if name in pairing else first
+            if data is not None:
+                yield f"{processor.id}.{name}", data
 
 
 def view_cameras(network: Network) -> dict:
