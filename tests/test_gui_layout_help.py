@@ -136,6 +136,63 @@ def test_docs_are_found_in_an_installed_layout(tmp_path, monkeypatch):
     assert [p.title for p in doc_pages()] == ["The GUI"]
 
 
+def test_a_pages_pictures_show_from_the_installed_location(qtbot, tmp_path, monkeypatch):
+    """Pictures are package data beside the pages (vgraph/docs/images): the page shows them from
+    there, a wide one scaled to the page's column (again after a resize), a missing one left as a
+    broken link."""
+    import numpy as np
+    import PIL.Image
+    import vgraph
+    from PySide6.QtGui import QTextDocument
+    from vgraph.gui.help import document_images, image_path
+    package = tmp_path / "site" / "vgraph"
+    (package / "docs" / "images").mkdir(parents=True)
+    small = np.zeros((30, 40, 3), np.uint8)
+    small[:, :20] = (255, 0, 0)                       # left half red, right half black
+    PIL.Image.fromarray(small).save(package / "docs" / "images" / "small.png")
+    PIL.Image.fromarray(np.full((200, 1600, 3), 90, np.uint8)).save(package / "docs" / "images" / "wide.png")
+    (package / "docs" / "gui.md").write_text(
+        "# The GUI\n\n![small](images/small.png)\n\n![wide](images/wide.png)\n\n![gone](images/gone.png)\n")
+    monkeypatch.setattr(vgraph, "__file__", str(package / "__init__.py"))
+    dialog = DocsDialog()
+    qtbot.addWidget(dialog)
+    dialog.show()
+    qtbot.waitExposed(dialog)
+    document = dialog.browser.document()
+    shown = document.resource(QTextDocument.ImageResource, QUrl("images/small.png"))
+    assert shown.width() == 40 and shown.height() == 30
+    assert shown.pixelColor(5, 5).getRgb()[:3] == (255, 0, 0) and shown.pixelColor(35, 5).getRgb()[:3] == (0, 0, 0)
+    sizes = lambda: {link: (c.charFormat().toImageFormat().width(), c.charFormat().toImageFormat().height())
+                     for c, link in document_images(document)}
+    column = dialog.image_width()
+    assert 200 < column < 1600 and column < dialog.browser.viewport().width()
+    assert set(sizes()) == {"images/small.png", "images/wide.png", "images/gone.png"}
+    assert sizes()["images/wide.png"] == (column, 200 * column / 1600)
+    assert sizes()["images/small.png"] == (40, 30)     # narrower than the column: as it is
+    dialog.resize(dialog.width() - 200, dialog.height())
+    qtbot.waitUntil(lambda: dialog.image_width() < column)
+    assert sizes()["images/wide.png"] == (dialog.image_width(), 200 * dialog.image_width() / 1600)
+    page = package / "docs" / "gui.md"
+    assert image_path(page, "images/wide.png") == package / "docs" / "images" / "wide.png"
+    assert image_path(page, "images/gone.png") is None
+    assert image_path(page, "https://example.org/x.png") is None
+
+
+def test_every_picture_the_docs_link_is_found(qtbot):
+    """The repository's pages: every image link names a file beside them (what the wheel ships)."""
+    from vgraph.gui.help import document_images, image_path
+    dialog = DocsDialog()
+    qtbot.addWidget(dialog)
+    linked = set()
+    for row, page in enumerate(dialog.pages):
+        dialog.list.setCurrentRow(row)
+        for _, link in document_images(dialog.browser.document()):
+            path = image_path(page.path, link)
+            assert path is not None, (page.path.name, link)
+            linked.add(path)
+    assert linked and linked <= set((REPO / "docs" / "images").glob("*.png"))
+
+
 def test_shortcuts_dialog_lists_the_actions_keys(window, qtbot):
     rows = dict(shortcut_rows(window))
     assert "Ctrl+Y" in rows["Redo"] and rows["Save"] == "Ctrl+S"

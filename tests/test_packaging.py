@@ -3,6 +3,7 @@ pip is found through its entry point; a module given with --plugin is loaded."""
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -43,6 +44,22 @@ def test_wheel_contains_processors_and_shaders(tmp_path):
     for page in (REPO / "docs").glob("*.md"):   # Help > Documentation reads them offline
         assert f"vgraph/docs/{page.name}" in names
     assert any(n.endswith("entry_points.txt") for n in names)
+    assert_pictures_installed(wheel, tmp_path / "site")
+
+
+def assert_pictures_installed(wheel, site):
+    """The pages' pictures ship beside them (a few MB), and from where the wheel installs them
+    every image link of every page names a file (Help shows them through help.image_path)."""
+    from vgraph.gui.help import image_path
+    pictures = [info for info in zipfile.ZipFile(wheel).infolist() if info.filename.startswith("vgraph/docs/images/")]
+    assert pictures and sum(info.file_size for info in pictures) < 15e6
+    zipfile.ZipFile(wheel).extractall(site)
+    pages = list((site / "vgraph" / "docs").glob("*.md"))
+    links = [(page, link) for page in pages
+             for link in re.findall(r"!\[[^\]]*\]\(([^)\s]+)\)", page.read_text(encoding="utf-8"))]
+    assert links
+    for page, link in links:
+        assert image_path(page, link) == site / "vgraph" / "docs" / link, (page.name, link)
 
 
 def plugin_network(tmp_path, invert_alpha=False):

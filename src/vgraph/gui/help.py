@@ -2,8 +2,12 @@
 keyboard shortcuts and About.
 
 Conventions:
-- The docs are the Markdown pages of docs/, installed as the package data ``vgraph/docs``; a source
+- The docs are the Markdown pages of docs/, installed as the package data ``vgraph/docs``, their
+  pictures as ``vgraph/docs/images`` (about 3.4 MB, every one linked from a page); a source
   checkout (or an editable install, which maps only the code) reads the repository's docs/ folder.
+- A page's relative image links resolve beside the page, wherever it is installed
+  (``image_path``); pictures wider than the page's column are shown scaled down to it (again
+  when the dialog is resized), so a 1920-pixel screenshot does not push the text sideways.
 - The shortcut list is built from the window's actions, so it cannot drift from what the keys do.
 - A link to another page opens that page in the same browser; any other link goes to the desktop.
 """
@@ -13,8 +17,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from PySide6.QtCore import Qt, QUrl
-from PySide6.QtGui import QAction, QDesktopServices, QKeySequence
+from PySide6.QtCore import QEvent, QSize, Qt, QUrl
+from PySide6.QtGui import QAction, QDesktopServices, QImage, QKeySequence, QTextCursor, QTextDocument
 from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QListWidget, QListWidgetItem,
                                QMessageBox, QSplitter, QTableWidget, QTableWidgetItem, QTextBrowser,
                                QVBoxLayout)
@@ -22,6 +26,7 @@ from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QListWidget, QListWidg
 import vgraph
 
 START_PAGE = "gui.md"
+MIN_IMAGE_WIDTH = 200   # px: pictures are not scaled below this, however narrow the column
 
 
 def docs_folder() -> Path | None:
@@ -55,6 +60,37 @@ def doc_pages(folder: Path | None = None) -> list[Page]:
     return sorted((Page(p, page_title(p)) for p in folder.glob("*.md")), key=lambda p: p.title.lower())
 
 
+def image_path(page: Path, link: str) -> Path | None:
+    """The file a page's image link names: relative links beside the page; None for a link that
+    is not a local file (a web address), or a file that is missing."""
+    url = QUrl(link)
+    if url.isRelative():
+        path = page.parent / url.path()
+    elif url.isLocalFile():
+        path = Path(url.toLocalFile())
+    else:
+        return None
+    return path if path.is_file() else None
+
+
+def document_images(document: QTextDocument) -> list[tuple[QTextCursor, str]]:
+    """(a cursor selecting the image, its link) for every image of the shown page."""
+    images = []
+    block = document.begin()
+    while block.isValid():
+        fragments = block.begin()
+        while not fragments.atEnd():
+            fragment = fragments.fragment()
+            if fragment.charFormat().isImageFormat():
+                cursor = QTextCursor(document)
+                cursor.setPosition(fragment.position())
+                cursor.setPosition(fragment.position() + fragment.length(), QTextCursor.KeepAnchor)
+                images.append((cursor, fragment.charFormat().toImageFormat().name()))
+            fragments += 1
+        block = block.next()
+    return images
+
+
 class DocsDialog(QDialog):
     """The page list on the left, the page (rendered Markdown) on the right."""
 
@@ -70,6 +106,10 @@ class DocsDialog(QDialog):
             self.list.addItem(item)
         self.browser = QTextBrowser()
         self.browser.setOpenLinks(False)  # page links are followed here, the rest by the desktop
+        # A scroll bar that comes and goes would change the column the pictures are fitted to.
+        self.browser.setVerticalScrollBarPolicy(Qt.ScrollBarAlwaysOn)
+        self.browser.viewport().installEventFilter(self)   # refit the pictures on resizes
+        self.image_sizes: dict[str, QSize] = {}   # link -> natural size of the shown page's pictures
         self.browser.anchorClicked.connect(self._follow)
         splitter = QSplitter()
         splitter.addWidget(self.list)
@@ -104,6 +144,43 @@ class DocsDialog(QDialog):
             path = self.pages[row].path
             self.browser.setSearchPaths([str(path.parent)])  # relative images resolve beside the page
             self.browser.setMarkdown(path.read_text(encoding="utf-8"))
+            self._place_images(path)
+
+    def _place_images(self, page: Path) -> None:
+        """Each picture from its file beside the page (``image_path``), fitted to the column."""
+        document = self.browser.document()
+        self.image_sizes = {}
+        for _, link in document_images(document):
+            path = image_path(page, link)
+            image = QImage(str(path)) if path is not None else QImage()
+            if not image.isNull():   # a missing one keeps Qt's placeholder; its link says which
+                document.addResource(QTextDocument.ImageResource, QUrl(link), image)
+                self.image_sizes[link] = image.size()
+        self.fit_images()
+
+    def image_width(self) -> int:
+        """The widest a picture is shown: the page's column, inside the document's margins."""
+        margin = self.browser.document().documentMargin()
+        return max(MIN_IMAGE_WIDTH, int(self.browser.viewport().width() - 2 * margin - 4))
+
+    def fit_images(self) -> None:
+        """Pictures wider than the column scaled down to it (keeping their aspect), others natural."""
+        width = self.image_width()
+        for cursor, link in document_images(self.browser.document()):
+            size = self.image_sizes.get(link)
+            if size is None:
+                continue
+            picture = cursor.charFormat().toImageFormat()
+            shown = min(size.width(), width)
+            if picture.width() != shown:
+                picture.setWidth(shown)
+                picture.setHeight(size.height() * shown / size.width())
+                cursor.setCharFormat(picture)
+
+    def eventFilter(self, watched, event) -> bool:
+        if watched is self.browser.viewport() and event.type() == QEvent.Resize and self.image_sizes:
+            self.fit_images()
+        return super().eventFilter(watched, event)
 
     def _follow(self, url: QUrl) -> None:
         target = url.path() if url.isRelative() or url.isLocalFile() else ""
