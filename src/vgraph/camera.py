@@ -292,24 +292,21 @@ class Camera(BaseModel):
         half_angle = min(half_v, math.atan(aspect * math.tan(half_v)))
         distance = radius / math.sin(half_angle)
         _, _, forward = self.basis()
-        position = centre - distance * forward
-        parallel_scale = radius * max(1.0, 1.0 / aspect)
-        framed = self._replace(position=_vec(position), focus=_vec(centre),
-                               parallel_scale=parallel_scale)
-        return framed.with_clipping_range(box_min, box_max)
+        position, focus = _vec(centre - distance * forward), _vec(centre)
+        framed = {"position": position, "focus": focus, "parallel_scale": radius * max(1.0, 1.0 / aspect)}
+        # The clipping range from the framed camera's own basis (as with_clipping_range() of it),
+        # without validating a camera in between.
+        planes = _clipping_range(position, _basis(position, focus, self.up)[2], box_min, box_max)
+        if planes is not None:
+            framed["near"], framed["far"] = planes
+        return self._replace(**framed)
 
     def with_clipping_range(self, box_min, box_max) -> "Camera":
         """Near and far enclosing the box's bounding sphere from the current position (like VTK's
         ResetCameraClippingRange); near stays positive when the camera is inside. Unchanged if the
         box is entirely behind the camera."""
-        centre, radius = _bounding_sphere(box_min, box_max)
-        _, _, forward = self.basis()
-        depth = float((centre - np.asarray(self.position)) @ forward)
-        far = (depth + radius) * (1.0 + _CLIP_MARGIN)
-        if far <= 0.0:
-            return self
-        near = (depth - radius) * (1.0 - _CLIP_MARGIN)
-        return self._replace(near=max(near, far * 1e-4), far=far)
+        planes = _clipping_range(self.position, self.basis()[2], box_min, box_max)
+        return self if planes is None else self._replace(near=planes[0], far=planes[1])
 
     def resolved(self, box_min, box_max, aspect: float = 1.0) -> "Camera":
         """The concrete camera a renderer uses for a box: framed when ``fit_to_data``, automatic
@@ -330,9 +327,9 @@ class Camera(BaseModel):
         return camera._replace(near=near, far=far, fit_to_data=False)
 
     def _automatic_planes(self, box_min, box_max) -> tuple[float, float]:
-        clipped = self._replace(near=None, far=None).with_clipping_range(box_min, box_max)
-        if clipped.far is not None:
-            return clipped.near, clipped.far
+        planes = _clipping_range(self.position, self.basis()[2], box_min, box_max)
+        if planes is not None:
+            return planes
         # The box is behind the camera: nothing shows, any planes do.
         scale = self.distance + _bounding_sphere(box_min, box_max)[1]
         return scale * 1e-4, scale
@@ -420,7 +417,38 @@ def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     return np.eye(3) + math.sin(angle) * cross + (1.0 - math.cos(angle)) * (cross @ cross)
 
 
+def _clipping_range(position, forward: np.ndarray, box_min, box_max) -> tuple[float, float] | None:
+    """(near, far) enclosing the box's bounding sphere seen from ``position`` along ``forward``;
+    None when the box is entirely behind (see Camera.with_clipping_range)."""
+    centre, radius = _bounding_sphere(box_min, box_max)
+    depth = float((centre - np.asarray(position)) @ forward)
+    far = (depth + radius) * (1.0 + _CLIP_MARGIN)
+    if far <= 0.0:
+        return None
+    near = (depth - radius) * (1.0 - _CLIP_MARGIN)
+    return max(near, far * 1e-4), far
+
+
 def _bounding_sphere(box_min, box_max) -> tuple[np.ndarray, float]:
+    """(centre, radius) of the sphere around the box: remembered per box, since every frame of a
+    camera that fits the data asks three times for the same one (the centre is read-only)."""
+    try:
+        key = (tuple(map(float, box_min)), tuple(map(float, box_max)))
+    except (TypeError, ValueError):
+        key = None
+    if key is None or len(key[0]) != 3 or len(key[1]) != 3:
+        return _sphere_of(box_min, box_max)  # it says what is wrong
+    return _remembered_sphere(*key)
+
+
+@functools.lru_cache(maxsize=64)
+def _remembered_sphere(box_min: Vec3, box_max: Vec3) -> tuple[np.ndarray, float]:
+    centre, radius = _sphere_of(box_min, box_max)
+    centre.flags.writeable = False
+    return centre, radius
+
+
+def _sphere_of(box_min, box_max) -> tuple[np.ndarray, float]:
     lo, hi = np.asarray(box_min, dtype=np.float64), np.asarray(box_max, dtype=np.float64)
     if lo.shape != (3,) or hi.shape != (3,) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
         raise ValueError(f"box corners must be three finite numbers each, got {box_min!r}, {box_max!r}")
