@@ -133,10 +133,12 @@ def plane_frame(camera: Camera, size, plane: str = "near") -> tuple[np.ndarray, 
 def plane_cuts_box(camera: Camera, plane: str, box_min, box_max) -> bool:
     """Whether the near or far plane passes through the box (only then does it cap any ray)."""
     # The box's depth range along the view axis: its centre's depth +- the half-extent's reach.
-    forward = camera.basis()[2]
-    low, high = np.asarray(box_min, dtype=np.float64), np.asarray(box_max, dtype=np.float64)
-    centre_depth = float(((low + high) / 2.0 - np.asarray(camera.position)) @ forward)
-    reach = float(np.abs(forward) @ ((high - low) / 2.0))
+    # Plain floats: asked twice a frame, where numpy's per-call cost would dominate.
+    forward = camera.basis()[2].tolist()
+    centre_depth = reach = 0.0
+    for f, low, high, eye in zip(forward, box_min, box_max, camera.position):
+        centre_depth += ((float(low) + float(high)) / 2.0 - eye) * f
+        reach += abs(f) * (float(high) - float(low)) / 2.0
     plane_depth = camera.near if plane == "near" else camera.far
     return centre_depth - reach < plane_depth < centre_depth + reach
 

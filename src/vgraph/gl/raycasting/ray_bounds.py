@@ -27,6 +27,7 @@ How it is exact:
 
 from __future__ import annotations
 
+import math
 import os
 
 import moderngl
@@ -163,7 +164,7 @@ class RayBounds:
         coarse = self._texture.size
         # The farthest a tile's pixel centre is from the tile's centre, in NDC per axis.
         half_x, half_y = TILE / size[0], TILE / size[1]
-        length = lambda name: float(np.linalg.norm(rays[name]))  # noqa: E731
+        length = lambda name: math.hypot(*rays[name])  # noqa: E731
         uniforms = {"view_projection": camera.view_projection(size[0] / size[1]),
                     "coarse_scale": (size[0] / (TILE * coarse[0]), size[1] / (TILE * coarse[1])),
                     "coverage_margin": vec(GROW * geometry.spacing), "view_forward": vec(camera.basis()[2]),
