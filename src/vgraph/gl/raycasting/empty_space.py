@@ -11,7 +11,10 @@ so a ray can jump over whole empty regions (skip_radii).
 
 from __future__ import annotations
 
+import functools
 import weakref
+from collections.abc import Mapping
+from types import MappingProxyType
 
 import moderngl
 import numpy as np
@@ -120,11 +123,17 @@ class SkipBlocks:
         self._texture.write(np.ascontiguousarray(values, dtype=np.float32).tobytes())
 
 
-def block_grid_uniforms(volume: Volume) -> dict[str, object]:
+def block_grid_uniforms(volume: Volume) -> Mapping[str, object]:
     """Texture coordinates -> block coordinates q = t * scale + offset (floor(q) = block index)."""
-    dims = np.array(volume.dims, dtype=np.float64)
-    return {"block_scale": tuple(dims / BLOCK), "block_offset": (-0.5 / BLOCK,) * 3,
-            "block_count": tuple(int(-(-d // BLOCK)) for d in volume.dims)}
+    return _block_grid(volume.dims)
+
+
+@functools.lru_cache(maxsize=16)
+def _block_grid(dims: tuple[int, int, int]) -> Mapping[str, object]:
+    # Asked every frame; read-only, since the processors of a frame share it.
+    scale = np.array(dims, dtype=np.float64) / BLOCK
+    return MappingProxyType({"block_scale": tuple(scale), "block_offset": (-0.5 / BLOCK,) * 3,
+                             "block_count": tuple(int(-(-d // BLOCK)) for d in dims)})
 
 
 
