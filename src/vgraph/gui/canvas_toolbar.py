@@ -7,13 +7,15 @@ Conventions:
   does) and is one undo step.
 - Shortcuts work while the canvas (or its toolbar) has the keyboard focus (click into the canvas),
   so two canvases do not fight over a key: F fits, the digits turn to named views as on a
-  numeric keypad (1 front, 3 right, 7 top; with Ctrl the opposite side), 5 iso; A and B switch
-  the axes and the box. Tooltips name them; Help > Keyboard Shortcuts lists them.
+  numeric keypad (1 front, 3 right, 7 top; with Ctrl the opposite side), 5 iso; A, B and S switch
+  the axes, the box and the slices. Tooltips name them; Help > Keyboard Shortcuts lists them.
 - Save Image (and File > Export Image) saves only a complete frame: a coarse one (drawn while a
   drag lasts, or while a bricked volume still reads, "refining...") is not what ``vgraph run``
   writes, so the user is told to wait instead (``save_complete_frame``).
 - Overlay switches are remembered per canvas id in the window's QSettings
-  (``canvas/<id>/axes``, ``canvas/<id>/box``): the triad is on and the box off the first time.
+  (``canvas/<id>/axes``, ``canvas/<id>/box``, ``canvas/<id>/slices``): the triad and the slices
+  are on and the box off the first time. "Slices" draws the planes of the network's
+  SliceViewers in a 3D canvas (overlays.py), so it shows nothing in a network without them.
 """
 
 from __future__ import annotations
@@ -34,8 +36,8 @@ VIEW_ACTIONS = {
     "bottom": ("Bottom (inferior)", "Ctrl+7"),
     "iso": ("Iso", "5"),
 }
-FIT_KEY, AXES_KEY, BOX_KEY = "F", "A", "B"
-OVERLAY_DEFAULTS = {"axes": True, "box": False}
+FIT_KEY, AXES_KEY, BOX_KEY, SLICES_KEY = "F", "A", "B", "S"
+OVERLAY_DEFAULTS = {"axes": True, "box": False, "slices": True}
 STILL_REFINING = "the frame is still refining: save it when 'refining...' is gone"
 
 
@@ -70,6 +72,9 @@ class CanvasToolbar(QToolBar):
                                      AXES_KEY, view.set_axes_visible, checkable=True)
         self.box_action = self._add("Box", "Show the data's bounding box", BOX_KEY,
                                     view.set_box_visible, checkable=True)
+        self.slices_action = self._add("Slices", "Show the SliceViewers' planes (axial blue, coronal "
+                                       "green, sagittal red)", SLICES_KEY, view.set_slices_visible,
+                                       checkable=True)
         self.addSeparator()
         self.save_action = self._add("Save Image...", "Save the frame as a PNG, as `vgraph run` writes "
                                      "it (no overlays); File > Export Image (Ctrl+E) does the same",
@@ -77,8 +82,8 @@ class CanvasToolbar(QToolBar):
         self.save_action.setIcon(self.style().standardIcon(QStyle.SP_DialogSaveButton))
         self.widgetForAction(self.save_action).setToolButtonStyle(Qt.ToolButtonIconOnly)
         self._restore_overlays()
-        self.axes_action.toggled.connect(lambda on: self._remember("axes", on))
-        self.box_action.toggled.connect(lambda on: self._remember("box", on))
+        for name, action in self._overlay_actions().items():
+            action.toggled.connect(lambda on, name=name: self._remember(name, on))
 
     # --- building -------------------------------------------------------------------------------
     def _make(self, text: str, tip: str, key: str | None, slot, checkable: bool = False) -> QAction:
@@ -114,17 +119,21 @@ class CanvasToolbar(QToolBar):
 
     def keyboard_actions(self) -> list[QAction]:
         """The actions with shortcuts, to be added to the pane so the keys work in the view too."""
-        return [self.fit_action, *self.view_actions.values(), self.axes_action, self.box_action]
+        return [self.fit_action, *self.view_actions.values(), *self._overlay_actions().values()]
 
     # --- overlays remembered --------------------------------------------------------------------
+    def _overlay_actions(self) -> dict[str, QAction]:
+        return {"axes": self.axes_action, "box": self.box_action, "slices": self.slices_action}
+
     def _restore_overlays(self) -> None:
-        for name, action in (("axes", self.axes_action), ("box", self.box_action)):
+        setters = {"axes": self.view.set_axes_visible, "box": self.view.set_box_visible,
+                   "slices": self.view.set_slices_visible}
+        for name, action in self._overlay_actions().items():
             on = OVERLAY_DEFAULTS[name]
             if self.settings is not None:
                 on = self.settings.value(overlay_setting(self.view.canvas_id, name), on, type=bool)
             action.setChecked(on)
-            # setChecked emits toggled only on a change: tell the view either way.
-            (self.view.set_axes_visible if name == "axes" else self.view.set_box_visible)(on)
+            setters[name](on)  # setChecked emits toggled only on a change: tell the view either way
 
     def _remember(self, name: str, on: bool) -> None:
         if self.settings is not None:

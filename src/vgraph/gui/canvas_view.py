@@ -12,13 +12,16 @@ Interaction (on the camera returned by ``camera_property_for``, i.e. the nearest
 - middle drag or shift + left drag: pan, ``Camera.pan(dx / h, -dy / h)``, so the scene follows the
   cursor.
 - ctrl + left drag: moves the first clip plane upstream along its normal (clip_drag.py).
+- a canvas that shows a slice and has no camera (slice_gestures.py): a left click moves the shared
+  cursor (slice_clicks.py), the wheel pages through the volume, a right drag sets window/level.
 - a camera that fits the data (``Camera.fit_to_data``) keeps fitting while it rotates; zoom and pan
   start from the camera of the last frame (``view_cameras``, from the render process) and store it,
   so the view does not jump. The context menu's View entries (and the toolbar, canvas_toolbar.py)
   set a named view or fit to the data.
-- overlays (overlays.py): the data's box and an axes triad, drawn by Qt over the frame with the
-  camera and box the frame was rendered with (``set_view_geometry``), never into the frame, so
-  Save Image writes what ``vgraph run`` writes (image_export.py).
+- overlays (overlays.py): the data's box, an axes triad and the SliceViewers' planes, drawn by
+  Qt over the frame with the camera and box the frame was rendered with (``set_view_geometry``;
+  the planes from the last ``view_cameras``), never into the frame, so Save Image writes what
+  ``vgraph run`` writes (image_export.py).
 
 ``dx, dy`` are Qt pixels (x right, y DOWN, hence the negated dy: the camera wants y up) measured from
 the press point; ``h`` is the height of the displayed frame (the visible height of the camera maps
@@ -48,7 +51,7 @@ from PySide6.QtWidgets import QFileDialog, QMenu, QWidget
 from vgraph.camera import VIEWS
 from vgraph.errors import OutputFileError, VGraphError
 from vgraph.gui import clip_drag
-from vgraph.gui import slice_clicks
+from vgraph.gui import slice_clicks, slice_gestures
 from vgraph.gui.image_export import IMAGE_FILTER, suggested_image_path, write_frame
 from vgraph.gui.overlays import ViewGeometry, draw_overlays
 from vgraph.properties import CameraProperty
@@ -100,6 +103,7 @@ class CanvasView(QWidget):
         self._message = ""
         self._geometry: ViewGeometry | None = None  # the shown frame's camera and box
         self._overlays = {"axes": False, "box": False}
+        self._slices = False  # the SliceViewers' planes (kept apart: overlays() is axes and box)
         self._drag = None   # dict(mode, button, start, address, camera, key, active) while dragging
         self._wheel = None  # dict(address, camera, key, delta) during a wheel burst
         self._wheel_timer = QTimer(self)
@@ -143,6 +147,13 @@ class CanvasView(QWidget):
         self._overlays["box"] = bool(on)
         self.update()
 
+    def set_slices_visible(self, on: bool) -> None:
+        self._slices = bool(on)
+        self.update()
+
+    def slices_visible(self) -> bool:
+        return self._slices
+
     def overlays(self) -> dict[str, bool]:
         return dict(self._overlays)
 
@@ -168,7 +179,9 @@ class CanvasView(QWidget):
         if self._image is not None:
             painter.setRenderHint(QPainter.SmoothPixmapTransform, True)
             painter.drawImage(self.image_rect(), self._image)
-            draw_overlays(painter, self._geometry, self.image_rect(), **self._overlays)
+            slices = (slice_clicks.slice_overlays(self.workspace.network, self.view_cameras())
+                      if self._slices and self._geometry is not None else ())
+            draw_overlays(painter, self._geometry, self.image_rect(), **self._overlays, slices=slices)
         if self._message:
             box = painter.fontMetrics().boundingRect(self._message).adjusted(-4, -2, 4, 2)
             box.moveBottomLeft(self.rect().bottomLeft() + QPointF(4, -4).toPoint())
@@ -235,6 +248,11 @@ class CanvasView(QWidget):
         else:
             return
         address = camera_property_for(self.workspace.network, self.canvas_id)
+        if address is None and mode == "zoom":  # a right drag on a slice: window/level
+            self._drag = slice_gestures.begin_window(self, event, ("canvas", next(self._keys)))
+            if self._drag is not None:
+                event.accept()
+                return
         if address is None and mode != "zoom":  # a right click may still be for the menu
             self.set_message(NO_CAMERA)
         self._drag = {"mode": mode, "button": button, "start": event.position(), "active": False,
@@ -252,6 +270,11 @@ class CanvasView(QWidget):
             return
         offset = event.position() - drag["start"]
         dx, dy = offset.x(), offset.y()
+        if drag["mode"] == "window":
+            if drag["active"] or math.hypot(dx, dy) >= CLICK_SLOP:
+                slice_gestures.move_window(self, drag, dx, dy)
+            event.accept()
+            return
         if drag["address"] is None:
             if math.hypot(dx, dy) >= CLICK_SLOP:
                 self.set_message(NO_CAMERA)
@@ -273,28 +296,44 @@ class CanvasView(QWidget):
         self._drag = None
         if drag["active"]:
             self.interacting.emit(False)
-        elif drag["mode"] == "zoom" and (event.position() - drag["start"]).manhattanLength() < CLICK_SLOP:
+        elif drag["mode"] in ("zoom", "window") and (event.position() - drag["start"]).manhattanLength() < CLICK_SLOP:
             self.context_menu().exec(event.globalPosition().toPoint())
         elif drag["mode"] == "rotate" and (event.position() - drag["start"]).manhattanLength() < CLICK_SLOP:
             slice_clicks.click(self, event.position())  # a left click in a slice moves its cursor
         event.accept()
 
     def wheelEvent(self, event) -> None:
-        notches = event.angleDelta().y() / 120.0
+        shift = bool(event.modifiers() & Qt.ShiftModifier)
+        delta = event.angleDelta()  # some platforms turn Shift + wheel into a horizontal one
+        notches = (delta.y() or (delta.x() if shift else 0)) / 120.0
         if notches == 0.0:
             return
         if self._wheel is None:
-            start = self._begin_gesture()
-            if start is None:
+            self._wheel = self._start_wheel()
+            if self._wheel is None:
                 return
-            self._wheel = {"address": start[0], "camera": start[1], "notches": 0.0, "active": False,
-                           "key": ("canvas", next(self._keys))}
         wheel = self._wheel
+        self._wheel_timer.start()
+        event.accept()
+        if wheel["mode"] == "page":
+            slice_gestures.page(self, wheel, notches, shift)
+            return
         wheel["notches"] += notches
         exponent = float(np.clip(wheel["notches"] * math.log(WHEEL_ZOOM), -_MAX_EXPONENT, _MAX_EXPONENT))
         self._apply(wheel, lambda c: c.zoom(math.exp(exponent)))
-        self._wheel_timer.start()
-        event.accept()
+
+    def _start_wheel(self) -> dict | None:
+        """A wheel burst's state: paging on a slice canvas without a camera, else camera zoom."""
+        key = ("canvas", next(self._keys))
+        if camera_property_for(self.workspace.network, self.canvas_id) is None:
+            gesture = slice_gestures.begin_page(self, key)
+            if gesture is not None:
+                return gesture
+        start = self._begin_gesture()
+        if start is None:
+            return None
+        return {"mode": "zoom", "address": start[0], "camera": start[1], "notches": 0.0,
+                "active": False, "key": key}
 
     def _end_wheel(self) -> None:
         wheel, self._wheel = self._wheel, None

@@ -15,6 +15,11 @@ convention of ``Camera.rays``: pixel column c spans [c, c + 1)).
   a point ``TRIAD_MARGIN`` px inside the frame's bottom-right corner, each axis ``triad_length``
   px long when it lies in the image plane; x red, y green, z blue, labelled at the tips. Axes
   pointing away from the viewer are drawn first, so the nearer ones cover them.
+- Slices: the polygon where each SliceViewer's plane cuts its volume's box (slice_clicks
+  ``slice_overlays``), clipped against the near plane like the box, its edges in the colour of
+  its orientation: the axis it is constant along, as the triad colours it (axial = constant z,
+  blue; coronal = constant y, green; sagittal = constant x, red; custom magenta), over a faint
+  fill of the same colour so the plane reads as a surface.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from PySide6.QtCore import QLineF, QPointF, QRectF, Qt
-from PySide6.QtGui import QColor, QPainter, QPen
+from PySide6.QtGui import QColor, QPainter, QPen, QPolygonF
 
 from vgraph.camera import Camera
 
@@ -31,6 +36,10 @@ BOX_COLOUR = QColor(255, 200, 0)
 BOX_WIDTH = 2.0
 AXIS_COLOURS = {"x": QColor(235, 60, 60), "y": QColor(60, 210, 60), "z": QColor(70, 130, 255)}
 AXIS_WIDTH = 3.0
+SLICE_COLOURS = {"axial": AXIS_COLOURS["z"], "coronal": AXIS_COLOURS["y"],
+                 "sagittal": AXIS_COLOURS["x"], "custom": QColor(230, 110, 230)}
+SLICE_WIDTH = 2.0
+SLICE_FILL_ALPHA = 40
 TRIAD_MARGIN = 20.0      # px from the frame's corner to the triad's reach (room for the labels)
 TRIAD_FRACTION = 0.08    # axis length as a fraction of the frame's smaller side ...
 TRIAD_LIMITS = (16.0, 48.0)  # ... within these pixel lengths
@@ -107,6 +116,50 @@ def box_lines(geometry: ViewGeometry, rect: QRectF) -> list[QLineF]:
     return lines
 
 
+def near_clipped(clip: np.ndarray) -> np.ndarray:
+    """A closed polygon's vertices in clip space (k, 4) cut to the part in front of the near plane
+    (z + w >= 0; Sutherland-Hodgman against that one plane): (m, 4), m = 0 when all is behind."""
+    distance = clip[:, 2] + clip[:, 3]
+    kept = []
+    for i in range(len(clip)):
+        j = (i + 1) % len(clip)
+        if distance[i] >= 0.0:
+            kept.append(clip[i])
+        if (distance[i] >= 0.0) != (distance[j] >= 0.0):  # the edge crosses the plane
+            kept.append(clip[i] + (clip[j] - clip[i]) * (distance[i] / (distance[i] - distance[j])))
+    kept = [point for point in kept if point[3] > _NEAR_EPSILON]
+    return np.array(kept).reshape(-1, 4)
+
+
+def polygon_points(geometry: ViewGeometry, points, rect: QRectF) -> np.ndarray:
+    """Widget positions (m, 2) of a closed world polygon (k, 3), cut at the near plane."""
+    aspect = rect.width() / rect.height()
+    camera = _planned(geometry.camera, geometry, aspect)
+    clip = near_clipped(to_clip(camera, points, aspect))
+    return clip_to_widget(clip, rect) if len(clip) else np.zeros((0, 2))
+
+
+def draw_slices(painter: QPainter, geometry: ViewGeometry, rect: QRectF, slices) -> None:
+    """``slices``: (orientation, outline (k, 3) world points) of each slice plane. The faint fills
+    first, then every outline, so no plane's fill tints another's edges."""
+    polygons = []
+    for orientation, outline in slices:
+        points = polygon_points(geometry, outline, rect) if len(outline) >= 3 else ()
+        if len(points) >= 2:
+            polygons.append((SLICE_COLOURS.get(orientation, SLICE_COLOURS["custom"]),
+                             QPolygonF([QPointF(float(x), float(y)) for x, y in points])))
+    painter.setPen(Qt.NoPen)
+    for colour, polygon in polygons:
+        fill = QColor(colour)
+        fill.setAlpha(SLICE_FILL_ALPHA)
+        painter.setBrush(fill)
+        painter.drawPolygon(polygon)
+    painter.setBrush(Qt.NoBrush)
+    for colour, polygon in polygons:
+        painter.setPen(QPen(colour, SLICE_WIDTH))
+        painter.drawPolygon(polygon)
+
+
 def triad_length(rect: QRectF) -> float:
     low, high = TRIAD_LIMITS
     return float(np.clip(TRIAD_FRACTION * min(rect.width(), rect.height()), low, high))
@@ -153,13 +206,16 @@ def draw_triad(painter: QPainter, camera: Camera, rect: QRectF) -> None:
 
 
 def draw_overlays(painter: QPainter, geometry: ViewGeometry | None, rect: QRectF,
-                  box: bool, axes: bool) -> None:
-    """Draw the requested overlays for a frame shown in ``rect`` (nothing without geometry)."""
-    if geometry is None or rect.width() <= 0 or rect.height() <= 0 or not (box or axes):
+                  box: bool, axes: bool, slices=()) -> None:
+    """Draw the requested overlays for a frame shown in ``rect`` (nothing without geometry);
+    ``slices`` as draw_slices takes them (empty: none)."""
+    if geometry is None or rect.width() <= 0 or rect.height() <= 0 or not (box or axes or len(slices)):
         return
     painter.save()
     painter.setRenderHint(QPainter.Antialiasing, True)
     painter.setClipRect(rect)
+    if len(slices):
+        draw_slices(painter, geometry, rect, slices)
     if box:
         draw_box(painter, geometry, rect)
     if axes:

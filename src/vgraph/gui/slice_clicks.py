@@ -11,11 +11,16 @@ cameras under 'id.slice_plane'), and the click's place in the displayed frame, a
 coordinates (u, v) (vgraph.slicing), gives the world point ``SlicePlane.world_at(u, v)``. A
 coarse frame shows the same plane at fewer pixels, so (u, v) does not depend on the frame's
 resolution. This module imports no Qt: the render process imports ``slice_planes`` from it.
+
+With each plane the render process reports the volume the viewer slices ('id.slice_volume', a
+``SliceVolume``: spacing and value range), which the wheel and the window drag need
+(slice_gestures.py), and ``slice_overlays`` gives a 3D canvas the outlines to draw (overlays.py).
 """
 
 from __future__ import annotations
 
 from collections import deque
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -23,14 +28,39 @@ from vgraph.errors import VGraphError
 from vgraph.slicing import SlicePlane
 
 PLANE_SUFFIX = ".slice_plane"
+VOLUME_SUFFIX = ".slice_volume"
 OUTSIDE = "click inside the slice to move the cursor"
 
 
-def slice_planes(network) -> dict[str, SlicePlane]:
-    """'id.slice_plane' -> the plane of the last image of every SliceViewer that drew one."""
-    return {processor_id + PLANE_SUFFIX: processor.last_plane
-            for processor_id, processor in network.processors.items()
-            if isinstance(getattr(processor, "last_plane", None), SlicePlane)}
+@dataclass(frozen=True)
+class SliceVolume:
+    """What the GUI needs of the volume a SliceViewer slices (it holds no volume itself)."""
+    spacing: tuple[float, float, float]     # world units per voxel along x, y, z
+    value_range: tuple[float, float]        # data values mapped to intensities 0 and 1
+
+
+def slice_planes(network) -> dict:
+    """'id.slice_plane' -> the plane of the last image of every SliceViewer that drew one, and
+    'id.slice_volume' -> the SliceVolume of the volume it sliced."""
+    planes = {}
+    for processor_id, processor in network.processors.items():
+        if not isinstance(getattr(processor, "last_plane", None), SlicePlane):
+            continue
+        planes[processor_id + PLANE_SUFFIX] = processor.last_plane
+        volume = _sliced_volume(network, processor_id)
+        if volume is not None:
+            planes[processor_id + VOLUME_SUFFIX] = SliceVolume(
+                tuple(float(s) for s in volume.spacing), tuple(float(v) for v in volume.value_range))
+    return planes
+
+
+def _sliced_volume(network, processor_id: str):
+    from vgraph.volume import Volume
+    for connection in network.inputs_of(processor_id, "volume"):
+        data = network[connection.source].outputs.get(connection.outport)
+        if isinstance(data, Volume):
+            return data
+    return None
 
 
 def slice_outlines(view_cameras: dict) -> dict[str, np.ndarray]:
@@ -39,6 +69,14 @@ def slice_outlines(view_cameras: dict) -> dict[str, np.ndarray]:
     planes in a 3D canvas (project the corners with that canvas's camera, as its box edges)."""
     return {key[:-len(PLANE_SUFFIX)]: plane.outline() for key, plane in view_cameras.items()
             if key.endswith(PLANE_SUFFIX) and isinstance(plane, SlicePlane) and len(plane.outline())}
+
+
+def slice_overlays(network, view_cameras: dict) -> list[tuple[str, np.ndarray]]:
+    """(orientation, outline) of every SliceViewer still in ``network`` whose plane the last
+    frame reported: what a 3D canvas draws with its "Slices" overlay."""
+    return [(network.get(f"{viewer_id}.orientation"), outline)
+            for viewer_id, outline in slice_outlines(view_cameras).items()
+            if viewer_id in network.processors and "orientation" in network[viewer_id].properties]
 
 
 def slice_viewer_for(network, canvas_id: str) -> str | None:

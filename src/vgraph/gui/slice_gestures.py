@@ -1,0 +1,117 @@
+"""The wheel and the right drag on a slice canvas (one that shows a SliceViewer and has no camera).
+
+- Wheel: pages through the volume. Each notch moves the viewer's ``cursor`` along the plane's
+  normal by one voxel step, ``SHIFT_STEPS`` steps with Shift; forward (away from the user) moves
+  the plane towards the viewer (the normal points at the viewer: for the axial slice, seen from
+  below, that is down). The step is the distance between voxel planes along the normal,
+  1 / |normal / spacing| (the spacing along the axis for an axial, coronal or sagittal slice).
+  The plane stops at the first and last voxel centre along the normal. A cursor that was None
+  (the volume's centre) starts from the plane's centre, which is then the box centre.
+- Right drag: window/level, as medical viewers do it: horizontal changes the width (right =
+  wider, less contrast), vertical the centre (up = higher); a drag over the frame's height
+  changes either by the volume's value range. Only with ``mapping = window`` (a TF-mapped
+  slice says so); a right click without movement still opens the context menu.
+
+Linked viewers follow through the network's property links (the cursor and window of
+networks/mpr_mri_head.json are linked). Like the camera gestures (canvas_view.py), each value is
+computed from the one at the gesture's start plus the total offset, and a wheel burst or a drag is
+one undo step (one merge key, CanvasView._apply). The GUI holds no volume: the render process
+reports each viewer's plane and SliceVolume with the view cameras (slice_clicks.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vgraph.gui.slice_clicks import PLANE_SUFFIX, VOLUME_SUFFIX, slice_viewer_for
+
+SHIFT_STEPS = 10          # voxel steps per wheel notch with Shift
+MIN_WIDTH_FRACTION = 1e-3  # the window never gets narrower than this part of the value range
+NOT_DRAWN = "the slice is not drawn yet"
+NOT_WINDOW = "window/level works with mapping = window (this slice uses its transfer function)"
+
+
+def _reported(view, viewer_id: str):
+    """(plane, SliceVolume) the render process reported for the viewer, or None (with a message)."""
+    cameras = view.view_cameras()
+    plane, volume = cameras.get(viewer_id + PLANE_SUFFIX), cameras.get(viewer_id + VOLUME_SUFFIX)
+    if plane is None or volume is None:
+        view.set_message(NOT_DRAWN)
+        return None
+    return plane, volume
+
+
+def page_step(normal, spacing) -> float:
+    """World distance between voxel planes along the unit ``normal``."""
+    return 1.0 / float(np.linalg.norm(np.asarray(normal, float) / np.asarray(spacing, float)))
+
+
+def begin_page(view, key) -> dict | None:
+    """A wheel burst's state on a slice canvas, or None when the canvas shows no slice. A slice
+    not drawn yet gives a gesture that does nothing (and says so)."""
+    network = view.workspace.network
+    viewer_id = slice_viewer_for(network, view.canvas_id)
+    if viewer_id is None:
+        return None
+    gesture = {"mode": "page", "address": None, "key": key, "active": False, "steps": 0.0}
+    reported = _reported(view, viewer_id)
+    if reported is None:
+        return gesture
+    plane, volume = reported
+    cursor = network.get(f"{viewer_id}.cursor")
+    start = np.asarray(plane.centre if cursor is None else cursor, dtype=np.float64)
+    normal, spacing = np.asarray(plane.normal, float), np.asarray(volume.spacing, float)
+    step = page_step(normal, spacing)
+    # the voxel centres' box projected on the normal: how far the plane may go either way
+    low = np.asarray(plane.box_low) + spacing / 2.0
+    high = np.asarray(plane.box_low) + np.asarray(plane.box_size) - spacing / 2.0
+    ends = np.array([[(low, high)[bit][axis] for axis, bit in enumerate(bits)]
+                     for bits in np.ndindex(2, 2, 2)]) @ normal
+    here = float(start @ normal)
+    gesture.update(address=f"{viewer_id}.cursor", camera=start, normal=normal, step=step,
+                   limits=((ends.min() - here) / step, (ends.max() - here) / step))
+    return gesture
+
+
+def page(view, gesture: dict, notches: float, shift: bool) -> None:
+    """Add a wheel event's notches to the burst and move the cursor for the total."""
+    if gesture["address"] is None:
+        return
+    low, high = gesture["limits"]
+    steps = gesture["steps"] + notches * (SHIFT_STEPS if shift else 1)
+    gesture["steps"] = float(np.clip(steps, min(low, 0.0), max(high, 0.0)))
+    offset = gesture["steps"] * gesture["step"] * gesture["normal"]
+    view._apply(gesture, lambda start: tuple(float(x) for x in start + offset))
+
+
+def begin_window(view, event, key) -> dict | None:
+    """A right drag's state on a slice canvas (mode "window"), or None when it shows no slice."""
+    network = view.workspace.network
+    viewer_id = slice_viewer_for(network, view.canvas_id)
+    if viewer_id is None:
+        return None
+    gesture = {"mode": "window", "button": event.button(), "start": event.position(),
+               "active": False, "key": key, "address": None, "camera": None}
+    if network.get(f"{viewer_id}.mapping") != "window":
+        gesture["refusal"] = NOT_WINDOW
+        return gesture
+    reported = _reported(view, viewer_id)
+    if reported is None:
+        gesture["refusal"] = NOT_DRAWN
+        return gesture
+    lo, hi = reported[1].value_range
+    window = network.get(f"{viewer_id}.window")
+    gesture.update(address=f"{viewer_id}.window", span=float(hi - lo),
+                   camera=((lo + hi) / 2.0, hi - lo) if window is None else tuple(window))
+    return gesture
+
+
+def move_window(view, gesture: dict, dx: float, dy: float) -> None:
+    """Set the window for a drag of (dx, dy) Qt pixels (y down) from the press point."""
+    if gesture["address"] is None:
+        view.set_message(gesture["refusal"])
+        return
+    per_pixel = gesture["span"] / view._view_height()
+    narrowest = MIN_WIDTH_FRACTION * gesture["span"]
+    view._apply(gesture, lambda start: (float(start[0] - dy * per_pixel),
+                                        float(max(start[1] + dx * per_pixel, narrowest))))
