@@ -1,15 +1,23 @@
 """The multi-planar layout in the GUI: a click in the axial slice of networks/mpr_mri_head.json
 moves the shared cursor there (the coronal and sagittal viewers follow through their linked
 cursor properties, and their images change), as one undo step; a click beside the image or in a
-3D canvas moves nothing; View > Tile Canvases puts the four views in a grid."""
+3D canvas moves nothing; View > Tile Canvases puts the four views in a grid. On a slice canvas
+the wheel pages the slice by the voxel spacing along its normal (Shift: 10 voxels) and a right
+drag sets window (horizontal) and level (vertical), each gesture one undo step."""
 
 import numpy as np
 import pytest
-from PySide6.QtCore import QPoint, Qt
+from PySide6.QtCore import QEvent, QPoint, QPointF, Qt
+from PySide6.QtGui import QWheelEvent
+from PySide6.QtWidgets import QApplication
 
+from vgraph.gui import slice_gestures
 from vgraph.gui.slice_clicks import OUTSIDE, slice_outlines, slice_viewer_for
 
+from helpers.gui import send_mouse
 from helpers.paths import DATA, REPO
+
+MRI = DATA / "mri_head_t1" / "MR.nii.gz"
 
 SIZE = 96  # canvas side: small frames keep the test quick
 
@@ -104,3 +112,129 @@ def test_the_slices_outlines_for_a_3d_overlay(mpr):
     outlines = slice_outlines(mpr.evaluation.view_cameras)
     assert set(outlines) == {"axial", "coronal", "sagittal"}
     assert all(len(outline) == 4 for outline in outlines.values())  # axis-aligned: rectangles
+
+
+# --- the wheel and the right drag on a slice ----------------------------------------------------
+
+
+def wheel(view, notches, modifiers=Qt.NoModifier):
+    point = view.image_rect().center()
+    event = QWheelEvent(point, view.mapToGlobal(point), QPoint(0, 0), QPoint(0, round(120 * notches)),
+                        Qt.NoButton, modifiers, Qt.NoScrollPhase, False)
+    QApplication.sendEvent(view, event)
+
+
+def end_wheel_burst(view, qtbot):
+    qtbot.waitUntil(lambda: view._wheel is None, timeout=5000)
+
+
+def right_drag(view, offset, steps=4):
+    start = view.image_rect().center()
+    start = (start.x(), start.y())
+    send_mouse(view, QEvent.MouseButtonPress, start, Qt.RightButton, Qt.RightButton)
+    for i in range(1, steps + 1):
+        pos = (start[0] + offset[0] * i / steps, start[1] + offset[1] * i / steps)
+        send_mouse(view, QEvent.MouseMove, pos, Qt.NoButton, Qt.RightButton)
+    end = (start[0] + offset[0], start[1] + offset[1])
+    send_mouse(view, QEvent.MouseButtonRelease, end, Qt.RightButton, Qt.NoButton)
+
+
+def nifti():
+    nibabel = pytest.importorskip("nibabel")
+    return nibabel.load(MRI)
+
+
+def test_the_wheel_pages_the_slice_by_the_voxel_spacing_along_its_normal(mpr, qtbot):
+    network, undo = mpr.workspace.network, mpr.workspace.undo_stack
+    axial = mpr.canvases.views["axial_canvas"]
+    plane = mpr.evaluation.view_cameras["axial.slice_plane"]
+    spacing_z = float(nifti().header.get_zooms()[2])      # the file's own voxel size along z
+    np.testing.assert_allclose(plane.normal, (0.0, 0.0, -1.0))  # axial: seen from below
+    depth = undo.count()
+
+    wheel(axial, 1)
+    wheel(axial, 1)                                         # one burst of two notches
+    expected = np.array(plane.centre) + 2 * spacing_z * np.array(plane.normal)
+    np.testing.assert_allclose(network.get("axial.cursor"), expected, atol=1e-6)
+    assert network.get("coronal.cursor") == network.get("sagittal.cursor") == network.get("axial.cursor")
+    end_wheel_burst(axial, qtbot)
+    assert undo.count() == depth + 1                        # one undo step for the burst
+    settle(mpr, qtbot)
+    moved = mpr.evaluation.view_cameras["axial.slice_plane"]
+    np.testing.assert_allclose(moved.centre[2], expected[2], atol=1e-6)  # the image shows it
+
+    wheel(axial, -1, Qt.ShiftModifier)                      # Shift: ten voxels, back up
+    np.testing.assert_allclose(network.get("axial.cursor"),
+                               expected - 10 * spacing_z * np.array(plane.normal), atol=1e-6)
+    end_wheel_burst(axial, qtbot)
+    undo.undo()
+    np.testing.assert_allclose(network.get("axial.cursor"), expected, atol=1e-6)
+    undo.undo()
+    assert network.get("axial.cursor") is None and network.get("coronal.cursor") is None
+
+
+def test_paging_stops_at_the_last_slice(mpr, qtbot):
+    network = mpr.workspace.network
+    sagittal = mpr.canvases.views["sagittal_canvas"]
+    plane = mpr.evaluation.view_cameras["sagittal.slice_plane"]
+    image = nifti()
+    spacing_x, dims_x = float(image.header.get_zooms()[0]), image.shape[0]
+    wheel(sagittal, 1000, Qt.ShiftModifier)
+    cursor = np.array(network.get("sagittal.cursor"))
+    # sagittal: normal -x, so forward goes to the first voxel centre along x
+    np.testing.assert_allclose(cursor[0], plane.box_low[0] + spacing_x / 2, atol=1e-6)
+    wheel(sagittal, -3)                                     # and back from the end at once
+    np.testing.assert_allclose(network.get("sagittal.cursor")[0], cursor[0] + 3 * spacing_x, atol=1e-6)
+    np.testing.assert_allclose(plane.box_size[0], dims_x * spacing_x, rtol=1e-6)
+
+
+def test_a_right_drag_sets_window_and_level(mpr, qtbot, monkeypatch):
+    network, undo = mpr.workspace.network, mpr.workspace.undo_stack
+    axial = mpr.canvases.views["axial_canvas"]
+    data = np.asarray(nifti().dataobj)
+    span = float(data.max() - data.min())                   # VolumeSource window "full"
+    assert network.get("axial.window") == (220.0, 440.0)
+    before, depth = frame(mpr, "axial_canvas"), undo.count()
+    height = axial.image_rect().height()
+
+    right_drag(axial, (30, -20))                            # right: wider; up: higher centre
+    centre, width = network.get("axial.window")
+    assert width > 440.0 and centre > 220.0
+    np.testing.assert_allclose(width, 440.0 + 30 * span / height, rtol=1e-4)
+    np.testing.assert_allclose(centre, 220.0 + 20 * span / height, rtol=1e-4)
+    assert network.get("coronal.window") == network.get("axial.window")   # linked
+    assert undo.count() == depth + 1
+    settle(mpr, qtbot)
+    assert not np.array_equal(frame(mpr, "axial_canvas"), before)
+
+    right_drag(axial, (-10, 15))                            # left: narrower; down: lower
+    assert network.get("axial.window")[1] < width and network.get("axial.window")[0] < centre
+    undo.undo()
+    undo.undo()
+    assert network.get("axial.window") == (220.0, 440.0)
+
+    menus = []                                              # a right click still opens the menu
+    monkeypatch.setattr(axial, "context_menu", lambda: type("Menu", (), {"exec": menus.append})())
+    right_drag(axial, (0, 0), steps=1)
+    assert len(menus) == 1 and network.get("axial.window") == (220.0, 440.0)
+
+
+def test_window_drag_needs_the_window_mapping(mpr, qtbot):
+    network = mpr.workspace.network
+    mpr.workspace.set_property("sagittal.mapping", "tf")
+    settle(mpr, qtbot)
+    sagittal = mpr.canvases.views["sagittal_canvas"]
+    right_drag(sagittal, (40, -40))
+    assert network.get("sagittal.window") == (220.0, 440.0)
+    assert sagittal.message() == slice_gestures.NOT_WINDOW
+
+
+def test_page_step_is_one_voxel_along_the_normal():
+    assert slice_gestures.page_step((0.0, 0.0, 1.0), (1.0, 0.9, 0.8)) == pytest.approx(0.8)
+    assert slice_gestures.page_step((1.0, 0.0, 0.0), (1.0, 0.9, 0.8)) == pytest.approx(1.0)
+    # oblique: the step whose displacement, counted in voxels, is one voxel long
+    normal = np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)
+    for spacing in ((2.0, 2.0, 2.0), (1.0, 2.0, 3.0)):
+        step = slice_gestures.page_step(normal, spacing)
+        assert np.linalg.norm(step * normal / np.array(spacing)) == pytest.approx(1.0)
+    assert slice_gestures.page_step(normal, (2.0, 2.0, 2.0)) == pytest.approx(2.0)

@@ -3,8 +3,9 @@
 - Wheel: pages through the volume. Each notch moves the viewer's ``cursor`` along the plane's
   normal by one voxel step, ``SHIFT_STEPS`` steps with Shift; forward (away from the user) moves
   the plane towards the viewer (the normal points at the viewer: for the axial slice, seen from
-  below, that is down). The step is the distance between voxel planes along the normal,
-  1 / |normal / spacing| (the spacing along the axis for an axial, coronal or sagittal slice).
+  below, that is down). The step is one voxel along the normal: the distance whose displacement,
+  counted in voxels, is 1 long, 1 / |normal / spacing| (for an axial, coronal or sagittal slice
+  the spacing along its axis).
   The plane stops at the first and last voxel centre along the normal. A cursor that was None
   (the volume's centre) starts from the plane's centre, which is then the box centre.
 - Right drag: window/level, as medical viewers do it: horizontal changes the width (right =
@@ -42,7 +43,7 @@ def _reported(view, viewer_id: str):
 
 
 def page_step(normal, spacing) -> float:
-    """World distance between voxel planes along the unit ``normal``."""
+    """World distance along the unit ``normal`` that spans one voxel (module docstring)."""
     return 1.0 / float(np.linalg.norm(np.asarray(normal, float) / np.asarray(spacing, float)))
 
 
