@@ -238,3 +238,17 @@ def test_page_step_is_one_voxel_along_the_normal():
         step = slice_gestures.page_step(normal, spacing)
         assert np.linalg.norm(step * normal / np.array(spacing)) == pytest.approx(1.0)
     assert slice_gestures.page_step(normal, (2.0, 2.0, 2.0)) == pytest.approx(2.0)
+
+
+def test_an_auto_window_drags_from_the_whole_value_range(mpr, qtbot):
+    network = mpr.workspace.network
+    mpr.workspace.set_property("axial.window", None)      # auto: the volume's value range
+    settle(mpr, qtbot)
+    axial = mpr.canvases.views["axial_canvas"]
+    data = np.asarray(nifti().dataobj)
+    low, span = float(data.min()), float(data.max() - data.min())
+    height = axial.image_rect().height()
+    right_drag(axial, (-12, 8))
+    centre, width = network.get("axial.window")
+    np.testing.assert_allclose(width, span - 12 * span / height, rtol=1e-4)
+    np.testing.assert_allclose(centre, low + span / 2 - 8 * span / height, rtol=1e-4)
