@@ -21,24 +21,4 @@
 #include "raycasting/compositing_iso.glsl"
 #include "raycasting/compositing_first_hit.glsl"
 #include "raycasting/compositing_xray.glsl"
-
-layout(location = 0) out vec4 color;
-#ifdef DEPTH_OUTPUT
-layout(location = 1) out vec4 depth;
-#endif
-
-void main() {
-    Ray ray;
-    if (!pixel_ray(ray)) {
-        color = background;
-#ifdef DEPTH_OUTPUT
-        depth = no_depth(0);
-#endif
-        return;
-    }
-    Result result = march(ray);
-    color = over_background(result.color);
-#ifdef DEPTH_OUTPUT
-    depth = result_depth(ray, result);
-#endif
-}
+#include "raycasting/ray_main.glsl"
