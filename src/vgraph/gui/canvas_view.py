@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections import deque
 from pathlib import Path
 
 import numpy as np
@@ -54,6 +53,7 @@ from vgraph.gui import clip_drag
 from vgraph.gui import slice_clicks, slice_gestures
 from vgraph.gui.image_export import IMAGE_FILTER, suggested_image_path, write_frame
 from vgraph.gui.overlays import ViewGeometry, draw_overlays
+from vgraph.gui.upstream import nearest_upstream, property_of_type
 from vgraph.properties import CameraProperty
 
 BACKGROUND = QColor(32, 32, 36)
@@ -68,21 +68,7 @@ _MAX_EXPONENT = 50.0       # keeps exp() and powers finite on absurd drags
 def camera_property_for(network, canvas_id: str) -> str | None:
     """'id.name' of the nearest upstream camera property of ``canvas_id`` (breadth-first over
     predecessors, in connection order), or None."""
-    if canvas_id not in network.graph:
-        return None
-    seen, queue = {canvas_id}, deque([canvas_id])
-    while queue:
-        processor_id = queue.popleft()
-        if processor_id != canvas_id:
-            processor = network[processor_id]
-            for name, prop in processor.properties.items():
-                if isinstance(prop, CameraProperty):
-                    return f"{processor_id}.{name}"
-        for source in network.graph.predecessors(processor_id):
-            if source not in seen:
-                seen.add(source)
-                queue.append(source)
-    return None
+    return nearest_upstream(network, canvas_id, property_of_type(CameraProperty))
 
 
 class CanvasView(QWidget):

@@ -12,12 +12,12 @@ planes at drag start plus the total offset, and a drag is one undo step (one mer
 from __future__ import annotations
 
 import math
-from collections import deque
 
 import numpy as np
 from PySide6.QtCore import Qt
 
 from vgraph.clipping import ClipPlanesProperty
+from vgraph.gui.upstream import nearest_upstream, property_of_type
 
 NO_PLANE = "no clip plane upstream of this canvas (EntryExitPoints.clip_planes)"
 MIN_SCREEN_NORMAL = 0.3  # below this length of the normal's screen projection: vertical drags
@@ -30,20 +30,7 @@ def wanted(event) -> bool:
 
 def clip_planes_property_for(network, canvas_id: str) -> str | None:
     """'id.name' of the nearest upstream clip-planes property of ``canvas_id``, or None."""
-    if canvas_id not in network.graph:
-        return None
-    seen, queue = {canvas_id}, deque([canvas_id])
-    while queue:
-        processor_id = queue.popleft()
-        if processor_id != canvas_id:
-            for name, prop in network[processor_id].properties.items():
-                if isinstance(prop, ClipPlanesProperty):
-                    return f"{processor_id}.{name}"
-        for source in network.graph.predecessors(processor_id):
-            if source not in seen:
-                seen.add(source)
-                queue.append(source)
-    return None
+    return nearest_upstream(network, canvas_id, property_of_type(ClipPlanesProperty))
 
 
 def begin(view, event, key) -> dict:

@@ -19,12 +19,12 @@ With each plane the render process reports the volume the viewer slices ('id.sli
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 
 from vgraph.errors import VGraphError
+from vgraph.gui.upstream import nearest_upstream
 from vgraph.slicing import SlicePlane
 
 PLANE_SUFFIX = ".slice_plane"
@@ -83,18 +83,9 @@ def slice_viewer_for(network, canvas_id: str) -> str | None:
     """The id of the SliceViewer whose image the canvas shows: the nearest upstream processor
     with a slice plane (image processors in between keep the image's geometry), or None."""
     from vgraph.processors.slice_viewer import SliceViewer
-    if canvas_id not in network.graph:
-        return None
-    seen, queue = {canvas_id}, deque([canvas_id])
-    while queue:
-        processor_id = queue.popleft()
-        if isinstance(network[processor_id], SliceViewer):
-            return processor_id
-        for source in network.graph.predecessors(processor_id):
-            if source not in seen:
-                seen.add(source)
-                queue.append(source)
-    return None
+    def pick(processor, processor_id):
+        return processor_id if isinstance(processor, SliceViewer) else None
+    return nearest_upstream(network, canvas_id, pick, include_start=True)
 
 
 def image_coordinates(view, position) -> tuple[float, float] | None:
