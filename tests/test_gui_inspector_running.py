@@ -10,36 +10,15 @@ import re
 
 import pytest
 
-import vgraph
 from helpers.paths import REPO
-from helpers.slow_source import SlowSource
+from helpers.slow_source import slow_network, slow_source  # noqa: F401 (slow_source: a fixture)
 from vgraph.gui.evaluator import ProcessorStatus
 from vgraph.gui.inspector import running_text, timing_text
 from vgraph.progress import Progress
-from vgraph.registry import registry
 
 TOOK = re.compile(r"took ([0-9.]+) (ms|s) \((\d+) % of the frame\)")
 
 
-@pytest.fixture
-def slow_source():
-    vgraph.register(SlowSource)
-    yield SlowSource
-    registry.types.pop(SlowSource.type_name, None)
-
-
-def slow_network(tmp_path, gate):
-    """raycast_sphere.json with its FunctionSelector replaced by a SlowSource held by ``gate``."""
-    document = json.loads((REPO / "networks" / "raycast_sphere.json").read_text())
-    for processor in document["processors"]:
-        if processor["id"] == "source":
-            processor["type"] = "SlowSource"
-            processor["properties"].update(gate=str(gate), steps=10, resolution=32)
-        if processor["id"] == "canvas":
-            processor["properties"]["size"] = [64, 64]
-    path = tmp_path / "slow.json"
-    path.write_text(json.dumps(document))
-    return path
 
 
 def seconds_of(match) -> float:

@@ -7,40 +7,13 @@ creates, so the test looks at the window while the work is under way for certain
 guessed sleep.
 """
 
-import json
-
 import numpy as np
-import pytest
 
-import vgraph
-from helpers.paths import REPO
-from helpers.slow_source import SlowSource
+from helpers.slow_source import slow_network, slow_source  # noqa: F401 (slow_source: a fixture)
 from vgraph.gui.progress_view import STALE_PREFIX
 from vgraph.progress import Progress
-from vgraph.registry import registry
 
 
-@pytest.fixture
-def slow_source():
-    """SlowSource known to the window's process for one test only: registered for good it would
-    show in every later test's palette (and match searches for its base type)."""
-    vgraph.register(SlowSource)
-    yield SlowSource
-    registry.types.pop(SlowSource.type_name, None)
-
-
-def slow_network(tmp_path, gate):
-    """raycast_sphere.json with its FunctionSelector replaced by a SlowSource held by ``gate``."""
-    document = json.loads((REPO / "networks" / "raycast_sphere.json").read_text())
-    for processor in document["processors"]:
-        if processor["id"] == "source":
-            processor["type"] = "SlowSource"
-            processor["properties"].update(gate=str(gate), steps=10, resolution=32)
-        if processor["id"] == "canvas":
-            processor["properties"]["size"] = [64, 64]
-    path = tmp_path / "slow.json"
-    path.write_text(json.dumps(document))
-    return path
 
 
 def test_a_slow_source_shows_its_name_steps_node_and_a_stale_frame_until_the_frame_arrives(

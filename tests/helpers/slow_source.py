@@ -6,11 +6,17 @@ for as long as it needs, without sleeping for a guessed time. The render process
 module name, as it imports any plug-in.
 """
 
+import json
 import time
 from pathlib import Path
 
+import pytest
+
+import vgraph
+from helpers.paths import REPO
 from vgraph import IntProperty, StringProperty, VGraphError
 from vgraph.processors.function_selector import FunctionSelector
+from vgraph.registry import registry
 
 GATE_TIMEOUT = 60.0
 
@@ -36,3 +42,26 @@ class SlowSource(FunctionSelector):
             if time.monotonic() > deadline:
                 raise VGraphError(f"{self.id}: gate {self.gate} did not open")
             time.sleep(0.01)
+
+
+@pytest.fixture
+def slow_source():
+    """SlowSource known to the window's process for one test only: registered for good it would
+    show in every later test's palette (and match searches for its base type)."""
+    vgraph.register(SlowSource)
+    yield SlowSource
+    registry.types.pop(SlowSource.type_name, None)
+
+
+def slow_network(tmp_path, gate):
+    """raycast_sphere.json with its FunctionSelector replaced by a SlowSource held by ``gate``."""
+    document = json.loads((REPO / "networks" / "raycast_sphere.json").read_text())
+    for processor in document["processors"]:
+        if processor["id"] == "source":
+            processor["type"] = "SlowSource"
+            processor["properties"].update(gate=str(gate), steps=10, resolution=32)
+        if processor["id"] == "canvas":
+            processor["properties"]["size"] = [64, 64]
+    path = tmp_path / "slow.json"
+    path.write_text(json.dumps(document))
+    return path
