@@ -20,7 +20,7 @@ from vgraph.gui.canvas_toolbar import STILL_REFINING, CanvasPane
 from vgraph.gui.canvas_view import CanvasView
 from vgraph.gui.image_export import suggested_image_path
 from vgraph.gui.overlays import ViewGeometry
-from vgraph.gui.workspace import Workspace
+from helpers.gui import raycast_workspace
 
 from helpers.paths import REPO
 
@@ -43,14 +43,7 @@ def settings(tmp_path):
 
 @pytest.fixture
 def ws(qtbot, settings):
-    workspace = Workspace(settings)
-    workspace.add_processor("EntryExitPoints", (0, 0), id="eep")
-    workspace.add_processor("RayCaster", (0, 120), id="rc")
-    workspace.add_processor("Canvas", (0, 240), id="canvas")
-    workspace.connect("eep.entry", "rc.entry")
-    workspace.connect("eep.exit", "rc.exit")
-    workspace.connect("rc.image", "canvas.image")
-    return workspace
+    return raycast_workspace(settings)
 
 
 def make_pane(qtbot, ws, settings, canvas_id="canvas", size=(240, 200)) -> CanvasPane:

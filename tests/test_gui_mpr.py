@@ -7,15 +7,15 @@ drag sets window (horizontal) and level (vertical), each gesture one undo step."
 
 import numpy as np
 import pytest
-from PySide6.QtCore import QEvent, QPoint, QPointF, Qt
+from PySide6.QtCore import QEvent, QPoint, Qt
 from PySide6.QtGui import QWheelEvent
 from PySide6.QtWidgets import QApplication
 
 from vgraph.gui import slice_gestures
 from vgraph.gui.slice_clicks import OUTSIDE, slice_outlines, slice_viewer_for
 
-from helpers.gui import send_mouse
-from helpers.paths import DATA, REPO
+from helpers.gui import open_mpr, send_mouse, settle
+from helpers.paths import DATA
 
 MRI = DATA / "mri_head_t1" / "MR.nii.gz"
 
@@ -26,17 +26,7 @@ SIZE = 96  # canvas side: small frames keep the test quick
 def mpr(window, jobs, qtbot):
     if not DATA.is_dir():
         pytest.skip(f"shared data sets not found at {DATA}")
-    assert window.open_network(REPO / "networks" / "mpr_mri_head.json")
-    for canvas in ("axial_canvas", "coronal_canvas", "sagittal_canvas", "canvas"):
-        window.workspace.set_property(f"{canvas}.size", [SIZE, SIZE])
-    settle(window, qtbot)
-    return window
-
-
-def settle(window, qtbot):
-    qtbot.waitUntil(lambda: window.evaluation.idle()
-                    and all(view.is_final and view.frame() is not None
-                            for view in window.canvases.views.values()), timeout=120000)
+    return open_mpr(window, qtbot, SIZE)
 
 
 def frame(window, canvas_id) -> np.ndarray:

@@ -15,10 +15,10 @@ from vgraph.gui.canvas_toolbar import CanvasPane
 from vgraph.gui.canvas_view import CanvasView
 from vgraph.gui.overlays import ViewGeometry
 from vgraph.gui.slice_clicks import slice_outlines
-from vgraph.gui.workspace import Workspace
+from helpers.gui import open_mpr, raycast_workspace, settle
 from vgraph.slicing import slice_plane
 
-from helpers.paths import DATA, REPO
+from helpers.paths import DATA
 
 BOX = ((0.0, 0.0, 0.0), (200.0, 200.0, 100.0))
 DIMS = (100, 100, 50)          # voxels of spacing 2 whose cells fill BOX ...
@@ -33,13 +33,7 @@ def settings(tmp_path):
 
 @pytest.fixture
 def ws(qtbot, settings):
-    workspace = Workspace(settings)
-    workspace.add_processor("EntryExitPoints", (0, 0), id="eep")
-    workspace.add_processor("RayCaster", (0, 120), id="rc")
-    workspace.add_processor("Canvas", (0, 240), id="canvas")
-    workspace.connect("eep.entry", "rc.entry")
-    workspace.connect("eep.exit", "rc.exit")
-    workspace.connect("rc.image", "canvas.image")
+    workspace = raycast_workspace(settings)
     for orientation in ("axial", "coronal", "sagittal"):
         workspace.add_processor("SliceViewer", (200, 0), id=orientation)
         workspace.set_property(f"{orientation}.orientation", orientation)
@@ -227,17 +221,7 @@ SIZE = 96
 def mpr(window, jobs, qtbot):
     if not DATA.is_dir():
         pytest.skip(f"shared data sets not found at {DATA}")
-    assert window.open_network(REPO / "networks" / "mpr_mri_head.json")
-    for canvas in ("axial_canvas", "coronal_canvas", "sagittal_canvas", "canvas"):
-        window.workspace.set_property(f"{canvas}.size", [SIZE, SIZE])
-    settle(window, qtbot)
-    return window
-
-
-def settle(window, qtbot):
-    qtbot.waitUntil(lambda: window.evaluation.idle()
-                    and all(view.is_final and view.frame() is not None
-                            for view in window.canvases.views.values()), timeout=120000)
+    return open_mpr(window, qtbot, SIZE)
 
 
 def axial_corners(window, view):

@@ -29,3 +29,36 @@ def send_mouse(view, kind, pos, button, buttons, modifiers=Qt.NoModifier):
     point = QPointF(*pos)
     event = QMouseEvent(kind, point, view.mapToGlobal(point), button, buttons, modifiers)
     QApplication.sendEvent(view, event)
+
+
+def raycast_workspace(settings):
+    """A Workspace holding EntryExitPoints eep -> RayCaster rc -> Canvas canvas (no volume yet)."""
+    from vgraph.gui.workspace import Workspace
+    workspace = Workspace(settings)
+    workspace.add_processor("EntryExitPoints", (0, 0), id="eep")
+    workspace.add_processor("RayCaster", (0, 120), id="rc")
+    workspace.add_processor("Canvas", (0, 240), id="canvas")
+    workspace.connect("eep.entry", "rc.entry")
+    workspace.connect("eep.exit", "rc.exit")
+    workspace.connect("rc.image", "canvas.image")
+    return workspace
+
+
+MPR_CANVASES = ("axial_canvas", "coronal_canvas", "sagittal_canvas", "canvas")
+
+
+def open_mpr(window, qtbot, size: int):
+    """networks/mpr_mri_head.json in the window, its canvases at ``size`` pixels, rendered."""
+    from helpers.paths import REPO
+    assert window.open_network(REPO / "networks" / "mpr_mri_head.json")
+    for canvas in MPR_CANVASES:
+        window.workspace.set_property(f"{canvas}.size", [size, size])
+    settle(window, qtbot)
+    return window
+
+
+def settle(window, qtbot):
+    """Wait until the render process is idle and every canvas shows a final frame."""
+    qtbot.waitUntil(lambda: window.evaluation.idle()
+                    and all(view.is_final and view.frame() is not None
+                            for view in window.canvases.views.values()), timeout=120000)
