@@ -3,7 +3,8 @@ View menu's list of docks and View > Reset Layout.
 
 Conventions:
 - The first run fits the screen it opens on (``FIRST_RUN_FRACTION`` of the available geometry), not
-  a fixed size that a laptop screen cuts off.
+  a fixed size that a laptop screen cuts off; on a screen too small for that fraction to hold the
+  inspector (under ``SMALL_SCREEN``: a 1280 x 800 laptop), all of the available area.
 - Columns: the palette with the canvases below it on the left, the network editor in the middle,
   the property inspector on the right, the log under the left and middle columns. The inspector
   is as wide as the widest property editor (no horizontal scroll bar) and runs the window's full
@@ -24,6 +25,7 @@ from PySide6.QtGui import QGuiApplication
 from PySide6.QtWidgets import QDockWidget, QFormLayout, QLabel, QMainWindow, QMenu, QScrollArea, QWidget
 
 FIRST_RUN_FRACTION = 0.85
+SMALL_SCREEN = (1280, 800)   # the first run takes at least this much of the screen (all, if smaller)
 GEOMETRY_KEY = "window/geometry"
 STATE_KEY = "window/state"
 STATE_VERSION = 2          # raise when the fixed docks change, so an old state is not applied
@@ -40,7 +42,8 @@ def first_run_size(window: QMainWindow) -> tuple[int, int]:
     if screen is None:
         return FALLBACK_SIZE
     available = screen.availableGeometry()
-    return int(available.width() * FIRST_RUN_FRACTION), int(available.height() * FIRST_RUN_FRACTION)
+    return (max(int(available.width() * FIRST_RUN_FRACTION), min(available.width(), SMALL_SCREEN[0])),
+            max(int(available.height() * FIRST_RUN_FRACTION), min(available.height(), SMALL_SCREEN[1])))
 
 
 def widest_editor_width() -> int:
