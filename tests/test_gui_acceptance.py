@@ -24,6 +24,7 @@ def add_from_palette(qtbot, window, type_name: str) -> str:
     items = [palette.tree.topLevelItem(i).child(j) for i in range(palette.tree.topLevelItemCount())
              for j in range(palette.tree.topLevelItem(i).childCount())]
     item = next(item for item in items if item.text(0) == type_name)
+    palette.tree.scrollToItem(item)  # as a user scrolls to it: the palette shows a dozen rows
     rect = palette.tree.visualItemRect(item)
     qtbot.mouseClick(palette.tree.viewport(), Qt.LeftButton, pos=rect.center())
     qtbot.mouseDClick(palette.tree.viewport(), Qt.LeftButton, pos=rect.center())
