@@ -59,14 +59,12 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_serializer, model_validator
 
-Vec3 = tuple[float, float, float]
+from vgraph.view_geometry import (Vec3, as_vec3, bounding_sphere, clipping_range, frame_basis,
+                                  rotation_matrix, unit_vector)
 
 # Beyond this magnitude the float32 matrices and ray uniforms of the GL side overflow or lose the
 # scene entirely; world coordinates and lengths of a camera are refused past it.
 MAX_COORDINATE = 1e15
-
-# Near and far planes of framing() leave this relative margin around the box's bounding sphere.
-_CLIP_MARGIN = 1e-3
 
 
 class Camera(BaseModel):
@@ -129,7 +127,7 @@ class Camera(BaseModel):
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Orthonormal (right, true_up, forward) of the camera, float64, as in gluLookAt
         (read-only arrays: they are shared by every camera with the same position, focus, up)."""
-        return _basis(self.position, self.focus, self.up)
+        return frame_basis(self.position, self.focus, self.up)
 
     def visible_half_height(self) -> float:
         """Half the height of the view in world units at the focus distance."""
@@ -248,10 +246,10 @@ class Camera(BaseModel):
         _check_finite(dx=dx, dy=dy)
         right, true_up, _ = self.basis()
         # The camera moves opposite to the drag: left for a drag right, down for a drag up.
-        rotation = _rotation(right, dy) @ _rotation(true_up, -dx)
+        rotation = rotation_matrix(right, dy) @ rotation_matrix(true_up, -dx)
         offset = np.subtract(self.position, self.focus, dtype=np.float64)
         position = np.asarray(self.focus) + rotation @ offset
-        return self._replace(position=_vec(position), up=_vec(rotation @ true_up))
+        return self._replace(position=as_vec3(position), up=as_vec3(rotation @ true_up))
 
     def zoom(self, factor: float) -> "Camera":
         """Magnify by ``factor`` (> 1 zooms in). Perspective: dolly to distance / factor, moving near
@@ -265,11 +263,11 @@ class Camera(BaseModel):
         new_distance = self.distance / factor
         position = np.asarray(self.focus) - new_distance * forward
         if self.near is None or self.far is None:  # automatic planes follow by themselves
-            return self._replace(position=_vec(position))
+            return self._replace(position=as_vec3(position))
         shift = new_distance - self.distance  # the camera moves by -shift along forward
         far = max(self.far + shift, self.far * 1e-3)  # stays positive in odd set-ups
         near = max(self.near + shift, far * 1e-4)
-        return self._replace(position=_vec(position), near=near, far=far)
+        return self._replace(position=as_vec3(position), near=near, far=far)
 
     def pan(self, dx: float, dy: float) -> "Camera":
         """Move position and focus in the view plane so the scene moves by (dx, dy) times the
@@ -278,8 +276,8 @@ class Camera(BaseModel):
         right, true_up, _ = self.basis()
         height = 2.0 * self.visible_half_height()
         shift = -(dx * right + dy * true_up) * height
-        return self._replace(position=_vec(np.add(self.position, shift)),
-                             focus=_vec(np.add(self.focus, shift)))
+        return self._replace(position=as_vec3(np.add(self.position, shift)),
+                             focus=as_vec3(np.add(self.focus, shift)))
 
     def framing(self, box_min, box_max, aspect: float = 1.0) -> "Camera":
         """Keep direction and up; put the focus at the box centre and the camera at a distance
@@ -287,25 +285,25 @@ class Camera(BaseModel):
         parallel_scale are both set, so switching projection keeps the picture); near and far
         enclose the sphere."""
         aspect = _check_aspect(aspect)
-        centre, radius = _bounding_sphere(box_min, box_max)
+        centre, radius = bounding_sphere(box_min, box_max)
         half_v = math.radians(self.fov) / 2.0
         half_angle = min(half_v, math.atan(aspect * math.tan(half_v)))
         distance = radius / math.sin(half_angle)
         _, _, forward = self.basis()
-        position, focus = _vec(centre - distance * forward), _vec(centre)
+        position, focus = as_vec3(centre - distance * forward), as_vec3(centre)
         framed = {"position": position, "focus": focus, "parallel_scale": radius * max(1.0, 1.0 / aspect)}
-        # The clipping range from the framed camera's own basis (as with_clipping_range() of it),
+        # The clipping range from the framed camera's own basis (as withclipping_range() of it),
         # without validating a camera in between.
-        planes = _clipping_range(position, _basis(position, focus, self.up)[2], box_min, box_max)
+        planes = clipping_range(position, frame_basis(position, focus, self.up)[2], box_min, box_max)
         if planes is not None:
             framed["near"], framed["far"] = planes
         return self._replace(**framed)
 
-    def with_clipping_range(self, box_min, box_max) -> "Camera":
+    def withclipping_range(self, box_min, box_max) -> "Camera":
         """Near and far enclosing the box's bounding sphere from the current position (like VTK's
         ResetCameraClippingRange); near stays positive when the camera is inside. Unchanged if the
         box is entirely behind the camera."""
-        planes = _clipping_range(self.position, self.basis()[2], box_min, box_max)
+        planes = clipping_range(self.position, self.basis()[2], box_min, box_max)
         return self if planes is None else self._replace(near=planes[0], far=planes[1])
 
     def resolved(self, box_min, box_max, aspect: float = 1.0) -> "Camera":
@@ -327,11 +325,11 @@ class Camera(BaseModel):
         return camera._replace(near=near, far=far, fit_to_data=False)
 
     def _automatic_planes(self, box_min, box_max) -> tuple[float, float]:
-        planes = _clipping_range(self.position, self.basis()[2], box_min, box_max)
+        planes = clipping_range(self.position, self.basis()[2], box_min, box_max)
         if planes is not None:
             return planes
         # The box is behind the camera: nothing shows, any planes do.
-        scale = self.distance + _bounding_sphere(box_min, box_max)[1]
+        scale = self.distance + bounding_sphere(box_min, box_max)[1]
         return scale * 1e-4, scale
 
     def viewed_from(self, name: str) -> "Camera":
@@ -341,17 +339,17 @@ class Camera(BaseModel):
         if key not in VIEWS:
             raise ValueError(f"unknown view '{name}'; choose one of {', '.join(VIEW_NAMES)}")
         towards_eye, up = (np.asarray(v, dtype=np.float64) for v in VIEWS[key])
-        position = np.asarray(self.focus) + _unit(towards_eye) * self.distance
-        return self._replace(position=_vec(position), up=_vec(up), near=None, far=None,
+        position = np.asarray(self.focus) + unit_vector(towards_eye) * self.distance
+        return self._replace(position=as_vec3(position), up=as_vec3(up), near=None, far=None,
                              fit_to_data=True)
 
     @classmethod
     def looking_at_box(cls, box_min, box_max, direction=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0),
                        projection: str = "perspective", aspect: float = 1.0, **fields) -> "Camera":
         """A camera viewing along ``direction`` that frames the box (see framing())."""
-        centre, radius = _bounding_sphere(box_min, box_max)
-        start = cls(projection=projection, position=_vec(centre - np.asarray(direction, float)),
-                    focus=_vec(centre), up=tuple(up), **fields)
+        centre, radius = bounding_sphere(box_min, box_max)
+        start = cls(projection=projection, position=as_vec3(centre - np.asarray(direction, float)),
+                    focus=as_vec3(centre), up=tuple(up), **fields)
         return start.framing(box_min, box_max, aspect)
 
     def _replace(self, **changes) -> "Camera":
@@ -376,87 +374,11 @@ VIEW_NAMES = (*VIEWS, *VIEW_ALIASES)
 
 
 # --- helpers ------------------------------------------------------------------------------------
-@functools.lru_cache(maxsize=64)
-def _basis(position: Vec3, focus: Vec3, up: Vec3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    # Remembered: a frame asks a few renderers' worth of times for the basis of one camera, and
-    # np.cross costs tens of microseconds a call (docs/gui.md, per-frame overhead).
-    forward = _unit(np.subtract(focus, position, dtype=np.float64))
-    right = _unit(_cross(forward, np.asarray(up, dtype=np.float64)))
-    vectors = right, _cross(right, forward), forward
-    for vector in vectors:
-        vector.flags.writeable = False
-    return vectors
-
-
 @functools.lru_cache(maxsize=16)
 def _view_projection(camera: Camera, aspect: float) -> np.ndarray:
     matrix = camera.projection_matrix(aspect) @ camera.view_matrix()
     matrix.flags.writeable = False
     return matrix
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """np.cross of two 3-vectors, the same products and differences in the same order (so the
-    same bits), without np.cross's general machinery."""
-    (a0, a1, a2), (b0, b1, b2) = a.tolist(), b.tolist()
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-
-
-def _unit(vector: np.ndarray) -> np.ndarray:
-    return vector / np.linalg.norm(vector)
-
-
-def _vec(array) -> Vec3:
-    return tuple(float(v) for v in array)
-
-
-def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Right-handed rotation by ``angle`` radians about the unit ``axis`` (Rodrigues)."""
-    x, y, z = axis
-    cross = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-    return np.eye(3) + math.sin(angle) * cross + (1.0 - math.cos(angle)) * (cross @ cross)
-
-
-def _clipping_range(position, forward: np.ndarray, box_min, box_max) -> tuple[float, float] | None:
-    """(near, far) enclosing the box's bounding sphere seen from ``position`` along ``forward``;
-    None when the box is entirely behind (see Camera.with_clipping_range)."""
-    centre, radius = _bounding_sphere(box_min, box_max)
-    depth = float((centre - np.asarray(position)) @ forward)
-    far = (depth + radius) * (1.0 + _CLIP_MARGIN)
-    if far <= 0.0:
-        return None
-    near = (depth - radius) * (1.0 - _CLIP_MARGIN)
-    return max(near, far * 1e-4), far
-
-
-def _bounding_sphere(box_min, box_max) -> tuple[np.ndarray, float]:
-    """(centre, radius) of the sphere around the box: remembered per box, since every frame of a
-    camera that fits the data asks three times for the same one (the centre is read-only)."""
-    try:
-        key = (tuple(map(float, box_min)), tuple(map(float, box_max)))
-    except (TypeError, ValueError):
-        key = None
-    if key is None or len(key[0]) != 3 or len(key[1]) != 3:
-        return _sphere_of(box_min, box_max)  # it says what is wrong
-    return _remembered_sphere(*key)
-
-
-@functools.lru_cache(maxsize=64)
-def _remembered_sphere(box_min: Vec3, box_max: Vec3) -> tuple[np.ndarray, float]:
-    centre, radius = _sphere_of(box_min, box_max)
-    centre.flags.writeable = False
-    return centre, radius
-
-
-def _sphere_of(box_min, box_max) -> tuple[np.ndarray, float]:
-    lo, hi = np.asarray(box_min, dtype=np.float64), np.asarray(box_max, dtype=np.float64)
-    if lo.shape != (3,) or hi.shape != (3,) or not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
-        raise ValueError(f"box corners must be three finite numbers each, got {box_min!r}, {box_max!r}")
-    if np.any(hi < lo):
-        raise ValueError(f"box_max {list(hi)} must not be below box_min {list(lo)}")
-    # A flat or single-voxel box still needs a sphere to frame.
-    radius = max(float(np.linalg.norm(hi - lo)) / 2.0, 1e-6 * (1.0 + float(np.abs(lo).max())))
-    return (lo + hi) / 2.0, radius
 
 
 def _check_aspect(aspect: float) -> float:
