@@ -17,23 +17,12 @@ from vgraph.network import Network
 from vgraph.numerics.reference_raycast import Shading, volume_box
 from vgraph.processors.entry_exit_points import rays_box
 from vgraph.testing import GivenVolume
-from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
-REFERENCE_TOLERANCE = 2e-5  # as tests/test_multi_volume_raycaster.py (float32 GL, float64 reference)
+from helpers.multivolume import (BLUE, GREEN_RAMP, ORANGE, RED_RAMP, REFERENCE_TOLERANCE,
+                                 assert_cut_like_the_reference, shifted)
+
 SIZE = (60, 40)
-ORANGE = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.4, 1.0, 0.5, 0.1, 0.0), (0.6, 1.0, 0.6, 0.2, 0.5),
-                                  (1.0, 1.0, 0.9, 0.6, 0.8)])
-BLUE = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.3, 0.1, 0.4, 1.0, 0.0), (0.55, 0.2, 0.5, 1.0, 0.4),
-                                (1.0, 0.6, 0.8, 1.0, 0.9)])
-RED_RAMP = TransferFunction(points=[(0.0, 1, 0, 0, 0), (1.0, 1, 0, 0, 1)])  # alpha = intensity
-GREEN_RAMP = TransferFunction(points=[(0.0, 0, 1, 0, 0), (1.0, 0, 1, 0, 1)])
-
-
-def shifted(volume: Volume, voxels) -> Volume:
-    """The same samples moved by whole voxels (x, y, z)."""
-    offset = np.asarray(voxels, dtype=np.float64) * np.asarray(volume.spacing)
-    return Volume(volume.data, spacing=volume.spacing, origin=tuple(np.asarray(volume.origin) + offset))
 
 
 def union_network(a: Volume, b: Volume, camera, union: bool = True, **properties) -> Network:
@@ -193,15 +182,7 @@ def test_clip_planes_and_a_crop_box_of_the_union_match_the_cpu_reference(torus_p
     crop = (float(low[0]) + 0.3, -2.0, -2.0, float(high[0]) - 0.4, 2.0, 0.5)  # cuts both x ends
     network = union_network(a, b, camera, transfer_function1=ORANGE, transfer_function2=BLUE,
                             shading="blinn_phong")
-    network.set("eep.clip_planes", planes)
-    network.set("eep.crop_box", crop)
-    gl = network.evaluate("mv.image", size=SIZE)
-    channels = [(a, ORANGE), (b, BLUE)]
-    reference = render_channels(channels, camera, SIZE, shading=Shading(), crop_box=crop,
-                                clip_planes=network.get("eep.clip_planes"))
-    whole = render_channels(channels, camera, SIZE, shading=Shading())
-    assert np.abs(reference - whole).max() > 0.3
-    np.testing.assert_allclose(gl, reference, atol=REFERENCE_TOLERANCE)
+    assert_cut_like_the_reference(network, [(a, ORANGE), (b, BLUE)], camera, SIZE, planes, crop)
 
 
 def test_the_depth_output_lies_on_the_union_rays(pair):

@@ -20,18 +20,11 @@ from vgraph.testing import GivenVolume, ray_caster_network
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
+from helpers.multivolume import (BLUE, GREEN_RAMP, ORANGE, RED_RAMP, REFERENCE_TOLERANCE,
+                                 assert_cut_like_the_reference, shifted)
 from helpers.paths import DATA, REPO
 
-# Max |difference| per channel against the CPU reference: float32 sampling and entry points against
-# float64 (the RayCaster's tolerance). Measured on llvmpipe: up to ~2e-6.
-REFERENCE_TOLERANCE = 2e-5
 SIZE = (56, 44)
-ORANGE = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.4, 1.0, 0.5, 0.1, 0.0), (0.6, 1.0, 0.6, 0.2, 0.5),
-                                  (1.0, 1.0, 0.9, 0.6, 0.8)])
-BLUE = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.3, 0.1, 0.4, 1.0, 0.0), (0.55, 0.2, 0.5, 1.0, 0.4),
-                                (1.0, 0.6, 0.8, 1.0, 0.9)])
-RED_RAMP = TransferFunction(points=[(0.0, 1, 0, 0, 0), (1.0, 1, 0, 0, 1)])  # alpha = intensity
-GREEN_RAMP = TransferFunction(points=[(0.0, 0, 1, 0, 0), (1.0, 0, 1, 0, 1)])
 
 
 EEP_PORTS = ("volume", "volume2", "volume3", "volume4")
@@ -71,12 +64,6 @@ def aligned_camera(volume):
     return Camera(projection="orthographic", position=(centre[0], centre[1], hi[2] + 5.0),
                   focus=tuple(centre),
                   near=1.0, far=50.0, parallel_scale=volume.dims[1] * volume.spacing[1] / 2)
-
-
-def shifted(volume: Volume, voxels) -> Volume:
-    """The same samples moved by whole voxels (x, y, z): B(p) = A(p - shift)."""
-    offset = np.asarray(voxels, dtype=np.float64) * np.asarray(volume.spacing)
-    return Volume(volume.data, spacing=volume.spacing, origin=tuple(np.asarray(volume.origin) + offset))
 
 
 @pytest.fixture(scope="module")
@@ -166,15 +153,7 @@ def test_clip_planes_and_crop_box_of_the_entry_exit_points_cut_every_channel(tor
     camera = oblique_camera(torus)
     network = multivolume_network([torus, other_grid], camera, transfer_function1=ORANGE,
                                   transfer_function2=BLUE, shading="blinn_phong")
-    network.set("eep.clip_planes", planes)
-    network.set("eep.crop_box", crop)
-    gl = network.evaluate("mv.image", size=SIZE)
-    channels = [(torus, ORANGE), (other_grid, BLUE)]
-    reference = render_channels(channels, camera, SIZE, shading=Shading(), crop_box=crop,
-                                clip_planes=network.get("eep.clip_planes"))
-    whole = render_channels(channels, camera, SIZE, shading=Shading())
-    assert np.abs(reference - whole).max() > 0.3
-    np.testing.assert_allclose(gl, reference, atol=REFERENCE_TOLERANCE)
+    assert_cut_like_the_reference(network, [(torus, ORANGE), (other_grid, BLUE)], camera, SIZE, planes, crop)
 
 
 # --- closed-form answers ------------------------------------------------------------------------
