@@ -19,7 +19,7 @@ from vgraph.imagefile import write_png
 from vgraph.labels import LabelEntry, LabelTable
 from vgraph.numerics.reference_raycast import volume_box
 from vgraph.network import Network
-from vgraph.testing import GivenVolume, ray_caster_network
+from vgraph.testing import ray_caster_network
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
@@ -43,16 +43,8 @@ def label_transfer_function() -> TransferFunction:
 
 
 def label_network(volume: Volume, camera: Camera, **properties) -> Network:
-    """GivenVolume -> EntryExitPoints -> LabelRayCaster 'lrc' (its inport is 'labels')."""
-    network = Network()
-    network.add(GivenVolume(id="src", volume=volume))
-    network.add("EntryExitPoints", id="eep", camera=camera)
-    network.add("LabelRayCaster", id="lrc", **properties)
-    network.link("eep.camera", "lrc.camera")
-    for source, target in (("src.volume", "eep.volume"), ("src.volume", "lrc.labels"),
-                           ("eep.entry", "lrc.entry"), ("eep.exit", "lrc.exit")):
-        network.connect(source, target)
-    return network
+    """GivenVolume 'src' -> EntryExitPoints 'eep' -> LabelRayCaster 'lrc' (its inport is 'labels')."""
+    return ray_caster_network(volume, camera, "LabelRayCaster", "lrc", inport="labels", **properties)
 
 
 def main(argv=None) -> None:

@@ -19,7 +19,7 @@ from vgraph.network import Network
 from vgraph.scheduler import BlankImageWarning
 from vgraph.numerics.reference_labels import render_labels
 from vgraph.numerics.reference_raycast import volume_box
-from vgraph.testing import GivenVolume
+from vgraph.testing import GivenVolume, ray_caster_network
 from vgraph.volume import Volume
 
 from helpers.paths import REPO
@@ -38,15 +38,8 @@ def table(*entries, **rules) -> LabelTable:
 
 
 def label_network(volume: Volume, camera: Camera, **properties) -> Network:
-    network = Network()
-    network.add(GivenVolume(id="src", volume=volume))
-    network.add("EntryExitPoints", id="eep", camera=camera)
-    network.add("LabelRayCaster", id="lrc", **properties)
-    network.link("eep.camera", "lrc.camera")
-    for source, target in (("src.volume", "eep.volume"), ("src.volume", "lrc.labels"),
-                           ("eep.entry", "lrc.entry"), ("eep.exit", "lrc.exit")):
-        network.connect(source, target)
-    return network
+    """GivenVolume 'src' -> EntryExitPoints 'eep' -> LabelRayCaster 'lrc' (its inport is 'labels')."""
+    return ray_caster_network(volume, camera, "LabelRayCaster", "lrc", inport="labels", **properties)
 
 
 def render_both(volume, camera, size=SIZE, shading=None, **properties):

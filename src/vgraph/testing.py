@@ -32,16 +32,17 @@ class GivenVolume(Processor):
 
 
 def ray_caster_network(volume: Volume, camera: Camera, processor: str = "RayCaster",
-                       id: str = "rc", **properties) -> Network:
+                       id: str = "rc", inport: str = "volume", **properties) -> Network:
     """GivenVolume 'src' -> EntryExitPoints 'eep' -> ``processor`` ``id`` (made with
-    ``properties``): the volume goes to both, the entry and exit points to the ray caster, which
-    takes ``camera`` through the link."""
+    ``properties``): the volume goes to both (the ray caster's ``inport``: 'labels' for the
+    LabelRayCaster), the entry and exit points to the ray caster, which takes ``camera`` through
+    the link."""
     network = Network()
     network.add(GivenVolume(id="src", volume=volume))
     network.add("EntryExitPoints", id="eep", camera=camera)
     network.add(processor, id=id, **properties)
     network.link("eep.camera", f"{id}.camera")
-    for source, target in (("src.volume", "eep.volume"), ("src.volume", f"{id}.volume"),
+    for source, target in (("src.volume", "eep.volume"), ("src.volume", f"{id}.{inport}"),
                            ("eep.entry", f"{id}.entry"), ("eep.exit", f"{id}.exit")):
         network.connect(source, target)
     return network
