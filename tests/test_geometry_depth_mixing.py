@@ -6,7 +6,6 @@ law T = exp(-tau * L), L the path from the entry into the box to the analytic sp
 import numpy as np
 import pytest
 
-from vgraph import ProcessorError
 from vgraph.camera import Camera
 from vgraph.geometry import Geometry
 from vgraph.network import Network
@@ -182,16 +181,9 @@ def test_the_head_example_shows_skin_mesh_and_bone_volume_from_the_cli(tmp_path)
 
 def test_the_head_example_renders_in_the_window_as_on_the_cli(window, data_dir):
     """The GUI's render process draws the skin mesh and bone volume as `vgraph run` does."""
-    import vgraph
+    from helpers.gui import open_and_compare_with_run
     from helpers.paths import REPO
-    path = REPO / "networks" / "head_skin_mesh_bone_volume.json"
-    assert window.open_network(path)
-    window.evaluation.run(wait=True)
-    view = window.canvases.views["canvas"]
-    frame = view.frame()
-    expected = vgraph.imagefile.to_uint8(vgraph.load(path).evaluate("canvas"))
-    assert frame.shape == expected.shape and view.is_final
-    assert np.abs(frame.astype(int) - expected).max() <= 1
+    open_and_compare_with_run(window, REPO / "networks" / "head_skin_mesh_bone_volume.json")
     network = window.workspace.network
     assert all(network.get(f"{pid}.camera") == network.get("eep.camera")
                for pid in ("skin_renderer", "cut_rays", "bone"))

@@ -17,7 +17,7 @@ from vgraph.network import Network
 
 from vgraph.gui.workspace import Workspace
 
-from helpers.gui import send_mouse
+from helpers.gui import open_and_compare_with_run, send_mouse
 from helpers.networks import bricked_sphere_network
 from helpers.paths import REPO
 
@@ -307,15 +307,7 @@ def test_the_window_renders_coarse_while_dragging_and_refines_on_release(window,
 def test_tetrahedral_networks_render_in_the_window(window, qtbot, data_dir, name):
     """The shipped mesh networks open in the GUI and its render process draws what `vgraph run`
     draws; the transfer-function editor gets the mesh scalar's histogram."""
-    import vgraph
-    path = REPO / "networks" / f"{name}.json"
-    assert window.open_network(path)
-    window.evaluation.run(wait=True)
-    view = window.canvases.views["canvas"]
-    frame = view.frame()
-    expected = vgraph.imagefile.to_uint8(vgraph.load(path).evaluate("canvas"))
-    assert frame.shape == expected.shape and view.is_final
-    assert np.abs(frame.astype(int) - expected).max() <= 1
+    frame = open_and_compare_with_run(window, REPO / "networks" / f"{name}.json")
     assert frame[..., :3].max() > 50  # the mesh is there, not only the background
     renderer = next(p.id for p in window.workspace.network.processors.values()
                     if p.type_name == "ProjectedTetrahedra")

@@ -10,7 +10,6 @@ import numpy as np
 import PIL.Image
 import pytest
 from PySide6.QtCore import QPointF, QRectF, QSettings, Qt
-from PySide6.QtGui import QImage
 from PySide6.QtTest import QTest
 from PySide6.QtWidgets import QDockWidget
 
@@ -22,6 +21,7 @@ from vgraph.gui.image_export import suggested_image_path
 from vgraph.gui.overlays import ViewGeometry
 from helpers.gui import raycast_workspace
 
+from helpers.widget_pixels import grab_rgba, near_colour, rgb, widget_points
 from helpers.paths import REPO
 
 BOX = ((0.0, 0.0, 0.0), (200.0, 200.0, 100.0))
@@ -53,34 +53,6 @@ def make_pane(qtbot, ws, settings, canvas_id="canvas", size=(240, 200)) -> Canva
     pane.show()
     qtbot.waitExposed(pane)
     return pane
-
-
-def grab_rgba(widget) -> np.ndarray:
-    image = widget.grab().toImage().convertToFormat(QImage.Format_RGBA8888)
-    array = np.frombuffer(image.constBits(), np.uint8).reshape(image.height(), image.bytesPerLine())
-    return array[:, : 4 * image.width()].reshape(image.height(), image.width(), 4).copy()
-
-
-def widget_points(camera: Camera, points, frame_size, rect) -> np.ndarray:
-    """Where world points land on the widget, from the camera's own matrices (gluLookAt and
-    gluPerspective / glOrtho) and the rectangle the frame is drawn in (pixel-centre NDC)."""
-    width, height = frame_size
-    clip = np.c_[np.asarray(points, float), np.ones(len(points))] @ (
-        camera.projection_matrix(width / height) @ camera.view_matrix()).T
-    ndc = clip[:, :2] / clip[:, 3:]
-    return np.c_[rect.left() + (ndc[:, 0] + 1) / 2 * rect.width(),
-                 rect.top() + (1 - ndc[:, 1]) / 2 * rect.height()]
-
-
-def near_colour(pixels: np.ndarray, point, colour, reach=1, tolerance=40) -> bool:
-    """Some pixel within ``reach`` of ``point`` (x, y) has ``colour`` (RGB, within tolerance)."""
-    x, y = int(round(point[0])), int(round(point[1]))
-    patch = pixels[max(y - reach, 0): y + reach + 1, max(x - reach, 0): x + reach + 1, :3].astype(int)
-    return bool((np.abs(patch - colour).max(axis=-1) <= tolerance).any())
-
-
-def rgb(qcolor):
-    return np.array([qcolor.red(), qcolor.green(), qcolor.blue()])
 
 
 # --- camera actions -------------------------------------------------------------------------------

@@ -6,7 +6,7 @@ MPR network a click or the wheel in a slice moves that slice's outline in the 3D
 import numpy as np
 import pytest
 from PySide6.QtCore import QPoint, QPointF, QSettings, Qt
-from PySide6.QtGui import QImage, QWheelEvent
+from PySide6.QtGui import QWheelEvent
 from PySide6.QtWidgets import QApplication
 
 from vgraph.camera import Camera
@@ -18,6 +18,7 @@ from vgraph.gui.slice_clicks import slice_outlines
 from helpers.gui import open_mpr, raycast_workspace, settle
 from vgraph.slicing import slice_plane
 
+from helpers.widget_pixels import grab_rgba, near_colour, rgb, widget_points
 from helpers.paths import DATA
 
 BOX = ((0.0, 0.0, 0.0), (200.0, 200.0, 100.0))
@@ -60,33 +61,6 @@ def show(view, camera, frame_size=(160, 120)):
     frame[..., :3], frame[..., 3] = 40, 255
     view.set_view_geometry(ViewGeometry(camera, *BOX))
     view.show_frame(frame)
-
-
-def grab_rgba(widget) -> np.ndarray:
-    image = widget.grab().toImage().convertToFormat(QImage.Format_RGBA8888)
-    array = np.frombuffer(image.constBits(), np.uint8).reshape(image.height(), image.bytesPerLine())
-    return array[:, : 4 * image.width()].reshape(image.height(), image.width(), 4).copy()
-
-
-def widget_points(camera: Camera, points, frame_size, rect) -> np.ndarray:
-    """Where world points land on the widget, from the camera's own matrices (gluLookAt and
-    gluPerspective) and the rectangle the frame is drawn in (pixel-centre NDC)."""
-    width, height = frame_size
-    clip = np.c_[np.asarray(points, float), np.ones(len(points))] @ (
-        camera.projection_matrix(width / height) @ camera.view_matrix()).T
-    ndc = clip[:, :2] / clip[:, 3:]
-    return np.c_[rect.left() + (ndc[:, 0] + 1) / 2 * rect.width(),
-                 rect.top() + (1 - ndc[:, 1]) / 2 * rect.height()]
-
-
-def near_colour(pixels, point, colour, reach=1, tolerance=40) -> bool:
-    x, y = int(round(point[0])), int(round(point[1]))
-    patch = pixels[max(y - reach, 0): y + reach + 1, max(x - reach, 0): x + reach + 1, :3].astype(int)
-    return bool((np.abs(patch - colour).max(axis=-1) <= tolerance).any())
-
-
-def rgb(qcolor):
-    return np.array([qcolor.red(), qcolor.green(), qcolor.blue()])
 
 
 def inside_polygon(point, polygon, margin) -> bool:

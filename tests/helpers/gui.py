@@ -62,3 +62,18 @@ def settle(window, qtbot):
     qtbot.waitUntil(lambda: window.evaluation.idle()
                     and all(view.is_final and view.frame() is not None
                             for view in window.canvases.views.values()), timeout=120000)
+
+
+def open_and_compare_with_run(window, path):
+    """Open the network file ``path`` in the window: its canvas shows, within one 8-bit step, what
+    `vgraph run` draws of it. Returns the frame shown."""
+    import numpy as np
+    import vgraph
+    assert window.open_network(path)
+    window.evaluation.run(wait=True)
+    view = window.canvases.views["canvas"]
+    frame = view.frame()
+    expected = vgraph.imagefile.to_uint8(vgraph.load(path).evaluate("canvas"))
+    assert frame.shape == expected.shape and view.is_final
+    assert np.abs(frame.astype(int) - expected).max() <= 1
+    return frame
