@@ -37,8 +37,6 @@ Conventions (vgraph.gl.raycasting.geometry has the long form):
 
 from __future__ import annotations
 
-import functools
-
 import moderngl
 import numpy as np
 
@@ -48,7 +46,7 @@ from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, bind_textures, fullscreen
 from vgraph.gl.shaders import programs
 from vgraph.camera import Camera
 from vgraph.gl.raycasting.geometry import (BOX_EPSILON, DEFAULT_CAMERA, PROXY_MARGIN, VolumeGeometry,
-                                           plane_cuts_box, plane_frame, ray_uniforms, vec, view_camera)
+                                           box_camera, plane_cuts_box, plane_frame, ray_uniforms, vec, view_camera)
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
 from vgraph.volume import Volume
@@ -78,13 +76,7 @@ def rays_camera(camera: Camera, volumes, size) -> Camera:
     if len(volumes) == 1:
         return view_camera(camera, volumes[0], size)
     low, high, _ = rays_box(volumes)
-    return _resolved_on(camera, tuple(low), tuple(high), size[0] / size[1])
-
-
-@functools.lru_cache(maxsize=32)
-def _resolved_on(camera: Camera, box_min: tuple, box_max: tuple, aspect: float) -> Camera:
-    # Remembered: a camera drag resolves it in both processors of every frame.
-    return camera.resolved(np.array(box_min), np.array(box_max), aspect)
+    return box_camera(camera, low, high, size)
 
 
 def grown_box_of(whole: tuple, min_spacing: float, box_min, box_max):

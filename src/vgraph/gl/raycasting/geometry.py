@@ -46,10 +46,15 @@ def view_camera(camera: Camera, volume: Volume, size) -> Camera:
     last = _last_view[0]
     if last is not None and last[0] is camera and last[1]() is volume and last[2] == size:
         return last[3]  # the second processor of a frame: no hashing of the camera's fields
-    box_min, box_max = VolumeGeometry.of(volume).box
-    resolved = _resolved(camera, tuple(box_min), tuple(box_max), size[0] / size[1])
+    resolved = box_camera(camera, *VolumeGeometry.of(volume).box, size)
     _last_view[0] = (camera, weakref.ref(volume), tuple(size), resolved)
     return resolved
+
+
+def box_camera(camera: Camera, box_min, box_max, size) -> Camera:
+    """Camera.resolved on a box at ``size``, remembered: the processors of one frame resolve the
+    same camera (view_camera for a volume's box, EntryExitPoints' rays_camera for a union)."""
+    return _resolved(camera, tuple(box_min), tuple(box_max), size[0] / size[1])
 
 
 # (camera, volume (weakly: this must not keep a volume alive), size, resolved camera) of the last call
