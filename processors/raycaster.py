@@ -36,7 +36,7 @@ from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, Em
                                              TransferFunctionLut, VolumeSampling)
 from vgraph.gl.raycasting.empty_space import crossed_by, occupied_blocks, radii_if_worthwhile, visible_under
 from vgraph.gl.raycasting.geometry import vec
-from vgraph.gl.raycasting.gradient_volume import gradient_texture
+from vgraph.gl.raycasting.gradient_volume import gradient_texture, holds_values
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import linear_sampler
 from vgraph.image import Image
@@ -158,6 +158,7 @@ class RayCaster(RaycasterBase):
             return binding
         if self.derivatives == "precomputed":
             texture, scale = gradient_texture(frame.ctx, frame.volume)
+            binding.defines["GRADIENT_HOLDS_VALUE"] = holds_values(frame.volume)
             return binding.merge(Binding(textures={"gradients": texture},
                                          samplers={"gradients": linear_sampler(frame.ctx)},
                                          uniforms={"gradient_scale": vec(scale)}))

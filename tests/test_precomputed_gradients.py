@@ -1,5 +1,5 @@
 """RayCaster derivatives = precomputed: the gradient volume (central differences at the voxels,
-RGBA16_SNORM, one fetch a shaded sample) against numpy and the CPU reference's
+RGBA16 with the value in alpha, one fetch a shaded sample) against numpy and the CPU reference's
 Shading(gradients="precomputed"), its cache, and that nothing builds it unless a frame is shaded
 with it."""
 
@@ -13,9 +13,10 @@ import pytest
 from vgraph.camera import Camera
 from vgraph.gl.context import get_context
 from vgraph.gl.raycasting import gradient_volume
-from vgraph.gl.raycasting.gradient_volume import gradient_texture, is_cached
+from vgraph.gl.raycasting.gradient_volume import gradient_texture, holds_values, is_cached
+from vgraph.gl.shaders import compose
 from vgraph.implicit import sample
-from vgraph.numerics.reference_raycast import (SNORM16_MAX, Shading, VolumeSampler, central_differences,
+from vgraph.numerics.reference_raycast import (GRADIENT_STEPS, Shading, VolumeSampler, central_differences,
                                                lookup, quantized_gradients, render, shade_points,
                                                volume_box)
 from vgraph.transfer_function import TransferFunction
@@ -62,7 +63,7 @@ def numpy_gradients(volume):
 
 def texels(texture, volume):
     nx, ny, nz = volume.dims
-    return np.frombuffer(texture.read(alignment=1), dtype=np.int16).reshape(nz, ny, nx, 4)
+    return np.frombuffer(texture.read(alignment=1), dtype=np.uint16).reshape(nz, ny, nx, 4)
 
 
 # --- the texture ------------------------------------------------------------------------------
@@ -72,40 +73,54 @@ def test_texture_holds_the_central_differences_in_16_bit_steps(name, monkeypatch
     monkeypatch.setattr(gradient_volume, "SLAB_VOXELS", 1500)  # several slabs, uneven last one
     texture, scale = gradient_texture(get_context(), volume)
     stored = texels(texture, volume)
+    steps = stored[..., :3].astype(np.int64) - GRADIENT_STEPS  # 32767 + steps
     expected = numpy_gradients(volume)
     np.testing.assert_array_equal(scale, np.abs(expected).reshape(-1, 3).max(axis=0))
-    assert np.all(stored[..., 3] == 0) and np.abs(stored[..., :3]).max() == SNORM16_MAX
+    assert np.abs(steps).max() == GRADIENT_STEPS
     # Rounded to the nearest step of scale / 32767 (up to float64 rounding of the quotient).
-    error = np.abs(stored[..., :3] * (scale / SNORM16_MAX) - expected)
-    assert np.all(error <= scale / (2 * SNORM16_MAX) * (1 + 1e-9))
-    # Bit for bit the reference's texels (Shading(gradients="precomputed")).
+    error = np.abs(steps * (scale / GRADIENT_STEPS) - expected)
+    assert np.all(error <= scale / (2 * GRADIENT_STEPS) * (1 + 1e-9))
+    # Bit for bit the reference's steps (Shading(gradients="precomputed")).
     normalised = VolumeSampler(volume).flat.reshape(volume.data.shape)
     reference = central_differences(np.pad(normalised, 1, mode="edge"), volume.spacing)
-    np.testing.assert_array_equal(stored[..., :3], quantized_gradients(reference, scale))
-    assert texture.dtype == "ni2" and texture.components == 4  # 8 bytes a voxel
+    np.testing.assert_array_equal(steps, quantized_gradients(reference, scale))
+    # Alpha: the volume texture's own texels where that texture is R16 (8-bit: value * 257).
+    values = volume.data.astype(np.uint16) * 257 if volume.data.dtype == np.uint8 else 0
+    np.testing.assert_array_equal(stored[..., 3], values)
+    assert holds_values(volume) == (volume.data.dtype == np.uint8)
+    assert texture.dtype == "nu2" and texture.components == 4  # 8 bytes a voxel
 
 
-def test_texture_is_signed_normalised_in_the_shader():
-    """The GL reads texel q as q / 32767, negatives included (moderngl's own ni2 clamps them to 0)."""
+def test_the_shader_reads_value_and_signed_gradient_in_one_fetch(tmp_path):
+    """gradients.glsl's decoding of the texels (negative gradients included) and the value in
+    alpha, at the voxel centres of a row along x."""
     ctx = get_context()
-    volume = Volume(np.array([[[0.0, 1.0, 0.25, 0.0]]], dtype=np.float32))  # along x only
+    volume = Volume(np.array([[[0, 255, 64, 0]]], dtype=np.uint8))
     texture, scale = gradient_texture(ctx, volume)
-    points = np.array([[x, 0.0, 0.0] for x in (0.0, 1.0, 2.0, 3.0)])
-    np.testing.assert_array_equal(VolumeSampler(volume).voxel_gradient(points, quantized=False)[:, 0],
-                                  [0.5, 0.125, -0.5, -0.125])
-    assert scale[0] == 0.5 and texels(texture, volume)[0, 0, :, 0].tolist() == [32767, 8192, -32767, -8192]
+    probe = tmp_path / "probe.frag.glsl"
+    probe.write_text('#version 330\n#include "raycasting/volume_sampling.glsl"\n'
+                     '#include "raycasting/gradients.glsl"\nout vec4 c;\nvoid main() {\n'
+                     '    vec3 t = vec3((floor(gl_FragCoord.x) + 0.5) / 4.0, 0.5, 0.5);\n'
+                     '    vec4 texel = shading_texel(t);\n'
+                     '    c = vec4(texel_gradient(t, texel), texel.a);\n}\n')
+    source = compose(str(probe), {"GRADIENT_PRECOMPUTED": True, "GRADIENT_HOLDS_VALUE": True})
     program = ctx.program(
         vertex_shader="#version 330\nin vec2 p; void main() { gl_Position = vec4(p, 0.0, 1.0); }",
-        fragment_shader="#version 330\nuniform sampler3D g; out vec4 c;\n"
-                        "void main() { c = texelFetch(g, ivec3(int(gl_FragCoord.x), 0, 0), 0); }")
+        fragment_shader=source.text)
     target = ctx.simple_framebuffer((4, 1), components=4, dtype="f4")
     triangle = ctx.buffer(np.array([-1, -1, 3, -1, -1, 3], dtype="f4").tobytes())
     target.use()
     texture.use(0)
-    program["g"] = 0
+    program["gradients"] = 0
+    program["gradient_scale"] = tuple(float(v) for v in scale)
     ctx.vertex_array(program, [(triangle, "2f", "p")]).render(moderngl.TRIANGLES)
-    red = np.frombuffer(target.read(components=4, dtype="f4"), dtype=np.float32).reshape(4, 4)[:, 0]
-    np.testing.assert_allclose(red, np.array([32767, 8192, -32767, -8192]) / 32767, atol=1e-7)
+    read = np.frombuffer(target.read(components=4, dtype="f4"), dtype=np.float32).reshape(4, 4)
+    exact = np.array([0.5, 64 / 510, -0.5, -64 / 510])  # (F[i + 1] - F[i - 1]) / 2, edges repeated
+    stored = np.rint(exact / scale[0] * GRADIENT_STEPS) * scale[0] / GRADIENT_STEPS
+    assert np.abs(stored - exact).max() > 1e-6  # 64 / 510 is not a whole number of steps
+    np.testing.assert_allclose(read[:, 0], stored, atol=1e-7)
+    np.testing.assert_array_equal(read[:, 1:3], 0.0)
+    np.testing.assert_allclose(read[:, 3], np.array([0, 255, 64, 0]) / 255, atol=1e-7)
 
 
 def test_texture_is_cached_per_volume_and_released_with_it():

@@ -27,7 +27,7 @@ Result march(Ray ray) {
 #endif
     March cursor = start_march(ray);
     while (cursor.i < ray.samples) {
-        if (skip_empty_space(cursor, ray)) continue;
+        if (!next_occupied_sample(cursor, ray)) break;
         vec3 t = sample_point(ray, float(cursor.i));
         vec4 classified = classify(march_value(t) * intensity_scale + intensity_offset);
         result.taken++;

@@ -11,7 +11,7 @@ vec4 march(Ray ray) {
     vec4 sum = vec4(0.0);
     March cursor = start_march(ray);
     while (cursor.i < ray.samples) {
-        if (skip_empty_space(cursor, ray)) continue;  // march.glsl
+        if (!next_occupied_sample(cursor, ray)) break;  // march.glsl
         Label label = majority_label(sample_point(ray, float(cursor.i)));
         if (label.code != BACKGROUND) {
             vec4 color = code_color(label.code);

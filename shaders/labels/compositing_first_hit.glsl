@@ -25,7 +25,7 @@ Label refined_hit(Ray ray, float outside, float inside, Label label) {
 vec4 march(Ray ray) {
     March cursor = start_march(ray);
     while (cursor.i < ray.samples) {
-        if (skip_empty_space(cursor, ray)) continue;  // march.glsl
+        if (!next_occupied_sample(cursor, ray)) break;  // march.glsl
         Label label = majority_label(sample_point(ray, float(cursor.i)));
         if (label.code != BACKGROUND) {
             if (cursor.i > 0) {

@@ -12,25 +12,25 @@ Result march(Ray ray) {
     March cursor = start_march(ray);
 #ifdef SHADING_BLINN_PHONG
     // First the samples up to the first visible one, in a loop without the shading code: SIMD GL
-    // (llvmpipe, GPU warps) runs a branch for a whole group of pixels when one of them takes it, so
-    // in a single loop rays still in empty space would wait for their neighbours' shading.
+    // runs a branch for a whole group of pixels when one of them takes it (a GPU's warp) or always
+    // (llvmpipe's 8 lanes), so in a single loop rays still in empty space would pay for shading.
     while (cursor.i < ray.samples) {
-        if (skip_empty_space(cursor, ray)) continue;
+        if (!next_occupied_sample(cursor, ray)) break;
         if (classify(intensity(sample_point(ray, float(cursor.i)))).a > 0.0) break;
         result.taken++;
         ++cursor.i;
     }
 #endif
     while (cursor.i < ray.samples) {
-        if (skip_empty_space(cursor, ray)) continue;
+        if (!next_occupied_sample(cursor, ray)) break;
         vec3 t = sample_point(ray, float(cursor.i));
-        float raw = raw_sample(t);
-        vec4 color = classify(raw * intensity_scale + intensity_offset);
+        vec4 texel = shading_texel(t);  // raw value in .a (gradients.glsl)
+        vec4 color = classify(texel.a * intensity_scale + intensity_offset);
         result.taken++;
         if (color.a > 0.0) {
             float alpha = corrected_opacity(color.a);
 #ifdef SHADING_BLINN_PHONG
-            color.rgb = shade(color.rgb, gradient(t, raw), -ray.direction);
+            color.rgb = shade(color.rgb, texel_gradient(t, texel), -ray.direction);
 #endif
             if (result.depth_sample < 0.0) {
                 result.depth_sample = float(cursor.i);

@@ -6,7 +6,7 @@ Result march(Ray ray) {
     Result result = empty_result();
     March cursor = start_march(ray);
     while (cursor.i < ray.samples) {
-        if (skip_empty_space(cursor, ray)) continue;
+        if (!next_occupied_sample(cursor, ray)) break;
         vec3 t = sample_point(ray, float(cursor.i));
         result.taken++;
         if (classify(intensity(t)).a > 0.0) {

@@ -16,7 +16,7 @@ Result march(Ray ray) {
     while (cursor.i < ray.samples) {
         if (skip_empty_space(cursor, ray)) {
             have_previous = false;
-            continue;
+            if (cursor.i >= ray.samples) break;
         }
         int i = cursor.i;
         float value = intensity(sample_point(ray, float(i)));

@@ -47,8 +47,8 @@ int next_sample_outside(BlockWalk walk, int i, ivec3 block, float radius, int sa
     return i + 1 + int(steps);
 }
 
-// Where sample i lies in an empty region, move i past it and return true (the caller continues
-// its loop); otherwise leave i and return false.
+// Where sample i lies in an empty region, move i past it and return true (march.glsl jumps until
+// this returns false); otherwise leave i and return false.
 bool skipped_empty_region(BlockWalk walk, inout int i, int samples) {
     ivec3 block = block_of(walk, i);
     float radius = block_value(block);

@@ -5,12 +5,13 @@
 //
 //     March cursor = start_march(ray);
 //     while (cursor.i < ray.samples) {
-//         if (skip_empty_space(cursor, ray)) continue;  // cursor.i has moved past an empty region
+//         if (!next_occupied_sample(cursor, ray)) break;  // past the empty regions at cursor.i
 //         ... evaluate sample cursor.i (break or return when done) ...
 //         ++cursor.i;
 //     }
 //
-// Without SKIP_EMPTY_SPACE a March is only the index and skip_empty_space() is the literal false,
+// (or skip_empty_space(), which says whether it moved, where a mode needs to know).
+// Without SKIP_EMPTY_SPACE a March is only the index and both are literals (true, false),
 // which the compiler removes: the loop is a plain march. With RAY_BOUNDS (ray_bounds.glsl; only for
 // modes whose empty blocks contribute nothing, and never without SKIP_EMPTY_SPACE) start_march()
 // also narrows the samples to those that may lie in an occupied block: it starts at the first and
@@ -56,14 +57,26 @@ March start_march(Ray ray) {
     return cursor;
 }
 
-// Where sample cursor.i lies in an empty region (block value k >= 1, see empty_space.glsl), move
-// cursor.i past it and return true; otherwise return false.
 #ifdef SKIP_EMPTY_SPACE
+// Move cursor.i past the empty regions it lies in, all of them in a row, and return whether it
+// moved. The jumps have a loop of their own: SIMD GL (llvmpipe's 8 lanes, a GPU's warp) runs the
+// whole body of the caller's loop for all lanes in every pass, also for lanes that only jump, so
+// a jump there would cost as much as a sample.
 bool skip_empty_space(inout March cursor, Ray ray) {
-    return skipped_empty_region(cursor.walk, cursor.i, ray.samples);
+    int before = cursor.i;
+    while (cursor.i < ray.samples && skipped_empty_region(cursor.walk, cursor.i, ray.samples)) {}
+    return cursor.i != before;
+}
+
+// skip_empty_space() for modes that only need the next sample to evaluate: false when the ray
+// has none left.
+bool next_occupied_sample(inout March cursor, Ray ray) {
+    skip_empty_space(cursor, ray);
+    return cursor.i < ray.samples;
 }
 #else
-// A literal `false`, not a function returning it: Mesa then compiles exactly the plain loop (with a
+// Literals, not functions returning them: Mesa then compiles exactly the plain loop (with a
 // function the tricubic CurvatureVolumeRaycaster's colours moved by a float rounding, 4e-7).
 #define skip_empty_space(cursor, ray) false
+#define next_occupied_sample(cursor, ray) true
 #endif

@@ -216,7 +216,7 @@ class Volume:
         16-bit copy (module docstring), made once and kept with the volume."""
         if precision not in PRECISIONS:
             raise VGraphError(f"volume precision must be one of {', '.join(PRECISIONS)}, got {precision!r}")
-        if precision == "full" or self.data.dtype in _TEXTURE_FORMATS:
+        if precision == "full" or self.texture_is_r16:
             return self  # stored as R16 already: the copy would be the same texture
         if "_sixteen_bit" not in self.__dict__:
             self.__dict__["_sixteen_bit"] = SixteenBitCopy.of(self)
@@ -240,9 +240,15 @@ class Volume:
         return full_scale / (hi - lo), -lo / (hi - lo)
 
     @property
+    def texture_is_r16(self) -> bool:
+        """Whether the texture is R16 normalised (8- and 16-bit data, 16-bit copies): its texels
+        are r16_texels(data)."""
+        return self.data.dtype in _TEXTURE_FORMATS
+
+    @property
     def texture_is_normalized(self) -> bool:
         """Whether the texture holds normalised intensities (float32 cannot carry the values)."""
-        if self.data.dtype in _TEXTURE_FORMATS:
+        if self.texture_is_r16:
             return False
         lo, hi = self.value_range
         return max(abs(lo), abs(hi)) > FLOAT32_SAFE or hi - lo < 1.0 / FLOAT32_SAFE
@@ -257,8 +263,8 @@ class Volume:
                               f"crop or downsample it")
         gl_dtype, _ = _TEXTURE_FORMATS.get(self.data.dtype, ("f4", 1.0))
         data = self.data
-        if data.dtype == np.uint8:
-            data = data.astype(np.uint16) * np.uint16(257)
+        if self.texture_is_r16:
+            data = r16_texels(data)
         elif self.texture_is_normalized:
             data = self._normalized_float32()
         elif gl_dtype == "f4":
@@ -288,6 +294,14 @@ class Volume:
                       time_steps=self.time_steps)
         fields.update(changes)
         return Volume(data, **fields)
+
+
+def r16_texels(data: np.ndarray) -> np.ndarray:
+    """The R16 texels of 8- or 16-bit voxels: uint16 as they are, uint8 as value * 257 (the same
+    normalised value, _TEXTURE_FORMATS)."""
+    if data.dtype == np.uint8:
+        return data.astype(np.uint16) * np.uint16(257)
+    return data
 
 
 @dataclass(eq=False)

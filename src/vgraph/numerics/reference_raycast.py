@@ -34,10 +34,10 @@ Optical model (Inácio 2009 ch. 2.4 and 4.1-4.3), in this order:
    voxel of their edge values (= the clamp-to-edge of rule 4), and reconstructed trilinearly like
    the intensities (rule 4's clamping and weights). With ``quantized=True`` (the default, as the GL
    texture stores them) each component is first rounded to ``round(G_k * (32767 / s_k)) * s_k /
-   32767`` with ``s_k = max |G_k|`` over the volume (1 where that is 0): 16-bit signed normalised
-   steps. Trilinear interpolation commutes with whole-voxel shifts and edge padding equals
-   clamping, so unquantised this equals the on-the-fly central difference at every point of the
-   box (it differs only beyond the box, by the clamping); quantised it differs by at most
+   32767`` with ``s_k = max |G_k|`` over the volume (1 where that is 0): 16-bit steps on each side
+   of 0 (the texture stores 32767 plus these). Trilinear interpolation commutes with whole-voxel
+   shifts and edge padding equals clamping, so unquantised this equals the on-the-fly central
+   difference at every point of the box (it differs only beyond the box, by the clamping); quantised it differs by at most
    ``s_k / 65534`` per component. ``L = V = H = -direction``; two-sided: ``c = |dot(g / |g|, L)|``;
    ``rgb' = clamp(ambient * rgb + diffuse * c * rgb + specular * c ** shininess, 0, 1)``; where
    ``|g| * min(spacing) <= 1e-6`` the colour stays unshaded. Alpha is not changed. (Only samples
@@ -72,7 +72,7 @@ SAMPLE_COUNT_SLACK = 1e-3  # fraction of a step; see rule 3 of the module docstr
 BOX_EPSILON = 1e-9  # relative growth of the box; see rule 2
 GRADIENT_EPSILON = 1e-6  # |g| * min(spacing) below this: no shading; see rule 6
 GRADIENT_MODES = ("central", "precomputed")
-SNORM16_MAX = 32767  # a 16-bit signed normalised texel q means q / 32767 (GL 4.2+ rule)
+GRADIENT_STEPS = 32767  # 16-bit steps of a gradient component on each side of 0 (rule 6)
 
 
 @dataclass(frozen=True)
@@ -234,14 +234,14 @@ def gradient_scale(gradients: np.ndarray) -> np.ndarray:
 
 
 def quantized_gradients(gradients: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """int16 texels round(g * (32767 / scale)): what the RGBA16_SNORM texture stores (rgb)."""
-    steps = gradients * (SNORM16_MAX / scale)
+    """int16 steps round(g * (32767 / scale)): what the gradient texture stores (rgb, offset by 32767)."""
+    steps = gradients * (GRADIENT_STEPS / scale)
     return np.rint(steps, out=steps).astype(np.int16)
 
 
 def dequantized(texels: np.ndarray, scale: np.ndarray) -> np.ndarray:
     """The gradients int16 texels stand for, in float64."""
-    return texels.astype(np.float64) * (scale / SNORM16_MAX)
+    return texels.astype(np.float64) * (scale / GRADIENT_STEPS)
 
 
 def lookup(lut: np.ndarray, intensity: np.ndarray) -> np.ndarray:

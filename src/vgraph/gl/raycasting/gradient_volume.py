@@ -7,12 +7,14 @@ clamp-to-edge gives the on-the-fly central mode), in normalised intensity per wo
 texture is sampled trilinearly. Rule 6 of vgraph.numerics.reference_raycast states the model and
 why, inside the box, it equals the on-the-fly central difference up to the 16-bit steps.
 
-Storage: an RGBA16_SNORM 3D texture, rgb = round(g_k * 32767 / s_k) with s_k = max |g_k| over the
-volume per axis (``scale``, a uniform), a = 0: 8 bytes a voxel. moderngl 5.13's ``ni2`` dtype makes
-an unsigned RGBA16 texture (negative texels read as 0, measured on Mesa), and ``texture3d`` takes no
-internal format, so the texture is made by moderngl and its storage respecified as RGBA16_SNORM
-with one glTexImage3D call through PyOpenGL; moderngl writes it with GL_SHORT texels, which GL
-stores unchanged.
+Storage: an RGBA16 (unsigned normalised) 3D texture, 8 bytes a voxel: rgb = 32767 + round(g_k *
+32767 / s_k) with s_k = max |g_k| over the volume per axis (``scale``, a uniform); the shader
+decodes texel * 65535 / 32767 - 1 (interpolation is linear, so decoding after the filter is the
+same). Where the volume's own texture is R16 (8- and 16-bit data, 16-bit copies), a holds that
+texture's texel (``holds_values``): a shaded sample then reads its value and its gradient in one
+fetch (shaders/raycasting/gradients.glsl, ``shading_texel``), and a four-channel fetch costs
+llvmpipe far less than a one-channel plus a four-channel one (docs/performance.md). Otherwise a is 0
+and the value comes from the volume's texture.
 
 The numpy part works slab by slab (``SLAB_VOXELS``), twice (the scale, then the texels), so a
 512^3 volume needs neither a float64 copy nor a host copy of the texture; the texture is cached per
@@ -29,14 +31,12 @@ import numpy as np
 
 from vgraph.errors import VGraphError
 from vgraph.gl.context import release_quietly
-from vgraph.numerics.reference_raycast import SNORM16_MAX, central_differences, gradient_scale
+from vgraph.numerics.reference_raycast import GRADIENT_STEPS, central_differences, gradient_scale
 from vgraph.progress import steps
-from vgraph.volume import Volume
+from vgraph.volume import Volume, r16_texels
 
 SLAB_VOXELS = 2**22  # voxels per numpy slab: ~100 MB of float64 temporaries
 PROGRESS_VOXELS = 32 * 2**20  # show a progress bar (stderr) above this many voxels
-GL_TEXTURE_3D = 0x806F
-GL_RGBA16_SNORM = 0x8F9B
 
 _INNER = slice(1, -1)
 # Per axis x, y, z: (the neighbour ahead, the one behind) of every voxel of a padded slab.
@@ -113,48 +113,31 @@ def _scale(volume: Volume) -> np.ndarray:
     return gradient_scale(largest[None, :])
 
 
+def holds_values(volume: Volume) -> bool:
+    """Whether the gradient texture's alpha holds the volume texture's texels (module docstring)."""
+    return volume.texture_is_r16
+
+
 def _upload(ctx: moderngl.Context, volume: Volume, scale: np.ndarray) -> moderngl.Texture3D:
     nx, ny, nz = volume.dims
     limit = ctx.info["GL_MAX_3D_TEXTURE_SIZE"]
     if max(volume.dims) > limit:
         raise VGraphError(f"gradient volume: {nx} x {ny} x {nz} voxels exceed this GL's 3D texture "
                           f"limit of {limit} per axis")
-    texture = ctx.texture3d((nx, ny, nz), 4, None, dtype="ni2", alignment=1)
-    _respecify_snorm(texture, (nx, ny, nz))
+    texture = ctx.texture3d((nx, ny, nz), 4, None, dtype="nu2", alignment=1)
     texture.repeat_x = texture.repeat_y = texture.repeat_z = False
     texels = None
     for z0, z1 in _slabs(volume, "texture"):
         if texels is None or texels.shape[0] != z1 - z0:
-            texels = np.zeros((z1 - z0, ny, nx, 4), dtype=np.int16)
+            texels = np.zeros((z1 - z0, ny, nx, 4), dtype=np.uint16)
         padded = _padded_slab(volume, z0, z1)
         # Component by component, the operations of central_differences and quantized_gradients
-        # (same texels, tested) without their (..., 3) float64 arrays.
+        # (same steps, tested) without their (..., 3) float64 arrays.
         for k, (ahead, behind) in enumerate(_NEIGHBOURS):
-            steps = (padded[ahead] - padded[behind]) / (2.0 * float(volume.spacing[k]))
-            steps *= SNORM16_MAX / scale[k]
-            texels[..., k] = np.rint(steps, out=steps)
+            q = (padded[ahead] - padded[behind]) / (2.0 * float(volume.spacing[k]))
+            q *= GRADIENT_STEPS / scale[k]
+            texels[..., k] = np.rint(q, out=q) + GRADIENT_STEPS
+        if holds_values(volume):
+            texels[..., 3] = r16_texels(volume.data[z0:z1])
         texture.write(texels, viewport=(0, 0, z0, nx, ny, z1 - z0), alignment=1)
     return texture
-
-
-def _respecify_snorm(texture: moderngl.Texture3D, size: tuple[int, int, int]) -> None:
-    from OpenGL import GL
-    error = None
-    # PyOpenGL checks glGetError after each call: an error flag left by earlier GL work (not ours)
-    # would be reported against this bind. Read such flags first (at most one per kind).
-    for _ in range(8):
-        if texture.ctx.error == "GL_NO_ERROR":
-            break
-    GL.glBindTexture(GL_TEXTURE_3D, texture.glo)
-    try:
-        GL.glTexImage3D(GL_TEXTURE_3D, 0, GL_RGBA16_SNORM, *size, 0, GL.GL_RGBA, GL.GL_SHORT, None)
-    except Exception as exc:  # PyOpenGL raises GLError (out of memory, no such format)
-        error = exc
-    finally:
-        GL.glBindTexture(GL_TEXTURE_3D, 0)
-    if error is None and texture.ctx.error != "GL_NO_ERROR":
-        error = "GL error"
-    if error is not None:
-        texture.release()
-        raise VGraphError(f"gradient volume: this GL refused an RGBA16_SNORM 3D texture of "
-                          f"{' x '.join(map(str, size))} texels ({error}); use derivatives = central")
