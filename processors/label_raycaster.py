@@ -37,7 +37,7 @@ import numpy as np
 from vgraph import Inport, OptionProperty, Outport, VGraphError
 from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EmptySpace, EntryExit, FrontToBack,
                                              Light, RaycasterBase, Sampling)
-from vgraph.gl.raycasting.empty_space import BLOCK, radii_if_worthwhile
+from vgraph.gl.raycasting.empty_space import radii_if_worthwhile, window_reduced
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
@@ -142,13 +142,10 @@ def label_textures(volume: Volume, ctx: moderngl.Context, consumer: str) -> tupl
 def shown_blocks(codes: LabelCodes, shown_codes: np.ndarray) -> np.ndarray:
     """Per empty-space block [bz, by, bx]: whether a voxel of it holds a shown code (``shown_codes``
     per code); block b covers voxels [b * BLOCK - 1, (b + 1) * BLOCK + 1] on each axis
-    (empty_space.block_ranges)."""
+    (empty_space.window_reduced, as the block ranges)."""
     shown = shown_codes[codes.codes]
     for axis in range(3):
-        moved = np.moveaxis(shown, axis, 0)
-        n = moved.shape[0]
-        shown = np.moveaxis(np.stack([moved[max(b * BLOCK - 1, 0):min((b + 1) * BLOCK + 2, n)].any(axis=0)
-                                      for b in range(-(-n // BLOCK))]), 0, axis)
+        shown = window_reduced(shown, axis, np.logical_or)
     return shown
 
 

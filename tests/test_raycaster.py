@@ -331,17 +331,20 @@ def test_empty_space_skipping_changes_no_pixel(torus, mode):
 
 
 def test_block_ranges_cover_each_block_with_a_voxel_of_margin():
-    from vgraph.gl.raycasting.empty_space import BLOCK, block_ranges, occupied_blocks, skip_radii
+    from vgraph.gl.raycasting.empty_space import BLOCK, WALK_BLOCK, block_ranges, occupied_blocks, skip_radii
     ramp = np.arange(30) / 29.0  # along x, so that blocks have different ranges
     data = (ramp + 0.05 * np.random.default_rng(2).random((21, 17, 30))).astype(np.float32)
     data[3, 4, 5], data[20, 16, 0] = np.nan, np.inf  # uploaded as the range's ends
     volume = Volume(data)
-    low, high = block_ranges(volume)
     clean = np.nan_to_num(data, nan=volume.value_range[0], posinf=volume.value_range[1])
-    for index in np.ndindex(low.shape):
-        window = clean[tuple(slice(max(b * BLOCK - 1, 0), (b + 1) * BLOCK + 2) for b in index)]
-        assert low[index] == pytest.approx(volume.normalized(window.min()), abs=1e-6)
-        assert high[index] == pytest.approx(volume.normalized(window.max()), abs=1e-6)
+    for block in (BLOCK, WALK_BLOCK):  # the larger ones reduced from the smaller (odd counts too)
+        low, high = block_ranges(volume, block)
+        assert low.shape == tuple(-(-n // block) for n in data.shape)
+        for index in np.ndindex(low.shape):
+            window = clean[tuple(slice(max(b * block - 1, 0), (b + 1) * block + 2) for b in index)]
+            assert low[index] == pytest.approx(volume.normalized(window.min()), abs=1e-6)
+            assert high[index] == pytest.approx(volume.normalized(window.max()), abs=1e-6)
+    low, high = block_ranges(volume)
     alpha = np.zeros(4096, dtype=np.float32)
     alpha[3500:] = 0.5  # only intensities >= 0.855 are visible
     occupied = occupied_blocks(low, high, alpha)

@@ -35,7 +35,7 @@ import moderngl
 from vgraph.camera import Camera
 from vgraph.errors import VGraphError
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
-from vgraph.gl.raycasting.empty_space import SkipBlocks, block_grid_uniforms
+from vgraph.gl.raycasting.empty_space import BLOCK, WALK_BLOCK, SkipBlocks, block_grid_uniforms
 from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, VolumeGeometry, ray_uniforms, vec, view_camera
 from vgraph.gl.raycasting.light import shading_uniforms
 from vgraph.gl.raycasting import ray_bounds
@@ -310,6 +310,7 @@ class EmptySpace(Component):
 
     glsl = ("raycasting/empty_space.glsl", "raycasting/ray_bounds.glsl")
     BOUNDED = ("opacity", "level")
+    WALKED = ("maximum",)  # a ray visits every block (MIP): larger blocks (empty_space docstring)
 
     def __init__(self, processor):
         super().__init__(processor)
@@ -324,8 +325,9 @@ class EmptySpace(Component):
     def bind(self, frame: Frame) -> Binding:
         texture = None
         wanted = self.processor.skip_values(frame) if self.processor.empty_space_skipping else None
+        block = WALK_BLOCK if wanted is not None and wanted[0] in self.WALKED else BLOCK
         if wanted is not None:
-            texture = self.blocks.texture(frame.ctx, frame.volume, *wanted)
+            texture = self.blocks.texture(frame.ctx, frame.volume, *wanted, block=block)
         bounds = None
         if texture is not None and isinstance(wanted[0], tuple) and wanted[0][0] in self.BOUNDED:
             bounds = self.bounds.texture(frame, self.blocks.key, self.blocks.values == 0.0)
@@ -334,7 +336,7 @@ class EmptySpace(Component):
             textures["ray_bounds"] = bounds
         return Binding(defines={"SKIP_EMPTY_SPACE": texture is not None, "RAY_BOUNDS": bounds is not None},
                        textures=textures,
-                       uniforms={**block_grid_uniforms(frame.volume), "ray_bounds_tile": ray_bounds.TILE})
+                       uniforms={**block_grid_uniforms(frame.volume, block), "ray_bounds_tile": ray_bounds.TILE})
 
 
 class Background(Component):

@@ -1,12 +1,13 @@
 """Ray bounds from the occupied blocks (RAY_BOUNDS, docs/rendering.md): per pixel, the nearest and
 farthest point of its ray that is inside a block that can contribute, so that a ray
 samples only between them and a ray that meets no such block is not marched at all (proxy
-geometry as in Voreen, tightened to the 8^3 blocks of empty-space skipping).
+geometry as in Voreen, tightened to the blocks of empty-space skipping, in pairs: 8^3 voxels).
 
 How it is exact:
-- The occupied blocks (those empty-space skipping keeps, radius 0) are merged greedily into boxes,
-  rebuilt only when the skip blocks are (volume, TF or iso level). Block k covers the samples with
-  floor(u) in [8k, 8k + 8), u = voxel coordinate; a box's extent in u is clamped to the box of the
+- The occupied blocks (those empty-space skipping keeps, radius 0), coarsened to WALK_BLOCK^3
+  voxels (occupied where one of its eight is: the boxes stay a few hundred, the pass's cost), are
+  merged greedily into boxes, rebuilt only when the skip blocks are (volume, TF or iso level).
+  Block k covers the samples with floor(u) in [8k, 8k + 8), u = voxel coordinate; a box's extent in u is clamped to the box of the
   voxel centres [0, dims - 1], where the entry points are clamped to.
 - Each box is grown by GROW voxels before its ray interval is computed. A sample within one voxel
   (Chebyshev, in u) of an empty block reconstructs only from voxels inside that block's range
@@ -34,7 +35,7 @@ import moderngl
 import numpy as np
 
 from vgraph.gl.passes import set_uniforms
-from vgraph.gl.raycasting.empty_space import BLOCK
+from vgraph.gl.raycasting.empty_space import WALK_BLOCK, pairs_reduced
 from vgraph.gl.raycasting.geometry import VolumeGeometry, ray_uniforms, vec
 from vgraph.gl.shaders import programs
 
@@ -81,8 +82,8 @@ def world_boxes(boxes: np.ndarray, geometry: VolumeGeometry) -> np.ndarray:
     """float32 (n, 6): world (min, max) of each block box, clamped to the voxel-centre box and grown
     by GROW voxels (module docstring)."""
     last = geometry.dims - 1.0
-    lo = np.minimum(boxes[:, :3] * float(BLOCK), last) - GROW
-    hi = np.minimum(boxes[:, 3:] * float(BLOCK), last) + GROW
+    lo = np.minimum(boxes[:, :3] * float(WALK_BLOCK), last) - GROW
+    hi = np.minimum(boxes[:, 3:] * float(WALK_BLOCK), last) + GROW
     to_world = lambda u: geometry.origin + u * geometry.spacing  # noqa: E731
     return np.hstack([to_world(lo), to_world(hi)]).astype(np.float32)
 
@@ -111,13 +112,13 @@ class RayBounds:
 
     def texture(self, frame, key, occupied: np.ndarray | None):
         """The bounds texture of this frame, or None when the bounds do not pay (or are off).
-        ``key``: what ``occupied`` depends on (the skip blocks' key)."""
+        ``occupied``: the skip blocks' (BLOCK^3 voxels); ``key``: what they depend on."""
         if not ENABLED or occupied is None:
             return None
         ctx = frame.ctx
         if self._key is None or not all(a is b or a == b for a, b in zip(key, self._key)):
             self._key, self._frame = key, None
-            boxes = worthwhile_boxes(occupied)
+            boxes = worthwhile_boxes(pairs_reduced(occupied, np.logical_or))
             self._upload(ctx, None if boxes is None else world_boxes(boxes, frame.geometry))
         if self._count == 0:
             return None
