@@ -14,7 +14,6 @@ from vgraph.camera import Camera
 from vgraph.cli import main
 from vgraph.clipping import MAX_CLIP_PLANES, ClipPlane, clip_intervals, cropped_box, kept_voxels
 from vgraph.fileformat import load_network
-from vgraph.gl.raycasting import ray_bounds
 from vgraph.implicit import sample
 from vgraph.numerics.reference_raycast import Shading, render, volume_box
 from vgraph.testing import ray_caster_network
@@ -227,7 +226,7 @@ def sparse_volume(shape=(48, 44, 52), seed=5):
 
 
 @pytest.mark.parametrize("shaded", [False, True])
-def test_ray_bounds_compose_with_clipping(shaded, monkeypatch):
+def test_ray_bounds_compose_with_clipping(shaded):
     volume = sparse_volume()
     camera = oblique_camera(volume)
     planes = (ClipPlane(normal=(0.4, -1.0, 0.3), point=centre_of(volume)),)
@@ -236,7 +235,7 @@ def test_ray_bounds_compose_with_clipping(shaded, monkeypatch):
     network.set("eep.clip_planes", planes)
     images = {}
     for bounds in (True, False):
-        monkeypatch.setattr(ray_bounds, "ENABLED", bounds)
+        network.set("rc.ray_bounds", bounds)
         images[bounds] = network.evaluate("rc.image", size=SIZE)
         assert bool(network["rc"].passes[-1][1].get("RAY_BOUNDS")) is bounds
         network["rc"].invalidate()

@@ -117,15 +117,16 @@ def test_a_hidden_label_counts_as_background(blobs):
 
 @pytest.mark.parametrize("mode", ["composite", "first_hit"])
 def test_skipping_blocks_without_shown_labels_changes_no_pixel(mode):
-    """Three small boxes in a 40^3 volume (most blocks empty, so skipping and ray bounds are on),
-    one of them hidden: the same picture with and without skipping, and the reference's."""
+    """Three small boxes in a 40^3 volume (most blocks empty, so skipping is on; ray bounds asked
+    for), one of them hidden: the same picture with and without skipping, and the reference's."""
     data = np.zeros((40, 40, 40), dtype=np.uint16)
     data[4:12, 5:15, 6:20], data[20:30, 22:36, 10:18], data[30:37, 3:12, 25:38] = 1, 7, 300
     volume = Volume(data, spacing=(1.0, 0.9, 1.2))
     labels = table((1, RED, 0.4), (7, GREEN, 0.7), (300, BLUE, 1.0)).with_entry(LabelEntry(value=7, visible=False))
     camera = oblique_camera(volume)
     skipped, reference = render_both(volume, camera, shading=HEADLIGHT, label_table=labels, compositing=mode)
-    network = label_network(volume, camera, shading="blinn_phong", label_table=labels, compositing=mode)
+    network = label_network(volume, camera, shading="blinn_phong", label_table=labels, compositing=mode,
+                            ray_bounds=True)
     processor = network.processors["lrc"]
     network.evaluate("lrc.image", size=SIZE)
     assert dict(processor.passes[-1][1])["SKIP_EMPTY_SPACE"] and dict(processor.passes[-1][1])["RAY_BOUNDS"]

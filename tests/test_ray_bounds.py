@@ -71,8 +71,8 @@ def aligned_size(volume):
     return (volume.dims[0], volume.dims[1])  # one pixel per voxel column
 
 
-def render(network, size, bounds, monkeypatch):
-    monkeypatch.setattr(ray_bounds, "ENABLED", bounds)
+def render(network, size, bounds):
+    network.set("rc.ray_bounds", bounds)
     image = network.evaluate("rc.image", size=size)
     depth = network.evaluate("rc.depth", size=size)
     defines = network["rc"].passes[-1][1]
@@ -80,13 +80,13 @@ def render(network, size, bounds, monkeypatch):
     return image, depth, defines
 
 
-def three_ways(volume, camera, monkeypatch, size=SIZE, **properties):
+def three_ways(volume, camera, size=SIZE, **properties):
     """(image, depth, defines) with bounds, with skipping but no bounds, and without skipping."""
     network = rendering_network(volume, camera, **properties)
-    bounded = render(network, size, True, monkeypatch)
-    skipped = render(network, size, False, monkeypatch)
+    bounded = render(network, size, True)
+    skipped = render(network, size, False)
     network.set("rc.empty_space_skipping", False)
-    plain = render(network, size, True, monkeypatch)
+    plain = render(network, size, True)
     assert plain[2].get("RAY_BOUNDS") is not True and skipped[2].get("RAY_BOUNDS") is not True
     return bounded, skipped, plain
 
@@ -105,10 +105,10 @@ def tree_volume():
 @pytest.mark.parametrize("camera_name", ["perspective", "orthographic", "aligned", "inside", "far_plane_cut"])
 @pytest.mark.parametrize("mode, shading", [("dvr", "none"), ("dvr", "blinn_phong"), ("iso", "none"),
                                            ("first_hit", "none")])
-def test_bounds_change_no_pixel(tree_volume, camera_name, mode, shading, monkeypatch):
+def test_bounds_change_no_pixel(tree_volume, camera_name, mode, shading):
     camera = cameras(tree_volume)[camera_name]
     size = aligned_size(tree_volume) if camera_name == "aligned" else SIZE
-    bounded, skipped, plain = three_ways(tree_volume, camera, monkeypatch, size, compositing=mode,
+    bounded, skipped, plain = three_ways(tree_volume, camera, size, compositing=mode,
                                          shading=shading, transfer_function=TREE_TF, iso_level=0.3)
     assert bounded[2].get("RAY_BOUNDS") is True
     assert np.ptp(plain[0][..., 0]) > 0.1  # something varied is in the picture
@@ -120,23 +120,23 @@ def test_bounds_change_no_pixel(tree_volume, camera_name, mode, shading, monkeyp
 
 
 @pytest.mark.parametrize("rate, interpolation", [(0.5, "trilinear"), (2.3, "trilinear"), (1.0, "nearest")])
-def test_other_rates_interpolation_and_jitter(tree_volume, rate, interpolation, monkeypatch):
+def test_other_rates_interpolation_and_jitter(tree_volume, rate, interpolation):
     network_properties = dict(compositing="dvr", transfer_function=TREE_TF, sampling_rate=rate,
                               interpolation=interpolation)
-    bounded, skipped, plain = three_ways(tree_volume, cameras(tree_volume)["perspective"], monkeypatch,
+    bounded, skipped, plain = three_ways(tree_volume, cameras(tree_volume)["perspective"],
                                          **network_properties)
     assert bounded[2].get("RAY_BOUNDS") is True
     assert_same_picture(bounded, plain)
     network = rendering_network(tree_volume, cameras(tree_volume)["perspective"], **network_properties)
     network.set("eep.jitter", 1.0)
-    assert_same_picture(render(network, SIZE, True, monkeypatch), render(network, SIZE, False, monkeypatch))
+    assert_same_picture(render(network, SIZE, True), render(network, SIZE, False))
 
 
-def test_a_tile_of_the_view(tree_volume, monkeypatch):
+def test_a_tile_of_the_view(tree_volume):
     """A tile (Camera.tile, as the distributed renderer draws them) has rays off the view axis."""
     full = cameras(tree_volume)["perspective"]
     camera = full.tile(40, 8, 48, 36, 128, 96)
-    bounded, skipped, plain = three_ways(tree_volume, camera, monkeypatch, (48, 36), compositing="dvr",
+    bounded, skipped, plain = three_ways(tree_volume, camera, (48, 36), compositing="dvr",
                                          transfer_function=TREE_TF)
     assert bounded[2].get("RAY_BOUNDS") is True
     assert np.ptp(plain[0][..., 0]) > 0.1
@@ -154,11 +154,11 @@ def bounds_per_pixel(network, size):
 
 
 @pytest.mark.parametrize("camera_name", ["perspective", "inside"])
-def test_bounds_hold_the_first_contribution_and_leave_out_air(tree_volume, camera_name, monkeypatch):
+def test_bounds_hold_the_first_contribution_and_leave_out_air(tree_volume, camera_name):
     camera = cameras(tree_volume)[camera_name]
     network = rendering_network(tree_volume, camera, compositing="dvr", transfer_function=TREE_TF)
     size = (128, 96)  # tiles of 4 pixels, a few voxels wide
-    bounded = render(network, size, True, monkeypatch)
+    bounded = render(network, size, True)
     near, far = bounds_per_pixel(network, size)
     view = network["rc"].view_camera
     _, directions = view.rays(*size)
@@ -175,51 +175,51 @@ def test_bounds_hold_the_first_contribution_and_leave_out_air(tree_volume, camer
         assert np.all(bounded[1][..., 2][air] == 0) and np.all(bounded[0][air] == bounded[0][0, 0])
 
 
-def test_a_tf_change_rebuilds_the_boxes(tree_volume, monkeypatch):
+def test_a_tf_change_rebuilds_the_boxes(tree_volume):
     network = rendering_network(tree_volume, cameras(tree_volume)["perspective"], compositing="dvr",
                                 transfer_function=TREE_TF)
-    first = render(network, SIZE, True, monkeypatch)
+    first = render(network, SIZE, True)
     bounds = network["rc"].parts[EmptySpace].bounds
     boxes_before = bounds._count
     # Only the brightest blobs stay visible: fewer boxes, and the image follows the TF.
     bright = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.8, 1.0, 0.5, 0.2, 0.0), (1.0, 1.0, 0.6, 0.3, 0.9)])
     network.set("rc.transfer_function", bright)
-    bounded = render(network, SIZE, True, monkeypatch)
+    bounded = render(network, SIZE, True)
     assert bounded[2].get("RAY_BOUNDS") is True
     assert 0 < bounds._count < boxes_before
     assert not np.array_equal(bounded[0], first[0])
-    assert_same_picture(bounded, render(network, SIZE, False, monkeypatch))
+    assert_same_picture(bounded, render(network, SIZE, False))
     network.set("rc.transfer_function", TREE_TF)
-    assert_same_picture(render(network, SIZE, True, monkeypatch), first)
+    assert_same_picture(render(network, SIZE, True), first)
     assert bounds._count == boxes_before
 
 
-def test_iso_level_change_rebuilds_the_boxes(tree_volume, monkeypatch):
+def test_iso_level_change_rebuilds_the_boxes(tree_volume):
     network = rendering_network(tree_volume, cameras(tree_volume)["perspective"], compositing="iso",
                                 iso_level=0.3)
-    render(network, SIZE, True, monkeypatch)
+    render(network, SIZE, True)
     low = network["rc"].parts[EmptySpace].bounds._count
     network.set("rc.iso_level", 0.9)
-    bounded = render(network, SIZE, True, monkeypatch)
+    bounded = render(network, SIZE, True)
     assert network["rc"].parts[EmptySpace].bounds._count < low
-    assert_same_picture(bounded, render(network, SIZE, False, monkeypatch))
+    assert_same_picture(bounded, render(network, SIZE, False))
 
 
 @pytest.mark.parametrize("properties", [dict(compositing="mip"), dict(compositing="xray"),
                                         dict(compositing="dvr", transfer_function=FOG_TF)])
-def test_no_bounds_where_they_are_not_exact_or_do_not_pay(tree_volume, properties, monkeypatch):
+def test_no_bounds_where_they_are_not_exact_or_do_not_pay(tree_volume, properties):
     network = rendering_network(tree_volume, cameras(tree_volume)["perspective"], **properties)
-    _, _, defines = render(network, SIZE, True, monkeypatch)
+    _, _, defines = render(network, SIZE, True)
     assert defines.get("RAY_BOUNDS") is not True
 
 
-def test_the_curvature_raycaster_draws_no_bounds(monkeypatch):
+def test_the_curvature_raycaster_draws_no_bounds():
     """It skips, but its hit search goes on to the exit point after the last sample (iso_hit.glsl),
     so fewer samples would change it."""
     volume = sample("torus", 32, "float32")
     network = ray_caster_network(volume, cameras(volume)["perspective"], "CurvatureRaycaster", id="rc",
                                  derivatives="central")
-    monkeypatch.setattr(ray_bounds, "ENABLED", True)
+    network.set("rc.ray_bounds", True)
     network.evaluate("rc.image", size=SIZE)
     passes = [defines for _, defines in network["rc"].passes]
     assert any(defines.get("SKIP_EMPTY_SPACE") for defines in passes)
@@ -228,7 +228,7 @@ def test_the_curvature_raycaster_draws_no_bounds(monkeypatch):
 
 @pytest.mark.parametrize("derivatives", ["central", "tricubic"])
 @pytest.mark.parametrize("normalization", ["linear", "exponential"])
-def test_the_curvature_volume_raycaster_with_bounds(derivatives, normalization, monkeypatch):
+def test_the_curvature_volume_raycaster_with_bounds(derivatives, normalization):
     """Its march is the RayCaster's dvr with colour from curvature (also the range pass of the
     linear normalisation): bounds on both passes, the same picture."""
     from helpers.curvature import coefficients_of
@@ -239,15 +239,15 @@ def test_the_curvature_volume_raycaster_with_bounds(derivatives, normalization, 
                                        (0.56, 1, 1, 1, 0.0), (1.0, 1, 1, 1, 0.0)])
     network = ray_caster_network(volume, cameras(volume)["perspective"], "CurvatureVolumeRaycaster", id="rc",
                                  derivatives=derivatives, normalization=normalization, transfer_function=surface)
-    bounded = render(network, SIZE, True, monkeypatch)
+    bounded = render(network, SIZE, True)
     passes = [defines for _, defines in network["rc"].passes]
     assert all(defines.get("RAY_BOUNDS") for defines in passes)
-    plain = render(network, SIZE, False, monkeypatch)
+    plain = render(network, SIZE, False)
     assert np.ptp(plain[0][..., 0]) > 0.1
     assert_same_picture(bounded, plain)
 
 
-def test_bonsai(monkeypatch):
+def test_bonsai():
     path = DATA / "ct_bonsai" / "bonsai.nii.gz"
     if not path.exists():
         pytest.skip(f"shared data not found at {path}")
@@ -255,7 +255,7 @@ def test_bonsai(monkeypatch):
     for camera_name in ("perspective", "inside"):
         camera = cameras(bonsai)[camera_name]
         for mode in ("dvr", "iso"):
-            bounded, skipped, plain = three_ways(bonsai, camera, monkeypatch, (96, 96), compositing=mode,
+            bounded, skipped, plain = three_ways(bonsai, camera, (96, 96), compositing=mode,
                                                  transfer_function=TREE_TF, iso_level=0.3)
             assert bounded[2].get("RAY_BOUNDS") is True
             assert np.ptp(plain[0][..., 0]) > 0.1

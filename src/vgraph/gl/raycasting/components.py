@@ -303,8 +303,8 @@ class EmptySpace(Component):
     """Empty-space skipping over blocks (vgraph.gl.raycasting.empty_space) and, where empty blocks
     contribute nothing, ray bounds from the occupied ones (vgraph.gl.raycasting.ray_bounds). The
     processor's ``skip_values(frame)`` gives (what they depend on, values(block_min, block_max)), or
-    None when this frame's mode does not skip; bounds are drawn when what they depend on is
-    (kind, ...) with kind one of BOUNDED, where empty blocks contribute nothing (the RayCaster's
+    None when this frame's mode does not skip; with ``ray_bounds`` on, bounds are drawn when what
+    they depend on is (kind, ...) with kind one of BOUNDED, where empty blocks contribute nothing (the RayCaster's
     dvr, first_hit and iso, the CurvatureVolumeRaycaster), not for mip (block maxima) or ray
     casters that do not say so (the CurvatureRaycaster's hit search also reads the exit point)."""
 
@@ -320,7 +320,10 @@ class EmptySpace(Component):
     @staticmethod
     def declare():
         return {"empty_space_skipping": BoolProperty(True, doc="skip blocks that cannot contribute "
-                                                               "(same image, faster)")}
+                                                               "(same image, faster)"),
+                "ray_bounds": BoolProperty(False, doc="start and end each ray at the occupied blocks "
+                                                      "(same image; pays where a group of pixels skips "
+                                                      "work none of them needs, not on llvmpipe)")}
 
     def bind(self, frame: Frame) -> Binding:
         texture = None
@@ -329,7 +332,8 @@ class EmptySpace(Component):
         if wanted is not None:
             texture = self.blocks.texture(frame.ctx, frame.volume, *wanted, block=block)
         bounds = None
-        if texture is not None and isinstance(wanted[0], tuple) and wanted[0][0] in self.BOUNDED:
+        if (self.processor.ray_bounds and texture is not None and isinstance(wanted[0], tuple)
+                and wanted[0][0] in self.BOUNDED):
             bounds = self.bounds.texture(frame, self.blocks.key, self.blocks.values == 0.0)
         textures = {"blocks": texture} if texture is not None else {}
         if bounds is not None:

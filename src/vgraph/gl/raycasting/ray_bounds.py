@@ -29,7 +29,6 @@ How it is exact:
 from __future__ import annotations
 
 import math
-import os
 
 import moderngl
 import numpy as np
@@ -48,8 +47,6 @@ FAR = 1e30  # the cleared value: no occupied box along the pixel's ray
 # for 300-600 boxes, 11 ms for 1075, 15 ms for 2034; the bounds saved 0-8 ms a frame).
 MAX_OCCUPIED_FRACTION = 0.75
 MAX_BOXES = 1024
-# Measurement switch: VGRAPH_RAY_BOUNDS=0 turns the bounds off (same image, the work before them).
-ENABLED = os.environ.get("VGRAPH_RAY_BOUNDS", "1") != "0"
 
 
 def occupied_boxes(occupied: np.ndarray) -> np.ndarray:
@@ -111,9 +108,9 @@ class RayBounds:
         self._frame = None  # the frame the target holds (ray casters with two passes draw it once)
 
     def texture(self, frame, key, occupied: np.ndarray | None):
-        """The bounds texture of this frame, or None when the bounds do not pay (or are off).
+        """The bounds texture of this frame, or None when the bounds do not pay.
         ``occupied``: the skip blocks' (BLOCK^3 voxels); ``key``: what they depend on."""
-        if not ENABLED or occupied is None:
+        if occupied is None:
             return None
         ctx = frame.ctx
         if self._key is None or not all(a is b or a == b for a, b in zip(key, self._key)):
