@@ -10,10 +10,11 @@ Conventions (vgraph.gl.raycasting.geometry has the long form):
 - Outputs are RGBA32F images at the render size (the Canvas's size drives it): rgb = texture
   coordinates (voxel centre i at (i + 0.5) / dims, clamped to the box of the voxel centres),
   alpha = 1 where the ray meets the box between the near and far planes, else 0 (rgb 0).
-- Exit points: back faces, then far-plane capping (pixels whose far-plane point is inside the box,
-  whose back face was clipped: the ray ends on the far plane). Entry points: front faces, then
-  near-plane capping (where the near plane cuts the box, e.g. a camera inside the volume, the ray
-  starts on the near plane, as Camera.rays does).
+- One pass writes both images: the box's back faces, then far-plane capping (pixels whose far-plane
+  point is inside the box, whose back face was clipped: the ray ends on the far plane). Every ray
+  that meets the box leaves it through a back face, also where the near plane cuts the box (a
+  camera inside the volume: the ray starts on the near plane, as Camera.rays does), so the front
+  faces and a near-plane cap are not drawn: the entry point is computed in the same fragment.
 - Rays are those of Camera.rays: one per pixel centre, row 0 at the top after Image.to_numpy().
 - Several volumes (the channels of a MultiVolumeRayCaster): the optional inports ``volume2`` ..
   ``volume4`` make the box the UNION of the connected volumes' boxes (rays_box), so every channel is
@@ -42,7 +43,7 @@ import numpy as np
 
 from vgraph import CameraProperty, FloatProperty, Inport, Outport, Processor, VGraphError
 from vgraph.clipping import ClipPlanesProperty, CropBoxProperty, cropped_box, plane_uniforms
-from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, bind_textures, fullscreen_pass, set_uniforms
+from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass, set_uniforms
 from vgraph.gl.shaders import programs
 from vgraph.camera import Camera
 from vgraph.gl.raycasting.geometry import (BOX_EPSILON, DEFAULT_CAMERA, PROXY_MARGIN, VolumeGeometry,
@@ -138,7 +139,7 @@ class EntryExitPoints(Processor):
 
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
-        self._entry, self._exit = RenderTargets(1), RenderTargets(1)
+        self._targets = RenderTargets(2)  # entry, exit
         self._cube: tuple | None = None  # (ctx, vertex buffer, {program: vertex array})
         self._volume_cache: tuple | None = None  # (volumes, crop box, _volume_uniforms of them)
         self.passes: list[tuple[str, dict]] = []  # (shader, defines) of each pass of the last frame
@@ -149,16 +150,12 @@ class EntryExitPoints(Processor):
         size = self.render_size
         volumes = tuple(v for v in (volume, volume2, volume3, volume4) if v is not None)
         self.view_camera = rays_camera(self.camera, volumes, size)
-        (entry,), (exit_points,) = self._entry.ensure(ctx, size), self._exit.ensure(ctx, size)
+        entry, exit_points = self._targets.ensure(ctx, size)
         uniforms = self._uniforms(volumes, size, self.view_camera)
         self.passes = []
-        if uniforms is None:  # the crop box leaves nothing: every ray misses
-            for image in (entry, exit_points):
-                image.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
-            return {"entry": entry, "exit": exit_points}
-        planes = {"CLIP_PLANES": len(self.clip_planes) or None}  # None: no define, no extra code
-        self._draw(ctx, exit_points, "front", planes, uniforms, "far")
-        self._draw(ctx, entry, "back", {"ENTRY": True, **planes}, uniforms, "near", exit_points)
+        self._targets.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+        if uniforms is not None:  # (None: the crop box leaves nothing, every ray misses)
+            self._draw(ctx, {"CLIP_PLANES": len(self.clip_planes) or None}, uniforms)  # None: no define
         return {"entry": entry, "exit": exit_points}
 
     def frame_volume(self, volume: Volume | None = None) -> None:
@@ -230,32 +227,28 @@ class EntryExitPoints(Processor):
                    "cap": {"proxy_min": vec(proxy_min), "proxy_max": vec(proxy_max)}}
         return boxes, proxies, hit_box, min_spacing
 
-    def _draw(self, ctx, target: Image, culled: str, defines: dict, uniforms: dict, plane: str,
-              exit_points: Image | None = None) -> None:
-        """Clear ``target``, rasterise the box's faces that survive culling, then cap with the
-        near or far plane."""
-        textures = {"exit_points": exit_points} if exit_points is not None else {}
+    def _draw(self, ctx, defines: dict, uniforms: dict) -> None:
+        """Rasterise the box's back faces into both targets, then cap with the far plane."""
         uniforms = dict(uniforms)
         faces_only, cap_only = uniforms.pop("faces"), uniforms.pop("cap")
-        target.framebuffer.use()
-        target.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
-        ctx.viewport = (0, 0, *target.size)
+        targets = self._targets
+        targets.framebuffer.use()
+        ctx.viewport = (0, 0, *targets.size)
         faces = programs.program(ctx, *FACE_SHADERS, defines, processor=self.id)
         self.passes.append((FACE_SHADERS[1], defines))
-        bind_textures(faces, textures)
         set_uniforms(faces, {**uniforms, **faces_only})
-        ctx.front_face, ctx.cull_face = "ccw", culled
+        ctx.front_face, ctx.cull_face = "ccw", "front"
         ctx.enable(moderngl.CULL_FACE)
         try:
             self._cube_vertex_array(ctx, faces).render(moderngl.TRIANGLES)
         finally:
             ctx.disable(moderngl.CULL_FACE)
-        if not plane_cuts_box(self.view_camera, plane, *self._hit_box):
+        if not plane_cuts_box(self.view_camera, "far", *self._hit_box):
             return  # the full-screen capping pass would change no pixel
-        centre, right, up = plane_frame(self.view_camera, target.size, plane)
+        centre, right, up = plane_frame(self.view_camera, targets.size, "far")
         cap = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, CAP_SHADER, defines, processor=self.id)
         self.passes.append((CAP_SHADER, defines))
-        fullscreen_pass(ctx, cap, target, textures,
+        fullscreen_pass(ctx, cap, targets, {},
                         {**uniforms, **cap_only, "cap_centre": vec(centre), "cap_right": vec(right),
                          "cap_up": vec(up)})
 

@@ -1,4 +1,4 @@
-// The point an EntryExitPoints fragment stores, shared by the face and plane-cap passes.
+// The points an EntryExitPoints fragment stores, shared by the face and plane-cap passes.
 //
 // The pixel's ray is the one of Camera.rays: origin on the near plane, direction through the
 // pixel centre (not normalised: its component along the view direction is 1, so the far plane is
@@ -8,11 +8,12 @@
 // attributes would inherit the rasteriser's sub-pixel snapping of the vertices (llvmpipe: 1/256
 // pixel, errors of ~1e-3 voxel and ragged edges).
 //
-// Stored: rgb = texture coordinates of the entry point (ENTRY) or exit point, clamped to the box
-// of the voxel centres (with EntryExitPoints' volume2..volume4 connected: to the union of the
-// volumes' boxes, in the first volume's texture space, so they may leave [0, 1]), alpha = 1. Rays that miss are discarded (the image is cleared to 0). With
-// ENTRY, entry points may be jittered: moved towards the exit point (read from the exit image,
-// drawn before) by a per-pixel pseudo-random fraction of `jitter` world units, never past it.
+// Stored, both in one pass: rgb = texture coordinates of the entry point and of the exit point,
+// clamped to the box of the voxel centres (with EntryExitPoints' volume2..volume4 connected: to
+// the union of the volumes' boxes, in the first volume's texture space, so they may leave [0, 1]),
+// alpha = 1. Rays that miss are discarded (the images are cleared to 0). Entry points may be
+// jittered: moved towards the exit point by a per-pixel pseudo-random fraction of `jitter` world
+// units, never past it.
 //
 // CLIP_PLANES = n (vgraph.clipping; only defined for n > 0, so scenes without planes compile the
 // same program as before): the interval is also cut to the kept side of n planes, dot(p, normal)
@@ -58,8 +59,6 @@ vec2 clip_interval(vec3 origin, vec3 direction, vec2 interval) {
 }
 #endif
 
-#ifdef ENTRY
-uniform sampler2D exit_points;
 uniform float jitter;                 // world units; 0 turns jitter off
 uniform vec3 texture_to_world_scale;  // dims * spacing
 
@@ -67,7 +66,6 @@ uniform vec3 texture_to_world_scale;  // dims * spacing
 float pixel_noise(vec2 pixel) {
     return fract(52.9829189 * fract(dot(pixel, vec2(0.06711056, 0.00583715))));
 }
-#endif
 
 vec2 pixel_ndc() {
     return gl_FragCoord.xy / viewport_size * 2.0 - 1.0;
@@ -83,7 +81,13 @@ vec2 slab_interval(vec3 origin, vec3 inverse, vec3 lo, vec3 hi) {
                 min(min(min(far_t.x, far_t.y), far_t.z), near_to_far));
 }
 
-vec4 box_point() {
+// The texture coordinates of the point at ray parameter s (clamped to the box).
+vec3 texture_point(vec3 origin, vec3 direction, float s) {
+    vec3 t = (origin + s * direction) * world_to_texture_scale + world_to_texture_offset;
+    return clamp(t, texture_box_min, texture_box_max);
+}
+
+void box_points(out vec4 entry, out vec4 exit) {
     vec2 ndc = pixel_ndc();
     vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
     vec3 direction = direction_centre + ndc.x * direction_right + ndc.y * direction_up;
@@ -105,24 +109,15 @@ vec4 box_point() {
         discard;  // the ray's part in the box is all on the removed side
     }
 #endif
-    float enter = interval.x;
-    float leave = interval.y;
-#ifdef ENTRY
-    float s = enter;
-#else
-    float s = leave;
-#endif
-    vec3 t = (origin + s * direction) * world_to_texture_scale + world_to_texture_offset;
-    t = clamp(t, texture_box_min, texture_box_max);
-#ifdef ENTRY
+    vec3 t = texture_point(origin, direction, interval.x);
+    vec3 u = texture_point(origin, direction, interval.y);
     if (jitter > 0.0) {
-        vec4 exit_point = texelFetch(exit_points, ivec2(gl_FragCoord.xy), 0);
-        vec3 along = exit_point.xyz - t;
+        vec3 along = u - t;
         float len = length(along * texture_to_world_scale);
-        if (exit_point.a > 0.0 && len > 0.0) {
+        if (len > 0.0) {
             t += along * (min(jitter * pixel_noise(floor(gl_FragCoord.xy)), len) / len);
         }
     }
-#endif
-    return vec4(t, 1.0);
+    entry = vec4(t, 1.0);
+    exit = vec4(u, 1.0);
 }

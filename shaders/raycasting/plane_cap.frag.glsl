@@ -1,7 +1,7 @@
 #version 330
-// Near-plane capping (entry points) and far-plane capping (exit points): pixels whose point on the
-// clipping plane lies inside the (grown) box get a fragment here, because the face the ray would
-// enter (leave) the box through was clipped away (e.g. the camera is inside the volume).
+// Far-plane capping: pixels whose point on the far plane lies inside the (grown) box get a fragment
+// here, because the back face the ray would leave the box through was clipped away. (The near
+// plane needs none: a ray that enters the box behind it still leaves through a back face.)
 #include "raycasting/entry_exit_point.glsl"
 
 uniform vec3 cap_centre;  // the pixel centre (ndc_x, ndc_y) is at centre + ndc_x right + ndc_y up
@@ -10,7 +10,8 @@ uniform vec3 cap_up;
 uniform vec3 proxy_min;   // world corners of the grown box
 uniform vec3 proxy_max;
 
-out vec4 point;
+layout(location = 0) out vec4 entry;
+layout(location = 1) out vec4 exit;
 
 void main() {
     vec2 ndc = pixel_ndc();
@@ -18,5 +19,5 @@ void main() {
     if (any(lessThan(world, proxy_min)) || any(greaterThan(world, proxy_max))) {
         discard;
     }
-    point = box_point();
+    box_points(entry, exit);
 }

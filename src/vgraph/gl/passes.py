@@ -42,8 +42,9 @@ def fullscreen_pass(ctx: moderngl.Context, program: moderngl.Program, target: Im
                     uniforms: dict[str, object] | None = None, *,
                     samplers: dict[str, moderngl.Sampler] | None = None,
                     optional: frozenset[str] | set[str] = frozenset()) -> None:
-    """Draw one fullscreen triangle with ``program`` into ``target``. ``samplers``: a sampler object
-    per texture name; ``optional``: uniform names the program need not declare."""
+    """Draw one fullscreen triangle with ``program`` into ``target`` (an Image, or RenderTargets for
+    several outputs). ``samplers``: a sampler object per texture name; ``optional``: uniform names
+    the program need not declare."""
     target.framebuffer.use()
     ctx.viewport = (0, 0, *target.size)
     units = bind_textures(program, textures or {})
