@@ -37,8 +37,9 @@ Optical model (Inácio 2009 ch. 2.4 and 4.1-4.3), in this order:
    32767`` with ``s_k = max |G_k|`` over the volume (1 where that is 0): 16-bit steps on each side
    of 0 (the texture stores 32767 plus these). Trilinear interpolation commutes with whole-voxel
    shifts and edge padding equals clamping, so unquantised this equals the on-the-fly central
-   difference at every point of the box (it differs only beyond the box, by the clamping); quantised it differs by at most
-   ``s_k / 65534`` per component. ``L = V = H = -direction``; two-sided: ``c = |dot(g / |g|, L)|``;
+   difference at every point of the box (it differs only beyond the box, by the clamping);
+   quantised it differs by at most ``s_k / 65534`` per component. ``L = V = H = -direction``;
+   two-sided: ``c = |dot(g / |g|, L)|``;
    ``rgb' = clamp(ambient * rgb + diffuse * c * rgb + specular * c ** shininess, 0, 1)``; where
    ``|g| * min(spacing) <= 1e-6`` the colour stays unshaded. Alpha is not changed. (Only samples
    with opacity > 0 are shaded; the others do not contribute anyway.)

@@ -304,9 +304,10 @@ class EmptySpace(Component):
     contribute nothing, ray bounds from the occupied ones (vgraph.gl.raycasting.ray_bounds). The
     processor's ``skip_values(frame)`` gives (what they depend on, values(block_min, block_max)), or
     None when this frame's mode does not skip; with ``ray_bounds`` on, bounds are drawn when what
-    they depend on is (kind, ...) with kind one of BOUNDED, where empty blocks contribute nothing (the RayCaster's
-    dvr, first_hit and iso, the CurvatureVolumeRaycaster), not for mip (block maxima) or ray
-    casters that do not say so (the CurvatureRaycaster's hit search also reads the exit point)."""
+    they depend on is (kind, ...) with kind one of BOUNDED, where empty blocks contribute nothing
+    (the RayCaster's dvr, first_hit and iso, the CurvatureVolumeRaycaster), not for mip (block
+    maxima) or ray casters that do not say so (the CurvatureRaycaster's hit search also reads the
+    exit point)."""
 
     glsl = ("raycasting/empty_space.glsl", "raycasting/ray_bounds.glsl")
     BOUNDED = ("opacity", "level")
@@ -340,7 +341,8 @@ class EmptySpace(Component):
             textures["ray_bounds"] = bounds
         return Binding(defines={"SKIP_EMPTY_SPACE": texture is not None, "RAY_BOUNDS": bounds is not None},
                        textures=textures,
-                       uniforms={**block_grid_uniforms(frame.volume, block), "ray_bounds_tile": ray_bounds.TILE})
+                       uniforms={**block_grid_uniforms(frame.volume, block),
+                                 "ray_bounds_tile": ray_bounds.TILE})
 
 
 class Background(Component):

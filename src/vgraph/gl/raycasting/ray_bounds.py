@@ -7,8 +7,9 @@ How it is exact:
 - The occupied blocks (those empty-space skipping keeps, radius 0), coarsened to WALK_BLOCK^3
   voxels (occupied where one of its eight is: the boxes stay a few hundred, the pass's cost), are
   merged greedily into boxes, rebuilt only when the skip blocks are (volume, TF or iso level).
-  Block k covers the samples with floor(u) in [8k, 8k + 8), u = voxel coordinate; a box's extent in u is clamped to the box of the
-  voxel centres [0, dims - 1], where the entry points are clamped to.
+  Block k covers the samples with floor(u) in [8k, 8k + 8), u = voxel coordinate; a box's extent
+  in u is clamped to the box of the voxel centres [0, dims - 1], where the entry points are
+  clamped to.
 - Each box is grown by GROW voxels before its ray interval is computed. A sample within one voxel
   (Chebyshev, in u) of an empty block reconstructs only from voxels inside that block's range
   window (block ranges carry a one-voxel margin), so it cannot contribute: growing by less than one
