@@ -9,7 +9,8 @@ import vgraph
 from vgraph.errors import VGraphError
 from vgraph.fileformat import network_document
 from vgraph.gui.cluster import ClusterSetting
-from vgraph.gui.render_process import RenderJob, RenderProgress, RenderServer
+from vgraph.gui.render_messages import RenderJob, RenderProgress
+from vgraph.gui.render_server import RenderServer
 
 from helpers.paths import REPO
 

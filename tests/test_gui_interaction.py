@@ -13,7 +13,8 @@ from vgraph.errors import VGraphError
 from vgraph.fileformat import network_document
 from vgraph.gui.changes import PropertySet
 from vgraph.gui.live_evaluation import INTERACTIVE_SCALE, LiveEvaluation
-from vgraph.gui.render_process import RenderJob, RenderResult, RenderServer, serve
+from vgraph.gui.render_messages import RenderJob, RenderResult
+from vgraph.gui.render_server import RenderServer, serve
 from vgraph.gui.evaluator import EvaluationOutcome
 from vgraph.gui.scripted_user import send_mouse
 

@@ -11,7 +11,9 @@ from vgraph.errors import NetworkFileError
 from vgraph.fileformat import network_document
 from vgraph.gui.changes import PropertySet, append_change, apply_changes, change_of
 from vgraph.gui.mirror import mirror
-from vgraph.gui.render_process import RenderJob, RenderProcess, RenderServer, plugin_modules
+from vgraph.gui.render_messages import RenderJob, plugin_modules
+from vgraph.gui.render_process import RenderProcess
+from vgraph.gui.render_server import RenderServer
 from vgraph.network import Network
 
 from helpers.paths import REPO

@@ -25,7 +25,7 @@ Conventions:
   others): every poll that brings frames shows one.
 - A result is *final* when it is at full scale and no change has happened since its job was sent.
 - Coarse first: a final result that is ``refining`` (a bricked ray caster drew coarser than planned
-  because its bricks were still being read, render_process.GUI_LOAD_LIMIT) is shown as not final
+  because its bricks were still being read, render_messages.GUI_LOAD_LIMIT) is shown as not final
   ("refining...") and the same state is rendered again (an empty-changes job), by itself, until a
   frame is complete; any change takes over as usual. A refining result that read no bricks made
   no progress: refining stops there, with a warning, rather than spin.
@@ -65,8 +65,8 @@ from vgraph.errors import VGraphError
 from vgraph.fileformat import network_document
 from vgraph.gui.changes import Change, append_change, change_of
 from vgraph.gui.evaluator import EvaluationOutcome, ProcessorStatus, format_seconds, processor_status
-from vgraph.gui.render_process import (GUI_LOAD_LIMIT, RenderJob, RenderProcess, RenderResult, describe_exit,
-                                       plugin_modules)
+from vgraph.gui.render_messages import GUI_LOAD_LIMIT, RenderJob, RenderResult, plugin_modules
+from vgraph.gui.render_process import RenderProcess, describe_exit
 from vgraph.gui.workspace import Workspace
 from vgraph.network import Network
 

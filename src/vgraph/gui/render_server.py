@@ -1,0 +1,183 @@
+"""The render process's side: a ``RenderServer`` turns the jobs of vgraph.gui.render_messages into
+results, and ``serve`` is the process's main loop.
+
+The render process keeps its network between jobs (``mirror`` applies a document as a diff; changes
+edit it in place), so unchanged processors keep their textures and outputs.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+import traceback
+
+from tqdm import tqdm
+
+from vgraph import progress as progress_api
+from vgraph.bricks.cache import LoadLimit
+from vgraph.errors import VGraphError
+from vgraph.gui.changes import apply_changes
+from vgraph.gui.cluster import ClusterRenderer, ClusterView
+from vgraph.gui.evaluator import evaluate_view, histograms, processor_status, value_scales, view_cameras
+from vgraph.gui.mirror import mirror
+from vgraph.gui.progress_messages import ProgressForwarder
+from vgraph.gui.render_messages import RenderJob, RenderProgress, RenderResult
+from vgraph.gui.view_boxes import view_boxes
+from vgraph.network import Network
+from vgraph.registry import registry
+
+
+class RenderServer:
+    """Holds the mirrored network and turns jobs into results."""
+
+    def __init__(self):
+        self.network: Network | None = None
+        self.stamp: tuple | None = None   # the stamp of the job that made ``network``
+        self.imported: set[str] = set()
+        self.cluster = ClusterRenderer()  # the Client, kept between jobs
+        self.progress = None              # progress(RenderProgress) while a frame is drawn on a cluster
+        self.running = None               # running(ProcessorProgress) while a job is evaluated
+
+    def close(self) -> None:
+        self.cluster.close()
+
+    def handle(self, job: RenderJob) -> RenderResult:
+        start = time.perf_counter()
+        result = RenderResult(job.version, job.scale, started=time.monotonic())
+        if not self._prepare(job, result):
+            return result
+        try:
+            view = self._cluster_view(job)
+            with progress_api.listening(ProgressForwarder(self.running or _ignore, job.version)):
+                result.outcome = evaluate_view(self.network, job.scale, job.include_writers,
+                                               draw=view.draw if view else None)
+                with progress_api.running("", ""):  # the window's own share, no processor's
+                    progress_api.report(0, 0, "histograms and statuses for the window")
+                    result.statuses = {pid: processor_status(self.network, p)
+                                       for pid, p in self.network.processors.items()}
+                    result.histograms = histograms(self.network)
+            if view is not None:
+                result.outcome.warnings.extend(view.messages)
+                result.statuses = view.statuses(result.statuses)
+            result.value_scales = value_scales(self.network)
+            result.view_cameras = view_cameras(self.network)
+            result.view_boxes = view_boxes(self.network)
+            incomplete = [frame for frame in self._frames(result.outcome.ran) if frame.get("complete") is False]
+            result.refining = bool(incomplete)
+            result.bricks_read = sum(frame.get("bricks_read", 0) for frame in incomplete)
+        except Exception:  # a bug below the evaluator: report it, keep serving
+            result.error = "internal error in the render process (please report it):\n" + traceback.format_exc()
+        result.seconds = time.perf_counter() - start
+        result.finished = time.monotonic()
+        return result
+
+    def skip(self, job: RenderJob) -> RenderResult:
+        """Bring the network to ``job``'s state without rendering it: a newer job is waiting, so
+        its frame would be stale before it is drawn."""
+        result = RenderResult(job.version, job.scale, started=time.monotonic(), skipped=True)
+        self._prepare(job, result)
+        result.finished = time.monotonic()
+        return result
+
+    def _prepare(self, job: RenderJob, result: RenderResult) -> bool:
+        """Apply the job's document or changes; False (with the reason in ``result``) if it cannot
+        be rendered."""
+        try:
+            self._import_plugins(job.plugins)
+            if job.document is not None:
+                self.network = mirror(None if job.fresh else self.network, job.document, job.base_dir)
+            elif not self._applied(job):
+                result.needs_document = True
+                return False
+            self.stamp = job.stamp
+            # Writers write what `vgraph run` writes: complete frames, however long they take.
+            self._limit_loading(None if job.include_writers else job.load_limit)
+        except VGraphError as error:
+            self.network = None  # half-applied: rebuild from the next document
+            result.error = str(error)
+            return False
+        return True
+
+    def _cluster_view(self, job: RenderJob) -> ClusterView | None:
+        """How this job uses the cluster: only final frames without writers go there (module
+        docstring); the client stays open across the other jobs."""
+        final = job.scale == 1.0 and not job.include_writers
+        message = self.cluster.use(job.cluster, connect=final)
+        if message is not None:
+            warning = ClusterView(self.cluster, self.network)  # draws nothing: reports the fallback
+            warning.messages.append(message)
+            return warning
+        if job.cluster is None or not final:
+            return None
+
+        def progress(done: int, total: int) -> None:
+            if self.progress is not None:
+                self.progress(RenderProgress(job.version, done, total))
+        return ClusterView(self.cluster, self.network, progress)
+
+    def _limit_loading(self, limit: LoadLimit | None) -> None:
+        """Give the processors that load progressively the job's limit, and invalidate those whose
+        last frame was incomplete: the same state drawn again is finer (module docstring)."""
+        for pid, processor in self.network.processors.items():
+            if hasattr(processor, "load_limit"):
+                processor.load_limit = limit
+                frame = getattr(processor, "last_frame", None)
+                if isinstance(frame, dict) and frame.get("complete") is False:
+                    self.network.invalidate_downstream(pid)
+
+    def _frames(self, ids) -> list[dict]:
+        """``last_frame`` of the progressively loading processors that ran in this job."""
+        return [self.network[pid].last_frame for pid in dict.fromkeys(ids)
+                if pid in self.network and isinstance(getattr(self.network[pid], "last_frame", None), dict)]
+
+    def _applied(self, job: RenderJob) -> bool:
+        """Apply the job's changes; False when they cannot be: the network is not the one they
+        were made on (none yet in a new process; another window's, when windows share the
+        process), or one failed, which leaves the network half-changed, so it is dropped and the
+        document that follows builds it again."""
+        if self.network is None or job.since != self.stamp:
+            return False
+        try:
+            apply_changes(self.network, job.changes)
+        except Exception:  # any failure means the copies differ: resync rather than fail the job
+            self.network = None
+            return False
+        return True
+
+    def _import_plugins(self, modules) -> None:
+        for module in modules:
+            if module in self.imported:
+                continue
+            if module in ("__main__", "__mp_main__"):
+                raise VGraphError("processor types defined in a script's __main__ cannot be used by the "
+                                  "render process: define them in an importable module (a plug-in)")
+            registry.load_plugin(module)
+            self.imported.add(module)
+
+
+def _ignore(message) -> None:
+    """Where progress goes when nobody asked for it (a RenderServer used without a pipe)."""
+
+
+def serve(connection) -> None:
+    """The render process's main loop."""
+    # Progress bars here need no inter-process lock; tqdm's default one is a semaphore that Python
+    # reports as leaked whenever a render process is killed.
+    tqdm.set_lock(threading.RLock())
+    server = RenderServer()
+    server.progress = server.running = connection.send
+    try:
+        while True:
+            try:
+                job = connection.recv()
+            except (EOFError, OSError):
+                return
+            while job is not None and not job.include_writers and connection.poll():
+                newer = connection.recv()   # waited behind ``job``: render that one instead
+                connection.send(server.skip(job))
+                job = newer
+            if job is None:
+                return
+            connection.send(server.handle(job))
+    finally:
+        server.close()  # the cluster's client (and a LocalCluster it started)
