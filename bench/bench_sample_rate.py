@@ -2,6 +2,7 @@
 ray-casting loop against trivial shaders that only sample.
 
     .venv/bin/python bench/bench_sample_rate.py [--size 512] [--samples 256] [--repeat 5] [--formats]
+                                                [--branches]
 
 The machine's limit is measured with full-screen passes whose every pixel takes --samples
 trilinear samples of the same 256^3 volume texture along an oblique line (one pixel, one line),
@@ -19,6 +20,13 @@ samples evaluated, so it says how much work is left per second, not the frame ra
 
 --formats adds the "fetch only" rate of 256^3 textures of random values in the formats a volume
 or a gradient volume could use (R16, R32F, RGBA8, RGBA16, RGBA16F): what one fetch costs by format.
+
+--branches adds what code that no pixel needs costs: a full-screen pass with a chain of 40
+dependent fetches, run always, inside an `if` that no pixel takes, after a `return` or a `discard`
+that every pixel takes first, and inside a `while` whose condition no pixel meets, against a pass
+that only writes a constant; and the RayCaster's pass (bonsai, composite) with a crop box that
+leaves nothing, so that every ray misses. On a GPU the skipped forms cost about as little as the constant; on
+llvmpipe (8 pixels per SIMD group, masks instead of jumps) they cost as much as running the code.
 
 Both volumes of bench_vtk, with its settings for ours (derivatives = precomputed, volume_precision
 = 16bit): the CT bonsai (uint8, uploaded as R16 unorm) and the signed-distance torus (float32,
@@ -137,10 +145,12 @@ def format_rows(ctx, args) -> list[str]:
     return rows
 
 
-def our_rate(volume: Volume, size: int, repeat: int, scene: dict) -> tuple[float, float, float]:
+def our_rate(volume: Volume, size: int, repeat: int, scene: dict,
+             crop_box: tuple | None = None) -> tuple[float, float, float]:
     """(samples per second, seconds of the RayCaster pass, samples per covered pixel)."""
     camera = Camera.looking_at_box(*volume_box(volume), direction=(-0.45, -0.35, -1.0))
     net = network(volume, camera)
+    net.set("eep.crop_box", crop_box)
     net.set("rc.derivatives", "precomputed")  # bench_vtk's settings
     net.set("rc.volume_precision", "16bit")
     net.set("rc.compositing", scene["compositing"])
@@ -162,6 +172,59 @@ def our_rate(volume: Volume, size: int, repeat: int, scene: dict) -> tuple[float
     return taken / best, best, taken / max(int(covered.sum()), 1)
 
 
+DEPENDENT_FETCHES = "\n".join(
+    f"    sum += textureLod(volume, vec3(gl_FragCoord.xy / viewport, {i / 40:.3f}) + sum.xyz * 0.01, 0.0);"
+    for i in range(40))
+BRANCHES = {  # name -> main()'s body around the fetches (FETCHES); `never` is false for every pixel
+    "constant only": "color = vec4(0.1);",
+    "fetches, always": "vec4 sum = vec4(0.0);\nFETCHES\ncolor = sum;",
+    "fetches in an if no pixel takes": "vec4 sum = vec4(0.0);\nif (never) {\nFETCHES\n}\ncolor = sum;",
+    "fetches after a return every pixel takes": "vec4 sum = vec4(0.0);\nif (!never) { color = sum; return; }\n"
+                                                "FETCHES\ncolor = sum;",
+    "fetches after a discard every pixel takes": "vec4 sum = vec4(0.0);\nif (!never) discard;\nFETCHES\ncolor = sum;",
+    "fetches in a while no pixel enters": "vec4 sum = vec4(0.0);\nwhile (never) {\nFETCHES\nbreak;\n}\n"
+                                          "color = sum;",
+}
+
+
+def branch_rows(ctx, args, volume: Volume) -> list[str]:
+    """Milliseconds of each pass of BRANCHES (module docstring), best of --repeat, and of the
+    RayCaster's pass (composite, on ``volume``) where every ray misses the box."""
+    data = np.random.default_rng(0).integers(0, 65535, 64 ** 3, dtype=np.uint16)
+    texture = ctx.texture3d((64, 64, 64), 1, data.tobytes(), dtype="nu2")
+    target = ctx.texture((args.size, args.size), 4, dtype="f4")
+    framebuffer = ctx.framebuffer(color_attachments=[target])
+    quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], dtype="f4").tobytes())
+    rows = ["", f"Code no pixel needs ({args.size}^2, best of {args.repeat}):", "",
+            "| pass | ms |", "|---|---|"]
+    for name, body in BRANCHES.items():
+        source = ("#version 330\nuniform sampler3D volume;\nuniform vec2 viewport;\n"
+                  "uniform float threshold;\nout vec4 color;\nvoid main() {\n"
+                  "bool never = gl_FragCoord.x < threshold;\n" + body.replace("FETCHES", DEPENDENT_FETCHES) + "\n}\n")
+        program = ctx.program(vertex_shader=VERTEX, fragment_shader=source)
+        for uniform, value in (("viewport", (float(args.size),) * 2), ("threshold", -1.0), ("volume", 0)):
+            if uniform in program:
+                program[uniform].value = value
+        vao = ctx.vertex_array(program, [(quad, "2f", "position")])
+        texture.use(0)
+        framebuffer.use()
+        best = float("inf")
+        for _ in range(args.repeat + 1):  # the first compiles
+            start = time.perf_counter()
+            vao.render(mode=ctx.TRIANGLE_STRIP)
+            ctx.finish()
+            best = min(best, time.perf_counter() - start)
+        rows.append(f"| {name} | {best * 1e3:.2f} |")
+        vao.release()
+        program.release()
+    for obj in (quad, framebuffer, target, texture):
+        obj.release()
+    nowhere = (-2e9, -2e9, -2e9, -1e9, -1e9, -1e9)  # a crop box outside the volume: every ray misses
+    _, seconds, _ = our_rate(volume, args.size, args.repeat, scenes("bonsai")["composite"], nowhere)
+    rows.append(f"| RayCaster, composite, every ray misses the box | {seconds * 1e3:.2f} |")
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=512)
@@ -169,6 +232,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--formats", action="store_true", help="also the fetch rate of each texture format")
+    parser.add_argument("--branches", action="store_true", help="also what code no pixel needs costs")
     args = parser.parse_args()
     ctx = get_context()
     lines = [f"{args.size}^2 image; trivial passes take {args.samples} samples per pixel; best of {args.repeat}",
@@ -192,9 +256,11 @@ def main() -> None:
             rate, seconds, per_pixel = our_rate(volume, args.size, args.repeat, scene)
             lines.append(f"| {label} | {row} | {seconds:.3f} | {per_pixel:.0f} | {rate / 1e6:.0f} | "
                          f"{rate / limit:.2f} |")
-        print("\n".join(lines[-7:]), flush=True)
+        print("\n".join(lines[-len(rows) - 2:]), flush=True)
     if args.formats:
         lines.extend(format_rows(ctx, args))
+    if args.branches:
+        lines.extend(branch_rows(ctx, args, load_volume("bonsai", 256)))
     text = "\n".join(lines) + "\n"
     print("\n" + text)
     if args.out:
