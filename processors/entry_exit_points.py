@@ -16,6 +16,9 @@ Conventions (vgraph.gl.raycasting.geometry has the long form):
   camera inside the volume: the ray starts on the near plane, as Camera.rays does), so the front
   faces and a near-plane cap are not drawn: the entry point is computed in the same fragment.
 - Rays are those of Camera.rays: one per pixel centre, row 0 at the top after Image.to_numpy().
+- Both images carry ``covered`` (vgraph.image): the bounding rectangle of the drawn box's
+  footprint, outside of which every ray misses; ray casters draw only inside it (on llvmpipe a
+  pixel whose ray misses still costs the whole shader's straight-line code).
 - Several volumes (the channels of a MultiVolumeRayCaster): the optional inports ``volume2`` ..
   ``volume4`` make the box the UNION of the connected volumes' boxes (rays_box), so every channel is
   drawn whole. The rgb stay texture coordinates of ``volume`` (the first), now clamped to the union
@@ -47,7 +50,8 @@ from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass, set_unif
 from vgraph.gl.shaders import programs
 from vgraph.camera import Camera
 from vgraph.gl.raycasting.geometry import (BOX_EPSILON, DEFAULT_CAMERA, PROXY_MARGIN, VolumeGeometry,
-                                           box_camera, plane_cuts_box, plane_frame, ray_uniforms, vec, view_camera)
+                                           box_camera, box_corners, footprint, plane_cuts_box, plane_frame, ray_uniforms,
+                                           vec, view_camera)
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
 from vgraph.volume import Volume
@@ -154,8 +158,11 @@ class EntryExitPoints(Processor):
         uniforms = self._uniforms(volumes, size, self.view_camera)
         self.passes = []
         self._targets.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
-        if uniforms is not None:  # (None: the crop box leaves nothing, every ray misses)
+        covered = (0, 0, 0, 0)  # the crop box leaves nothing: every ray misses
+        if uniforms is not None:
             self._draw(ctx, {"CLIP_PLANES": len(self.clip_planes) or None}, uniforms)  # None: no define
+            covered = footprint(uniforms["faces"]["view_projection"], self._proxy_corners, size)
+        entry.covered = exit_points.covered = covered  # only there do ray casters draw (Image)
         return {"entry": entry, "exit": exit_points}
 
     def frame_volume(self, volume: Volume | None = None) -> None:
@@ -182,7 +189,7 @@ class EntryExitPoints(Processor):
         cached = self._volume_uniforms(volumes)
         if cached is None:
             return None
-        boxes, proxy, self._hit_box, min_spacing = cached
+        boxes, proxy, self._hit_box, self._proxy_corners, min_spacing = cached
         clipping = plane_uniforms(self.clip_planes) if self.clip_planes else {}
         return {**boxes, **clipping,
                 "faces": {**proxy["faces"], "view_projection": camera.view_projection(size[0] / size[1])},
@@ -194,7 +201,8 @@ class EntryExitPoints(Processor):
 
     def _volume_uniforms(self, volumes: tuple):
         """What depends on the volumes alone, worked out once per volume set (a camera drag asks
-        every frame): (box uniforms, proxy uniforms of faces and cap, the hit box, min spacing), or
+        every frame): (box uniforms, proxy uniforms of faces and cap, the hit box, the corners of
+        the drawn box, min spacing), or
         None when the crop box leaves nothing of the rays' box."""
         crop = self.crop_box
         cache = self._volume_cache
@@ -225,7 +233,7 @@ class EntryExitPoints(Processor):
                  "texture_to_world_scale": vec(geometry.texture_to_world[0])}
         proxies = {"faces": {"proxy_min": vec(proxy_min), "proxy_size": vec(proxy_max - proxy_min)},
                    "cap": {"proxy_min": vec(proxy_min), "proxy_max": vec(proxy_max)}}
-        return boxes, proxies, hit_box, min_spacing
+        return boxes, proxies, hit_box, box_corners(proxy_min, proxy_max), min_spacing
 
     def _draw(self, ctx, defines: dict, uniforms: dict) -> None:
         """Rasterise the box's back faces into both targets, then cap with the far plane."""

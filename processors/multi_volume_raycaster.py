@@ -52,7 +52,7 @@ import numpy as np
 
 from vgraph import FloatProperty, Inport, OptionProperty, Outport, TransferFunctionProperty, VGraphError
 from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, Light,
-                                             RaycasterBase, Sampling)
+                                             RaycasterBase, Sampling, ray_main_missed)
 from vgraph.gl.raycasting.empty_space import visible_under
 from vgraph.gl.raycasting.geometry import VolumeGeometry
 from vgraph.gl.raycasting.targets import RenderTargets
@@ -165,7 +165,7 @@ class MultiVolumeRayCaster(RaycasterBase):
         outputs = dict(zip(("image", "depth"), targets.ensure(frame.ctx, entry.size)))
         own = self._channel_binding(frame, channels)
         own.defines["DEPTH_OUTPUT"] = with_depth
-        self.draw(frame, SHADER, targets, own=own)
+        self.draw(frame, SHADER, targets, own=own, missed=ray_main_missed(self.background, with_depth))
         return outputs
 
     def _check(self, channel: Channel) -> None:

@@ -33,7 +33,7 @@ from __future__ import annotations
 from vgraph import Inport, OptionProperty, Outport, VGraphError
 from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EmptySpace, EntryExit,
                                              FrontToBack, IsoSurface, Light, RaycasterBase, Sampling,
-                                             TransferFunctionLut, VolumeSampling)
+                                             TransferFunctionLut, VolumeSampling, ray_main_missed)
 from vgraph.gl.raycasting.empty_space import crossed_by, occupied_blocks, radii_if_worthwhile, visible_under
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.gradient_volume import gradient_texture, holds_values
@@ -125,7 +125,7 @@ class RayCaster(RaycasterBase):
         outputs = dict(zip(("image", "depth"), targets.ensure(frame.ctx, entry.size)))
         own = self._binding(frame)
         own.defines["DEPTH_OUTPUT"] = with_depth
-        self.draw(frame, SHADER, targets, own=own)
+        self.draw(frame, SHADER, targets, own=own, missed=ray_main_missed(self.background, with_depth))
         return outputs
 
     def _brick_by_brick(self, volume: Volume, entry: Image, exit: Image) -> dict:

@@ -77,6 +77,33 @@ def test_points_match_an_independent_slab_test(name):
     assert np.all(entry[~hit] == 0.0) and np.all(exit_points[~hit] == 0.0)
 
 
+COVERED_CAMERAS = {**CAMERAS, "a tile of the view": OUTSIDE.tile(10, 4, 30, 24, 48, 40),
+                   "far away": Camera(position=(10.0, 8.0, 60.0), focus=(0.75, 0.2, 0.5), near=1.0, far=200.0)}
+
+
+@pytest.mark.parametrize("name", COVERED_CAMERAS)
+def test_covered_rectangle_holds_every_pixel_whose_ray_meets_the_box(name):
+    """Ray casters draw only inside Image.covered (the rest is their miss value), so a hit outside
+    it would be a pixel lost."""
+    size = (30, 24) if name == "a tile of the view" else (48, 40)
+    network, _, _ = evaluate_points(random_volume(), COVERED_CAMERAS[name], size)
+    for image in (network.output("eep.entry"), network.output("eep.exit")):
+        if image.covered is None:  # a corner of the box at or behind the eye: no bound, all drawn
+            assert name in ("inside (near capping)", "near plane cuts the box")
+            continue
+        x, y, width, height = image.covered  # GL window coordinates: y counts up from the bottom row
+        inside = np.zeros(size[::-1], dtype=bool)
+        inside[size[1] - (y + height):size[1] - y, x:x + width] = True
+        assert image.to_numpy()[..., 3][~inside].max(initial=0.0) == 0.0
+    if name == "far away":  # a box far off covers a small part of the view, and so does the rectangle
+        assert width * height < 0.25 * size[0] * size[1]
+
+
+def test_covered_rectangle_is_empty_when_the_crop_box_leaves_nothing():
+    network, _, _ = evaluate_points(random_volume(), OUTSIDE, (48, 40), crop_box=(9, 9, 9, 10, 10, 10))
+    assert network.output("eep.entry").covered[2:] == (0, 0)
+
+
 def test_camera_inside_starts_every_ray_on_the_near_plane():
     camera = CAMERAS["inside (near capping)"]
     volume = random_volume()

@@ -11,6 +11,7 @@ from vgraph.camera import Camera
 from vgraph.gl.shaders import programs
 from vgraph.implicit import sample
 from vgraph.numerics.reference_raycast import Shading, VolumeSampler, render, volume_box
+from vgraph.scheduler import BlankImageWarning
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
@@ -366,3 +367,31 @@ def test_the_depth_output_is_drawn_only_when_something_reads_it(torus):
     depth = network.evaluate("rc.depth", size=SIZE)
     assert caster.passes[-1][1]["DEPTH_OUTPUT"] and (depth[..., 3] == 1.0).any()
     np.testing.assert_array_equal(network.evaluate("rc.image", size=SIZE), image)
+
+
+@pytest.mark.parametrize("compositing", ["dvr", "mip"])
+def test_pixels_outside_the_box_footprint_are_not_drawn_yet_come_out_the_same(torus, compositing, monkeypatch):
+    """The pass draws only inside the entry image's covered rectangle and clears the rest to what a
+    missed ray writes: image and depth are those of drawing every pixel, also with a background."""
+    far = Camera(position=(4.0, 3.0, 12.0), focus=tuple(np.mean(volume_box(torus), axis=0)), near=1.0, far=40.0)
+    network = rendering_network(torus, far, transfer_function=COLOURED, compositing=compositing,
+                                background=(0.1, 0.2, 0.3, 0.7))
+    image, depth = network.evaluate("rc.image", size=SIZE), network.evaluate("rc.depth", size=SIZE)
+    x, y, width, height = network.output("eep.entry").covered
+    assert 0 < width * height < 0.5 * SIZE[0] * SIZE[1]  # most pixels are not drawn
+    monkeypatch.setattr("vgraph.processors.entry_exit_points.footprint", lambda *args: None)
+    network["eep"].invalidate()
+    np.testing.assert_array_equal(network.evaluate("rc.image", size=SIZE), image)
+    np.testing.assert_array_equal(network.evaluate("rc.depth", size=SIZE), depth)
+    assert network.output("eep.entry").covered is None
+
+
+def test_a_crop_box_that_leaves_nothing_shows_the_background(torus):
+    network = rendering_network(torus, oblique_camera(torus), transfer_function=COLOURED,
+                                background=(0.1, 0.2, 0.3, 0.7))
+    network.set("eep.crop_box", (50.0, 50.0, 50.0, 60.0, 60.0, 60.0))
+    with pytest.warns(BlankImageWarning):  # the user is told why the picture is empty
+        image = network.evaluate("rc.image", size=SIZE)
+    depth = network.evaluate("rc.depth", size=SIZE)
+    np.testing.assert_array_equal(image, np.broadcast_to(np.float32([0.1, 0.2, 0.3, 0.7]), image.shape))
+    np.testing.assert_array_equal(depth, np.broadcast_to(np.float32([1.0, 0.0, 0.0, 0.0]), depth.shape))

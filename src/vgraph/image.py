@@ -9,6 +9,9 @@ Conventions:
 - Uploads: uint8 is scaled by 1/255, uint16 by 1/65535, bool to 0/1, other types are kept as values.
   One channel (H x W or H x W x 1) becomes grey (g, g, g, 1); three channels get alpha 1.
 - Sampling is linear and clamped to the edge.
+- ``covered`` may bound where a producer drew: (x, y, width, height) in GL window coordinates (y
+  up from the bottom row), outside of which every pixel is transparent (alpha 0). None: anywhere.
+  EntryExitPoints sets it to its box's footprint, so a ray caster draws only there.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ class Image:
         self.ctx = ctx
         self.texture = texture
         self._framebuffer = None
+        self.covered: tuple[int, int, int, int] | None = None  # (module docstring)
 
     # ------------------------------------------------------------------ construction
     @classmethod

@@ -131,9 +131,12 @@ class RaycasterBase(Processor):
             volume = volume.at_precision(self.volume_precision)
         return Frame(self.gl, volume, entry, exit, self.view_camera, VolumeGeometry.of(volume))
 
-    def draw(self, frame: Frame, shader: str, target, parts=None, own: Binding | None = None) -> None:
+    def draw(self, frame: Frame, shader: str, target, parts=None, own: Binding | None = None,
+             missed: tuple | None = None) -> None:
         """One fullscreen pass of ``shader`` into ``target`` with the bindings of ``parts`` (by
-        default all components) and the processor's ``own`` (which override them)."""
+        default all components) and the processor's ``own`` (which override them). ``missed``: what
+        the shader writes into each of the target's images where the pixel's ray misses; given, the
+        pass draws only inside the entry image's ``covered`` rectangle and clears the rest to it."""
         binding = Binding()
         for component in parts if parts is not None else self.components:
             binding = binding.merge(self.parts[component].bind(frame))
@@ -142,8 +145,17 @@ class RaycasterBase(Processor):
         program = programs.program(frame.ctx, FULLSCREEN_VERTEX_SHADER, shader, binding.defines,
                                    processor=self.id)
         self.passes.append((shader, binding.defines))
-        fullscreen_pass(frame.ctx, program, target, binding.textures, binding.uniforms,
-                        samplers=binding.samplers)
+        covered = frame.entry.covered if missed is not None else None
+        if covered is not None:  # outside, the values without the shader (on llvmpipe not free)
+            for image, value in zip(getattr(target, "images", [target]), missed):
+                image.framebuffer.clear(*value)
+            target.framebuffer.scissor = covered
+        try:
+            fullscreen_pass(frame.ctx, program, target, binding.textures, binding.uniforms,
+                            samplers=binding.samplers)
+        finally:
+            if covered is not None:
+                target.framebuffer.scissor = None
 
 
 # --- the components -------------------------------------------------------------------------------
@@ -154,6 +166,12 @@ class EntryExit(Component):
 
     def bind(self, frame: Frame) -> Binding:
         return Binding(textures={"entry_points": frame.entry, "exit_points": frame.exit})
+
+
+def ray_main_missed(background, with_depth: bool) -> tuple:
+    """What ray_main.glsl writes where a pixel's ray misses (RaycasterBase.draw's ``missed``): the
+    background, and the depth output's no_depth(0) (depth_output.glsl)."""
+    return (tuple(background), (1.0, 0.0, 0.0, 0.0)) if with_depth else (tuple(background),)
 
 
 class CameraRays(Component):

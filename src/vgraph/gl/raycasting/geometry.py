@@ -148,6 +148,37 @@ def plane_cuts_box(camera: Camera, plane: str, box_min, box_max) -> bool:
     return centre_depth - reach < plane_depth < centre_depth + reach
 
 
+def box_corners(box_min, box_max) -> tuple[tuple[float, float, float], ...]:
+    """The 8 corners of a box (for footprint)."""
+    return tuple((float(x), float(y), float(z)) for x in (box_min[0], box_max[0])
+                 for y in (box_min[1], box_max[1]) for z in (box_min[2], box_max[2]))
+
+
+def footprint(view_projection: np.ndarray, corners, size) -> tuple[int, int, int, int] | None:
+    """The pixels (x, y, width, height; GL window coordinates, y up) that the box with these
+    ``corners`` (box_corners) can cover when rasterised with ``view_projection``, a pixel to spare
+    on each side: the bounding rectangle of the projected corners, which holds the projection of
+    every point of the box, also where the near or far plane cuts it. None when a corner lies at
+    or behind the eye (no bound)."""
+    # Plain floats: once a frame, where numpy's per-call cost would be most of it.
+    (ax, bx, cx, dx), (ay, by, cy, dy), _, (aw, bw, cw, dw) = view_projection.tolist()
+    xs, ys = [], []
+    for x, y, z in corners:
+        w = aw * x + bw * y + cw * z + dw
+        if not w > 0.0:
+            return None
+        xs.append(min(max((ax * x + bx * y + cx * z + dx) / w, -2.0), 2.0))  # NDC, off-screen clamped
+        ys.append(min(max((ay * x + by * y + cy * z + dy) / w, -2.0), 2.0))
+
+    def pixels(low: float, high: float, count: int) -> tuple[int, int]:
+        first = min(max(math.floor((low + 1.0) * 0.5 * count) - 1, 0), count)
+        end = min(max(math.ceil((high + 1.0) * 0.5 * count) + 1, 0), count)
+        return first, end - first
+
+    (x0, width), (y0, height) = pixels(min(xs), max(xs), size[0]), pixels(min(ys), max(ys), size[1])
+    return (x0, y0, width, height)
+
+
 def ray_uniforms(camera: Camera, size) -> Mapping[str, tuple[float, ...]]:
     """Uniforms of the pixel rays (Camera.rays): origin near_centre + x near_right + y near_up and
     direction direction_centre + x direction_right + y direction_up (not normalised) for the pixel
