@@ -181,7 +181,8 @@ BRANCHES = {  # name -> main()'s body around the fetches (FETCHES); `never` is f
     "fetches in an if no pixel takes": "vec4 sum = vec4(0.0);\nif (never) {\nFETCHES\n}\ncolor = sum;",
     "fetches after a return every pixel takes": "vec4 sum = vec4(0.0);\nif (!never) { color = sum; return; }\n"
                                                 "FETCHES\ncolor = sum;",
-    "fetches after a discard every pixel takes": "vec4 sum = vec4(0.0);\nif (!never) discard;\nFETCHES\ncolor = sum;",
+    "fetches after a discard every pixel takes": "vec4 sum = vec4(0.0);\nif (!never) discard;\nFETCHES\n"
+                                                 "color = sum;",
     "fetches in a while no pixel enters": "vec4 sum = vec4(0.0);\nwhile (never) {\nFETCHES\nbreak;\n}\n"
                                           "color = sum;",
 }
@@ -200,7 +201,8 @@ def branch_rows(ctx, args, volume: Volume) -> list[str]:
     for name, body in BRANCHES.items():
         source = ("#version 330\nuniform sampler3D volume;\nuniform vec2 viewport;\n"
                   "uniform float threshold;\nout vec4 color;\nvoid main() {\n"
-                  "bool never = gl_FragCoord.x < threshold;\n" + body.replace("FETCHES", DEPENDENT_FETCHES) + "\n}\n")
+                  "bool never = gl_FragCoord.x < threshold;\n"
+                  + body.replace("FETCHES", DEPENDENT_FETCHES) + "\n}\n")
         program = ctx.program(vertex_shader=VERTEX, fragment_shader=source)
         for uniform, value in (("viewport", (float(args.size),) * 2), ("threshold", -1.0), ("volume", 0)):
             if uniform in program:

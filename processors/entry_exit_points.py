@@ -50,8 +50,8 @@ from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass, set_unif
 from vgraph.gl.shaders import programs
 from vgraph.camera import Camera
 from vgraph.gl.raycasting.geometry import (BOX_EPSILON, DEFAULT_CAMERA, PROXY_MARGIN, VolumeGeometry,
-                                           box_camera, box_corners, footprint, plane_cuts_box, plane_frame, ray_uniforms,
-                                           vec, view_camera)
+                                           box_camera, box_corners, footprint, plane_cuts_box, plane_frame,
+                                           ray_uniforms, vec, view_camera)
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
 from vgraph.volume import Volume
@@ -202,8 +202,7 @@ class EntryExitPoints(Processor):
     def _volume_uniforms(self, volumes: tuple):
         """What depends on the volumes alone, worked out once per volume set (a camera drag asks
         every frame): (box uniforms, proxy uniforms of faces and cap, the hit box, the corners of
-        the drawn box, min spacing), or
-        None when the crop box leaves nothing of the rays' box."""
+        the drawn box, min spacing), or None when the crop box leaves nothing of the rays' box."""
         crop = self.crop_box
         cache = self._volume_cache
         if (cache is None or len(cache[0]) != len(volumes) or any(a is not b for a, b in zip(cache[0], volumes))

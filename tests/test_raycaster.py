@@ -373,7 +373,8 @@ def test_the_depth_output_is_drawn_only_when_something_reads_it(torus):
 def test_pixels_outside_the_box_footprint_are_not_drawn_yet_come_out_the_same(torus, compositing, monkeypatch):
     """The pass draws only inside the entry image's covered rectangle and clears the rest to what a
     missed ray writes: image and depth are those of drawing every pixel, also with a background."""
-    far = Camera(position=(4.0, 3.0, 12.0), focus=tuple(np.mean(volume_box(torus), axis=0)), near=1.0, far=40.0)
+    centre = tuple(np.mean(volume_box(torus), axis=0))
+    far = Camera(position=(4.0, 3.0, 12.0), focus=centre, near=1.0, far=40.0)
     network = rendering_network(torus, far, transfer_function=COLOURED, compositing=compositing,
                                 background=(0.1, 0.2, 0.3, 0.7))
     image, depth = network.evaluate("rc.image", size=SIZE), network.evaluate("rc.depth", size=SIZE)
