@@ -292,9 +292,10 @@ def test_recompiles_only_when_the_define_set_changes(torus):
         network.evaluate("rc.image", size=(24, 24))
         return programs.compile_count - before
 
-    # The faces pass of both entry and exit points and the ray caster (ray bounds are off by
-    # default); the far plane does not cut the box, so the capping pass neither runs nor compiles.
-    assert compiles() == 2
+    # The faces pass of both entry and exit points, the ray caster and the fill of the pixels
+    # outside the box's footprint (ray bounds are off by default); the far plane does not cut the
+    # box, so the capping pass neither runs nor compiles.
+    assert compiles() == 3
     assert compiles(sampling_rate=3.0, early_termination=0.9, background=(1, 1, 1, 1)) == 0
     recoloured = TransferFunction(points=[(p[0], p[3], p[2], p[1], p[4]) for p in COLOURED.points])
     assert compiles(transfer_function=recoloured) == 0

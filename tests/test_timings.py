@@ -78,7 +78,9 @@ def test_the_window_shows_node_times_that_add_up_to_the_frame(window, jobs, data
     assert window.open_network(HEAD)
     window.workspace.set_property("canvas.size", list(SIZE))
     window.evaluation.run(wait=True)
-    window.workspace.set_property("rc.sampling_rate", 1.5)  # a frame of the ray caster alone
+    # A frame of the ray caster alone, long enough that the window's own share of the result's time
+    # (statuses, histograms: 3-10 ms) stays well inside the 20 %.
+    window.workspace.set_property("rc.sampling_rate", 4.0)
     outcome = window.evaluation.run(wait=True)
     result = window.evaluation.last_result
     assert outcome.ran == ["rc", "canvas"] and not outcome.failed

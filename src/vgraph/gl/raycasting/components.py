@@ -84,6 +84,9 @@ class Binding:
                        {**self.samplers, **other.samplers}, {**self.uniforms, **other.uniforms})
 
 
+MISSED_FILL_SHADER = "missed_fill.frag.glsl"
+
+
 class Component:
     """Base of the components: no properties, binds nothing."""
 
@@ -135,8 +138,9 @@ class RaycasterBase(Processor):
              missed: tuple | None = None) -> None:
         """One fullscreen pass of ``shader`` into ``target`` with the bindings of ``parts`` (by
         default all components) and the processor's ``own`` (which override them). ``missed``: what
-        the shader writes into each of the target's images where the pixel's ray misses; given, the
-        pass draws only inside the entry image's ``covered`` rectangle and clears the rest to it."""
+        the shader writes into each of the target's images where the pixel's ray misses; given, a
+        trivial pass writes these everywhere (shaders/missed_fill.frag.glsl says why not a clear)
+        and the pass draws only inside the entry image's ``covered`` rectangle."""
         binding = Binding()
         for component in parts if parts is not None else self.components:
             binding = binding.merge(self.parts[component].bind(frame))
@@ -144,12 +148,14 @@ class RaycasterBase(Processor):
             binding = binding.merge(own)
         program = programs.program(frame.ctx, FULLSCREEN_VERTEX_SHADER, shader, binding.defines,
                                    processor=self.id)
-        self.passes.append((shader, binding.defines))
         covered = frame.entry.covered if missed is not None else None
         if covered is not None:  # outside, the values without the shader (on llvmpipe not free)
-            for image, value in zip(getattr(target, "images", [target]), missed):
-                image.framebuffer.clear(*value)
+            fill = programs.program(frame.ctx, FULLSCREEN_VERTEX_SHADER, MISSED_FILL_SHADER, {},
+                                    processor=self.id)
+            self.passes.append((MISSED_FILL_SHADER, {}))
+            fullscreen_pass(frame.ctx, fill, target, uniforms={f"missed{i}": v for i, v in enumerate(missed)})
             target.framebuffer.scissor = covered
+        self.passes.append((shader, binding.defines))
         try:
             fullscreen_pass(frame.ctx, program, target, binding.textures, binding.uniforms,
                             samplers=binding.samplers)
