@@ -1,8 +1,8 @@
 #version 330
 // What a ray caster writes where every ray misses, drawn before its pass is cut to the box's
-// footprint (RaycasterBase.draw's ``missed``): a draw, not a clear, because llvmpipe gives a
-// texture that is cleared while queued work still reads it new storage, so memory swung by whole
-// images per frame (vgraph.leaks).
+// footprint (RaycasterBase.draw's ``missed``). A draw, not a clear: with a clear of the outputs
+// before each pass, llvmpipe's resident memory swung by whole volume textures from frame to frame
+// (tests/test_leaks.py caught it); with this draw it stays flat.
 uniform vec4 missed0;
 uniform vec4 missed1;
 
