@@ -3,6 +3,9 @@ as the same scene at ordinary magnitudes. Before, a camera `far` of 1e999 or a f
 float32 rendered black with exit 0, and a constant volume at 3.4e38 raised ZeroDivisionError."""
 
 import json
+import subprocess
+import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -119,10 +122,52 @@ def test_an_empty_render_of_visible_content_warns_naming_the_renderer():
         network.evaluate("rc.image", size=(32, 32))
 
 
-def test_an_empty_render_of_an_empty_scene_does_not_warn(recwarn):
-    network = ray_caster_network(Volume(np.zeros((N, N, N), np.float32)), CAMERA)
+def test_an_empty_render_of_what_the_transfer_function_hides_does_not_warn(recwarn):
+    hidden = {"points": [[0.0, 1, 1, 1, 0.0], [1.0, 1, 1, 1, 0.0]]}
+    network = ray_caster_network(Volume(ball()), CAMERA, transfer_function=hidden)
     network.evaluate("rc.image", size=(32, 32))
     assert not [w for w in recwarn if issubclass(w.category, BlankImageWarning)]
+
+
+# Found by the red team (issue 27): a TF that starts rising just after intensity 0 made the
+# histogram bin of a constant volume count as visible: "100% of the voxels are visible".
+RISING_AFTER_ZERO = {"points": [[0.0, 1, 1, 1, 0.0], [0.001, 1, 1, 1, 1.0], [1.0, 1, 1, 1, 1.0]]}
+
+
+@pytest.mark.parametrize("value, dtype", [(7.0, np.float32), (0.0, np.uint8), (1.7e308, np.float64),
+                                          (-3.4e38, np.float32)])
+def test_an_empty_render_of_a_constant_volume_says_the_volume_is_constant(value, dtype):
+    network = ray_caster_network(Volume(np.full((N, N, N), value, dtype)), CAMERA,
+                                 transfer_function=RISING_AFTER_ZERO)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        image = network.evaluate("rc.image", size=(32, 32))
+    assert np.all(image == image[:1, :1])
+    messages = [str(w.message) for w in caught]
+    assert len(messages) == 1, messages  # no RuntimeWarning of numpy's either (1.7e308 overflowed)
+    assert issubclass(caught[0].category, BlankImageWarning)
+    assert f"rc (RayCaster) rendered an empty image: its volume (in memory) is constant, every " \
+           f"finite voxel is {value:.7g} (intensity 0 of its value range" in messages[0]
+    assert "visible" not in messages[0]
+
+
+def test_a_constant_volume_the_transfer_function_shows_renders_it():
+    further = Camera(position=(11.5, 11.5, 120.0), focus=(11.5, 11.5, 11.5))
+    network = ray_caster_network(Volume(np.full((N, N, N), 7.0, np.float32), declared_range=(6.0, 8.0)),
+                                 further, transfer_function=RISING_AFTER_ZERO)
+    image = network.evaluate("rc.image", size=(32, 32))
+    assert np.all(image[16, 16] == 1.0) and np.all(image[0, 0, :3] == 0.0)  # the box, opaque white
+
+
+def test_vgraph_run_of_a_constant_volume_file_warns_that_it_is_constant(tmp_path):
+    path = tmp_path / "constant.npy"
+    np.save(path, np.full((N, N, N), 7.0, np.float32))
+    run = subprocess.run([sys.executable, "-m", "vgraph", "run", str(path), "-o", str(tmp_path / "c.png")],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert f"vgraph: warning: rc (RayCaster) rendered an empty image: its volume ({path}) is constant" \
+        in run.stderr
+    assert "Warning" not in run.stderr.replace("vgraph: warning", "")  # no numpy warnings
 
 
 def test_vgraph_run_warns_on_stderr_when_the_camera_looks_away(tmp_path, capsys):

@@ -277,13 +277,33 @@ def blank_image_warning(network: Network, target: str, pixels: np.ndarray) -> st
     if "." in target and split_address(target)[1] != "image":
         return None  # depth, positions, curvature values: flat is no sign of a wrong view
     processor_id = _target_processor(network, target)
-    for pid in (processor_id, *nx.ancestors(network.graph, processor_id)):
-        processor = network.processors[pid]
+    upstream = nx.shortest_path_length(network.graph.reverse(copy=False), processor_id)
+    chain = [network.processors[pid] for pid in sorted(upstream, key=upstream.get)]  # nearest first
+    for processor in chain:
         content = processor.visible_content()
         if content:
-            return (f"{pid} ({processor.type_name}) rendered an empty image although {content}: "
-                    f"is the volume in view (camera position, near and far) and is its value "
-                    f"range right?")
+            return (f"{processor.id} ({processor.type_name}) rendered an empty image although "
+                    f"{content}: is the volume in view (camera position, near and far) and is its "
+                    f"value range right?")
+    return next(filter(None, map(_constant_input, chain)), None)
+
+
+def _constant_input(processor: Processor) -> str | None:
+    """Why a renderer (a processor that says what its inputs should show) of a constant volume
+    shows nothing: one value has no structure, and it sits at one end of the range the volume maps
+    itself to."""
+    if type(processor).visible_content is Processor.visible_content:
+        return None
+    for port, data in getattr(processor, "inputs", {}).items():
+        value = getattr(data, "constant_value", None)
+        if value is not None:
+            low, high = data.value_range
+            return (f"{processor.id} ({processor.type_name}) rendered an empty image: its {port} "
+                    f"({data.source or 'in memory'}) is constant, every finite voxel is {value:.7g} "
+                    f"(intensity {float(data.normalized(value)):.3g} of its value range "
+                    f"[{low:.7g}, {high:.7g}]), and nothing is shown at that value; give the "
+                    f"volume a value_range that places it where the transfer function (or the "
+                    f"iso level) shows it")
     return None
 
 

@@ -188,7 +188,8 @@ class Volume:
             # Values a float32 rounding outside the range (a declared range computed in float64)
             # still count in the end bins.
             lo, hi = self.value_range
-            rounding = np.finfo(np.float32).eps * max(abs(lo), abs(hi)) / (hi - lo)
+            # in Python floats: float32 arithmetic overflows for ranges near 1.8e308
+            rounding = float(np.finfo(np.float32).eps) * max(abs(lo), abs(hi)) / (hi - lo)
             counts = np.zeros(bins, dtype=np.int64)
             for stored in self._slabs():
                 slab = self.normalized(stored)
@@ -196,6 +197,26 @@ class Volume:
                 counts += np.histogram(np.clip(inside, 0.0, 1.0), bins=bins, range=(0.0, 1.0))[0]
             self.__dict__[key] = (counts, np.linspace(0.0, 1.0, bins + 1))
         return self.__dict__[key]
+
+    def share_of_voxels(self, test) -> float:
+        """Share of the finite voxels whose normalised intensities pass ``test`` (array ->
+        booleans), slab by slab; 0 when no voxel is finite."""
+        passed = total = 0
+        for stored in self._slabs():
+            if stored.dtype.kind == "f":
+                stored = stored[np.isfinite(stored)]
+            total += stored.size
+            passed += int(np.count_nonzero(test(self.normalized(stored))))
+        return passed / total if total else 0.0
+
+    @property
+    def constant_value(self) -> float | None:
+        """The one value of every finite voxel when there is exactly one, else None (also when
+        the extremes are not known without reading a volume larger than memory)."""
+        extremes = self.finite_extremes
+        if extremes is None or extremes[0] != extremes[1]:
+            return None
+        return float(extremes[0])
 
     # --- what a consumer needs -------------------------------------------------------------------
     def require_samples(self, consumer: str) -> "Volume":

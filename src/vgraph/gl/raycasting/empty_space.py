@@ -162,14 +162,18 @@ def level_occupancy(level: float):
 
 
 # --- what a ray caster should show -----------------------------------------------------------------
-def visible_under(volume: Volume, transfer_function, bins: int = 256) -> str | None:
-    """Which share of the voxels the transfer function gives any opacity (bins of the histogram
-    against the LUT's largest opacity in each bin), in words; None if none."""
-    counts, _ = volume.histogram(bins)
-    alpha = transfer_function.for_volume(volume).lut()[:, 3]
-    bin_alpha = alpha[:len(alpha) // bins * bins].reshape(bins, -1).max(axis=1)
-    share = counts[bin_alpha > 0].sum() / max(counts.sum(), 1)
-    return f"{share:.0%} of the voxels are visible under the transfer function" if share > 0 else None
+def visible_under(volume: Volume, transfer_function) -> str | None:
+    """Which share of the finite voxels the transfer function gives any opacity, in words; None if
+    none. Voxel by voxel, classified as the shaders classify (the LUT interpolated linearly,
+    clamped at its ends): a histogram bin that merely touches an opaque entry claimed a constant
+    volume at intensity 0 "100 % visible" under a TF that starts rising just after 0."""
+    alpha = transfer_function.for_volume(volume).lut()[:, 3].astype(np.float64)
+    entries = np.linspace(0.0, 1.0, len(alpha))
+    share = volume.share_of_voxels(lambda intensity: np.interp(intensity, entries, alpha) > 0.0)
+    if share == 0.0:
+        return None
+    return f"{share:.0%} of the voxels are visible under the transfer function" if share >= 0.005 \
+        else "under 1% of the voxels are visible under the transfer function"
 
 
 def crossed_by(volume: Volume, level: float) -> str | None:
