@@ -17,6 +17,10 @@ class MeshSource(Processor):
                             doc="the mesh file (.vtk, .vtu, .msh, .mesh, .xdmf, .ex2 with netCDF4, ...)")
     array = StringProperty("", doc="the point array to render; empty: the first point array; "
                                    "'cell:NAME' takes a cell array, averaged to the points")
+    component = StringProperty("", doc="of an array with several values per point: 'magnitude', "
+                                       "a component's number (0, 1, ...) or X, Y, Z; empty: the "
+                                       "magnitude of a 3-component vector (other counts must "
+                                       "choose)")
     value_range = VectorProperty(None, size=2, optional=True,
                                  doc="scalar values mapped to intensities 0 and 1; empty: the "
                                      "array's min..max")
@@ -33,6 +37,6 @@ class MeshSource(Processor):
         self.check()
         if not self.path:
             raise VGraphError(f"{self.id}.path: no mesh file chosen")
-        return read_mesh(self.resolve_path(self.path), array=self.array,
+        return read_mesh(self.resolve_path(self.path), array=self.array, component=self.component,
                          declared_range=self.value_range,
                          reference_length=self.reference_length or None)

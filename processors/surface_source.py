@@ -16,8 +16,12 @@ class SurfaceSource(Processor):
                             doc="the surface file (.obj, .stl, .ply, .off, .vtk, .vtu, ...)")
     array = StringProperty("", doc="the point array that gives the vertices' scalars (a colour map "
                                    "in the GeometryRenderer); empty: the first one, if any")
+    component = StringProperty("", doc="of an array with several values per point: 'magnitude', "
+                                       "a component's number (0, 1, ...) or X, Y, Z; empty: the "
+                                       "magnitude of a 3-component vector (other counts must "
+                                       "choose)")
 
     def process(self) -> Geometry:
         if not self.path:
             raise VGraphError(f"{self.id}.path: no surface file chosen")
-        return read_surface(self.resolve_path(self.path), array=self.array)
+        return read_surface(self.resolve_path(self.path), array=self.array, component=self.component)

@@ -64,6 +64,11 @@ class VolumeFileError(VGraphError):
         super().__init__(f"{place}: {reason}")
 
 
+class MeshFileError(VolumeFileError):
+    """A mesh or surface file could not be read. Names the file and, where known, the part of it
+    (a cell block, an array, the points)."""
+
+
 class OutputFileError(VGraphError):
     """A result could not be written (missing or read-only folder, full disk, a folder in the way).
     Names the file; an existing file of that name is left as it was."""

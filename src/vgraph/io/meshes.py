@@ -1,6 +1,6 @@
 """Reading unstructured meshes into a TetMesh (docs/tetrahedra.md, "Meshes and MeshSource").
 
-    read_mesh(path, array="", declared_range=None, reference_length=None) -> TetMesh
+    read_mesh(path, array="", declared_range=None, reference_length=None, component="") -> TetMesh
 
 Files are read with meshio: VTK legacy (.vtk) and XML (.vtu), Gmsh (.msh), Medit (.mesh,
 .meshb), XDMF (.xdmf, .xmf; meshio's reader needs the h5py package), Exodus II (.e, .exo, .ex2;
@@ -13,11 +13,19 @@ optional package is named in the error, with the command that installs it. What 
   face is cut along the diagonal through its smallest vertex index); quadratic and higher-order
   cells use their corner nodes. Lines, triangles and quads (a Gmsh file's boundary) are ignored;
   a file without 3D cells is refused.
-- one point scalar: ``array`` names it; empty means the first point array. A vector array gives
-  its length. ``"cell:NAME"`` takes a cell array instead, averaged to the points (each point gets
-  the mean over the 3D cells that use it), with a VGraphWarning saying so.
+- one point scalar: ``array`` names it; empty means the first point array. ``"cell:NAME"`` takes
+  a cell array instead, averaged to the points (each point gets the mean over the 3D cells that
+  use it), with a VGraphWarning saying so. Of an array with several components ``component``
+  picks one (or the magnitude); a 3-component vector gives its magnitude by default, other counts
+  must be chosen (vgraph.io.mesh_arrays).
 - the points the tetrahedra use (others, such as a Gmsh file's geometry points, are dropped so the
-  bounds are those of the cells).
+  bounds are those of the cells). They must be coordinates GL's float32 holds: finite, within
+  +-1e15, cells at least 1e-15 across and at least 1e-5 of their distance from the origin
+  (vgraph.io.mesh_geometry).
+
+Before meshio reads a byte, the file must be a regular file and the counts its header declares
+must fit in the file and in memory (vgraph.io.mesh_counts); whatever meshio raises on damaged input
+becomes a MeshFileError.
 
 Every tetrahedron is oriented positively (two vertices swapped where its signed volume is
 negative); flat ones (zero volume, e.g. from collapsed cells) are counted and dropped with a
@@ -36,8 +44,11 @@ from pathlib import Path
 
 import numpy as np
 
-from vgraph.errors import VGraphError, VGraphWarning, VolumeFileError
+from vgraph.errors import MeshFileError, VGraphError, VGraphWarning
 from vgraph.io._common import file_problem
+from vgraph.io.mesh_arrays import CELL_PREFIX, point_scalars
+from vgraph.io.mesh_counts import check_declared_counts
+from vgraph.io.mesh_geometry import check_points
 from vgraph.mesh import TetMesh
 from vgraph.tetrahedralize import TETS_PER_CELL, orient, split_cells
 
@@ -45,17 +56,8 @@ from vgraph.tetrahedralize import TETS_PER_CELL, orient, split_cells
 MESH_EXTENSIONS = (".vtk", ".vtu", ".msh", ".mesh", ".meshb", ".xdmf", ".xmf", ".e", ".exo", ".ex2")
 EXODUS_EXTENSIONS = (".e", ".exo", ".ex2")
 FILE_FILTERS = tuple(f"*{e}" for e in MESH_EXTENSIONS)
-CELL_PREFIX = "cell:"
 _CELL_KIND = re.compile(r"^(tetra|hexahedron|wedge|pyramid)(\d*)$")
 _CORNER_COUNT = {"tetra": 4, "hexahedron": 8, "wedge": 6, "pyramid": 5}
-# Arrays meshio adds for its own bookkeeping (Gmsh tags, Medit references): never the default.
-_BOOKKEEPING = re.compile(r"^(gmsh|medit|flac3d|ansys|abaqus|nastran):")
-
-
-class MeshFileError(VolumeFileError):
-    """A mesh file could not be read. Names the file and, where known, the part of it (a cell
-    block, an array)."""
-
 
 def meshio_extensions() -> tuple[str, ...]:
     from meshio._helpers import extension_to_filetypes
@@ -68,36 +70,28 @@ def _extension(path: Path) -> str:
     return next((e for e in known if name.endswith(e)), path.suffix.lower())
 
 
-def read_mesh(path, array: str = "", declared_range=None, reference_length=None) -> TetMesh:
+def read_mesh(path, array: str = "", declared_range=None, reference_length=None,
+              component: str = "") -> TetMesh:
     """The mesh in ``path`` as tetrahedra with one point scalar (module docstring)."""
     path = Path(path)
     problem = file_problem(path)
     if problem is not None:
         raise MeshFileError(path, "file " + problem)
-    _check_extension(path)
+    check_declared_counts(path, _check_extension(path))
     raw = _read_meshio(path)
-    points = np.asarray(raw.points)
-    if points.ndim != 2 or points.shape[1] not in (2, 3) or len(points) == 0:
-        raise MeshFileError(path, f"expected points with 3 coordinates, got an array of shape "
-                                  f"{points.shape}", "points")
+    points = raw_points(path, raw)
     if points.shape[1] == 2:
         raise MeshFileError(path, "the points are 2D: a 2D mesh has no volume to render", "points")
     blocks = _volume_blocks(path, raw, len(points))
-    scalars, name = _scalars(path, raw, array, blocks, len(points))
+    scalars, name = point_scalars(path, raw, array, component, blocks, len(points))
     tets = np.concatenate([split_cells(kind, corners) for kind, corners, _ in blocks])
     used = np.unique(tets)
-    bad = ~np.all(np.isfinite(points[used]), axis=1)
-    if bad.any():
-        first = int(used[np.argmax(bad)])
-        raise MeshFileError(path, f"{int(bad.sum())} points used by cells have non-finite "
-                                  f"coordinates (the first is point {first}: "
-                                  f"{points[first].tolist()})", "points")
     remap = np.full(len(points), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
+    tets = remap[tets]
+    check_points(path, points[used], tets, numbers=used)
     points32 = points[used].astype(np.float32)
-    if not np.all(np.isfinite(points32)):
-        raise MeshFileError(path, "point coordinates beyond the float32 range (+-3.4e38)", "points")
-    tets, flat = orient(points32, remap[tets])
+    tets, flat = orient(points32, tets)
     if flat:
         warnings.warn(VGraphWarning(
             f"{path}: {flat} of {flat + len(tets)} tetrahedra have zero volume (flat or collapsed "
@@ -116,7 +110,18 @@ def read_mesh(path, array: str = "", declared_range=None, reference_length=None)
         raise MeshFileError(path, str(error)) from None
 
 
-def _check_extension(path: Path) -> None:
+def raw_points(path: Path, raw) -> np.ndarray:
+    """meshio's points as float64 (N, 2 or 3), refused when they are not numbers in that shape."""
+    points = np.asarray(raw.points)
+    if points.dtype.kind not in "uif" or points.ndim != 2 or points.shape[1] not in (2, 3) \
+            or len(points) == 0:
+        raise MeshFileError(path, f"expected points with 3 coordinates, got an array of "
+                                  f"{points.dtype} of shape {points.shape}", "points")
+    return points.astype(np.float64, copy=False)
+
+
+def _check_extension(path: Path) -> str:
+    """The file's extension, refused when no reader knows it or its package is missing."""
     extension = _extension(path)
     if extension not in MESH_EXTENSIONS and extension not in meshio_extensions():
         raise MeshFileError(path, f"unknown mesh format {extension or '(no extension)'!r}: "
@@ -125,6 +130,7 @@ def _check_extension(path: Path) -> None:
     if extension in EXODUS_EXTENSIONS and importlib.util.find_spec("netCDF4") is None:
         raise MeshFileError(path, "reading Exodus II files needs the netCDF4 package, which is not "
                                   "installed: pip install netCDF4 (or convert the file to .vtu)")
+    return extension
 
 
 def _read_meshio(path: Path):
@@ -232,63 +238,5 @@ def _volume_blocks(path: Path, raw, point_count: int) -> list[tuple[str, np.ndar
     return blocks
 
 
-def _scalars(path: Path, raw, array: str, blocks, point_count: int) -> tuple[np.ndarray, str]:
-    """(scalar per point of the file, float64, and its name) for ``array``."""
-    point_names = list(raw.point_data)
-    cell_names = list(raw.cell_data)
-    if array.startswith(CELL_PREFIX):
-        name = array[len(CELL_PREFIX):]
-        if name not in raw.cell_data:
-            raise MeshFileError(path, f"no cell array {name!r}; {_available(point_names, cell_names)}",
-                                f"array {array!r}")
-        return _cell_to_points(path, raw, name, blocks, point_count), array
-    if not array:
-        candidates = [n for n in point_names if not _BOOKKEEPING.match(n)]
-        tags = [n for n in point_names if _BOOKKEEPING.match(n)
-                and np.asarray(raw.point_data[n]).reshape(point_count, -1).shape[1] == 1]
-        if not candidates and tags:  # a Medit file holds no data, only reference numbers
-            warnings.warn(VGraphWarning(f"{path}: no data arrays; rendering the point tags "
-                                        f"{tags[0]!r} the format stores"), stacklevel=4)
-            candidates = tags
-        if not candidates:
-            raise MeshFileError(path, f"no point array to render; {_available(point_names, cell_names)}"
-                                      + (" (ask for a cell array as array = 'cell:NAME')" if cell_names else ""),
-                                "array")
-        array = candidates[0]
-    if array not in raw.point_data:
-        raise MeshFileError(path, f"no point array {array!r}; {_available(point_names, cell_names)}",
-                            f"array {array!r}")
-    return _as_scalar(path, np.asarray(raw.point_data[array]), point_count, array), array
-
-
-def _available(point_names, cell_names) -> str:
-    listed = [repr(n) for n in point_names] + [repr(CELL_PREFIX + n) for n in cell_names]
-    return f"the file has {', '.join(listed)}" if listed else "the file has no arrays"
-
-
-def _as_scalar(path: Path, values: np.ndarray, count: int, name: str) -> np.ndarray:
-    if values.dtype.kind not in "uifb":
-        raise MeshFileError(path, f"array of {values.dtype} values, not numbers", f"array {name!r}")
-    if len(values) != count:
-        raise MeshFileError(path, f"{len(values)} values for {count} {'points' if count else ''}",
-                            f"array {name!r}")
-    values = values.reshape(count, -1).astype(np.float64)
-    return values[:, 0] if values.shape[1] == 1 else np.linalg.norm(values, axis=1)
-
-
-def _cell_to_points(path: Path, raw, name: str, blocks, point_count: int) -> np.ndarray:
-    total = np.zeros(point_count)
-    count = np.zeros(point_count)
-    for kind, corners, number in blocks:
-        values = _as_scalar(path, np.asarray(raw.cell_data[name][number]), len(corners),
-                            f"{CELL_PREFIX}{name}")
-        np.add.at(total, corners.reshape(-1), np.repeat(values, corners.shape[1]))
-        np.add.at(count, corners.reshape(-1), 1.0)
-    warnings.warn(VGraphWarning(
-        f"{path}: cell array {name!r} was averaged to the points (each point gets the mean over "
-        f"the cells that use it), so the rendering interpolates between cells instead of showing "
-        f"one value per cell"), stacklevel=4)
-    return np.divide(total, count, out=np.zeros(point_count), where=count > 0)
-
-
-__all__ = ["read_mesh", "MeshFileError", "MESH_EXTENSIONS", "FILE_FILTERS", "TETS_PER_CELL"]
+__all__ = ["read_mesh", "MeshFileError", "MESH_EXTENSIONS", "FILE_FILTERS", "TETS_PER_CELL",
+           "CELL_PREFIX"]

@@ -1,6 +1,6 @@
 """Reading triangle surfaces into a Geometry (SurfaceSource; docs/exploring.md, "Surfaces").
 
-    read_surface(path, array="") -> Geometry
+    read_surface(path, array="", component="") -> Geometry
 
 Files are read with meshio (vgraph.io.meshes._read_meshio: one reader at a time, its errors
 collected): Wavefront .obj, STL (.stl, ASCII or binary), PLY (.ply), OFF (.off), VTK legacy (.vtk)
@@ -14,10 +14,16 @@ and XML (.vtu, .vtp is not read by meshio 5.3) and the other formats meshio know
   ``nx ny nz``); otherwise the GeometryRenderer computes area-weighted ones.
 - colours per point (PLY ``red green blue [alpha]``, 8-bit or float).
 - one point scalar: ``array`` names it; empty means the first point array that is neither normals
-  nor colours (none: no scalars). A vector array gives its length.
-- only the points the triangles use (the bounds, hence the camera's framing, are the surface's).
+  nor colours (none: no scalars). Of an array with several components ``component`` picks one or
+  the magnitude; a 3-component vector gives its magnitude by default, other counts must be chosen
+  (vgraph.io.mesh_arrays, as for MeshSource).
+- only the points the triangles use (the bounds, hence the camera's framing, are the surface's),
+  held to MeshSource's geometry rules (vgraph.io.mesh_geometry: finite, within +-1e15, triangles
+  at least 1e-15 across and 1e-5 of their distance from the origin).
 
-Any problem raises MeshFileError naming the file and, where there is one, the part of it.
+Only regular files are read, and declared counts are checked against the file and memory before
+meshio reads it (vgraph.io.mesh_counts), as for meshes. Any problem raises MeshFileError naming the
+file and, where there is one, the part of it.
 """
 
 from __future__ import annotations
@@ -26,9 +32,13 @@ from pathlib import Path
 
 import numpy as np
 
+from vgraph.errors import MeshFileError
 from vgraph.geometry import Geometry
 from vgraph.io._common import file_problem
-from vgraph.io.meshes import MeshFileError, _extension, _read_meshio, meshio_extensions
+from vgraph.io.mesh_arrays import one_value_each
+from vgraph.io.mesh_counts import check_declared_counts
+from vgraph.io.mesh_geometry import check_points
+from vgraph.io.meshes import _extension, _read_meshio, meshio_extensions, raw_points
 
 SURFACE_EXTENSIONS = (".obj", ".stl", ".ply", ".off", ".vtk", ".vtu")
 FILE_FILTERS = tuple(f"*{e}" for e in SURFACE_EXTENSIONS)
@@ -38,7 +48,7 @@ _NORMAL_ARRAYS = ("Normals", "normals", "obj:vn")
 _COLOR_ARRAYS = ("red", "green", "blue", "alpha", "nx", "ny", "nz")
 
 
-def read_surface(path, array: str = "") -> Geometry:
+def read_surface(path, array: str = "", component: str = "") -> Geometry:
     """The triangle surface in ``path`` (module docstring)."""
     path = Path(path)
     problem = file_problem(path)
@@ -49,26 +59,21 @@ def read_surface(path, array: str = "") -> Geometry:
         raise MeshFileError(path, f"unknown surface format {extension or '(no extension)'!r}: "
                                   f"expected one of {', '.join(SURFACE_EXTENSIONS)} (or another "
                                   f"format meshio reads)")
+    check_declared_counts(path, extension)
     raw = _read_meshio(path)
-    points = np.asarray(raw.points, dtype=np.float64)
-    if points.ndim != 2 or points.shape[1] not in (2, 3) or len(points) == 0:
-        raise MeshFileError(path, f"expected points with 3 coordinates, got an array of shape "
-                                  f"{points.shape}", "points")
+    points = raw_points(path, raw)
     if points.shape[1] == 2:  # a flat drawing: put it in the z = 0 plane
         points = np.concatenate([points, np.zeros((len(points), 1))], axis=1)
     triangles = _triangles(path, raw, len(points))
     used = np.unique(triangles)
-    if not np.all(np.isfinite(points[used])):
-        first = int(used[np.argmax(~np.all(np.isfinite(points[used]), axis=1))])
-        raise MeshFileError(path, f"points used by triangles have non-finite coordinates (the first "
-                                  f"is point {first}: {points[first].tolist()})", "points")
     remap = np.full(len(points), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
+    check_points(path, points[used], remap[triangles], numbers=used)
     data = {name: np.asarray(values) for name, values in raw.point_data.items()
             if len(np.asarray(values)) == len(points)}
     return Geometry(points[used], remap[triangles],
                     colors=_colors(data, used), normals=_normals(path, data, used),
-                    scalars=_scalars(path, data, array, used), source=str(path))
+                    scalars=_scalars(path, data, array, component, used), source=str(path))
 
 
 def _triangles(path: Path, raw, point_count: int) -> np.ndarray:
@@ -122,7 +127,7 @@ def _colors(data: dict, used: np.ndarray):
     return np.clip(rgba, 0.0, 1.0)
 
 
-def _scalars(path: Path, data: dict, array: str, used: np.ndarray):
+def _scalars(path: Path, data: dict, array: str, component: str, used: np.ndarray):
     candidates = {name: values for name, values in data.items()
                   if name not in _NORMAL_ARRAYS and name not in _COLOR_ARRAYS
                   and np.issubdtype(values.dtype, np.number)}
@@ -133,10 +138,4 @@ def _scalars(path: Path, data: dict, array: str, used: np.ndarray):
     if array not in candidates:
         known = ", ".join(candidates) or "none"
         raise MeshFileError(path, f"no point array {array!r}; the file's point arrays: {known}", "array")
-    values = candidates[array][used].astype(np.float64)
-    if values.ndim == 2:
-        values = np.linalg.norm(values, axis=1)
-    elif values.ndim != 1:
-        raise MeshFileError(path, f"point array {array!r} has shape {values.shape}: expected one "
-                                  f"value or one vector per point", "array")
-    return values
+    return one_value_each(path, candidates[array][used], len(used), array, component)
