@@ -31,6 +31,12 @@ Conventions (docs/tetrahedra_renderer.md has the long form):
   start on the near plane, b = 0 (no sample count), a = 1 where there is a depth.
 - Near and far planes do not clip tetrahedra (the automatic planes enclose the mesh); a
   tetrahedron with a vertex behind the eye is not drawn.
+- Extreme boxes (1e14 or 1e-12 across, or near the +-1e15 limit; vgraph.box_frame) are drawn in
+  their box's normalised frame (vgraph.gl.tetrahedra.frame), where the camera is an ordinary one:
+  the same picture as the mesh at ordinary size, the depth output's distance scaled back to world
+  units (``world_length``), ``view_camera`` in world units (None where a Camera cannot hold it).
+- An image left uniform although some tetrahedra are visible under the TF is reported
+  (``visible_content``, scheduler.blank_image_warning).
 """
 
 from __future__ import annotations
@@ -38,7 +44,10 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from vgraph import BoolProperty, CameraProperty, ColorProperty, Inport, OptionProperty, Outport, Processor
+from vgraph import (BoolProperty, CameraProperty, ColorProperty, Inport, OptionProperty, Outport, Processor,
+                    PropertyError)
+from vgraph.box_frame import BoxFrame
+from vgraph.camera import Camera
 from vgraph.gl.raycasting.components import TransferFunctionLut
 from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, ray_uniforms, vec
 from vgraph.gl.raycasting.targets import RenderTargets
@@ -47,6 +56,7 @@ from vgraph.gl.passes import bind_textures, set_uniform
 from vgraph.gl.shaders import programs
 from vgraph.gl.tetrahedra import preintegration
 from vgraph.gl.tetrahedra.cells import cell_attributes, visible_cells_of
+from vgraph.gl.tetrahedra.frame import mesh_in_frame
 from vgraph.gl.tetrahedra.gl_sort import GLCentroidSort
 from vgraph.gl.tetrahedra.order import VisibilityOrder, visible_tetrahedra
 from vgraph.image import Image
@@ -129,10 +139,21 @@ class ProjectedTetrahedra(Processor):
         self._draw_state: dict = {}  # ctx, index buffer, vertex arrays by program
         self.view_camera = None
 
+    def visible_content(self) -> str | None:
+        mesh = self.inputs.get("mesh")
+        if mesh is None:
+            return None
+        alpha = self.transfer_function.for_volume(mesh).lut()[:, 3]
+        share = float(visible_tetrahedra(mesh, alpha).mean())
+        if share == 0.0:
+            return None
+        return f"{share:.0%} of the tetrahedra are visible under the transfer function" if share >= 0.005 \
+            else "under 1% of the tetrahedra are visible under the transfer function"
+
     def process(self, mesh: TetMesh) -> dict:
         ctx = self.gl
         size = self.render_size
-        camera = self.view_camera = self.camera.resolved(*mesh.box, size[0] / size[1])
+        frame, mesh, camera = self._view(mesh, size)
         image, depth = self._targets.ensure(ctx, size)
         image.framebuffer.clear(*(float(v) for v in self.background))
         depth.framebuffer.clear(1.0, 0.0, 0.0, 0.0)
@@ -150,6 +171,7 @@ class ProjectedTetrahedra(Processor):
         else:
             textures = {"transfer_function": self._lut.update(ctx, self.transfer_function, mesh)}
         uniforms = self._uniforms(mesh, camera, size, by_cells)
+        uniforms["world_length"] = frame.scale
         selection = None
         if self.skip_transparent:
             visible = visible_cells_of if by_cells else visible_tetrahedra
@@ -175,6 +197,25 @@ class ProjectedTetrahedra(Processor):
             ctx.blend_func = moderngl.DEFAULT_BLENDING
             ctx.disable(moderngl.BLEND)
         return {"image": image, "depth": depth}
+
+    def _view(self, mesh: TetMesh, size) -> tuple[BoxFrame, TetMesh, Camera]:
+        """(the frame ``mesh`` is drawn in, the mesh drawn there, the concrete camera there): an
+        extreme box is drawn in its normalised frame (vgraph.gl.tetrahedra.frame). ``view_camera``
+        is the camera in world units (None where a Camera cannot hold it: a box near 1e15)."""
+        frame, drawn = mesh_in_frame(mesh)
+        try:
+            in_frame = frame.camera(self.camera)
+        except ValueError:  # a stored camera many radii from a tiny box sees a speck in world units too
+            frame, drawn, in_frame = BoxFrame(), mesh, self.camera
+        try:
+            camera = in_frame.resolved(*drawn.box, size[0] / size[1])
+        except ValueError as error:  # a Camera's limits (pydantic) or an impossible framing
+            reason = error.errors()[0]["msg"] if hasattr(error, "errors") else str(error)
+            raise PropertyError(f"{self.id}.camera", f"cannot view the mesh's box "
+                                                     f"{[list(c) for c in mesh.box]} with this camera: "
+                                                     f"{reason}") from None
+        self.view_camera = frame.world_camera(camera)
+        return frame, drawn, camera
 
     @staticmethod
     def _uniforms(mesh: TetMesh, camera, size, by_cells: bool) -> dict:

@@ -29,6 +29,8 @@ uniform vec3 near_up;          // ndc_x direction_right + ndc_y direction_up (Ca
 uniform vec3 direction_centre;
 uniform vec3 direction_right;
 uniform vec3 direction_up;
+uniform float world_length;  // world units per unit of the drawn mesh (a mesh drawn in its box's
+                             // normalised frame, vgraph.gl.tetrahedra.frame; else 1)
 
 layout(location = 0) out vec4 color;
 layout(location = 1) out vec4 depth;
@@ -55,7 +57,7 @@ void add_piece(float a, float b) {
     if (piece.a > 0.0 && depth.a == 0.0) {
         vec3 front = origin + a * direction;
         vec4 clip = view_projection * vec4(front, 1.0);
-        depth = vec4(clip.z / clip.w * 0.5 + 0.5, distance(front, origin), 0.0, 1.0);
+        depth = vec4(clip.z / clip.w * 0.5 + 0.5, distance(front, origin) * world_length, 0.0, 1.0);
     }
     color += (1.0 - color.a) * piece;
 }

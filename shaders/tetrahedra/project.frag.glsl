@@ -21,6 +21,8 @@ uniform vec2 viewport_size;
 uniform vec3 near_centre;  // the pixel centre (ndc_x, ndc_y) is at near_centre + ndc_x near_right
 uniform vec3 near_right;   // + ndc_y near_up on the near plane (where Camera.rays start)
 uniform vec3 near_up;
+uniform float world_length;  // world units per unit of the drawn mesh (a mesh drawn in its box's
+                             // normalised frame, vgraph.gl.tetrahedra.frame; else 1)
 
 layout(location = 0) out vec4 color;
 layout(location = 1) out vec4 depth;
@@ -40,7 +42,7 @@ void main() {
         vec4 clip = view_projection * vec4(x_front, 1.0);
         vec2 ndc = gl_FragCoord.xy / viewport_size * 2.0 - 1.0;
         vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
-        depth = vec4(clip.z / clip.w * 0.5 + 0.5, distance(x_front, origin), 0.0, 1.0);
+        depth = vec4(clip.z / clip.w * 0.5 + 0.5, distance(x_front, origin) * world_length, 0.0, 1.0);
     } else {
         depth = vec4(0.0);
     }
