@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from vgraph.errors import VGraphError
-from vgraph.io import fuzz_seeds
+from vgraph.io import fuzz_meshes, fuzz_seeds
 from vgraph.io.fuzz_seeds import Case, volume_values
 
 NETWORKS = Path(__file__).resolve().parents[3] / "networks"
@@ -196,6 +196,7 @@ SEEDS = {"qvis": fuzz_seeds.qvis, "raw": fuzz_seeds.raw, "nrrd": fuzz_seeds.nrrd
          "nhdr": fuzz_seeds.nhdr, "metaimage": fuzz_seeds.metaimage, "nifti": fuzz_seeds.nifti,
          "vti": fuzz_seeds.vti, "slc": fuzz_seeds.slc, "npy": fuzz_seeds.npy,
          "npz": fuzz_seeds.npz, "dicom": dicom, "image": image, "networks": network}
+SEEDS["mesh"] = fuzz_meshes.mesh
 TARGETS = tuple(SEEDS)
 
 
@@ -321,6 +322,9 @@ def _open(case: Case, path: Path):
     if case.target == "networks":
         import vgraph
         return vgraph.load(path)
+    if case.target == "mesh":
+        from vgraph.io.meshes import read_mesh
+        return read_mesh(path)
     if case.target == "image":
         from vgraph.processors.image_source import read_image_file
         return read_image_file("image", path.name, path)
