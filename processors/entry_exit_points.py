@@ -50,8 +50,8 @@ from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass, set_unif
 from vgraph.gl.shaders import programs
 from vgraph.camera import Camera
 from vgraph.gl.raycasting.geometry import (BOX_EPSILON, DEFAULT_CAMERA, PROXY_MARGIN, VolumeGeometry,
-                                           box_camera, box_corners, footprint, plane_cuts_box, plane_frame,
-                                           ray_uniforms, vec, view_camera)
+                                           box_camera, box_corners, footprint, picture_of, pixel_rays,
+                                           plane_cuts_box, plane_frame, vec, view_camera)
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
 from vgraph.volume import Volume
@@ -196,8 +196,7 @@ class EntryExitPoints(Processor):
                 "cap": proxy["cap"],
                 "near_to_far": camera.far - camera.near,
                 "jitter": float(self.jitter * min_spacing),
-                "viewport_size": (float(size[0]), float(size[1])),
-                **ray_uniforms(camera, size)}
+                **pixel_rays(camera, size)}  # a tile's pixels: the whole picture's rays
 
     def _volume_uniforms(self, volumes: tuple):
         """What depends on the volumes alone, worked out once per volume set (a camera drag asks
@@ -252,7 +251,7 @@ class EntryExitPoints(Processor):
             ctx.disable(moderngl.CULL_FACE)
         if not plane_cuts_box(self.view_camera, "far", *self._hit_box):
             return  # the full-screen capping pass would change no pixel
-        centre, right, up = plane_frame(self.view_camera, targets.size, "far")
+        centre, right, up = plane_frame(*picture_of(self.view_camera, targets.size)[:2], "far")
         cap = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, CAP_SHADER, defines, processor=self.id)
         self.passes.append((CAP_SHADER, defines))
         fullscreen_pass(ctx, cap, targets, {},

@@ -19,10 +19,11 @@ from helpers.paths import REPO
 
 SPHERE = REPO / "networks" / "raycast_sphere.json"
 TORUS = REPO / "networks" / "curvature_torus.json"
-# A tile differs from the same rectangle of the whole picture only by float32 rounding of its
-# sub-frustum's uniforms (they are computed for the window, not the whole view). Measured on
-# llvmpipe: RayCaster 2.2e-6, CurvatureRaycaster 9.6e-6, ProjectedTetrahedra (bonsai) 1.9e-5.
-TILE_TOLERANCE = 5e-5
+# The ray casters' tiles are the whole picture's pixels bit for bit: a tile's pixels take the
+# whole picture's rays (geometry.pixel_rays). A rasterising renderer's tile differs by float32
+# rounding of its sub-frustum's projection. Measured on llvmpipe: ProjectedTetrahedra 1.9e-5 (a
+# sphere's tetrahedra) to 1.2e-4 (tets_bonsai.json, 2x2 tiles at 512 x 512).
+RASTER_TOLERANCE = 2e-4
 
 
 # --- the camera's sub-frustum (no cluster) --------------------------------------------------------
@@ -83,7 +84,7 @@ def test_raycaster_tile_equals_the_rectangle_of_the_full_image(projection):
     network.set("eep.camera", network.get("eep.camera").model_copy(update={"projection": projection}))
     tile, crop = tile_and_crop(network, "eep.camera", (96, 64), (20, 10, 40, 30))
     assert crop[..., 3].min() == 1.0 and np.ptp(crop[..., :3]) > 0.1  # the sphere's edge is in it
-    assert np.abs(tile - crop).max() <= TILE_TOLERANCE
+    assert np.array_equal(tile, crop)
 
 
 def test_bricked_raycaster_tile_equals_the_rectangle_of_the_full_image():
@@ -101,7 +102,7 @@ def test_bricked_raycaster_tile_equals_the_rectangle_of_the_full_image():
     tile = network.evaluate("rc.image", size=(40, 30))
     crop = whole[10:40, 20:60]
     assert np.ptp(crop[..., :3]) > 0.1, "the volume is in the rectangle"
-    assert np.abs(tile - crop).max() <= TILE_TOLERANCE
+    assert np.array_equal(tile, crop)
 
 
 def test_a_tile_draws_its_bricks_at_the_levels_of_the_full_picture():
@@ -135,7 +136,7 @@ def test_projected_tetrahedra_tile_equals_the_rectangle_of_the_full_image():
     assert network.get("pt.camera").fit_to_data
     tile, crop = tile_and_crop(network, "pt.camera", (80, 48), (30, 8, 24, 32))
     assert np.ptp(crop[..., :3]) > 0.1, "the mesh is in the rectangle"
-    assert np.abs(tile - crop).max() <= TILE_TOLERANCE
+    assert np.abs(tile - crop).max() <= RASTER_TOLERANCE
 
 
 def test_curvature_contour_needs_the_halo():
@@ -143,7 +144,41 @@ def test_curvature_contour_needs_the_halo():
     network.set("curvature.normalization", "exponential")  # linear needs the whole image's range
     rect = (20, 10, 40, 30)
     tile, crop = tile_and_crop(network, "eep.camera", (96, 64), rect, (19, 9, 42, 32))
-    assert np.abs(tile - crop).max() <= TILE_TOLERANCE
+    assert np.array_equal(tile, crop)
+
+
+def shipped_tiles(network_or_path, size, grid):
+    """(the picture assembled from tiles rendered by the workers' code, in this process; the
+    single-process picture)."""
+    from vgraph.distributed.render import shipped
+    from vgraph.distributed.tiles import assemble
+    from vgraph.distributed.worker import render_tile
+    plan = prepare(network_or_path, tiles=grid, size=size)
+    document, base_dir = shipped(plan.network)
+    tiles = [render_tile(document, base_dir, plan.target, plan.size, tile) for tile in plan.tiles]
+    return assemble(plan.size, plan.tiles, tiles), plan.network.evaluate(plan.target, size=size)
+
+
+@pytest.mark.parametrize("name", ["labels_engine", "two_channels_hydrogen_neghip", "clip_engine", "raycast_head"])
+def test_ray_caster_tiles_are_the_single_process_pixels_bit_for_bit(name, request):
+    """Issue 27: tiles differed from the single process by up to 4 levels in 8 bits (51 at 512 x
+    512): a tile's rays were computed from its own window, a last-bit difference that a label
+    boundary, a clip plane or early termination turns into a different colour."""
+    from vgraph.imagefile import to_uint8
+    if name in ("clip_engine", "raycast_head"):
+        request.getfixturevalue("data_dir")  # these read the shared data sets
+    image, reference = shipped_tiles(REPO / "networks" / f"{name}.json", (128, 128), (2, 3))
+    assert np.ptp(reference[..., :3]) > 0.1
+    assert np.array_equal(image, reference)
+    assert np.array_equal(to_uint8(image), to_uint8(reference))  # the PNG's bytes
+
+
+def test_jittered_tiles_are_the_single_process_pixels():
+    """The jitter noise is a function of the whole picture's pixel, so a tile draws the same."""
+    network = vgraph.load(SPHERE)
+    network.set("eep.jitter", 1.0)
+    image, reference = shipped_tiles(network, (96, 64), (3, 2))
+    assert np.array_equal(image, reference)
 
 
 def test_cut_covers_the_image_once_with_halos_inside_it():
@@ -173,6 +208,9 @@ def test_bad_split_and_untileable_networks_are_refused_before_any_cluster():
         prepare(REPO / "networks" / "curvature_volume.json")
     with pytest.raises(TileError, match="ImageSource 'source' reads a whole image file"):
         prepare(REPO / "networks" / "grayscale.json")
+    # Issue 27: each tile was the whole slice squeezed into the tile (exit 0, a wrong picture).
+    with pytest.raises(TileError, match="SliceViewer 'axial' draws its whole picture into any image size"):
+        prepare(REPO / "networks" / "mpr_mri_head.json")
     with pytest.raises(TileError, match="source.volume carries Volume"):
         prepare(SPHERE, target="source.volume")
 
@@ -202,7 +240,7 @@ def test_tiles_on_two_workers_equal_the_single_process_image(client):
     image = render(SPHERE, client, split="tiles", tiles=(3, 2), size=(96, 64))
     reference = vgraph.load(SPHERE).evaluate(size=(96, 64))
     assert image.shape == reference.shape and image.dtype == np.float32
-    assert np.abs(image - reference).max() <= TILE_TOLERANCE
+    assert np.array_equal(image, reference)
     first = client.run(worker_info)
     # Again: each worker reuses its one GL context and the network it built.
     render(vgraph.load(SPHERE), client, tiles=(2, 2), size=(96, 64))
@@ -226,7 +264,7 @@ def test_tiles_of_an_ome_zarr_store_drawn_brick_by_brick_on_the_workers(client, 
     image = render(network, client, tiles=(2, 1), size=(48, 40))
     reference = network.evaluate(size=(48, 40))
     assert np.ptp(reference[..., :3]) > 0.1
-    assert np.abs(image - reference).max() <= TILE_TOLERANCE
+    assert np.array_equal(image, reference)
 
 
 def test_a_worker_error_reaches_the_client_naming_processor_and_file(client, tmp_path):
@@ -237,13 +275,16 @@ def test_a_worker_error_reaches_the_client_naming_processor_and_file(client, tmp
 
 
 def test_cli_cluster_local_writes_the_local_image(tmp_path, capsys):
+    """The PNG of the cluster is the PNG of one process, byte for byte in its pixels (issue 27:
+    labels_engine's differed by up to 4 levels at this size)."""
+    labels = REPO / "networks" / "labels_engine.json"
     distributed, local = tmp_path / "tiles.png", tmp_path / "local.png"
-    assert main(["run", str(SPHERE), "-o", str(distributed), "--size", "64x48",
+    assert main(["run", str(labels), "-o", str(distributed), "--size", "128x128",
                  "--cluster", "local:2", "--split", "tiles", "--tiles", "2x3"]) == 0
     assert "as 2x3 tiles on 2 worker(s) of local:2" in capsys.readouterr().err
-    assert main(["run", str(SPHERE), "-o", str(local), "--size", "64x48"]) == 0
-    a, b = (np.asarray(PIL.Image.open(p), dtype=int) for p in (distributed, local))
-    assert np.abs(a - b).max() <= 1  # 8-bit: a float32 rounding can cross a level at most
+    assert main(["run", str(labels), "-o", str(local), "--size", "128x128"]) == 0
+    a, b = (np.asarray(PIL.Image.open(p)) for p in (distributed, local))
+    assert np.ptp(b[..., :3]) > 25 and np.array_equal(a, b)
 
 
 @pytest.mark.parametrize("options, message", [

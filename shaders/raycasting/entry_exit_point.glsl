@@ -20,7 +20,8 @@
 // >= offset. A ray whose front face lies in the removed part now starts on the plane: the cut
 // shows the inside (capping), for every ray caster, as they march from entry to exit point. A
 // crop box needs no code here: EntryExitPoints narrows box_min/box_max (and the hit box) to it.
-uniform vec2 viewport_size;
+uniform vec2 viewport_size;  // of the whole picture (a tile's too: geometry.pixel_rays)
+uniform vec2 pixel_offset;   // where this image lies in it (0 but for a tile)
 uniform vec3 near_centre;  // near-plane point of pixel centre (ndc_x, ndc_y):
 uniform vec3 near_right;   //   near_centre + ndc_x * near_right + ndc_y * near_up
 uniform vec3 near_up;
@@ -67,8 +68,13 @@ float pixel_noise(vec2 pixel) {
     return fract(52.9829189 * fract(dot(pixel, vec2(0.06711056, 0.00583715))));
 }
 
+// The whole picture's pixel: a tile's pixels get the same numbers, bit for bit.
+vec2 picture_pixel() {
+    return gl_FragCoord.xy + pixel_offset;
+}
+
 vec2 pixel_ndc() {
-    return gl_FragCoord.xy / viewport_size * 2.0 - 1.0;
+    return picture_pixel() / viewport_size * 2.0 - 1.0;
 }
 
 // The ray parameters [enter, leave] of the part of the ray inside [lo, hi] and in [0, far - near].
@@ -115,7 +121,7 @@ void box_points(out vec4 entry, out vec4 exit) {
         vec3 along = u - t;
         float len = length(along * texture_to_world_scale);
         if (len > 0.0) {
-            t += along * (min(jitter * pixel_noise(floor(gl_FragCoord.xy)), len) / len);
+            t += along * (min(jitter * pixel_noise(floor(picture_pixel())), len) / len);
         }
     }
     entry = vec4(t, 1.0);

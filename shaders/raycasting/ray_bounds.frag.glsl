@@ -3,7 +3,8 @@
 // origin on the near plane, parameter s = depth from it, clipped to [0, far - near]) inside this
 // fragment's box, as (enter, -leave); the target blends with MIN, so it ends up holding the nearest
 // entry and the farthest exit over all boxes. Rays that miss the box are discarded.
-uniform vec2 viewport_size;     // of the full image
+uniform vec2 viewport_size;     // of the whole picture (a tile's too: geometry.pixel_rays)
+uniform vec2 pixel_offset;      // where this image lies in it
 uniform int ray_bounds_tile;    // pixels per tile and axis
 uniform vec3 near_centre;       // near-plane point of pixel centre (ndc_x, ndc_y):
 uniform vec3 near_right;        //   near_centre + ndc_x * near_right + ndc_y * near_up
@@ -19,7 +20,7 @@ flat in vec3 hi;
 layout(location = 0) out vec2 bounds;
 
 void main() {
-    vec2 ndc = gl_FragCoord.xy * float(ray_bounds_tile) / viewport_size * 2.0 - 1.0;
+    vec2 ndc = (gl_FragCoord.xy * float(ray_bounds_tile) + pixel_offset) / viewport_size * 2.0 - 1.0;
     vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
     vec3 direction = direction_centre + ndc.x * direction_right + ndc.y * direction_up;
     vec3 inverse = vec3(direction.x != 0.0 ? 1.0 / direction.x : 1e30,

@@ -109,7 +109,21 @@ def untileable(network, target: str) -> list[str]:
                 processor.property_values.get("normalization") == "linear":
             reasons.append(f"{kind} '{pid}': linear normalization scales by the whole "
                            "image's curvature range (set normalization to exponential)")
+        elif _draws_without_a_camera(processor):
+            # e.g. a SliceViewer: each tile would be the whole slice squeezed into the tile
+            reasons.append(f"{kind} '{pid}' draws its whole picture into any image size (it has no "
+                           "camera to take a tile's part of the view from)")
     return reasons
+
+
+def _draws_without_a_camera(processor) -> bool:
+    """Whether the processor makes an image from no image and without a camera."""
+    from vgraph.image import Image
+
+    makes_image = any(issubclass(port.data_type, Image) for port in processor.outports)
+    reads_image = any(issubclass(port.data_type, Image) for port in processor.inports)
+    has_camera = any(prop.kind == "camera" for prop in processor.properties.values())
+    return makes_image and not reads_image and not has_camera
 
 
 def cameras(network) -> dict[str, object]:

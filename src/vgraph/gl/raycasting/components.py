@@ -36,7 +36,7 @@ from vgraph.camera import Camera
 from vgraph.errors import VGraphError
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.raycasting.empty_space import BLOCK, WALK_BLOCK, SkipBlocks, block_grid_uniforms
-from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, VolumeGeometry, ray_uniforms, vec, view_camera
+from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, VolumeGeometry, pixel_rays, vec, view_camera
 from vgraph.gl.raycasting.light import shading_uniforms
 from vgraph.gl.raycasting import ray_bounds
 from vgraph.gl.raycasting.ray_bounds import RayBounds
@@ -192,12 +192,12 @@ class CameraRays(Component):
     def bind(self, frame: Frame) -> Binding:
         size, camera = frame.size, frame.camera
         to_world_scale, to_world_offset = frame.geometry.texture_to_world
-        rays = ray_uniforms(camera, size)
+        rays = pixel_rays(camera, size)  # a tile's pixels: the whole picture's rays
         return Binding(uniforms={
             "texture_to_world_scale": vec(to_world_scale), "texture_to_world_offset": vec(to_world_offset),
-            "view_projection": camera.view_projection(size[0] / size[1]),
-            "viewport_size": (float(size[0]), float(size[1])), "view_forward": vec(camera.basis()[2]),
-            "near_centre": rays["near_centre"], "near_right": rays["near_right"], "near_up": rays["near_up"]})
+            "view_projection": camera.view_projection(size[0] / size[1]), "view_forward": vec(camera.basis()[2]),
+            **{name: rays[name] for name in ("viewport_size", "pixel_offset", "near_centre", "near_right",
+                                             "near_up")}})
 
 
 class VolumeSampling(Component):

@@ -53,8 +53,55 @@ def view_camera(camera: Camera, volume: Volume, size) -> Camera:
 
 def box_camera(camera: Camera, box_min, box_max, size) -> Camera:
     """Camera.resolved on a box at ``size``, remembered: the processors of one frame resolve the
-    same camera (view_camera for a volume's box, EntryExitPoints' rays_camera for a union)."""
+    same camera (view_camera for a volume's box, EntryExitPoints' rays_camera for a union). A tile
+    of a picture (Camera.tile) is resolved as the whole picture is, to the last bit, and keeps
+    its window."""
+    whole, whole_size, _ = picture_of(camera, size)
+    if whole is not camera:
+        resolved = _resolved(whole, tuple(box_min), tuple(box_max), whole_size[0] / whole_size[1])
+        return _windowed(resolved, camera.window)
     return _resolved(camera, tuple(box_min), tuple(box_max), size[0] / size[1])
+
+
+def picture_of(camera: Camera, size) -> tuple[Camera, tuple[int, int], tuple[int, int]]:
+    """(the camera of the whole picture, its size (W, H), the offset of this ``size`` image in it
+    in GL window coordinates (x right, y up)) for a tile camera (Camera.tile(x, y, w, h, W, H) of
+    a camera without a window); (camera, size, (0, 0)) for any other camera. The pixels of a tile
+    are then computed with the whole picture's numbers (pixel_rays), so a tile is bit for bit the
+    same rectangle of the whole picture (docs/distributed.md)."""
+    window = camera.window
+    if window is None:
+        return camera, tuple(size), (0, 0)
+    whole = _whole_picture(window, *size)
+    if whole is None:  # a window that is no tile of a picture of whole pixels: drawn as it says
+        return camera, tuple(size), (0, 0)
+    x, y, full_width, full_height = whole
+    return _unwindowed(camera), (full_width, full_height), (x, full_height - y - size[1])
+
+
+@functools.lru_cache(maxsize=64)
+def _whole_picture(window: tuple, width: int, height: int) -> tuple[int, int, int, int] | None:
+    """(x, y (row 0 at the top), W, H) of the tile whose Camera.tile window this is, or None."""
+    left, right, bottom, top = window
+    full_width, full_height = round(2.0 * width / (right - left)), round(2.0 * height / (top - bottom))
+    x, y = round((left + 1.0) / 2.0 * full_width), round((1.0 - top) / 2.0 * full_height)
+    if not (0 <= x and 0 <= y and x + width <= full_width and y + height <= full_height):
+        return None
+    exact = (-1.0 + 2.0 * x / full_width, -1.0 + 2.0 * (x + width) / full_width,
+             1.0 - 2.0 * (y + height) / full_height, 1.0 - 2.0 * y / full_height)
+    if max(abs(a - b) for a, b in zip(exact, window)) > 1e-9:
+        return None
+    return x, y, full_width, full_height
+
+
+@functools.lru_cache(maxsize=32)
+def _unwindowed(camera: Camera) -> Camera:
+    return camera._replace(window=None)
+
+
+@functools.lru_cache(maxsize=32)
+def _windowed(camera: Camera, window: tuple) -> Camera:
+    return camera._replace(window=window)
 
 
 # (camera, volume (weakly: this must not keep a volume alive), size, resolved camera) of the last call
@@ -195,6 +242,27 @@ def ray_uniforms(camera: Camera, size) -> Mapping[str, tuple[float, ...]]:
 
 
 _last_rays: list = [None]  # (camera, size, uniforms) of the last call: a frame asks three times
+
+
+def pixel_rays(camera: Camera, size) -> Mapping[str, tuple[float, ...]]:
+    """ray_uniforms of the whole picture (picture_of) with ``viewport_size`` (its size) and
+    ``pixel_offset`` (where this image lies in it): the shaders take a pixel's NDC as
+    ``(gl_FragCoord.xy + pixel_offset) / viewport_size * 2 - 1``, so the pixels of a tile get the
+    rays of the whole picture's pixels to the last bit (with a plain camera: offset 0, bit for
+    bit what ray_uniforms and the image's size give). Read-only, like ray_uniforms."""
+    size = tuple(size)
+    last = _last_pixel_rays[0]
+    if last is not None and last[0] is camera and last[1] == size:
+        return last[2]
+    whole, whole_size, offset = picture_of(camera, size)
+    rays = MappingProxyType({**ray_uniforms(whole, whole_size),
+                             "viewport_size": (float(whole_size[0]), float(whole_size[1])),
+                             "pixel_offset": (float(offset[0]), float(offset[1]))})
+    _last_pixel_rays[0] = (camera, size, rays)
+    return rays
+
+
+_last_pixel_rays: list = [None]  # (camera, size, uniforms) of the last call
 
 
 def _ray_uniforms(camera: Camera, size) -> dict[str, tuple[float, ...]]:

@@ -36,7 +36,7 @@ import numpy as np
 
 from vgraph.gl.passes import set_uniforms
 from vgraph.gl.raycasting.empty_space import WALK_BLOCK, pairs_reduced
-from vgraph.gl.raycasting.geometry import VolumeGeometry, ray_uniforms, vec
+from vgraph.gl.raycasting.geometry import VolumeGeometry, pixel_rays, vec
 from vgraph.gl.shaders import programs
 
 SHADERS = ("raycasting/ray_bounds.vert.glsl", "raycasting/ray_bounds.frag.glsl")
@@ -159,17 +159,17 @@ class RayBounds:
         self._target(ctx, size)
         program = programs.program(ctx, *SHADERS)
         geometry = frame.geometry
-        rays = ray_uniforms(camera, size)
+        rays = pixel_rays(camera, size)  # a tile of a picture: the whole picture's rays
         coarse = self._texture.size
         # The farthest a tile's pixel centre is from the tile's centre, in NDC per axis.
-        half_x, half_y = TILE / size[0], TILE / size[1]
+        half_x, half_y = (TILE / v for v in rays["viewport_size"])
         length = lambda name: math.hypot(*rays[name])  # noqa: E731
         uniforms = {"view_projection": camera.view_projection(size[0] / size[1]),
                     "coarse_scale": (size[0] / (TILE * coarse[0]), size[1] / (TILE * coarse[1])),
                     "coverage_margin": vec(GROW * geometry.spacing), "view_forward": vec(camera.basis()[2]),
                     "tile_near": half_x * length("near_right") + half_y * length("near_up"),
                     "tile_spread": half_x * length("direction_right") + half_y * length("direction_up"),
-                    "viewport_size": (float(size[0]), float(size[1])), "ray_bounds_tile": TILE,
+                    "ray_bounds_tile": TILE,
                     "near_to_far": float(camera.far - camera.near), **rays}
         set_uniforms(program, uniforms)
         self._framebuffer.use()
