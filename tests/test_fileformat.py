@@ -241,3 +241,41 @@ def test_random_json_only_ever_raises_the_documented_error(tmp_path, document):
         load_network(path)
     except NetworkFileError as error:
         assert error.problems and all(isinstance(r, str) and r for _, r in error.problems)
+
+
+@pytest.mark.parametrize("type_name, old, new, values", [
+    ("RayCaster", "gradient", "derivatives", ("sobel", "central")),
+    ("CurvatureRaycaster", "level", "iso_level", (0.25, 0.5)),
+])
+@pytest.mark.parametrize("command", ["validate", "run"])
+def test_a_version_1_file_giving_a_value_under_its_old_and_new_name_is_refused_naming_both(
+        tmp_path, capsys, type_name, old, new, values, command):
+    """A migration that kept one of the two would lose the other without a word."""
+    document = {"format": "vgraph-network", "version": 1, "processors": [
+        {"id": "first", "type": "Number"},
+        {"id": "r", "type": type_name, "properties": {old: values[0], new: values[1]}}]}
+    path = write(tmp_path, document)
+    assert main([command, str(path)]) == 2
+    err = capsys.readouterr().err
+    assert f"processors[1].properties.{old}" in err and f"processors[1].properties.{new}" in err, err
+    assert json.dumps(values[0]) in err and json.dumps(values[1]) in err, err
+    assert "Traceback" not in err
+    with pytest.raises(NetworkFileError) as refused:
+        load_network(path)
+    assert [p for p, _ in refused.value.problems] == [f"processors[1].properties.{old}"]
+
+
+def test_a_version_0_file_giving_a_value_under_both_names_is_refused_too(tmp_path):
+    old = {"format": "vgraph-network", "version": 0,
+           "nodes": {"r": {"type": "RayCaster", "properties": {"gradient": "sobel", "derivatives": "central"}}}}
+    with pytest.raises(NetworkFileError, match=r"processors\[0\]\.properties\.gradient: .*"
+                                               r"processors\[0\]\.properties\.derivatives"):
+        load_network(write(tmp_path, old))
+
+
+def test_the_old_name_alone_still_migrates(tmp_path):
+    document = {"format": "vgraph-network", "version": 1, "processors": [
+        {"id": "r", "type": "RayCaster", "properties": {"gradient": "sobel"}},
+        {"id": "c", "type": "CurvatureRaycaster", "properties": {"level": 0.25}}]}
+    network = load_network(write(tmp_path, document))
+    assert network.get("r.derivatives") == "sobel" and network.get("c.iso_level") == 0.25

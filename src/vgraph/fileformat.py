@@ -8,7 +8,8 @@
 Loading either returns a complete Network or raises NetworkFileError listing every problem with
 its JSON path (``processors[2].properties.iso_level``) and reason; it never changes an existing network.
 Older versions are upgraded by the chain in ``MIGRATIONS`` before validation; a migration refuses
-fields it does not know, so a mislabelled file is an error rather than an empty network.
+fields it does not know, so a mislabelled file is an error rather than an empty network, and a
+value given under both its old and its new name, which it could only carry over by dropping one.
 
 A file is read only if it is a regular file of at most ``MAX_FILE_BYTES`` nested at most
 ``MAX_NESTING`` deep. Writer paths (``FilePathProperty(writes=True)``) from a file must resolve inside
@@ -100,17 +101,35 @@ def _from_version_0(document: dict) -> dict:
 RENAMED_IN_VERSION_2 = {("RayCaster", "gradient"): "derivatives", ("CurvatureRaycaster", "level"): "iso_level"}
 
 
+class MigrationError(ValueError):
+    """A document a migration cannot carry over without losing something; ``problems`` are
+    (JSON path, reason) pairs as NetworkFileError lists them."""
+
+    def __init__(self, problems: list[tuple[str, str]]):
+        self.problems = problems
+        super().__init__("; ".join(f"{path}: {reason}" for path, reason in problems))
+
+
 def _from_version_1(document: dict) -> dict:
     """Version 1: RayCaster.gradient and CurvatureRaycaster.level under their old names, in the
-    processors' properties and in links. Anything malformed is left for validation to name."""
+    processors' properties and in links. A property given under both names is refused (keeping
+    either would drop the other without a word); anything malformed is left for validation."""
     document = json.loads(json.dumps(document))  # a deep copy: the caller's document stays as it was
-    types = {}
-    for entry in document.get("processors") or []:
+    types, conflicts = {}, []
+    processors = document.get("processors")
+    for index, entry in enumerate(processors if isinstance(processors, list) else []):
         if isinstance(entry, dict) and isinstance(entry.get("properties"), dict):
             types[entry.get("id")] = entry.get("type")
             for (type_name, old), new in RENAMED_IN_VERSION_2.items():
-                if entry.get("type") == type_name and old in entry["properties"]:
-                    entry["properties"][new] = entry["properties"].pop(old)
+                properties = entry["properties"]
+                if entry.get("type") != type_name or old not in properties:
+                    continue
+                if new in properties:
+                    conflicts.append(_renamed_twice(index, type_name, old, new, properties))
+                    continue
+                properties[new] = properties.pop(old)
+    if conflicts:
+        raise MigrationError(conflicts)
     for link in document.get("links") or []:
         for end in ("from", "to") if isinstance(link, dict) else ():
             pid, _, name = str(link.get(end, "")).partition(".")
@@ -118,6 +137,14 @@ def _from_version_1(document: dict) -> dict:
             if new is not None:
                 link[end] = f"{pid}.{new}"
     return {**document, "version": 2}
+
+
+def _renamed_twice(index: int, type_name: str, old: str, new: str, properties: dict) -> tuple[str, str]:
+    where = f"processors[{index}].properties"
+    return (f"{where}.{old}",
+            f"given twice: {json.dumps(properties[old])} here and {json.dumps(properties[new])} as "
+            f"{where}.{new}; version 2 renamed {type_name}'s '{old}' to '{new}', so the file must "
+            f"give one of them")
 
 
 MIGRATIONS: dict[int, Callable[[dict], dict]] = {0: _from_version_0, 1: _from_version_1}
@@ -213,6 +240,8 @@ def parse_document(data, file: str = "<network>") -> NetworkDocument:
         raise NetworkFileError(file, [("format", f"expected \"{FORMAT}\", got {data.get('format')!r}")])
     try:
         data = migrate(data)
+    except MigrationError as error:
+        raise NetworkFileError(file, error.problems) from None
     except Exception as error:
         raise NetworkFileError(file, [("version", str(error))]) from None
     try:
