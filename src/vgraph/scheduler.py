@@ -27,6 +27,7 @@ import numpy as np
 from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
 from vgraph import progress
 from vgraph.gl.context import collect_garbage, get_context, has_context
+from vgraph.memory import out_of_memory
 from vgraph.network import Network, split_address
 from vgraph.processor import Processor
 from vgraph.properties import Invalidation
@@ -147,8 +148,9 @@ def _run(network: Network, processor: Processor, finish: bool = False) -> Evalua
         processor.last_error = _reason(error)
         processor.last_seconds = time.perf_counter() - start
         network.processor_evaluated(processor)
+        # Out of memory is the input being too large for the machine as it is set up, not a bug
         raise ProcessorError(processor.id, processor.type_name, processor.last_error,
-                             internal=not isinstance(error, VGraphError)) from error
+                             internal=not isinstance(error, (VGraphError, MemoryError))) from error
     processor.inputs, processor.outputs = inputs, outputs
     processor.invalid_level = Invalidation.VALID
     processor.last_error = None
@@ -166,6 +168,8 @@ def finish_gl() -> None:
 
 
 def _reason(error: Exception) -> str:
+    if isinstance(error, MemoryError):
+        return str(out_of_memory(error))
     return str(error) if isinstance(error, VGraphError) else f"{type(error).__name__}: {error}"
 
 

@@ -38,6 +38,7 @@ import numpy as np
 from vgraph.camera import MAX_COORDINATE
 from vgraph.errors import VGraphError
 from vgraph.gl.context import release_quietly
+from vgraph.memory import OutOfMemoryError, format_bytes, out_of_memory
 from vgraph.value_range import checked_range, range_of
 
 Vec3 = tuple[float, float, float]
@@ -283,20 +284,38 @@ class Volume:
                               f"render it with the RayCaster or BrickedRayCaster (brick by brick), or "
                               f"crop or downsample it")
         gl_dtype, _ = _TEXTURE_FORMATS.get(self.data.dtype, ("f4", 1.0))
+        texel_bytes = 2 if self.texture_is_r16 else 4
+        size = int(np.prod(self.dims, dtype=np.int64)) * texel_bytes
+        what = (f"making the {' x '.join(map(str, self.dims))} {'R16' if texel_bytes == 2 else 'R32F'} "
+                f"3D texture of the volume{f' from {self.source}' if self.source else ''}")
+        try:
+            texels = np.ascontiguousarray(self._texels(gl_dtype))
+            ctx.error  # reading clears it: an older error is not this upload's
+            texture = ctx.texture3d(self.dims, 1, texels, dtype=gl_dtype, alignment=1)
+        except MemoryError as error:
+            raise out_of_memory(error, what, size) from error
+        if ctx.error == "GL_OUT_OF_MEMORY":  # llvmpipe holds at most 1 GiB per texture
+            texture.release()
+            raise OutOfMemoryError(f"out of memory: the GL could not allocate {format_bytes(size)} "
+                                   f"(GL_OUT_OF_MEMORY) while {what}: render it brick by brick "
+                                   f"(the BrickedRayCaster, or vgraph convert into a store: "
+                                   f"docs/large-data.md), or crop or downsample it", size)
+        texture.repeat_x = texture.repeat_y = texture.repeat_z = False
+        return texture
+
+    def _texels(self, gl_dtype: str) -> np.ndarray:
+        """The texture's values: R16 texels, normalised or clamped float32, or the data."""
         data = self.data
         if self.texture_is_r16:
-            data = r16_texels(data)
-        elif self.texture_is_normalized:
-            data = self._normalized_float32()
-        elif gl_dtype == "f4":
+            return r16_texels(data)
+        if self.texture_is_normalized:
+            return self._normalized_float32()
+        if gl_dtype == "f4":
             data = data.astype(np.float32, copy=False)
             if self.nonfinite_count:
                 lo, hi = self.value_range
                 data = np.nan_to_num(data, nan=lo, posinf=hi, neginf=lo)
-        texture = ctx.texture3d(self.dims, 1, np.ascontiguousarray(data).tobytes(),
-                                dtype=gl_dtype, alignment=1)
-        texture.repeat_x = texture.repeat_y = texture.repeat_z = False
-        return texture
+        return data
 
     def _normalized_float32(self) -> np.ndarray:
         """(value - lo) / (hi - lo) in float64, stored as float32; NaN -> 0, +-Inf -> 1 / 0."""

@@ -42,6 +42,7 @@ from vgraph.io.raw import read_raw
 from vgraph.io.slc import read_slc
 from vgraph.io.vti import read_vti
 from vgraph.io.writers import WRITABLE_EXTENSIONS, write_volume
+from vgraph.memory import allocation_size, out_of_memory_reason
 from vgraph.volume import Volume
 
 __all__ = ["read_volume", "write_volume", "SUPPORTED_EXTENSIONS", "WRITABLE_EXTENSIONS",
@@ -95,10 +96,13 @@ def read_volume(path, *, raw: dict | None = None, time_step: int = 0) -> Volume:
     Given, it forces raw reading whatever the extension."""
     path = Path(path)
     reader = _reader_for(path, raw)
-    if reader in _TIME_READERS:
-        return reader(path, time_step=time_step)
-    check_time_step(path, time_step, 1)  # before reading a file that cannot hold it
-    return reader(path)
+    try:
+        if reader in _TIME_READERS:
+            return reader(path, time_step=time_step)
+        check_time_step(path, time_step, 1)  # before reading a file that cannot hold it
+        return reader(path)
+    except MemoryError as error:  # past the readers' own check (a library's copy, say): named
+        raise VolumeFileError(path, out_of_memory_reason("reading it", allocation_size(error))) from error
 
 
 def _reader_for(path: Path, raw: dict | None):

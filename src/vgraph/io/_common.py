@@ -19,13 +19,13 @@ from __future__ import annotations
 import io
 import math
 import os
-import resource
 import stat
 import warnings
 from pathlib import Path
 
 import numpy as np
 from vgraph.errors import VGraphError, VolumeFileError
+from vgraph.memory import available_memory, format_bytes  # noqa: F401 (readers import them from here)
 from vgraph.progress import Steps
 from vgraph.volume import Volume
 
@@ -118,52 +118,6 @@ def pad_to_3d(shape_xyz, file, field: str) -> tuple[int, int, int]:
 
 
 # --- memory --------------------------------------------------------------------------------------
-def available_memory() -> int | None:
-    """Bytes of memory a new allocation can use: MemAvailable from /proc/meminfo (else the free
-    physical pages), lowered to the address space left under RLIMIT_AS when the process has
-    one; None when unknown (the check is then skipped)."""
-    limits = [n for n in (_physical_memory_available(), _address_space_left()) if n is not None]
-    return min(limits) if limits else None
-
-
-def _physical_memory_available() -> int | None:
-    try:
-        with open("/proc/meminfo") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return None
-
-
-def _address_space_left() -> int | None:
-    """Under RLIMIT_AS an allocation beyond the limit fails with MemoryError however much
-    physical memory is free, so the headroom below the limit counts as the available memory."""
-    soft, _hard = resource.getrlimit(resource.RLIMIT_AS)
-    if soft == resource.RLIM_INFINITY:
-        return None
-    try:
-        with open("/proc/self/status") as status:
-            for line in status:
-                if line.startswith("VmSize:"):
-                    return max(0, soft - int(line.split()[1]) * 1024)
-    except (OSError, ValueError, IndexError):
-        pass
-    return None
-
-
-def format_bytes(n: float) -> str:
-    for unit in ("bytes", "KiB", "MiB", "GiB", "TiB"):
-        if abs(n) < 1024 or unit == "TiB":
-            return f"{n:.0f} {unit}" if unit == "bytes" else f"{n:.1f} {unit}"
-        n /= 1024
-    return f"{n} bytes"  # unreachable
-
-
 def check_memory(file, needed_bytes: int, field: str | None = None) -> None:
     """Refuse a load that cannot fit before any byte of it is read."""
     available = available_memory()
