@@ -27,10 +27,11 @@ VALUES = CUBE @ [1.0, 2.0, 4.0]  # a different value at every corner
 SIZE = (40, 40)
 
 
-def write(folder, name, points=CUBE, cells=HEX, **data):
+def write(folder, name, points=CUBE, cells=HEX, file_format=None, binary=None, **data):
     data.setdefault("point_data", {"f": VALUES})
     path = folder / name
-    meshio.write(path, meshio.Mesh(points, cells, **data))
+    options = {} if binary is None else {"binary": binary}
+    meshio.write(path, meshio.Mesh(points, cells, **data), file_format=file_format, **options)
     return path
 
 
@@ -273,3 +274,71 @@ def test_nan_coordinates_are_refused_by_vgraph_run(tmp_path, capsys):
     code, err = run(tmp_path, "nan.vtu", capsys)
     assert code == 2, err
     assert "nan.vtu [points]: 1 points used by cells have non-finite coordinates" in err
+
+
+# --- found by the mesh fuzz target (bench/fuzz.py --target mesh) ------------------------------------
+def gmsh_text(folder, version: str) -> str:
+    path = write(folder, "g.msh", file_format="gmsh22" if version == "2.2" else "gmsh", binary=False,
+                 point_data={})
+    return path.read_text()
+
+
+def test_a_gmsh_data_block_claiming_two_billion_tags_is_refused_not_read_line_by_line(tmp_path):
+    """meshio read 2147483648 string tags one readline() at a time: the case hung."""
+    text = gmsh_text(tmp_path, "2.2") + '$NodeData\n2147483648\n"s"\n1\n0.0\n3\n0\n1\n8\n$EndNodeData\n'
+    path = tmp_path / "tags.msh"
+    path.write_text(text)
+    with pytest.raises(MeshFileError, match=r"tags.msh \[\$NodeData\]: the file declares 2147483648 "
+                                            r"string tags .* but holds only \d+ bytes"):
+        read_mesh(path)
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_a_node_tag_far_beyond_the_file_is_refused_before_meshio_builds_its_table(tmp_path, binary):
+    """meshio maps Gmsh node tags to points with a table as long as the largest tag: one tag flipped
+    to 2^27 in a 1 KB file cost 1 GiB of memory (and 2^32 would have cost 32 GiB)."""
+    path = write(tmp_path, "g.msh", file_format="gmsh", binary=binary, point_data={})
+    content = path.read_bytes()
+    nodes = content.index(b"$Nodes\n") + len(b"$Nodes\n")
+    if binary:  # 4 size_t of header, 3 int32 and a size_t of the first block, then its tags
+        first_tag = nodes + 32 + 12 + 8
+        content = content[:first_tag] + (2**27).to_bytes(8, "little") + content[first_tag + 8:]
+    else:  # the first line holding one integer is the first node's tag
+        lines = content[nodes:].split(b"\n")
+        first = next(i for i, line in enumerate(lines) if line.strip().isdigit())
+        lines[first] = str(2**27).encode()
+        content = content[:nodes] + b"\n".join(lines)
+    path.write_bytes(content)
+    with pytest.raises(MeshFileError, match=r"g.msh \[\$Nodes\]: node tag 134217728 is beyond what a "
+                                            r"file of \d+ bytes numbers"):
+        read_mesh(path)
+
+
+def test_meshio_warnings_come_back_as_one_shortened_vgraph_warning_naming_the_file(tmp_path, capfd):
+    """meshio printed its warnings with rich straight to the terminal, and spent seconds
+    highlighting a 5000-digit line of a damaged file (the case failed the 3 s limit)."""
+    path = tmp_path / "open.msh"
+    path.write_text(gmsh_text(tmp_path, "2.2") + "$" + "9" * 5000 + "\n")  # a section never closed
+    capfd.readouterr()
+    with pytest.warns(vgraph.VGraphWarning, match=r"open.msh: meshio: \$9{190,} \.\.\.") as record:
+        with pytest.raises(MeshFileError, match="no point array to render"):
+            read_mesh(path)
+    assert all(len(str(w.message)) < 600 for w in record)
+    assert capfd.readouterr().err == ""
+
+
+def test_cells_that_repeat_a_corner_and_split_into_nothing_are_refused(tmp_path):
+    degenerate = [("hexahedron", np.array([[0, 4, 6, 2, 1, 5, 0, 3]]))]
+    with pytest.raises(MeshFileError, match=r"\[cells\]: no tetrahedra: every cell repeats a corner"):
+        read_mesh(write(tmp_path, "d.vtk", cells=degenerate))
+
+
+@pytest.mark.parametrize("corners, reason", [
+    (np.zeros((5, 0), dtype=int), r"expected 4 point numbers per cell, got an array of shape \(5, 0\)"),
+    (np.array([[0.5, 1, 2, 3]]), r"point numbers must be integers, got float64 values")])
+def test_cell_blocks_meshio_makes_of_damaged_files_are_refused_naming_the_block(tmp_path, monkeypatch,
+                                                                                 corners, reason):
+    monkeypatch.setattr("vgraph.io.meshes.read_meshio",
+                        lambda path: meshio.Mesh(CUBE[:4], [("tetra", corners)]))
+    with pytest.raises(MeshFileError, match=r"\[cell block 0 \(tetra\)\]: " + reason):
+        read_mesh(write(tmp_path, "m.vtu"))

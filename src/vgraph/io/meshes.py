@@ -2,11 +2,11 @@
 
     read_mesh(path, array="", declared_range=None, reference_length=None, component="") -> TetMesh
 
-Files are read with meshio: VTK legacy (.vtk) and XML (.vtu), Gmsh (.msh), Medit (.mesh,
-.meshb), XDMF (.xdmf, .xmf; meshio's reader needs the h5py package), Exodus II (.e, .exo, .ex2;
-needs the netCDF4 package; files meshio 5.3 fails on, such as those with one combined
-``vals_nod_var``, are read by ``_read_exodus``) and the other formats meshio knows. A missing
-optional package is named in the error, with the command that installs it. What is kept:
+Files are read with meshio (vgraph.io.meshio_reading): VTK legacy (.vtk) and XML (.vtu), Gmsh
+(.msh), Medit (.mesh, .meshb), XDMF (.xdmf, .xmf; meshio's reader needs the h5py package), Exodus
+II (.e, .exo, .ex2; needs the netCDF4 package; files meshio 5.3 fails on, such as those with one
+combined ``vals_nod_var``, are read with netCDF4 itself) and the other formats meshio knows. A
+missing optional package is named in the error, with the command that installs it. What is kept:
 
 - the 3D cells: tetrahedra as they are; hexahedra, wedges and pyramids split into 6, 3 and 2
   tetrahedra with matching faces between neighbours (vgraph.tetrahedralize.split_cells: every quad
@@ -35,9 +35,7 @@ is one, the part of it (the cell block, the array).
 
 from __future__ import annotations
 
-import contextlib
 import importlib.util
-import io
 import re
 import warnings
 from pathlib import Path
@@ -49,6 +47,7 @@ from vgraph.io._common import file_problem
 from vgraph.io.mesh_arrays import CELL_PREFIX, point_scalars
 from vgraph.io.mesh_counts import check_declared_counts
 from vgraph.io.mesh_geometry import check_points
+from vgraph.io.meshio_reading import read_meshio
 from vgraph.mesh import TetMesh
 from vgraph.tetrahedralize import TETS_PER_CELL, orient, split_cells
 
@@ -78,13 +77,16 @@ def read_mesh(path, array: str = "", declared_range=None, reference_length=None,
     if problem is not None:
         raise MeshFileError(path, "file " + problem)
     check_declared_counts(path, _check_extension(path))
-    raw = _read_meshio(path)
+    raw = read_meshio(path)
     points = raw_points(path, raw)
     if points.shape[1] == 2:
         raise MeshFileError(path, "the points are 2D: a 2D mesh has no volume to render", "points")
     blocks = _volume_blocks(path, raw, len(points))
     scalars, name = point_scalars(path, raw, array, component, blocks, len(points))
     tets = np.concatenate([split_cells(kind, corners) for kind, corners, _ in blocks])
+    if len(tets) == 0:  # hexahedra, wedges or pyramids that repeat a corner split into nothing
+        raise MeshFileError(path, "no tetrahedra: every cell repeats a corner (degenerate cells)",
+                            "cells")
     used = np.unique(tets)
     remap = np.full(len(points), -1, dtype=np.int64)
     remap[used] = np.arange(len(used))
@@ -133,80 +135,20 @@ def _check_extension(path: Path) -> str:
     return extension
 
 
-def _read_meshio(path: Path):
-    """meshio's reader(s) for the extension, called one by one: meshio.read itself prints a
-    failed reader's error and calls sys.exit."""
-    from meshio._helpers import _filetypes_from_path, reader_map
-    reasons = []
-    for file_format in _filetypes_from_path(path):
-        try:
-            with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
-                warnings.simplefilter("ignore")  # meshio warns about what it skips; we report ourselves
-                return reader_map[file_format](str(path))
-        except MemoryError:
-            raise MeshFileError(path, "too large for memory (or a damaged header asks for an "
-                                      "absurd size)") from None
-        except ModuleNotFoundError as error:
-            raise MeshFileError(path, f"reading {file_format} files needs the {error.name} package, "
-                                      f"which is not installed: pip install {error.name}") from None
-        except (Exception, SystemExit) as error:  # meshio and numpy raise anything on damaged input
-            reasons.append(f"as {file_format}: {type(error).__name__}: "
-                           f"{str(error).strip() or '(no message)'}")
-            if file_format == "exodus":
-                try:
-                    return _read_exodus(path)
-                except MeshFileError:
-                    raise
-                except Exception as second:  # noqa: BLE001  (damaged input, as above)
-                    reasons.append(f"as Exodus II with netCDF4: {type(second).__name__}: "
-                                   f"{str(second).strip() or '(no message)'}")
-    raise MeshFileError(path, f"cannot read the mesh (damaged, truncated or not this format): "
-                              f"{'; '.join(reasons)}")
-
-
-def _read_exodus(path: Path):
-    """Points, cells and the first time step's nodal variables of an Exodus II file, read with
-    netCDF4. meshio 5.3's reader expects one ``vals_nod_var<i>`` per variable and fails with a
-    KeyError on files that hold them all in one ``vals_nod_var`` (time, variable, node), as the
-    shared disk_out_ref.ex2 does."""
-    import meshio
-    import netCDF4
-    from meshio.exodus._exodus import categorize, exodus_to_meshio_type
-
-    def text(variable) -> list[str]:
-        variable.set_auto_mask(False)
-        return [b"".join(row).decode("utf-8", "replace").strip() for row in variable[:]]
-
-    with netCDF4.Dataset(path) as nc:
-        var = nc.variables
-        if "coord" in var:
-            points = np.asarray(var["coord"][:]).T
-        else:
-            points = np.stack([np.asarray(var[n][:]) for n in ("coordx", "coordy", "coordz") if n in var],
-                              axis=1)
-        cells = []
-        for key in sorted((k for k in var if k.startswith("connect")), key=lambda k: int(k[7:] or 0)):
-            kind = exodus_to_meshio_type.get(var[key].elem_type.upper())
-            if kind is None:
-                raise MeshFileError(path, f"unknown element type {var[key].elem_type!r}", key)
-            cells.append((kind, np.asarray(var[key][:]).astype(np.int64) - 1))  # 1-based
-        names = text(var["name_nod_var"]) if "name_nod_var" in var else []
-        steps = len(var["time_whole"]) if "time_whole" in var else 1
-        nodal = {}
-        for i, name in enumerate(names):
-            if "vals_nod_var" in var:
-                nodal[name] = np.asarray(var["vals_nod_var"][0, i], dtype=np.float64)
-            elif f"vals_nod_var{i + 1}" in var:
-                nodal[name] = np.asarray(var[f"vals_nod_var{i + 1}"][0], dtype=np.float64)
-    if steps > 1:
-        warnings.warn(VGraphWarning(f"{path}: the file holds {steps} time steps; the first is read"),
-                      stacklevel=4)
-    present = [n for n in names if n in nodal]
-    single, double, triple = categorize(present)
-    point_data = {name: nodal[present[i]] for name, i in single}
-    point_data |= {name: np.column_stack([nodal[present[i]] for i in group])
-                   for name, *group in (*double, *triple)}
-    return meshio.Mesh(points, cells, point_data=point_data)
+def _corner_indices(path: Path, data: np.ndarray, corners: int, field: str) -> np.ndarray:
+    """The first ``corners`` columns of a cell block as int64 point numbers."""
+    if data.ndim != 2 or data.shape[1] < corners:
+        raise MeshFileError(path, f"expected {corners} point numbers per cell, got an array of "
+                                  f"shape {data.shape}", field)
+    data = data[:, :corners]
+    if data.dtype.kind == "f" and np.all(np.isfinite(data)) and np.all(data == np.round(data)) \
+            and np.abs(data).max() < 2**62:
+        data = data.astype(np.int64)
+    if data.dtype.kind not in "ui":
+        raise MeshFileError(path, f"point numbers must be integers, got {data.dtype} values", field)
+    if data.dtype == np.uint64 and data.max() >= 2**63:
+        raise MeshFileError(path, f"point number {int(data.max())} is beyond any file's points", field)
+    return data.astype(np.int64)
 
 
 def _volume_blocks(path: Path, raw, point_count: int) -> list[tuple[str, np.ndarray, int]]:
@@ -221,7 +163,7 @@ def _volume_blocks(path: Path, raw, point_count: int) -> list[tuple[str, np.ndar
         data = np.asarray(block.data)
         if len(data) == 0:
             continue
-        corners = data[:, :_CORNER_COUNT[kind]].astype(np.int64)
+        corners = _corner_indices(path, data, _CORNER_COUNT[kind], f"cell block {number} ({block.type})")
         if corners.min() < 0 or corners.max() >= point_count:
             raise MeshFileError(path, f"{block.type} cells refer to points {int(corners.min())} .. "
                                       f"{int(corners.max())}, but the file has points 0 .. "

@@ -2,7 +2,7 @@
 
     read_surface(path, array="", component="") -> Geometry
 
-Files are read with meshio (vgraph.io.meshes._read_meshio: one reader at a time, its errors
+Files are read with meshio (vgraph.io.meshio_reading: one reader at a time, its errors
 collected): Wavefront .obj, STL (.stl, ASCII or binary), PLY (.ply), OFF (.off), VTK legacy (.vtk)
 and XML (.vtu, .vtp is not read by meshio 5.3) and the other formats meshio knows. What is kept:
 
@@ -38,7 +38,8 @@ from vgraph.io._common import file_problem
 from vgraph.io.mesh_arrays import one_value_each
 from vgraph.io.mesh_counts import check_declared_counts
 from vgraph.io.mesh_geometry import check_points
-from vgraph.io.meshes import _extension, _read_meshio, meshio_extensions, raw_points
+from vgraph.io.meshes import _extension, meshio_extensions, raw_points
+from vgraph.io.meshio_reading import read_meshio
 
 SURFACE_EXTENSIONS = (".obj", ".stl", ".ply", ".off", ".vtk", ".vtu")
 FILE_FILTERS = tuple(f"*{e}" for e in SURFACE_EXTENSIONS)
@@ -60,7 +61,7 @@ def read_surface(path, array: str = "", component: str = "") -> Geometry:
                                   f"expected one of {', '.join(SURFACE_EXTENSIONS)} (or another "
                                   f"format meshio reads)")
     check_declared_counts(path, extension)
-    raw = _read_meshio(path)
+    raw = read_meshio(path)
     points = raw_points(path, raw)
     if points.shape[1] == 2:  # a flat drawing: put it in the z = 0 plane
         points = np.concatenate([points, np.zeros((len(points), 1))], axis=1)
