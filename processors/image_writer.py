@@ -1,11 +1,10 @@
 """ImageWriter: a sink that saves its image as an 8-bit PNG."""
 
-from pathlib import Path
-
-from vgraph import FilePathProperty, Inport, Processor, VGraphError
+from vgraph import FilePathProperty, Inport, Processor
 from vgraph.atomic import check_output_path
 from vgraph.image import Image
 from vgraph.imagefile import write_png
+from vgraph.write_paths import writable_path, write_confinement
 
 
 class ImageWriter(Processor):
@@ -16,10 +15,6 @@ class ImageWriter(Processor):
     path = FilePathProperty("out.png", filters=("*.png",), writes=True, doc="where the PNG is written")
 
     def process(self, image: Image) -> None:
-        if not self.path:
-            raise VGraphError(f"{self.id}.path: no output file chosen")
-        path = self.resolve_path(self.path)
-        if Path(path).suffix.lower() != ".png":
-            raise VGraphError(f"{self.id}.path: '{self.path}' must end in .png")
-        check_output_path(path, create_folder=True)  # batch jobs write into fresh folders
-        write_png(path, image.to_numpy())
+        path, inside = writable_path(self, "path"), write_confinement(self)  # as vgraph validate checked
+        check_output_path(path, create_folder=True, inside=inside)  # batch jobs write into fresh folders
+        write_png(path, image.to_numpy(), inside=inside)

@@ -1,9 +1,10 @@
 """VolumeWriter: a sink that saves a volume (.npy, .npz, .nrrd, .nii, .nii.gz), atomically."""
 
-from vgraph import FilePathProperty, Inport, Processor, VGraphError
+from vgraph import FilePathProperty, Inport, Processor
 from vgraph.atomic import check_output_path
 from vgraph.io import WRITABLE_EXTENSIONS, write_volume
 from vgraph.volume import Volume
+from vgraph.write_paths import writable_path, write_confinement
 
 
 class VolumeWriter(Processor):
@@ -15,7 +16,6 @@ class VolumeWriter(Processor):
                             doc="where the volume is written (.npy, .npz, .nrrd, .nii, .nii.gz)")
 
     def process(self, volume: Volume) -> None:
-        if not self.path:
-            raise VGraphError(f"{self.id}.path: no output file chosen")
-        path = check_output_path(self.resolve_path(self.path), create_folder=True)  # batch jobs write into fresh folders
-        write_volume(volume, path)
+        path, inside = writable_path(self, "path"), write_confinement(self)  # as vgraph validate checked
+        check_output_path(path, create_folder=True, inside=inside)  # batch jobs write into fresh folders
+        write_volume(volume, path, inside=inside)

@@ -90,7 +90,7 @@ def test_save_is_atomic_and_keeps_the_old_file_on_failure(tmp_path, monkeypatch)
     target = tmp_path / "keep.json"
     target.write_text("precious")
 
-    def fail(*args):
+    def fail(*args, **kwargs):
         raise OSError(errno.ENOSPC, "No space left on device")
     monkeypatch.setattr(os, "replace", fail)
     with pytest.raises(vgraph.OutputFileError, match="keep.json: No space left on device"):

@@ -118,7 +118,7 @@ def test_failed_rename_leaves_the_old_file_intact(tmp_path, monkeypatch):
     write_volume(sample_volumes()["uint8"], path)
     before = path.read_bytes()
 
-    def refuse(*args):
+    def refuse(*args, **kwargs):
         raise PermissionError(13, "Permission denied")
 
     monkeypatch.setattr("vgraph.atomic.os.replace", refuse)

@@ -135,3 +135,112 @@ def test_a_nul_byte_in_a_writer_path_from_a_file_names_the_property(tmp_path):
     network = network_writing_to(tmp_path, "a\0b.nrrd")
     with pytest.raises(vgraph.NetworkFileError, match=r"processors\[\d\]\.properties\.path: .*NUL byte"):
         vgraph.load(network)
+
+
+# --- validate refuses what run refuses; confinement checked again as the writer writes ----------------
+def image_writer_network(tmp_path, path: str):
+    """raycast_sphere.json in tmp_path/received with an ImageWriter of ``path`` on the ray caster."""
+    document = json.loads((REPO / "networks" / "raycast_sphere.json").read_text())
+    document["processors"].append({"id": "w", "type": "ImageWriter", "properties": {"path": path}})
+    document["connections"].append({"from": "rc.image", "to": "w.image"})
+    folder = tmp_path / "received"
+    (folder / "a folder").mkdir(parents=True, exist_ok=True)
+    (folder / "net.json").write_text(json.dumps(document))
+    return folder / "net.json"
+
+
+@pytest.mark.parametrize("make, path, reason", [
+    (image_writer_network, ".", "names a folder, not a file ending in .png"),
+    (image_writer_network, "", "no output file chosen"),
+    (image_writer_network, "x.json", "the name must end in .png"),
+    (image_writer_network, "a folder", "names a folder"),
+    (image_writer_network, "net.json/x.png", "net.json' is not a folder"),
+    (network_writing_to, ".", "names a folder, not a file ending in .npy or .npz or .nrrd or .nii or .nii.gz"),
+    (network_writing_to, "", "no output file chosen"),
+    (network_writing_to, "x.json", "the name must end in .npy or .npz"),
+])
+def test_validate_refuses_the_writer_paths_run_refuses_with_the_same_message(tmp_path, capsys, make, path, reason):
+    network = make(tmp_path, path)
+    messages = []
+    for command in ("validate", "run"):
+        assert main([command, str(network)]) == 2
+        err = capsys.readouterr().err
+        assert "evaluated" not in err and "Traceback" not in err  # run refuses before evaluating
+        assert re.search(r"net\.json: processors\[\d\]\.properties\.path: \w+ \((Image|Volume)Writer\) ", err), err
+        assert reason in err, err
+        messages.append(err)
+    assert messages[0] == messages[1]
+
+
+def test_a_path_typed_with_set_replaces_a_bad_one_from_the_file(tmp_path, capsys):
+    network = image_writer_network(tmp_path, "x.json")
+    assert main(["run", str(network), "--set", f"w.path={tmp_path / 'typed.png'}", "--set", "canvas.size=[16, 16]"]) == 0
+    assert (tmp_path / "typed.png").is_file()
+
+
+@pytest.mark.parametrize("make, name", [(network_writing_to, "torus.nrrd"), (image_writer_network, "w.png")])
+def test_a_folder_turned_into_a_link_after_loading_is_not_followed_when_writing(tmp_path, make, name):
+    """A GUI left open for hours: the folder the writer writes into becomes a symbolic link to
+    somewhere else after the network was loaded (and checked)."""
+    network_file = make(tmp_path, f"results/{name}")
+    network = vgraph.load(network_file)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (network_file.parent / "results").symlink_to(elsewhere)
+    with pytest.raises(vgraph.ProcessorError, match=r"its folder resolves to .*elsewhere, outside the "
+                                                     r"folders this network may write into") as refused:
+        network.evaluate("w" if name == "w.png" else "writer", size=(16, 16))
+    assert not refused.value.internal
+    assert list(elsewhere.iterdir()) == []
+
+
+def test_a_link_made_on_the_way_to_a_folder_the_writer_creates_is_not_followed(tmp_path):
+    network_file = network_writing_to(tmp_path, "a/b/torus.nrrd")
+    network = vgraph.load(network_file)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (network_file.parent / "a").symlink_to(elsewhere)
+    with pytest.raises(vgraph.ProcessorError, match="outside the folders this network may write into"):
+        network.evaluate("writer")
+    assert list(elsewhere.iterdir()) == []  # not even the folder b
+
+
+def test_a_target_turned_into_a_link_pointing_outside_is_not_replaced_and_its_file_is_untouched(tmp_path):
+    network_file = network_writing_to(tmp_path, "torus.nrrd")
+    network = vgraph.load(network_file)
+    victim = tmp_path / "notes.nrrd"
+    victim.write_bytes(b"the user's own file")
+    (network_file.parent / "torus.nrrd").symlink_to(victim)
+    with pytest.raises(vgraph.ProcessorError, match="outside the folders this network may write into"):
+        network.evaluate("writer")
+    assert victim.read_bytes() == b"the user's own file"
+    assert (network_file.parent / "torus.nrrd").is_symlink()
+
+
+def test_links_inside_the_networks_folder_are_followed_as_before(tmp_path):
+    network_file = network_writing_to(tmp_path, "results/torus.nrrd")
+    network = vgraph.load(network_file)
+    (network_file.parent / "kept").mkdir()
+    (network_file.parent / "results").symlink_to(network_file.parent / "kept")
+    network.evaluate("writer")
+    assert (network_file.parent / "kept" / "torus.nrrd").is_file()
+
+
+def test_a_temporary_name_taken_by_a_planted_link_is_passed_over(tmp_path, monkeypatch):
+    """The temporary file is created with O_EXCL | O_NOFOLLOW: a link planted under the name it
+    would take is neither followed nor replaced; another name is taken."""
+    import secrets
+    names = iter(["planted0", "planted0", "free0000"])
+    monkeypatch.setattr(secrets, "token_hex", lambda n: next(names))
+    victim = tmp_path / "victim.txt"
+    victim.write_text("untouched")
+    target = tmp_path / "out.json"
+    (tmp_path / f".out.json.{os.getpid()}.planted0.tmp.json").symlink_to(victim)
+    write_text_atomic(target, "{}")
+    assert target.read_text() == "{}" and victim.read_text() == "untouched"
+
+
+def test_a_name_as_long_as_the_system_allows_is_written_with_a_shorter_temporary_name(tmp_path):
+    target = tmp_path / ("n" * 251 + ".png")
+    write_text_atomic(target, "x")
+    assert target.read_text() == "x" and sorted(tmp_path.iterdir()) == [target]

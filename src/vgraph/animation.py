@@ -28,6 +28,7 @@ import numpy as np
 
 from vgraph.atomic import atomic_path, check_output_path
 from vgraph.errors import PropertyError, VGraphError
+from vgraph.file_names import file_name_problem, shown
 from vgraph.imagefile import to_uint8, write_png
 from vgraph.network import Network, split_address
 from vgraph.properties import CameraProperty, IntProperty
@@ -237,6 +238,9 @@ class Output:
     @classmethod
     def of(cls, path) -> "Output":
         text = str(path)
+        problem = file_name_problem(text)
+        if problem is not None:
+            raise VGraphError(f"-o {shown(text)}: {problem}")
         suffix = Path(text).suffix.lower()
         if "{" in text:
             if suffix != ".png":
@@ -348,13 +352,13 @@ def opaque_rgb(pixels: np.ndarray) -> np.ndarray:
 def add_parser(commands) -> argparse.ArgumentParser:
     """Add ``vgraph animate`` to the subparsers of vgraph.cli.build_parser."""
     from vgraph.camera import VIEW_NAMES
-    from vgraph.cli import add_allow_write, parse_size
+    from vgraph.cli import add_allow_write, parse_size, user_path
     parser = commands.add_parser(
         "animate", help="render a turntable or a sweep over a property as MP4, GIF or PNG frames",
         description="Render frames of a network: the cameras orbit and/or an integer property "
                     "steps through values. Output by name: .mp4, .gif, a folder or a pattern "
                     "such as frames/turn_{:04d}.png (docs/outputs.md).")
-    parser.add_argument("network", type=Path, help="the .json network")
+    parser.add_argument("network", type=user_path, help="the .json network")
     parser.add_argument("-o", "--output", required=True,
                         help="turn.mp4, turn.gif, a folder, or a pattern like frames/turn_{:04d}.png")
     parser.add_argument("--orbit", type=float, metavar="DEGREES",
@@ -387,6 +391,7 @@ def command_animate(args) -> int:
         cli.set_view(network, args.view)  # then --set, in vgraph run's order
     for assignment in args.set:
         cli.set_from_command_line(network, assignment)  # as vgraph run: paths from the current folder
+    cli.check_before_evaluating(network, args.network)
     # A blank first frame warns (BlankImageWarning); vgraph.cli.main prints it as one line.
     count = animate(network, args.output, orbit=args.orbit, frames=args.frames, over=args.over,
                     fps=args.fps, size=args.size, target=args.port, progress=not args.quiet)

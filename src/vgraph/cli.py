@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 import traceback
@@ -19,9 +20,13 @@ from pathlib import Path
 import vgraph
 from vgraph import animation
 from vgraph.camera import VIEW_NAMES
-from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
+from vgraph.errors import ProcessorError, PropertyError, VGraphError, VGraphWarning
+from vgraph.file_names import expanded, file_name_problem, shown
+from vgraph.json_limits import MAX_NESTING, nesting_depth
+from vgraph.memory import out_of_memory
 from vgraph.network import split_address
 from vgraph.transfer_function import PRESETS
+from vgraph.write_paths import allow_typed_path, check_writers
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -40,6 +45,9 @@ def main(argv: list[str] | None = None) -> int:
     except VGraphError as error:
         print(f"vgraph: error: {error}", file=sys.stderr)
         return EXIT_INTERNAL if isinstance(error, ProcessorError) and error.internal else EXIT_BAD_INPUT
+    except MemoryError as error:  # outside any processor (which names itself): loading, writing
+        print(f"vgraph: error: {out_of_memory(error)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         return EXIT_INTERNAL
     except Exception:
@@ -72,14 +80,14 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(title="commands")
 
     run = commands.add_parser("run", help="evaluate a network and write its output")
-    run.add_argument("network", type=Path, help="the .json network, or a volume file (rendered by the "
+    run.add_argument("network", type=user_path, help="the .json network, or a volume file (rendered by the "
                                                 "standard network: docs/own-data.md)")
-    run.add_argument("-o", "--output", type=Path, metavar="OUT.png", help="write the image as an 8-bit PNG")
-    run.add_argument("--data", action="append", default=[], type=Path, metavar="OUT",
+    run.add_argument("-o", "--output", type=user_path, metavar="OUT.png", help="write the image as an 8-bit PNG")
+    run.add_argument("--data", action="append", default=[], type=user_path, metavar="OUT",
                      help="write the data; the extension chooses the format: .npy, .npz (image: "
                           "float32 H x W x 4; volume: .npz keeps spacing and origin), .nrrd, .nii, "
                           ".nii.gz (volumes); repeatable")
-    run.add_argument("--npy", type=Path, metavar="OUT.npy", help="deprecated: --data OUT.npy")
+    run.add_argument("--npy", type=user_path, metavar="OUT.npy", help="deprecated: --data OUT.npy")
     run.add_argument("--port", help="the port to evaluate, ID.PORT (default: the Canvas)")
     run.add_argument("--size", type=parse_size, metavar="WxH",
                      help="size of the image written (default: the Canvas size); renderers draw at it")
@@ -88,7 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--set", action="append", default=[], metavar="ID.PROPERTY=VALUE",
                      help="change a property before evaluating (after --view); VALUE is JSON where it "
                           "parses; a relative file path is relative to the current folder")
-    run.add_argument("--profile", type=Path, metavar="PROFILE.json",
+    run.add_argument("--profile", type=user_path, metavar="PROFILE.json",
                      help="write which processors ran and their times (each with its GL work: the GL is "
                           "finished after each processor), and the one that failed")
     run.add_argument("--plugin", action="append", metavar="MODULE", help="import a plug-in module")
@@ -102,7 +110,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.set_defaults(command=command_run)
 
     validate = commands.add_parser("validate", help="check a network file")
-    validate.add_argument("network", type=Path)
+    validate.add_argument("network", type=user_path)
     validate.add_argument("--plugin", action="append", metavar="MODULE")
     add_allow_write(validate)
     validate.set_defaults(command=command_validate)
@@ -115,9 +123,9 @@ def build_parser() -> argparse.ArgumentParser:
     animation.add_parser(commands)
 
     gui = commands.add_parser("gui", help="open the network editor (PySide6)")
-    gui.add_argument("network", type=Path, nargs="?", help="a .json network or a volume file to open")
+    gui.add_argument("network", type=user_path, nargs="?", help="a .json network or a volume file to open")
     gui.add_argument("--plugin", action="append", metavar="MODULE", help="import a plug-in module")
-    gui.add_argument("--screenshot", type=Path, metavar="OUT.png",
+    gui.add_argument("--screenshot", type=user_path, metavar="OUT.png",
                      help="wait until the canvases have rendered, save the window as a PNG and exit")
     gui.add_argument("--select", metavar="ID", help="select this processor (its properties show)")
     gui.add_argument("--window-size", type=parse_size, metavar="WxH", help="window size in pixels")
@@ -141,7 +149,7 @@ def build_parser() -> argparse.ArgumentParser:
                           help="uint8 uint16 float32 (default: all)")
     accuracy.add_argument("--repeat", type=int, help="timed frames per case (default: 7)")
     accuracy.add_argument("--size", type=parse_size, help="image size WxH (default: 256x256)")
-    accuracy.add_argument("--out", type=Path,
+    accuracy.add_argument("--out", type=user_path,
                           help="output folder (default: bench/results/accuracy)")
     accuracy.add_argument("--quick", action="store_true",
                           help="a small matrix in seconds (sphere, torus; 32, 64; uint8, float32; "
@@ -155,10 +163,10 @@ def add_convert_parser(commands) -> None:
     convert = commands.add_parser(
         "convert", help="convert a volume file into an OME-Zarr pyramid of bricks (volumes larger "
                         "than memory: docs/large-data.md)")
-    convert.add_argument("input", type=Path, help="the volume file; uncompressed raw, NRRD, .nii, "
+    convert.add_argument("input", type=user_path, help="the volume file; uncompressed raw, NRRD, .nii, "
                                                   "MetaImage and .npy are read slab by slab, other "
                                                   "formats whole")
-    convert.add_argument("output", type=Path, metavar="OUT.zarr",
+    convert.add_argument("output", type=user_path, metavar="OUT.zarr",
                          help="the store (a folder), replaced only when the conversion succeeds")
     convert.add_argument("--brick", type=int, default=64, metavar="N",
                          help="voxels per brick edge, even (default 64)")
@@ -177,7 +185,7 @@ def add_convert_parser(commands) -> None:
 
 
 def add_allow_write(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--allow-write", action="append", default=[], type=Path, metavar="DIR",
+    parser.add_argument("--allow-write", action="append", default=[], type=user_path, metavar="DIR",
                         help="let the network's writers write into DIR too (by default only inside "
                              "the network file's folder); repeatable")
 
@@ -185,6 +193,15 @@ def add_allow_write(parser: argparse.ArgumentParser) -> None:
 def _print_help(parser: argparse.ArgumentParser) -> int:
     parser.print_help(sys.stderr)
     return EXIT_BAD_INPUT
+
+
+def user_path(text: str) -> Path:
+    """A path option's value, refused as a usage error (exit 2, naming the option) when the
+    system could not take it as a file name (vgraph.file_names)."""
+    problem = file_name_problem(text)
+    if problem is not None:
+        raise argparse.ArgumentTypeError(problem)
+    return Path(text)
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -196,13 +213,23 @@ def parse_size(text: str) -> tuple[int, int]:
 
 
 def parse_assignment(text: str) -> tuple[str, object]:
+    """(address, value) of ``ID.PROPERTY=VALUE``: VALUE as JSON where it parses, nested no
+    deeper than a network file may be (MAX_NESTING), else as the text itself."""
     address, equals, value = text.partition("=")
+    address = address.strip()
     if not equals:
-        raise VGraphError(f"--set {text}: expected ID.PROPERTY=VALUE")
+        raise VGraphError(f"--set {shown(text)}: expected ID.PROPERTY=VALUE")
+    too_deep = PropertyError(address, f"the --set value {shown(value, 20)} is nested more than "
+                                      f"{MAX_NESTING} levels deep")
     try:
-        return address.strip(), json.loads(value)
+        parsed = json.loads(value)
     except json.JSONDecodeError:
-        return address.strip(), value  # a bare string such as a file name
+        return address, value  # a bare string such as a file name
+    except RecursionError:  # deeper than Python's stack, so far deeper than the limit
+        raise too_deep from None
+    if nesting_depth(parsed) > MAX_NESTING:
+        raise too_deep
+    return address, parsed
 
 
 def set_from_command_line(network, text: str) -> None:
@@ -216,16 +243,19 @@ def set_from_command_line(network, text: str) -> None:
     if kind == "file_path":
         raw = text.partition("=")[2]
         value = value if isinstance(value, str) else raw  # a file named 42 or null is still a name
-        value = _from_cwd(value) if value else value
-    elif kind == "transfer_function" and isinstance(value, str) and value not in PRESETS:
-        candidate = Path(value).expanduser()
-        if value and not candidate.is_absolute() and candidate.is_file():
+        value = _from_cwd(value) if value and file_name_problem(value) is None else value
+    elif kind == "transfer_function" and isinstance(value, str) and value not in PRESETS \
+            and file_name_problem(value) is None:  # else the property names the problem
+        candidate = expanded(value)
+        if value and not candidate.is_absolute() and os.path.isfile(candidate):
             value = str(Path.cwd() / candidate)  # a preset name stays a name
     network.set(address, value)
+    if kind == "file_path" and prop.writes:
+        allow_typed_path(network, processor_id, name)  # the user's own, as -o is
 
 
 def _from_cwd(value: str) -> str:
-    path = Path(value).expanduser()
+    path = expanded(value)
     return value if path.is_absolute() else str(Path.cwd() / path)
 
 
@@ -256,6 +286,7 @@ def command_run(args) -> int:
         set_view(network, args.view)
     for assignment in args.set:
         set_from_command_line(network, assignment)
+    check_before_evaluating(network, args.network)
     target = args.port or (default_target(network) if outputs else None)
     if outputs:
         check_formats(outputs, target, target_type(network, target))
@@ -297,8 +328,15 @@ def say_nothing_was_written(network, report, profile: Path | None) -> None:
           f"data with --data OUT.npz (or .npy; volumes also .nrrd, .nii, .nii.gz)", file=sys.stderr)
 
 
+def check_before_evaluating(network, file) -> None:
+    """What ``run`` refuses about a loaded network before evaluating it, beyond what loading
+    refuses; ``validate`` refuses the same: what its writers could not write (vgraph.write_paths)."""
+    check_writers(network, str(file))
+
+
 def command_validate(args) -> int:
     network = vgraph.load(args.network, allow_write=args.allow_write)
+    check_before_evaluating(network, args.network)
     for processor in network.processors.values():
         for inport in processor.inports:
             if not inport.optional and not network.inputs_of(processor.id, inport.name):

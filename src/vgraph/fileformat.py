@@ -28,16 +28,18 @@ from typing import Annotated, Any, Callable, Literal
 from pydantic import BaseModel, ConfigDict, Field, StringConstraints, ValidationError
 
 from vgraph.atomic import write_text_atomic
-from vgraph.errors import NetworkFileError, VGraphError, WritePathError
+from vgraph.errors import NetworkFileError, VGraphError
+from vgraph.file_names import expanded
+from vgraph.json_limits import MAX_NESTING, nesting_depth
 from vgraph.network import Network
 from vgraph.properties import FilePathProperty
 from vgraph.registry import registry
 from vgraph.volume_network import is_volume_path, volume_network
+from vgraph.write_paths import check_write_paths
 
 FORMAT = "vgraph-network"
 CURRENT_VERSION = 2
 MAX_FILE_BYTES = 64 * 2**20   # the largest shipped network is a few kB
-MAX_NESTING = 64              # the deepest legitimate value (a camera in a property) is 4 levels
 
 ProcessorId = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")]
 Address = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*\.[a-z][a-z0-9_]*$")]
@@ -216,21 +218,6 @@ def _read_text(path: Path) -> str:
         raise NetworkFileError(str(path), [("", f"cannot read the file: {error}")]) from None
 
 
-def nesting_depth(data) -> int:
-    """How deeply lists and objects nest in ``data`` (a scalar is 0), without recursion."""
-    deepest, stack = 0, [(data, 1)]
-    while stack:
-        value, depth = stack.pop()
-        children = value.values() if isinstance(value, dict) else value if isinstance(value, list) else None
-        if children is None:
-            continue
-        deepest = max(deepest, depth)
-        if depth > MAX_NESTING:
-            break
-        stack.extend((child, depth + 1) for child in children)
-    return deepest
-
-
 def parse_document(data, file: str = "<network>") -> NetworkDocument:
     if nesting_depth(data) > MAX_NESTING:
         raise NetworkFileError(file, [("", f"nested more than {MAX_NESTING} levels deep")])
@@ -295,27 +282,6 @@ def build_network(document: NetworkDocument, file: str = "<network>", base_dir=N
     return network
 
 
-def check_write_paths(network: Network, file: str, allow_write=()) -> None:
-    """Refuse writer paths that resolve outside the network's folder and the allowed folders."""
-    allowed = [Path(folder).expanduser().resolve() for folder in allow_write]
-    if network.base_dir is not None:
-        allowed.append(network.base_dir.resolve())
-    problems, paths = [], []
-    for index, processor in enumerate(network.processors.values()):
-        for name, prop in processor.properties.items():
-            value = processor.property_values[name]
-            if not (isinstance(prop, FilePathProperty) and prop.writes and value):
-                continue
-            target = processor.resolve_path(value).resolve()
-            if not any(target.is_relative_to(folder) for folder in allowed):
-                paths.append((processor.id, target))
-                problems.append((f"processors[{index}].properties.{name}",
-                                 f"{processor.id} ({processor.type_name}) would write {target}, outside "
-                                 f"the network's folder; allow it with --allow-write {target.parent}"))
-    if problems:
-        raise WritePathError(file, problems, paths)
-
-
 # --- saving ---------------------------------------------------------------------------------------
 def network_document(network: Network, base_dir: Path | None = None) -> dict:
     """The network as a document of the current version; relative file paths are re-expressed against
@@ -340,7 +306,7 @@ def network_document(network: Network, base_dir: Path | None = None) -> dict:
 
 def _relocated(processor, value: str, base_dir: Path) -> str:
     """A relative path property value re-expressed relative to ``base_dir``."""
-    if not value or Path(value).expanduser().is_absolute():
+    if not value or expanded(value).is_absolute():
         return value
     resolved = processor.resolve_path(value).resolve()
     try:

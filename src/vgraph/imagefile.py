@@ -16,7 +16,8 @@ def to_uint8(rgba: np.ndarray) -> np.ndarray:
     return np.round(np.clip(values, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
-def write_png(path: str | Path, rgba: np.ndarray) -> None:
-    """Write an (H, W, 4) float image (row 0 at the top) as an RGBA PNG."""
-    with atomic_path(path, suffix=".png") as temporary:
+def write_png(path: str | Path, rgba: np.ndarray, inside=None) -> None:
+    """Write an (H, W, 4) float image (row 0 at the top) as an RGBA PNG (``inside``: the folders
+    the write must stay in, vgraph.atomic)."""
+    with atomic_path(path, suffix=".png", inside=inside) as temporary:
         PIL.Image.fromarray(to_uint8(rgba)).save(temporary, format="PNG")

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
 from vgraph.errors import PropertyError
+from vgraph.file_names import expanded
 from vgraph.ports import Inport, Outport
 from vgraph.progress import report as report_progress
 from vgraph.properties import Invalidation, Property
@@ -122,7 +123,7 @@ class Processor:
 
     def resolve_path(self, path: str) -> Path:
         """A file path property's value, relative to the network file's folder if it has one."""
-        resolved = Path(path).expanduser()
+        resolved = expanded(path)
         base = self.network.base_dir if self.network is not None else None
         return resolved if resolved.is_absolute() or base is None else base / resolved
 

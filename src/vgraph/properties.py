@@ -12,7 +12,6 @@ remains as an alias of OUTPUT for plug-ins that still declare it.
 
 from __future__ import annotations
 
-import os
 from enum import IntEnum
 from typing import Annotated, Literal
 
@@ -21,6 +20,7 @@ from pydantic import (AfterValidator, BeforeValidator, Field, StrictBool, Strict
 
 from vgraph.camera import Camera
 from vgraph.errors import PropertyError
+from vgraph.file_names import check_file_name, shown
 from vgraph.labels import LabelTable
 from vgraph.ports import SNAKE_CASE
 from vgraph.transfer_function import TransferFunction, preset_or_file
@@ -81,7 +81,7 @@ class Property:
             return self._adapter.validate_python(value, context={"base_dir": base_dir})
         except ValidationError as error:
             reasons = "; ".join(_describe(e) for e in error.errors())
-            raise PropertyError(where, f"invalid value {value!r}: {reasons}") from None
+            raise PropertyError(where, f"invalid value {_shown_value(value)}: {reasons}") from None
 
     def to_json(self, value):
         return self._adapter.dump_python(value, mode="json")
@@ -91,6 +91,14 @@ class Property:
         return {"name": self.name, "type": self.kind, "default": self.to_json(self.default),
                 "min": getattr(self, "min", None), "max": getattr(self, "max", None),
                 "choices": list(getattr(self, "choices", [])) or None, "doc": self.doc}
+
+
+def _shown_value(value) -> str:
+    """A value in a message, cut short: a 5000-character name or a 900-deep list is not repeated."""
+    if isinstance(value, str):
+        return shown(value)
+    text = repr(value)
+    return text if len(text) <= 80 else f"{text[:72]} ... ({len(text)} characters)"
 
 
 def _describe(error: dict) -> str:
@@ -160,21 +168,12 @@ class FilePathProperty(StringProperty):
         super().__init__(default, **kw)
 
     def _value_type(self):
-        return Annotated[str, AfterValidator(_valid_file_name)]
+        return Annotated[str, AfterValidator(check_file_name)]
 
     def describe(self) -> dict:
         return super().describe() | {"filters": list(self.filters), "writes": self.writes}
 
 
-def _valid_file_name(path: str) -> str:
-    if "\0" in path:
-        raise ValueError("a file path cannot contain a NUL byte")
-    try:
-        os.fsencode(path)
-    except UnicodeEncodeError as error:
-        raise ValueError(f"a file path must be text this system can use as a file name "
-                         f"({error.reason} at character {error.start})") from None
-    return path
 
 
 class VectorProperty(Property):

@@ -23,6 +23,8 @@ points; a transfer-function property also accepts a preset's name or a TF file's
 from __future__ import annotations
 
 import json
+import os
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -32,8 +34,11 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from vgraph.atomic import write_text_atomic
 from vgraph.errors import VGraphError
+from vgraph.file_names import expanded, file_name_problem, shown
+from vgraph.json_limits import MAX_NESTING, nesting_depth
 
 LUT_SIZE = 4096
+MAX_FILE_BYTES = 16 * 2**20  # 300 000 points; the shipped presets are a few hundred bytes
 
 Point = tuple[float, float, float, float, float]
 
@@ -103,14 +108,20 @@ class TransferFunction(BaseModel):
 
     @classmethod
     def load(cls, path: str | Path) -> "TransferFunction":
-        """Read the JSON form; VGraphError naming the file and the problem otherwise."""
+        """Read the JSON form; VGraphError naming the file and the problem otherwise. Only a
+        regular file of at most MAX_FILE_BYTES, nested at most MAX_NESTING deep, is read."""
         path = Path(path)
+        too_deep = VGraphError(f"{path}: nested more than {MAX_NESTING} levels deep")
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
+            data = json.loads(_read_bounded(path))
         except OSError as error:
             raise VGraphError(f"{path}: cannot read the transfer function: {error.strerror or error}") from None
         except (json.JSONDecodeError, UnicodeDecodeError) as error:
             raise VGraphError(f"{path}: not valid JSON: {error}") from None
+        except RecursionError:  # deeper than Python's stack, so far deeper than the limit
+            raise too_deep from None
+        if nesting_depth(data) > MAX_NESTING:
+            raise too_deep
         try:
             return cls.model_validate(data)
         except ValidationError as error:
@@ -227,17 +238,32 @@ PRESETS: dict[str, TransferFunction] = {
 }
 
 
+def _read_bounded(path: Path) -> str:
+    """The text of a TF file, refused unless a regular file of at most MAX_FILE_BYTES (a FIFO
+    would block, /dev/zero never end)."""
+    with os.fdopen(os.open(path, os.O_RDONLY | os.O_NONBLOCK), "rb") as file:  # a FIFO: no wait
+        if not stat.S_ISREG(os.fstat(file.fileno()).st_mode):
+            raise VGraphError(f"{path}: not a regular file")
+        data = file.read(MAX_FILE_BYTES + 1)
+    if len(data) > MAX_FILE_BYTES:
+        raise VGraphError(f"{path}: larger than a transfer-function file can be ({MAX_FILE_BYTES} bytes)")
+    return data.decode("utf-8")
+
+
 def preset_or_file(text: str, base_dir: str | Path | None = None) -> TransferFunction:
     """The preset named ``text``, or the TF in the file at that path (relative to ``base_dir``
     if given, else to the current folder); ValueError saying which it is neither."""
     if text in PRESETS:
         return PRESETS[text]
-    path = Path(text).expanduser()
+    neither = f"{shown(text)} is neither a preset ({', '.join(PRESETS)}) nor a transfer-function file"
+    problem = file_name_problem(text)
+    if problem is not None:  # before the system sees it: it would raise, not answer
+        raise ValueError(f"{neither}: {problem}")
+    path = expanded(text)
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path
-    if not path.is_file():
-        raise ValueError(f"'{text}' is neither a preset ({', '.join(PRESETS)}) nor a "
-                         f"transfer-function file")
+    if not os.path.isfile(path):  # False for what cannot be a file (too long with base_dir)
+        raise ValueError(neither)
     try:
         return TransferFunction.load(path)
     except VGraphError as error:

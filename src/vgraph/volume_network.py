@@ -15,8 +15,10 @@ ct-bone``, ``--set source.window=robust``, ``--view front``).
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
+from vgraph.file_names import expanded
 from vgraph.network import Network
 
 IDS = {"source": "VolumeSource", "eep": "EntryExitPoints", "rc": "RayCaster", "canvas": "Canvas"}
@@ -32,7 +34,7 @@ def is_volume_path(path: str | Path) -> bool:
     name = path.name.lower()
     if name.endswith(".json"):
         return False  # a network, even if it is not a file (the loader says what is wrong)
-    return path.is_dir() or any(name.endswith(e) for e in SUPPORTED_EXTENSIONS)
+    return any(name.endswith(e) for e in SUPPORTED_EXTENSIONS) or os.path.isdir(path)  # False on a name too long
 
 
 def volume_network(path: str | Path) -> Network:
@@ -41,7 +43,7 @@ def volume_network(path: str | Path) -> Network:
     network.description = f"Shaded volume rendering of {Path(path).name}"
     for row, (id, type_name) in enumerate(IDS.items()):
         network.add(type_name, id=id).position = (0.0, 120.0 * row)  # a column in the editor
-    network.set("source.path", str(Path(path).expanduser().resolve()))
+    network.set("source.path", str(expanded(path).resolve()))
     network.set("rc.transfer_function", "auto")
     network.set("rc.shading", "blinn_phong")
     network.link("eep.camera", "rc.camera", bidirectional=True)

@@ -27,6 +27,7 @@ NonFiniteVoxelsWarning. docs/volumes.md has the details per format.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from vgraph.errors import VolumeFileError
@@ -108,7 +109,7 @@ def read_volume(path, *, raw: dict | None = None, time_step: int = 0) -> Volume:
 def _reader_for(path: Path, raw: dict | None):
     if raw is not None:
         return lambda p: read_raw(p, raw)
-    if path.is_dir():
+    if os.path.isdir(path):  # False for a name too long: regular_file names that
         return read_zarr if extension_of(path) == ".zarr" else read_dicom_series
     regular_file(path)  # before anything opens it: a FIFO would block, /dev/zero never end
     ext = extension_of(path)

@@ -15,13 +15,15 @@ What each format keeps:
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from vgraph.atomic import atomic_path
-from vgraph.errors import VolumeFileError
+from vgraph.errors import OutputFileError, VolumeFileError
 from vgraph.io.nifti import write_nifti
 from vgraph.io.nrrd_format import write_nrrd
 from vgraph.io.numpy_format import write_npy, write_npz
+from vgraph.memory import out_of_memory
 from vgraph.volume import Volume
 
 
@@ -47,8 +49,9 @@ def writable_extension(path: Path) -> str | None:
     return next((ext for ext in sorted(WRITERS, key=len, reverse=True) if name.endswith(ext)), None)
 
 
-def write_volume(volume: Volume, path) -> Path:
-    """Save ``volume`` to ``path`` (format from the extension), atomically. Returns the path."""
+def write_volume(volume: Volume, path, inside=None) -> Path:
+    """Save ``volume`` to ``path`` (format from the extension), atomically; ``inside``: the
+    folders the write must stay in (vgraph.atomic). Returns the path."""
     path = Path(path)
     ext = writable_extension(path)
     if ext is None:
@@ -57,13 +60,18 @@ def write_volume(volume: Volume, path) -> Path:
     if not isinstance(volume, Volume):
         raise VolumeFileError(path, f"expected a Volume to write, got {type(volume).__name__}")
     folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
+    if not os.path.isdir(folder):
         raise VolumeFileError(path, f"folder {str(folder)!r} does not exist", "path")
     try:
-        with atomic_path(path, suffix=ext) as temporary:  # the extension picks the compression
+        with atomic_path(path, suffix=ext, inside=inside) as temporary:  # the extension picks the compression
             WRITERS[ext](volume, temporary)
     except VolumeFileError:
         raise
+    except OutputFileError as error:  # the system's reason, or a folder outside where it may write
+        raise VolumeFileError(path, f"writing failed, existing file left untouched: {error.reason}",
+                              "path") from error
+    except MemoryError as exc:
+        raise out_of_memory(exc, f"writing {path}") from exc
     except Exception as exc:
         raise VolumeFileError(path, f"writing failed, existing file left untouched: "
                                     f"{type(exc).__name__}: {exc}") from exc
