@@ -34,7 +34,11 @@ TEXT_EXTREMES = ("0", "-1", "1e30", "-1e30", "nan", "inf", "-inf", "1e400", "214
                  ".", "none")
 JSON_EXTREMES = (None, True, False, 0, -1, 1e308, -1e308, float("nan"), float("inf"),
                  float("-inf"), 10**30, -(10**30), 2**63, 1e-320, "", "x" * 10000, [], {},
-                 [[[]]], "../../../../etc/passwd", "/dev/zero", "\u0000", "\ud800", "1", [1, 2, 3])
+                 [[[]]], "../../../../etc/passwd", "/dev/zero", "\u0000", "\ud800", "1", [1, 2, 3],
+                 # what a name must be before the system sees it, and values nested past the limit
+                 "x" * 5000, "d" * 300 + ".png", "/".join(["d" * 200] * 21) + ".nrrd", "a\ud800b.png",
+                 "\udce9.nrrd", "~nosuchuser_vgraph/x.png", ".", "x.json", "..", "sub/", "networks",
+                 json.loads("[" * 65 + "]" * 65), json.loads('{"a":' * 65 + "1" + "}" * 65))
 _PACKED_EXTREMES = (struct.pack("<i", -1), struct.pack("<i", 2**31 - 1), struct.pack("<h", -1),
                     struct.pack("<h", 32767), struct.pack("<f", float("nan")),
                     struct.pack("<f", float("inf")), struct.pack("<f", 1e30),
@@ -154,13 +158,31 @@ def _mutate_document(rng, document: dict) -> int | None:
     """One edit of the document in place; returns a nesting depth when it planted a deep list."""
     places = list(_places(document))
     container, key = rng.choice(places) if places else (document, "format")
-    kind = rng.randrange(9)
+    kind = rng.randrange(11)
     processors = document.get("processors")
     properties = [p["properties"] for p in (processors if isinstance(processors, list) else [])
                   if isinstance(p, dict) and isinstance(p.get("properties"), dict) and p["properties"]]
     if kind == 8 and properties:  # a property value of any type: each property checks its own
         container = rng.choice(properties)
         container[rng.choice(sorted(container))] = _json_extreme(rng)
+        return None
+    if kind == 9 and isinstance(processors, list):  # names that reach the system: paths, TF names
+        writer = rng.choice(({"id": "w", "type": "ImageWriter"}, {"id": "vw", "type": "VolumeWriter"}))
+        processors.append({**writer, "properties": {}})
+        named = [p for p in properties if {"path", "transfer_function"} & set(p)] + [processors[-1]["properties"]]
+        container = rng.choice(named)
+        name = rng.choice(sorted({"path", "transfer_function"} & set(container)) or ["path"])
+        container[name] = rng.choice(("", ".", "..", "x.json", "sub/", "networks", "n.json", "n.json/x.png",
+                                      "d" * 300 + ".png", "x" * 5000, "a\ud800.png", "a\u0000.png",
+                                      "/".join(["d" * 200] * 21), "~nosuchuser_vgraph/x.nrrd",
+                                      "../x.png", "out.nii.gz", "grayscale", "x" * 255 + ".png"))
+        return None
+    if kind == 10 and isinstance(processors, list):  # a version-1 property under both its names
+        document["version"] = 1
+        type_name, old, new, values = rng.choice((("RayCaster", "gradient", "derivatives", ("sobel", "central")),
+                                                  ("CurvatureRaycaster", "level", "iso_level", (0.25, 0.5))))
+        processors.append({"id": f"old_{old}", "type": type_name,
+                           "properties": dict(zip(rng.sample((old, new), 2), values))})
         return None
     if kind == 0 and isinstance(container, dict) and key in container:
         del container[key]
