@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from vgraph.errors import OutputFileError
-from vgraph.file_names import NAME_MAX, file_name_problem
+from vgraph.file_names import NAME_MAX, file_name_problem, shown
 
 _DIR_FD = os.open in os.supports_dir_fd and os.rename in os.supports_dir_fd  # replace takes them too
 _CREATE = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
@@ -263,7 +263,9 @@ def _reason(error: OSError) -> str:
 
 
 def _printable(path) -> str:
-    return str(path).replace("\0", "\\0")
+    """A refused path as a message shows it: NUL escaped, an absurd length cut short."""
+    text = str(path)
+    return text.replace("\0", "\\0") if len(text) <= 200 else shown(text, 200)
 
 
 def _mode_for(folder: _Folder, name: str) -> int:
