@@ -15,6 +15,6 @@ class ImageWriter(Processor):
     path = FilePathProperty("out.png", filters=("*.png",), writes=True, doc="where the PNG is written")
 
     def process(self, image: Image) -> None:
-        path, inside = writable_path(self, "path"), write_confinement(self)  # as vgraph validate checked
+        path, inside = writable_path(self, "path"), write_confinement(self, "path")  # as vgraph validate checked
         check_output_path(path, create_folder=True, inside=inside)  # batch jobs write into fresh folders
         write_png(path, image.to_numpy(), inside=inside)

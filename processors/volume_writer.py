@@ -16,6 +16,6 @@ class VolumeWriter(Processor):
                             doc="where the volume is written (.npy, .npz, .nrrd, .nii, .nii.gz)")
 
     def process(self, volume: Volume) -> None:
-        path, inside = writable_path(self, "path"), write_confinement(self)  # as vgraph validate checked
+        path, inside = writable_path(self, "path"), write_confinement(self, "path")  # as vgraph validate checked
         check_output_path(path, create_folder=True, inside=inside)  # batch jobs write into fresh folders
         write_volume(volume, path, inside=inside)

@@ -217,6 +217,13 @@ def test_a_target_turned_into_a_link_pointing_outside_is_not_replaced_and_its_fi
     assert (network_file.parent / "torus.nrrd").is_symlink()
 
 
+def test_a_path_a_script_sets_after_loading_is_the_scripts_own(tmp_path):
+    network = vgraph.load(network_writing_to(tmp_path, "torus.nrrd"))
+    network.set("writer.path", str(tmp_path / "chosen" / "torus.nrrd"))
+    network.evaluate("writer")
+    assert (tmp_path / "chosen" / "torus.nrrd").is_file()
+
+
 def test_links_inside_the_networks_folder_are_followed_as_before(tmp_path):
     network_file = network_writing_to(tmp_path, "results/torus.nrrd")
     network = vgraph.load(network_file)

@@ -26,7 +26,7 @@ from vgraph.json_limits import MAX_NESTING, nesting_depth
 from vgraph.memory import out_of_memory
 from vgraph.network import split_address
 from vgraph.transfer_function import PRESETS
-from vgraph.write_paths import allow_typed_path, check_writers
+from vgraph.write_paths import check_writers
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -250,8 +250,6 @@ def set_from_command_line(network, text: str) -> None:
         if value and not candidate.is_absolute() and os.path.isfile(candidate):
             value = str(Path.cwd() / candidate)  # a preset name stays a name
     network.set(address, value)
-    if kind == "file_path" and prop.writes:
-        allow_typed_path(network, processor_id, name)  # the user's own, as -o is
 
 
 def _from_cwd(value: str) -> str:

@@ -124,9 +124,9 @@ class Network:
         self.base_dir = Path(base_dir) if base_dir is not None else None
         self.description = ""
         self.last_evaluation = None  # an EvaluationReport, set by the scheduler
-        # Folders its writers may write into, re-checked as they write (vgraph.write_paths);
-        # None: anywhere (a network built in Python, not read from someone's file)
-        self.write_folders: tuple[Path, ...] | None = None
+        # Where the writer paths read from a file may write, re-checked as they write
+        # (vgraph.write_paths.Confinement); None: a network built in Python, not from a file
+        self.write_confinement = None
         self._graph_answers: dict = {}  # graph_query's answers, dropped whenever the graph changes
 
     @property

@@ -3,8 +3,8 @@
 Three moments, one rule each:
 
 - loading a network file (``check_write_paths``): a writer path that resolves outside the file's
-  folder and the folders the user allowed is refused (``WritePathError``); those folders are kept
-  on the network (``Network.write_folders``);
+  folder and the folders the user allowed is refused (``WritePathError``); those folders and the
+  paths checked are kept on the network (``Confinement``, ``Network.write_confinement``);
 - before evaluating, in ``vgraph run`` and ``vgraph validate`` alike (``check_writers``): what a
   writer could not write is refused, naming the JSON path: no path, a name its file types do not
   have, a folder (``.``), a file where a folder should be, a name the system refuses;
@@ -12,14 +12,15 @@ Three moments, one rule each:
   checks again, and the atomic write resolves the folder once more and must find it inside the
   network's folders (vgraph.atomic), so a symbolic link made since loading is not followed.
 
-Paths the user types (``--set``, a field of the GUI) are the user's own: ``allow_typed_path``
-adds their folder to the network's.
+The confinement holds for the paths the file gave: a writer path set since (``--set``, a
+script's ``network.set``, a field of the GUI) is the user's own, as ``-o`` is.
 """
 
 from __future__ import annotations
 
 import fnmatch
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 from vgraph.errors import NetworkFileError, PropertyError, WritePathError
@@ -27,6 +28,18 @@ from vgraph.file_names import expanded, file_name_problem, shown
 from vgraph.network import Network
 from vgraph.processor import Processor
 from vgraph.properties import FilePathProperty
+
+
+@dataclass(frozen=True)
+class Confinement:
+    """The folders a network file's writer paths may write into, and those paths as checked."""
+    folders: tuple[Path, ...]
+    checked: dict  # (processor id, property name) -> the value checked when the file was loaded
+
+    def folders_for(self, processor: Processor, name: str) -> tuple[Path, ...] | None:
+        """``folders`` while the property still holds the value from the file, else None."""
+        from_file = self.checked.get((processor.id, name))
+        return self.folders if from_file is not None and from_file == processor.property_values[name] else None
 
 
 def writer_properties(network: Network):
@@ -39,13 +52,14 @@ def writer_properties(network: Network):
 
 def check_write_paths(network: Network, file: str, allow_write=()) -> None:
     """Refuse writer paths that resolve outside the network's folder and the allowed folders;
-    keep those folders on the network for the writes themselves."""
+    keep those folders and the paths checked on the network for the writes themselves."""
     allowed = [expanded(folder).resolve() for folder in allow_write]
     if network.base_dir is not None:
         allowed.append(network.base_dir.resolve())
-    problems, paths = [], []
+    problems, paths, checked = [], [], {}
     for index, processor, name in writer_properties(network):
         value = processor.property_values[name]
+        checked[processor.id, name] = value
         if not value:
             continue  # check_writers names it
         target = processor.resolve_path(value).resolve()
@@ -56,7 +70,7 @@ def check_write_paths(network: Network, file: str, allow_write=()) -> None:
                              f"the network's folder; allow it with --allow-write {target.parent}"))
     if problems:
         raise WritePathError(file, problems, paths)
-    network.write_folders = tuple(allowed)
+    network.write_confinement = Confinement(tuple(allowed), checked)
 
 
 def _inside(target: Path, folders) -> bool:
@@ -116,16 +130,8 @@ def _is_folder(path: Path) -> bool:
     return os.path.isdir(path)  # False where the system cannot tell (a loop of links): the write names it
 
 
-def write_confinement(processor: Processor) -> tuple[Path, ...] | None:
-    """The folders ``processor``'s writes must stay in as they happen (None: anywhere)."""
-    return processor.network.write_folders if processor.network is not None else None
-
-
-def allow_typed_path(network: Network, processor_id: str, name: str) -> None:
-    """The user typed this writer's path: its folder becomes one the network may write into."""
-    if network.write_folders is None:
-        return
-    value = network.get(f"{processor_id}.{name}")
-    if value:
-        folder = network[processor_id].resolve_path(value).resolve().parent
-        network.write_folders = (*network.write_folders, folder)
+def write_confinement(processor: Processor, name: str) -> tuple[Path, ...] | None:
+    """The folders the write of ``processor``'s property ``name`` must stay in as it happens
+    (None: anywhere, for a path that is not the one a file gave)."""
+    confinement = processor.network.write_confinement if processor.network is not None else None
+    return confinement.folders_for(processor, name) if confinement is not None else None
