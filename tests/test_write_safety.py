@@ -251,3 +251,21 @@ def test_a_name_as_long_as_the_system_allows_is_written_with_a_shorter_temporary
     target = tmp_path / ("n" * 251 + ".png")
     write_text_atomic(target, "x")
     assert target.read_text() == "x" and sorted(tmp_path.iterdir()) == [target]
+
+
+def test_the_gui_render_process_checks_the_write_confinement_as_its_writers_write(tmp_path):
+    """A GUI left open for hours: the window's network was checked when opened, the render
+    process writes; a link made in between is refused there too."""
+    from vgraph.fileformat import network_document
+    from vgraph.gui.render_messages import RenderJob
+    from vgraph.gui.render_server import RenderServer
+    network_file = network_writing_to(tmp_path, "results/torus.nrrd")
+    network = vgraph.load(network_file)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (network_file.parent / "results").symlink_to(elsewhere)
+    result = RenderServer().handle(RenderJob(1, network_document(network), str(network.base_dir),
+                                             include_writers=True,
+                                             write_confinement=network.write_confinement))
+    assert "outside the folders this network may write into" in result.outcome.failed["writer"], result
+    assert list(elsewhere.iterdir()) == []

@@ -262,7 +262,7 @@ class LiveEvaluation(QObject):
                          plugins, self.scale, self._include_writers, self._fresh,
                          changes=() if whole else tuple(self._changes), stamp=(self._sender, self.version),
                          since=self._last_job.stamp if self._last_job else None, load_limit=self.load_limit,
-                         cluster=self.cluster)
+                         cluster=self.cluster, write_confinement=self.network.write_confinement)
 
     def _poll(self) -> None:
         results = []

@@ -64,6 +64,7 @@ class RenderJob:
     since: tuple | None = None  # the stamp of the state ``changes`` edit (the sender's previous job)
     load_limit: LoadLimit | None = GUI_LOAD_LIMIT  # reading per frame of bricked processors (None: no limit)
     cluster: ClusterSetting | None = None  # draw the final frames on this cluster (None: here)
+    write_confinement: object | None = None  # the window's network's (vgraph.write_paths.Confinement)
     sent: float = 0.0          # time.monotonic() when the window sent it (RenderResult.submitted)
 
 

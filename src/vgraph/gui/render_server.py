@@ -90,6 +90,9 @@ class RenderServer:
                 result.needs_document = True
                 return False
             self.stamp = job.stamp
+            # A file's writer paths stay where the window's network was allowed to write, checked
+            # again as they write (a link made since the file was opened is not followed)
+            self.network.write_confinement = job.write_confinement
             # Writers write what `vgraph run` writes: complete frames, however long they take.
             self._limit_loading(None if job.include_writers else job.load_limit)
         except VGraphError as error:
