@@ -265,5 +265,5 @@ def test_a_volume_path_too_long_is_a_volume_file_error_from_python_too(tmp_path)
 
 
 def test_an_animation_pattern_whose_frame_names_are_too_long_is_refused_in_a_short_message(tmp_path, capsys):
-    refused(capsys, ["animate", str(SPHERE), "-o", str(tmp_path / "f" / "{:5000d}.png"), "--frames", "1", "--quiet"],
-            "at most 4095 bytes")
+    refused(capsys, ["animate", str(SPHERE), "-o", str(tmp_path / "f" / "{:5000d}.png"), "--frames", "1",
+                     "--quiet"], "at most 4095 bytes")

@@ -159,14 +159,16 @@ def image_writer_network(tmp_path, path: str):
     (network_writing_to, "", "no output file chosen"),
     (network_writing_to, "x.json", "the name must end in .npy or .npz"),
 ])
-def test_validate_refuses_the_writer_paths_run_refuses_with_the_same_message(tmp_path, capsys, make, path, reason):
+def test_validate_refuses_the_writer_paths_run_refuses_with_the_same_message(tmp_path, capsys, make, path,
+                                                                             reason):
     network = make(tmp_path, path)
     messages = []
     for command in ("validate", "run"):
         assert main([command, str(network)]) == 2
         err = capsys.readouterr().err
         assert "evaluated" not in err and "Traceback" not in err  # run refuses before evaluating
-        assert re.search(r"net\.json: processors\[\d\]\.properties\.path: \w+ \((Image|Volume)Writer\) ", err), err
+        assert re.search(r"net\.json: processors\[\d\]\.properties\.path: \w+ \((Image|Volume)Writer\) ",
+                         err), err
         assert reason in err, err
         messages.append(err)
     assert messages[0] == messages[1]
@@ -174,7 +176,8 @@ def test_validate_refuses_the_writer_paths_run_refuses_with_the_same_message(tmp
 
 def test_a_path_typed_with_set_replaces_a_bad_one_from_the_file(tmp_path, capsys):
     network = image_writer_network(tmp_path, "x.json")
-    assert main(["run", str(network), "--set", f"w.path={tmp_path / 'typed.png'}", "--set", "canvas.size=[16, 16]"]) == 0
+    assert main(["run", str(network), "--set", f"w.path={tmp_path / 'typed.png'}",
+                 "--set", "canvas.size=[16, 16]"]) == 0
     assert (tmp_path / "typed.png").is_file()
 
 

@@ -162,7 +162,8 @@ class _Folder:
     def check_still_holds(self, name: str, descriptor: int, target: Path) -> None:
         """The temporary name still is the file created (not replaced, by a link say), and the
         folder's path still leads to the folder held."""
-        ours, there = os.fstat(descriptor), os.stat(self.name_path(name), **self.at(name), follow_symlinks=False)
+        ours = os.fstat(descriptor)
+        there = os.stat(self.name_path(name), **self.at(name), follow_symlinks=False)
         moved = self.descriptor is not None and not _same(os.stat(self.path), os.fstat(self.descriptor))
         if not _same(ours, there) or moved:
             raise OutputFileError(target, f"the temporary file or its folder {str(self.path)!r} was "

@@ -82,7 +82,8 @@ def build_parser() -> argparse.ArgumentParser:
     run = commands.add_parser("run", help="evaluate a network and write its output")
     run.add_argument("network", type=user_path, help="the .json network, or a volume file (rendered by the "
                                                 "standard network: docs/own-data.md)")
-    run.add_argument("-o", "--output", type=user_path, metavar="OUT.png", help="write the image as an 8-bit PNG")
+    run.add_argument("-o", "--output", type=user_path, metavar="OUT.png",
+                     help="write the image as an 8-bit PNG")
     run.add_argument("--data", action="append", default=[], type=user_path, metavar="OUT",
                      help="write the data; the extension chooses the format: .npy, .npz (image: "
                           "float32 H x W x 4; volume: .npz keeps spacing and origin), .nrrd, .nii, "

@@ -169,7 +169,8 @@ def _mutate_document(rng, document: dict) -> int | None:
     if kind == 9 and isinstance(processors, list):  # names that reach the system: paths, TF names
         writer = rng.choice(({"id": "w", "type": "ImageWriter"}, {"id": "vw", "type": "VolumeWriter"}))
         processors.append({**writer, "properties": {}})
-        named = [p for p in properties if {"path", "transfer_function"} & set(p)] + [processors[-1]["properties"]]
+        named = [p for p in properties if {"path", "transfer_function"} & set(p)]
+        named.append(processors[-1]["properties"])
         container = rng.choice(named)
         name = rng.choice(sorted({"path", "transfer_function"} & set(container)) or ["path"])
         container[name] = rng.choice(("", ".", "..", "x.json", "sub/", "networks", "n.json", "n.json/x.png",
@@ -179,8 +180,9 @@ def _mutate_document(rng, document: dict) -> int | None:
         return None
     if kind == 10 and isinstance(processors, list):  # a version-1 property under both its names
         document["version"] = 1
-        type_name, old, new, values = rng.choice((("RayCaster", "gradient", "derivatives", ("sobel", "central")),
-                                                  ("CurvatureRaycaster", "level", "iso_level", (0.25, 0.5))))
+        type_name, old, new, values = rng.choice((
+            ("RayCaster", "gradient", "derivatives", ("sobel", "central")),
+            ("CurvatureRaycaster", "level", "iso_level", (0.25, 0.5))))
         processors.append({"id": f"old_{old}", "type": type_name,
                            "properties": dict(zip(rng.sample((old, new), 2), values))})
         return None
