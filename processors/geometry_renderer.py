@@ -14,17 +14,24 @@ Conventions:
 - Camera: with the optional ``volume`` inport connected the camera resolves against the volume's
   box exactly as EntryExitPoints resolves it (same framing, same automatic near/far planes): link
   the cameras and connect the same volume, and the images line up pixel for pixel with the ray
-  caster's. Without a volume it frames the geometry's bounds. Geometry beyond the near or far
-  plane is clipped by them.
+  caster's. Without a volume it frames the geometry's bounds; an extreme box (1e14 or 1e-12 across,
+  or near the +-1e15 limit) is drawn in its normalised frame as ProjectedTetrahedra draws one
+  (vgraph.box_frame: a moved and scaled copy of the geometry, the camera resolved there, the depth
+  distance and ``view_camera`` in world units). Geometry beyond the near or far plane is clipped
+  by them.
 """
 
 from __future__ import annotations
+
+import weakref
 
 import moderngl
 import numpy as np
 
 from vgraph import (CameraProperty, ColorProperty, Inport, OptionProperty, Outport, Processor,
                     PropertyError, VectorProperty)
+from vgraph.box_frame import BoxFrame
+from vgraph.camera import Camera
 from vgraph.geometry import Geometry
 from vgraph.gl.context import bind_default_framebuffer
 from vgraph.gl.curvature import COLORMAPS, colormap_table
@@ -78,7 +85,7 @@ class GeometryRenderer(Processor):
     def process(self, geometry: Geometry, volume: Volume | None) -> dict:
         ctx, size = self.gl, self.render_size
         coloring = self.resolved_coloring(geometry)
-        self.view_camera = camera = self._camera(geometry, volume, size)
+        frame, drawn, camera = self._view(geometry, volume, size)
         image, depth, framebuffer = self._targets(ctx, size)
         framebuffer.use()
         ctx.viewport = (0, 0, *size)
@@ -95,11 +102,13 @@ class GeometryRenderer(Processor):
         textures = {"colormap": self._colormap(ctx)} if coloring == "scalar" else {}
         framebuffer.use()
         bind_textures(program, textures)
-        for name, value in self._uniforms(geometry, camera, size, coloring).items():
+        uniforms = self._uniforms(drawn, camera, size, coloring)
+        uniforms["world_length"] = frame.scale
+        for name, value in uniforms.items():
             set_uniform(program, name, value)
         ctx.enable(moderngl.DEPTH_TEST)
         try:
-            self._vertex_array(ctx, program, geometry).render(moderngl.TRIANGLES)
+            self._vertex_array(ctx, program, drawn).render(moderngl.TRIANGLES)
             ctx.finish()  # llvmpipe keeps binned geometry of draws nobody waited for (see ProjectedTetrahedra)
         finally:
             ctx.disable(moderngl.DEPTH_TEST)
@@ -131,13 +140,28 @@ class GeometryRenderer(Processor):
         return (low, high) if low < high else (low - 0.5, low + 0.5)  # constant: the map's middle
 
     # --- parts ----------------------------------------------------------------------------------
-    def _camera(self, geometry: Geometry, volume: Volume | None, size):
+    def _view(self, geometry: Geometry, volume: Volume | None, size) -> tuple[BoxFrame, Geometry, Camera]:
+        """(the frame the geometry is drawn in, the geometry drawn there, the concrete camera
+        there); ``view_camera`` is the camera in world units (None where a Camera cannot hold it)."""
         if volume is not None:
-            return view_camera(self.camera, volume, size)
+            self.view_camera = camera = view_camera(self.camera, volume, size)
+            return BoxFrame(), geometry, camera
         low, high = (np.asarray(b, np.float64) for b in geometry.bounds)
         pad = 1e-3 * (float(np.abs(np.concatenate([low, high])).max()) + 1.0)
         low, high = np.where(high - low > 0.0, low, low - pad), np.where(high - low > 0.0, high, high + pad)
-        return self.camera.resolved(low, high, size[0] / size[1])
+        frame = BoxFrame.of(low, high)
+        try:
+            in_frame, drawn = frame.camera(self.camera), _in_frame(geometry, frame)
+        except ValueError:  # a stored camera many radii from a tiny box sees a speck in world units too
+            frame, in_frame, drawn = BoxFrame(), self.camera, geometry
+        try:
+            camera = in_frame.resolved(frame.points(low), frame.points(high), size[0] / size[1])
+        except ValueError as error:  # a Camera's limits (pydantic) or an impossible framing
+            reason = error.errors()[0]["msg"] if hasattr(error, "errors") else str(error)
+            raise PropertyError(f"{self.id}.camera", f"cannot view the geometry's box {low.tolist()} .. "
+                                                     f"{high.tolist()} with this camera: {reason}") from None
+        self.view_camera = frame.world_camera(camera)
+        return frame, drawn, camera
 
     def _uniforms(self, geometry: Geometry, camera, size, coloring: str) -> dict:
         rays = ray_uniforms(camera, size)
@@ -210,3 +234,19 @@ class GeometryRenderer(Processor):
                 program, [(mesh["vertices"], "3f 3f 4f 1f", "position", "normal", "vertex_color", "scalar")],
                 index_buffer=mesh["indices"], index_element_size=4, skip_errors=True)
         return mesh["arrays"][program]
+
+
+_copies: "weakref.WeakKeyDictionary[Geometry, tuple[BoxFrame, Geometry]]" = weakref.WeakKeyDictionary()
+
+
+def _in_frame(geometry: Geometry, frame: BoxFrame) -> Geometry:
+    """``geometry`` moved and scaled into ``frame`` (itself for the identity frame): one copy per
+    geometry while it lives; normals, colours and scalars are the same."""
+    if frame.is_identity:
+        return geometry
+    known = _copies.get(geometry)
+    if known is None or known[0] != frame:
+        copy = Geometry(frame.points(geometry.vertices), geometry.triangles, colors=geometry.colors,
+                        normals=geometry.normals, scalars=geometry.scalars, source=geometry.source)
+        known = _copies[geometry] = (frame, copy)
+    return known[1]

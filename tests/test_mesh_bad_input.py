@@ -108,6 +108,25 @@ def test_extreme_but_valid_meshes_render_the_picture_of_the_unit_mesh(tmp_path, 
     assert np.abs(image - expected).max() < 2e-3
 
 
+@pytest.mark.parametrize("scale, offset", [(1e-12, 5e-12), (4e14, 5e14)])
+def test_extreme_but_valid_surfaces_render_the_picture_of_the_unit_surface(tmp_path, scale, offset):
+    """The GeometryRenderer without a volume frames the surface the same way: before, 4e14 raised
+    pydantic's ValidationError (exit 1) and 1e-12 rendered only the background."""
+    def image(points):
+        path = write(tmp_path, "s.vtk", points, [("triangle", np.array([[0, 1, 3], [0, 3, 2], [0, 4, 5]]))],
+                     point_data={})
+        network = vgraph.Network()
+        network.add("SurfaceSource", id="source", path=str(path))
+        network.add("GeometryRenderer", id="gr")
+        network.connect("source.geometry", "gr.geometry")
+        return network.evaluate("gr.image", size=SIZE), network.evaluate("gr.depth", size=SIZE)
+    (expected, expected_depth), (moved, depth) = image(CUBE), image(CUBE * scale + offset)
+    assert expected[..., :3].max() > 0.1
+    assert np.abs(moved - expected).max() < 2e-3
+    hit = expected_depth[..., 3] == 1.0
+    np.testing.assert_allclose(depth[..., 1][hit], expected_depth[..., 1][hit] * scale, rtol=1e-4)
+
+
 def test_an_extreme_mesh_gives_depth_and_view_camera_in_world_units(tmp_path):
     """Drawn in its box's normalised frame, the mesh still reports world units: the depth image's
     distance (g) scales with the mesh, the window depth (r) does not, and the view camera (what

@@ -10,6 +10,8 @@ uniform vec2 viewport_size;
 uniform vec3 near_centre;  // the pixel centre (ndc_x, ndc_y) is at near_centre + ndc_x near_right
 uniform vec3 near_right;   // + ndc_y near_up on the near plane (where Camera.rays start)
 uniform vec3 near_up;
+uniform float world_length;  // world units per unit of the drawn geometry (one drawn in its box's
+                             // normalised frame, vgraph.box_frame; else 1)
 #ifdef PROJECTION_PERSPECTIVE
 uniform vec3 eye;
 #else
@@ -36,5 +38,5 @@ void main() {
     color = vec4(rgb, 1.0);
     vec2 ndc = gl_FragCoord.xy / viewport_size * 2.0 - 1.0;
     vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
-    depth = vec4(gl_FragCoord.z, distance(world, origin), 0.0, 1.0);
+    depth = vec4(gl_FragCoord.z, distance(world, origin) * world_length, 0.0, 1.0);
 }
