@@ -103,6 +103,36 @@ def block_ranges(data: np.ndarray, brick) -> tuple[np.ndarray, np.ndarray]:
     return low, high
 
 
+SAMPLE_BLOCKS = 64  # reads of a sample (each a block of whole bricks)
+
+
+def sample_blocks(source: BrickSource, level: int, max_voxels: int, max_bricks: int):
+    """Blocks of ``level`` with at most ``max_voxels`` voxels in at most ``max_bricks`` bricks in
+    all: the whole level in slabs along z when it is that small, else up to SAMPLE_BLOCKS blocks of
+    whole bricks spread evenly over it (of a brick larger than the sample, a block at the level's
+    centre). Statistics of a level too large to read (a value range, percentiles) come from this
+    bounded sample; a brick is a chunk of the store, and each costs a read however small it is."""
+    shape = source.levels[level].shape
+    brick = tuple(min(b, n) for b, n in zip(tuple(source.brick)[::-1], shape))  # [z, y, x]
+    if math.prod(shape) <= max_voxels and math.prod(brick_grid(shape, source.brick)) <= max_bricks:
+        step = max(1, max_voxels // (shape[1] * shape[2]))
+        for z in range(0, shape[0], step):
+            yield source.read(level, (z, 0, 0), (z + step, shape[1], shape[2]))
+        return
+    if math.prod(brick) > max_voxels // SAMPLE_BLOCKS:
+        side = [min(n, max(1, int(max_voxels ** (1 / 3)))) for n in shape]
+        start = [(n - s) // 2 for n, s in zip(shape, side)]
+        yield source.read(level, start, [a + s for a, s in zip(start, side)])
+        return
+    per_block = min(max(1, max_bricks // SAMPLE_BLOCKS), max_voxels // SAMPLE_BLOCKS // math.prod(brick))
+    block = [min(n, b * max(1, int(per_block ** (1 / 3)))) for b, n in zip(brick, shape)]
+    grid = [-(-n // b) for n, b in zip(shape, block)]
+    total = math.prod(grid)
+    count = min(SAMPLE_BLOCKS, total)
+    for flat in sorted({(2 * i + 1) * total // (2 * count) for i in range(count)}):
+        start = [int(i) * b for i, b in zip(np.unravel_index(flat, grid), block)]
+        yield source.read(level, start, [a + b for a, b in zip(start, block)])
+
 class ArrayPyramid:
     """A BrickSource over an in-memory [z, y, x] array: the levels are computed up front with
     ``halve``. For tests, for volumes already in memory that are too large for one GL texture, and

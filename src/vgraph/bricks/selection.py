@@ -109,11 +109,12 @@ class BrickGeometry:
 # --- emptiness ------------------------------------------------------------------------------------
 def normalised_ranges(source: BrickSource, level: int, value_range=None) -> tuple[np.ndarray, np.ndarray]:
     """Per-brick [z, y, x] min and max of normalised intensity over each brick and its neighbours;
-    a brick without finite voxels counts as 0 (non-finite voxels are uploaded clamped)."""
+    a brick without finite voxels counts as 0 (non-finite voxels are uploaded clamped); one whose
+    range is unknown (-inf, +inf: a level too large to read for its ranges) as everything."""
     low, high = source.brick_ranges(level)
     lo, hi = usable_range(value_range if value_range is not None else source.value_range)
     low = np.where(np.isfinite(low), (low - lo) / (hi - lo), 0.0)
-    high = np.where(np.isfinite(high), (high - lo) / (hi - lo), 0.0)
+    high = np.where(np.isnan(high), 0.0, (high - lo) / (hi - lo))  # +inf: clipped where used
     return (ndimage.minimum_filter(low, size=3, mode="nearest"),
             ndimage.maximum_filter(high, size=3, mode="nearest"))
 

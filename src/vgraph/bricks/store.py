@@ -5,29 +5,49 @@ on zarr v2, 0.5 on zarr v3): the first image of "multiscales", its axes (three o
 taken as z, y, x by name, else in their order; a time and a channel axis are indexed with
 ``time`` and ``channel``; any other axis must have size 1), one level per dataset with the
 spacing and origin of its scale and translation (a multiscale-wide transformation applies on
-top). Opening reads metadata only; voxels are read by ``read`` and, for stores without vgraph's
-attributes, by ``brick_ranges`` (once per level, then cached) and ``value_range`` (the coarsest
-level's min..max: the finer levels would mean reading the whole volume, and averaging only
-narrows the range, so it is within the full-resolution one).
+top). Opening reads metadata only, checked as store_metadata.py says; every file is read through
+store_files.CheckedStore (regular files only, sizes bounded before reading).
 
-Every problem raises VolumeFileError naming the store and, where known, the metadata field.
+Voxels are read by ``read``. A chunk with no file reads as the array's fill value, which is what
+zarr means by it, unless the store's own statistics say otherwise: in vgraph's stores a brick
+whose recorded min and max are not both the fill value must have its chunk (vgraph convert
+leaves out only chunks of fill value), and a read that finds it missing is refused as damage.
+Other tools' images have no such statistics: their missing chunks are the fill value (zarr's
+sparse arrays).
+
+Statistics never read a whole large array: the value range and per-brick ranges of vgraph's
+stores are recorded; for other stores ``value_range`` is the min..max of a bounded sample of the
+coarsest level (pyramid.sample_blocks: the whole level up to SAMPLE_VOXELS voxels in SAMPLE_BRICKS
+bricks; averaging only narrows the range, so it lies within the full-resolution one) and
+``brick_ranges`` reads a level once only if it has at most SCAN_VOXELS voxels in at most SCAN_BRICKS bricks; a larger level's
+bricks are unknown: (-inf, +inf), drawn whenever the renderer asks for them.
+
+Every problem raises VolumeFileError naming the store and, where known, the level, the chunk (its
+key in the store) or the metadata field.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from functools import cached_property
 from pathlib import Path
 
 import numpy as np
-import zarr
+import zarr.api.asynchronous as zarr_async
+from zarr.core.array import AsyncArray
 
-from vgraph.bricks.pyramid import Level, block_ranges
-from vgraph.errors import VolumeFileError
-from vgraph.io._common import TimeStepError, to_native
+from vgraph.bricks import store_metadata as meta
+from vgraph.bricks.pyramid import block_ranges, brick_grid, sample_blocks
+from vgraph.bricks.store_files import CheckedStore, StoreFileError, chunk_limit, run
+from vgraph.errors import VGraphError, VolumeFileError
+from vgraph.io._common import TimeStepError, check_memory, to_native
 from vgraph.value_range import range_of
 
-_TYPES = {"t": "time", "c": "channel", "x": "space", "y": "space", "z": "space"}
+SAMPLE_VOXELS = 2**22  # voxels read for another tool's value range: 4 M ...
+SAMPLE_BRICKS = 2**10  # ... in at most 1024 bricks (a read each: about 0.5 ms a chunk here)
+SCAN_VOXELS = 2**25    # a level without recorded ranges is read for them only up to 32 M voxels
+SCAN_BRICKS = 2**12    # ... in up to 4096 bricks
 
 
 class BrickStore:
@@ -37,22 +57,36 @@ class BrickStore:
     def __init__(self, path, time: int = 0, channel: int = 0):
         self.path = Path(path)
         self.source = str(path)
-        group = _open_group(self.path)
-        attributes = group.attrs.asdict()
-        image = _first_image(attributes, self.path)
-        self.axes = _axes(image, self.path)
-        self.arrays = _level_arrays(group, image, len(self.axes), self.path)
-        self._space = _space_axes(self.axes, self.path)
+        self._files = CheckedStore(self.path) if self.path.is_dir() else None
+        group = _open_group(self.path, self._files)
+        attributes = dict(group.attrs)
+        image = meta.first_image(attributes, self.path)
+        self.axes = meta.image_axes(image, self.path)
+        self._space = meta.space_axes(self.axes, self.path)
+        self.arrays = [self._open_level(group, image, k) for k in range(len(image["datasets"]))]
+        dtypes = [meta.voxel_dtype(array, self.path, k) for k, array in enumerate(self.arrays)]
+        meta.check_same_kind(self.arrays, dtypes, self.axes, self._space, self.path)
         self.unit = self.axes[self._space[0]].get("unit")
         self.time_steps, self.time = self._index("time", time)
         self.channels, self.channel = self._index("channel", channel)
         self._check_other_axes()
-        self.levels = [self._level(k, array, image) for k, array in enumerate(self.arrays)]
-        first = self.arrays[0]
-        self.brick = tuple(int(first.chunks[a]) for a in self._space[::-1])
-        self.dtype = _dtype(first, self.path)
-        self.ours = attributes.get("vgraph") if isinstance(attributes.get("vgraph"), dict) else None
-        self._group = group
+        levels = [meta.level_geometry(image, k, array.shape, self._space, len(self.axes), self.path)
+                  for k, array in enumerate(self.arrays)]
+        meta.check_extents(levels, self.path)
+        self.dtype = dtypes[0]
+        self.ours = meta.our_attributes(attributes, len(levels), math.prod(levels[0].shape), self.path)
+        self.brick = tuple(int(self.arrays[0].chunks[a]) for a in self._space[::-1])
+        if self.ours:
+            meta.check_our_pyramid(levels, self.path)
+            self._check_our_chunks()
+        else:
+            levels = levels[:meta.halving_levels(levels, self.path)]
+            self.arrays = self.arrays[:len(levels)]
+        self.levels = levels
+        for k, level in enumerate(levels):
+            meta.check_brick_count(level, self.brick, self.path, k, meta.array_field(self.arrays[0]))
+        self._range_arrays = [self._open_range_arrays(group, k) for k in range(len(levels))] \
+            if self.ours else None
         self._ranges: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     # --- the BrickSource protocol -----------------------------------------------------------------
@@ -61,60 +95,92 @@ class BrickStore:
         shape = self.levels[level].shape
         lo = [min(max(0, int(a)), n) for a, n in zip(start, shape)]
         hi = [max(min(n, int(b)), a) for a, b, n in zip(lo, stop, shape)]
-        index = [0] * len(self.axes)
-        for axis, name in enumerate(self.axes):
-            if axis in self._space:
-                which = self._space.index(axis)
-                index[axis] = slice(lo[which], hi[which])
-            elif name["type"] == "time":
-                index[axis] = self.time
-            elif name["type"] == "channel":
-                index[axis] = self.channel
-        try:
-            block = np.asarray(self.arrays[level][tuple(index)])
-        except Exception as error:  # a damaged or missing chunk: zarr and its codecs raise many types
-            raise VolumeFileError(self.path, f"cannot read level {level} voxels {lo}..{hi}: "
-                                             f"{type(error).__name__}: {error}", str(level)) from error
+        index = self._selection(lo, hi)
+        array = self.arrays[level]
+        check_memory(self.path, math.prod(b - a for a, b in zip(lo, hi)) * self.dtype.itemsize
+                     + meta.check_chunks(array, self.dtype, self.path, level), str(level))
+        missing: list[str] = []
+        block = self._get(array, index, level, missing, f"level {level} voxels {lo}..{hi}")
+        if missing:
+            self._check_missing(level, index, missing)
         order = np.argsort(np.argsort(self._space))  # array order of the space axes -> z, y, x
         return to_native(np.transpose(block, order) if list(order) != [0, 1, 2] else block)
 
     def brick_ranges(self, level: int) -> tuple[np.ndarray, np.ndarray]:
-        """Min and max of every brick's finite voxels ([bz, by, bx] float64, NaN: none): from the
-        store's own arrays, else computed by reading the level slab by slab (once)."""
+        """Min and max of every brick's finite voxels ([bz, by, bx] float64, NaN: none; -inf and
+        +inf: unknown, a level too large to read for them): from the store's own arrays, else
+        computed by reading the level slab by slab (once)."""
         if level not in self._ranges:
-            self._ranges[level] = self._stored_ranges(level) or self._computed_ranges(level)
+            self._ranges[level] = (self._stored_ranges if self.ours else self._computed_ranges)(level)
         return self._ranges[level]
 
     @cached_property
     def value_range(self) -> tuple[float, float]:
-        if self.ours and self.ours.get("value_range"):
-            return tuple(float(v) for v in self.ours["value_range"])
-        return range_of(self.data_range)
+        return self.ours["value_range"] if self.ours else range_of(self.data_range)
 
     # --- what a Volume needs beyond the protocol --------------------------------------------------
     @property
     def declared_range(self) -> tuple[float, float] | None:
-        declared = self.ours.get("declared_range") if self.ours else None
-        return tuple(float(v) for v in declared) if declared else None
+        return self.ours["declared_range"] if self.ours else None
 
     @cached_property
     def data_range(self) -> tuple[float, float] | None:
         """Min and max of the finite voxels (None: none is finite): recorded by vgraph convert;
-        for other stores those of the coarsest level (one read of its voxels)."""
-        if self.ours and "data_range" in self.ours:
-            recorded = self.ours["data_range"]
-            return tuple(float(v) for v in recorded) if recorded else None
-        low, high = self.brick_ranges(len(self.levels) - 1)
-        return (float(np.nanmin(low)), float(np.nanmax(high))) if np.isfinite(low).any() else None
+        for other stores those of a bounded sample of the coarsest level."""
+        if self.ours:
+            return self.ours["data_range"]
+        low = high = None
+        for block in sample_blocks(self, len(self.levels) - 1, SAMPLE_VOXELS, SAMPLE_BRICKS):
+            finite = block[np.isfinite(block)] if block.dtype.kind == "f" else block
+            if finite.size:
+                low = finite.min() if low is None else min(low, finite.min())
+                high = finite.max() if high is None else max(high, finite.max())
+        return None if low is None else (float(low), float(high))
 
     @property
     def nonfinite(self) -> int | None:
         """NaN/Inf voxels at full resolution, as vgraph convert counted them (None: unknown)."""
         if self.dtype.kind != "f":
             return 0
-        return int(self.ours["nonfinite"]) if self.ours and "nonfinite" in self.ours else None
+        return self.ours["nonfinite"] if self.ours else None
 
     # --- opening ----------------------------------------------------------------------------------
+    def _open_level(self, group, image: dict, k: int):
+        name = meta.dataset_path(image, k, self.path)
+        array = _member(group, name, self.path)
+        if not isinstance(array, AsyncArray):
+            raise VolumeFileError(self.path, f"level {k}: dataset path {name!r} is not an array in the "
+                                             f"store", "multiscales.datasets")
+        if array.ndim != len(self.axes):
+            raise VolumeFileError(self.path, f"level {k} ({name}) has {array.ndim} dimensions but "
+                                             f"{len(self.axes)} axes are declared", "multiscales.axes")
+        dtype = meta.voxel_dtype(array, self.path, k)
+        self._files.limit_chunks(array.path, chunk_limit(meta.check_chunks(array, dtype, self.path, k)))
+        return array
+
+    def _check_our_chunks(self) -> None:
+        for k, array in enumerate(self.arrays):
+            chunks = tuple(int(array.chunks[a]) for a in self._space[::-1])
+            if chunks != self.ours["brick"] or array.shards:
+                raise VolumeFileError(self.path, f"level {k}: chunks of {chunks} voxels (x, y, z), but the "
+                                                 f"store's brick is {self.ours['brick']}: the store is "
+                                                 f"damaged", meta.array_field(array))
+
+    def _open_range_arrays(self, group, k: int):
+        """vgraph/min/<k> and vgraph/max/<k> (metadata only; read by brick_ranges)."""
+        arrays = []
+        for which in ("min", "max"):
+            name = f"vgraph/{which}/{k}"
+            array = _member(group, name, self.path)
+            if not isinstance(array, AsyncArray):
+                raise VolumeFileError(self.path, f"the per-brick {which} of level {k} are missing: the "
+                                                 f"store is damaged", name)
+            meta.check_range_array(array, self.levels[k], self.brick, self.path, k, which)
+            chunk_bytes = meta.check_chunks(array, np.dtype("f8"), self.path, k)
+            self._files.limit_chunks(array.path, chunk_limit(chunk_bytes))
+            arrays.append(array)
+        return arrays
+
     def _index(self, kind: str, value) -> tuple[int, int]:
         """(axis length, the checked index) of the time or channel axis (1, 0 when absent)."""
         axis = next((a for a, spec in enumerate(self.axes) if spec["type"] == kind), None)
@@ -134,31 +200,95 @@ class BrickStore:
                                                  f"has {self.arrays[0].shape[axis]} entries; only "
                                                  f"time and channel axes can be selected", "axes")
 
-    def _level(self, k: int, array, image: dict) -> Level:
-        scale, translation = _transform(image["datasets"][k], image, len(self.axes), self.path, k)
-        space = self._space
-        spacing = tuple(float(scale[a]) for a in space[::-1])
-        if not all(math.isfinite(s) and s > 0 for s in spacing):
-            raise VolumeFileError(self.path, f"level {k}: the scale of the spatial axes must be "
-                                             f"positive, got {spacing} (x, y, z)", "coordinateTransformations")
-        origin = tuple(float(translation[a]) for a in space[::-1])
-        shape = tuple(int(array.shape[a]) for a in space)
-        if 0 in shape:
-            raise VolumeFileError(self.path, f"level {k} is empty: shape {shape} (z, y, x)", "datasets")
-        return Level(shape, spacing, origin)
+    # --- reading ----------------------------------------------------------------------------------
+    def _selection(self, lo, hi) -> tuple:
+        index = [0] * len(self.axes)
+        for axis, spec in enumerate(self.axes):
+            if axis in self._space:
+                which = self._space.index(axis)
+                index[axis] = slice(lo[which], hi[which])
+            elif spec["type"] == "time":
+                index[axis] = self.time
+            elif spec["type"] == "channel":
+                index[axis] = self.channel
+        return tuple(index)
 
-    def _stored_ranges(self, level: int):
-        if not self.ours or self.time or self.channel:
-            return None
+    def _get(self, array, index, level: int, missing: list, what: str) -> np.ndarray:
         try:
-            low = self._group[f"vgraph/min/{level}"][...]
-            high = self._group[f"vgraph/max/{level}"][...]
-        except KeyError:
-            return None
-        return np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
+            return np.asarray(run(array.getitem(index), missing))
+        except StoreFileError as error:
+            raise VolumeFileError(self.path, f"level {level}: chunk {error.key} {error.reason}",
+                                  error.key) from None
+        except VGraphError:
+            raise
+        except Exception as error:  # a chunk its codecs cannot decode into the declared chunk shape
+            key = self._undecodable_chunk(array, index) or "?"
+            raise VolumeFileError(self.path, f"level {level}: chunk {key} cannot be read as "
+                                             f"{' x '.join(map(str, meta.stored_chunk(array)))} voxels of "
+                                             f"{array.dtype} ({what}): {type(error).__name__}: "
+                                             f"{str(error)[:200]}", key) from None
+
+    def _chunk_keys(self, array, index) -> dict[str, tuple]:
+        """Store key -> chunk coordinates of the stored chunks a selection touches."""
+        chunk = meta.stored_chunk(array)
+        spans = [i.indices(n)[:2] if isinstance(i, slice) else (i, i + 1)
+                 for i, n in zip(index, array.shape)]
+        ranges = [range(a // c, max(a, b - 1) // c + 1) for (a, b), c in zip(spans, chunk)]
+        return {f"{array.path}/{array.metadata.encode_chunk_key(coords)}": coords
+                for coords in itertools.product(*ranges)}
+
+    def _undecodable_chunk(self, array, index) -> str | None:
+        """The first chunk of the selection that fails alone (on the error path only)."""
+        chunk = meta.stored_chunk(array)
+        for key, coords in self._chunk_keys(array, index).items():
+            one = tuple(slice(c * n, min((c + 1) * n, size))
+                        for c, n, size in zip(coords, chunk, array.shape))
+            try:
+                run(array.getitem(one))
+            except Exception:
+                return key
+        return None
+
+    def _check_missing(self, level: int, index, missing: list[str]) -> None:
+        """Chunks without a file are the fill value: refused where the store's statistics say
+        their brick holds something else."""
+        if not self.ours:
+            return
+        fill = float(self.arrays[level].metadata.fill_value)
+        low, high = self.brick_ranges(level)
+        coordinates = self._chunk_keys(self.arrays[level], index)
+        for key in missing:
+            brick = tuple(coordinates.get(key, ()))
+            if len(brick) != 3:
+                continue
+            lo, hi = low[brick], high[brick]
+            if lo == hi == fill or (math.isnan(fill) and np.isnan(lo) and np.isnan(hi)):
+                continue
+            held = "no finite value" if np.isnan(lo) else f"values {lo:g} to {hi:g}"
+            raise VolumeFileError(self.path, f"level {level}: chunk {key} is missing, but the store's "
+                                             f"statistics (vgraph/min/{level}, vgraph/max/{level}) say "
+                                             f"brick {brick} (z, y, x) holds {held}, not only the fill "
+                                             f"value {fill:g}: the store is damaged (a chunk file was "
+                                             f"deleted or lost)", key)
+
+    # --- per-brick ranges -------------------------------------------------------------------------
+    def _stored_ranges(self, level: int):
+        low_array, high_array = self._range_arrays[level]
+        check_memory(self.path, 2 * 8 * math.prod(low_array.shape), f"vgraph/min/{level}")
+        low, high = (self._get(a, tuple(slice(0, n) for n in a.shape), level, [], "per-brick ranges")
+                     for a in (low_array, high_array))
+        low, high = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
+        if (low > high).any() or np.isinf(low).any() or np.isinf(high).any():
+            raise VolumeFileError(self.path, f"the per-brick ranges of level {level} have a min above "
+                                             f"its max or an infinite one: the store is damaged",
+                                  f"vgraph/min/{level}")
+        return low, high
 
     def _computed_ranges(self, level: int):
         shape = self.levels[level].shape
+        grid = brick_grid(shape, self.brick)
+        if math.prod(shape) > SCAN_VOXELS or math.prod(grid) > SCAN_BRICKS:  # unknown: drawn when asked
+            return np.broadcast_to(-np.inf, grid), np.broadcast_to(np.inf, grid)
         bz = self.brick[2]
         rows = [block_ranges(self.read(level, (z, 0, 0), (z + bz, shape[1], shape[2])), self.brick)
                 for z in range(0, shape[0], bz)]
@@ -169,108 +299,29 @@ class BrickStore:
         return f"BrickStore({self.source!r}, {shape} {self.dtype}, {len(self.levels)} levels, brick {self.brick})"
 
 
-def _open_group(path: Path):
+def _open_group(path: Path, files: CheckedStore | None):
     if not path.exists():
         raise VolumeFileError(path, "store does not exist")
-    if not path.is_dir():
+    if files is None:
         raise VolumeFileError(path, "is not a folder: an OME-Zarr store is a folder holding "
                                     "zarr.json (or .zgroup)")
     try:
-        return zarr.open_group(str(path), mode="r")
+        return run(zarr_async.open_group(store=files, mode="r"))
+    except VGraphError:
+        raise
     except Exception as error:  # GroupNotFoundError, a damaged zarr.json (JSON errors)...
         raise VolumeFileError(path, f"not a zarr group (no readable zarr.json or .zgroup): "
-                                    f"{type(error).__name__}: {error}", "zarr.json") from error
+                                    f"{type(error).__name__}: {str(error)[:200]}", "zarr.json") from None
 
 
-def _first_image(attributes: dict, path: Path) -> dict:
-    """The first multiscale image: NGFF 0.5 keeps it under "ome", 0.4 at the top level."""
-    ome = attributes.get("ome") if isinstance(attributes.get("ome"), dict) else attributes
-    images = ome.get("multiscales")
-    if not isinstance(images, list) or not images or not isinstance(images[0], dict):
-        raise VolumeFileError(path, "not an OME-Zarr image: the group attributes have no "
-                                    "'multiscales' list (ome.multiscales in NGFF 0.5)", "multiscales")
-    image = images[0]
-    if not isinstance(image.get("datasets"), list) or not image["datasets"]:
-        raise VolumeFileError(path, "the multiscale image lists no datasets (levels)",
-                              "multiscales.datasets")
-    return image
-
-
-def _axes(image: dict, path: Path) -> list[dict]:
-    """Axes as {"name", "type", "unit"?}; NGFF 0.3's plain names get their type from the name."""
-    axes = image.get("axes")
-    if not isinstance(axes, list) or not axes:
-        raise VolumeFileError(path, "the multiscale image has no 'axes' list", "multiscales.axes")
-    out = []
-    for axis in axes:
-        spec = {"name": axis} if isinstance(axis, str) else dict(axis) if isinstance(axis, dict) else None
-        if spec is None or not isinstance(spec.get("name"), str):
-            raise VolumeFileError(path, f"an axis must be a name or an object with a name, got "
-                                        f"{axis!r}", "multiscales.axes")
-        spec["type"] = spec.get("type") or _TYPES.get(spec["name"].lower(), "unknown")
-        out.append(spec)
-    return out
-
-
-def _space_axes(axes: list[dict], path: Path) -> list[int]:
-    """Indices of the z, y and x axes (by name when named so, else the order given)."""
-    space = [a for a, spec in enumerate(axes) if spec["type"] == "space"]
-    names = [axes[a]["name"] for a in space]
-    if len(space) != 3:
-        kind = "a 2D image" if len(space) == 2 else f"an image with {len(space)} spatial axes"
-        raise VolumeFileError(path, f"{kind} (spatial axes {', '.join(names) or 'none'}): a volume "
-                                    f"needs three spatial axes z, y, x", "multiscales.axes")
-    by_name = {axes[a]["name"].lower(): a for a in space}
-    return [by_name[n] for n in "zyx"] if set(by_name) == set("zyx") else space
-
-
-def _level_arrays(group, image: dict, ndim: int, path: Path) -> list:
-    arrays = []
-    for k, dataset in enumerate(image["datasets"]):
-        name = dataset.get("path") if isinstance(dataset, dict) else None
-        try:
-            array = group[str(name)]
-        except (KeyError, TypeError):
-            array = None
-        if not isinstance(array, zarr.Array):
-            raise VolumeFileError(path, f"level {k}: dataset path {name!r} is not an array in the "
-                                        f"store", "multiscales.datasets")
-        if array.ndim != ndim:
-            raise VolumeFileError(path, f"level {k} ({name}) has {array.ndim} dimensions but "
-                                        f"{ndim} axes are declared", "multiscales.axes")
-        arrays.append(array)
-    return arrays
-
-
-def _transform(dataset: dict, image: dict, ndim: int, path: Path, k: int):
-    """Scale and translation per axis of level k: the dataset's, then the image-wide one."""
-    scale, translation = _scale_translation(dataset.get("coordinateTransformations"), ndim, path, k)
-    outer_scale, outer_translation = _scale_translation(image.get("coordinateTransformations"),
-                                                        ndim, path, k)
-    return scale * outer_scale, translation * outer_scale + outer_translation
-
-
-def _scale_translation(transforms, ndim: int, path: Path, k: int):
-    scale, translation = np.ones(ndim), np.zeros(ndim)
-    for transform in transforms or []:
-        kind = transform.get("type") if isinstance(transform, dict) else None
-        if kind == "identity":
-            continue
-        values = transform.get(kind) if kind in ("scale", "translation") else None
-        if values is None or len(values) != ndim:
-            raise VolumeFileError(path, f"level {k}: unsupported or malformed transformation "
-                                        f"{transform!r} (need scale/translation with {ndim} values)",
-                                  "coordinateTransformations")
-        if kind == "scale":
-            scale, translation = scale * np.asarray(values, float), translation * np.asarray(values, float)
-        else:
-            translation = translation + np.asarray(values, float)
-    return scale, translation
-
-
-def _dtype(array, path: Path) -> np.dtype:
-    dtype = np.dtype(array.dtype)
-    if dtype.kind not in "uif" or dtype.itemsize > 8:
-        raise VolumeFileError(path, f"unsupported data type {dtype} (integer or float voxels only)",
-                              "data_type")
-    return dtype.newbyteorder("=")
+def _member(group, name: str, path: Path):
+    """The array or group at ``name`` (None when there is none); damaged metadata is refused."""
+    try:
+        return run(group.getitem(name))
+    except KeyError:
+        return None
+    except VGraphError:
+        raise
+    except Exception as error:  # zarr's errors for a damaged zarr.json / .zarray
+        raise VolumeFileError(path, f"the metadata of {name!r} cannot be read: {type(error).__name__}: "
+                                    f"{str(error)[:200]}", name) from None

@@ -10,11 +10,13 @@ texture) work for small stores and refuse large ones clearly.
 
 Statistics that a plain Volume computes from its array come from the pyramid instead:
 - ``finite_extremes`` (and so ``value_range``): recorded by vgraph convert at full resolution;
-  for other stores the coarsest level's min..max (BrickStore.data_range);
-- ``percentiles`` and ``histogram``: from the finest level of at most SUMMARY_VOXELS voxels (the
-  full array once it is loaded); the 0th and 100th percentiles are the full-resolution extremes;
-- ``nonfinite_count``: recorded by vgraph convert; otherwise counted on that summary level (a
-  lower bound), or on the array once loaded.
+  for other stores those of a bounded sample of the coarsest level (BrickStore.data_range);
+- ``percentiles`` and ``histogram``: from the finest level of at most SUMMARY_VOXELS voxels in
+  SUMMARY_BRICKS bricks (the full array once it is loaded; a sample of that size of the coarsest
+  level when even that is larger, pyramid.sample_blocks); the 0th and 100th percentiles are the
+  full-resolution extremes;
+- ``nonfinite_count``: recorded by vgraph convert; otherwise counted on that summary (a lower
+  bound), or on the array once loaded.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from vgraph.bricks.pyramid import Level
+from vgraph.bricks.pyramid import Level, brick_grid, sample_blocks
 from vgraph.errors import VGraphError
 from vgraph.gl.context import release_quietly
 from vgraph.io._common import check_memory, format_bytes
@@ -34,6 +36,7 @@ from vgraph.volume import _TEXTURE_FORMATS, FLOAT32_SAFE, Volume, _RankTable, _v
 
 DEFAULT_MEMORY_BUDGET_MB = 1024
 SUMMARY_VOXELS = 2**22  # voxels read for percentiles and histograms: 4 M, a second at most
+SUMMARY_BRICKS = 2**10  # ... in at most 1024 bricks (each is a chunk file to read)
 
 
 class MemoryBudgetError(VGraphError):
@@ -149,22 +152,24 @@ class BrickedVolume(Volume):
     # --- statistics from a small level ------------------------------------------------------------
     def _summary_level(self) -> int:
         levels = self._bricks.levels
-        return next((k for k, lv in enumerate(levels) if math.prod(lv.shape) <= SUMMARY_VOXELS),
-                    len(levels) - 1)
+        brick = self._bricks.brick
+        return next((k for k, lv in enumerate(levels) if math.prod(lv.shape) <= SUMMARY_VOXELS
+                     and math.prod(brick_grid(lv.shape, brick)) <= SUMMARY_BRICKS), len(levels) - 1)
 
     def _slabs(self):
         if self._data is not None:
             yield from Volume._slabs(self)
             return
-        k = self._summary_level()
-        shape = self._bricks.levels[k].shape
-        step = max(1, SUMMARY_VOXELS // (shape[1] * shape[2]))
-        for z in range(0, shape[0], step):
-            yield self._bricks.read(k, (z, 0, 0), (z + step, shape[1], shape[2])).reshape(-1)
+        for block in sample_blocks(self._bricks, self._summary_level(), SUMMARY_VOXELS, SUMMARY_BRICKS):
+            yield block.reshape(-1)
 
     def _rank_table(self) -> _RankTable:
         if "_ranks" not in self.__dict__:
-            extremes = self.finite_extremes or self._summary_extremes()
+            # the summary's own extremes too: another tool's recorded range is a coarse level's
+            # (narrower than a finer summary level's), and a damaged store's may be anything
+            recorded, seen = self.finite_extremes, self._summary_extremes()
+            extremes = seen if recorded is None else recorded if seen is None else \
+                (min(recorded[0], seen[0]), max(recorded[1], seen[1]))
             summary = SimpleNamespace(finite_extremes=extremes, data=SimpleNamespace(dtype=self.dtype),
                                       _slabs=self._slabs, nonfinite_count=int(self.dtype.kind == "f"))
             self.__dict__["_ranks"] = _RankTable.of(summary)

@@ -1,0 +1,306 @@
+"""What an OME-Zarr image's metadata says, checked before a voxel is read (docs/large-data.md).
+
+The NGFF side: the first image of "multiscales" (under "ome" in NGFF 0.5), its axes, the dataset
+paths (relative paths inside the store) and their scale and translation. The zarr side, per
+level: the dimensions, one data type for every level, chunks of at most MAX_CHUNK_BYTES and a
+brick grid of at most MAX_BRICKS. Across levels: the same time and channel lengths and extents
+that agree with the scales. vgraph's own stores ("vgraph" attributes, written by vgraph convert)
+are held to their layout exactly: every level the halving of the one before (pyramid.next_level),
+chunks equal to the recorded brick, recorded ranges that are ranges.
+
+Every problem raises VolumeFileError naming the store and the metadata field.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+
+from vgraph.bricks.pyramid import Level, brick_grid, next_level
+from vgraph.errors import VGraphWarning, VolumeFileError
+from vgraph.io._common import format_bytes
+
+MAX_CHUNK_BYTES = 2**30  # one decoded chunk: zarr holds it whole while reading any voxel of it
+MAX_BRICKS = 2**24       # per level: the per-brick ranges are arrays of this many values
+_TYPES = {"t": "time", "c": "channel", "x": "space", "y": "space", "z": "space"}
+
+
+class StoreLevelsWarning(VGraphWarning):
+    """Levels of another tool's OME-Zarr image that are not the halving of the level before
+    (vgraph's pyramid convention) are not used: the store is rendered from the levels before."""
+
+
+# --- the NGFF image -----------------------------------------------------------------------------------
+def first_image(attributes: dict, path) -> dict:
+    """The first multiscale image: NGFF 0.5 keeps it under "ome", 0.4 at the top level."""
+    ome = attributes.get("ome") if isinstance(attributes.get("ome"), dict) else attributes
+    images = ome.get("multiscales")
+    if not isinstance(images, list) or not images or not isinstance(images[0], dict):
+        raise VolumeFileError(path, "not an OME-Zarr image: the group attributes have no "
+                                    "'multiscales' list (ome.multiscales in NGFF 0.5)", "multiscales")
+    image = images[0]
+    if not isinstance(image.get("datasets"), list) or not image["datasets"]:
+        raise VolumeFileError(path, "the multiscale image lists no datasets (levels)",
+                              "multiscales.datasets")
+    return image
+
+
+def image_axes(image: dict, path) -> list[dict]:
+    """Axes as {"name", "type", "unit"?}; NGFF 0.3's plain names get their type from the name."""
+    axes = image.get("axes")
+    if not isinstance(axes, list) or not axes:
+        raise VolumeFileError(path, "the multiscale image has no 'axes' list", "multiscales.axes")
+    out = []
+    for axis in axes:
+        spec = {"name": axis} if isinstance(axis, str) else dict(axis) if isinstance(axis, dict) else None
+        if spec is None or not isinstance(spec.get("name"), str):
+            raise VolumeFileError(path, f"an axis must be a name or an object with a name, got "
+                                        f"{axis!r}", "multiscales.axes")
+        kind = spec.get("type") or _TYPES.get(spec["name"].lower(), "unknown")
+        spec["type"] = kind if isinstance(kind, str) else "unknown"
+        out.append(spec)
+    return out
+
+
+def space_axes(axes: list[dict], path) -> list[int]:
+    """Indices of the z, y and x axes (by name when named so, else the order given)."""
+    space = [a for a, spec in enumerate(axes) if spec["type"] == "space"]
+    names = [axes[a]["name"] for a in space]
+    if len(space) != 3:
+        kind = "a 2D image" if len(space) == 2 else f"an image with {len(space)} spatial axes"
+        raise VolumeFileError(path, f"{kind} (spatial axes {', '.join(names) or 'none'}): a volume "
+                                    f"needs three spatial axes z, y, x", "multiscales.axes")
+    by_name = {axes[a]["name"].lower(): a for a in space}
+    return [by_name[n] for n in "zyx"] if set(by_name) == set("zyx") else space
+
+
+def dataset_path(image: dict, k: int, path) -> str:
+    """Level k's array path: a relative path inside the store ('0', 'scale0/image'); never
+    absolute, empty or through '.' or '..' (zarr refuses those with its own ValueError)."""
+    dataset = image["datasets"][k]
+    name = dataset.get("path") if isinstance(dataset, dict) else None
+    parts = name.split("/") if isinstance(name, str) else []
+    if not parts or any(p in ("", ".", "..") or "\\" in p or "\x00" in p for p in parts) \
+            or len(name) > 1024:
+        raise VolumeFileError(path, f"level {k}: dataset path {name!r} is not a path inside the store "
+                                    f"(relative names separated by '/', no '.' or '..')",
+                              f"multiscales.datasets[{k}].path")
+    return name
+
+
+def transform(image: dict, k: int, ndim: int, path):
+    """Scale and translation per axis of level k: the dataset's, then the image-wide one."""
+    dataset = image["datasets"][k]
+    scale, translation = _scale_translation(dataset.get("coordinateTransformations"), ndim, path, k)
+    outer_scale, outer_translation = _scale_translation(image.get("coordinateTransformations"),
+                                                        ndim, path, k)
+    with np.errstate(all="ignore"):  # overflow to inf is refused by the caller's finiteness check
+        return scale * outer_scale, translation * outer_scale + outer_translation
+
+
+def _scale_translation(transforms, ndim: int, path, k: int):
+    scale, translation = np.ones(ndim), np.zeros(ndim)
+    for transform in transforms if isinstance(transforms, list) else [transforms] if transforms else []:
+        kind = transform.get("type") if isinstance(transform, dict) else None
+        if kind == "identity":
+            continue
+        values = transform.get(kind) if kind in ("scale", "translation") else None
+        numbers = _numbers(values, ndim)
+        if numbers is None:
+            raise VolumeFileError(path, f"level {k}: unsupported or malformed transformation "
+                                        f"{_short(transform)} (need scale/translation with {ndim} "
+                                        f"numbers)", "coordinateTransformations")
+        with np.errstate(all="ignore"):
+            if kind == "scale":
+                scale, translation = scale * numbers, translation * numbers
+            else:
+                translation = translation + numbers
+    return scale, translation
+
+
+def _numbers(values, count: int) -> np.ndarray | None:
+    if not isinstance(values, list) or len(values) != count \
+            or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
+        return None
+    try:
+        return np.asarray(values, dtype=np.float64)
+    except OverflowError:  # an integer beyond float64
+        return None
+
+
+def level_geometry(image: dict, k: int, shape, space: list[int], ndim: int, path) -> Level:
+    """Level k as a pyramid Level: [z, y, x] voxels, (x, y, z) spacing and origin."""
+    scale, translation = transform(image, k, ndim, path)
+    spacing = tuple(float(scale[a]) for a in space[::-1])
+    if not all(math.isfinite(s) and s > 0 for s in spacing):
+        raise VolumeFileError(path, f"level {k}: the scale of the spatial axes must be "
+                                    f"positive, got {spacing} (x, y, z)", "coordinateTransformations")
+    origin = tuple(float(translation[a]) for a in space[::-1])
+    if not all(math.isfinite(o) for o in origin):
+        raise VolumeFileError(path, f"level {k}: the translation of the spatial axes must be finite, "
+                                    f"got {origin} (x, y, z)", "coordinateTransformations")
+    level_shape = tuple(int(shape[a]) for a in space)
+    if 0 in level_shape:
+        raise VolumeFileError(path, f"level {k} is empty: shape {level_shape} (z, y, x)", "datasets")
+    return Level(level_shape, spacing, origin)
+
+
+# --- each level's array --------------------------------------------------------------------------------
+def array_field(array) -> str:
+    """The metadata document of an array, for messages: '0/zarr.json' or '0/.zarray'."""
+    return f"{array.path}/{'zarr.json' if array.metadata.zarr_format == 3 else '.zarray'}"
+
+
+def voxel_dtype(array, path, k: int) -> np.dtype:
+    try:
+        dtype = np.dtype(array.dtype)
+    except TypeError:  # one of zarr's own types without a NumPy equivalent
+        dtype = None
+    if dtype is None or dtype.kind not in "uif" or dtype.itemsize > 8:
+        raise VolumeFileError(path, f"level {k}: unsupported data type {array.dtype} (integer or "
+                                    f"float voxels only)", "data_type")
+    return dtype.newbyteorder("=")
+
+
+def stored_chunk(array) -> tuple[int, ...]:
+    """The chunk that is one file (the shard of a sharded array): what zarr reads at once."""
+    return tuple(int(n) for n in (array.shards or array.chunks))
+
+
+def check_chunks(array, dtype: np.dtype, path, k: int) -> int:
+    """The decoded bytes of one stored chunk, refused beyond MAX_CHUNK_BYTES."""
+    chunk = stored_chunk(array)
+    if min(chunk) < 1:
+        raise VolumeFileError(path, f"level {k}: chunks of {' x '.join(map(str, chunk))} voxels: every "
+                                    f"chunk edge must be at least 1", array_field(array))
+    nbytes = math.prod(chunk) * dtype.itemsize
+    if nbytes > MAX_CHUNK_BYTES:
+        raise VolumeFileError(path, f"level {k}: a chunk of {' x '.join(map(str, chunk))} voxels is "
+                                    f"{format_bytes(nbytes)} decoded, more than the "
+                                    f"{format_bytes(MAX_CHUNK_BYTES)} vgraph reads at once",
+                              array_field(array))
+    return nbytes
+
+
+def check_brick_count(level: Level, brick, path, k: int, field: str) -> None:
+    count = math.prod(brick_grid(level.shape, brick))
+    if count > MAX_BRICKS:
+        raise VolumeFileError(path, f"level {k} has {count} bricks of {' x '.join(map(str, brick))} "
+                                    f"voxels (x, y, z), more than the {MAX_BRICKS} vgraph keeps "
+                                    f"ranges for: chunks this small do not suit a volume this large",
+                              field)
+
+
+# --- across levels -------------------------------------------------------------------------------------
+def check_same_kind(arrays, dtypes, axes, space, path) -> None:
+    """One data type and the same time and channel lengths on every level."""
+    for k, (array, dtype) in enumerate(zip(arrays, dtypes)):
+        if dtype != dtypes[0]:
+            raise VolumeFileError(path, f"level {k} holds {dtype} voxels but level 0 {dtypes[0]}: the "
+                                        f"levels of a pyramid have one data type", array_field(array))
+        for axis, spec in enumerate(axes):
+            if axis not in space and array.shape[axis] != arrays[0].shape[axis]:
+                raise VolumeFileError(path, f"level {k} has {array.shape[axis]} entries along axis "
+                                            f"{spec['name']!r} but level 0 {arrays[0].shape[axis]}",
+                                      array_field(array))
+
+
+def check_extents(levels: list[Level], path) -> None:
+    """Every level must cover level 0's extent to within one of its own voxels (ceil or floor of
+    n / 2^k voxels of 2^k times the spacing do): shapes and scales that disagree are damage."""
+    base = levels[0]
+    for k, level in enumerate(levels[1:], start=1):
+        for axis in range(3):  # x, y, z
+            n0, nk = base.shape[2 - axis], level.shape[2 - axis]
+            extent0, extent = n0 * base.spacing[axis], nk * level.spacing[axis]
+            if abs(extent - extent0) > level.spacing[axis] * (1 + 1e-6):
+                raise VolumeFileError(path, f"level {k} ({'x, y, z'.split(', ')[axis]}: {nk} voxels of "
+                                            f"{level.spacing[axis]:g}) does not cover level 0's extent "
+                                            f"({n0} voxels of {base.spacing[axis]:g}): the levels "
+                                            f"disagree", f"multiscales.datasets[{k}]")
+
+
+def check_our_pyramid(levels: list[Level], path) -> None:
+    """vgraph's own stores: each level exactly next_level of the one before."""
+    for k in range(1, len(levels)):
+        expected, level = next_level(levels[k - 1]), levels[k]
+        if level.shape != expected.shape:
+            raise VolumeFileError(path, f"level {k} has {level.shape} voxels (z, y, x) but the halving "
+                                        f"of level {k - 1} has {expected.shape}: the store is damaged",
+                                  f"multiscales.datasets[{k}]")
+        if not (np.allclose(level.spacing, expected.spacing, rtol=1e-9, atol=0)
+                and np.allclose(level.origin, expected.origin, rtol=1e-9, atol=1e-9 * max(expected.spacing))):
+            raise VolumeFileError(path, f"level {k}: spacing {level.spacing} and origin {level.origin} "
+                                        f"are not level {k - 1}'s doubled and shifted half a voxel "
+                                        f"({expected.spacing}, {expected.origin})",
+                                  f"multiscales.datasets[{k}].coordinateTransformations")
+
+
+def halving_levels(levels: list[Level], path) -> int:
+    """How many levels from level 0 each halve the one before (what the bricked renderer's
+    octree needs); the others are dropped with a StoreLevelsWarning."""
+    count = 1
+    while count < len(levels) and levels[count].shape == next_level(levels[count - 1]).shape:
+        count += 1
+    if count < len(levels):
+        warnings.warn(StoreLevelsWarning(
+            f"{path}: level {count} has {levels[count].shape} voxels (z, y, x), not the halving of "
+            f"level {count - 1} ({next_level(levels[count - 1]).shape}); levels {count} and finer "
+            f"are not used (vgraph's pyramids halve every axis per level)"), stacklevel=3)
+    return count
+
+
+# --- vgraph's own attributes ---------------------------------------------------------------------------
+def our_attributes(attributes: dict, levels: int, voxels: int, path) -> dict | None:
+    """The "vgraph" attributes of a store written by vgraph convert, checked; None for another
+    tool's image."""
+    ours = attributes.get("vgraph")
+    if ours is None:
+        return None
+    if not isinstance(ours, dict):
+        raise VolumeFileError(path, f"the vgraph attributes must be an object, got {_short(ours)}", "vgraph")
+    if ours.get("format") != 1:
+        raise VolumeFileError(path, f"unknown store format {_short(ours.get('format'))} (this vgraph "
+                                    f"reads format 1)", "vgraph.format")
+    brick = ours.get("brick")
+    if not (isinstance(brick, list) and len(brick) == 3
+            and all(isinstance(b, int) and not isinstance(b, bool) and 0 < b <= 2**20 for b in brick)):
+        raise VolumeFileError(path, f"brick must be three positive integers (x, y, z), got "
+                                    f"{_short(brick)}", "vgraph.brick")
+    if ours.get("levels") != levels:
+        raise VolumeFileError(path, f"the store records {_short(ours.get('levels'))} levels but lists "
+                                    f"{levels} datasets", "vgraph.levels")
+    nonfinite = ours.get("nonfinite")
+    if not (isinstance(nonfinite, int) and not isinstance(nonfinite, bool) and 0 <= nonfinite <= voxels):
+        raise VolumeFileError(path, f"nonfinite must be a count of voxels (0 to {voxels}), got "
+                                    f"{_short(nonfinite)}", "vgraph.nonfinite")
+    return {"brick": tuple(brick), "nonfinite": nonfinite,
+            "value_range": _range(ours.get("value_range"), "value_range", path, required=True),
+            "declared_range": _range(ours.get("declared_range"), "declared_range", path),
+            "data_range": _range(ours.get("data_range"), "data_range", path)}
+
+
+def _range(value, name: str, path, required: bool = False):
+    if value is None and not required:
+        return None
+    numbers = _numbers(value, 2)
+    if numbers is None or not np.isfinite(numbers).all() or numbers[0] > numbers[1]:
+        raise VolumeFileError(path, f"{name} must be two finite numbers, low <= high, got "
+                                    f"{_short(value)}", f"vgraph.{name}")
+    return (float(numbers[0]), float(numbers[1]))
+
+
+def check_range_array(array, level: Level, brick, path, k: int, which: str) -> None:
+    """vgraph/min/<k> or vgraph/max/<k>: float64 over level k's brick grid."""
+    grid = brick_grid(level.shape, brick)
+    if tuple(array.shape) != grid or np.dtype(array.dtype) != np.float64:
+        raise VolumeFileError(path, f"the per-brick {which} of level {k} are {tuple(array.shape)} "
+                                    f"{array.dtype}, not float64 over the level's {grid} bricks (z, y, "
+                                    f"x): the store is damaged", f"vgraph/{which}/{k}")
+
+
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
