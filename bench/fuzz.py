@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import multiprocessing
+import os
 import random
 import resource
 import shutil
@@ -195,7 +196,7 @@ def judge(outcome: str, seconds: float, peak_mb: float, args) -> str | None:
 def save(target: str, seed: int, folder: Path, problem: str, details: str | None) -> Path:
     place = RESULTS / target / str(seed)
     shutil.rmtree(place, ignore_errors=True)
-    shutil.copytree(folder, place, symlinks=True)
+    shutil.copytree(folder, place, symlinks=True, copy_function=_copy_case_file)
     try:
         case = make_case(target, random.Random(seed))
         entry, raw = case.entry, case.raw
@@ -206,6 +207,14 @@ def save(target: str, seed: int, folder: Path, problem: str, details: str | None
                                     f"replay: .venv/bin/python bench/fuzz.py --replay {target} {seed}\n")
     (place / "traceback.txt").write_text(details or problem)
     return place
+
+
+def _copy_case_file(source: str, target: str) -> None:
+    """copy2, but a FIFO (a store case's) is made anew: opening one to copy it waits forever."""
+    if Path(source).is_fifo():
+        os.mkfifo(target)
+    else:
+        shutil.copy2(source, target)
 
 
 def report(targets, counts, failures, args, minutes: float) -> None:

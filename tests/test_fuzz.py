@@ -1,6 +1,7 @@
-"""Fuzzing: every volume reader, ImageSource and the network loader, given mutated valid files
-(bit flips, truncations, header line edits, extreme numbers, edited JSON documents) and files
-of random bytes, either succeeds or raises a VGraphError; never another exception.
+"""Fuzzing: every volume reader, OME-Zarr stores, ImageSource and the network loader, given mutated
+valid files (bit flips, truncations, header line edits, extreme numbers, edited JSON documents;
+for stores also deleted, swapped and oversized chunks, links and FIFOs) and files of random
+bytes, either succeeds or raises a VGraphError; never another exception.
 
 The cases come from vgraph.io.fuzz_cases, driven here by hypothesis (a modest number of examples
 per target, so the file runs in well under a minute); bench/fuzz.py runs the same cases for
@@ -18,7 +19,7 @@ from vgraph.io import SUPPORTED_EXTENSIONS, read_volume
 from vgraph.errors import VGraphError
 from vgraph.io.fuzz_cases import TARGETS, make_case, run_case
 
-EXAMPLES = {"dicom": 100, "networks": 500}
+EXAMPLES = {"dicom": 100, "networks": 500, "stores": 100}  # a store case builds a zarr store: ~80 ms
 FUZZ_SETTINGS = dict(deadline=None, database=None, derandomize=False,
                      suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 

@@ -16,6 +16,7 @@ import copy
 import gzip
 import io
 import json
+import os
 import re
 import struct
 import warnings
@@ -24,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from vgraph.errors import VGraphError
-from vgraph.io import fuzz_meshes, fuzz_seeds
+from vgraph.io import fuzz_meshes, fuzz_seeds, fuzz_stores
 from vgraph.io.fuzz_seeds import Case, volume_values
 
 NETWORKS = Path(__file__).resolve().parents[3] / "networks"
@@ -221,6 +222,7 @@ SEEDS = {"qvis": fuzz_seeds.qvis, "raw": fuzz_seeds.raw, "nrrd": fuzz_seeds.nrrd
          "vti": fuzz_seeds.vti, "slc": fuzz_seeds.slc, "npy": fuzz_seeds.npy,
          "npz": fuzz_seeds.npz, "dicom": dicom, "image": image, "networks": network}
 SEEDS["mesh"] = fuzz_meshes.mesh
+SEEDS["stores"] = fuzz_stores.store
 TARGETS = tuple(SEEDS)
 
 
@@ -229,11 +231,12 @@ def make_case(target: str, rng) -> Case:
     """A seed of ``target``, mutated 0 to 3 times (or, now and then, replaced by random bytes)."""
     case = SEEDS[target](rng)
     if rng.random() < 0.05:
-        case.files[case.entry or next(iter(case.files))] = rng.randbytes(rng.randrange(2000))
+        case.files[case.entry if case.entry in case.files else next(iter(case.files))] = \
+            rng.randbytes(rng.randrange(2000))
         return case
     rounds = rng.choice((0, 1, 1, 2, 3))
-    if target == "networks" and rng.random() < 0.7:
-        rounds = 0  # mostly document edits (network() made them): byte edits only break the JSON
+    if target in ("networks", "stores") and rng.random() < 0.7:
+        rounds = 0  # mostly document edits (their seeds made them): byte edits only break the JSON
     for _ in range(rounds):
         _mutate_case(rng, case)
     return case
@@ -323,9 +326,16 @@ def _edit_bytes(rng, blob: bytes) -> bytes:
 
 # --- running -------------------------------------------------------------------------------------
 def write_case(case: Case, folder: Path) -> Path:
-    """Writes the files; returns the path to open."""
+    """Writes the files, links and FIFOs; returns the path to open."""
     for name, content in case.files.items():
+        (folder / name).parent.mkdir(parents=True, exist_ok=True)
         (folder / name).write_bytes(content)
+    for name, target in case.links.items():
+        (folder / name).parent.mkdir(parents=True, exist_ok=True)
+        os.symlink(target, folder / name)
+    for name in case.fifos:
+        (folder / name).parent.mkdir(parents=True, exist_ok=True)
+        os.mkfifo(folder / name)
     return folder / case.entry if case.entry else folder
 
 
@@ -349,6 +359,8 @@ def _open(case: Case, path: Path):
     if case.target == "mesh":
         from vgraph.io.meshes import read_mesh
         return read_mesh(path)
+    if case.target == "stores":
+        return fuzz_stores.open_store(path)
     if case.target == "image":
         from vgraph.processors.image_source import read_image_file
         return read_image_file("image", path.name, path)

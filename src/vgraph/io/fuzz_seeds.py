@@ -25,11 +25,13 @@ DTYPES = ("uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "flo
 @dataclass
 class Case:
     target: str
-    files: dict[str, bytes]            # relative name -> content
+    files: dict[str, bytes]            # relative name ('/'-separated, folders made) -> content
     entry: str                         # the file to open; "" opens the folder (DICOM)
     raw: dict | None = None            # the description for read_volume(path, raw=...)
     header: str | None = None          # the text header among the files, for line edits
     gzipped: set[str] = field(default_factory=set)  # files whose content is one gzip member
+    links: dict[str, str] = field(default_factory=dict)  # relative name -> symbolic link target
+    fifos: set[str] = field(default_factory=set)         # relative names made FIFOs
 
 
 def volume_values(rng, dtype: str | None = None) -> np.ndarray:
