@@ -105,7 +105,8 @@ def test_a_chunk_linked_to_dev_zero_is_refused_naming_store_level_and_chunk(stor
     code, stderr = run_bounded(store, tmp_path, *budget)
     message = only_the_message(stderr)
     assert code == 2
-    assert f"{store} [0/c/2/4/4]: level 0: chunk 0/c/2/4/4 is not a regular file (a character device)" in message
+    assert f"{store} [0/c/2/4/4]: level 0: chunk 0/c/2/4/4 is not a regular file (a character device)" \
+        in message
 
 
 def test_a_chunk_that_is_a_fifo_is_refused_without_waiting_for_a_writer(store, tmp_path):
@@ -144,7 +145,8 @@ def test_links_are_followed_to_regular_files_and_a_loop_is_refused(store, tmp_pa
     chunk.symlink_to(chunk)
     code, stderr = run(store, tmp_path, capsys)
     assert code == 2
-    assert "level 0: chunk 0/c/2/4/4 cannot be read: Too many levels of symbolic links" in only_the_message(stderr)
+    assert "level 0: chunk 0/c/2/4/4 cannot be read: Too many levels of symbolic links" \
+        in only_the_message(stderr)
 
 
 def test_a_chunk_file_larger_than_its_chunk_can_be_is_refused_before_it_is_read(store, tmp_path, capsys,
@@ -216,7 +218,8 @@ def test_statistics_of_a_huge_store_read_a_bounded_sample(tmp_path, monkeypatch)
 
 # --- defect 3: missing chunks against the store's statistics ------------------------------------------
 @pytest.mark.parametrize("budget", [[], ["--set", "source.memory_budget=1"]], ids=["whole", "bricked"])
-def test_deleted_level_0_chunks_are_refused_naming_the_chunk_and_the_statistics(store, tmp_path, capsys, budget):
+def test_deleted_level_0_chunks_are_refused_naming_the_chunk_and_the_statistics(store, tmp_path, capsys,
+                                                                                 budget):
     for chunk in (store / "0" / "c").rglob("*"):
         if chunk.is_file():
             chunk.unlink()
@@ -271,20 +274,27 @@ def test_levels_of_different_data_types_are_refused(store, tmp_path, capsys):
 
 def test_chunks_other_than_the_recorded_brick_are_refused(store, tmp_path, capsys):
     """Was IndexError (exit 1): the brick grid from the chunks did not match the recorded ranges."""
-    edit(store / "0" / "zarr.json", lambda a: a["chunk_grid"]["configuration"].__setitem__("chunk_shape", [8, 8, 8]))
+    edit(store / "0" / "zarr.json",
+         lambda a: a["chunk_grid"]["configuration"].__setitem__("chunk_shape", [8, 8, 8]))
     code, stderr = run(store, tmp_path, capsys, "--set", "source.memory_budget=1")
     assert code == 2
     assert f"{store} [0/zarr.json]: level 0: chunks of (8, 8, 8) voxels (x, y, z), but the store's brick " \
            f"is (16, 16, 16): the store is damaged" in only_the_message(stderr)
 
 
+def half_chunk(tmp_path):
+    """A valid chunk file of the store's codecs holding 8 x 16 x 16 voxels (the store's hold 16^3)."""
+    from zarr.codecs import BloscCodec
+    blosc = BloscCodec(cname="zstd", clevel=3, shuffle="bitshuffle")  # the store's codec
+    other = zarr.create_array(store=str(tmp_path / "other.zarr"), shape=(8, 16, 16), chunks=(8, 16, 16),
+                              dtype="uint8", compressors=blosc)
+    other[...] = 200
+    return tmp_path / "other.zarr" / "c" / "0" / "0" / "0"
+
+
 @pytest.mark.parametrize("budget", [[], ["--set", "source.memory_budget=1"]], ids=["whole", "bricked"])
 def test_a_chunk_that_decodes_to_another_shape_is_refused_naming_it(store, tmp_path, capsys, budget):
-    from zarr.codecs import BloscCodec
-    other = zarr.create_array(store=str(tmp_path / "other.zarr"), shape=(8, 16, 16), chunks=(8, 16, 16),
-                              dtype="uint8", compressors=BloscCodec(cname="zstd", clevel=3, shuffle="bitshuffle"))
-    other[...] = 200
-    shutil.copy(tmp_path / "other.zarr" / "c" / "0" / "0" / "0", level_0_chunk(store))  # 2048 voxels, not 4096
+    shutil.copy(half_chunk(tmp_path), level_0_chunk(store))
     code, stderr = run(store, tmp_path, capsys, *budget)
     assert code == 2
     assert f"{store} [0/c/2/4/4]: level 0: chunk 0/c/2/4/4 cannot be read as 16 x 16 x 16 voxels of uint8" \
@@ -302,7 +312,8 @@ def test_a_dataset_path_outside_the_store_is_refused(store, tmp_path, capsys, pa
 
 
 @pytest.mark.parametrize("field, value, reason", [
-    ("value_range", "ab", "[vgraph.value_range]: value_range must be two finite numbers, low <= high, got 'ab'"),
+    ("value_range", "ab", "[vgraph.value_range]: value_range must be two finite numbers, low <= high, "
+                          "got 'ab'"),
     ("value_range", [5, 1], "[vgraph.value_range]: value_range must be two finite numbers"),
     ("data_range", [0, 1e999], "[vgraph.data_range]: data_range must be two finite numbers"),
     ("brick", [16, 16], "[vgraph.brick]: brick must be three positive integers"),
@@ -333,13 +344,15 @@ def test_another_tools_pyramid_that_does_not_halve_uses_its_first_levels_and_war
     not the octree the bricked renderer walks. Only levels that halve the one before are used."""
     group = zarr.open_group(str(tmp_path / "floor.zarr"), mode="w", zarr_format=2)
     data = blob()[:, :, :127]
-    shapes = [data.shape, (36, 64, 64), (36, 32, 32)]  # level 2 keeps z: not the halving
-    for k, shape in enumerate(shapes):
-        group.create_array(str(k), shape=shape, chunks=(16, 16, 16), dtype="uint8")[...] = \
-            data[tuple(slice(0, None, s // n or 1) for s, n in zip(data.shape, shape))][:shape[0], :shape[1], :shape[2]]
+    levels = [data, data[::2, ::2, ::2][:, :, :64], data[::2, ::4, ::4][:, :, :32]]  # 2: keeps z
+    shapes = [level.shape for level in levels]
+    assert shapes == [(72, 128, 127), (36, 64, 64), (36, 32, 32)]
+    for k, level in enumerate(levels):
+        group.create_array(str(k), shape=level.shape, chunks=(16, 16, 16), dtype="uint8")[...] = level
+    scales = [[a / b for a, b in zip(shapes[0], shape)] for shape in shapes]
     group.attrs["multiscales"] = [{"version": "0.4", "axes": list("zyx"), "datasets": [
-        {"path": str(k), "coordinateTransformations": [{"type": "scale", "scale": [
-            data.shape[0] / s[0], data.shape[1] / s[1], data.shape[2] / s[2]]}]} for k, s in enumerate(shapes)]}]
+        {"path": str(k), "coordinateTransformations": [{"type": "scale", "scale": scale}]}
+        for k, scale in enumerate(scales)]}]
     with pytest.warns(StoreLevelsWarning, match=r"floor.zarr: level 2 has \(36, 32, 32\) voxels \(z, y, x\), "
                                                 r"not the halving of level 1 \(\(18, 32, 32\)\)"):
         store = BrickStore(tmp_path / "floor.zarr")
@@ -349,13 +362,10 @@ def test_another_tools_pyramid_that_does_not_halve_uses_its_first_levels_and_war
 def test_messages_of_refused_stores_are_not_followed_by_asyncio_noise(store, tmp_path):
     """A failed read used to leave its other chunks' tasks pending: "Task was destroyed but it is
     pending!" and "Event loop is closed" tracebacks followed the message at exit."""
-    from zarr.codecs import BloscCodec
-    other = zarr.create_array(store=str(tmp_path / "other.zarr"), shape=(8, 16, 16), chunks=(8, 16, 16),
-                              dtype="uint8", compressors=BloscCodec(cname="zstd", clevel=3, shuffle="bitshuffle"))
-    other[...] = 200
+    half = half_chunk(tmp_path)
     for chunk in list((store / "0" / "c").rglob("*"))[::3]:
         if chunk.is_file():
-            shutil.copy(tmp_path / "other.zarr" / "c" / "0" / "0" / "0", chunk)
+            shutil.copy(half, chunk)
     code, stderr = run_bounded(store, tmp_path)
     assert code == 2
     assert "cannot be read as 16 x 16 x 16 voxels" in only_the_message(stderr)
