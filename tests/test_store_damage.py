@@ -9,6 +9,7 @@ run `vgraph run` in a subprocess under a timeout and an address-space limit (RLI
 regression fails the test instead of taking the machine.
 """
 
+import gzip
 import json
 import math
 import os
@@ -18,6 +19,7 @@ import shutil
 import subprocess
 import sys
 
+import numcodecs
 import numpy as np
 import PIL.Image
 import pytest
@@ -162,6 +164,55 @@ def test_a_chunk_file_larger_than_its_chunk_can_be_is_refused_before_it_is_read(
     assert spans and max(spans) < 2**20  # metadata and the other chunks only
     code, stderr = run(store, tmp_path, capsys)
     assert code == 2 and "is 10.0 MiB" in only_the_message(stderr)
+
+
+def zstd_frame_without_size(blocks: int) -> bytes:
+    """A zstd frame that declares no content size, of RLE blocks of 128 KiB zeros (4 bytes each):
+    numcodecs decodes it into a growing buffer, 128 MiB from 4 KB for 1000 blocks."""
+    frame = (0xFD2FB528).to_bytes(4, "little") + bytes([0x00, 7 << 3])  # no size; window 128 KiB
+    for i in range(blocks):
+        frame += ((131072 << 3) | (1 << 1) | (i == blocks - 1)).to_bytes(3, "little") + b"\0"
+    return frame
+
+
+def foreign_store(path, codec):
+    """Another tool's one-level store of 8^3-voxel uint8 chunks written with ``codec``."""
+    group = zarr.open_group(str(path), mode="w", zarr_format=3)
+    array = group.create_array("0", shape=(16, 16, 16), chunks=(8, 8, 8), dtype="uint8", compressors=codec)
+    array[...] = 9
+    group.attrs["ome"] = {"version": "0.5", "multiscales": [{"axes": list("zyx"), "datasets": [
+        {"path": "0", "coordinateTransformations": [{"type": "scale", "scale": [1, 1, 1]}]}]}]}
+    return path
+
+
+@pytest.mark.parametrize("codec, bomb, said", [
+    ("zstd", lambda: numcodecs.Zstd().encode(np.zeros(256 * 2**20, np.uint8)),
+     "declares 268,435,456 decoded bytes (zstd)"),
+    ("zstd", lambda: zstd_frame_without_size(1000), "has blocks that regenerate up to"),
+    ("gzip", lambda: gzip.compress(bytes(32 * 2**20)), "inflates to"),
+])
+def test_a_chunk_that_would_decode_beyond_its_chunk_is_refused_before_decoding(tmp_path, capsys, codec,
+                                                                                bomb, said):
+    """A 2 KB zstd chunk decoded to 256 MiB before zarr compared it with the chunk's 512 bytes."""
+    from zarr.codecs import GzipCodec, ZstdCodec
+    path = foreign_store(tmp_path / "s.zarr", ZstdCodec() if codec == "zstd" else GzipCodec())
+    (path / "0" / "c" / "1" / "1" / "1").write_bytes(bomb())
+    with pytest.raises(VolumeFileError, match=rf"s.zarr \[0/c/1/1/1\]: level 0: chunk 0/c/1/1/1 {re.escape(said)}.* "
+                                              rf"but a chunk holds 512: the chunk is damaged or hostile"):
+        BrickStore(path).read(0, (0, 0, 0), (16, 16, 16))
+    np.testing.assert_array_equal(BrickStore(path).read(0, (0, 0, 0), (8, 8, 8)), 9)  # the others read
+    code, stderr = run(path, tmp_path, capsys)
+    assert code == 2 and said in only_the_message(stderr)
+
+
+def test_a_blosc_chunk_whose_header_claims_a_gigabyte_is_refused_before_decoding(store, tmp_path, capsys):
+    chunk = level_0_chunk(store)
+    data = chunk.read_bytes()
+    chunk.write_bytes(data[:4] + (2**30).to_bytes(4, "little") + data[8:])
+    code, stderr = run(store, tmp_path, capsys)
+    assert code == 2
+    assert "chunk 0/c/2/4/4 declares 1,073,741,824 decoded bytes (blosc), but a chunk holds 4,096" \
+        in only_the_message(stderr)
 
 
 def test_a_chunk_shape_too_large_to_hold_is_refused_at_opening(store):

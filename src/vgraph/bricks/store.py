@@ -39,7 +39,7 @@ from zarr.core.array import AsyncArray
 
 from vgraph.bricks import store_metadata as meta
 from vgraph.bricks.pyramid import block_ranges, brick_grid, sample_blocks
-from vgraph.bricks.store_files import CheckedStore, StoreFileError, chunk_limit, run
+from vgraph.bricks.store_files import CheckedStore, StoreFileError, run
 from vgraph.errors import VGraphError, VolumeFileError
 from vgraph.io._common import TimeStepError, check_memory, to_native
 from vgraph.value_range import range_of
@@ -155,7 +155,7 @@ class BrickStore:
             raise VolumeFileError(self.path, f"level {k} ({name}) has {array.ndim} dimensions but "
                                              f"{len(self.axes)} axes are declared", "multiscales.axes")
         dtype = meta.voxel_dtype(array, self.path, k)
-        self._files.limit_chunks(array.path, chunk_limit(meta.check_chunks(array, dtype, self.path, k)))
+        self._files.limit_chunks(array, meta.check_chunks(array, dtype, self.path, k))
         return array
 
     def _check_our_chunks(self) -> None:
@@ -176,8 +176,7 @@ class BrickStore:
                 raise VolumeFileError(self.path, f"the per-brick {which} of level {k} are missing: the "
                                                  f"store is damaged", name)
             meta.check_range_array(array, self.levels[k], self.brick, self.path, k, which)
-            chunk_bytes = meta.check_chunks(array, np.dtype("f8"), self.path, k)
-            self._files.limit_chunks(array.path, chunk_limit(chunk_bytes))
+            self._files.limit_chunks(array, meta.check_chunks(array, np.dtype("f8"), self.path, k))
             arrays.append(array)
         return arrays
 

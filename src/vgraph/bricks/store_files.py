@@ -10,6 +10,8 @@ through it, so every key zarr asks for is checked, whatever the array layout:
 - its size must be within the limit of its kind: a metadata document (zarr.json, .zarray, ...)
   MAX_HEADER_BYTES, a chunk of an array whose limit was set (``limit_chunks``) that limit, and
   every read within the memory available;
+- a chunk must not decode to more than its chunk holds, as far as its codec says so before
+  decoding (chunk_codecs.py: zstd, blosc, gzip, zlib);
 - a key with no file is what zarr calls absent (the chunk reads as the fill value); ``run``
   collects those keys, so that the caller can hold them against the store's own statistics.
 A refused key raises ``StoreFileError`` (a VolumeFileError naming the key).
@@ -33,6 +35,7 @@ from zarr.core.buffer.core import default_buffer_prototype
 from zarr.core.sync import sync
 from zarr.storage import LocalStore
 
+from vgraph.bricks.chunk_codecs import decoded_size_problem, outer_codec
 from vgraph.errors import VolumeFileError
 from vgraph.io._common import MAX_HEADER_BYTES, available_memory, format_bytes
 
@@ -63,14 +66,16 @@ class CheckedStore(LocalStore):
 
     def __init__(self, root, *, read_only: bool = True, limits: dict | None = None):
         super().__init__(root, read_only=True)
-        self.limits = {} if limits is None else limits  # array path -> largest chunk file
+        self.limits = {} if limits is None else limits  # array path -> ChunkLimit
 
     def with_read_only(self, read_only: bool = False):
         return type(self)(self.root, limits=self.limits)  # shares the limits; never writable
 
-    def limit_chunks(self, array_path: str, max_bytes: int) -> None:
-        """Chunk files of the array at ``array_path`` may be at most ``max_bytes``."""
-        self.limits[array_path.strip("/")] = int(max_bytes)
+    def limit_chunks(self, array, decoded_bytes: int) -> None:
+        """Chunks of ``array`` (a zarr array of this store) hold ``decoded_bytes``: their files may
+        be at most chunk_limit of that, and must not decode to more."""
+        self.limits[array.path.strip("/")] = (chunk_limit(decoded_bytes), int(decoded_bytes),
+                                              outer_codec(array))
 
     # --- reads ----------------------------------------------------------------------------------
     async def get(self, key, prototype=None, byte_range=None):
@@ -88,12 +93,16 @@ class CheckedStore(LocalStore):
     def _read(self, key: str, prototype, byte_range):
         prototype = prototype or default_buffer_prototype()
         path = self._path_of(key)
-        data = _read_regular_file(path, self, key, byte_range, self._limit(key))
+        max_file, decoded, codec = self._limit(key)
+        data = _read_regular_file(path, self, key, byte_range, max_file)
         if data is None:
             missing = _missing.get()
             if missing is not None:
                 missing.append(key)
             return None
+        problem = decoded_size_problem(codec, data, decoded) if codec and byte_range is None else None
+        if problem:
+            raise StoreFileError(self.root, key, problem)
         return prototype.buffer.from_bytes(data)
 
     def _path_of(self, key: str) -> Path:
@@ -102,15 +111,16 @@ class CheckedStore(LocalStore):
             raise StoreFileError(self.root, key, "is not a path inside the store")
         return self.root.joinpath(*parts)
 
-    def _limit(self, key: str) -> int:
+    def _limit(self, key: str) -> tuple[int, int | None, str | None]:
+        """(largest file, decoded bytes, codec checked before decoding) of ``key``."""
         folder, _, name = key.rpartition("/")
         if name in METADATA_NAMES:
-            return MAX_HEADER_BYTES
+            return MAX_HEADER_BYTES, None, None
         while folder:  # the innermost array the key lies in
             if folder in self.limits:
                 return self.limits[folder]
             folder = folder.rpartition("/")[0]
-        return MAX_HEADER_BYTES  # nothing but metadata is read before an array's limit is set
+        return MAX_HEADER_BYTES, None, None  # nothing but metadata is read before an array's limit is set
 
 
 def _read_regular_file(path: Path, store: CheckedStore, key: str, byte_range, limit: int) -> bytes | None:
