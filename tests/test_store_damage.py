@@ -32,6 +32,7 @@ from vgraph.bricks.store_metadata import StoreLevelsWarning
 from vgraph.bricks.volume import BrickedVolume
 from vgraph.cli import main
 from vgraph.errors import VolumeFileError
+from vgraph.io.fuzz_stores import zstd_frame_without_size
 
 SHAPE = (72, 128, 128)  # [z, y, x] uint8: 1.1 MiB, over VolumeSource's smallest budget (1 MiB)
 BRICK = 16
@@ -164,15 +165,6 @@ def test_a_chunk_file_larger_than_its_chunk_can_be_is_refused_before_it_is_read(
     assert spans and max(spans) < 2**20  # metadata and the other chunks only
     code, stderr = run(store, tmp_path, capsys)
     assert code == 2 and "is 10.0 MiB" in only_the_message(stderr)
-
-
-def zstd_frame_without_size(blocks: int) -> bytes:
-    """A zstd frame that declares no content size, of RLE blocks of 128 KiB zeros (4 bytes each):
-    numcodecs decodes it into a growing buffer, 128 MiB from 4 KB for 1000 blocks."""
-    frame = (0xFD2FB528).to_bytes(4, "little") + bytes([0x00, 7 << 3])  # no size; window 128 KiB
-    for i in range(blocks):
-        frame += ((131072 << 3) | (1 << 1) | (i == blocks - 1)).to_bytes(3, "little") + b"\0"
-    return frame
 
 
 def foreign_store(path, codec):

@@ -7,7 +7,8 @@ A case is a valid store built from scratch, then damaged the ways stores get dam
 - metadata: a zarr.json, .zarray or .zattrs edited as a document (values replaced by extremes,
   keys deleted, shapes, chunk shapes, data types, fill values, dataset paths, scales changed);
 - chunks: truncated, bits flipped, deleted, emptied, swapped with another chunk (another shape),
-  grown past anything a chunk can be;
+  grown past anything a chunk can be, replaced by a decompression bomb (a zstd frame declaring
+  64 MiB or declaring nothing, a blosc header claiming a gigabyte);
 - links and special files: a file replaced by a symbolic link to /dev/zero, to a file outside
   the store, to a folder, to itself (a loop) or to nothing, or by a FIFO.
 
@@ -167,7 +168,7 @@ def _edit_chunk(rng, case: Case) -> None:
         return
     name = rng.choice(names)
     data = bytearray(case.files[name])
-    kind = rng.randrange(6)
+    kind = rng.randrange(7)
     if kind == 0:
         _remove(case, name)
     elif kind == 1 and data:
@@ -179,10 +180,31 @@ def _edit_chunk(rng, case: Case) -> None:
         data = bytearray(case.files[rng.choice(names)])  # another chunk: often another shape
     elif kind == 4:
         data += rng.randbytes(rng.choice((100, 70_000, 300_000)))
+    elif kind == 5:
+        data = bytearray(_bomb(rng, bytes(data)))
     else:
         data = bytearray()
     if name in case.files:
         case.files[name] = bytes(data)
+
+
+def _bomb(rng, chunk: bytes) -> bytes:
+    import numcodecs
+    kind = rng.randrange(3)
+    if kind == 0:
+        return numcodecs.Zstd().encode(bytes(rng.choice((2**16, 2**26))))
+    if kind == 1:
+        return zstd_frame_without_size(rng.choice((1, 10, 1000)))
+    return chunk[:4] + rng.choice((2**30, 2**32 - 1)).to_bytes(4, "little") + chunk[8:]
+
+
+def zstd_frame_without_size(blocks: int) -> bytes:
+    """A zstd frame that declares no content size, of RLE blocks of 128 KiB zeros (4 bytes each):
+    numcodecs decodes it into a growing buffer, 128 MiB from 4 KB for 1000 blocks."""
+    frame = (0xFD2FB528).to_bytes(4, "little") + bytes([0x00, 7 << 3])  # no size; window 128 KiB
+    for i in range(blocks):
+        frame += ((131072 << 3) | (1 << 1) | (i == blocks - 1)).to_bytes(3, "little") + b"\0"
+    return frame
 
 
 def _link(rng, case: Case) -> None:
