@@ -18,7 +18,7 @@ from vgraph import (FilePathProperty, FloatProperty, IntProperty, OptionProperty
 from vgraph.bricks.volume import DEFAULT_MEMORY_BUDGET_MB, BrickedVolume
 from vgraph.camera import MAX_COORDINATE
 from vgraph.io import SUPPORTED_EXTENSIONS, TimeStepError, read_volume
-from vgraph.volume import Volume
+from vgraph.volume import Volume, VolumeGeometryError
 
 RAW_TYPES = ["uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64"]
 
@@ -97,6 +97,10 @@ class VolumeSource(Processor):
             return volume.with_data(volume.data, spacing=self.spacing or volume.spacing,
                                     origin=self.origin or volume.origin,
                                     declared_range=value_range or volume.declared_range)
+        except VolumeGeometryError as error:  # the box the overridden spacing or origin gives
+            field = "spacing" if self.spacing is not None else "origin"
+            raise PropertyError(f"{self.id}.{field}", f"{volume.source or 'the volume'}: "
+                                                     f"{error.reason}") from None
         except VGraphError as error:
             raise VGraphError(f"{self.id}: the overrides do not fit the volume: {error}") from None
 

@@ -25,10 +25,16 @@ Conventions (docs/volumes.md says the same for users):
   the limit; the RayCaster does not upload such volumes but draws them brick by brick.
 - A volume of cubic B-spline coefficients (``is_spline_coefficients``) holds no samples; consumers
   that need one kind refuse the other.
+- Geometry (``check_box``): spacing 1e-15 .. 1e15 and origin within +-1e15 per axis, the box of
+  voxel centres within +-1e15 (MAX_COORDINATE, what a camera holds), and the smallest spacing at
+  least FLOAT64_RESOLUTION of the box's largest coordinate, so that the voxel centres stay
+  distinct in float64 and the box can be moved into its normalised frame (vgraph.box_frame),
+  where ray casters draw boxes too small, too large or too far out for float32 world units.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import weakref
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -57,6 +63,20 @@ _SLAB_VOXELS = 2**22  # normalising in float64 slab by slab bounds the temporary
 PERCENTILE_BINS = 65536
 PRECISIONS = ("full", "16bit")  # of at_precision(): the stored values, or 16-bit codes
 SIXTEEN_BIT_CODES = 65535.0  # the largest code of a 16-bit copy: normalised intensity = q / 65535
+# The smallest spacing as a share of the box's largest coordinate: float64 keeps ~16 digits, so
+# voxel centres are then placed to ~1e-4 voxels (box_frame subtracts the box's centre in float64);
+# a spacing of 1e-15 at 1e3 from the origin merges the voxels into one point.
+FLOAT64_RESOLUTION = 1e-12
+# What a volume keeps from its values alone (the grid does not enter): shared by with_overrides.
+_VALUE_STATISTICS = ("nonfinite_count", "finite_extremes", "value_range", "_ranks")
+
+
+class VolumeGeometryError(VGraphError):
+    """A volume's grid cannot be drawn (check_box); ``field`` is the grid field to change."""
+
+    def __init__(self, where: str, reason: str, field: str):
+        self.reason, self.field = reason, field
+        super().__init__(f"volume{where}: {reason}")
 
 
 @dataclass(eq=False)
@@ -82,6 +102,7 @@ class Volume:
         self.data = data
         self.spacing = _vec3(self.spacing, "spacing", where, positive=True)
         self.origin = _vec3(self.origin, "origin", where)
+        check_box(self.dims, self.spacing, self.origin, where)
         self.declared_range = checked_range(self.declared_range, f"volume{where}")
         if isinstance(self.time_steps, bool) or not isinstance(self.time_steps, (int, np.integer)) \
                 or self.time_steps < 1:
@@ -335,6 +356,21 @@ class Volume:
         fields.update(changes)
         return Volume(data, **fields)
 
+    def with_overrides(self, spacing=None, origin=None, declared_range=None) -> "Volume":
+        """The same voxels (the array is shared, the type kept) on another grid or with another
+        value range, as BrickedVolume.with_overrides. With the value range unchanged, what was
+        worked out from the values so far (extremes, counts, percentiles, histograms) is kept:
+        a ray caster's copy in a box's normalised frame does not read the voxels again."""
+        changes = {"spacing": spacing or self.spacing, "origin": origin or self.origin}
+        if declared_range is not None:
+            changes["declared_range"] = declared_range
+        volume = dataclasses.replace(self, **changes)
+        if declared_range is None:
+            volume.__dict__.update({key: value for key, value in self.__dict__.items()
+                                    if key in _VALUE_STATISTICS
+                                    or isinstance(key, tuple) and key[0] == "histogram"})
+        return volume
+
 
 def r16_texels(data: np.ndarray) -> np.ndarray:
     """The R16 texels of 8- or 16-bit voxels: uint16 as they are, uint8 as value * 257 (the same
@@ -469,6 +505,29 @@ def _from_unit(unit, lo: float, hi: float):
         return lo + unit * span
     scale = max(abs(lo), abs(hi))
     return (lo / scale + unit * (hi / scale - lo / scale)) * scale
+
+
+def check_box(dims, spacing: Vec3, origin: Vec3, where: str = "") -> None:
+    """Refuse (VolumeGeometryError naming ``spacing``) a grid whose box of voxel centres, origin ..
+    origin + (dims - 1) spacing, reaches beyond +-MAX_COORDINATE, or whose smallest spacing is
+    below FLOAT64_RESOLUTION of the box's largest coordinate (the module docstring says why)."""
+    far = [o + (d - 1) * s for d, s, o in zip(dims, spacing, origin)]
+    reach = max(max(abs(v) for v in origin), max(abs(v) for v in far))
+    if reach > MAX_COORDINATE:
+        raise VolumeGeometryError(where, f"the box of voxel centres ({_grid(dims, spacing, origin)}) "
+                                         f"reaches {reach:.3g}: beyond +-{MAX_COORDINATE:g}, what GL's "
+                                         f"float32 world coordinates and a camera hold; give the "
+                                         f"spacing in larger units (smaller numbers)", "spacing")
+    if min(spacing) < FLOAT64_RESOLUTION * reach:
+        raise VolumeGeometryError(where, f"the spacing is too small for a box {reach:.3g} from the "
+                                         f"origin ({_grid(dims, spacing, origin)}): below "
+                                         f"{FLOAT64_RESOLUTION:g} of that distance the voxel centres "
+                                         f"are not distinct in float64; move the origin nearer the "
+                                         f"volume", "spacing")
+
+
+def _grid(dims, spacing: Vec3, origin: Vec3) -> str:
+    return f"{' x '.join(map(str, dims))} voxels of spacing {list(spacing)} from origin {list(origin)}"
 
 
 def _vec3(value, name: str, where: str, positive: bool = False) -> Vec3:

@@ -32,7 +32,7 @@ from vgraph.errors import VGraphError
 from vgraph.gl.context import release_quietly
 from vgraph.io._common import check_memory, format_bytes
 from vgraph.value_range import checked_range, range_of
-from vgraph.volume import _TEXTURE_FORMATS, FLOAT32_SAFE, Volume, _RankTable, _vec3
+from vgraph.volume import _TEXTURE_FORMATS, FLOAT32_SAFE, Volume, _RankTable, _vec3, check_box
 
 DEFAULT_MEMORY_BUDGET_MB = 1024
 SUMMARY_VOXELS = 2**22  # voxels read for percentiles and histograms: 4 M, a second at most
@@ -58,6 +58,7 @@ class BrickedVolume(Volume):
         if (self.spacing, self.origin) != (first.spacing, first.origin):
             bricks = RegriddedSource(bricks, self.spacing, self.origin)
         self._bricks = bricks
+        check_box(self.dims, self.spacing, self.origin, where)
         declared = declared_range if declared_range is not None else getattr(bricks, "declared_range", None)
         self.declared_range = checked_range(declared, f"volume{where}")
         self.is_spline_coefficients = False

@@ -27,7 +27,7 @@ import numpy as np
 from vgraph.errors import VGraphError, VolumeFileError
 from vgraph.memory import available_memory, format_bytes  # noqa: F401 (readers import them from here)
 from vgraph.progress import Steps
-from vgraph.volume import Volume
+from vgraph.volume import Volume, VolumeGeometryError
 
 # Reads above this size show a tqdm bar (which tqdm itself hides when stderr is not a terminal);
 # every read reports its progress to a vgraph.progress listener (the GUI's status bar).
@@ -324,6 +324,8 @@ def make_volume(data_zyx: np.ndarray, file, *, spacing=(1.0, 1.0, 1.0), origin=(
     try:
         volume = Volume(data, spacing=spacing, origin=origin, declared_range=declared_range,
                         source=str(file), time_steps=time_steps)
+    except VolumeGeometryError as exc:  # the box the header's spacing and origin give (check_box)
+        raise VolumeFileError(file, exc.reason, exc.field) from None
     except VGraphError as exc:  # e.g. an unsupported dtype the header check did not foresee
         raise VolumeFileError(file, str(exc)) from exc
     volume.__dict__["nonfinite_count"] = nonfinite  # prime the cached property: counted already
