@@ -17,7 +17,9 @@ Conventions (docs/bricked_raycaster.md explains each with the numbers):
 - Inside a brick, blocks of 8^3 voxels that cannot contribute are jumped over
   (``empty_space_skipping``; the brick's block ranges go up with it, cache.block_ranges_of).
 - The volume's pyramid: ``volume.bricks`` (BrickedVolume), else an ArrayPyramid of the in-memory
-  volume with ``brick_size`` bricks (built once per volume and brick size).
+  volume with ``brick_size`` bricks (built once per volume and brick size). An extreme box (1e14
+  or 1e-12 across, far from the origin) is drawn in its normalised frame as the RayCaster draws
+  one: the pyramid is the framed copy's (a BrickedVolume regridded, nothing read).
 - Per frame the bricks are chosen (selection.plan_frame): in view, not empty under the TF (or
   below the iso level), at the level their projected voxel size asks (``lod_bias``), raised until
   the frame's bricks fit min(ram_budget, gl_budget); a raised level is warned about.
@@ -169,8 +171,8 @@ class BrickedRayCaster(RaycasterBase):
         volume.require_samples(f"BrickedRayCaster '{self.id}'")
         started = time.perf_counter()
         frame = self.frame(volume, entry, exit)
-        source = self.brick_source(volume)
-        self.cache.use_source(source, volume.value_range)
+        source = self.brick_source(frame.volume)  # in the frame the camera is resolved in (an extreme box's)
+        self.cache.use_source(source, frame.volume.value_range)
         self.cache.set_budgets(self.ram_budget, self.gl_budget)
         geometry = BrickGeometry(source)
         plan = self.plan(source, geometry, frame)

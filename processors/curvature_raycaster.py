@@ -47,6 +47,9 @@ class CurvatureRaycaster(RaycasterBase):
     """Iso-surface ray casting coloured by curvature (k1, k2, Gaussian, mean, ...)."""
 
     category = "Volume rendering"
+    # Curvatures (1/length), positions and the attenuation are world lengths: extreme boxes are
+    # refused by name rather than drawn in their normalised frame (components docstring).
+    frames_extreme_boxes = False
     inports = [Inport("volume", Volume), Inport("entry", Image), Inport("exit", Image)]
     outports = [Outport("image", Image), Outport("curvature", Image), Outport("position", Image),
                 Outport("depth", Image)]

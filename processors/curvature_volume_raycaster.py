@@ -45,6 +45,9 @@ class CurvatureVolumeRaycaster(RaycasterBase):
     """Direct volume rendering: opacity from the transfer function, colour from curvature."""
 
     category = "Volume rendering"
+    # Curvatures (1/length), positions and the attenuation are world lengths: extreme boxes are
+    # refused by name rather than drawn in their normalised frame (components docstring).
+    frames_extreme_boxes = False
     inports = [Inport("volume", Volume), Inport("entry", Image), Inport("exit", Image)]
     outports = [Outport("image", Image), Outport("depth", Image)]
     components = RANGE_PARTS + (Light,)

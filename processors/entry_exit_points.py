@@ -26,12 +26,17 @@ Conventions (vgraph.gl.raycasting.geometry has the long form):
   ray casters that sample every connected volume at such points (the MultiVolumeRayCaster) should
   take these images: a single-volume ray caster would smear the first volume's edge voxels there.
   With nothing extra connected everything is as before, bit for bit. The camera is resolved on the
-  same union box (rays_camera); the MultiVolumeRayCaster resolves its own on the union of its
+  same union box (framed_view); the MultiVolumeRayCaster resolves its own on the union of its
   channels, so connect the same volumes to both.
 - The default camera fits the data (Camera.fit_to_data: each volume that arrives is framed, keeping
   the view direction) and chooses near/far from the volume's box every frame, so a volume from a
   file shows without setting a camera first; a stored camera stays as stored. ``view_camera`` is
   the concrete camera of the last frame; frame_volume() stores a framed camera.
+- An extreme box (1e14 or 1e-12 across, or far from the origin; vgraph.box_frame) is drawn in its
+  normalised frame (vgraph.gl.raycasting.framed_view): the boxes, rays, clip planes, crop box and
+  jitter are moved and scaled there, the outputs (texture coordinates) are the same, and
+  ``view_camera`` stays in world units (None where a Camera cannot hold it). Ordinary boxes are
+  drawn as before, bit for bit.
 - Clipping (vgraph.clipping has the model): ``clip_planes`` keep the side each normal points into,
   ``crop_box`` (world units) narrows the box. Both cut each ray's interval before the ray casters
   see it, so every ray caster and compositing mode respects them and a cut shows the inside (the
@@ -48,10 +53,10 @@ from vgraph import CameraProperty, FloatProperty, Inport, Outport, Processor, VG
 from vgraph.clipping import ClipPlanesProperty, CropBoxProperty, cropped_box, plane_uniforms
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass, set_uniforms
 from vgraph.gl.shaders import programs
-from vgraph.camera import Camera
+from vgraph.gl.raycasting.framed_view import framed_view, rays_box
 from vgraph.gl.raycasting.geometry import (BOX_EPSILON, DEFAULT_CAMERA, PROXY_MARGIN, VolumeGeometry,
-                                           box_camera, box_corners, footprint, picture_of, pixel_rays,
-                                           plane_cuts_box, plane_frame, vec, view_camera)
+                                           box_corners, footprint, picture_of, pixel_rays,
+                                           plane_cuts_box, plane_frame, vec)
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
 from vgraph.volume import Volume
@@ -61,27 +66,6 @@ CAP_SHADER = "raycasting/plane_cap.frag.glsl"
 
 
 EXTRA_VOLUMES = ("volume2", "volume3", "volume4")  # optional inports that widen the box
-
-
-def rays_box(volumes) -> tuple[np.ndarray, np.ndarray, float]:
-    """(min, max, min spacing) of the box the rays span: the union of the volumes' boxes of voxel
-    centres (world units) and the smallest spacing of all of them (it scales BOX_EPSILON and the
-    jitter). One volume: its own box and spacing, exactly."""
-    geometries = [VolumeGeometry.of(volume) for volume in volumes]
-    low, high = geometries[0].box
-    for geometry in geometries[1:]:
-        low, high = np.minimum(low, geometry.box[0]), np.maximum(high, geometry.box[1])
-    return low, high, min(float(geometry.spacing.min()) for geometry in geometries)
-
-
-def rays_camera(camera: Camera, volumes, size) -> Camera:
-    """The concrete camera of a frame whose rays span rays_box(volumes): view_camera's for one
-    volume (unchanged), else the camera resolved on the union box. Every processor of the view must
-    resolve it on the same volumes (EntryExitPoints and the MultiVolumeRayCaster do)."""
-    if len(volumes) == 1:
-        return view_camera(camera, volumes[0], size)
-    low, high, _ = rays_box(volumes)
-    return box_camera(camera, low, high, size)
 
 
 def grown_box_of(whole: tuple, min_spacing: float, box_min, box_max):
@@ -146,6 +130,7 @@ class EntryExitPoints(Processor):
         self._targets = RenderTargets(2)  # entry, exit
         self._cube: tuple | None = None  # (ctx, vertex buffer, {program: vertex array})
         self._volume_cache: tuple | None = None  # (volumes, crop box, _volume_uniforms of them)
+        self._view = None  # the FramedView of the last frame (its camera and volumes in its frame)
         self.passes: list[tuple[str, dict]] = []  # (shader, defines) of each pass of the last frame
 
     def process(self, volume: Volume, volume2: Volume | None = None, volume3: Volume | None = None,
@@ -153,9 +138,10 @@ class EntryExitPoints(Processor):
         ctx = self.gl
         size = self.render_size
         volumes = tuple(v for v in (volume, volume2, volume3, volume4) if v is not None)
-        self.view_camera = rays_camera(self.camera, volumes, size)
+        view = self._view = framed_view(self.camera, volumes, size, self.id)
+        self.view_camera = view.world_camera
         entry, exit_points = self._targets.ensure(ctx, size)
-        uniforms = self._uniforms(volumes, size, self.view_camera)
+        uniforms = self._uniforms(view, size)
         self.passes = []
         self._targets.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
         covered = (0, 0, 0, 0)  # the crop box leaves nothing: every ray misses
@@ -176,21 +162,28 @@ class EntryExitPoints(Processor):
         if not volumes:
             raise VGraphError(f"{self.id}: frame_volume() needs a volume: evaluate the network "
                               "first or pass one")
-        width, height = self.render_size
         fitting = self.camera.model_copy(update={"fit_to_data": True, "near": None, "far": None})
-        framed = fitting.resolved(*rays_box(volumes)[:2], width / height)
+        framed = framed_view(fitting, volumes, self.render_size, self.id).world_camera
+        if framed is None:
+            low, high, _ = rays_box(volumes)
+            raise VGraphError(f"{self.id}.camera: a camera framing the box {low.tolist()} .. "
+                              f"{high.tolist()} lies beyond +-1e15 in world units, where a stored "
+                              f"camera cannot be held; the default camera (fit_to_data) frames it "
+                              f"every frame")
         if framed != self.camera:
             self.camera = framed  # a linked ray caster's camera follows
 
     # --- drawing --------------------------------------------------------------------------------
-    def _uniforms(self, volumes: tuple, size, camera) -> dict | None:
+    def _uniforms(self, view, size) -> dict | None:
         """Uniforms of the point computation (entry_exit_point.glsl), and under "faces" and "cap"
-        those of the two ways of drawing it; None when the crop box leaves nothing."""
-        cached = self._volume_uniforms(volumes)
+        those of the two ways of drawing it, in the view's frame; None when the crop box leaves
+        nothing."""
+        cached = self._volume_uniforms(view.volumes, self._framed_crop(view.frame))
         if cached is None:
             return None
+        camera = view.camera
         boxes, proxy, self._hit_box, self._proxy_corners, min_spacing = cached
-        clipping = plane_uniforms(self.clip_planes) if self.clip_planes else {}
+        clipping = plane_uniforms(self.clip_planes, view.frame) if self.clip_planes else {}
         return {**boxes, **clipping,
                 "faces": {**proxy["faces"], "view_projection": camera.view_projection(size[0] / size[1])},
                 "cap": proxy["cap"],
@@ -198,11 +191,17 @@ class EntryExitPoints(Processor):
                 "jitter": float(self.jitter * min_spacing),
                 **pixel_rays(camera, size)}  # a tile's pixels: the whole picture's rays
 
-    def _volume_uniforms(self, volumes: tuple):
+    def _framed_crop(self, frame):
+        """The crop box in the frame (as given in world units for the identity frame)."""
+        crop = self.crop_box
+        if crop is None or frame.is_identity:
+            return crop
+        return (*frame.points(crop[:3]).tolist(), *frame.points(crop[3:]).tolist())
+
+    def _volume_uniforms(self, volumes: tuple, crop):
         """What depends on the volumes alone, worked out once per volume set (a camera drag asks
         every frame): (box uniforms, proxy uniforms of faces and cap, the hit box, the corners of
         the drawn box, min spacing), or None when the crop box leaves nothing of the rays' box."""
-        crop = self.crop_box
         cache = self._volume_cache
         if (cache is None or len(cache[0]) != len(volumes) or any(a is not b for a, b in zip(cache[0], volumes))
                 or cache[1] != crop):
@@ -249,9 +248,10 @@ class EntryExitPoints(Processor):
             self._cube_vertex_array(ctx, faces).render(moderngl.TRIANGLES)
         finally:
             ctx.disable(moderngl.CULL_FACE)
-        if not plane_cuts_box(self.view_camera, "far", *self._hit_box):
+        camera = self._view.camera  # in the frame of the boxes
+        if not plane_cuts_box(camera, "far", *self._hit_box):
             return  # the full-screen capping pass would change no pixel
-        centre, right, up = plane_frame(*picture_of(self.view_camera, targets.size)[:2], "far")
+        centre, right, up = plane_frame(*picture_of(camera, targets.size)[:2], "far")
         cap = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, CAP_SHADER, defines, processor=self.id)
         self.passes.append((CAP_SHADER, defines))
         fullscreen_pass(ctx, cap, targets, {},

@@ -14,7 +14,8 @@ Conventions:
   caster shows its background); one between entry and exit becomes the exit point (texture
   coordinates on the segment from entry to exit); a surface beyond the exit changes nothing.
 - The camera must be the EntryExitPoints camera (link it; the GeometryRenderer's too, with the
-  same volume connected to it), resolved against the volume's box as EntryExitPoints does.
+  same volume connected to it), resolved against the volume's box as EntryExitPoints does, in
+  the normalised frame of an extreme box (framed_view); the surface's depth stays in world units.
 - The images must have one size (the render size; a Canvas drives it for all of them).
 """
 
@@ -22,7 +23,8 @@ from __future__ import annotations
 
 from vgraph import CameraProperty, Inport, Outport, Processor, VGraphError
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
-from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, VolumeGeometry, ray_uniforms, vec, view_camera
+from vgraph.gl.raycasting.framed_view import framed_view
+from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, VolumeGeometry, ray_uniforms, vec
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.shaders import programs
 from vgraph.image import Image
@@ -54,11 +56,13 @@ class GeometryEntryExit(Processor):
                               f"at one size, e.g. all for the same Canvas)")
         size = entry.size
         ctx = self.gl
-        self.view_camera = camera = view_camera(self.camera, volume, size)
-        scale, offset = VolumeGeometry.of(volume).texture_to_world
+        view = framed_view(self.camera, (volume,), size, self.id)
+        self.view_camera, camera = view.world_camera, view.camera
+        scale, offset = VolumeGeometry.of(view.volumes[0]).texture_to_world
         new_entry, new_exit = self._targets.ensure(ctx, size)
         program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, SHADER, processor=self.id)
         uniforms = {"texture_to_world_scale": vec(scale), "texture_to_world_offset": vec(offset),
+                    "world_length": view.frame.scale,
                     "viewport_size": (float(size[0]), float(size[1])), **ray_uniforms(camera, size)}
         fullscreen_pass(ctx, program, self._targets, {"entry_points": entry, "exit_points": exit,
                                                         "geometry_depth": depth}, uniforms)

@@ -12,9 +12,10 @@ Conventions:
   [0, 1], g = distance in world units from the pixel's ray start on the near plane (Camera.rays),
   b = 0, a = 1 where a surface is; (1, 0, 0, 0) elsewhere.
 - Camera: with the optional ``volume`` inport connected the camera resolves against the volume's
-  box exactly as EntryExitPoints resolves it (same framing, same automatic near/far planes): link
-  the cameras and connect the same volume, and the images line up pixel for pixel with the ray
-  caster's. Without a volume it frames the geometry's bounds; an extreme box (1e14 or 1e-12 across,
+  box exactly as EntryExitPoints resolves it (same framing, same automatic near/far planes, the
+  same normalised frame for an extreme volume box, where the geometry is drawn moved and scaled):
+  link the cameras and connect the same volume, and the images line up pixel for pixel with the
+  ray caster's. Without a volume it frames the geometry's bounds; an extreme box (1e14 or 1e-12 across,
   or near the +-1e15 limit) is drawn in its normalised frame as ProjectedTetrahedra draws one
   (vgraph.box_frame: a moved and scaled copy of the geometry, the camera resolved there, the depth
   distance and ``view_camera`` in world units). Geometry beyond the near or far plane is clipped
@@ -37,7 +38,8 @@ from vgraph.gl.context import bind_default_framebuffer
 from vgraph.gl.curvature import COLORMAPS, colormap_table
 from vgraph.gl.passes import bind_textures, set_uniform
 from vgraph.gl.raycasting.components import Light
-from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, ray_uniforms, vec, view_camera
+from vgraph.gl.raycasting.framed_view import framed_view
+from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, ray_uniforms, vec
 from vgraph.gl.raycasting.light import shading_uniforms
 from vgraph.gl.shaders import programs
 from vgraph.image import Image
@@ -143,9 +145,10 @@ class GeometryRenderer(Processor):
     def _view(self, geometry: Geometry, volume: Volume | None, size) -> tuple[BoxFrame, Geometry, Camera]:
         """(the frame the geometry is drawn in, the geometry drawn there, the concrete camera
         there); ``view_camera`` is the camera in world units (None where a Camera cannot hold it)."""
-        if volume is not None:
-            self.view_camera = camera = view_camera(self.camera, volume, size)
-            return BoxFrame(), geometry, camera
+        if volume is not None:  # the volume's view, in its box's frame (as the ray caster draws it)
+            view = framed_view(self.camera, (volume,), size, self.id)
+            self.view_camera = view.world_camera
+            return view.frame, _in_frame(geometry, view.frame), view.camera
         low, high = (np.asarray(b, np.float64) for b in geometry.bounds)
         pad = 1e-3 * (float(np.abs(np.concatenate([low, high])).max()) + 1.0)
         low, high = np.where(high - low > 0.0, low, low - pad), np.where(high - low > 0.0, high, high + pad)

@@ -8,7 +8,8 @@ Conventions (the CPU reference vgraph.multivolume_reference states the same mode
   ``volume`` = volume1, its ``volume2`` .. ``volume4`` the others, in any order): the rays span the
   UNION of the channels' boxes, so each channel is drawn whole (clipping planes and crop boxes of
   that EntryExitPoints apply to every channel). The camera is resolved on that union box
-  (entry_exit_points.rays_camera), as the EntryExitPoints resolves it. Fed with volume1 alone, the
+  (framed_view), as the EntryExitPoints resolves it, and an extreme union box is drawn in its
+  normalised frame as the RayCaster draws one (every channel moved into it). Fed with volume1 alone, the
   EntryExitPoints gives rays of volume1's box only: the colours are still right there, but the
   other channels are cut at volume1's box.
 - A ray position t (texture coordinates of volume1, outside [0, 1] where the union leaves volume1's
@@ -58,7 +59,6 @@ from vgraph.gl.raycasting.geometry import VolumeGeometry
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler
 from vgraph.image import Image
-from vgraph.processors.entry_exit_points import rays_camera
 from vgraph.processors.raycaster import needs_bricks
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -155,10 +155,10 @@ class MultiVolumeRayCaster(RaycasterBase):
                     if volume is not None]
         for channel in channels:
             self._check(channel)
-        frame = self.frame(volume1, entry, exit)
-        if len(channels) > 1:  # the rays' camera is resolved on the union box, as EntryExitPoints does
-            self.view_camera = rays_camera(self.camera, [c.volume for c in channels], entry.size)
-            frame = replace(frame, camera=self.view_camera)
+        # The rays' camera is resolved on the union box, as EntryExitPoints does, and the channels
+        # are drawn in its frame.
+        frame = self.frame(volume1, entry, exit, volumes=[c.volume for c in channels])
+        channels = [replace(c, volume=framed) for c, framed in zip(channels, frame.volumes)]
         with_depth = self.wants("depth")
         targets = self._targets[with_depth]
         self._targets[not with_depth].release()  # a scene keeps the images of one kind only

@@ -17,6 +17,7 @@ uniform vec3 near_up;
 uniform vec3 direction_centre;  // ... in direction direction_centre + ndc_x direction_right
 uniform vec3 direction_right;   // + ndc_y direction_up (not normalised)
 uniform vec3 direction_up;
+uniform float world_length;  // world units per unit of the frame the rays are in (framed_view)
 
 layout(location = 0) out vec4 entry_out;
 layout(location = 1) out vec4 exit_out;
@@ -40,10 +41,11 @@ void main() {
     vec3 direction = normalize(direction_centre + ndc.x * direction_right + ndc.y * direction_up);
     float entry_t = along_ray(entry_point.xyz, origin, direction);
     float exit_t = along_ray(exit_point.xyz, origin, direction);
-    if (surface.g <= entry_t) {
+    float surface_t = surface.g / world_length;
+    if (surface_t <= entry_t) {
         entry_out = vec4(0.0);
         exit_out = vec4(0.0);
-    } else if (surface.g < exit_t) {
-        exit_out = vec4(mix(entry_point.xyz, exit_point.xyz, (surface.g - entry_t) / (exit_t - entry_t)), 1.0);
+    } else if (surface_t < exit_t) {
+        exit_out = vec4(mix(entry_point.xyz, exit_point.xyz, (surface_t - entry_t) / (exit_t - entry_t)), 1.0);
     }
 }

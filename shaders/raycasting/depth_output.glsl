@@ -8,6 +8,8 @@ uniform vec2 pixel_offset;   // (geometry.pixel_rays: a tile's rays are the whol
 uniform vec3 near_centre;  // the pixel centre (ndc_x, ndc_y) is at near_centre + ndc_x near_right
 uniform vec3 near_right;   // + ndc_y near_up on the near plane (where Camera.rays start)
 uniform vec3 near_up;
+uniform float world_length;  // world units per unit of the frame the volume is drawn in (an
+                             // extreme box's normalised frame, framed_view; else 1)
 
 vec3 world_point(vec3 t) {
     return t * texture_to_world_scale + texture_to_world_offset;
@@ -17,7 +19,7 @@ vec4 depth_of(vec3 world, int taken) {
     vec4 clip = view_projection * vec4(world, 1.0);
     vec2 ndc = (gl_FragCoord.xy + pixel_offset) / viewport_size * 2.0 - 1.0;
     vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
-    return vec4(clip.z / clip.w * 0.5 + 0.5, distance(world, origin), float(taken), 1.0);
+    return vec4(clip.z / clip.w * 0.5 + 0.5, distance(world, origin) * world_length, float(taken), 1.0);
 }
 
 vec4 no_depth(int taken) {

@@ -99,10 +99,15 @@ def cropped_box(box_min, box_max, crop_box) -> tuple[np.ndarray, np.ndarray] | N
     return None if np.any(lo > hi) else (lo, hi)
 
 
-def plane_uniforms(planes) -> dict[str, np.ndarray]:
-    """The shader's uniform arrays (float32): unit normals and offsets d (kept: dot(p, n) >= d)."""
-    return {"clip_normals": np.array([plane.unit_normal() for plane in planes], dtype=np.float32),
-            "clip_offsets": np.array([plane.offset() for plane in planes], dtype=np.float32)}
+def plane_uniforms(planes, frame=None) -> dict[str, np.ndarray]:
+    """The shader's uniform arrays (float32): unit normals and offsets d (kept: dot(p, n) >= d).
+    ``frame`` (a vgraph.box_frame.BoxFrame, where an extreme box is drawn): the planes in it, p' =
+    (p - centre) / scale, so d' = (d - dot(centre, n)) / scale and the normals stay."""
+    normals = np.array([plane.unit_normal() for plane in planes], dtype=np.float64)
+    offsets = np.array([plane.offset() for plane in planes], dtype=np.float64)
+    if frame is not None and not frame.is_identity and len(planes):
+        offsets = (offsets - normals @ np.asarray(frame.centre, dtype=np.float64)) / frame.scale
+    return {"clip_normals": normals.astype(np.float32), "clip_offsets": offsets.astype(np.float32)}
 
 
 def clip_intervals(origins, directions, t_entry, t_exit, planes):

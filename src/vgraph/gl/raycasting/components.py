@@ -23,6 +23,12 @@ Conventions:
   exactly the uniforms its GLSL part declares.
 - Every frame is rendered with the program of its define set, looked up in the program cache
   (compiled once per set): property changes need no other rebuilding (docs/architecture.md).
+- A frame is drawn in the normalised frame of the volume's box (vgraph.gl.raycasting.framed_view):
+  ``frame.volume``, ``frame.geometry`` and ``frame.camera`` are in it, so every length a component
+  binds is in its units; only the depth output's distance is scaled back to world units
+  (``world_length``). For an ordinary box that frame is the world itself. A ray caster whose
+  outputs or properties hold world lengths the frame would change says ``frames_extreme_boxes =
+  False`` and refuses extreme boxes by name.
 """
 
 from __future__ import annotations
@@ -32,11 +38,13 @@ from typing import ClassVar
 
 import moderngl
 
+from vgraph.box_frame import BoxFrame
 from vgraph.camera import Camera
 from vgraph.errors import VGraphError
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.raycasting.empty_space import BLOCK, WALK_BLOCK, SkipBlocks, block_grid_uniforms
-from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, VolumeGeometry, pixel_rays, vec, view_camera
+from vgraph.gl.raycasting.framed_view import framed_view
+from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, VolumeGeometry, pixel_rays, vec
 from vgraph.gl.raycasting.light import shading_uniforms
 from vgraph.gl.raycasting import ray_bounds
 from vgraph.gl.raycasting.ray_bounds import RayBounds
@@ -52,7 +60,9 @@ from vgraph.volume import PRECISIONS, Volume
 
 @dataclass
 class Frame:
-    """One evaluation of a ray caster: its inputs and the concrete camera."""
+    """One evaluation of a ray caster: its inputs and the concrete camera, in the normalised frame
+    ``box_frame`` of the volumes' box (the world itself for an ordinary box); ``volumes`` are all
+    the volumes of the view in it (``volume``, at its precision, is the first)."""
 
     ctx: moderngl.Context
     volume: Volume
@@ -60,6 +70,8 @@ class Frame:
     exit: Image
     camera: Camera
     geometry: VolumeGeometry
+    box_frame: BoxFrame = BoxFrame()
+    volumes: tuple[Volume, ...] = ()
 
     @property
     def size(self) -> tuple[int, int]:
@@ -108,6 +120,8 @@ class RaycasterBase(Processor):
     """A processor made of components (see the module docstring). Not a processor type itself."""
 
     components: ClassVar[tuple[type[Component], ...]] = ()
+    # Whether an extreme box may be drawn in its normalised frame (module docstring).
+    frames_extreme_boxes: ClassVar[bool] = True
 
     def __init_subclass__(cls, **kwargs):
         for component in cls.__dict__.get("components", ()):
@@ -122,17 +136,33 @@ class RaycasterBase(Processor):
         self.parts = {component: component(self) for component in self.components}
         self.passes: list[tuple[str, dict]] = []  # (shader, defines) of each pass of the last frame
 
-    def frame(self, volume: Volume, entry: Image, exit: Image) -> Frame:
+    def frame(self, volume: Volume, entry: Image, exit: Image, volumes=None) -> Frame:
         """The frame of one process(): checks that the entry and exit images belong together and
-        resolves the camera (``view_camera`` keeps it for the GUI and the depth output)."""
+        resolves the camera on the box of ``volumes`` (default: ``volume`` alone; the union when
+        several), in that box's normalised frame (``view_camera`` keeps the camera in world units
+        for the GUI)."""
         if entry.size != exit.size:
             raise VGraphError(f"entry image is {entry.size[0]}x{entry.size[1]} but exit image is "
                               f"{exit.size[0]}x{exit.size[1]}; connect both to one EntryExitPoints")
-        self.view_camera = view_camera(self.camera, volume, entry.size)
+        view = framed_view(self.camera, volumes or (volume,), entry.size, self.id)
+        if not (view.frame.is_identity or self.frames_extreme_boxes):
+            raise VGraphError(self.extreme_box_refusal(volume))
+        self.view_camera = view.world_camera
         self.passes = []
+        volume = view.volumes[0]
         if VolumeSampling in self.parts:  # the volume at the precision it is sampled at, for every part
             volume = volume.at_precision(self.volume_precision)
-        return Frame(self.gl, volume, entry, exit, self.view_camera, VolumeGeometry.of(volume))
+        return Frame(self.gl, volume, entry, exit, view.camera, VolumeGeometry.of(volume), view.frame,
+                     view.volumes)
+
+    def extreme_box_refusal(self, volume: Volume) -> str:
+        """Why this ray caster does not draw ``volume`` (frames_extreme_boxes False)."""
+        low, high = VolumeGeometry.of(volume).box
+        return (f"{self.id}.volume: {volume.source or 'the volume'} spans {low.tolist()} .. "
+                f"{high.tolist()}, a box this ray caster cannot draw: its outputs and properties are "
+                f"in world units, which float32 does not hold for a box that small, that large or "
+                f"that far from the origin; give the VolumeSource a spacing and origin near 1 "
+                f"(the RayCaster draws such boxes as they are)")
 
     def draw(self, frame: Frame, shader: str, target, parts=None, own: Binding | None = None,
              missed: tuple | None = None) -> None:
@@ -195,7 +225,9 @@ class CameraRays(Component):
         rays = pixel_rays(camera, size)  # a tile's pixels: the whole picture's rays
         return Binding(uniforms={
             "texture_to_world_scale": vec(to_world_scale), "texture_to_world_offset": vec(to_world_offset),
-            "view_projection": camera.view_projection(size[0] / size[1]), "view_forward": vec(camera.basis()[2]),
+            "world_length": frame.box_frame.scale,  # the depth output's distance in world units
+            "view_projection": camera.view_projection(size[0] / size[1]),
+            "view_forward": vec(camera.basis()[2]),
             **{name: rays[name] for name in ("viewport_size", "pixel_offset", "near_centre", "near_right",
                                              "near_up")}})
 

@@ -53,7 +53,7 @@ def view_camera(camera: Camera, volume: Volume, size) -> Camera:
 
 def box_camera(camera: Camera, box_min, box_max, size) -> Camera:
     """Camera.resolved on a box at ``size``, remembered: the processors of one frame resolve the
-    same camera (view_camera for a volume's box, EntryExitPoints' rays_camera for a union). A tile
+    same camera (view_camera for a volume's box, framed_view for a union or a framed box). A tile
     of a picture (Camera.tile) is resolved as the whole picture is, to the last bit, and keeps
     its window."""
     whole, whole_size, _ = picture_of(camera, size)
