@@ -1,8 +1,9 @@
 """The ``vgraph`` command (also ``python -m vgraph``).
 
-Exit codes: 0 ok, 2 bad input (a file, a network, a value), 1 internal failure. Messages go to
-stderr; results to files named by the options (and listings to stdout). Warnings of vgraph's own
-(``VGraphWarning``) print as one line ``vgraph: warning: <message>``; others as Python shows them.
+Exit codes: 0 ok, 2 bad input (a file, a network, a value), 1 internal failure, 130 stopped by
+Ctrl-C (SIGINT). Messages go to stderr; results to files named by the options (and listings to
+stdout). Warnings of vgraph's own (``VGraphWarning``) print as one line ``vgraph: warning:
+<message>``; others as Python shows them.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from vgraph.transfer_function import PRESETS
 from vgraph.write_paths import check_writers
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT = 0, 1, 2
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as a shell reports a command stopped by Ctrl-C
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -48,8 +50,9 @@ def main(argv: list[str] | None = None) -> int:
     except MemoryError as error:  # outside any processor (which names itself): loading, writing
         print(f"vgraph: error: {out_of_memory(error)}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        return EXIT_INTERNAL
+    except KeyboardInterrupt:  # Ctrl-C: one line, and the exit code of a command stopped by SIGINT
+        print("vgraph: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except Exception:
         print("vgraph: internal error (please report it):", file=sys.stderr)
         traceback.print_exc()

@@ -15,6 +15,7 @@ from vgraph.errors import VGraphError
 def run_on_cluster(args, network, outputs, target) -> int:
     """``vgraph run ... --cluster``: the picture rendered by the cluster's workers (tiles or leaves), written
     as a local run writes it (atomically, the same messages)."""
+    from vgraph.cli import EXIT_INTERRUPTED, EXIT_OK
     from vgraph.cli_output import write_image_outputs
     from vgraph.distributed import connect, parse_cluster, parse_grid, render
     from vgraph.distributed.render import prepare
@@ -31,13 +32,19 @@ def run_on_cluster(args, network, outputs, target) -> int:
         raise VGraphError("--tiles cuts the picture of the tiles split; --split leaves divides the bricks")
     prepare(network, split, grid, args.size, target)  # refuse what the split cannot render before starting
     start = time.perf_counter()
-    with connect(args.cluster) as client:
-        workers = len(client.scheduler_info().get("workers", {}))
-        pixels = render(network, client, split=split, tiles=grid, size=args.size, target=target,
-                        plugins=args.plugin or ())
+    try:
+        with connect(args.cluster) as client:
+            workers = len(client.scheduler_info().get("workers", {}))
+            pixels = render(network, client, split=split, tiles=grid, size=args.size, target=target,
+                            plugins=args.plugin or (), cluster=args.cluster)
+    except KeyboardInterrupt:
+        # render() cancelled the frame's tasks and connect() closed the cluster it started: one
+        # line, and the exit code of a command stopped by SIGINT.
+        print(f"vgraph: interrupted: the render on {args.cluster} was cancelled after "
+              f"{time.perf_counter() - start:.1f} s; nothing was written", file=sys.stderr)
+        return EXIT_INTERRUPTED
     write_image_outputs(outputs, pixels)
     how = f"{grid[0]}x{grid[1]} tiles" if split == "tiles" else "runs of bricks (leaves)"
     print(f"rendered {target} as {how} on {workers} worker(s) of "
           f"{args.cluster} in {time.perf_counter() - start:.3f} s", file=sys.stderr)
-    from vgraph.cli import EXIT_OK
     return EXIT_OK

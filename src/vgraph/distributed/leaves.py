@@ -75,12 +75,14 @@ def split_runs(weights, count: int) -> list[tuple[int, int]]:
     return list(zip(bounds[:-1], bounds[1:]))
 
 
-def render_leaves(plan, client, runs: int | None = None, plugins=()) -> np.ndarray:
+def render_leaves(plan, client, runs: int | None = None, plugins=(), timeout=None,
+                  cluster: str | None = None) -> np.ndarray:
     """The picture of ``plan`` (render.Plan) drawn by the leaves split; ``runs``: brick runs
-    (default: one per worker)."""
+    (default: one per worker); ``timeout`` and ``cluster`` as render() takes them."""
     import uuid
 
     from vgraph.distributed.render import shipped
+    from vgraph.distributed.watch import watch
 
     caster = bricked_caster(plan.network, plan.target)
     document, base_dir = shipped(plan.network)
@@ -90,10 +92,12 @@ def render_leaves(plan, client, runs: int | None = None, plugins=()) -> np.ndarr
     # key and recomputes the same value from its arguments alone.
     token = uuid.uuid4().hex[:12]
     mode = plan.network[caster].compositing
-    bricks, weights = client.submit(plan_task, *common, pure=False, key=f"vgraph-leaves-{token}-plan").result()
+    planned = client.submit(plan_task, *common, pure=False, key=f"vgraph-leaves-{token}-plan")
+    watch(client, {planned: "the plan of the frame's bricks"}, timeout, cluster)
+    bricks, weights = planned.result()
     workers = sorted(client.scheduler_info().get("workers", {}))
     pieces = split_runs(weights, runs or max(1, len(workers)))
-    layers = []
+    layers, tasks = [], {}
     for i, (start, stop) in enumerate(pieces):
         # Run i goes to the i-th worker (sorted addresses): the same run of the same network lands
         # on the worker that holds its network and bricks, frame after frame. The restriction is
@@ -101,15 +105,21 @@ def render_leaves(plan, client, runs: int | None = None, plugins=()) -> np.ndarr
         place = {"workers": [workers[i % len(workers)]], "allow_other_workers": True} if workers else {}
         layers.append(client.submit(run_task, *common, bricks[start:stop], pure=False,
                                     key=f"vgraph-leaves-{token}-run{i}", **place))
+        tasks[layers[-1]] = f"run {i + 1} of {len(pieces)} (bricks {start + 1}-{stop} of {len(bricks)})"
     level = 0
     while len(layers) > 1:  # adjacent layers pairwise, front before back: the visibility order
         level += 1
         layers = [client.submit(composite, *layers[j:j + 2], mode, pure=False,
                                 key=f"vgraph-leaves-{token}-composite{level}-{j // 2}")
                   if j + 1 < len(layers) else layers[j] for j in range(0, len(layers), 2)]
+        tasks.update({layer: f"composite {j + 1} of level {level}" for j, layer in enumerate(layers)
+                      if layer not in tasks})
     accumulated = layers[0] if layers else None
-    return client.submit(resolve_task, *common, accumulated, pure=False,
-                         key=f"vgraph-leaves-{token}-resolve").result()
+    resolved = client.submit(resolve_task, *common, accumulated, pure=False,
+                             key=f"vgraph-leaves-{token}-resolve")
+    tasks[resolved] = "the resolve pass"
+    watch(client, tasks, timeout, cluster)
+    return resolved.result()
 
 
 # --- compositing (pure numpy; on the workers) --------------------------------------------------------
@@ -178,9 +188,9 @@ def _draw(document, base_dir, target, size, caster, plugins, result, output=None
     ``output(network)``. The processor is left as it was (no leaf, its outputs invalid), so a
     retried or later task on this worker starts afresh: tasks are idempotent."""
     from vgraph.bricks.selection import LeafPass
-    from vgraph.distributed.worker import _GL_LOCK, _network
+    from vgraph.distributed.worker import _GL_LOCK, _network, load_plugins
 
-    _load_plugins(plugins)
+    load_plugins(plugins)
     with _GL_LOCK:
         network, full_cameras = _network(document, base_dir, target)
         for address, camera in full_cameras.items():  # a tiles task may have left a tile's camera
@@ -198,11 +208,3 @@ def _draw(document, base_dir, target, size, caster, plugins, result, output=None
         finally:
             processor.leaf = None
             network.invalidate_downstream(caster)
-
-
-def _load_plugins(plugins) -> None:
-    import vgraph
-
-    for module in plugins:  # the processor types of a plug-in network (vgraph run --plugin)
-        if module not in vgraph.registry.plugins:  # once per worker process
-            vgraph.registry.load_plugin(module)

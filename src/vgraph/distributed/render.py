@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from vgraph.distributed.tiles import Tile, TileError, assemble, check_grid, cut, untileable
+from vgraph.distributed.watch import TaskTimeout, watch
 
 SPLITS = ("tiles", "leaves")
 
@@ -35,27 +36,39 @@ class Plan:
 
 
 def render(network_or_path, client, split: str = "tiles", tiles=(2, 2), size=None,
-           target: str | None = None, plugins=(), runs: int | None = None) -> np.ndarray:
+           target: str | None = None, plugins=(), runs: int | None = None,
+           timeout: TaskTimeout | None = None, cluster: str | None = None) -> np.ndarray:
     """The image at ``target`` (default: the network's Canvas, as ``vgraph run`` picks it) at
     ``size`` (width, height; default: the Canvas's size), float32 (H, W, 4), row 0 at the top, as
     Network.evaluate returns it. ``network_or_path``: a Network, or a .json network or volume file
     (as ``vgraph.load`` reads it). ``client``: a dask.distributed Client. ``tiles``: (columns,
     rows) of the tiles split. ``plugins``: plug-in modules the workers import before building the
     network (as ``--plugin``; each worker must be able to import them). ``runs``: how many runs
-    of bricks the leaves split draws in parallel (default: one per worker; vgraph.distributed.leaves)."""
+    of bricks the leaves split draws in parallel (default: one per worker; vgraph.distributed.leaves).
+    ``timeout``: how long a task may run before its worker is restarted (default: the Dask
+    configuration's vgraph.task-timeout; vgraph.distributed.watch). ``cluster``: the cluster's name
+    in messages (default: the scheduler's address)."""
     from vgraph.distributed.worker import render_tile
 
     plan = prepare(network_or_path, split, tiles, size, target)
     if split == "leaves":
         from vgraph.distributed.leaves import render_leaves
-        return render_leaves(plan, client, runs=runs, plugins=plugins)
+        return render_leaves(plan, client, runs=runs, plugins=plugins, timeout=timeout, cluster=cluster)
     document, base_dir = shipped(plan.network)
     # Unique keys: the same tile of another call (a changed file with the same name) is new work.
     token = uuid.uuid4().hex[:12]
-    futures = [client.submit(render_tile, document, base_dir, plan.target, plan.size, tile,
-                             tuple(plugins), pure=False, key=f"vgraph-tile-{token}-{i}")
-               for i, tile in enumerate(plan.tiles)]
-    return assemble(plan.size, plan.tiles, client.gather(futures))
+    futures = {client.submit(render_tile, document, base_dir, plan.target, plan.size, tile,
+                             tuple(plugins), pure=False, key=f"vgraph-tile-{token}-{i}"):
+               tile_label(i, plan.tiles) for i, tile in enumerate(plan.tiles)}
+    watch(client, futures, timeout, cluster)
+    return assemble(plan.size, plan.tiles, client.gather(list(futures)))
+
+
+def tile_label(index: int, tiles: list[Tile]) -> str:
+    """How messages name a tile: 'tile 3 of 4 (pixels 32-63 x 0-23)'."""
+    tile = tiles[index]
+    return (f"tile {index + 1} of {len(tiles)} (pixels {tile.x}-{tile.x + tile.width - 1} x "
+            f"{tile.y}-{tile.y + tile.height - 1})")
 
 
 def prepare(network_or_path, split: str = "tiles", tiles=(2, 2), size=None,

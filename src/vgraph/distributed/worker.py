@@ -30,22 +30,37 @@ from vgraph.distributed.tiles import Tile, cameras, set_tile_cameras
 _GL_LOCK = threading.Lock()
 _NETWORKS: OrderedDict[str, tuple] = OrderedDict()  # key -> (network, full cameras)
 _KEPT = 2  # networks kept per worker (each may hold a volume on the GPU)
+_PREPARED = False  # load_plugins has set this process up
 
 
 def render_tile(document: str, base_dir: str | None, target: str, size: tuple[int, int],
                 tile: Tile, plugins: tuple[str, ...] = ()) -> np.ndarray:
     """The rendered rectangle of ``tile`` (its halo included) of the ``size`` image of ``target``,
     float32 (h, w, 4), row 0 at the top: the task of the tiles split."""
-    import vgraph
-
-    for module in plugins:  # the processor types of a plug-in network (vgraph run --plugin)
-        if module not in vgraph.registry.plugins:  # once per worker process
-            vgraph.registry.load_plugin(module)
+    load_plugins(plugins)
     with _GL_LOCK:
         network, full_cameras = _network(document, base_dir, target)
         set_tile_cameras(network, full_cameras, tile, size)
         network.update(target, size=tuple(tile.rendered[2:]))
         return np.ascontiguousarray(network.output(target).to_numpy(), dtype=np.float32)
+
+
+def load_plugins(plugins) -> None:
+    """Once per worker process: its own progress-bar lock, and the plug-ins' processor types."""
+    import vgraph
+
+    global _PREPARED
+    if not _PREPARED:
+        # tqdm's default lock is a multiprocessing semaphore, registered with the resource
+        # tracker this process shares with the client: a worker killed by its nanny (a stalled
+        # task) never unregisters it, and the tracker warns about it as `vgraph run` ends. A
+        # worker's bars are never shown; a thread lock serves them.
+        from tqdm import tqdm
+        tqdm.set_lock(threading.RLock())
+        _PREPARED = True
+    for module in plugins:  # the processor types of a plug-in network (vgraph run --plugin)
+        if module not in vgraph.registry.plugins:  # once per worker process
+            vgraph.registry.load_plugin(module)
 
 
 def worker_info() -> dict:

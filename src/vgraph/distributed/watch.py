@@ -1,0 +1,237 @@
+"""Watching the tasks of one frame until they are done: a task that runs too long has its worker
+restarted, so that Dask runs it again on another worker (docs/distributed.md, "A worker that
+stops or dies").
+
+Dask reruns the tasks of a worker that is lost (killed, out of memory, restarted), but it has no
+time limit for a task: a worker that stops (SIGSTOP, a hung driver, a network file system that
+never answers) keeps its tasks for good. So the client waits on the frame's futures in short steps
+and asks the scheduler where each task is (``Client.processing``):
+
+- A task's time counts from when the scheduler gives it to a worker (it may first wait there
+  behind another task). It may take ``TaskTimeout.allowance``: while no task of the frame has
+  finished, ``first`` seconds (a worker's first task builds the network, reads the volume and
+  makes its GL context); afterwards ``multiple`` times the slowest finished task of the frame,
+  at least ``floor`` seconds.
+- A worker holding a task past its allowance is restarted (``Client.restart_workers``: its nanny
+  kills the process and starts a new one; a worker without a nanny is removed). The scheduler
+  then gives the task to another worker, with a new allowance there.
+- A task that outlived its allowance on ``attempts`` workers, or that Dask gave up on because the
+  workers running it died (``KilledWorker``: ``distributed.scheduler.allowed-failures``), ends the
+  frame with ``ClusterTaskError``: exit 2, naming the cluster, the task and the seconds waited.
+- However ``watch`` ends (done, an error, Ctrl-C), the frame's unfinished futures are cancelled.
+
+The numbers are Dask configuration (``vgraph.task-timeout.first`` and so on, or the environment
+variables ``DASK_VGRAPH__TASK_TIMEOUT__FLOOR`` and the like), read when a frame starts.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from vgraph.errors import VGraphError
+
+POLL_SECONDS = 0.5  # how often the scheduler is asked where the frame's tasks are
+DEFAULTS = {"first": 120.0, "multiple": 10.0, "floor": 30.0, "attempts": 3}
+
+
+class ClusterTaskError(VGraphError, RuntimeError):
+    """A task of a frame that no worker of the cluster finished."""
+
+    def __init__(self, task: str, reason: str, cluster: str | None = None):
+        self.task, self.reason, self.cluster = task, reason, cluster
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        return f"cluster {self.cluster or '?'}: {self.task} did not finish: {self.reason}"
+
+
+@dataclass(frozen=True)
+class TaskTimeout:
+    """How long a task may run before its worker is restarted (see the module docstring)."""
+
+    first: float = DEFAULTS["first"]        # seconds, while no task of the frame has finished
+    multiple: float = DEFAULTS["multiple"]  # times the slowest finished task of the frame ...
+    floor: float = DEFAULTS["floor"]        # ... but at least this many seconds
+    attempts: int = DEFAULTS["attempts"]    # workers a task may outlive its allowance on
+
+    @classmethod
+    def from_config(cls) -> "TaskTimeout":
+        """The numbers of the Dask configuration's ``vgraph.task-timeout`` (DEFAULTS where unset)."""
+        import dask
+
+        values = {name: dask.config.get(f"vgraph.task-timeout.{name}", default)
+                  for name, default in DEFAULTS.items()}
+        try:
+            timeout = cls(first=float(values["first"]), multiple=float(values["multiple"]),
+                          floor=float(values["floor"]), attempts=int(values["attempts"]))
+        except (TypeError, ValueError) as error:
+            raise VGraphError(f"Dask configuration vgraph.task-timeout: {error}") from None
+        if min(timeout.first, timeout.multiple, timeout.floor) <= 0 or timeout.attempts < 1:
+            raise VGraphError(f"Dask configuration vgraph.task-timeout: first, multiple and floor must be "
+                              f"positive and attempts at least 1, got {values}")
+        return timeout
+
+    def allowance(self, slowest: float | None) -> float:
+        """Seconds a task may take, given the slowest finished task of the frame (None: none yet)."""
+        if slowest is None:
+            return self.first
+        return max(self.floor, self.multiple * slowest)
+
+    def rule(self, slowest: float | None) -> str:
+        if slowest is None:
+            return f"{self.first:g} s while no task of the frame has finished"
+        return f"{self.multiple:g} x the slowest finished task ({slowest:.2f} s), at least {self.floor:g} s"
+
+
+@dataclass
+class _Task:
+    label: str
+    since: float  # when it was seen given to its worker; not yet: the last look that found it waiting
+    worker: str | None = None  # where the scheduler has it (None: waiting, for a worker or its inputs)
+    outlived: list = field(default_factory=list)  # (worker, seconds) of the tries that ran too long
+
+
+def watch(client, tasks: dict, timeout: TaskTimeout | None = None, cluster: str | None = None) -> None:
+    """Wait until every future of ``tasks`` (future -> what it computes, e.g. "tile 3 of 4") is
+    done, restarting the workers that hold a task past its allowance. Raises the first task's
+    error (a ClusterTaskError when no worker finished it). Cancels the unfinished futures on the
+    way out, whatever ends the wait (Ctrl-C included)."""
+    frame = _Frame(client, tasks, timeout or TaskTimeout.from_config(), cluster or _address(client))
+    try:
+        frame.run()
+    finally:
+        unfinished = [future for future in tasks if not future.done()]
+        if unfinished:
+            _cancel(client, unfinished)
+        if frame.abandoned:
+            # Only once cancelled (else the scheduler would give the tasks to other workers): the
+            # workers still running tasks given up on (which may hang as the one that ended the
+            # frame did; a cancelled task runs on) are restarted, free for the frames to come.
+            try:
+                _restart(client, frame.abandoned)
+            except Exception:  # the error that ended the frame is the one to report
+                pass
+
+
+class _Frame:
+    """The watch over one frame's futures (see watch)."""
+
+    def __init__(self, client, tasks: dict, timeout: TaskTimeout, cluster: str):
+        self.client, self.timeout, self.cluster = client, timeout, cluster
+        self.start = time.monotonic()
+        self.states = {future.key: _Task(label, self.start) for future, label in tasks.items()}
+        self.pending = set(tasks)
+        self.slowest: float | None = None  # seconds, of the slowest finished task
+        self.restarted: set[str] = set()  # workers restarted and not yet gone from the scheduler
+        self.workerless_since: float | None = None
+        self.abandoned: set[str] = set()  # workers to restart once the frame is given up
+
+    def run(self) -> None:
+        from distributed import wait
+
+        while self.pending:
+            try:
+                done, self.pending = wait(self.pending, timeout=POLL_SECONDS, return_when="FIRST_COMPLETED")
+            except TimeoutError:
+                done = set()
+            now = time.monotonic()
+            for future in done:
+                _raise_for(future, self.states[future.key], self.cluster)
+                # At most this long on its worker: it was not there yet at the look before.
+                self.slowest = max(self.slowest or 0.0, now - self.states[future.key].since)
+            if self.pending:
+                self.look(now)
+
+    def look(self, now: float) -> None:
+        """Note where each pending task is; restart the workers holding one past its allowance,
+        or give up on a task that has outlived it on ``attempts`` workers."""
+        processing = self.client.processing()  # every worker -> the keys it holds
+        allowance = self.timeout.allowance(self.slowest)
+        self.check_workers(processing, allowance, now)
+        self.restarted &= set(processing)  # gone from the scheduler: an address seen again is new
+        where = {key: worker for worker, keys in processing.items() for key in keys
+                 if worker not in self.restarted}  # a restarted worker's tasks are on their way elsewhere
+        overdue = set()
+        for future in self.pending:
+            state, worker = self.states[future.key], where.get(future.key)
+            if worker is None or worker != state.worker:  # waiting, or given to a worker: a new try
+                state.worker, state.since = worker, now
+                continue
+            if now - state.since <= allowance:
+                continue
+            state.outlived.append((worker, now - state.since))
+            overdue.add(worker)
+            state.worker, state.since = None, now  # its next worker starts a new try
+            if len(state.outlived) >= self.timeout.attempts:
+                self.abandoned = overdue | {where[f.key] for f in self.pending if f.key in where}
+                tries = ", ".join(f"{seconds:.0f} s on {address}" for address, seconds in state.outlived)
+                raise ClusterTaskError(state.label, f"waited {now - self.start:.0f} s ({tries}; a task may "
+                                       f"take {self.timeout.rule(self.slowest)}: the Dask configuration "
+                                       "vgraph.task-timeout sets it)", self.cluster)
+        if overdue:
+            _restart(self.client, overdue)
+            self.restarted |= overdue
+
+    def check_workers(self, processing: dict, allowance: float, now: float) -> None:
+        """A cluster left without workers (all lost, none coming back) finishes nothing: after the
+        allowance the frame ends, naming a task that waits."""
+        if processing:
+            self.workerless_since = None
+            return
+        if self.workerless_since is None:
+            self.workerless_since = now
+        elif now - self.workerless_since > allowance:
+            label = self.states[next(iter(self.pending)).key].label
+            raise ClusterTaskError(label, f"the cluster has had no worker for "
+                                   f"{now - self.workerless_since:.0f} s (waited {now - self.start:.0f} s)",
+                                   self.cluster)
+
+
+def _restart(client, workers) -> None:
+    """Dask's own way out of a worker that holds a task too long: its nanny kills the process and
+    starts a new one (Client.restart_workers); a worker without a nanny is removed from the
+    scheduler (its process is left to whoever started it). Either way the scheduler gives the
+    worker's tasks to the other workers."""
+    known = client.scheduler_info()["workers"]
+    with_nanny = sorted(w for w in workers if known.get(w, {}).get("nanny"))
+    without = sorted(w for w in workers if w in known and w not in with_nanny)
+    if with_nanny:
+        client.restart_workers(with_nanny, raise_for_error=False)
+    if without:
+        client.run_on_scheduler(_remove_workers, without)
+
+
+async def _remove_workers(addresses, dask_scheduler=None) -> None:
+    for address in addresses:
+        await dask_scheduler.remove_worker(address, stimulus_id="vgraph-task-timeout", close=True)
+
+
+def _raise_for(future, state: _Task, cluster: str) -> None:
+    """The task's own error, or ClusterTaskError where Dask gave up on it (its workers died)."""
+    if future.status != "error":
+        return
+    from distributed import KilledWorker
+
+    error = future.exception()
+    if isinstance(error, KilledWorker):
+        raise ClusterTaskError(state.label, f"{error.allowed_failures + 1} workers died or were "
+                               f"restarted while running it (the last was {error.last_worker.address}; "
+                               "distributed.scheduler.allowed-failures in the Dask configuration)",
+                               cluster) from None
+    future.result()  # raises the task's error as the client received it
+
+
+def _cancel(client, futures) -> None:
+    """Cancel what is left of a frame, without letting a second failure hide the first."""
+    try:
+        client.cancel(futures)
+    except Exception:  # the client or cluster is already going away: nothing is left to run
+        pass
+
+
+def _address(client) -> str:
+    try:
+        return str(client.scheduler.address)
+    except Exception:
+        return "?"
