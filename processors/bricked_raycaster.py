@@ -171,7 +171,7 @@ class BrickedRayCaster(RaycasterBase):
         volume.require_samples(f"BrickedRayCaster '{self.id}'")
         started = time.perf_counter()
         frame = self.frame(volume, entry, exit)
-        source = self.brick_source(frame.volume)  # in the frame the camera is resolved in (an extreme box's)
+        source = self.brick_source(frame.volume)  # in the frame of the camera (an extreme box's)
         self.cache.use_source(source, frame.volume.value_range)
         self.cache.set_budgets(self.ram_budget, self.gl_budget)
         geometry = BrickGeometry(source)

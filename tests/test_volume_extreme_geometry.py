@@ -170,8 +170,10 @@ def test_ordinary_volumes_are_drawn_in_world_units_as_before():
     network = network_of(volume)
     network.evaluate("rc.image", size=SIZE)
     assert network["rc"].view_camera is network["eep"].view_camera is view.camera
-    assert framed_view(DEFAULT_CAMERA, (Volume(BALL, spacing=(2e-5 / 23,) * 3),), SIZE, "rc").frame.is_identity
-    assert not framed_view(DEFAULT_CAMERA, (Volume(BALL, spacing=(1e-6 / 23,) * 3),), SIZE, "rc").frame.is_identity
+
+    def frame_of(extent):
+        return framed_view(DEFAULT_CAMERA, (Volume(BALL, spacing=(extent / 23,) * 3),), SIZE, "rc").frame
+    assert frame_of(2e-5).is_identity and not frame_of(1e-6).is_identity
 
 
 def test_the_view_camera_is_in_world_units_and_frame_volume_stores_it():
@@ -223,7 +225,8 @@ def test_clip_planes_and_the_crop_box_cut_an_extreme_volume_where_they_cut_the_o
 
     def cut(spacing, at):
         network = network_of(Volume(BALL, spacing=(spacing,) * 3, origin=tuple(at((0.0, 0.0, 0.0)))))
-        network.set("eep.clip_planes", [ClipPlane(normal=(1.0, 0.3, 0.0), point=tuple(at((12.0, 11.0, 12.0))))])
+        plane = ClipPlane(normal=(1.0, 0.3, 0.0), point=tuple(at((12.0, 11.0, 12.0))))
+        network.set("eep.clip_planes", [plane])
         network.set("eep.crop_box", (*at((-1.0, -1.0, 4.0)), *at((30.0, 30.0, 30.0))))
         return network.evaluate("rc.image", size=SIZE)
     expected = cut(1.0, lambda p: np.asarray(p, dtype=float))
@@ -256,8 +259,9 @@ def test_the_multi_volume_ray_caster_draws_extreme_channels_in_their_union_frame
         network.add("MultiVolumeRayCaster", id="mv", transfer_function1=ORANGE, transfer_function2=BLUE,
                     shading="blinn_phong")
         network.link("eep.camera", "mv.camera")
-        for source, target in (("a.volume", "eep.volume"), ("b.volume", "eep.volume2"), ("a.volume", "mv.volume1"),
-                               ("b.volume", "mv.volume2"), ("eep.entry", "mv.entry"), ("eep.exit", "mv.exit")):
+        for source, target in (("a.volume", "eep.volume"), ("b.volume", "eep.volume2"),
+                               ("a.volume", "mv.volume1"), ("b.volume", "mv.volume2"),
+                               ("eep.entry", "mv.entry"), ("eep.exit", "mv.exit")):
             network.connect(source, target)
         return network.evaluate("mv.image", size=SIZE)
     expected = image(1.0, np.zeros(3))
@@ -302,7 +306,8 @@ def test_curvature_ray_casters_refuse_an_extreme_box_by_name(processor):
     """Their curvatures, positions and attenuation are world lengths: refused, not drawn wrong."""
     network = network_of(Volume(BALL, spacing=(1e-12,) * 3, source="tiny.npy"), processor=processor,
                          derivatives="central")
-    with pytest.raises(vgraph.VGraphError, match=r"rc\.volume: tiny\.npy spans .* a box this ray caster cannot draw"):
+    with pytest.raises(vgraph.VGraphError, match=r"rc\.volume: tiny\.npy spans .* a box this ray caster "
+                                                 r"cannot draw"):
         network.evaluate("rc.image", size=SIZE)
     assert network_of(Volume(BALL), processor=processor, derivatives="central").evaluate(
         "rc.image", size=SIZE)[..., :3].max() > 0.1
@@ -330,9 +335,9 @@ def test_opaque_geometry_mixes_with_an_extreme_volume_as_with_the_ordinary_one()
             network.link("eep.camera", follower)
         for source, target in (("mesh.geometry", "gr.geometry"), ("src.volume", "gr.volume"),
                                ("src.volume", "eep.volume"), ("src.volume", "rc.volume"),
-                               ("src.volume", "gee.volume"), ("eep.entry", "gee.entry"), ("eep.exit", "gee.exit"),
-                               ("gr.depth", "gee.depth"), ("gee.entry", "rc.entry"), ("gee.exit", "rc.exit"),
-                               ("rc.image", "mix.front"), ("gr.image", "mix.back")):
+                               ("src.volume", "gee.volume"), ("eep.entry", "gee.entry"),
+                               ("eep.exit", "gee.exit"), ("gr.depth", "gee.depth"), ("gee.entry", "rc.entry"),
+                               ("gee.exit", "rc.exit"), ("rc.image", "mix.front"), ("gr.image", "mix.back")):
             network.connect(source, target)
         return network.evaluate("mix.image", size=SIZE)
     expected = image(1.0, np.zeros(3))

@@ -97,7 +97,8 @@ def volume_in_frame(volume: Volume, frame: BoxFrame) -> Volume:
     known = _copies.get(volume)
     if known is None or known[0] != frame:
         spacing = as_vec3(np.asarray(volume.spacing, dtype=np.float64) / frame.scale)
-        known = _copies[volume] = (frame, volume.with_overrides(spacing, as_vec3(frame.points(volume.origin))))
+        origin = as_vec3(frame.points(volume.origin))
+        known = _copies[volume] = (frame, volume.with_overrides(spacing, origin))
     return known[1]
 
 
