@@ -14,17 +14,25 @@ than --max-seconds, raises the worker's peak resident memory by more than --max-
 (killed after --kill-seconds) or kills the worker. Targets take turns, one case each, until the
 time is up. Printed per target: cases run, outcomes by error type, failures; each failure is
 saved under bench/results/fuzz/<target>/<seed>/ (the files, case.txt, traceback.txt).
+
+The target ``cluster`` (part of ``all``) is bench/cluster_faults.py: renders on a LocalCluster of
+two workers while a worker is killed, stopped or slowed, or every task hangs; it runs alongside
+the file targets, in a process of its own, for the same minutes, and its counts are printed per
+fault (``cluster:kill``, ``cluster:stop``, ...). Its allowed outcomes are the right picture and
+the named exit-2 error (ClusterTaskError); a hang or anything else is a failure.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import multiprocessing
 import os
 import random
 import resource
 import shutil
 import signal
+import subprocess
 import sys
 import tempfile
 import time
@@ -35,22 +43,68 @@ from pathlib import Path
 from vgraph.io.fuzz_cases import TARGETS, make_case, run_case
 
 RESULTS = Path(__file__).resolve().parent / "results" / "fuzz"
+CLUSTER = "cluster"  # bench/cluster_faults.py, run alongside in a process of its own
 
 
 def main(argv=None) -> int:
     args = parse_args(argv)
     if args.replay:
         return replay(*args.replay, int(args.address_space_mb * 2**20))
-    targets = TARGETS if args.target == "all" else tuple(args.target.split(","))
-    unknown = set(targets) - set(TARGETS)
+    known = (*TARGETS, CLUSTER)
+    targets = known if args.target == "all" else tuple(args.target.split(","))
+    unknown = set(targets) - set(known)
     if unknown:
-        sys.exit(f"unknown target(s) {sorted(unknown)}; known: all, {', '.join(TARGETS)}")
+        sys.exit(f"unknown target(s) {sorted(unknown)}; known: all, {', '.join(known)}")
     # an interrupted run (Ctrl-C, kill) still reports what it did
     signal.signal(signal.SIGTERM, signal.default_int_handler)
     start = time.monotonic()
-    counts, failures = fuzz(targets, args)
-    report(targets, counts, failures, args, (time.monotonic() - start) / 60)
+    files = tuple(t for t in targets if t != CLUSTER)
+    cluster = ClusterFaults(args) if CLUSTER in targets else None
+    counts, failures = fuzz(files, args) if files else (defaultdict(Counter), [])
+    if cluster is not None:
+        files += cluster.finish(counts, failures)
+    report(files, counts, failures, args, (time.monotonic() - start) / 60)
     return 1 if failures else 0
+
+
+class ClusterFaults:
+    """bench/cluster_faults.py running alongside for the same minutes (its own process: it keeps
+    a LocalCluster and must not share the file cases' address-space limit)."""
+
+    def __init__(self, args):
+        self.folder = Path(tempfile.mkdtemp(prefix="vgraph-fuzz-cluster-"))
+        command = [sys.executable, str(Path(__file__).with_name("cluster_faults.py")), "--minutes",
+                   str(args.minutes), "--json", str(self.folder / "counts.json")]
+        if args.seed is not None:
+            command += ["--seed", str(args.seed)]
+        self.log = open(self.folder / "output.txt", "w")
+        self.process = subprocess.Popen(command, stdout=self.log, stderr=subprocess.STDOUT)
+
+    def finish(self, counts, failures) -> tuple[str, ...]:
+        """Wait for it (a case in flight ends within its own deadline), add its counts per fault
+        and its failures; the targets it reports under."""
+        from cluster_faults import FAULTS, RESULTS as CLUSTER_RESULTS
+        try:
+            self.process.wait()
+        except KeyboardInterrupt:  # a second Ctrl-C: stop it now, it reports what it finished
+            self.process.send_signal(signal.SIGINT)
+            self.process.wait()
+        self.log.close()
+        try:
+            found = json.loads((self.folder / "counts.json").read_text())
+        except (OSError, ValueError):
+            found = {"counts": {}, "failures": [["none", 0, "bench/cluster_faults.py wrote no counts: "
+                                                 + (self.folder / "output.txt").read_text()[-2000:]]]}
+        for fault, outcomes in found["counts"].items():
+            counts[f"{CLUSTER}:{fault}"].update(outcomes)
+        for fault, seed, problem in found["failures"]:
+            place = CLUSTER_RESULTS / str(seed)
+            place.mkdir(parents=True, exist_ok=True)
+            if not (place / "traceback.txt").exists():
+                (place / "traceback.txt").write_text(problem)
+            failures.append((f"{CLUSTER}:{fault}", seed, problem.splitlines()[0], place))
+        shutil.rmtree(self.folder, ignore_errors=True)
+        return tuple(f"{CLUSTER}:{fault}" for fault in FAULTS)
 
 
 def parse_args(argv):
@@ -224,7 +278,7 @@ def report(targets, counts, failures, args, minutes: float) -> None:
     for target in targets:
         outcomes = counts[target]
         listing = ", ".join(f"{name} {n}" for name, n in sorted(outcomes.items()) if name != "FAILED")
-        print(f"  {target:10s} {sum(outcomes.values()):7d} cases: {listing}; "
+        print(f"  {target:18s} {sum(outcomes.values()):7d} cases: {listing}; "
               f"failures {outcomes['FAILED']}")
     for target, seed, problem, place in failures:
         last = (place / "traceback.txt").read_text().strip().splitlines()[-1:]

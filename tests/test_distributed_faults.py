@@ -256,3 +256,16 @@ def test_cli_ctrl_c_cancels_the_cluster_render(tmp_path):
     left = running()
     assert not left, f"worker processes left running: {left}"
 
+
+def test_the_fault_bench_cases_end_with_the_picture_or_the_named_error(tmp_path):
+    """A few cases of bench/cluster_faults.py (bench/fuzz.py --target cluster runs it for
+    minutes): random split, fault and moment; each ends with the right picture or a
+    ClusterTaskError, never a hang."""
+    sys.path.insert(0, str(REPO / "bench"))
+    try:
+        import cluster_faults
+    finally:
+        sys.path.remove(str(REPO / "bench"))
+    counts, failures = cluster_faults.run(cases=3, seed=29, folder=tmp_path)  # cases 30-32: hang, kill, stop
+    assert not failures, failures
+    assert sum(sum(c.values()) for c in counts.values()) == 3
