@@ -1,6 +1,6 @@
 """The value-range rule volumes and meshes share (docs/conventions.md): a declared range must be
 finite with low < high; otherwise the range is the data's finite min..max, and a constant (or
-empty) data set still maps somewhere."""
+empty) data set still maps somewhere; values to and from the unit interval of a range."""
 
 from __future__ import annotations
 
@@ -27,3 +27,24 @@ def range_of(extremes) -> tuple[float, float]:
     if hi > lo:
         return (lo, hi)
     return (lo, lo + max(1.0, abs(lo) * 1e-6))  # a constant data set still maps somewhere
+
+
+def to_unit(values, lo: float, hi: float):
+    """(v - lo) / (hi - lo) in float64, also when hi - lo overflows (float64 data near 1.8e308):
+    then computed on values divided by the larger magnitude."""
+    with np.errstate(over="ignore"):
+        span = hi - lo
+    if np.isfinite(span):
+        return (values - lo) / span
+    scale = max(abs(lo), abs(hi))
+    return (values / scale - lo / scale) / (hi / scale - lo / scale)
+
+
+def from_unit(unit, lo: float, hi: float):
+    """The inverse of to_unit: lo + unit (hi - lo), scaled the same way when hi - lo overflows."""
+    with np.errstate(over="ignore"):
+        span = hi - lo
+    if np.isfinite(span):
+        return lo + unit * span
+    scale = max(abs(lo), abs(hi))
+    return (lo / scale + unit * (hi / scale - lo / scale)) * scale

@@ -25,11 +25,7 @@ Conventions (docs/volumes.md says the same for users):
   the limit; the RayCaster does not upload such volumes but draws them brick by brick.
 - A volume of cubic B-spline coefficients (``is_spline_coefficients``) holds no samples; consumers
   that need one kind refuse the other.
-- Geometry (``check_box``): spacing 1e-15 .. 1e15 and origin within +-1e15 per axis, the box of
-  voxel centres within +-1e15 (MAX_COORDINATE, what a camera holds), and the smallest spacing at
-  least FLOAT64_RESOLUTION of the box's largest coordinate, so that the voxel centres stay
-  distinct in float64 and the box can be moved into its normalised frame (vgraph.box_frame),
-  where ray casters draw boxes too small, too large or too far out for float32 world units.
+- Geometry: spacing, origin and the box of voxel centres are checked by vgraph.volume_grid.
 """
 
 from __future__ import annotations
@@ -41,11 +37,12 @@ from functools import cached_property
 
 import numpy as np
 
-from vgraph.camera import MAX_COORDINATE
 from vgraph.errors import VGraphError
 from vgraph.gl.context import release_quietly
 from vgraph.memory import OutOfMemoryError, format_bytes, out_of_memory
-from vgraph.value_range import checked_range, range_of
+from vgraph.rank_table import RankTable
+from vgraph.value_range import checked_range, from_unit, range_of, to_unit
+from vgraph.volume_grid import VolumeGeometryError, check_box, checked_vec3  # noqa: F401 (re-exported)
 
 Vec3 = tuple[float, float, float]
 
@@ -58,25 +55,10 @@ _TEXTURE_FORMATS = {np.dtype(np.uint8): ("nu2", 255.0), np.dtype(np.uint16): ("n
 # for the shaders' arithmetic (scale, offset, differences) without overflow or subnormals.
 FLOAT32_SAFE = 1e30
 _SLAB_VOXELS = 2**22  # normalising in float64 slab by slab bounds the temporary memory
-# Bins of the histogram behind percentiles(): accurate to (max - min) / 65536, exact for integer
-# data spanning fewer values (one bin per integer), and 512 KiB of counts whatever the volume.
-PERCENTILE_BINS = 65536
 PRECISIONS = ("full", "16bit")  # of at_precision(): the stored values, or 16-bit codes
 SIXTEEN_BIT_CODES = 65535.0  # the largest code of a 16-bit copy: normalised intensity = q / 65535
-# The smallest spacing as a share of the box's largest coordinate: float64 keeps ~16 digits, so
-# voxel centres are then placed to ~1e-4 voxels (box_frame subtracts the box's centre in float64);
-# a spacing of 1e-15 at 1e3 from the origin merges the voxels into one point.
-FLOAT64_RESOLUTION = 1e-12
 # What a volume keeps from its values alone (the grid does not enter): shared by with_overrides.
 _VALUE_STATISTICS = ("nonfinite_count", "finite_extremes", "value_range", "_ranks")
-
-
-class VolumeGeometryError(VGraphError):
-    """A volume's grid cannot be drawn (check_box); ``field`` is the grid field to change."""
-
-    def __init__(self, where: str, reason: str, field: str):
-        self.reason, self.field = reason, field
-        super().__init__(f"volume{where}: {reason}")
 
 
 @dataclass(eq=False)
@@ -100,8 +82,8 @@ class Volume:
         if data.dtype.kind not in "uif":
             raise VGraphError(f"volume{where}: unsupported data type {data.dtype}")
         self.data = data
-        self.spacing = _vec3(self.spacing, "spacing", where, positive=True)
-        self.origin = _vec3(self.origin, "origin", where)
+        self.spacing = checked_vec3(self.spacing, "spacing", where, positive=True)
+        self.origin = checked_vec3(self.origin, "origin", where)
         check_box(self.dims, self.spacing, self.origin, where)
         self.declared_range = checked_range(self.declared_range, f"volume{where}")
         if isinstance(self.time_steps, bool) or not isinstance(self.time_steps, (int, np.integer)) \
@@ -166,7 +148,7 @@ class Volume:
     def percentiles(self, percents) -> np.ndarray:
         """Data values at ``percents`` (each in [0, 100]) of the finite voxels, as np.percentile's
         default (linear) method gives them: exact for integer data spanning at most
-        PERCENTILE_BINS values, otherwise within (max - min) / PERCENTILE_BINS. The histogram
+        PERCENTILE_BINS (65536) values, otherwise within (max - min) / PERCENTILE_BINS. The histogram
         behind it is built once per volume, slab by slab. A volume without finite voxels maps
         percents linearly onto its value range."""
         p = np.asarray(percents, dtype=np.float64)
@@ -185,9 +167,9 @@ class Volume:
         # weighted, not low + f (high - low): that difference overflows for data near +-1.8e308
         return low * (1.0 - fraction) + high * fraction
 
-    def _rank_table(self) -> "_RankTable":
+    def _rank_table(self) -> "RankTable":
         if "_ranks" not in self.__dict__:
-            self.__dict__["_ranks"] = _RankTable.of(self)
+            self.__dict__["_ranks"] = RankTable.of(self)
         return self.__dict__["_ranks"]
 
     def _slabs(self):
@@ -397,7 +379,7 @@ class SixteenBitCopy(Volume):
         # In float64 (float32 would put codes near a half off by one), slab by slab in one
         # reused buffer: fresh 8-byte temporaries of a whole volume cost more than the arithmetic.
         with np.errstate(over="ignore"):
-            span = hi - lo  # inf for float64 data near +-1.8e308: then _to_unit's scaled form
+            span = hi - lo  # inf for float64 data near +-1.8e308: then to_unit's scaled form
         buffer = np.empty(min(flat.size, _SLAB_VOXELS), dtype=np.float64)
         for start in range(0, flat.size, _SLAB_VOXELS):
             slab = flat[start:start + _SLAB_VOXELS]
@@ -407,7 +389,7 @@ class SixteenBitCopy(Volume):
                 unit -= lo
                 unit *= SIXTEEN_BIT_CODES / span
             else:
-                unit[...] = _to_unit(unit, lo, hi) * SIXTEEN_BIT_CODES
+                unit[...] = to_unit(unit, lo, hi) * SIXTEEN_BIT_CODES
             if volume.nonfinite_count:  # as the full texture: NaN -> lo, +-Inf -> the ends
                 np.nan_to_num(unit, copy=False, nan=0.0, posinf=SIXTEEN_BIT_CODES, neginf=0.0)
             np.clip(unit, 0.0, SIXTEEN_BIT_CODES, out=unit)
@@ -424,7 +406,7 @@ class SixteenBitCopy(Volume):
 
     def percentiles(self, percents) -> np.ndarray:
         lo, hi = self.value_range
-        return _from_unit(super().percentiles(percents) / SIXTEEN_BIT_CODES, lo, hi)
+        return from_unit(super().percentiles(percents) / SIXTEEN_BIT_CODES, lo, hi)
 
     def at_precision(self, precision: str) -> "Volume":
         if precision not in PRECISIONS:
@@ -433,113 +415,3 @@ class SixteenBitCopy(Volume):
 
     def with_data(self, data: np.ndarray, **changes) -> "Volume":
         raise VGraphError("a 16-bit copy holds codes, not data values: take with_data() of the original volume")
-
-
-@dataclass(frozen=True)
-class _RankTable:
-    """Cumulative counts of a fine histogram of the finite voxels, from which the k-th smallest
-    value (an order statistic) is found: exactly when every bin holds one integer value, else
-    by spreading a bin's voxels evenly over its width (error below one bin)."""
-
-    lo: float
-    hi: float
-    exact: bool        # one bin per integer value lo, lo + 1, ...
-    cumulative: np.ndarray
-    count: int         # finite voxels
-
-    @classmethod
-    def of(cls, volume: Volume) -> "_RankTable":
-        lo, hi = volume.finite_extremes
-        data_type = volume.data.dtype
-        exact = data_type.kind in "ui" and int(hi) - int(lo) < PERCENTILE_BINS or hi == lo
-        bins = int(hi) - int(lo) + 1 if exact else PERCENTILE_BINS
-        counts = np.zeros(bins, dtype=np.int64)
-        for slab in volume._slabs():
-            if exact and data_type == np.uint64:  # in its own type: uint64 beyond 2**63
-                index = (slab - lo).astype(np.intp)
-            elif exact and data_type.kind in "ui":  # int64: a narrower signed type would wrap
-                index = slab.astype(np.int64) - int(lo)
-            elif exact:  # a constant float volume: one bin
-                index = np.zeros(np.count_nonzero(slab == lo), dtype=np.intp)
-            else:
-                index = _bin_index(slab[np.isfinite(slab)] if volume.nonfinite_count else slab,
-                                   float(lo), float(hi))
-            counts += np.bincount(index, minlength=bins)
-        cumulative = np.cumsum(counts)
-        return cls(float(lo), float(hi), bool(exact), cumulative, int(cumulative[-1]))
-
-    def value_at(self, rank: np.ndarray) -> np.ndarray:
-        """The rank-th smallest finite value (rank 0 .. count - 1, as floats holding integers)."""
-        rank = np.asarray(rank, dtype=np.float64)
-        bins = np.searchsorted(self.cumulative, rank, side="right")  # first bin with cum > rank
-        if self.exact:
-            return self.lo + bins.astype(np.float64)
-        before = np.where(bins > 0, self.cumulative[np.maximum(bins - 1, 0)], 0)
-        inside = self.cumulative[bins] - before
-        fraction = (bins + (rank - before + 0.5) / inside) / PERCENTILE_BINS
-        values = np.clip(_from_unit(fraction, self.lo, self.hi), self.lo, self.hi)
-        # the smallest and largest values are known exactly
-        return np.where(rank <= 0, self.lo, np.where(rank >= self.count - 1, self.hi, values))
-
-
-def _bin_index(values: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    unit = _to_unit(values.astype(np.float64), lo, hi)
-    return np.minimum((unit * PERCENTILE_BINS).astype(np.intp), PERCENTILE_BINS - 1)
-
-
-def _to_unit(values, lo: float, hi: float):
-    """(v - lo) / (hi - lo) in float64, also when hi - lo overflows (float64 data near 1.8e308):
-    then computed on values divided by the larger magnitude."""
-    with np.errstate(over="ignore"):
-        span = hi - lo
-    if np.isfinite(span):
-        return (values - lo) / span
-    scale = max(abs(lo), abs(hi))
-    return (values / scale - lo / scale) / (hi / scale - lo / scale)
-
-
-def _from_unit(unit, lo: float, hi: float):
-    with np.errstate(over="ignore"):
-        span = hi - lo
-    if np.isfinite(span):
-        return lo + unit * span
-    scale = max(abs(lo), abs(hi))
-    return (lo / scale + unit * (hi / scale - lo / scale)) * scale
-
-
-def check_box(dims, spacing: Vec3, origin: Vec3, where: str = "") -> None:
-    """Refuse (VolumeGeometryError naming ``spacing``) a grid whose box of voxel centres, origin ..
-    origin + (dims - 1) spacing, reaches beyond +-MAX_COORDINATE, or whose smallest spacing is
-    below FLOAT64_RESOLUTION of the box's largest coordinate (the module docstring says why)."""
-    far = [o + (d - 1) * s for d, s, o in zip(dims, spacing, origin)]
-    reach = max(max(abs(v) for v in origin), max(abs(v) for v in far))
-    if reach > MAX_COORDINATE:
-        raise VolumeGeometryError(where, f"the box of voxel centres ({_grid(dims, spacing, origin)}) "
-                                         f"reaches {reach:.3g}: beyond +-{MAX_COORDINATE:g}, what GL's "
-                                         f"float32 world coordinates and a camera hold; give the "
-                                         f"spacing in larger units (smaller numbers)", "spacing")
-    if min(spacing) < FLOAT64_RESOLUTION * reach:
-        raise VolumeGeometryError(where, f"the spacing is too small for a box {reach:.3g} from the "
-                                         f"origin ({_grid(dims, spacing, origin)}): below "
-                                         f"{FLOAT64_RESOLUTION:g} of that distance the voxel centres "
-                                         f"are not distinct in float64; move the origin nearer the "
-                                         f"volume", "spacing")
-
-
-def _grid(dims, spacing: Vec3, origin: Vec3) -> str:
-    return f"{' x '.join(map(str, dims))} voxels of spacing {list(spacing)} from origin {list(origin)}"
-
-
-def _vec3(value, name: str, where: str, positive: bool = False) -> Vec3:
-    try:
-        vec = tuple(float(v) for v in value)
-    except (TypeError, ValueError):
-        raise VGraphError(f"volume{where}: {name} must be three numbers (x, y, z), got {value!r}")
-    if len(vec) != 3 or not all(np.isfinite(vec)):
-        raise VGraphError(f"volume{where}: {name} must be three finite numbers (x, y, z), got {value!r}")
-    if positive and min(vec) <= 0:
-        raise VGraphError(f"volume{where}: {name} must be positive, got {vec}")
-    if max(abs(v) for v in vec) > MAX_COORDINATE or positive and min(vec) < 1.0 / MAX_COORDINATE:
-        raise VGraphError(f"volume{where}: {name} {vec} is outside what GL's float32 world "
-                          f"coordinates hold (magnitudes {1 / MAX_COORDINATE:g} to {MAX_COORDINATE:g})")
-    return vec

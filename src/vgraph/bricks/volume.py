@@ -31,8 +31,10 @@ from vgraph.bricks.pyramid import Level, brick_grid, sample_blocks
 from vgraph.errors import VGraphError
 from vgraph.gl.context import release_quietly
 from vgraph.io._common import check_memory, format_bytes
+from vgraph.rank_table import RankTable
 from vgraph.value_range import checked_range, range_of
-from vgraph.volume import _TEXTURE_FORMATS, FLOAT32_SAFE, Volume, _RankTable, _vec3, check_box
+from vgraph.volume import _TEXTURE_FORMATS, FLOAT32_SAFE, Volume
+from vgraph.volume_grid import check_box, checked_vec3
 
 DEFAULT_MEMORY_BUDGET_MB = 1024
 SUMMARY_VOXELS = 2**22  # voxels read for percentiles and histograms: 4 M, a second at most
@@ -53,8 +55,8 @@ class BrickedVolume(Volume):
         self.source = source if source is not None else getattr(bricks, "source", "")
         where = f" from {self.source}" if self.source else ""
         first = bricks.levels[0]
-        self.spacing = _vec3(first.spacing if spacing is None else spacing, "spacing", where, positive=True)
-        self.origin = _vec3(first.origin if origin is None else origin, "origin", where)
+        self.spacing = checked_vec3(first.spacing if spacing is None else spacing, "spacing", where, positive=True)
+        self.origin = checked_vec3(first.origin if origin is None else origin, "origin", where)
         if (self.spacing, self.origin) != (first.spacing, first.origin):
             bricks = RegriddedSource(bricks, self.spacing, self.origin)
         self._bricks = bricks
@@ -164,7 +166,7 @@ class BrickedVolume(Volume):
         for block in sample_blocks(self._bricks, self._summary_level(), SUMMARY_VOXELS, SUMMARY_BRICKS):
             yield block.reshape(-1)
 
-    def _rank_table(self) -> _RankTable:
+    def _rank_table(self) -> RankTable:
         if "_ranks" not in self.__dict__:
             # the summary's own extremes too: another tool's recorded range is a coarse level's
             # (narrower than a finer summary level's), and a damaged store's may be anything
@@ -173,7 +175,7 @@ class BrickedVolume(Volume):
                 (min(recorded[0], seen[0]), max(recorded[1], seen[1]))
             summary = SimpleNamespace(finite_extremes=extremes, data=SimpleNamespace(dtype=self.dtype),
                                       _slabs=self._slabs, nonfinite_count=int(self.dtype.kind == "f"))
-            self.__dict__["_ranks"] = _RankTable.of(summary)
+            self.__dict__["_ranks"] = RankTable.of(summary)
         return self.__dict__["_ranks"]
 
     def _summary_extremes(self):
