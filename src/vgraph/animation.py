@@ -352,7 +352,8 @@ def opaque_rgb(pixels: np.ndarray) -> np.ndarray:
 def add_parser(commands) -> argparse.ArgumentParser:
     """Add ``vgraph animate`` to the subparsers of vgraph.cli.build_parser."""
     from vgraph.camera import VIEW_NAMES
-    from vgraph.cli import add_allow_write, parse_size, user_path
+    from vgraph.cli import add_allow_write
+    from vgraph.cli_values import parse_size, user_path
     parser = commands.add_parser(
         "animate", help="render a turntable or a sweep over a property as MP4, GIF or PNG frames",
         description="Render frames of a network: the cameras orbit and/or an integer property "
@@ -384,13 +385,13 @@ def add_parser(commands) -> argparse.ArgumentParser:
 
 def command_animate(args) -> int:
     import vgraph
-    from vgraph import cli
+    from vgraph import cli, cli_values
     Output.of(args.output).check(args.size)  # refuse before a long evaluation, not after
     network = vgraph.load(args.network, allow_write=args.allow_write)
     if args.view:
-        cli.set_view(network, args.view)  # then --set, in vgraph run's order
+        cli_values.set_view(network, args.view)  # then --set, in vgraph run's order
     for assignment in args.set:
-        cli.set_from_command_line(network, assignment)  # as vgraph run: paths from the current folder
+        cli_values.set_from_command_line(network, assignment)  # as vgraph run: paths from the current folder
     cli.check_before_evaluating(network, args.network)
     # A blank first frame warns (BlankImageWarning); vgraph.cli.main prints it as one line.
     count = animate(network, args.output, orbit=args.orbit, frames=args.frames, over=args.over,
