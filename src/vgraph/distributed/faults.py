@@ -10,7 +10,9 @@ and tasks that no worker can finish (docs/distributed.md, "A worker that stops o
 - ``inject(client, fault, is_ours)`` waits until a task of a frame (``is_ours(key)``) is on a
   worker and then kills it (SIGKILL), stops it (SIGSTOP: it no longer answers anyone) or slows it
   (a thread of the worker holds the GL lock that every task takes, for ``seconds``; the worker
-  still answers). Local workers only: the signals go to process ids this machine knows.
+  still answers), or cancels the task behind the render's back ("cancel": what the scheduler
+  did once in the fault bench). Local workers only: the signals go to process ids this machine
+  knows.
 - ``worker_pids(client)``: each worker's process id, asked of the nannies (a stopped worker
   cannot answer for itself).
 """
@@ -27,7 +29,7 @@ from vgraph import FloatProperty, Inport, OptionProperty, Outport, Processor, St
 from vgraph.image import Image
 
 FAULTS = ("none", "sleep", "hang", "exit")
-INJECTED = ("kill", "stop", "slow")
+INJECTED = ("kill", "stop", "slow", "cancel")
 
 
 class FaultPoint(Processor):
@@ -88,27 +90,31 @@ def inject(client, fault: str, is_ours, seconds: float = 60.0, deadline: float =
         raise ValueError(f"fault must be one of {', '.join(INJECTED)}, got {fault!r}")
     end = time.monotonic() + deadline
     while time.monotonic() < end and not done():
-        holders = sorted(address for address, keys in client.processing().items()
-                         if any(is_ours(str(key)) for key in keys))
+        holders = sorted((address, sorted(str(key) for key in keys if is_ours(str(key))))
+                         for address, keys in client.processing().items())
+        holders = [(address, keys) for address, keys in holders if keys]
         if holders:
             time.sleep(settle)
             pids = worker_pids(client)
-            address = holders[0]
+            address, keys = holders[0]
             if address not in pids:
                 continue  # gone meanwhile: look again
-            _apply(client, fault, address, pids[address], seconds)
+            _apply(client, fault, address, pids[address], seconds, keys[0])
             return address, pids[address]
         time.sleep(0.02)
     return None
 
 
-def _apply(client, fault: str, address: str, pid: int, seconds: float) -> None:
+def _apply(client, fault: str, address: str, pid: int, seconds: float, key: str) -> None:
     if fault == "kill":
         os.kill(pid, signal.SIGKILL)
     elif fault == "stop":
         os.kill(pid, signal.SIGSTOP)
-    else:
+    elif fault == "slow":
         client.run(_hold_gl_lock, seconds, workers=[address])  # returns once the thread holds on
+    else:  # the scheduler drops the task: its future ends cancelled, as the render did not ask
+        from distributed import Future
+        Future(key, client).cancel()
 
 
 def _hold_gl_lock(seconds: float) -> None:

@@ -82,7 +82,7 @@ def render_leaves(plan, client, runs: int | None = None, plugins=(), timeout=Non
     import uuid
 
     from vgraph.distributed.render import shipped
-    from vgraph.distributed.watch import watch
+    from vgraph.distributed.watch import results, watch
 
     caster = bricked_caster(plan.network, plan.target)
     document, base_dir = shipped(plan.network)
@@ -93,8 +93,9 @@ def render_leaves(plan, client, runs: int | None = None, plugins=(), timeout=Non
     token = uuid.uuid4().hex[:12]
     mode = plan.network[caster].compositing
     planned = client.submit(plan_task, *common, pure=False, key=f"vgraph-leaves-{token}-plan")
-    watch(client, {planned: "the plan of the frame's bricks"}, timeout, cluster)
-    bricks, weights = planned.result()
+    planning = {planned: "the plan of the frame's bricks"}
+    watch(client, planning, timeout, cluster)
+    [(bricks, weights)] = results(client, planning, cluster)
     workers = sorted(client.scheduler_info().get("workers", {}))
     pieces = split_runs(weights, runs or max(1, len(workers)))
     layers, tasks = [], {}
@@ -119,7 +120,7 @@ def render_leaves(plan, client, runs: int | None = None, plugins=(), timeout=Non
                              key=f"vgraph-leaves-{token}-resolve")
     tasks[resolved] = "the resolve pass"
     watch(client, tasks, timeout, cluster)
-    return resolved.result()
+    return results(client, {resolved: tasks[resolved]}, cluster)[0]
 
 
 # --- compositing (pure numpy; on the workers) --------------------------------------------------------

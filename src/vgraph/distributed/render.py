@@ -13,13 +13,14 @@ from __future__ import annotations
 
 import json
 import uuid
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from vgraph.distributed.tiles import Tile, TileError, assemble, check_grid, cut, untileable
-from vgraph.distributed.watch import TaskTimeout, watch
+from vgraph.distributed.watch import ClusterWarning, TaskCancelledError, TaskTimeout, results, watch
 
 SPLITS = ("tiles", "leaves")
 
@@ -47,13 +48,26 @@ def render(network_or_path, client, split: str = "tiles", tiles=(2, 2), size=Non
     of bricks the leaves split draws in parallel (default: one per worker; vgraph.distributed.leaves).
     ``timeout``: how long a task may run before its worker is restarted (default: the Dask
     configuration's vgraph.task-timeout; vgraph.distributed.watch). ``cluster``: the cluster's name
-    in messages (default: the scheduler's address)."""
+    in messages (default: the scheduler's address). A frame one of whose tasks the scheduler
+    cancelled (the client did not) is drawn again with new tasks, once, with a ClusterWarning."""
+    plan = prepare(network_or_path, split, tiles, size, target)
+    for attempt in (1, 2):
+        try:
+            if split == "leaves":
+                from vgraph.distributed.leaves import render_leaves
+                return render_leaves(plan, client, runs, plugins, timeout, cluster)
+            return render_tiles(plan, client, plugins, timeout, cluster)
+        except TaskCancelledError as error:  # the scheduler dropped a task: new tasks, once
+            if attempt == 2:
+                raise
+            warnings.warn(ClusterWarning(f"{error}; the frame is drawn again"), stacklevel=2)
+
+
+def render_tiles(plan: Plan, client, plugins=(), timeout: TaskTimeout | None = None,
+                 cluster: str | None = None) -> np.ndarray:
+    """The picture of ``plan`` drawn by the tiles split (one task per tile)."""
     from vgraph.distributed.worker import render_tile
 
-    plan = prepare(network_or_path, split, tiles, size, target)
-    if split == "leaves":
-        from vgraph.distributed.leaves import render_leaves
-        return render_leaves(plan, client, runs=runs, plugins=plugins, timeout=timeout, cluster=cluster)
     document, base_dir = shipped(plan.network)
     # Unique keys: the same tile of another call (a changed file with the same name) is new work.
     token = uuid.uuid4().hex[:12]
@@ -61,7 +75,7 @@ def render(network_or_path, client, split: str = "tiles", tiles=(2, 2), size=Non
                              tuple(plugins), pure=False, key=f"vgraph-tile-{token}-{i}"):
                tile_label(i, plan.tiles) for i, tile in enumerate(plan.tiles)}
     watch(client, futures, timeout, cluster)
-    return assemble(plan.size, plan.tiles, client.gather(list(futures)))
+    return assemble(plan.size, plan.tiles, results(client, futures, cluster))
 
 
 def tile_label(index: int, tiles: list[Tile]) -> str:

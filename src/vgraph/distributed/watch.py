@@ -13,8 +13,11 @@ and asks the scheduler where each task is (``Client.processing``):
   makes its GL context); afterwards ``multiple`` times the slowest finished task of the frame,
   at least ``floor`` seconds.
 - A worker holding a task past its allowance is restarted (``Client.restart_workers``: its nanny
-  kills the process and starts a new one; a worker without a nanny is removed). The scheduler
-  then gives the task to another worker, with a new allowance there.
+  kills the process and starts a new one; a worker without a nanny is removed), with a
+  ``ClusterWarning`` naming the task, the worker and the seconds. The scheduler then
+  gives the task to another worker, with a new allowance there. When some of the late workers
+  have stopped sending heartbeats (``SILENT_SECONDS``) only those are restarted: a late task on
+  a worker that still answers may just be waiting for its inputs from a stopped one.
 - A task that outlived its allowance on ``attempts`` workers, or that Dask gave up on because the
   workers running it died (``KilledWorker``: ``distributed.scheduler.allowed-failures``), ends the
   frame with ``ClusterTaskError``: exit 2, naming the cluster, the task and the seconds waited.
@@ -27,12 +30,18 @@ variables ``DASK_VGRAPH__TASK_TIMEOUT__FLOOR`` and the like), read when a frame 
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 
-from vgraph.errors import VGraphError
+from vgraph.errors import VGraphError, VGraphWarning
 
 POLL_SECONDS = 0.5  # how often the scheduler is asked where the frame's tasks are
+SILENT_SECONDS = 5.0  # a worker unheard of this long has stopped (heartbeats: 0.5 s apart up to 10 workers)
 DEFAULTS = {"first": 120.0, "multiple": 10.0, "floor": 30.0, "attempts": 3}
+
+
+class ClusterWarning(VGraphWarning):
+    """A fault of the cluster the frame goes on after: a worker restarted, a frame drawn again."""
 
 
 class ClusterTaskError(VGraphError, RuntimeError):
@@ -129,14 +138,18 @@ class _Frame:
 
     def run(self) -> None:
         from distributed import wait
+        from distributed.client import FuturesCancelledError
 
         while self.pending:
             try:
                 done, self.pending = wait(self.pending, timeout=POLL_SECONDS, return_when="FIRST_COMPLETED")
             except TimeoutError:
                 done = set()
+            except FuturesCancelledError:  # cancelled, not by us: said by _raise_for below
+                done = {future for future in self.pending if future.status == "cancelled"}
             now = time.monotonic()
-            for future in done:
+            order = list(self.states)  # as given: a cause before what depends on it (leaves)
+            for future in sorted(done, key=lambda f: order.index(f.key)):
                 _raise_for(future, self.states[future.key], self.cluster)
                 # At most this long on its worker: it was not there yet at the look before.
                 self.slowest = max(self.slowest or 0.0, now - self.states[future.key].since)
@@ -152,26 +165,41 @@ class _Frame:
         self.restarted &= set(processing)  # gone from the scheduler: an address seen again is new
         where = {key: worker for worker, keys in processing.items() for key in keys
                  if worker not in self.restarted}  # a restarted worker's tasks are on their way elsewhere
-        overdue = set()
+        late = []  # (task, worker, seconds there) past the allowance
         for future in self.pending:
             state, worker = self.states[future.key], where.get(future.key)
             if worker is None or worker != state.worker:  # waiting, or given to a worker: a new try
                 state.worker, state.since = worker, now
-                continue
-            if now - state.since <= allowance:
-                continue
-            state.outlived.append((worker, now - state.since))
-            overdue.add(worker)
+            elif now - state.since > allowance:
+                late.append((state, worker, now - state.since))
+        if not late:
+            return
+        silent = _silent(self.client, {worker for _, worker, _ in late})
+        if silent:
+            # A task on a worker that still answers may only be waiting for inputs held by a silent
+            # one (stopped): it gets a new allowance, counted once the silent ones are restarted.
+            for state, worker, _ in late:
+                if worker not in silent:
+                    state.since = now
+            late = [entry for entry in late if entry[1] in silent]
+        for state, worker, seconds in late:
+            state.outlived.append((worker, seconds))
             state.worker, state.since = None, now  # its next worker starts a new try
             if len(state.outlived) >= self.timeout.attempts:
-                self.abandoned = overdue | {where[f.key] for f in self.pending if f.key in where}
-                tries = ", ".join(f"{seconds:.0f} s on {address}" for address, seconds in state.outlived)
+                busy = {where[f.key] for f in self.pending if f.key in where}
+                self.abandoned = busy | {w for _, w, _ in late}
+                tries = ", ".join(f"{s:.0f} s on {address}" for address, s in state.outlived)
                 raise ClusterTaskError(state.label, f"waited {now - self.start:.0f} s ({tries}; a task may "
                                        f"take {self.timeout.rule(self.slowest)}: the Dask configuration "
                                        "vgraph.task-timeout sets it)", self.cluster)
-        if overdue:
-            _restart(self.client, overdue)
-            self.restarted |= overdue
+        overdue = {worker for _, worker, _ in late}
+        _restart(self.client, overdue)
+        self.restarted |= overdue
+        for state, worker, seconds in late:  # say so: the frame goes on, later than it would have
+            warnings.warn(ClusterWarning(
+                f"cluster {self.cluster}: {state.label} was {seconds:.0f} s on worker {worker} (a task "
+                f"may take {self.timeout.rule(self.slowest)}): the worker was restarted and the task "
+                "given to another"), stacklevel=2)
 
     def check_workers(self, processing: dict, allowance: float, now: float) -> None:
         """A cluster left without workers (all lost, none coming back) finishes nothing: after the
@@ -186,6 +214,25 @@ class _Frame:
             raise ClusterTaskError(label, f"the cluster has had no worker for "
                                    f"{now - self.workerless_since:.0f} s (waited {now - self.start:.0f} s)",
                                    self.cluster)
+
+
+def _silent(client, workers) -> set[str]:
+    """Those of ``workers`` whose last heartbeat reached the scheduler more than SILENT_SECONDS
+    (or three heartbeat intervals, on a large cluster) ago, by the scheduler's clock: stopped, or
+    stuck where they cannot even answer."""
+    def ages(dask_scheduler=None):
+        from distributed.scheduler import heartbeat_interval
+
+        now = time.time()
+        silent = max(SILENT_SECONDS, 3.0 * heartbeat_interval(len(dask_scheduler.workers)))
+        return {address: now - worker.last_seen > silent
+                for address, worker in dask_scheduler.workers.items()}
+
+    try:
+        heard = client.run_on_scheduler(ages)
+    except Exception:  # no answer about heartbeats: treat the late workers alike
+        return set()
+    return {worker for worker in workers if heard.get(worker, False)}
 
 
 def _restart(client, workers) -> None:
@@ -207,8 +254,18 @@ async def _remove_workers(addresses, dask_scheduler=None) -> None:
         await dask_scheduler.remove_worker(address, stimulus_id="vgraph-task-timeout", close=True)
 
 
+class TaskCancelledError(ClusterTaskError):
+    """The scheduler cancelled a task of the frame that the client did not cancel (seen once in
+    a few hundred fault cases, after a worker was killed: FutureCancelledError, reason unknown).
+    render() draws such a frame again, once."""
+
+
 def _raise_for(future, state: _Task, cluster: str) -> None:
-    """The task's own error, or ClusterTaskError where Dask gave up on it (its workers died)."""
+    """The task's own error, ClusterTaskError where Dask gave up on it (its workers died), or
+    TaskCancelledError where the scheduler cancelled it."""
+    if future.status == "cancelled":
+        raise TaskCancelledError(state.label, f"the scheduler cancelled it ({_cancelled_reason(future)})",
+                                 cluster)
     if future.status != "error":
         return
     from distributed import KilledWorker
@@ -220,6 +277,27 @@ def _raise_for(future, state: _Task, cluster: str) -> None:
                                "distributed.scheduler.allowed-failures in the Dask configuration)",
                                cluster) from None
     future.result()  # raises the task's error as the client received it
+
+
+def _cancelled_reason(future) -> str:
+    try:
+        future.result()  # cancelled, so done: raises at once
+    except Exception as error:  # FutureCancelledError, saying why where Dask knows
+        return str(error)
+    return "no reason given"
+
+
+def results(client, tasks: dict, cluster: str | None = None) -> list:
+    """The results of ``tasks`` (future -> label, all done), in their order; a future the
+    scheduler cancelled meanwhile is a TaskCancelledError."""
+    from distributed.client import FutureCancelledError
+
+    try:
+        return client.gather(list(tasks))
+    except FutureCancelledError as error:
+        label = next((label for future, label in tasks.items() if future.key == error.key), "a task")
+        raise TaskCancelledError(label, f"the scheduler cancelled it ({error})",
+                                 cluster or _address(client)) from None
 
 
 def _cancel(client, futures) -> None:
