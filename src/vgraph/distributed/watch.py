@@ -19,8 +19,12 @@ and asks the scheduler where each task is (``Client.processing``):
   have stopped sending heartbeats (``SILENT_SECONDS``) only those are restarted: a late task on
   a worker that still answers may just be waiting for its inputs from a stopped one.
 - A task that outlived its allowance on ``attempts`` workers, or that Dask gave up on because the
-  workers running it died (``KilledWorker``: ``distributed.scheduler.allowed-failures``), ends the
-  frame with ``ClusterTaskError``: exit 2, naming the cluster, the task and the seconds waited.
+  workers running it died (``KilledWorker``: ``distributed.scheduler.allowed-failures``), or a
+  cluster left without workers for an allowance, ends the frame with ``ClusterTaskError``: exit
+  2, naming the cluster, the task and the seconds waited. The workers still running the frame's
+  tasks are then restarted (once the tasks are cancelled), free for the next frame.
+- A task the scheduler cancelled (the client did not) is a ``TaskCancelledError``: render()
+  draws the frame again, once.
 - However ``watch`` ends (done, an error, Ctrl-C), the frame's unfinished futures are cancelled.
 
 The numbers are Dask configuration (``vgraph.task-timeout.first`` and so on, or the environment
@@ -36,7 +40,7 @@ from dataclasses import dataclass, field
 from vgraph.errors import VGraphError, VGraphWarning
 
 POLL_SECONDS = 0.5  # how often the scheduler is asked where the frame's tasks are
-SILENT_SECONDS = 5.0  # a worker unheard of this long has stopped (heartbeats: 0.5 s apart up to 10 workers)
+SILENT_SECONDS = 5.0  # a worker unheard of this long has stopped (heartbeats: every 0.5 s, <= 10 workers)
 DEFAULTS = {"first": 120.0, "multiple": 10.0, "floor": 30.0, "attempts": 3}
 
 
