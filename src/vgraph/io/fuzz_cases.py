@@ -355,7 +355,10 @@ def run_case(case: Case, folder: Path) -> str:
 def _open(case: Case, path: Path):
     if case.target == "networks":
         import vgraph
-        return vgraph.load(path)
+        from vgraph.write_paths import check_writers
+        network = vgraph.load(path)
+        check_writers(network, str(path))  # what vgraph validate and run refuse before evaluating
+        return network
     if case.target == "mesh":
         from vgraph.io.meshes import read_mesh
         return read_mesh(path)
