@@ -76,6 +76,10 @@ def run(cases: int | None = None, minutes: float | None = None, seed: int | None
 
     if threading_is_main():
         signal.signal(signal.SIGTERM, signal.default_int_handler)
+    import warnings
+
+    from vgraph.distributed.watch import ClusterWarning
+    warnings.simplefilter("ignore", ClusterWarning)  # a restart is what a case expects
     seed = seed if seed is not None else int(time.time() * 1000)
     deadline = time.monotonic() + 60 * minutes if minutes is not None else float("inf")
     counts: dict[str, Counter] = defaultdict(Counter)
@@ -168,7 +172,7 @@ def one_case(cluster: Cluster, networks: dict, references: dict, seed: int, case
     pids = worker_pids(client)
     timeout = TaskTimeout(first=6.0, multiple=4.0, floor=4.0, attempts=2)  # short: cases end sooner
     outcome = problem = None
-    with ThreadPoolExecutor(1) as pool:
+    with ThreadPoolExecutor(1, thread_name_prefix=f"vgraph-case-{seed}") as pool:
         result = pool.submit(render, network, client, split=split, size=SIZE, plugins=(PLUGIN,),
                              timeout=timeout, cluster="local:2", **options)
         try:
@@ -187,7 +191,8 @@ def one_case(cluster: Cluster, networks: dict, references: dict, seed: int, case
         except ClusterTaskError:
             outcome = "exit-2 error"
         except FutureTimeout:
-            problem = f"hung: no end within {case_seconds:g} s"
+            where = stack_of(f"vgraph-case-{seed}")
+            problem = f"hung: no end within {case_seconds:g} s; the render was at\n{where}"
         except Exception as error:  # noqa: BLE001 - any other end is what the bench looks for
             problem = f"raised {type(error).__name__}: {error}\n{traceback.format_exc()}"
         finally:
@@ -195,6 +200,17 @@ def one_case(cluster: Cluster, networks: dict, references: dict, seed: int, case
     if problem and problem.startswith("hung"):
         cluster.close()  # whatever is stuck in it goes with it
     return fault, outcome, problem
+
+
+def stack_of(prefix: str) -> str:
+    """Where the thread whose name starts with ``prefix`` is now (what a hung case waits on)."""
+    import threading
+
+    frames = sys._current_frames()
+    for thread in threading.enumerate():
+        if thread.name.startswith(prefix) and thread.ident in frames:
+            return "".join(traceback.format_stack(frames[thread.ident]))
+    return "(the thread is gone)"
 
 
 def wrong_picture(image, split: str, network, references: dict) -> str | None:

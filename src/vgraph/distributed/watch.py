@@ -12,12 +12,13 @@ and asks the scheduler where each task is (``Client.processing``):
   finished, ``first`` seconds (a worker's first task builds the network, reads the volume and
   makes its GL context); afterwards ``multiple`` times the slowest finished task of the frame,
   at least ``floor`` seconds.
-- A worker holding a task past its allowance is restarted (``Client.restart_workers``: its nanny
-  kills the process and starts a new one; a worker without a nanny is removed), with a
-  ``ClusterWarning`` naming the task, the worker and the seconds. The scheduler then
-  gives the task to another worker, with a new allowance there. When some of the late workers
-  have stopped sending heartbeats (``SILENT_SECONDS``) only those are restarted: a late task on
-  a worker that still answers may just be waiting for its inputs from a stopped one.
+- A worker holding a task past its allowance is restarted (``Scheduler.restart_workers``: its
+  nanny kills the process and starts a new one; a worker without a nanny is removed), with a
+  ``ClusterWarning`` naming the task, the worker and the seconds. The scheduler then gives the
+  task to another worker, with a new allowance there. When tasks are late and some workers have
+  stopped sending heartbeats (``SILENT_SECONDS``), those are restarted instead: a late task on a
+  worker that still answers may just be waiting for its inputs from a stopped one, and gets a
+  new allowance.
 - A task that outlived its allowance on ``attempts`` workers, or that Dask gave up on because the
   workers running it died (``KilledWorker``: ``distributed.scheduler.allowed-failures``), or a
   cluster left without workers for an allowance, ends the frame with ``ClusterTaskError``: exit
@@ -41,6 +42,7 @@ from vgraph.errors import VGraphError, VGraphWarning
 
 POLL_SECONDS = 0.5  # how often the scheduler is asked where the frame's tasks are
 SILENT_SECONDS = 5.0  # a worker unheard of this long has stopped (heartbeats: every 0.5 s, <= 10 workers)
+RESTART_SECONDS = 30.0  # for a nanny to stop its worker; one that cannot is removed from the scheduler
 DEFAULTS = {"first": 120.0, "multiple": 10.0, "floor": 30.0, "attempts": 3}
 
 
@@ -178,10 +180,11 @@ class _Frame:
                 late.append((state, worker, now - state.since))
         if not late:
             return
-        silent = _silent(self.client, {worker for _, worker, _ in late})
+        silent = _silent(self.client, set(processing))
         if silent:
-            # A task on a worker that still answers may only be waiting for inputs held by a silent
-            # one (stopped): it gets a new allowance, counted once the silent ones are restarted.
+            # A late task on a worker that still answers may only be waiting for its inputs, held
+            # by a silent (stopped) one: the silent ones are restarted, and it gets a new
+            # allowance (a lost input is computed again).
             for state, worker, _ in late:
                 if worker not in silent:
                     state.since = now
@@ -196,7 +199,7 @@ class _Frame:
                 raise ClusterTaskError(state.label, f"waited {now - self.start:.0f} s ({tries}; a task may "
                                        f"take {self.timeout.rule(self.slowest)}: the Dask configuration "
                                        "vgraph.task-timeout sets it)", self.cluster)
-        overdue = {worker for _, worker, _ in late}
+        overdue = {worker for _, worker, _ in late} | silent
         _restart(self.client, overdue)
         self.restarted |= overdue
         for state, worker, seconds in late:  # say so: the frame goes on, later than it would have
@@ -204,6 +207,10 @@ class _Frame:
                 f"cluster {self.cluster}: {state.label} was {seconds:.0f} s on worker {worker} (a task "
                 f"may take {self.timeout.rule(self.slowest)}): the worker was restarted and the task "
                 "given to another"), stacklevel=2)
+        for worker in sorted(silent - {worker for _, worker, _ in late}):
+            warnings.warn(ClusterWarning(
+                f"cluster {self.cluster}: worker {worker} stopped answering while tasks of the frame waited "
+                "(for its data, perhaps): it was restarted"), stacklevel=2)
 
     def check_workers(self, processing: dict, allowance: float, now: float) -> None:
         """A cluster left without workers (all lost, none coming back) finishes nothing: after the
@@ -240,22 +247,17 @@ def _silent(client, workers) -> set[str]:
 
 
 def _restart(client, workers) -> None:
-    """Dask's own way out of a worker that holds a task too long: its nanny kills the process and
-    starts a new one (Client.restart_workers); a worker without a nanny is removed from the
+    """Dask's own way out of a worker that holds a task too long (Scheduler.restart_workers): its
+    nanny kills the process and starts a new one; a worker without a nanny is removed from the
     scheduler (its process is left to whoever started it). Either way the scheduler gives the
-    worker's tasks to the other workers."""
-    known = client.scheduler_info()["workers"]
-    with_nanny = sorted(w for w in workers if known.get(w, {}).get("nanny"))
-    without = sorted(w for w in workers if w in known and w not in with_nanny)
-    if with_nanny:
-        client.restart_workers(with_nanny, raise_for_error=False)
-    if without:
-        client.run_on_scheduler(_remove_workers, without)
+    worker's tasks to the other workers. Returns once the old processes are gone, without waiting
+    for the new ones (the frame goes on with the workers there are)."""
+    client.run_on_scheduler(_restart_workers, sorted(workers))
 
 
-async def _remove_workers(addresses, dask_scheduler=None) -> None:
-    for address in addresses:
-        await dask_scheduler.remove_worker(address, stimulus_id="vgraph-task-timeout", close=True)
+async def _restart_workers(addresses, dask_scheduler=None) -> None:
+    await dask_scheduler.restart_workers(addresses, timeout=RESTART_SECONDS, wait_for_workers=False,
+                                         on_error="return", stimulus_id=f"vgraph-task-timeout-{time.time()}")
 
 
 class TaskCancelledError(ClusterTaskError):
