@@ -180,7 +180,7 @@ class _Frame:
                 late.append((state, worker, now - state.since))
         if not late:
             return
-        silent = _silent(self.client, set(processing))
+        silent = _silent(self.client, set(processing) - self.restarted)
         if silent:
             # A late task on a worker that still answers may only be waiting for its inputs, held
             # by a silent (stopped) one: the silent ones are restarted, and it gets a new
