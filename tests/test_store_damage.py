@@ -207,6 +207,20 @@ def test_a_blosc_chunk_whose_header_claims_a_gigabyte_is_refused_before_decoding
         in only_the_message(stderr)
 
 
+def test_a_cut_short_blosc_chunk_is_refused_not_read_past_its_end(store, tmp_path, capsys):
+    """Found by the stores fuzz target: blosc trusts its header's compressed size and read past
+    the end of a truncated chunk, so the chunk read as different garbage each time (exit 0)."""
+    chunk = level_0_chunk(store)
+    data = chunk.read_bytes()
+    chunk.write_bytes(data[:len(data) * 2 // 3])
+    for _ in range(3):
+        with pytest.raises(VolumeFileError, match=rf"chunk 0/c/2/4/4 holds {len(data) * 2 // 3:,} bytes but its "
+                                                  rf"blosc header says {len(data):,}: the chunk is cut short"):
+            BrickStore(store).read(0, (32, 64, 64), (48, 80, 80))
+    code, stderr = run(store, tmp_path, capsys)
+    assert code == 2 and "cut short or damaged" in only_the_message(stderr)
+
+
 def test_a_chunk_shape_too_large_to_hold_is_refused_at_opening(store):
     edit(store / "0" / "zarr.json",
          lambda a: a["chunk_grid"]["configuration"].__setitem__("chunk_shape", [4096, 4096, 4096]))

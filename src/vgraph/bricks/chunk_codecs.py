@@ -1,4 +1,5 @@
-"""How many bytes a compressed chunk file will decode to, known before it is decoded.
+"""How many bytes a compressed chunk file will decode to, known before it is decoded (and, for
+blosc, whether the file is whole).
 
 zarr compares a decoded chunk with the chunk's shape only after decoding it, and its codecs
 allocate what the compressed bytes ask for: a 32 KiB zstd chunk of an 8^3 uint8 array decoded
@@ -13,7 +14,9 @@ refused before any codec runs:
   refused only beyond ``UNDECLARED_SLACK`` times the chunk and one block: an encoder would have to
   flush every 16 KiB to reach it with honest data, a bomb (thousands of blocks of a few bytes
   each) passes it at once;
-- blosc: the header's ``nbytes`` (what blosc allocates);
+- blosc: the header's ``nbytes`` (what blosc allocates), and its ``cbytes`` must be the file's
+  size: blosc trusts it and reads past the end of a cut-short chunk (the fuzzer found a truncated
+  chunk reading as different garbage each time);
 - gzip and zlib: inflated in pieces with a cap, every member (Python's gzip reads them all).
 
 Other codecs (lz4, bz2, ...) and sharded arrays are left to zarr's check after decoding; their
@@ -29,6 +32,7 @@ ZSTD_SKIPPABLE = 0x184D2A50  # ..5F: skippable frames, no content
 ZSTD_BLOCK_MAX = 128 * 1024
 UNDECLARED_SLACK = 8
 INFLATE_PIECE = 1 << 20
+BLOSC_HEADER = 16  # version, flags, typesize, nbytes, blocksize, cbytes
 
 
 def outer_codec(array) -> str | None:
@@ -46,7 +50,12 @@ def outer_codec(array) -> str | None:
 
 def decoded_size_problem(codec: str, data: bytes, limit: int) -> str | None:
     """Why ``data`` (a chunk file written by ``codec``) cannot decode to at most ``limit`` bytes,
-    or None."""
+    or cannot be decoded safely at all; None when it can."""
+    if codec == "blosc" and len(data) >= BLOSC_HEADER:
+        stored = int.from_bytes(data[12:16], "little")
+        if stored != len(data):
+            return (f"holds {len(data):,} bytes but its blosc header says {stored:,}: the chunk is cut "
+                    f"short or damaged")
     allowed = {"declares": limit, "inflates to": limit,
                "has blocks that regenerate up to": UNDECLARED_SLACK * limit + ZSTD_BLOCK_MAX}
     size, how = _DECODED_SIZE[codec](data, max(allowed.values()))
@@ -57,7 +66,7 @@ def decoded_size_problem(codec: str, data: bytes, limit: int) -> str | None:
 
 
 def _blosc(data: bytes, limit: int):
-    return (int.from_bytes(data[4:8], "little") if len(data) >= 16 else None), "declares"
+    return (int.from_bytes(data[4:8], "little") if len(data) >= BLOSC_HEADER else None), "declares"
 
 
 def _inflate(data: bytes, limit: int):
