@@ -2,8 +2,10 @@
 
 Conventions (docs/volumes.md says the same for users):
 - ``data`` is indexed [z, y, x]; x varies fastest in memory, as in raw files and GL 3D textures.
-- ``spacing`` and ``origin`` are (x, y, z) in world units. Voxel (i, j, k) = data[k, j, i] has its
-  centre at origin + (i, j, k) * spacing.
+- ``spacing`` and ``origin`` are (x, y, z) in world units, ``direction`` the 3x3 direction
+  cosines (rows of the matrix; column c is the world direction of index axis c). Voxel (i, j, k) =
+  data[k, j, i] has its centre at origin + direction @ ((i, j, k) * spacing) in patient space, RAS
+  (``affine``; docs/conventions.md). Readers convert what the file declares into it.
 - ``value_range`` maps stored values to normalised intensities in [0, 1], the unit of every
   transfer-function position and iso level: the ``declared_range`` (stated by the file or the user)
   if any, else [min, max] of the finite values for EVERY dtype. A type's full scale is not a value
@@ -12,6 +14,8 @@ Conventions (docs/volumes.md says the same for users):
 - ``percentiles(percents)`` gives data values at percentiles of the finite voxels (for transfer
   functions placed in percent and the robust window), from one cached pass over the data.
 - ``time_steps`` is the number of time points of the file the volume is one time point of.
+- ``holds_labels``: the file declares that the voxels are labels (a label-map intent or group),
+  not intensities.
 - Textures hold the stored values (R16 normalised for 8 and 16 bit, R32F otherwise) unless float32
   cannot carry them: values beyond +-1e30 (float64 data up to 1.8e308, float32 near its limit) or
   a range narrower than 1e-30 (subnormal data). Those volumes are uploaded as normalised
@@ -42,7 +46,8 @@ from vgraph.gl.context import release_quietly
 from vgraph.memory import OutOfMemoryError, format_bytes, out_of_memory
 from vgraph.rank_table import RankTable
 from vgraph.value_range import checked_range, from_unit, range_of, to_unit
-from vgraph.volume_grid import VolumeGeometryError, check_box, checked_vec3  # noqa: F401 (re-exported)
+from vgraph.volume_grid import (IDENTITY, Matrix3, VolumeGeometryError, box_corners, check_box,  # noqa: F401
+                                checked_direction, checked_vec3, grid_affine, is_identity)
 
 Vec3 = tuple[float, float, float]
 
@@ -70,6 +75,8 @@ class Volume:
     is_spline_coefficients: bool = False
     source: str = ""  # where the data came from, for messages
     time_steps: int = 1  # time points in the file this volume is one of (4D files)
+    direction: Matrix3 = IDENTITY  # direction cosines in RAS; columns = the index axes
+    holds_labels: bool = False  # the file declares label values, not intensities
     _textures: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
@@ -84,7 +91,9 @@ class Volume:
         self.data = data
         self.spacing = checked_vec3(self.spacing, "spacing", where, positive=True)
         self.origin = checked_vec3(self.origin, "origin", where)
-        check_box(self.dims, self.spacing, self.origin, where)
+        self.direction = checked_direction(self.direction, where)
+        check_box(self.dims, self.spacing, self.origin, where, self.direction)
+        self.holds_labels = bool(self.holds_labels)
         self.declared_range = checked_range(self.declared_range, f"volume{where}")
         if isinstance(self.time_steps, bool) or not isinstance(self.time_steps, (int, np.integer)) \
                 or self.time_steps < 1:
@@ -111,11 +120,34 @@ class Volume:
         """World-space size of the box spanned by the voxel centres, (x, y, z)."""
         return (np.array(self.dims) - 1) * np.array(self.spacing)
 
+    @property
+    def affine(self) -> np.ndarray:
+        """4x4 float64: homogeneous voxel indices (i, j, k, 1) -> world points (RAS), as nibabel's."""
+        return grid_affine(self.spacing, self.origin, self.direction)
+
+    @property
+    def is_axis_aligned(self) -> bool:
+        """Whether the index axes are the world axes (identity direction)."""
+        return is_identity(self.direction)
+
     def voxel_to_world(self, ijk) -> np.ndarray:
-        return np.asarray(self.origin) + np.asarray(ijk, dtype=float) * np.asarray(self.spacing)
+        """World points (..., 3) of voxel indices (..., 3) (i, j, k), fractional ones too."""
+        scaled = np.asarray(ijk, dtype=float) * np.asarray(self.spacing)
+        if self.is_axis_aligned:  # to the last bit as before directions existed
+            return np.asarray(self.origin) + scaled
+        return np.asarray(self.origin) + scaled @ np.asarray(self.direction).T
 
     def world_to_voxel(self, xyz) -> np.ndarray:
-        return (np.asarray(xyz, dtype=float) - np.asarray(self.origin)) / np.asarray(self.spacing)
+        offset = np.asarray(xyz, dtype=float) - np.asarray(self.origin)
+        if not self.is_axis_aligned:  # the direction is orthonormal: its inverse is its transpose
+            offset = offset @ np.asarray(self.direction)
+        return offset / np.asarray(self.spacing)
+
+    def world_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """(min, max) of the world corners of the box of voxel centres: the axis-aligned box that
+        holds it (the box itself for an axis-aligned volume)."""
+        corners = box_corners(self.dims, self.spacing, self.origin, self.direction)
+        return corners.min(axis=0), corners.max(axis=0)
 
     # --- values ---------------------------------------------------------------------------------
     @cached_property
@@ -334,16 +366,17 @@ class Volume:
         """A new volume on the same grid with other voxel values."""
         fields = dict(spacing=self.spacing, origin=self.origin, declared_range=self.declared_range,
                       is_spline_coefficients=self.is_spline_coefficients, source=self.source,
-                      time_steps=self.time_steps)
+                      time_steps=self.time_steps, direction=self.direction, holds_labels=self.holds_labels)
         fields.update(changes)
         return Volume(data, **fields)
 
-    def with_overrides(self, spacing=None, origin=None, declared_range=None) -> "Volume":
+    def with_overrides(self, spacing=None, origin=None, declared_range=None, direction=None) -> "Volume":
         """The same voxels (the array is shared, the type kept) on another grid or with another
         value range, as BrickedVolume.with_overrides. With the value range unchanged, what was
         worked out from the values so far (extremes, counts, percentiles, histograms) is kept:
         a ray caster's copy in a box's normalised frame does not read the voxels again."""
-        changes = {"spacing": spacing or self.spacing, "origin": origin or self.origin}
+        changes = {"spacing": spacing or self.spacing, "origin": origin or self.origin,
+                   "direction": direction or self.direction}
         if declared_range is not None:
             changes["declared_range"] = declared_range
         volume = dataclasses.replace(self, **changes)
@@ -396,7 +429,8 @@ class SixteenBitCopy(Volume):
             codes[start:start + _SLAB_VOXELS] = np.rint(unit, out=unit)
         return cls(codes.reshape(volume.data.shape), spacing=volume.spacing, origin=volume.origin,
                    declared_range=(lo, hi), is_spline_coefficients=volume.is_spline_coefficients,
-                   source=volume.source, time_steps=volume.time_steps)
+                   source=volume.source, time_steps=volume.time_steps, direction=volume.direction,
+                   holds_labels=volume.holds_labels)
 
     def normalized(self, values) -> np.ndarray:
         return np.asarray(values, dtype=np.float64) / SIXTEEN_BIT_CODES

@@ -34,7 +34,7 @@ from vgraph.io._common import check_memory, format_bytes
 from vgraph.rank_table import RankTable
 from vgraph.value_range import checked_range, range_of
 from vgraph.volume import _TEXTURE_FORMATS, FLOAT32_SAFE, Volume
-from vgraph.volume_grid import check_box, checked_vec3
+from vgraph.volume_grid import IDENTITY, check_box, checked_direction, checked_vec3
 
 DEFAULT_MEMORY_BUDGET_MB = 1024
 SUMMARY_VOXELS = 2**22  # voxels read for percentiles and histograms: 4 M, a second at most
@@ -47,11 +47,12 @@ class MemoryBudgetError(VGraphError):
 
 class BrickedVolume(Volume):
     """A Volume over ``bricks`` (a BrickSource). ``spacing``, ``origin`` and ``declared_range``
-    override the pyramid's (every level is regridded alike)."""
+    override the pyramid's (every level is regridded alike); ``direction`` (default: the
+    source's, else the identity) turns every level alike."""
 
     def __init__(self, bricks, *, memory_budget_mb: float = DEFAULT_MEMORY_BUDGET_MB, spacing=None,
                  origin=None, declared_range=None, source: str | None = None,
-                 time_steps: int | None = None):
+                 time_steps: int | None = None, direction=None):
         self.source = source if source is not None else getattr(bricks, "source", "")
         where = f" from {self.source}" if self.source else ""
         first = bricks.levels[0]
@@ -60,7 +61,10 @@ class BrickedVolume(Volume):
         if (self.spacing, self.origin) != (first.spacing, first.origin):
             bricks = RegriddedSource(bricks, self.spacing, self.origin)
         self._bricks = bricks
-        check_box(self.dims, self.spacing, self.origin, where)
+        self.direction = checked_direction(getattr(bricks, "direction", IDENTITY) if direction is None
+                                           else direction, where)
+        self.holds_labels = bool(getattr(bricks, "holds_labels", False))
+        check_box(self.dims, self.spacing, self.origin, where, self.direction)
         declared = declared_range if declared_range is not None else getattr(bricks, "declared_range", None)
         self.declared_range = checked_range(declared, f"volume{where}")
         self.is_spline_coefficients = False
@@ -209,14 +213,15 @@ class BrickedVolume(Volume):
         return max(abs(lo), abs(hi)) > FLOAT32_SAFE or hi - lo < 1.0 / FLOAT32_SAFE
 
     # --- copies -------------------------------------------------------------------------------------
-    def with_overrides(self, spacing=None, origin=None, declared_range=None) -> "BrickedVolume":
+    def with_overrides(self, spacing=None, origin=None, declared_range=None, direction=None) -> "BrickedVolume":
         """The same pyramid on another grid or with another value range (VolumeSource's
         properties); nothing is read."""
         base = self._bricks.inner if isinstance(self._bricks, RegriddedSource) else self._bricks
         volume = BrickedVolume(base, memory_budget_mb=self.memory_budget_mb,
                                spacing=spacing or self.spacing, origin=origin or self.origin,
                                declared_range=declared_range or self.declared_range,
-                               source=self.source, time_steps=self.time_steps)
+                               source=self.source, time_steps=self.time_steps,
+                               direction=direction or self.direction)
         volume._data = self._data
         return volume
 
