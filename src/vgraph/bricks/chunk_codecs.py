@@ -51,7 +51,10 @@ def outer_codec(array) -> str | None:
 def decoded_size_problem(codec: str, data: bytes, limit: int) -> str | None:
     """Why ``data`` (a chunk file written by ``codec``) cannot decode to at most ``limit`` bytes,
     or cannot be decoded safely at all; None when it can."""
-    if codec == "blosc" and len(data) >= BLOSC_HEADER:
+    if codec == "blosc" and len(data) < BLOSC_HEADER:  # blosc reads a whole header regardless
+        return (f"holds {len(data):,} bytes, less than the {BLOSC_HEADER}-byte blosc header: the "
+                f"chunk is cut short or damaged")
+    if codec == "blosc":
         stored = int.from_bytes(data[12:16], "little")
         if stored != len(data):
             return (f"holds {len(data):,} bytes but its blosc header says {stored:,}: the chunk is cut "
