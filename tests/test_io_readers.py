@@ -125,8 +125,10 @@ def test_dicom_series_sorted_by_position_equals_pydicom(data, target):
     volume = read_volume(data / target)
     slices, reference = dicom_reference(data / "dicom_mr_scout")
     assert [Path(ds.filename).name for ds in slices] == ["1-3.dcm", "1-2.dcm", "1-1.dcm"]
+    # ImagePositionPatient (-250, -250, -12) and the axial orientation are LPS: RAS negates x, y
     assert_geometry(volume, (3, 512, 512), np.uint16, (0.9765625, 0.9765625, 12.0),
-                    (-250, -250, -12))
+                    (250, 250, -12))
+    assert volume.direction == ((-1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0))
     np.testing.assert_array_equal(volume.data, reference)
     # BitsStored 12 of 16 is the storage's width, not a value range: min..max of 0..346
     assert volume.declared_range is None and volume.value_range == (0.0, 346.0)

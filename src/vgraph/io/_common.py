@@ -4,7 +4,7 @@ and turning a [z, y, x] array into a checked ``Volume``.
 
 Conventions kept by every reader (docs/volumes.md says the same for users):
 - arrays come back indexed [z, y, x] in native byte order, x fastest (the file's order);
-- spacing and origin are (x, y, z);
+- spacing and origin are (x, y, z), origin and direction in RAS patient space (orientation.py);
 - a reader either returns a complete Volume or raises ``VolumeFileError``; nothing half-loaded,
   and no size from a file is trusted before it is checked (see the Limits in docs/volumes.md);
 - float volumes with NaN/Inf voxels load, but a ``NonFiniteVoxelsWarning`` names the file and
@@ -27,7 +27,7 @@ import numpy as np
 from vgraph.errors import VGraphError, VolumeFileError
 from vgraph.memory import available_memory, format_bytes  # noqa: F401 (readers import them from here)
 from vgraph.progress import Steps
-from vgraph.volume import Volume, VolumeGeometryError
+from vgraph.volume import IDENTITY, Volume, VolumeGeometryError
 
 # Reads above this size show a tqdm bar (which tqdm itself hides when stderr is not a terminal);
 # every read reports its progress to a vgraph.progress listener (the GUI's status bar).
@@ -308,8 +308,9 @@ def raw_dtype(name, endianness: str, file, field: str) -> np.dtype:
 
 # --- the result ----------------------------------------------------------------------------------
 def make_volume(data_zyx: np.ndarray, file, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0),
-                declared_range=None, time_steps: int = 1) -> Volume:
-    """Wrap a loaded [z, y, x] array; warn about (but keep) NaN/Inf voxels."""
+                declared_range=None, time_steps: int = 1, direction=IDENTITY) -> Volume:
+    """Wrap a loaded [z, y, x] array; warn about (but keep) NaN/Inf voxels. ``direction``, origin
+    and spacing are in RAS (vgraph.io.orientation)."""
     data = np.ascontiguousarray(to_native(np.asarray(data_zyx)))
     nonfinite = 0
     if data.dtype.kind == "f":
@@ -323,7 +324,7 @@ def make_volume(data_zyx: np.ndarray, file, *, spacing=(1.0, 1.0, 1.0), origin=(
                 f"and histogram and clamped in textures"), stacklevel=3)
     try:
         volume = Volume(data, spacing=spacing, origin=origin, declared_range=declared_range,
-                        source=str(file), time_steps=time_steps)
+                        source=str(file), time_steps=time_steps, direction=direction)
     except VolumeGeometryError as exc:  # the box the header's spacing and origin give (check_box)
         raise VolumeFileError(file, exc.reason, exc.field) from None
     except VGraphError as exc:  # e.g. an unsupported dtype the header check did not foresee

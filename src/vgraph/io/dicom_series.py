@@ -6,11 +6,16 @@ the path) and sorted by ImagePositionPatient projected on the slice normal
 (row x column of ImageOrientationPatient). Files pydicom cannot read as DICOM and files without
 an image (DICOMDIR, reports) are skipped.
   spacing   x = PixelSpacing[1] (column spacing), y = PixelSpacing[0] (row spacing),
-            z = the distance between consecutive slice positions, which must be uniform
-            (tolerance 1e-3 mm + 0.1 %); a single slice uses SpacingBetweenSlices, then
-            SliceThickness, then 1.
-  origin    ImagePositionPatient of the first slice after sorting (patient coordinates). The
-            rotation in ImageOrientationPatient is not applied: axes are column, row, slice.
+            z = the distance between the first and last slice positions over the number of
+            gaps; the gaps along the normal must be uniform (tolerance 1e-3 mm + 0.1 %); a
+            single slice uses SpacingBetweenSlices, then SliceThickness, then 1.
+  direction the index axes i (along a row), j (down a column) and k (slice to slice) point along
+            ImageOrientationPatient's row cosines, its column cosines and the slice normal
+            (row x column, the way the sorted positions go), converted from DICOM's LPS
+            patient frame to RAS (x and y negated: vgraph.io.orientation). Slices whose
+            positions step off the normal (a CT gantry tilt) make a sheared grid: refused
+            naming ImagePositionPatient.
+  origin    ImagePositionPatient of the first slice after sorting, in RAS (x and y negated).
   values    RescaleSlope / RescaleIntercept per slice. If every slice has slope 1 and intercept 0
             the stored dtype (e.g. uint16) is kept; otherwise stored * slope + intercept is computed
             in float64 and kept as float32, or as float64 for 32-bit stored values or results
@@ -18,7 +23,8 @@ an image (DICOMDIR, reports) are skipped.
   range     none declared: BitsStored is the storage's width, not the data's range (the MR
             scout holds 0..346 in 12 bits; mapped over [0, 4095] it rendered nearly black), so
             the value range is the data's min..max like any other volume's.
-Without ImagePositionPatient the slices are sorted by InstanceNumber, with a warning.
+Without ImagePositionPatient or ImageOrientationPatient the slices are sorted by InstanceNumber,
+with a warning, and the grid has no orientation (identity direction, origin 0).
 Damaged files: pydicom reads through a file whose reads stop at its end (element lengths are not
 trusted), a deflated data set may inflate to at most MAX_DEFLATED_BYTES, and header values are
 read through _numbers/_integer, which name the field of anything that is not finite numbers.
@@ -42,8 +48,9 @@ from vgraph.io._common import (check_memory, check_origin, check_spacing, make_v
                                open_capped, regular_file)
 from vgraph.io._inflate import check_inflates_within, file_pieces
 from vgraph.io._values import rescaled
+from vgraph.io.orientation import file_direction, lps_ras, split_axes
 from vgraph.progress import steps
-from vgraph.volume import Volume
+from vgraph.volume import IDENTITY, Volume
 
 _SAME_ACROSS_SLICES = ("Rows", "Columns", "BitsAllocated", "PixelRepresentation", "SamplesPerPixel")
 # pydicom inflates a deflated data set whole, in one call, before it parses anything; a slice
@@ -68,11 +75,11 @@ def read_dicom_series(path) -> Volume:
     if _integer(first_file, first, "NumberOfFrames", 1) > 1:
         raise VolumeFileError(first_file, "multi-frame DICOM files are not supported",
                               "NumberOfFrames")
-    ordered, z_spacing, origin = _sort_slices(series)
-    spacing = check_spacing((*_pixel_spacing(ordered[0]), z_spacing), ordered[0][0], "PixelSpacing")
+    ordered, slice_step, origin = _sort_slices(series)
+    spacing, direction = _grid(ordered, slice_step)
     data = _read_pixels(folder, ordered)
-    return make_volume(data, path, spacing=spacing, origin=check_origin(origin, ordered[0][0],
-                       "ImagePositionPatient"))
+    return make_volume(data, path, spacing=spacing, direction=direction,
+                       origin=check_origin(lps_ras(origin), ordered[0][0], "ImagePositionPatient"))
 
 
 # --- reading files -------------------------------------------------------------------------------
@@ -196,7 +203,8 @@ def _check_consistent(series) -> None:
 
 
 def _sort_slices(series):
-    """Slices sorted along the normal, the z spacing and the first slice's position."""
+    """Slices sorted along the normal, the step from slice to slice (a vector in LPS, or a
+    thickness along the normal when the positions do not say) and the first slice's position."""
     orientation = _numbers(*series[0], "ImageOrientationPatient", 6)
     positions = [_numbers(file, ds, "ImagePositionPatient", 3) for file, ds in series]
     if orientation is not None and all(p is not None for p in positions):
@@ -204,17 +212,42 @@ def _sort_slices(series):
         distances = [float(np.dot(p, normal)) for p in positions]
         order = np.argsort(distances, kind="stable")
         ordered = [series[i] for i in order]
-        z_spacing = _uniform_step(ordered, np.array(distances)[order]) if len(ordered) > 1 \
-            else _single_slice_thickness(ordered[0])
-        return ordered, z_spacing, positions[order[0]]
+        if len(ordered) == 1:
+            return ordered, _single_slice_thickness(ordered[0]), positions[0]
+        _uniform_step(ordered, np.array(distances)[order])
+        first, last = np.asarray(positions[order[0]]), np.asarray(positions[order[-1]])
+        return ordered, (last - first) / (len(ordered) - 1), positions[order[0]]
     warnings.warn(f"{series[0][0].parent}: slices lack ImagePositionPatient/ImageOrientationPatient; "
-                  f"sorted by InstanceNumber, spacing from SpacingBetweenSlices/SliceThickness",
-                  UserWarning, stacklevel=3)
+                  f"sorted by InstanceNumber, spacing from SpacingBetweenSlices/SliceThickness, "
+                  f"no orientation", UserWarning, stacklevel=3)
     ordered = sorted(series, key=lambda item: _integer(*item, "InstanceNumber", 0))
     return ordered, _single_slice_thickness(ordered[0]), (0.0, 0.0, 0.0)
 
 
-def _uniform_step(ordered, distances: np.ndarray) -> float:
+def _grid(ordered, slice_step) -> tuple:
+    """(spacing, direction in RAS): the rows' and columns' cosines times the pixel spacing, and
+    the slice step (a vector from position to position, or a thickness along the normal)."""
+    file, ds = ordered[0]
+    column_spacing, row_spacing = _pixel_spacing(ordered[0])
+    orientation = _numbers(file, ds, "ImageOrientationPatient", 6)
+    if orientation is None:  # no orientation at all: the axes of the world
+        return check_spacing((column_spacing, row_spacing, slice_step), file, "PixelSpacing"), IDENTITY
+    row, column = np.asarray(orientation[:3]), np.asarray(orientation[3:])
+    file_direction(np.column_stack([row, column, np.cross(row, column)]), file,
+                   "ImageOrientationPatient")  # unit, perpendicular cosines before anything else
+    step = np.asarray(slice_step) if np.ndim(slice_step) else np.cross(row, column) * slice_step
+    axes = np.column_stack([row * column_spacing, column * row_spacing, step])
+    check_spacing((column_spacing, row_spacing, float(np.linalg.norm(step))), file, "PixelSpacing")
+    try:
+        spacing, direction, _ = split_axes(lps_ras(axes), file, "ImagePositionPatient")
+    except VolumeFileError as error:
+        raise VolumeFileError(ordered[0][0].parent, f"the slice positions do not step along the "
+                                                    f"normal of ImageOrientationPatient (a gantry "
+                                                    f"tilt?): {error.reason}", error.field) from None
+    return spacing, direction
+
+
+def _uniform_step(ordered, distances: np.ndarray) -> None:
     gaps = np.diff(distances)
     for index, gap in enumerate(gaps):
         if abs(gap) < 1e-6:
@@ -231,7 +264,6 @@ def _uniform_step(ordered, distances: np.ndarray) -> float:
                                       f"(median {step:.4g} mm); {gaps[worst]:.4g} mm between "
                                       f"{ordered[worst][0].name} and {ordered[worst + 1][0].name} "
                                       f"(a missing or extra slice?)", "ImagePositionPatient")
-    return step
 
 
 def _single_slice_thickness(item) -> float:

@@ -10,12 +10,17 @@ Header fields used:
                its bytes, from a .nii; inflating stops after it in a .nii.gz) and the volume's
                time_steps says how many there are. A 5th axis (vectors, tensors) is refused.
   datatype     stored type (uint8 ... float64; complex and RGB are refused)
-  pixdim[1:4]  spacing (x, y, z) = nibabel's zooms; a zero pixdim is replaced by 1 with a warning
-  sform/qform  origin = translation column of nibabel's affine (sform if set, else qform)
+  sform/qform  the grid: nibabel's affine (the sform if sform_code > 0, else the qform if
+               qform_code > 0, else nibabel's fallback diag(-pixdim[1], pixdim[2], pixdim[3])
+               about the centre, as img.affine), which is in RAS already: spacing = its
+               column lengths, direction = its unit columns, origin = its translation. A
+               sheared affine is refused naming the field; a zero-length column (a zero
+               pixdim) gets spacing 1 with a warning.
+  pixdim       must be finite (the qform and the fallback are built from it)
   scl_slope / scl_inter   value scaling
-Orientation: the array keeps the file's voxel order (x fastest) -> [z, y, x]; it is NOT
-reoriented to RAS and the rotation part of the affine is not applied. Byte order is converted to
-native (big-endian files load fine).
+Orientation: the array keeps the file's voxel order (x fastest) -> [z, y, x]; the affine goes
+into the volume's direction, spacing and origin (voxels are not resampled). Byte order is
+converted to native (big-endian files load fine).
 Scaling: with slope 1 and intercept 0 (or unset) the stored integer dtype is kept. Otherwise the
 values are computed in float64 as stored * slope + intercept and kept as float32 when the stored
 type has at most 16 bits or is float32 (float32 holds those exactly to ~7 digits) and every
@@ -38,6 +43,7 @@ from vgraph.errors import VolumeFileError
 from vgraph.io._common import (MAX_HEADER_BYTES, check_memory, check_origin, check_time_step,
                                make_volume, pad_to_3d, read_raw_array, regular_file, to_native)
 from vgraph.io._inflate import file_pieces, inflate_into, inflated_prefix
+from vgraph.io.orientation import split_axes
 from vgraph.io._values import rescaled
 from vgraph.volume import Volume
 
@@ -68,10 +74,22 @@ def read_nifti(path, time_step: int = 0) -> Volume:
     data = np.ascontiguousarray(flat.reshape(dims, order="F").T)
     if (slope, inter) != (1.0, 0.0):
         data = rescaled(data, slope, inter)
-    affine = _checked(path, "qform/sform", header.get_best_affine)
-    return make_volume(data, path, spacing=_spacing(header, path),
-                       origin=check_origin(affine[:3, 3], path, "qoffset/srow"),
+    spacing, origin, direction = grid_of(header, path)
+    return make_volume(data, path, spacing=spacing, origin=origin, direction=direction,
                        declared_range=_declared_range(header), time_steps=time_steps)
+
+
+def grid_of(header, path: Path):
+    """(spacing, origin, direction) in RAS from nibabel's choice of affine (module docstring)."""
+    _check_pixdim(header, path)
+    affine = _checked(path, "qform/sform", header.get_best_affine)
+    field = "srow_x/y/z (sform)" if header["sform_code"] > 0 else \
+        "quatern/qoffset (qform)" if header["qform_code"] > 0 else "pixdim"
+    spacing, direction, missing = split_axes(affine[:3, :3], path, field)
+    if missing:
+        warnings.warn(f"{path}: the affine ({field}) gives index axes {missing} (0 = x) no length "
+                      f"(a zero pixdim?); using spacing 1 for those", UserWarning, stacklevel=3)
+    return spacing, check_origin(affine[:3, 3], path, field), direction
 
 
 def _dims_and_time(shape, path: Path) -> tuple[tuple[int, int, int], int]:
@@ -176,24 +194,18 @@ def _scaling(header, path: Path) -> tuple[float, float]:
     return (1.0, 0.0) if slope is None else (float(slope), float(inter or 0.0))
 
 
-def _spacing(header, path: Path) -> tuple[float, float, float]:
-    zooms = [abs(float(z)) for z in _checked(path, "pixdim", header.get_zooms)[:3]]
-    zooms += [1.0] * (3 - len(zooms))
+def _check_pixdim(header, path: Path) -> None:
+    zooms = [float(z) for z in _checked(path, "pixdim", header.get_zooms)[:3]]
     if not all(np.isfinite(zooms)):
         raise VolumeFileError(path, f"spacing must be finite, got {zooms}", "pixdim")
-    if min(zooms) == 0:
-        warnings.warn(f"{path}: pixdim has zero entries {zooms}; using 1 for those", UserWarning,
-                      stacklevel=3)
-        zooms = [z if z > 0 else 1.0 for z in zooms]
-    return tuple(zooms)
 
 
 def write_nifti(volume: Volume, file: Path) -> None:
-    """NIfTI-1 (.nii or .nii.gz, chosen by the name) with the affine diag(spacing) + origin as both
-    sform and qform (code 1), no scaling, and cal_min/cal_max set to the value range for viewers.
-    The array is stored x fastest, as it is read back."""
-    affine = np.diag([*volume.spacing, 1.0])
-    affine[:3, 3] = volume.origin
+    """NIfTI-1 (.nii or .nii.gz, chosen by the name) with the volume's affine (RAS, as NIfTI's) as
+    both sform and qform (code 1, scanner), no scaling, and cal_min/cal_max set to the value
+    range for viewers. The array is stored x fastest, as it is read back. The qform holds a
+    mirrored direction too (its qfac is -1 then)."""
+    affine = volume.affine
     image = nib.Nifti1Image(np.ascontiguousarray(volume.data).T, affine)
     image.header.set_sform(affine, code=1)
     image.header.set_qform(affine, code=1)

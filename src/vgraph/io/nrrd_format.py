@@ -5,8 +5,15 @@ Header fields read (http://teem.sourceforge.net/nrrd/format.html):
              ``time`` holds time points: one is read, the volume's time_steps counts them),
   kinds      (only to find a time axis), type, endian, encoding, byte skip, line skip,
   data file  (one file; ``name.%d <min> <max> <step> [<subdim>]``; or ``LIST [<subdim>]`` with one
-             file name per following line), spacings or space directions (spacing = length of each
-             axis vector; the orientation itself is not applied), space origin (origin),
+             file name per following line),
+  space directions, space origin, space   the grid: each axis's vector (spacing = its length,
+             direction = the unit vectors, refused by name when sheared; an axis without one,
+             ``none`` or a 2D image's third, gets spacing 1 and a direction perpendicular to the
+             others) and the origin, converted from the named space to RAS (SPACE_FRAMES:
+             left-posterior-superior and scanner-xyz, DICOM's frame, negate x and y;
+             left-anterior-superior negates x; the 3D-right/left-handed spaces have no patient
+             meaning and are taken as they are, as a file without ``space``),
+  spacings   without space directions: the spacing, axes along the world's (identity direction),
   min / max  (the declared value range; the key/value ``vgraph value range:=lo hi`` written by
              vgraph's own writer takes precedence).
 pynrrd parses the header; the data are read by nrrd_data.py with exact size checks (without an
@@ -25,7 +32,8 @@ from vgraph.errors import VolumeFileError
 from vgraph.io._common import (check_origin, check_spacing, check_time_step, header_lines,
                                make_volume, pad_to_3d, regular_file)
 from vgraph.io.nrrd_data import MAX_DATA_FILES, read_data
-from vgraph.volume import Volume
+from vgraph.io.orientation import split_axes
+from vgraph.volume import IDENTITY, Volume
 
 VALUE_RANGE_KEY = "vgraph value range"
 _TYPES = {
@@ -41,6 +49,16 @@ _TYPES = {
     "f4": ("float",), "f8": ("double",),
 }
 _TYPE_CODES = {name: code for code, names in _TYPES.items() for name in names}
+# NRRD's spaces (lower case, as teem compares them) by the signs that take them to RAS.
+SPACE_FRAMES = {
+    (1.0, 1.0, 1.0): ("right-anterior-superior", "ras", "right-anterior-superior-time", "rast",
+                      "3d-right-handed", "3d-right-handed-time", "3d-left-handed",
+                      "3d-left-handed-time"),
+    (-1.0, 1.0, 1.0): ("left-anterior-superior", "las", "left-anterior-superior-time", "last"),
+    (-1.0, -1.0, 1.0): ("left-posterior-superior", "lps", "left-posterior-superior-time", "lpst",
+                        "scanner-xyz", "scanner-xyz-time"),
+}
+WRITTEN_SPACE = "right-anterior-superior"
 
 
 def read_nrrd(path, time_step: int = 0) -> Volume:
@@ -57,12 +75,12 @@ def read_nrrd(path, time_step: int = 0) -> Volume:
     time_step = check_time_step(path, time_step, time_steps)
     dtype = _dtype(header, path)
     count = dims[0] * dims[1] * dims[2]
-    spacing, origin = _spacing(header, path), _origin(header, path)
+    spacing, origin, direction = grid_of(header, path)
     declared = _declared_range(header, path)
     flat = read_data(path, header, dtype, count, data_offset, listed_files,
                      first=time_step * count, total=count * time_steps)
     return make_volume(flat.reshape(dims[::-1]), path, spacing=spacing, origin=origin,
-                       declared_range=declared, time_steps=time_steps)
+                       direction=direction, declared_range=declared, time_steps=time_steps)
 
 
 def _dims_and_time(header: dict, path: Path) -> tuple[tuple[int, int, int], int]:
@@ -136,25 +154,47 @@ def _dtype(header: dict, path: Path) -> np.dtype:
     return dtype
 
 
-def _spacing(header: dict, path: Path) -> tuple[float, float, float]:
+def grid_of(header: dict, path: Path):
+    """(spacing, origin, direction) in RAS (module docstring)."""
+    frame = _space_frame(header, path)
     if "space directions" in header:
-        field, values = "space directions", []
-        for row in list(header["space directions"])[:3]:
-            row = np.asarray(row, dtype=float)
-            values.append(1.0 if not np.all(np.isfinite(row)) else float(np.linalg.norm(row)))
+        axes = np.zeros((3, 3))  # columns: the index axes' vectors (a 2D image's third: none)
+        for c, row in enumerate(list(header["space directions"])[:3]):
+            axes[:, c] = _padded(row)
+        spacing, direction, _ = split_axes(frame @ axes, path, "space directions")
+        spacing = check_spacing(spacing, path, "space directions")
     elif "spacings" in header:
-        field = "spacings"
         values = [1.0 if not np.isfinite(s) else float(s) for s in header["spacings"][:3]]
+        spacing, direction = check_spacing((values + [1.0, 1.0, 1.0])[:3], path, "spacings"), IDENTITY
     else:
-        return (1.0, 1.0, 1.0)
-    return check_spacing((values + [1.0, 1.0, 1.0])[:3], path, field)
+        spacing, direction = (1.0, 1.0, 1.0), IDENTITY
+    return spacing, _origin(header, path, frame), direction
 
 
-def _origin(header: dict, path: Path) -> tuple[float, float, float]:
+def _padded(row) -> np.ndarray:
+    """An axis vector as three numbers (a 2D space's third is 0; ``none`` is NaN throughout)."""
+    values = np.asarray(row, dtype=float).reshape(-1)[:3]
+    return np.concatenate([values, np.zeros(3 - len(values))])
+
+
+def _space_frame(header: dict, path: Path) -> np.ndarray:
+    """The matrix that takes the header's ``space`` coordinates to RAS."""
+    if "space" not in header:
+        return np.eye(3)
+    name = str(header["space"]).strip().lower()
+    for frame, names in SPACE_FRAMES.items():
+        if name in names:
+            return np.diag(frame)
+    raise VolumeFileError(path, f"unknown space {header['space']!r}; NRRD's spaces are "
+                                f"{', '.join(n for names in SPACE_FRAMES.values() for n in names)}",
+                          "space")
+
+
+def _origin(header: dict, path: Path, frame: np.ndarray) -> tuple[float, float, float]:
     if "space origin" not in header:
         return (0.0, 0.0, 0.0)
-    values = [float(v) for v in np.asarray(header["space origin"], dtype=float)[:3]]
-    return check_origin((values + [0.0, 0.0, 0.0])[:3], path, "space origin")
+    values = _padded(header["space origin"])
+    return check_origin(frame @ values, path, "space origin")
 
 
 def _declared_range(header: dict, path: Path):
@@ -175,13 +215,16 @@ def _declared_range(header: dict, path: Path):
 
 
 def write_nrrd(volume: Volume, file: Path) -> None:
-    """An attached, gzip-compressed NRRD with diagonal space directions (the spacing), the space
-    origin and, if declared, the value range as the key/value ``vgraph value range:=lo hi``."""
+    """An attached, gzip-compressed NRRD in space right-anterior-superior (vgraph's own frame:
+    3D Slicer and ITK read it into their LPS themselves) with the affine's columns as space
+    directions, the space origin and, if declared, the value range as the key/value
+    ``vgraph value range:=lo hi``."""
+    affine = volume.affine
     header = {
         "encoding": "gzip",
-        "space dimension": 3,
-        "space directions": np.diag(np.asarray(volume.spacing, dtype=float)),
-        "space origin": np.asarray(volume.origin, dtype=float),
+        "space": WRITTEN_SPACE,
+        "space directions": affine[:3, :3].T,  # one row per index axis
+        "space origin": affine[:3, 3],
         "kinds": ["domain", "domain", "domain"],
     }
     if volume.declared_range is not None:

@@ -3,10 +3,12 @@
 Arrays are indexed [z, y, x] (x fastest), the Volume order, so nothing is transposed. A 2D array
 [y, x] is one slice. A 4D array is [t, z, y, x], time slowest as the axis order implies: one time
 point is read (from a C-ordered array only its bytes; a Fortran-ordered one is read whole) and
-the volume's time_steps counts them. A .npy file carries no geometry: spacing (1, 1, 1), origin (0, 0, 0).
+the volume's time_steps counts them. A .npy file carries no geometry: spacing (1, 1, 1), origin
+(0, 0, 0), identity direction.
 A .npz archive holds either a single array (any key, e.g. ``arr_0``) or the keys written by
-vgraph: ``data`` plus optional ``spacing`` (x, y, z), ``origin`` (x, y, z) and ``value_range``
-(lo, hi). Pickled (object) arrays are refused.
+vgraph: ``data`` plus optional ``spacing`` (x, y, z), ``origin`` (x, y, z), ``direction`` (3 x 3,
+rows of the matrix whose columns are the index axes' directions in RAS, as Volume.direction;
+default identity) and ``value_range`` (lo, hi). Pickled (object) arrays are refused.
 """
 
 from __future__ import annotations
@@ -24,9 +26,10 @@ import numpy as np
 from vgraph.errors import VolumeFileError
 from vgraph.io._common import (check_memory, check_origin, check_spacing, check_time_step,
                                make_volume, open_capped, read_raw_array, regular_file, to_native)
-from vgraph.volume import Volume
+from vgraph.io.orientation import file_direction
+from vgraph.volume import IDENTITY, Volume
 
-METADATA_KEYS = ("spacing", "origin", "value_range")
+METADATA_KEYS = ("spacing", "origin", "direction", "value_range")
 # What a damaged archive or member raises from zipfile, zlib and numpy's header parser.
 _ARCHIVE_ERRORS = (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, OSError, EOFError,
                    ValueError, NotImplementedError, struct.error)
@@ -71,6 +74,8 @@ def read_npz(path, time_step: int = 0) -> Volume:
                               "archive") from exc
     spacing = check_spacing(meta["spacing"], path, "spacing") if "spacing" in meta else (1, 1, 1)
     origin = check_origin(meta["origin"], path, "origin") if "origin" in meta else (0, 0, 0)
+    direction = file_direction(meta["direction"].reshape(3, 3), path, "direction") \
+        if "direction" in meta else IDENTITY
     declared = None
     if "value_range" in meta:
         lo, hi = (float(v) for v in (list(meta["value_range"]) + [np.nan, np.nan])[:2])
@@ -79,7 +84,7 @@ def read_npz(path, time_step: int = 0) -> Volume:
                                   "value_range")
         declared = (lo, hi)
     return make_volume(array, path, spacing=spacing, origin=origin, declared_range=declared,
-                       time_steps=time_steps)
+                       time_steps=time_steps, direction=direction)
 
 
 def write_npy(volume: Volume, fh) -> None:
@@ -89,7 +94,8 @@ def write_npy(volume: Volume, fh) -> None:
 def write_npz(volume: Volume, fh) -> None:
     extra = {} if volume.declared_range is None else {"value_range": np.array(volume.declared_range)}
     np.savez_compressed(fh, data=np.ascontiguousarray(volume.data),
-                        spacing=np.array(volume.spacing), origin=np.array(volume.origin), **extra)
+                        spacing=np.array(volume.spacing), origin=np.array(volume.origin),
+                        direction=np.array(volume.direction), **extra)
 
 
 def _npz_data_key(archive: zipfile.ZipFile, path: Path) -> tuple[str, list[str]]:
@@ -198,7 +204,11 @@ def _check_shape_dtype(path, field, shape, dtype) -> None:
 
 
 def _check_metadata(path, key, shape, dtype) -> None:
-    if dtype.kind not in "uif" or dtype.itemsize > 8 or len(shape) != 1 or not 1 <= shape[0] <= 3:
+    if key == "direction":
+        if dtype.kind not in "uif" or dtype.itemsize > 8 or tuple(shape) not in ((3, 3), (9,)):
+            raise VolumeFileError(path, f"expected a 3 x 3 matrix of numbers, got shape {shape} "
+                                        f"{dtype}", key)
+    elif dtype.kind not in "uif" or dtype.itemsize > 8 or len(shape) != 1 or not 1 <= shape[0] <= 3:
         raise VolumeFileError(path, f"expected a vector of up to 3 numbers, got shape {shape} "
                                     f"{dtype}", key)
 

@@ -3,7 +3,9 @@
 Attributes read:
   VTKFile    byte_order (LittleEndian | BigEndian), header_type (UInt32 | UInt64),
              compressor (none, vtkZLibDataCompressor, vtkLZMADataCompressor)
-  ImageData  WholeExtent, Origin, Spacing (Direction is ignored: file axis order is kept)
+  ImageData  WholeExtent, Origin, Spacing, Direction (VTK 9: 9 numbers, the 3x3 matrix row by
+             row, its columns the index axes' directions; default identity; refused by name
+             when not a rotation, possibly mirrored)
   PointData  Scalars = name of the array to load (else the first DataArray)
   DataArray  type (Int8 ... Float64), NumberOfComponents (must be 1), format (ascii | binary |
              appended), offset
@@ -12,6 +14,11 @@ writes); appended data may be raw or base64. Compressed data: header = [number o
 size, last block size, compressed size of each block], then the zlib/LZMA blocks. The header's
 sizes must add up to what WholeExtent needs before any block is inflated, and each block must
 inflate to exactly its declared size (a few bytes of zlib can stand for gigabytes).
+
+Frame: VTK has no patient frame; a .vti's world is taken as vgraph's (RAS) as it stands.
+
+Writing: one Float/Int/UInt DataArray "values", zlib blocks appended raw (UInt64 headers), with
+WholeExtent, Origin, Spacing and Direction; the value range is not kept (VTK has no field for it).
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ from __future__ import annotations
 import base64
 import binascii
 import math
+import zlib
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -29,6 +37,7 @@ from vgraph.io._common import (check_dims, check_memory, check_origin, check_spa
                                make_volume, parse_numbers, regular_file, to_native)
 from vgraph.io._inflate import inflate_into, memory_pieces
 from vgraph.io._values import ascii_values
+from vgraph.io.orientation import file_direction
 from vgraph.volume import Volume
 
 _TYPES = {"Int8": "i1", "UInt8": "u1", "Int16": "i2", "UInt16": "u2", "Int32": "i4",
@@ -57,12 +66,16 @@ def read_vti(path) -> Volume:
                             "Spacing")
     origin = check_origin(parse_numbers(image.get("Origin", "0 0 0"), path, "Origin"), path,
                           "Origin")
+    direction = file_direction(np.array(parse_numbers(image.get("Direction", "1 0 0 0 1 0 0 0 1"),
+                                                      path, "Direction", 9)).reshape(3, 3),
+                               path, "Direction")
     array = _scalar_array(pieces[0], path)
     dtype = _dtype(root, array, path)
     count = dims[0] * dims[1] * dims[2]
     check_memory(path, count * dtype.itemsize, "WholeExtent")
     flat = _array_values(root, array, appended, dtype, count, path)
-    return make_volume(flat.reshape(dims[::-1]), path, spacing=spacing, origin=origin)
+    return make_volume(flat.reshape(dims[::-1]), path, spacing=spacing, origin=origin,
+                       direction=direction)
 
 
 def _file_bytes(path: Path) -> bytes:
@@ -247,3 +260,48 @@ class _RawStream:
 
     def read_joint(self, size: int, nbytes: int) -> bytes:
         return self.blob[size:size + nbytes]
+
+
+# --- writing -------------------------------------------------------------------------------------
+_TYPE_NAMES = {code: name for name, code in _TYPES.items()}
+_BLOCK_BYTES = 2**20  # uncompressed bytes per zlib block (VTK's own default is 32 KiB)
+
+
+def write_vti(volume: Volume, file: Path) -> None:
+    """VTK XML ImageData that VTK 9 (and vgraph) read onto the same points (module docstring)."""
+    flat = np.ascontiguousarray(volume.data).reshape(-1)
+    little = flat.dtype.newbyteorder("<")
+    blocks = []
+    step = max(1, _BLOCK_BYTES // flat.dtype.itemsize)
+    for start in range(0, flat.size, step):
+        piece = np.ascontiguousarray(flat[start:start + step], dtype=little)  # no copy when native
+        blocks.append(zlib.compress(memoryview(piece).cast("B"), 1))
+    nbytes = flat.size * flat.dtype.itemsize
+    last = nbytes - (len(blocks) - 1) * _BLOCK_BYTES
+    # [blocks, block size, size of a partial last block (0: it is whole), compressed sizes]
+    header = np.array([len(blocks), _BLOCK_BYTES, 0 if last == _BLOCK_BYTES else last,
+                       *map(len, blocks)], dtype="<u8")
+    with open(file, "wb") as fh:
+        fh.write(_xml_head(volume, _TYPE_NAMES[little.str[1:]]).encode("ascii"))
+        fh.write(header.tobytes())
+        for block in blocks:
+            fh.write(block)
+        fh.write(b"\n  </AppendedData>\n</VTKFile>\n")
+
+
+def _xml_head(volume: Volume, type_name: str) -> str:
+    extent = " ".join(f"0 {n - 1}" for n in volume.dims)
+    numbers = lambda values: " ".join(repr(float(v)) for v in values)  # noqa: E731
+    return (f'<?xml version="1.0"?>\n'
+            f'<VTKFile type="ImageData" version="1.0" byte_order="LittleEndian" '
+            f'header_type="UInt64" compressor="vtkZLibDataCompressor">\n'
+            f'  <ImageData WholeExtent="{extent}" Origin="{numbers(volume.origin)}" '
+            f'Spacing="{numbers(volume.spacing)}" '
+            f'Direction="{numbers(np.asarray(volume.direction).reshape(-1))}">\n'
+            f'    <Piece Extent="{extent}">\n'
+            f'      <PointData Scalars="values">\n'
+            f'        <DataArray type="{type_name}" Name="values" format="appended" offset="0"/>\n'
+            f'      </PointData>\n'
+            f'    </Piece>\n'
+            f'  </ImageData>\n'
+            f'  <AppendedData encoding="raw">\n   _')

@@ -1,16 +1,20 @@
-"""Saving volumes (the VolumeWriter sink uses this): .npy, .npz, .nrrd, .nii, .nii.gz.
+"""Saving volumes (the VolumeWriter sink uses this): .npy, .npz, .nrrd, .nii, .nii.gz, .mha, .vti.
 
 Writes are atomic: the file is written under a temporary name in the target folder, flushed to
 disk, and moved over the target with os.replace. If anything fails the temporary file is removed
 and an existing file of that name is left untouched.
 
-What each format keeps:
-  .npy      values only ([z, y, x]); spacing and origin are NOT stored (use .npz for them)
-  .npz      data, spacing, origin, value_range (if declared)
-  .nrrd     values (gzip), spacing (space directions), origin (space origin), value range
-            (``vgraph value range`` key)
-  .nii(.gz) values, spacing (pixdim), origin (affine translation), value range (cal_min/cal_max,
-            read back only from files vgraph wrote)
+What each format keeps (every one but .npy keeps the grid: read back by vgraph, nibabel,
+SimpleITK or VTK, each voxel lands where it was; docs/volumes.md, "Writing volumes"):
+  .npy      values only ([z, y, x]); spacing, origin and direction are NOT stored
+  .npz      data, spacing, origin, direction, value_range (if declared)
+  .nrrd     values (gzip), space right-anterior-superior, space directions (the affine's
+            columns), space origin, value range (``vgraph value range`` key)
+  .nii(.gz) values, the affine as sform and qform (code 1), value range (cal_min/cal_max, read
+            back only from files vgraph wrote)
+  .mha      values (zlib), TransformMatrix, Offset and AnatomicalOrientation in ITK's LPS,
+            ElementSpacing, value range (ElementMin/ElementMax)
+  .vti      values (zlib), Origin, Spacing, Direction; no value range
 """
 
 from __future__ import annotations
@@ -20,9 +24,11 @@ from pathlib import Path
 
 from vgraph.atomic import atomic_path
 from vgraph.errors import OutputFileError, VolumeFileError
+from vgraph.io.metaimage import write_metaimage
 from vgraph.io.nifti import write_nifti
 from vgraph.io.nrrd_format import write_nrrd
 from vgraph.io.numpy_format import write_npy, write_npz
+from vgraph.io.vti import write_vti
 from vgraph.memory import out_of_memory
 from vgraph.volume import Volume
 
@@ -40,6 +46,8 @@ WRITERS = {
     ".nrrd": write_nrrd,
     ".nii": write_nifti,
     ".nii.gz": write_nifti,
+    ".mha": write_metaimage,
+    ".vti": write_vti,
 }
 WRITABLE_EXTENSIONS = tuple(WRITERS)
 
