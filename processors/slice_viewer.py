@@ -1,18 +1,27 @@
 """SliceViewer: a plane through a volume as an image (the views of a multi-planar layout, MPR).
 
 Conventions (vgraph.slicing has the geometry's long form; docs/exploring.md shows it in use):
-- Orientation: axial = constant z, coronal = constant y, sagittal = constant x, shown as
-  vgraph.camera's named views show them (x right, y front, z up; radiological display): axial from
-  below (image right = -x, up = +y), coronal from the front (right = -x, up = +z), sagittal from the
-  left (right = -y, up = +z). ``custom``: the plane with ``normal`` (pointing towards the viewer;
-  image up = world z projected onto the plane, or world y when the normal is along z).
+- Orientation (world axes RAS, the patient's: x right, y front, z up): axial = constant z,
+  coronal = constant y, sagittal = constant x. ``display`` radiological (default: the patient's
+  right on the image's left, as DICOM viewers show a slice): axial seen from below (image right =
+  -x, up = +y), coronal from the front (right = -x, up = +z); neurological (the patient's right on
+  the image's right): the same images mirrored left to right (axial from above, coronal from
+  behind). Sagittal in both: from the left (right = -y, up = +z). ``custom``: the plane with
+  ``normal`` (pointing towards the viewer; image up = world z projected onto the plane, or world y
+  when the normal is along z), whatever the display.
 - The plane passes through ``cursor``, a world point (None = the centre of the volume). Linking
   the cursors of several SliceViewers makes them one shared cursor: in the GUI a click in one
   slice moves the others (vgraph.gui.slice_clicks).
-- Everything is in world units with the volume's spacing and origin: the image fits the box of
-  the voxels' cells ([origin - spacing / 2, origin + (dims - 1/2) spacing]) projected onto the
-  plane, square pixels, aspect kept; ``zoom`` magnifies about the cursor. An axis-aligned slice of
-  n voxels drawn at n pixels therefore puts every pixel centre on a voxel centre.
+- Everything is in world units through the volume's affine (spacing, direction, origin): the image
+  fits the box of the voxels' cells (index box [-1/2, n - 1/2], turned as the volume is) projected
+  onto the plane, square pixels, aspect kept; ``zoom`` magnifies about the cursor. A volume whose
+  index axes are tilted against the world is sliced in the world: its axial slice shows the tilted
+  anatomy. An axis-aligned slice of n voxels drawn at n pixels puts every pixel centre on a voxel
+  centre, so a DICOM axial slice (ImageOrientationPatient [1, 0, 0, 0, 1, 0]) drawn at its own
+  size is pydicom's pixel_array, row 0 at the top and column 0 at the left (radiological).
+- The plane reaches the shader in voxel indices: its centre and edge vectors mapped through the
+  inverse affine in float64 on the CPU (vgraph.slicing.GridBox), so a pixel costs one
+  multiply-add per axis and an axis-aligned volume gets exactly the numbers it got before.
 - interpolation: nearest (the voxel whose cell holds the point), linear (trilinear), cubic (the
   cubic B-spline through the voxels, Cabral 2010 sec. 3.1-3.2: the volume's normalised
   intensities are prefiltered once per volume on the CPU, mirror boundary, and evaluated by the
@@ -45,7 +54,7 @@ from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sample
 from vgraph.gl.shaders import programs
 from vgraph.image import Image
 from vgraph.numerics.bspline import prefilter
-from vgraph.slicing import ORIENTATIONS, SlicePlane, checked_plane
+from vgraph.slicing import DISPLAYS, ORIENTATIONS, SlicePlane, checked_plane, index_vectors
 from vgraph.transfer_function import PRESETS
 from vgraph.volume import Volume
 
@@ -63,9 +72,12 @@ class SliceViewer(Processor):
     renders_at_size = True
 
     orientation = OptionProperty("axial", choices=[*ORIENTATIONS, "custom"],
-                                 doc="axial = constant z (seen from below), coronal = constant y "
-                                     "(from the front), sagittal = constant x (from the left); "
-                                     "custom: the plane with the given normal")
+                                 doc="axial = constant z, coronal = constant y, sagittal = constant "
+                                     "x (world axes RAS); custom: the plane with the given normal")
+    display = OptionProperty("radiological", choices=list(DISPLAYS),
+                             doc="radiological: the patient's right on the image's left (axial seen "
+                                 "from below, coronal from the front); neurological: the patient's "
+                                 "right on the image's right (mirrored)")
     cursor = VectorProperty(None, size=3, optional=True,
                             doc="world point the plane passes through (auto: the volume's centre); "
                                 "link it between viewers for a shared cursor")
@@ -106,7 +118,8 @@ class SliceViewer(Processor):
         """Where an image of ``size`` (width, height) of ``volume`` lies in the world."""
         return checked_plane(f"{self.id}", orientation=self.orientation, normal=self.normal,
                              cursor=self.cursor, zoom=self.zoom, origin=volume.origin,
-                             spacing=volume.spacing, dims=volume.dims, size=tuple(size))
+                             spacing=volume.spacing, dims=volume.dims, size=tuple(size),
+                             direction=volume.direction, display=self.display)
 
     def pixel_to_world(self, column, row) -> np.ndarray:
         """World points of pixel centres (column, row) of the last image, row 0 at the top;
@@ -138,14 +151,13 @@ class SliceViewer(Processor):
         return target
 
     def _uniforms(self, volume: Volume, sampled: Volume, plane: SlicePlane, size) -> dict:
-        spacing, origin = np.asarray(volume.spacing), np.asarray(volume.origin)
         scale, offset = sampled.texture_scale_offset()
         low, width = self._window_normalised(volume)
         uniforms = {
             "image_size": _vec(size),
-            "voxel_centre": _vec((np.asarray(plane.centre) - origin) / spacing),
-            "voxel_right": _vec(np.asarray(plane.right) / spacing),
-            "voxel_up": _vec(np.asarray(plane.up) / spacing),
+            "voxel_centre": _vec(plane.box.indices(plane.centre)),  # world -> voxel: the inverse affine
+            "voxel_right": _vec(index_vectors(plane.right, volume.spacing, volume.direction)),
+            "voxel_up": _vec(index_vectors(plane.up, volume.spacing, volume.direction)),
             "volume_size": _vec(volume.dims),
             "volume_dims": tuple(int(n) for n in volume.dims),
             "intensity_scale": float(scale), "intensity_offset": float(offset),

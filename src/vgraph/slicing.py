@@ -1,17 +1,24 @@
 """Slice planes: where a SliceViewer's image lies in the world, and its pixel <-> world maps.
 
 Conventions (the SliceViewer's docstring and docs/exploring.md say the same for users):
-- Named orientations are shown as vgraph.camera's named views show them (world x right, y front,
-  z up; radiological display, the patient's right on the image's left): axial = constant z seen
-  from below (the "bottom" view: image right = -x, image up = +y), coronal = constant y seen from
-  the front ("front": right = -x, up = +z), sagittal = constant x seen from the left ("left":
-  right = -y, up = +z).
+- World axes are the patient's, RAS (docs/conventions.md): +x towards the patient's right, +y
+  to the front (anterior), +z up (superior), as vgraph.camera's named views read them.
+- Named orientations are shown as named views show them. ``display`` radiological (the default,
+  the patient's right on the image's left, as DICOM viewers and 3D Slicer show axial and coronal
+  slices): axial = constant z seen from below (the "bottom" view: image right = -x, image up =
+  +y), coronal = constant y seen from the front ("front": right = -x, up = +z). ``display``
+  neurological (the patient's right on the image's right): axial seen from above ("top": right =
+  +x, up = +y), coronal from behind ("back": right = +x, up = +z): the radiological images
+  mirrored left to right. Sagittal = constant x seen from the left ("left": right = -y, up = +z)
+  in both: its image has no left and right of the patient.
 - A custom plane's ``normal`` points towards the viewer, like a named view's eye direction, so the
-  normals (0, 0, -1), (0, 1, 0) and (-1, 0, 0) give exactly the axial, coronal and sagittal images.
-  Its image up is world z projected onto the plane (world y when the normal is along z), image
-  right = up x normal (the camera's forward x up with forward = -normal).
+  normals (0, 0, -1), (0, 1, 0) and (-1, 0, 0) give exactly the radiological axial, coronal and
+  sagittal images. Its image up is world z projected onto the plane (world y when the normal is
+  along z), image right = up x normal (the camera's forward x up with forward = -normal); the
+  display does not change it (the normal says which side it is seen from).
 - The plane passes through the cursor (default: the centre of the volume's box).
-- The volume's box here is its cells' box, [origin - spacing / 2, origin + (dims - 1/2) spacing]:
+- The volume's box here is its cells' box (``GridBox``): the index box [-1/2, n - 1/2] on every
+  axis through the volume's affine (origin, direction, spacing), an oriented box in the world:
   every voxel shown whole, so an axis-aligned slice of n voxels drawn at n pixels has each pixel
   centre on a voxel centre. By default the image fits the box's projection onto the plane with
   square pixels (aspect kept), centred on the box's projection; ``zoom`` z magnifies about the
@@ -19,6 +26,9 @@ Conventions (the SliceViewer's docstring and docs/exploring.md say the same for 
 - Image coordinates (u, v) in [0, 1]: u to the right, v UP (GL's uv, row v = 0 at the bottom).
   Pixel (column c, row r), row 0 at the TOP (Image.to_numpy, Qt), has its centre at
   u = (c + 0.5) / width, v = 1 - (r + 0.5) / height.
+- Sampling goes world -> voxel indices through the inverse of the affine (``GridBox.indices`` and
+  ``index_vectors``), in float64: the SliceViewer hands its shader the plane in voxel indices.
+  For an axis-aligned volume every number is what it was before volumes had directions.
 """
 
 from __future__ import annotations
@@ -29,21 +39,87 @@ import numpy as np
 
 from vgraph.camera import VIEWS
 from vgraph.errors import VGraphError
+from vgraph.volume_grid import IDENTITY, Matrix3, is_identity
 
-# orientation -> the named view it is seen from (vgraph.camera.VIEWS: eye direction, up)
+Vec3 = tuple[float, float, float]
+
+DISPLAYS = ("radiological", "neurological")
+# orientation -> the named view it is seen from (vgraph.camera.VIEWS: eye direction, up), by display
 ORIENTATIONS = {"axial": "bottom", "coronal": "front", "sagittal": "left"}
+_SEEN_FROM = {"radiological": ORIENTATIONS,
+              "neurological": {"axial": "top", "coronal": "back", "sagittal": "left"}}
 _TINY = 1e-12
+
+
+@dataclass(frozen=True)
+class GridBox:
+    """A volume's grid as plain tuples (it pickles to the GUI process): voxel (i, j, k) at
+    origin + direction @ ((i, j, k) * spacing) (vgraph.volume_grid), ``dims`` voxels (x, y, z)."""
+    origin: Vec3
+    spacing: Vec3
+    direction: Matrix3  # rows; column c = the world direction of index axis c
+    dims: tuple[int, int, int]
+
+    @classmethod
+    def of(cls, volume) -> "GridBox":
+        return cls(_tuple(volume.origin), _tuple(volume.spacing),
+                   tuple(_tuple(row) for row in volume.direction), tuple(int(n) for n in volume.dims))
+
+    def turned(self, vectors) -> np.ndarray:
+        """Vectors (..., 3) in the index axes' frame -> world (untouched for an axis-aligned grid,
+        so its numbers stay exactly what they were)."""
+        vectors = np.asarray(vectors, dtype=np.float64)
+        return vectors if is_identity(self.direction) else vectors @ np.asarray(self.direction).T
+
+    def _low_and_extent(self, cells: bool) -> tuple[np.ndarray, np.ndarray]:
+        spacing, dims = np.asarray(self.spacing), np.asarray(self.dims, dtype=np.float64)
+        if not cells:
+            return np.asarray(self.origin, dtype=np.float64), (dims - 1.0) * spacing
+        return self.origin + self.turned(-0.5 * spacing), dims * spacing
+
+    def corners(self, cells: bool = True) -> np.ndarray:
+        """The 8 world corners (8, 3) of the box of the voxels' cells (or, ``cells`` False, of
+        their centres); corner k takes the high side along index axis a where bit a of k is set."""
+        low, extent = self._low_and_extent(cells)
+        return low + self.turned(extent * _CORNER_BITS)
+
+    def centre(self) -> np.ndarray:
+        low, extent = self._low_and_extent(True)
+        return low + self.turned(0.5 * extent)
+
+    def indices(self, points) -> np.ndarray:
+        """Voxel indices (..., 3) (i, j, k) of world points (Volume.world_to_voxel)."""
+        return index_vectors(np.asarray(points, dtype=np.float64) - np.asarray(self.origin),
+                             self.spacing, self.direction)
+
+
+def index_vectors(vectors, spacing, direction: Matrix3 = IDENTITY) -> np.ndarray:
+    """World vectors (..., 3) in voxel-index units along the index axes: the linear part of the
+    inverse affine (an orthonormal direction's inverse is its transpose)."""
+    vectors = np.asarray(vectors, dtype=np.float64)
+    if not is_identity(direction):
+        vectors = vectors @ np.asarray(direction)
+    return vectors / np.asarray(spacing, dtype=np.float64)
 
 
 @dataclass(frozen=True)
 class SlicePlane:
     """An image's rectangle in the world: plain tuples, so it pickles to the GUI process."""
-    centre: tuple[float, float, float]  # the world point at the image centre, (u, v) = (0.5, 0.5)
-    right: tuple[float, float, float]   # world vector from the left edge to the right edge
-    up: tuple[float, float, float]      # world vector from the bottom edge to the top edge
-    normal: tuple[float, float, float]  # unit, towards the viewer
-    box_low: tuple[float, float, float] | None = None   # the volume's cell box (cell_box), for
-    box_size: tuple[float, float, float] | None = None  # outline(): where the plane cuts it
+    centre: Vec3  # the world point at the image centre, (u, v) = (0.5, 0.5)
+    right: Vec3   # world vector from the left edge to the right edge
+    up: Vec3      # world vector from the bottom edge to the top edge
+    normal: Vec3  # unit, towards the viewer
+    box: GridBox | None = None  # the sliced volume's grid: outline() cuts its cells' box
+
+    @property
+    def box_low(self) -> Vec3 | None:
+        """The lowest world corner of the axis-aligned box around the cells' box."""
+        return None if self.box is None else _tuple(self.box.corners().min(axis=0))
+
+    @property
+    def box_size(self) -> Vec3 | None:
+        """The size of the axis-aligned box around the cells' box."""
+        return None if self.box is None else _tuple(np.ptp(self.box.corners(), axis=0))
 
     def world_at(self, u, v) -> np.ndarray:
         """World points (..., 3) at image coordinates u, v (module docstring)."""
@@ -71,15 +147,15 @@ class SlicePlane:
         top-left (for drawing the plane's outline in a 3D view)."""
         return self.world_at(np.array([0.0, 1.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0, 1.0]))
 
-
     def outline(self) -> np.ndarray:
-        """Where the plane cuts the volume's cell box: the polygon's corners (k, 3), k = 0 or 3
-        to 6, in order around it (counter-clockwise as the image shows them), for drawing the
-        slice in a 3D view. Empty when the plane misses the box or the box is unknown."""
-        if self.box_low is None or self.box_size is None:
+        """Where the plane cuts the volume's cells' box (oriented as the volume): the polygon's
+        corners (k, 3), k = 0 or 3 to 6, in order around it (counter-clockwise as the image shows
+        them), for drawing the slice in a 3D view. Empty when the plane misses the box or the
+        box is unknown. The affine map takes the index box's edges to the oriented box's, so
+        cutting the world edges is cutting the index box and mapping the polygon back."""
+        if self.box is None:
             return np.zeros((0, 3))
-        low, size = np.asarray(self.box_low), np.asarray(self.box_size)
-        corners = low + size * _CORNER_BITS
+        corners = self.box.corners()
         depth = (corners - np.asarray(self.centre)) @ np.asarray(self.normal)
         points = []
         for a, b in _BOX_EDGES:
@@ -99,11 +175,15 @@ _CORNER_BITS = np.array([[(k >> axis) & 1 for axis in range(3)] for k in range(8
 _BOX_EDGES = [(k, k | 1 << axis) for k in range(8) for axis in range(3) if not k & 1 << axis]
 
 
-def plane_axes(orientation: str, normal=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(normal towards the viewer, image right, image up), unit vectors, of an orientation; a
-    ``custom`` one takes ``normal`` (any non-zero length). ValueError for a zero normal."""
+def plane_axes(orientation: str, normal=None, display: str = "radiological"
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(normal towards the viewer, image right, image up), unit vectors, of an orientation in a
+    display (DISPLAYS); a ``custom`` one takes ``normal`` (any non-zero length). ValueError for a
+    zero normal or an unknown orientation or display."""
+    if display not in _SEEN_FROM:
+        raise ValueError(f"unknown display {display!r}; choose one of {', '.join(DISPLAYS)}")
     if orientation in ORIENTATIONS:
-        towards_eye, up = VIEWS[ORIENTATIONS[orientation]]
+        towards_eye, up = VIEWS[_SEEN_FROM[display][orientation]]
         n, up = np.asarray(towards_eye, dtype=np.float64), np.asarray(up, dtype=np.float64)
         return n, np.cross(up, n), up
     if orientation != "custom":
@@ -122,24 +202,19 @@ def plane_axes(orientation: str, normal=None) -> tuple[np.ndarray, np.ndarray, n
     return n, np.cross(up, n), up
 
 
-def cell_box(origin, spacing, dims) -> tuple[np.ndarray, np.ndarray]:
-    """(lowest corner, size) of the voxels' cells in the world (module docstring)."""
-    spacing = np.asarray(spacing, dtype=np.float64)
-    low = np.asarray(origin, dtype=np.float64) - 0.5 * spacing
-    return low, np.asarray(dims, dtype=np.float64) * spacing
-
-
 def slice_plane(orientation: str, normal, cursor, zoom: float, origin, spacing, dims,
-                size: tuple[int, int]) -> SlicePlane:
-    """The rectangle an image of ``size`` pixels shows of a volume with that geometry (module
+                size: tuple[int, int], direction: Matrix3 = IDENTITY,
+                display: str = "radiological") -> SlicePlane:
+    """The rectangle an image of ``size`` pixels shows of a volume with that grid (module
     docstring). ``cursor`` None = the box centre. ValueError for a zero normal or zoom <= 0."""
     if not zoom > 0.0:
         raise ValueError(f"the zoom must be positive, got {zoom!r}")
-    n, right, up = plane_axes(orientation, normal)
-    low, extent = cell_box(origin, spacing, dims)
-    box_centre = low + 0.5 * extent
+    n, right, up = plane_axes(orientation, normal, display)
+    box = GridBox(_tuple(origin), _tuple(spacing), tuple(_tuple(row) for row in direction),
+                  tuple(int(d) for d in dims))
+    box_centre = box.centre()
     point = box_centre if cursor is None else np.asarray(cursor, dtype=np.float64)
-    corners = low + extent * np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    corners = box.corners()
     width_world = float(np.ptp(corners @ right))
     height_world = float(np.ptp(corners @ up))
     width, height = size
@@ -148,8 +223,7 @@ def slice_plane(orientation: str, normal, cursor, zoom: float, origin, spacing, 
     in_plane = towards - (towards @ n) * n
     centre = point + in_plane / zoom
     return SlicePlane(centre=_tuple(centre), right=_tuple(right * pixel * width),
-                      up=_tuple(up * pixel * height), normal=_tuple(n), box_low=_tuple(low),
-                      box_size=_tuple(extent))
+                      up=_tuple(up * pixel * height), normal=_tuple(n), box=box)
 
 
 def checked_plane(where: str, **arguments) -> SlicePlane:

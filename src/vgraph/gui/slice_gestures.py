@@ -4,10 +4,12 @@
   normal by one voxel step, ``SHIFT_STEPS`` steps with Shift; forward (away from the user) moves
   the plane towards the viewer (the normal points at the viewer: for the axial slice, seen from
   below, that is down). The step is one voxel along the normal: the distance whose displacement,
-  counted in voxels, is 1 long, 1 / |normal / spacing| (for an axial, coronal or sagittal slice
-  the spacing along its axis).
-  The plane stops at the first and last voxel centre along the normal. A cursor that was None
-  (the volume's centre) starts from the plane's centre, which is then the box centre.
+  counted in voxels, is 1 long, 1 / |normal in index units| (normal turned into the index axes,
+  divided by the spacing; for an axial, coronal or sagittal slice of an axis-aligned volume the
+  spacing along its axis).
+  The plane stops at the first and last voxel centre along the normal (the corners of the box of
+  voxel centres, oriented as the volume). A cursor that was None (the volume's centre) starts
+  from the plane's centre, which is then the box centre.
 - Right drag: window/level, as medical viewers do it: horizontal changes the width (right =
   wider, less contrast), vertical the centre (up = higher); a drag over the frame's height
   changes either by the volume's value range. Only with ``mapping = window`` (a TF-mapped
@@ -25,6 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from vgraph.gui.slice_clicks import PLANE_SUFFIX, VOLUME_SUFFIX, slice_viewer_for
+from vgraph.slicing import index_vectors
+from vgraph.volume_grid import IDENTITY
 
 SHIFT_STEPS = 10          # voxel steps per wheel notch with Shift
 MIN_WIDTH_FRACTION = 1e-3  # the window never gets narrower than this part of the value range
@@ -42,9 +46,10 @@ def _reported(view, viewer_id: str):
     return plane, volume
 
 
-def page_step(normal, spacing) -> float:
-    """World distance along the unit ``normal`` that spans one voxel (module docstring)."""
-    return 1.0 / float(np.linalg.norm(np.asarray(normal, float) / np.asarray(spacing, float)))
+def page_step(normal, spacing, direction=IDENTITY) -> float:
+    """World distance along the unit ``normal`` that spans one voxel of a grid with that spacing
+    and direction (module docstring)."""
+    return 1.0 / float(np.linalg.norm(index_vectors(normal, spacing, direction)))
 
 
 def begin_page(view, key) -> dict | None:
@@ -61,13 +66,10 @@ def begin_page(view, key) -> dict | None:
     plane, volume = reported
     cursor = network.get(f"{viewer_id}.cursor")
     start = np.asarray(plane.centre if cursor is None else cursor, dtype=np.float64)
-    normal, spacing = np.asarray(plane.normal, float), np.asarray(volume.spacing, float)
-    step = page_step(normal, spacing)
+    normal = np.asarray(plane.normal, float)
+    step = page_step(normal, volume.spacing, plane.box.direction)
     # the voxel centres' box projected on the normal: how far the plane may go either way
-    low = np.asarray(plane.box_low) + spacing / 2.0
-    high = np.asarray(plane.box_low) + np.asarray(plane.box_size) - spacing / 2.0
-    ends = np.array([[(low, high)[bit][axis] for axis, bit in enumerate(bits)]
-                     for bits in np.ndindex(2, 2, 2)]) @ normal
+    ends = plane.box.corners(cells=False) @ normal
     here = float(start @ normal)
     gesture.update(address=f"{viewer_id}.cursor", camera=start, normal=normal, step=step,
                    limits=((ends.min() - here) / step, (ends.max() - here) / step))
