@@ -50,7 +50,9 @@ import moderngl
 import numpy as np
 
 from vgraph import CameraProperty, FloatProperty, Inport, Outport, Processor, VGraphError
-from vgraph.clipping import ClipPlanesProperty, CropBoxProperty, cropped_box, plane_uniforms
+from vgraph.errors import PropertyError
+from vgraph.clipping import (MAX_CLIP_PLANES, ClipPlanesProperty, CropBoxProperty, crop_planes, cropped_box,
+                             plane_uniforms)
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass, set_uniforms
 from vgraph.gl.shaders import programs
 from vgraph.gl.raycasting.framed_view import framed_view, rays_box
@@ -146,7 +148,7 @@ class EntryExitPoints(Processor):
         self._targets.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
         covered = (0, 0, 0, 0)  # the crop box leaves nothing: every ray misses
         if uniforms is not None:
-            self._draw(ctx, {"CLIP_PLANES": len(self.clip_planes) or None}, uniforms)  # None: no define
+            self._draw(ctx, {"CLIP_PLANES": len(self._planes(view.frame)) or None}, uniforms)  # None: no define
             covered = footprint(uniforms["faces"]["view_projection"], self._proxy_corners, size)
         entry.covered = exit_points.covered = covered  # only there do ray casters draw (Image)
         return {"entry": entry, "exit": exit_points}
@@ -183,7 +185,8 @@ class EntryExitPoints(Processor):
             return None
         camera = view.camera
         boxes, proxy, self._hit_box, self._proxy_corners, min_spacing = cached
-        clipping = plane_uniforms(self.clip_planes, view.frame) if self.clip_planes else {}
+        planes = self._planes(view.frame)
+        clipping = plane_uniforms(planes, view.frame) if planes else {}
         return {**boxes, **clipping,
                 "faces": {**proxy["faces"], "view_projection": camera.view_projection(size[0] / size[1])},
                 "cap": proxy["cap"],
@@ -192,11 +195,28 @@ class EntryExitPoints(Processor):
                 **pixel_rays(camera, size)}  # a tile's pixels: the whole picture's rays
 
     def _framed_crop(self, frame):
-        """The crop box in the frame (as given in world units for the identity frame)."""
+        """The crop box in the frame (as given in world units for the identity frame); None in a
+        turned frame, where it cuts as six planes (_planes)."""
         crop = self.crop_box
         if crop is None or frame.is_identity:
             return crop
+        if frame.is_turned:
+            return None
         return (*frame.points(crop[:3]).tolist(), *frame.points(crop[3:]).tolist())
+
+    def _planes(self, frame) -> tuple:
+        """The clip planes, and in a turned frame (a volume tilted against the world axes) the
+        crop box's six planes after them."""
+        planes = tuple(self.clip_planes)
+        if self.crop_box is None or not frame.is_turned:
+            return planes
+        if len(planes) + 6 > MAX_CLIP_PLANES:
+            raise PropertyError(f"{self.id}.crop_box", f"the volume is tilted against the world axes, "
+                                                       f"where the crop box cuts as six planes: with "
+                                                       f"{len(planes)} clip planes that is more than "
+                                                       f"{MAX_CLIP_PLANES}; remove the crop box or "
+                                                       f"{len(planes) + 6 - MAX_CLIP_PLANES} clip planes")
+        return planes + crop_planes(self.crop_box)
 
     def _volume_uniforms(self, volumes: tuple, crop):
         """What depends on the volumes alone, worked out once per volume set (a camera drag asks

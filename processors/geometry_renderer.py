@@ -249,7 +249,10 @@ def _in_frame(geometry: Geometry, frame: BoxFrame) -> Geometry:
         return geometry
     known = _copies.get(geometry)
     if known is None or known[0] != frame:
+        normals = geometry.normals
+        if normals is not None and frame.is_turned:  # a tilted volume's frame turns them too
+            normals = frame.directions(normals).astype(np.float32)
         copy = Geometry(frame.points(geometry.vertices), geometry.triangles, colors=geometry.colors,
-                        normals=geometry.normals, scalars=geometry.scalars, source=geometry.source)
+                        normals=normals, scalars=geometry.scalars, source=geometry.source)
         known = _copies[geometry] = (frame, copy)
     return known[1]

@@ -99,13 +99,28 @@ def cropped_box(box_min, box_max, crop_box) -> tuple[np.ndarray, np.ndarray] | N
     return None if np.any(lo > hi) else (lo, hi)
 
 
+def crop_planes(crop_box) -> tuple[ClipPlane, ...]:
+    """The crop box as the six planes that keep its inside: how it cuts a volume drawn in a turned
+    frame (vgraph.box_frame), where a box along the world axes is not one along the frame's."""
+    low, high = crop_box[:3], crop_box[3:]
+    planes = []
+    for axis in range(3):
+        normal = [0.0, 0.0, 0.0]
+        normal[axis] = 1.0
+        planes.append(ClipPlane(normal=tuple(normal), point=tuple(low)))
+        normal[axis] = -1.0
+        planes.append(ClipPlane(normal=tuple(normal), point=tuple(high)))
+    return tuple(planes)
+
+
 def plane_uniforms(planes, frame=None) -> dict[str, np.ndarray]:
     """The shader's uniform arrays (float32): unit normals and offsets d (kept: dot(p, n) >= d).
-    ``frame`` (a vgraph.box_frame.BoxFrame, where an extreme box is drawn): the planes in it, p' =
-    (p - centre) / scale, so d' = (d - dot(centre, n)) / scale and the normals stay."""
+    ``frame`` (a vgraph.box_frame.BoxFrame, where an extreme or tilted box is drawn): the planes in
+    it, p' = (R^T p - centre) / scale, so n' = R^T n and d' = (d - dot(centre, n')) / scale."""
     normals = np.array([plane.unit_normal() for plane in planes], dtype=np.float64)
     offsets = np.array([plane.offset() for plane in planes], dtype=np.float64)
     if frame is not None and not frame.is_identity and len(planes):
+        normals = frame.directions(normals)
         offsets = (offsets - normals @ np.asarray(frame.centre, dtype=np.float64)) / frame.scale
     return {"clip_normals": normals.astype(np.float32), "clip_offsets": offsets.astype(np.float32)}
 

@@ -28,6 +28,10 @@ about [-1, 1]^3, as meshes (vgraph.gl.tetrahedra.frame) and surfaces are drawn.
   shading are too; a distance in world units is the frame's times ``frame.scale``.
 - A stored camera too far from a tiny box to be held in its frame is resolved in world units: it
   sees a speck either way, and the blank image is reported.
+- Oriented volumes (Volume.direction) are drawn on their axes reordered and mirrored to follow
+  the world axes (vgraph.grid_axes: a view of the voxels, nothing resampled), in a frame turned by
+  what rotation remains (none for a direction that only permutes and mirrors the world axes, as
+  LPS and RAS files do). Volumes drawn together must be turned alike (PropertyError otherwise).
 - A camera that cannot view the box at all (a Camera's limits, e.g. automatic far plane beyond
   1e15) is refused by name: PropertyError '<owner>.camera', exit 2.
 """
@@ -41,10 +45,11 @@ import numpy as np
 
 from vgraph.box_frame import BoxFrame
 from vgraph.camera import Camera
-from vgraph.errors import PropertyError
+from vgraph.errors import PropertyError, VGraphError
 from vgraph.gl.raycasting.geometry import VolumeGeometry, box_camera, view_camera
+from vgraph.grid_axes import axes_against, nearest_rotation
 from vgraph.view_geometry import as_vec3
-from vgraph.volume import Volume
+from vgraph.volume import IDENTITY, Matrix3, Volume, on_axes
 
 
 @dataclass(frozen=True)
@@ -60,6 +65,7 @@ def framed_view(camera: Camera, volumes, size, owner: str) -> FramedView:
     ``owner`` (a processor id) names the camera in errors. Every processor of a view asks with the
     same camera and volumes and gets the same numbers."""
     volumes, size = tuple(volumes), tuple(size)
+    _check_turned_alike(volumes, owner)
     last = _last_view[0]
     if last is not None and last[0] is camera and last[2] == size and _same(last[1], volumes):
         frame, resolved, world = last[3]  # the second processor of a frame
@@ -80,26 +86,63 @@ def _same(refs: tuple, volumes: tuple) -> bool:
 def rays_box(volumes) -> tuple[np.ndarray, np.ndarray, float]:
     """(min, max, min spacing) of the box the rays span: the union of the volumes' boxes of voxel
     centres and the smallest spacing of all of them (it scales BOX_EPSILON and the jitter). One
-    volume: its own box and spacing, exactly."""
-    geometries = [VolumeGeometry.of(volume) for volume in volumes]
-    low, high = geometries[0].box
-    for geometry in geometries[1:]:
-        low, high = np.minimum(low, geometry.box[0]), np.maximum(high, geometry.box[1])
-    return low, high, min(float(geometry.spacing.min()) for geometry in geometries)
+    volume: its own box and spacing, exactly. An oriented volume's box is the world box that holds
+    it (Volume.world_box)."""
+    boxes = [VolumeGeometry.of(v).box if v.is_axis_aligned else v.world_box() for v in volumes]
+    low, high = boxes[0]
+    for box in boxes[1:]:
+        low, high = np.minimum(low, box[0]), np.maximum(high, box[1])
+    return low, high, min(float(np.min(volume.spacing)) for volume in volumes)
 
 
 def volume_in_frame(volume: Volume, frame: BoxFrame) -> Volume:
-    """``volume`` moved and scaled into ``frame`` (itself for the identity frame): the same voxels
-    and values on the grid spacing / scale from (origin - centre) / scale; a BrickedVolume stays
-    bricked (its pyramid regridded, nothing read). Kept while the volume lives."""
-    if frame.is_identity:
+    """``volume`` moved into ``frame`` (itself for the identity frame and an axis-aligned volume):
+    the same voxels and values on its axes reordered and mirrored to follow the frame's
+    (vgraph.grid_axes), on the grid spacing / scale from the frame's point of its origin, axis
+    aligned there; a BrickedVolume stays bricked (its pyramid regridded, nothing read). Kept while
+    the volume lives."""
+    if frame.is_identity and volume.is_axis_aligned:
         return volume
     known = _copies.get(volume)
     if known is None or known[0] != frame:
-        spacing = as_vec3(np.asarray(volume.spacing, dtype=np.float64) / frame.scale)
-        origin = as_vec3(frame.points(volume.origin))
-        known = _copies[volume] = (frame, volume.with_overrides(spacing, origin))
+        moved = on_axes(volume, axes_against(volume.direction, frame.rotation))
+        spacing = as_vec3(np.asarray(moved.spacing, dtype=np.float64) / frame.scale)
+        origin = as_vec3(frame.points(moved.origin))
+        known = _copies[volume] = (frame, moved.with_overrides(spacing, origin, direction=IDENTITY))
     return known[1]
+
+
+def frame_rotation(volumes) -> Matrix3:
+    """The rotation of the frame ``volumes`` are drawn in: the first volume's nearest rotation
+    (vgraph.grid_axes), its own direction for a bricked volume (whose axes cannot be reordered
+    for free)."""
+    first = volumes[0]
+    if first.bricks is None:
+        return nearest_rotation(first.direction)[0]
+    if np.linalg.det(np.asarray(first.direction)) < 0.0:
+        raise VGraphError(f"volume from {first.source or 'a brick store'}: its axes are mirrored "
+                          f"(direction {np.round(first.direction, 6).tolist()}), which a brick "
+                          f"pyramid cannot be drawn with; convert it again with vgraph convert, "
+                          f"which stores it on unmirrored axes")
+    return first.direction
+
+
+def _check_turned_alike(volumes: tuple, owner: str) -> None:
+    """Refuse volumes whose grids are turned against each other by more than a reordering and
+    mirroring of axes: one frame cannot draw both as boxes."""
+    if all(v.is_axis_aligned for v in volumes) or len(volumes) == 1:
+        return
+    rotation = frame_rotation(volumes)
+    for number, volume in enumerate(volumes[1:], start=2):
+        if axes_against(volume.direction, rotation) is None or volume.bricks is not None \
+                and rotation != volume.direction:
+            raise PropertyError(f"{owner}.volume{number}",
+                                f"{volume.source or 'the volume'} is turned against "
+                                f"{volumes[0].source or 'the first volume'} (directions "
+                                f"{np.round(volume.direction, 6).tolist()} and "
+                                f"{np.round(volumes[0].direction, 6).tolist()}): volumes drawn "
+                                f"together must share their axes up to order and mirroring; "
+                                f"resample one onto the other's grid")
 
 
 _copies: "weakref.WeakKeyDictionary[Volume, tuple[BoxFrame, Volume]]" = weakref.WeakKeyDictionary()
@@ -111,8 +154,13 @@ def _box_frame(volumes: tuple) -> tuple[BoxFrame, np.ndarray, np.ndarray]:
     last = _last_frame[0]
     if last is not None and _same(last[0], volumes):
         return last[1]
-    low, high, _ = rays_box(volumes)
-    known = (BoxFrame.of(low, high), low, high)
+    if all(v.is_axis_aligned for v in volumes):
+        low, high, _ = rays_box(volumes)
+        known = (BoxFrame.of(low, high), low, high)
+    else:  # the box in the turned coordinates, where the volumes are axis-aligned
+        rotation = frame_rotation(volumes)
+        low, high, _ = rays_box([volume_in_frame(v, BoxFrame(rotation=rotation)) for v in volumes])
+        known = (BoxFrame.of(low, high, rotation), low, high)
     _last_frame[0] = (tuple(weakref.ref(v) for v in volumes), known)
     return known
 
@@ -129,7 +177,7 @@ def _resolved_view(camera: Camera, volumes: tuple, size, owner: str):
         frame, in_frame = BoxFrame(), camera
     try:
         if frame.is_identity:  # as before, to the last bit
-            resolved = view_camera(camera, volumes[0], size) if len(volumes) == 1 \
+            resolved = view_camera(camera, volume_in_frame(volumes[0], frame), size) if len(volumes) == 1 \
                 else box_camera(camera, low, high, size)
             return frame, resolved, resolved
         framed_low, framed_high, _ = rays_box([volume_in_frame(v, frame) for v in volumes])
