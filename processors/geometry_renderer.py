@@ -104,7 +104,7 @@ class GeometryRenderer(Processor):
         textures = {"colormap": self._colormap(ctx)} if coloring == "scalar" else {}
         framebuffer.use()
         bind_textures(program, textures)
-        uniforms = self._uniforms(drawn, camera, size, coloring)
+        uniforms = self._uniforms(drawn, camera, size, coloring, frame)
         uniforms["world_length"] = frame.scale
         for name, value in uniforms.items():
             set_uniform(program, name, value)
@@ -166,7 +166,7 @@ class GeometryRenderer(Processor):
         self.view_camera = frame.world_camera(camera)
         return frame, drawn, camera
 
-    def _uniforms(self, geometry: Geometry, camera, size, coloring: str) -> dict:
+    def _uniforms(self, geometry: Geometry, camera, size, coloring: str, frame: BoxFrame) -> dict:
         rays = ray_uniforms(camera, size)
         uniforms = {"view_projection": camera.view_projection(size[0] / size[1]),
                     "viewport_size": (float(size[0]), float(size[1])),
@@ -180,7 +180,7 @@ class GeometryRenderer(Processor):
         elif coloring == "scalar":
             uniforms["scalar_low"], uniforms["scalar_high"] = self.scalar_bounds(geometry)
         if self.shading == "blinn_phong":
-            shading = shading_uniforms(self, 1.0)  # unit normals: only a zero normal stays unshaded
+            shading = shading_uniforms(self, 1.0, frame)  # unit normals: only a zero normal stays unshaded
             if self.light == "headlight":
                 shading.pop("light_direction")
             uniforms.update(shading)

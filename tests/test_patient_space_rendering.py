@@ -50,10 +50,15 @@ def stored(volume: Volume, order, signs) -> Volume:
                   direction=tuple(map(tuple, direction)), source="stored")
 
 
-def render(volume: Volume, camera: Camera, **eep) -> np.ndarray:
+EEP_PROPERTIES = ("crop_box", "clip_planes")
+
+
+def render(volume: Volume, camera: Camera, **properties) -> np.ndarray:
+    """The RayCaster's picture; ``properties`` of the EntryExitPoints (crop box, clip planes) or
+    of the ray caster."""
     network = ray_caster_network(volume, camera, transfer_function="auto", shading="blinn_phong")
-    for name, value in eep.items():
-        network.set(f"eep.{name}", value)
+    for name, value in properties.items():
+        network.set(f"{'eep' if name in EEP_PROPERTIES else 'rc'}.{name}", value)
     return network.evaluate("rc.image", size=SIZE)
 
 
@@ -106,18 +111,28 @@ def tilted(volume: Volume, degrees: float) -> Volume:
                   direction=tuple(map(tuple, rotation)), source="tilted")
 
 
-def test_a_tilted_volume_seen_by_a_camera_turned_with_it_gives_the_untilted_picture():
-    """Turning the volume and the camera together changes nothing: the tilt is kept, not dropped."""
-    volume, degrees = ras_volume(), 35.0
-    camera = DEFAULT_CAMERA.viewed_from("left")
+def x_rotation(degrees: float) -> np.ndarray:
     angle = math.radians(degrees)
-    rotation = np.array([[1, 0, 0], [0, math.cos(angle), -math.sin(angle)], [0, math.sin(angle), math.cos(angle)]])
-    turned_camera = camera._replace(position=tuple(rotation @ np.asarray(camera.position)),
-                                    focus=tuple(rotation @ np.asarray(camera.focus)),
-                                    up=tuple(rotation @ np.asarray(camera.up)))
-    straight = render(volume, camera)
-    turned = render(tilted(volume, degrees), turned_camera)
-    np.testing.assert_allclose(turned, straight, atol=2e-3)
+    return np.array([[1, 0, 0], [0, math.cos(angle), -math.sin(angle)], [0, math.sin(angle), math.cos(angle)]])
+
+
+def turned(camera: Camera, rotation: np.ndarray) -> Camera:
+    return camera._replace(position=tuple(rotation @ np.asarray(camera.position)),
+                           focus=tuple(rotation @ np.asarray(camera.focus)),
+                           up=tuple(rotation @ np.asarray(camera.up)))
+
+
+@pytest.mark.parametrize("light", ["headlight", "direction"])
+def test_a_tilted_volume_seen_by_a_camera_turned_with_it_gives_the_untilted_picture(light):
+    """Turning the volume, the camera and the light together changes nothing: the tilt is kept,
+    not dropped."""
+    volume, degrees = ras_volume(), 35.0
+    camera, light_direction = DEFAULT_CAMERA.viewed_from("left"), np.array([0.2, -1.0, 0.5])
+    rotation = x_rotation(degrees)
+    straight = render(volume, camera, light=light, light_direction=tuple(light_direction))
+    tilted_view = render(tilted(volume, degrees), turned(camera, rotation), light=light,
+                         light_direction=tuple(rotation @ light_direction))
+    np.testing.assert_allclose(tilted_view, straight, atol=2e-3)
     # and the tilt shows: the same camera sees the tilted head differently
     assert np.abs(render(tilted(volume, degrees), camera) - straight).max() > 0.2
 

@@ -8,6 +8,14 @@ volume's size: level 0's slab, at most one slab being assembled per coarser leve
 halving's pieces. The levels equal ArrayPyramid's exactly, since a 2x2x2 group never straddles
 two slabs (the brick's z size is even).
 
+Orientation: OME-Zarr 0.4/0.5 hold a scale and a translation per level, no rotation. A volume
+whose direction is not the identity keeps it in the store's "vgraph" attributes (BrickStore reads
+it back), with a StoreOrientationWarning: other tools show such a store unrotated. A mirrored
+direction (determinant -1) is stored as a rotation by storing the voxels of every x row in
+reverse order (the origin moves to the last voxel of the row), so that every voxel keeps its
+world position: a brick pyramid cannot be mirrored for free when it is drawn (the ray casters
+turn a box by a rotation; mirroring would mean reading every brick reversed).
+
 The store is written into a temporary folder beside OUT (``.<OUT name>.<pid>.<random>.tmp``) and
 renamed to OUT only when complete; an existing OUT is replaced only then, and only if it is a
 zarr store. A failure removes the temporary folder and leaves OUT as it was.
@@ -15,6 +23,7 @@ zarr store. A failure removes the temporary folder and leaves OUT as it was.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import resource
@@ -23,6 +32,7 @@ import sys
 import tempfile
 import time
 import tracemalloc
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,9 +44,10 @@ from vgraph.atomic import remove_stale_temporaries
 from vgraph.bricks.pyramid import Level, halve, level_count, next_level
 from vgraph.bricks.slabs import SlabInput, open_input
 from vgraph.bricks.store_writer import StoreWriter
-from vgraph.errors import OutputFileError, VGraphError
+from vgraph.errors import OutputFileError, VGraphError, VGraphWarning
 from vgraph.io._common import format_bytes
 from vgraph.value_range import range_of
+from vgraph.volume_grid import checked_direction, is_identity
 
 DEFAULT_BRICK = 64
 MAX_BRICK = 1024
@@ -87,14 +98,20 @@ def convert(source, output, *, brick=DEFAULT_BRICK, levels: int | None = None, r
         tracemalloc.start()
         tracemalloc.reset_peak()
     try:
-        data = open_input(source, raw=raw, time_step=time_step)
+        data, mirrored = as_rotation(open_input(source, raw=raw, time_step=time_step))
         pyramid = _levels(data, brick, levels)
         with atomic_folder(output) as folder:
             writer = StoreWriter(folder, pyramid, data.dtype, brick)
-            stats = _write_levels(data, writer, brick, progress)
+            stats = _write_levels(data, writer, brick, progress, mirrored)
             value_range = data.declared_range or range_of(stats.data_range)
             writer.finish(value_range, data.declared_range, stats.data_range, stats.nonfinite,
-                          name=Path(str(source)).name)
+                          name=Path(str(source)).name, direction=data.direction)
+        if not is_identity(data.direction):
+            warnings.warn(StoreOrientationWarning(
+                f"{output}: the volume's axes are turned against the world's (direction "
+                f"{np.round(data.direction, 4).tolist()}{', x mirrored to make it a rotation' if mirrored else ''}); "
+                f"OME-Zarr holds no rotation, so it is kept in the store's vgraph attributes: "
+                f"vgraph reads it back, other tools show the store unrotated"), stacklevel=2)
         traced = tracemalloc.get_traced_memory()[1] if trace_memory else None
     finally:
         if trace_memory:
@@ -105,6 +122,22 @@ def convert(source, output, *, brick=DEFAULT_BRICK, levels: int | None = None, r
                          str(data.dtype), tuple(value_range), time.perf_counter() - began,
                          resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
                          _folder_bytes(output), traced, notes)
+
+
+class StoreOrientationWarning(VGraphWarning):
+    """A store's direction is not the identity: only vgraph reads it back (module docstring)."""
+
+
+def as_rotation(data: SlabInput) -> tuple[SlabInput, bool]:
+    """The input with a proper rotation as its direction, and whether its x rows must be stored
+    reversed for that (a mirrored direction: the module docstring says why)."""
+    direction = np.asarray(data.direction)
+    if np.linalg.det(direction) > 0:
+        return data, False
+    last_x = (data.shape[2] - 1) * data.spacing[0]
+    origin = tuple(float(v) for v in np.asarray(data.origin) + direction[:, 0] * last_x)
+    direction = direction * np.array([-1.0, 1.0, 1.0])  # the x column turned round
+    return dataclasses.replace(data, origin=origin, direction=checked_direction(direction)), True
 
 
 def checked_brick(brick) -> tuple[int, int, int]:
@@ -140,8 +173,9 @@ class _Stats:
         return (self.low, self.high) if self.low <= self.high else None
 
 
-def _write_levels(data: SlabInput, writer: StoreWriter, brick, progress: bool) -> _Stats:
-    """Stream level 0 slab by slab, feeding the coarser levels as halves come in."""
+def _write_levels(data: SlabInput, writer: StoreWriter, brick, progress: bool, mirrored: bool) -> _Stats:
+    """Stream level 0 slab by slab, feeding the coarser levels as halves come in; ``mirrored``:
+    each x row reversed (as_rotation)."""
     stats, bz = _Stats(), brick[2]
     cascade = _Cascade(writer, bz)
     depth = data.shape[0]
@@ -149,6 +183,8 @@ def _write_levels(data: SlabInput, writer: StoreWriter, brick, progress: bool) -
               leave=False, disable=None if progress else True) as bar:
         for z0 in range(0, depth, bz):
             slab = data.slab(z0, min(z0 + bz, depth))
+            if mirrored:
+                slab = np.ascontiguousarray(slab[:, :, ::-1])
             _count(slab, stats)
             cascade.push(0, slab)
             bar.update(slab.shape[0])

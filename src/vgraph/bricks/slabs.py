@@ -22,9 +22,10 @@ import numpy as np
 from vgraph.errors import VolumeFileError
 from vgraph.io import extension_of, read_volume
 from vgraph.io import metaimage, nifti, nrrd_data, nrrd_format, numpy_format
-from vgraph.io._common import (_data_start, check_dims, check_origin, check_time_step,
+from vgraph.io._common import (_data_start, check_dims, check_time_step,
                                parse_numbers, regular_file, to_native)
 from vgraph.io.raw import _checked_description, description_from_name
+from vgraph.volume_grid import IDENTITY
 
 
 @dataclass
@@ -42,6 +43,7 @@ class SlabInput:
     start: int = 0
     file_dtype: np.dtype | None = None    # the stored byte order
     volume: object = None                 # the whole Volume when it was read whole
+    direction: tuple = IDENTITY           # in RAS, as the reader gives it (vgraph.io.orientation)
 
     @property
     def streamed(self) -> bool:
@@ -81,13 +83,17 @@ def open_input(path, raw: dict | None = None, time_step: int = 0) -> SlabInput:
 def _whole(path: Path, raw, time_step: int, reason: str) -> SlabInput:
     volume = read_volume(path, raw=raw, time_step=time_step)
     return SlabInput(volume.data.shape, volume.data.dtype, volume.spacing, volume.origin,
-                     volume.declared_range, str(path), f"read whole ({reason})", volume=volume)
+                     volume.declared_range, str(path), f"read whole ({reason})", volume=volume,
+                     direction=volume.direction)
 
 
-def _streamed(path, data_file, start, file_dtype, dims, spacing, origin, declared, kind) -> SlabInput:
+def _streamed(path, data_file, start, file_dtype, dims, grid, declared, kind) -> SlabInput:
+    """``grid``: (spacing, origin, direction) as the format's reader works them out."""
+    spacing, origin, direction = grid
     return SlabInput(tuple(dims[::-1]), np.dtype(file_dtype).newbyteorder("="), tuple(spacing),
                      tuple(origin), declared, str(path), f"streamed ({kind}, slab by slab)",
-                     file=Path(data_file), start=start, file_dtype=np.dtype(file_dtype))
+                     file=Path(data_file), start=start, file_dtype=np.dtype(file_dtype),
+                     direction=direction)
 
 
 def _checked_start(data_file, header, dims, dtype, offset, allow_trailing, field,
@@ -113,7 +119,7 @@ def _raw(path: Path, description, time_step: int):
     check_time_step(path, time_step, 1)
     start = _checked_start(path, path, dims, dtype, 0 if offset is None else offset,
                            offset is not None, "dims")
-    return _streamed(path, path, start, dtype, dims, spacing, origin, None, "raw")
+    return _streamed(path, path, start, dtype, dims, (spacing, origin, IDENTITY), None, "raw")
 
 
 def _nrrd(path: Path, time_step: int):
@@ -136,9 +142,8 @@ def _nrrd(path: Path, time_step: int):
     start = nrrd_data._after_lines(file, data_offset if data_file is None else 0, line_skip, path)
     offset = -1 if byte_skip == -1 else start + byte_skip
     start = _checked_start(file, path, dims, dtype, offset, explicit, "sizes", time_step, time_steps)
-    return _streamed(path, file, start, dtype, dims, nrrd_format._spacing(header, path),
-                     nrrd_format._origin(header, path), nrrd_format._declared_range(header, path),
-                     "NRRD raw")
+    return _streamed(path, file, start, dtype, dims, nrrd_format.grid_of(header, path),
+                     nrrd_format._declared_range(header, path), "NRRD raw")
 
 
 def _nifti(path: Path, time_step: int):
@@ -154,9 +159,7 @@ def _nifti(path: Path, time_step: int):
         return "NIfTI with scl_slope/scl_inter scaling"
     start = _checked_start(path, path, dims, stored, header.get_data_offset(), True, "dim",
                            time_step, time_steps)
-    affine = nifti._checked(path, "qform/sform", header.get_best_affine)
-    return _streamed(path, path, start, stored, dims, nifti._spacing(header, path),
-                     check_origin(affine[:3, 3], path, "qoffset/srow"),
+    return _streamed(path, path, start, stored, dims, nifti.grid_of(header, path),
                      nifti._declared_range(header), "NIfTI")
 
 
@@ -187,9 +190,8 @@ def _metaimage(path: Path, time_step: int):
         offset = 0 if header_size is None else header_size
     start = _checked_start(data_file, path, dims, dtype, offset,
                            header_size is not None, "DimSize", time_step, time_steps)
-    return _streamed(path, data_file, start, dtype, dims, metaimage._spacing(fields, path, ndims),
-                     metaimage._origin(fields, path, ndims), metaimage._range(fields, path),
-                     "MetaImage raw")
+    return _streamed(path, data_file, start, dtype, dims, metaimage.grid_of(fields, path, ndims),
+                     metaimage._range(fields, path), "MetaImage raw")
 
 
 def _npy(path: Path, time_step: int):
@@ -207,5 +209,5 @@ def _npy(path: Path, time_step: int):
     zyx = shape[-3:] if len(shape) >= 3 else (1, *shape)
     start = _checked_start(path, path, zyx[::-1], dtype, data_offset, False, "shape",
                            time_step, time_steps)
-    return _streamed(path, path, start, dtype, zyx[::-1], (1.0, 1.0, 1.0), (0.0, 0.0, 0.0), None,
-                     "NumPy .npy")
+    return _streamed(path, path, start, dtype, zyx[::-1], ((1.0, 1.0, 1.0), (0.0, 0.0, 0.0), IDENTITY),
+                     None, "NumPy .npy")

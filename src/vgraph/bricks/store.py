@@ -43,6 +43,7 @@ from vgraph.bricks.store_files import CheckedStore, StoreFileError, run
 from vgraph.errors import VGraphError, VolumeFileError
 from vgraph.io._common import TimeStepError, check_memory, to_native
 from vgraph.value_range import range_of
+from vgraph.volume_grid import IDENTITY
 
 SAMPLE_VOXELS = 2**22  # voxels read for another tool's value range: 4 M ...
 SAMPLE_BRICKS = 2**10  # ... in at most 1024 bricks (a read each: about 0.5 ms a chunk here)
@@ -75,6 +76,7 @@ class BrickStore:
         meta.check_extents(levels, self.path)
         self.dtype = dtypes[0]
         self.ours = meta.our_attributes(attributes, len(levels), math.prod(levels[0].shape), self.path)
+        self.direction = self.ours["direction"] if self.ours else IDENTITY  # BrickedVolume takes it
         self.brick = tuple(int(self.arrays[0].chunks[a]) for a in self._space[::-1])
         if self.ours:
             meta.check_our_pyramid(levels, self.path)

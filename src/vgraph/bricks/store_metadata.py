@@ -21,6 +21,7 @@ import numpy as np
 from vgraph.bricks.pyramid import Level, brick_grid, next_level
 from vgraph.errors import VGraphWarning, VolumeFileError
 from vgraph.io._common import format_bytes
+from vgraph.volume_grid import IDENTITY, VolumeGeometryError, checked_direction
 
 MAX_CHUNK_BYTES = 2**30  # one decoded chunk: zarr holds it whole while reading any voxel of it
 MAX_BRICKS = 2**24       # per level: the per-brick ranges are arrays of this many values
@@ -276,10 +277,25 @@ def our_attributes(attributes: dict, levels: int, voxels: int, path) -> dict | N
     if not (isinstance(nonfinite, int) and not isinstance(nonfinite, bool) and 0 <= nonfinite <= voxels):
         raise VolumeFileError(path, f"nonfinite must be a count of voxels (0 to {voxels}), got "
                                     f"{_short(nonfinite)}", "vgraph.nonfinite")
-    return {"brick": tuple(brick), "nonfinite": nonfinite,
+    return {"brick": tuple(brick), "nonfinite": nonfinite, "direction": _direction(ours, path),
             "value_range": _range(ours.get("value_range"), "value_range", path, required=True),
             "declared_range": _range(ours.get("declared_range"), "declared_range", path),
             "data_range": _range(ours.get("data_range"), "data_range", path)}
+
+
+def _direction(ours: dict, path):
+    """vgraph.direction (rows of Volume.direction, written by vgraph convert for a turned
+    volume: NGFF 0.4/0.5 hold no rotation), default identity."""
+    if "direction" not in ours:
+        return IDENTITY
+    value = ours["direction"]
+    if not (isinstance(value, list) and len(value) == 3 and all(_numbers(row, 3) is not None for row in value)):
+        raise VolumeFileError(path, f"direction must be three rows of three numbers, got {_short(value)}",
+                              "vgraph.direction")
+    try:
+        return checked_direction(value)
+    except VolumeGeometryError as error:
+        raise VolumeFileError(path, error.reason, "vgraph.direction") from None
 
 
 def _range(value, name: str, path, required: bool = False):

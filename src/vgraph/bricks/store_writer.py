@@ -4,7 +4,9 @@ Layout of a store (zarr v3, OME-NGFF 0.5):
   zarr.json               group attributes: "ome" (NGFF multiscales: axes z, y, x of type space,
                           one dataset per level with its scale and translation) and "vgraph"
                           (format version, brick (x, y, z), value_range, declared_range,
-                          data_range, nonfinite voxel count, levels)
+                          data_range, nonfinite voxel count, levels, and "direction" when the
+                          volume's axes are turned: the rows of Volume.direction, a rotation,
+                          which NGFF 0.4/0.5 cannot hold; other tools see the store unrotated)
   0, 1, ... N-1           one array per pyramid level, [z, y, x], chunks = the brick, Blosc zstd
   vgraph/min/<k>          per-brick min and max of level k's finite voxels, float64 arrays of
   vgraph/max/<k>          the brick grid [bz, by, bx] (NaN: no finite voxel in that brick)
@@ -22,6 +24,7 @@ import zarr
 from zarr.codecs import BloscCodec
 
 from vgraph.bricks.pyramid import Level, block_ranges, brick_grid
+from vgraph.volume_grid import IDENTITY, is_identity
 
 FORMAT_VERSION = 1
 NGFF_VERSION = "0.5"
@@ -89,16 +92,19 @@ class StoreWriter:
         return low, high
 
     def finish(self, value_range, declared_range, data_range, nonfinite: int,
-               unit: str | None = None, name: str = "") -> None:
+               unit: str | None = None, name: str = "", direction=IDENTITY) -> None:
         """The group attributes, written last: a store without them is not a finished store."""
+        ours = {"format": FORMAT_VERSION, "brick": list(self.brick),
+                "value_range": _floats(value_range),
+                "declared_range": _floats(declared_range) if declared_range else None,
+                "data_range": _floats(data_range) if data_range else None,
+                "nonfinite": int(nonfinite), "levels": len(self.levels),
+                "ranges": "vgraph/min/<level>, vgraph/max/<level>"}
+        if not is_identity(direction):  # stores of unturned volumes stay as they were
+            ours["direction"] = [_floats(row) for row in direction]
         self.group.attrs.update({
             "ome": {"version": NGFF_VERSION, "multiscales": multiscales(self.levels, unit, name)},
-            "vgraph": {"format": FORMAT_VERSION, "brick": list(self.brick),
-                       "value_range": _floats(value_range),
-                       "declared_range": _floats(declared_range) if declared_range else None,
-                       "data_range": _floats(data_range) if data_range else None,
-                       "nonfinite": int(nonfinite), "levels": len(self.levels),
-                       "ranges": "vgraph/min/<level>, vgraph/max/<level>"},
+            "vgraph": ours,
         })
 
 

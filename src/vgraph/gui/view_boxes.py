@@ -3,14 +3,14 @@ computes it, as it holds the data; the GUI process holds none).
 
 ``view_boxes(network)`` maps 'id.camera' (the keys of ``evaluator.view_cameras``) to the
 (min, max) corners, (x, y, z) world units, of the data that processor drew: a volume's box spanned
-by its voxel centres (``VolumeGeometry.box``, what the ray casters intersect), a mesh's bounds.
+by its voxel centres (``Volume.world_box``: for an oriented volume the axis-aligned box that holds
+it), a mesh's bounds.
 With the view camera of the same frame, the GUI projects the box's corners onto the canvas.
 """
 
 from __future__ import annotations
 
 from vgraph.camera import Camera
-from vgraph.gl.raycasting.geometry import VolumeGeometry
 from vgraph.mesh import TetMesh
 from vgraph.network import Network
 from vgraph.volume import Volume
@@ -36,7 +36,7 @@ def _drawn_box(network: Network, processor_id: str) -> Box | None:
         for connection in network.inputs_of(processor_id, inport.name):
             data = network[connection.source].outputs.get(connection.outport)
             if isinstance(data, Volume):
-                low, high = VolumeGeometry.of(data).box
+                low, high = data.world_box()  # an oriented volume's turned box, held
             elif isinstance(data, TetMesh):
                 low, high = data.box
             else:

@@ -352,7 +352,7 @@ class Light(Component):
         if not processor.shaded():
             return Binding()
         return Binding(defines={"SHADING_BLINN_PHONG": True, "LIGHT_HEADLIGHT": processor.light == "headlight"},
-                       uniforms=shading_uniforms(processor, frame.min_spacing))
+                       uniforms=shading_uniforms(processor, frame.min_spacing, frame.box_frame))
 
 
 class EmptySpace(Component):
