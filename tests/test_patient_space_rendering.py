@@ -6,6 +6,8 @@ import math
 import numpy as np
 import pytest
 
+from vgraph.bricks.pyramid import ArrayPyramid
+from vgraph.bricks.volume import BrickedVolume
 from vgraph.camera import VIEW_NAMES, Camera
 from vgraph.clipping import ClipPlane
 from vgraph.errors import VGraphError
@@ -156,3 +158,28 @@ def test_a_stored_camera_is_kept_in_world_for_an_lps_volume():
     ras = ras_volume()
     camera = Camera.looking_at_box(*ras.world_box(), direction=(0.3, -1.0, -0.2), up=(0, 0, 1))
     np.testing.assert_allclose(render(stored(ras, *LPS), camera), render(ras, camera), atol=2e-6)
+
+
+def test_the_bricked_ray_caster_draws_a_tilted_volume_as_the_ray_caster_does():
+    volume = tilted(ras_volume(), 35.0)
+    camera = DEFAULT_CAMERA.viewed_from("anterior")
+    want = render(volume, camera, early_termination=1.0)
+    network = ray_caster_network(volume, camera, "BrickedRayCaster", transfer_function="auto",
+                                 shading="blinn_phong", brick_size=8, lod_bias=-16.0)
+    np.testing.assert_allclose(network.evaluate("rc.image", size=SIZE), want, atol=2e-3)
+
+
+def test_a_turned_brick_store_is_drawn_as_the_same_volume_in_memory():
+    volume = tilted(ras_volume(), 35.0)
+    bricked = BrickedVolume(ArrayPyramid(volume.data, volume.spacing, volume.origin, brick=(8, 8, 8)),
+                            direction=volume.direction)
+    camera = DEFAULT_CAMERA.viewed_from("left")
+    np.testing.assert_allclose(render(bricked, camera), render(volume, camera), atol=2e-3)
+
+
+def test_a_mirrored_brick_store_is_refused_by_name():
+    volume = stored(ras_volume(), (0, 1, 2), (-1, 1, 1))
+    bricked = BrickedVolume(ArrayPyramid(volume.data, volume.spacing, volume.origin, brick=(8, 8, 8),
+                                         source="mirrored.zarr"), direction=volume.direction)
+    with pytest.raises(VGraphError, match=r"mirrored\.zarr: its axes are mirrored.*vgraph convert"):
+        render(bricked, DEFAULT_CAMERA)
