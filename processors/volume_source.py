@@ -120,14 +120,21 @@ class VolumeSource(Processor):
 
     def _warn_if_flat(self, volume: Volume) -> None:
         """A volume one voxel thick spans a box of zero thickness along that axis: face-on it is
-        a flat plane, from the side nothing at all, which looks like a broken renderer."""
+        a flat plane, from the side nothing at all, which looks like a broken renderer. Said only
+        where it is drawn so: a SliceViewer shows such a volume as the image it is."""
         flat = [axis for axis, size in zip("xyz", volume.dims) if size == 1]
-        if flat:
+        if flat and not self._feeds_only_slices():
             warnings.warn(VGraphWarning(
                 f"{self.id}: {volume.source} is one voxel thick along {' and '.join(flat)} "
                 f"({' x '.join(map(str, volume.dims))} voxels): its box has zero thickness there, "
                 f"so it renders as a flat plane seen face-on and as nothing from the side"),
                 stacklevel=2)
+
+    def _feeds_only_slices(self) -> bool:
+        network = self.network
+        consumers = [network[c.target].type_name for c in network.connections_of(self.id)
+                     if c.source == self.id] if network is not None else []
+        return bool(consumers) and all(name == "SliceViewer" for name in consumers)
 
 
 def zarr_store(path: Path) -> Path | None:

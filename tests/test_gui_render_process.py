@@ -120,11 +120,14 @@ def test_a_render_process_that_dies_mid_job_is_reported_and_replaced():
 
 
 def test_the_server_reports_warnings_value_scales_and_the_cameras_it_framed(tmp_path):
-    """A 1-slice volume warns (the GUI logs it); a fitting camera's frame is sent back (zooming
-    starts from it) with the value scale a TF in data units is edited over."""
+    """A 1-slice volume ray cast warns (the GUI logs it); a fitting camera's frame is sent back
+    (zooming starts from it) with the value scale a TF in data units is edited over."""
     import nrrd
+    from vgraph.file_kind import FileKind
+    from vgraph.volume_network import volume_network
     nrrd.write(str(tmp_path / "slice.nrrd"), np.arange(48, dtype=np.uint16).reshape(6, 8, 1))
-    network = vgraph.load(tmp_path / "slice.nrrd")
+    # ray cast although it is a slice (vgraph.load would show it in a SliceViewer)
+    network = volume_network(tmp_path / "slice.nrrd", kind=FileKind("volume", "", ""))
     server = RenderServer()
     result = server.handle(RenderJob(1, network_document(network), str(tmp_path)))
     assert result.error is None

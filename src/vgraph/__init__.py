@@ -37,11 +37,13 @@ class _Services:
 _bind_services(_Services())
 
 
-def load(path, allow_write=()) -> Network:
+def load(path, allow_write=(), render_as=None) -> Network:
     """Load a saved .json network (raises NetworkFileError naming the JSON path of each problem).
-    Its writers may write inside the file's folder and the folders in ``allow_write``."""
+    Its writers may write inside the file's folder and the folders in ``allow_write``. A data file
+    gives the standard network for what it holds (vgraph.volume_network); ``render_as``
+    ("labels" or "intensity") overrides that choice for a volume."""
     from vgraph.fileformat import load_network
-    return load_network(path, allow_write)
+    return load_network(path, allow_write, render_as)
 
 
 def register(processor_class):

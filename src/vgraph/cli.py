@@ -20,9 +20,11 @@ from pathlib import Path
 import vgraph
 from vgraph import animation
 from vgraph.camera import VIEW_NAMES
+from vgraph.cli_data import add_render_as, loaded
 from vgraph.cli_values import parse_size, set_from_command_line, set_view, user_path
 from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
 from vgraph.memory import out_of_memory
+from vgraph.volume_network import is_volume_path
 from vgraph.write_paths import check_writers
 
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT = 0, 1, 2
@@ -79,8 +81,9 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(title="commands")
 
     run = commands.add_parser("run", help="evaluate a network and write its output")
-    run.add_argument("network", type=user_path, help="the .json network, or a volume file (rendered by the "
-                                                "standard network: docs/own-data.md)")
+    run.add_argument("network", type=user_path, help="the .json network, or a data file: a volume, a "
+                                                "single slice, a PNG or JPEG (rendered by the standard "
+                                                "network for what it holds: docs/own-data.md)")
     run.add_argument("-o", "--output", type=user_path, metavar="OUT.png",
                      help="write the image as an 8-bit PNG")
     run.add_argument("--data", action="append", default=[], type=user_path, metavar="OUT",
@@ -100,6 +103,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="write which processors ran and their times (each with its GL work: the GL is "
                           "finished after each processor), and the one that failed")
     run.add_argument("--plugin", action="append", metavar="MODULE", help="import a plug-in module")
+    add_render_as(run)
     add_allow_write(run)
     run.add_argument("--cluster", metavar="local:N|tcp://HOST:PORT",
                      help="render on a Dask cluster: N local worker processes, or a running scheduler "
@@ -129,6 +133,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="wait until the canvases have rendered, save the window as a PNG and exit")
     gui.add_argument("--select", metavar="ID", help="select this processor (its properties show)")
     gui.add_argument("--window-size", type=parse_size, metavar="WxH", help="window size in pixels")
+    add_render_as(gui)
     gui.set_defaults(command=command_gui)
 
     add_convert_parser(commands)
@@ -203,7 +208,7 @@ def command_run(args) -> int:
     outputs = requested_outputs(args)  # refused before a long evaluation, not after
     if args.profile is not None:
         check_output_path(args.profile)
-    network = vgraph.load(args.network, allow_write=args.allow_write)
+    network = loaded(args)  # a data file: the network for what it holds, said on stderr
     if args.view:
         set_view(network, args.view)
     for assignment in args.set:
@@ -331,7 +336,11 @@ def command_gui(args) -> int:
     from vgraph.gui.app import run_gui  # imported here so no other command imports Qt
     if args.screenshot is not None:
         check_output_path(args.screenshot)
-    return run_gui(args.network, screenshot=args.screenshot, select=args.select, size=args.window_size)
+    if args.render_as is not None and (args.network is None or not is_volume_path(args.network)):
+        raise VGraphError(f"--{args.render_as} applies to a data file to open, not to "
+                          f"{args.network or 'an empty editor'}")
+    return run_gui(args.network, screenshot=args.screenshot, select=args.select, size=args.window_size,
+                   render_as=args.render_as)
 
 
 def command_convert(args) -> int:

@@ -169,13 +169,17 @@ def migrate(document: dict) -> dict:
 
 
 # --- loading --------------------------------------------------------------------------------------
-def load_network(path: str | Path, allow_write=()) -> Network:
+def load_network(path: str | Path, allow_write=(), render_as: str | None = None) -> Network:
     """Read, migrate, validate and build a network file. ``allow_write``: folders (besides the
-    file's own) that its writers may write into. A volume file (or DICOM folder) instead of a
-    network gives the standard rendering network around it (vgraph.volume_network)."""
+    file's own) that its writers may write into. A volume file (or DICOM folder, or picture)
+    instead of a network gives the standard rendering network around it (vgraph.volume_network;
+    ``render_as`` "labels" or "intensity" overrides what its values suggest)."""
     path = Path(path)
     if is_volume_path(path):
-        return volume_network(path)
+        return volume_network(path, render_as=render_as)
+    if render_as is not None:
+        raise VGraphError(f"{path}: --{render_as} (render_as) applies to a data file, not to a "
+                          f"network, whose processors say how it renders")
     document = parse_document(read_json(path), str(path))
     network = build_network(document, str(path), base_dir=path.resolve().parent)
     check_write_paths(network, str(path), allow_write)

@@ -313,9 +313,11 @@ class MainWindow(FileActions, QMainWindow):
 
 
 def run_gui(path: str | Path | None = None, screenshot: str | Path | None = None,
-            select: str | None = None, size: tuple[int, int] | None = None) -> int:
+            select: str | None = None, size: tuple[int, int] | None = None,
+            render_as: str | None = None) -> int:
     """Start the GUI (optionally opening a network) and return the exit code. With ``screenshot``:
-    wait until the canvases have rendered, save the whole window as a PNG and exit."""
+    wait until the canvases have rendered, save the whole window as a PNG and exit. ``render_as``
+    ("labels", "intensity") overrides how a data file's values are taken (vgraph.file_kind)."""
     app = QApplication.instance() or QApplication([sys.argv[0] if sys.argv else "vgraph"])
     app.setApplicationName("vgraph")
     window = MainWindow()
@@ -326,10 +328,10 @@ def run_gui(path: str | Path | None = None, screenshot: str | Path | None = None
                 window.arrange(*size)
             window.show()
             if path is not None and screenshot is not None:
-                window.workspace.open(path)  # a bad file: an error on stderr, not a dialog nobody answers
+                window.workspace.open(path, render_as=render_as)  # a bad file: an error on stderr, not a dialog
                 window.view.fit_network()
             elif path is not None:
-                window.open_network(path)
+                window.open_network(path, render_as=render_as)
             else:
                 window.offer_recovery(window.autosave.newest_orphan())
             if select is not None:

@@ -102,29 +102,30 @@ class FileActions:
             self.workspace.new()
             self.log.info("new network")
 
-    def open_network(self, path: str | Path | None = None) -> bool:
+    def open_network(self, path: str | Path | None = None, render_as: str | None = None) -> bool:
         if not self.confirm_discard():
             return False
         path = path or self.ask_open_path()
-        if not path or not self._open(Path(path)):
+        if not path or not self._open(Path(path), render_as):
             return False
-        self.log.info(f"opened {path}")
+        built = self.workspace.path is None and self.workspace.network.description  # a data file's
+        self.log.info(f"opened {path}" + (f": {built}" if built else ""))
         self.view.fit_network()
         self.offer_recovery(self.autosave.find_for(Path(path)))
         return True
 
-    def _open(self, path: Path) -> bool:
+    def _open(self, path: Path, render_as: str | None = None) -> bool:
         """Load ``path``; a file that cannot be read is reported. False if nothing was opened."""
         try:
-            return self._load_with_consent(path)
+            return self._load_with_consent(path, render_as)
         except VGraphError as error:
             self.report_error("Cannot open network", f"Cannot open {path}:\n{error}")
             return False
 
-    def _load_with_consent(self, path: Path) -> bool:
+    def _load_with_consent(self, path: Path, render_as: str | None = None) -> bool:
         """Writers that would write outside the file's folder need the user's consent."""
         try:
-            self.workspace.open(path)
+            self.workspace.open(path, render_as=render_as)
             return True
         except WritePathError as refused:
             writes = refused.paths

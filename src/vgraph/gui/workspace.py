@@ -173,12 +173,13 @@ class Workspace(QObject):
     def new(self) -> None:
         self._replace(Network(), None)
 
-    def open(self, path: str | Path, allow_write=()) -> None:
+    def open(self, path: str | Path, allow_write=(), render_as: str | None = None) -> None:
         """Load a network (NetworkFileError on a bad file; the open network is then untouched).
         Its writers may write only inside its folder and the folders in ``allow_write``
-        (WritePathError names the others)."""
+        (WritePathError names the others). A data file opens as the network for what it holds
+        (``render_as``: vgraph.file_kind)."""
         path = Path(path)
-        network = load_network(path, allow_write)
+        network = load_network(path, allow_write, render_as)
         # A volume file opens as a new, untitled network around it: saving must not write over it.
         self._replace(network, None if is_volume_path(path) else path)
         self.add_recent_file(path)

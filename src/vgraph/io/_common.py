@@ -308,9 +308,11 @@ def raw_dtype(name, endianness: str, file, field: str) -> np.dtype:
 
 # --- the result ----------------------------------------------------------------------------------
 def make_volume(data_zyx: np.ndarray, file, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0),
-                declared_range=None, time_steps: int = 1, direction=IDENTITY) -> Volume:
+                declared_range=None, time_steps: int = 1, direction=IDENTITY,
+                holds_labels: bool = False) -> Volume:
     """Wrap a loaded [z, y, x] array; warn about (but keep) NaN/Inf voxels. ``direction``, origin
-    and spacing are in RAS (vgraph.io.orientation)."""
+    and spacing are in RAS (vgraph.io.orientation); ``holds_labels``: the header declares labels
+    (vgraph.io.label_hints)."""
     data = np.ascontiguousarray(to_native(np.asarray(data_zyx)))
     nonfinite = 0
     if data.dtype.kind == "f":
@@ -324,7 +326,8 @@ def make_volume(data_zyx: np.ndarray, file, *, spacing=(1.0, 1.0, 1.0), origin=(
                 f"and histogram and clamped in textures"), stacklevel=3)
     try:
         volume = Volume(data, spacing=spacing, origin=origin, declared_range=declared_range,
-                        source=str(file), time_steps=time_steps, direction=direction)
+                        source=str(file), time_steps=time_steps, direction=direction,
+                        holds_labels=holds_labels)
     except VolumeGeometryError as exc:  # the box the header's spacing and origin give (check_box)
         raise VolumeFileError(file, exc.reason, exc.field) from None
     except VGraphError as exc:  # e.g. an unsupported dtype the header check did not foresee

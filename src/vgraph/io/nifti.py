@@ -43,6 +43,7 @@ from vgraph.errors import VolumeFileError
 from vgraph.io._common import (MAX_HEADER_BYTES, check_memory, check_origin, check_time_step,
                                make_volume, pad_to_3d, read_raw_array, regular_file, to_native)
 from vgraph.io._inflate import file_pieces, inflate_into, inflated_prefix
+from vgraph.io.label_hints import nifti_says_labels
 from vgraph.io.orientation import split_axes
 from vgraph.io._values import rescaled
 from vgraph.volume import Volume
@@ -76,7 +77,8 @@ def read_nifti(path, time_step: int = 0) -> Volume:
         data = rescaled(data, slope, inter)
     spacing, origin, direction = grid_of(header, path)
     return make_volume(data, path, spacing=spacing, origin=origin, direction=direction,
-                       declared_range=_declared_range(header), time_steps=time_steps)
+                       declared_range=_declared_range(header), time_steps=time_steps,
+                       holds_labels=nifti_says_labels(header))
 
 
 def grid_of(header, path: Path):

@@ -32,6 +32,7 @@ from vgraph.errors import VolumeFileError
 from vgraph.io._common import (check_origin, check_spacing, check_time_step, header_lines,
                                make_volume, pad_to_3d, regular_file)
 from vgraph.io.nrrd_data import MAX_DATA_FILES, read_data
+from vgraph.io.label_hints import nrrd_says_labels
 from vgraph.io.orientation import split_axes
 from vgraph.volume import IDENTITY, Volume
 
@@ -80,7 +81,8 @@ def read_nrrd(path, time_step: int = 0) -> Volume:
     flat = read_data(path, header, dtype, count, data_offset, listed_files,
                      first=time_step * count, total=count * time_steps)
     return make_volume(flat.reshape(dims[::-1]), path, spacing=spacing, origin=origin,
-                       direction=direction, declared_range=declared, time_steps=time_steps)
+                       direction=direction, declared_range=declared, time_steps=time_steps,
+                       holds_labels=nrrd_says_labels(header))
 
 
 def _dims_and_time(header: dict, path: Path) -> tuple[tuple[int, int, int], int]:

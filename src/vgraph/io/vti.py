@@ -37,6 +37,7 @@ from vgraph.io._common import (check_dims, check_memory, check_origin, check_spa
                                make_volume, parse_numbers, regular_file, to_native)
 from vgraph.io._inflate import inflate_into, memory_pieces
 from vgraph.io._values import ascii_values
+from vgraph.io.label_hints import vti_says_labels
 from vgraph.io.orientation import file_direction
 from vgraph.volume import Volume
 
@@ -75,7 +76,7 @@ def read_vti(path) -> Volume:
     check_memory(path, count * dtype.itemsize, "WholeExtent")
     flat = _array_values(root, array, appended, dtype, count, path)
     return make_volume(flat.reshape(dims[::-1]), path, spacing=spacing, origin=origin,
-                       direction=direction)
+                       direction=direction, holds_labels=vti_says_labels(image, array))
 
 
 def _file_bytes(path: Path) -> bytes:
