@@ -1,4 +1,5 @@
-"""VolumeWriter: a sink that saves a volume (.npy, .npz, .nrrd, .nii, .nii.gz), atomically."""
+"""VolumeWriter: a sink that saves a volume (.npy, .npz, .nrrd, .nii, .nii.gz, .mha, .vti),
+atomically; every format but .npy keeps the grid (spacing, origin, direction: vgraph.io.writers)."""
 
 from vgraph import FilePathProperty, Inport, Processor
 from vgraph.atomic import check_output_path
@@ -13,7 +14,8 @@ class VolumeWriter(Processor):
     category = "Output"
     inports = [Inport("volume", Volume)]
     path = FilePathProperty("volume.nrrd", filters=tuple(f"*{e}" for e in WRITABLE_EXTENSIONS), writes=True,
-                            doc="where the volume is written (.npy, .npz, .nrrd, .nii, .nii.gz)")
+                            doc="where the volume is written (.npy, .npz, .nrrd, .nii, .nii.gz, .mha, "
+                                ".vti; all but .npy keep the spacing, origin and direction)")
 
     def process(self, volume: Volume) -> None:
         path, inside = writable_path(self, "path"), write_confinement(self, "path")  # as vgraph validate checked
