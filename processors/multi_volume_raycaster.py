@@ -41,6 +41,11 @@ Conventions (the CPU reference vgraph.multivolume_reference states the same mode
 - ``shading`` (Blinn-Phong, the RayCaster's light properties) for accumulate (each channel's
   colour shaded with its own gradient before the mix) and nearest_opaque (the hit's channel);
   gradients by central differences one voxel of the channel away; maximum is never shaded.
+- Oriented channels (Volume.direction) are drawn in the frame of volume1's axes
+  (gl/raycasting/framed_view), each on its axes reordered and mirrored: their directions may differ
+  by the order and sign of their axes (an LPS and a RAS file of one scan), not by a turn; such a
+  channel is refused naming its inport ("mv.volume2: its axes are turned against volume1's ...;
+  resample one onto the other's grid").
 - Not here: other derivatives, empty-space skipping, bricked volumes (each channel must fit one 3D
   texture).
 """
@@ -55,9 +60,11 @@ from vgraph import FloatProperty, Inport, OptionProperty, Outport, TransferFunct
 from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, Light,
                                              RaycasterBase, Sampling, ray_main_missed)
 from vgraph.gl.raycasting.empty_space import visible_under
+from vgraph.gl.raycasting.framed_view import frame_rotation
 from vgraph.gl.raycasting.geometry import VolumeGeometry
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler
+from vgraph.grid_axes import axes_against
 from vgraph.image import Image
 from vgraph.processors.raycaster import needs_bricks
 from vgraph.transfer_function import TransferFunction
@@ -155,6 +162,7 @@ class MultiVolumeRayCaster(RaycasterBase):
                     if volume is not None]
         for channel in channels:
             self._check(channel)
+        self._check_turned_alike(channels)
         # The rays' camera is resolved on the union box, as EntryExitPoints does, and the channels
         # are drawn in its frame.
         frame = self.frame(volume1, entry, exit, volumes=[c.volume for c in channels])
@@ -178,6 +186,24 @@ class MultiVolumeRayCaster(RaycasterBase):
                               f"budget; the MultiVolumeRayCaster samples each channel from one texture: "
                               f"crop or downsample it, or render it alone with the RayCaster (brick by "
                               f"brick)")
+
+    def _check_turned_alike(self, channels: list[Channel]) -> None:
+        """Refuse, naming the inport, a channel whose axes are turned against volume1's by more
+        than their order and mirroring: the channels are drawn in one frame (framed_view), where
+        each must be a box. LPS and RAS copies are alike (vgraph.grid_axes)."""
+        if len(channels) < 2 or all(channel.volume.is_axis_aligned for channel in channels):
+            return
+        rotation = frame_rotation([channel.volume for channel in channels])
+        first = channels[0].volume
+        for channel in channels[1:]:
+            volume = channel.volume
+            if axes_against(volume.direction, rotation) is None:
+                raise VGraphError(f"{self.id}.{channel.port}: its axes are turned against volume1's "
+                                  f"(directions {np.round(volume.direction, 6).tolist()} and "
+                                  f"{np.round(first.direction, 6).tolist()}): the channels are drawn "
+                                  f"in one frame, which holds grids whose axes differ only in order "
+                                  f"and mirroring; resample one onto the other's grid (e.g. "
+                                  f"nibabel.processing.resample_from_to)")
 
     def _channel_binding(self, frame, channels: list[Channel]) -> Binding:
         """Defines, textures and uniforms of the channels. Shader slot k (0-based) holds the k-th

@@ -4,6 +4,12 @@ memory cost and the culling rules: vgraph.tetrahedralize and docs/tetrahedra.md,
 
 After process() the processor's ``kept_cells`` and ``total_cells`` say how many of the volume's
 cells became tetrahedra (5 each).
+
+The points are the voxel centres through the volume's affine (its direction too: an LPS or tilted
+grid keeps its place in the world). The mesh remembers its regular grid (``TetMesh.grid``, which
+lets the ProjectedTetrahedra draw it cell by cell in the grid's sweep order) only for an
+axis-aligned volume: the grid holds no direction, so an oriented volume's mesh is drawn as any
+tetrahedral mesh (sorted).
 """
 
 import numpy as np
@@ -60,14 +66,14 @@ class VolumeToTetMesh(Processor):
         points, tets, voxels = volume_tetrahedra(
             volume.data, volume.spacing, volume.origin, mask,
             available_bytes=None if available is None else int(available * 0.8),
-            where=f"{self.id} ({volume.source or 'volume'})")
+            where=f"{self.id} ({volume.source or 'volume'})", direction=volume.direction)
         lo, hi = volume.value_range
         scalars = volume.data.reshape(-1)[voxels]
         if scalars.dtype.kind == "f":  # as the textures clamp them (docs/conventions.md)
             scalars = np.nan_to_num(scalars, nan=lo, posinf=hi, neginf=lo)
         cells = np.arange(self.total_cells) if mask is None else np.flatnonzero(mask.reshape(-1))
         grid = RegularGrid(tuple(volume.dims), tuple(map(float, volume.origin)),
-                           tuple(map(float, volume.spacing)), cells)
+                           tuple(map(float, volume.spacing)), cells) if volume.is_axis_aligned else None
         return TetMesh(points, tets, scalars, declared_range=volume.value_range,
                        reference_length=float(min(volume.spacing)), scalar_name="voxel value",
                        source=f"{volume.source or 'volume'} (cut by {self.id})", grid=grid)

@@ -5,17 +5,20 @@ blended. Tests compare the GL images with it pixel by pixel.
 Model (rules of vgraph.numerics.reference_raycast unless said otherwise; arithmetic in float64):
 
 1. Rays: ``Camera.rays`` of the camera resolved on the UNION of the channels' boxes of voxel
-   centres (EntryExitPoints fed with all channels), clipped to that box (slab test, grown by
+   centres (EntryExitPoints fed with all channels; channels turned against the world alike, up to
+   the order and sign of their axes, are united in the first one's turned coordinates:
+   vgraph.numerics.reference_boxes), clipped to that box (slab test, grown by
    ``1e-5 * (max |corner| + min spacing of all channels)``; narrowed by ``crop_box``), to
    [near, far] and to the kept side of ``clip_planes`` (vgraph.clipping, as EntryExitPoints cuts
    them). A ray with nothing left is the background. One channel: its own box, as before.
 2. Samples: ``step = min over channels of min(spacing) / sampling_rate``; sample i at
    ``t_entry + i * step``, ``n = floor(length / step + 1e-3) + 1`` (the RayCaster's rule).
-3. Channel k at a world point p: inside its box of voxel centres grown by ``1e-5 * (max |corner| +
-   min spacing)`` (the GL rays' box rule), its trilinear normalised intensity (clamp-to-edge) is
-   classified by its TF's 4096-entry LUT, linear between entries: ``(rgb_k, a_k)``. Outside its
-   box the channel is absent (contributes nothing). Every channel is tested, the first too (the
-   union rays leave its box), except a lone channel: its rays are its own box.
+3. Channel k at a world point p: inside its box of voxel centres (along its own index axes)
+   grown by ``1e-5 * (max |corner| + min spacing)`` (the GL rays' box rule), its trilinear
+   normalised intensity (clamp-to-edge) is classified by its TF's 4096-entry LUT, linear between
+   entries: ``(rgb_k, a_k)``. Outside its box the channel is absent (contributes nothing). Every
+   channel is tested, the first too (the union rays leave its box), except a lone channel: its
+   rays are its own box.
 4. ``accumulate``: ``a'_k = 1 - (1 - a_k) ** (step / min(spacing_k))``; per sample
    ``alpha = 1 - prod(1 - a'_k)``, ``rgb = sum(a'_k rgb_k) / sum(a'_k)`` (over channels present
    with a'_k > 0; none: alpha 0); front to back ``C += (1 - A) alpha rgb``, ``A += (1 - A) alpha``,
@@ -40,10 +43,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from vgraph.camera import Camera
-from vgraph.clipping import clip_intervals, cropped_box
+from vgraph.clipping import clip_intervals
 from vgraph.errors import VGraphError
-from vgraph.numerics.reference_raycast import (Shading, VolumeSampler, _clip_to_box, _shade, lookup,
-                                               sample_counts, volume_box)
+from vgraph.numerics.reference_boxes import RayBox, inside_grown_box, turned_alike
+from vgraph.numerics.reference_raycast import Shading, VolumeSampler, _shade, lookup, sample_counts
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
@@ -54,23 +57,21 @@ CHANNEL_BOX_EPSILON = 1e-5  # relative growth of a channel's box (rule 3; the GL
 
 @dataclass
 class _Channel:
-    """A channel made ready for sampling: sampler, LUT, grown box, reference step."""
+    """A channel made ready for sampling: volume, sampler, LUT, reference step."""
 
+    volume: Volume
     sampler: VolumeSampler
     lut: np.ndarray
-    low: np.ndarray
-    high: np.ndarray
     min_spacing: float
 
     @classmethod
     def of(cls, volume: Volume, transfer_function: TransferFunction) -> "_Channel":
-        low, high = volume_box(volume)
-        eps = CHANNEL_BOX_EPSILON * (max(np.abs(low).max(), np.abs(high).max()) + min(volume.spacing))
-        return cls(VolumeSampler(volume), transfer_function.for_volume(volume).lut().astype(np.float64),
-                   low - eps, high + eps, float(min(volume.spacing)))
+        lut = transfer_function.for_volume(volume).lut().astype(np.float64)
+        return cls(volume, VolumeSampler(volume), lut, float(min(volume.spacing)))
 
     def inside(self, points: np.ndarray) -> np.ndarray:
-        return np.all((points >= self.low) & (points <= self.high), axis=1)
+        """Rule 3's grown box of voxel centres, along the volume's own axes."""
+        return inside_grown_box(self.volume, points, CHANNEL_BOX_EPSILON)
 
 
 def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate",
@@ -84,15 +85,13 @@ def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate"
         raise VGraphError(f"multivolume reference: 1 to {MAX_CHANNELS} channels, got {len(channels)}")
     if blend not in BLENDS:
         raise VGraphError(f"multivolume reference: blend must be one of {BLENDS}, got {blend!r}")
+    _check_turned_alike([volume for volume, _ in channels])
     width, height = (int(v) for v in size)
-    union = _union_box([volume for volume, _ in channels])
-    camera = camera.resolved(*union, width / height)
+    union = RayBox.of([volume for volume, _ in channels])
+    camera = camera.resolved(*union.framing(), width / height)
     origins, directions = (a.reshape(-1, 3) for a in camera.rays(width, height))
-    box = cropped_box(*union, crop_box)
-    t_entry, t_exit = _clip_to_box(origins, directions, *(box or union), camera.far_distance(directions),
-                                   min(min(volume.spacing) for volume, _ in channels))
-    if box is None:  # the crop box leaves nothing: every ray misses
-        t_exit[:] = -np.inf
+    t_entry, t_exit = union.clip(origins, directions, camera.far_distance(directions),
+                                 min(min(volume.spacing) for volume, _ in channels), crop_box)
     t_entry, t_exit = clip_intervals(origins, directions, t_entry, t_exit, clip_planes)
     ready = [_Channel.of(volume, tf) for volume, tf in channels]
     step = min(c.min_spacing for c in ready) / sampling_rate
@@ -107,10 +106,15 @@ def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate"
     return image.reshape(height, width, 4).astype(np.float32)
 
 
-def _union_box(volumes) -> tuple[np.ndarray, np.ndarray]:
-    """World (min, max) of the union of the volumes' boxes of voxel centres (rule 1)."""
-    boxes = [volume_box(volume) for volume in volumes]
-    return (np.min([low for low, _ in boxes], axis=0), np.max([high for _, high in boxes], axis=0))
+def _check_turned_alike(volumes) -> None:
+    """Refuse channels whose axes are turned against the first one's by more than their order and
+    sign (rule 1): no box holds both."""
+    first = np.asarray(volumes[0].direction)
+    for number, volume in enumerate(volumes[1:], start=2):
+        if not turned_alike(volume.direction, first):
+            raise VGraphError(f"multivolume reference: channel {number}'s axes are turned against "
+                              f"channel 1's (directions {np.round(volume.direction, 6).tolist()} and "
+                              f"{np.round(first, 6).tolist()}); resample one onto the other's grid")
 
 
 def _classified(channel: _Channel, points: np.ndarray, alone: bool):

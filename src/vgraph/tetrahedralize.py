@@ -6,7 +6,9 @@ k..k+1). It is cut into five tetrahedra, four corner tetrahedra and a central on
 orientation alternates with the parity of i + j + k, so that every face diagonal joins two voxels
 of odd global parity: the diagonals of neighbouring cells agree and every interior triangle is
 shared by exactly two tetrahedra. Points are the voxel centres in world coordinates
-(origin + index * spacing), scalars the voxel values. Cell culling (Retondaro 2008's threshold
+(origin + direction @ (index * spacing): the volume's affine), scalars the voxel values. Where the
+direction mirrors (det -1) every tetrahedron's last two vertices are swapped, so that all stay
+positively oriented in the world. Cell culling (Retondaro 2008's threshold
 classification) emits only the cells a caller keeps (``cell_mask``), and only the points those
 cells use.
 
@@ -29,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from vgraph.errors import VGraphError
+from vgraph.volume_grid import IDENTITY, is_identity
 
 # --- regular grids --------------------------------------------------------------------------------
 # Corner c of a cell is at offset (c & 1, (c >> 1) & 1, (c >> 2) & 1) in (x, y, z).
@@ -84,11 +87,12 @@ def visible_cells(low: np.ndarray, high: np.ndarray, alpha: np.ndarray) -> np.nd
 
 
 def volume_tetrahedra(data: np.ndarray, spacing, origin, cell_mask: np.ndarray | None = None,
-                      available_bytes: int | None = None, where: str = "volume"):
+                      available_bytes: int | None = None, where: str = "volume", direction=IDENTITY):
     """(points (N, 3) float32, tets (M, 4) int32, voxel index of each point (N,) int64) for the
     cells of a [z, y, x] grid where ``cell_mask`` ([z-1, y-1, x-1] bool) is True (all cells if
-    None). Only the voxels the kept cells use become points. ``available_bytes`` refuses a result
-    that would not fit, naming the size."""
+    None), on the grid with that spacing, origin and direction (vgraph.volume_grid). Only the
+    voxels the kept cells use become points. ``available_bytes`` refuses a result that would not
+    fit, naming the size."""
     nz, ny, nx = data.shape
     if min(nz, ny, nx) < 2:
         raise VGraphError(f"{where}: a volume needs at least 2 voxels along every axis to have "
@@ -113,11 +117,15 @@ def volume_tetrahedra(data: np.ndarray, spacing, origin, cell_mask: np.ndarray |
     index_map[voxel_index] = np.arange(point_count, dtype=np.int32)
     points = np.empty((point_count, 3), dtype=np.float32)
     origin, spacing = np.asarray(origin, dtype=np.float64), np.asarray(spacing, dtype=np.float64)
+    turned = None if is_identity(direction) else np.asarray(direction, dtype=np.float64).T
     for start in range(0, point_count, 4 * _CHUNK_CELLS):
         k, j, i = np.unravel_index(voxel_index[start:start + 4 * _CHUNK_CELLS], data.shape)
-        points[start:start + len(i)] = origin + np.stack([i, j, k], axis=1) * spacing
+        steps = np.stack([i, j, k], axis=1) * spacing
+        points[start:start + len(i)] = origin + (steps if turned is None else steps @ turned)
     offsets = _CORNERS @ np.array([1, nx, nx * ny])  # linear offset of each corner
     templates = offsets[CELL_TETS]  # [parity, 5, 4] linear offsets
+    if turned is not None and np.linalg.det(turned) < 0.0:  # a mirror turns them inside out
+        templates = templates[..., [0, 1, 3, 2]]
     tets = np.empty((5 * kept, 4), dtype=np.int32)
     cells = np.flatnonzero(cell_mask.reshape(-1))
     for start in range(0, kept, _CHUNK_CELLS):

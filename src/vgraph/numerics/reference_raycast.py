@@ -6,18 +6,23 @@ Optical model (Inácio 2009 ch. 2.4 and 4.1-4.3), in this order:
 1. Rays: ``Camera.rays(W, H)`` - one per pixel centre, row 0 at the top, origin on the near plane
    (ray parameter t = 0), unit direction, t in world units. The far plane is at
    ``t_far = (far - near) / dot(direction, forward)``.
-2. Box: the volume's voxel centres span ``[origin, origin + (dims - 1) * spacing]`` (x, y, z).
-   Slab test against this box grown by ``eps = 1e-9 * (max |corner coordinate| + min spacing)`` on
-   every side (so rays running exactly along a face count as hits; a float32 GL version uses
-   ~1e-5 instead; only such grazing rays may differ). ``t_entry = max(t_box_in, 0)`` (clipped to
-   the near plane, so a camera inside the box works), ``t_exit = min(t_box_out, t_far)``.
-   The ray misses if ``t_exit < t_entry``: its pixel is the background, exactly.
+2. Box: the volume's voxel centres span ``[origin, origin + (dims - 1) * spacing]`` (x, y, z)
+   along its index axes: for an oriented volume (Volume.direction) a box turned as they are, which
+   is tested in the turned coordinates where it is axis-aligned (vgraph.numerics.reference_boxes:
+   the turn keeps t). Slab test against this box grown by ``eps = 1e-9 * (max |corner
+   coordinate| + min spacing)`` on every side (so rays running exactly along a face count as hits;
+   a float32 GL version uses ~1e-5 instead; only such grazing rays may differ). ``t_entry =
+   max(t_box_in, 0)`` (clipped to the near plane, so a camera inside the box works), ``t_exit =
+   min(t_box_out, t_far)``. The ray misses if ``t_exit < t_entry``: its pixel is the background,
+   exactly. The camera is resolved on ``volume_box`` (the box itself, or for a tilted volume the
+   box with its bounding sphere, which is what framing uses).
 3. Samples: ``step = min(spacing) / sampling_rate`` (world units). Sample i is at
    ``t_entry + i * step`` for ``i = 0 .. n - 1`` with ``n = floor((t_exit - t_entry) / step + 1e-3) + 1``:
    the first sample lies on the entry face and, when the length is a whole number of steps (up to
    rounding), the last one on the exit face. (So an orthographic view along an axis with pixels on
    voxel centres samples exactly the voxel centres of each column.)
-4. Reconstruction: voxel coordinate ``u = (p - origin) / spacing``, clamped to [0, dims - 1] per
+4. Reconstruction: voxel coordinate ``u = (p - origin) / spacing`` (``direction^T (p - origin) /
+   spacing`` for an oriented volume: the inverse of its affine), clamped to [0, dims - 1] per
    axis (= GL clamp-to-edge with texture coordinate ``(u + 0.5) / dims``), trilinear interpolation
    with voxel centres at integer u. Values are normalised intensities ``volume.normalized``;
    non-finite voxels count as the value range's end (NaN and -inf -> low, +inf -> high), as the
@@ -28,7 +33,9 @@ Optical model (Inácio 2009 ch. 2.4 and 4.1-4.3), in this order:
 6. Optional shading (``shading=Shading(...)``, Inácio 2009 ch. 4.3, Blinn-Phong with a headlight):
    gradient by central differences of the reconstructed field one voxel away along each axis,
    ``g_k = (f(p + h_k e_k) - f(p - h_k e_k)) / (2 h_k)``, ``h = spacing`` (normalised intensity per
-   world unit). With ``Shading(gradients="precomputed")`` (the RayCaster's ``derivatives =
+   world unit); for an oriented volume along its index axes (``e_k`` = column k of the direction),
+   the components then turned into the world (``g = direction @ g_index``), as are the
+   precomputed gradients below. With ``Shading(gradients="precomputed")`` (the RayCaster's ``derivatives =
    precomputed``) the gradient is instead computed once at the voxels,
    ``G[i] = (F[i + e_k] - F[i - e_k]) / (2 h_k)`` on the normalised voxel values F padded by one
    voxel of their edge values (= the clamp-to-edge of rule 4), and reconstructed trilinearly like
@@ -63,14 +70,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from vgraph.camera import Camera
-from vgraph.clipping import clip_intervals, cropped_box
+from vgraph.clipping import clip_intervals
 from vgraph.errors import VGraphError
+from vgraph.numerics.reference_boxes import RayBox, volume_box
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
 MODES = ("dvr", "mip")
 SAMPLE_COUNT_SLACK = 1e-3  # fraction of a step; see rule 3 of the module docstring
-BOX_EPSILON = 1e-9  # relative growth of the box; see rule 2
 GRADIENT_EPSILON = 1e-6  # |g| * min(spacing) below this: no shading; see rule 6
 GRADIENT_MODES = ("central", "precomputed")
 GRADIENT_STEPS = 32767  # 16-bit steps of a gradient component on each side of 0 (rule 6)
@@ -91,12 +98,6 @@ class Shading:
     quantized: bool = True
 
 
-def volume_box(volume: Volume) -> tuple[np.ndarray, np.ndarray]:
-    """World-space (min, max) corners of the box spanned by the voxel centres, (x, y, z)."""
-    lo = np.asarray(volume.origin, dtype=np.float64)
-    return lo, lo + volume.extent
-
-
 def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, size,
            *, mode: str = "dvr", sampling_rate: float = 1.0, early_termination: float = 0.99,
            background=(0.0, 0.0, 0.0, 1.0), shading: Shading | None = None,
@@ -112,11 +113,8 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
     camera = camera.resolved(*volume_box(volume), width / height)  # as the GL renderers do
     origins, directions = camera.rays(width, height)
     origins, directions = origins.reshape(-1, 3), directions.reshape(-1, 3)
-    box = cropped_box(*volume_box(volume), crop_box)  # the crop box narrows the box (rule 2)
-    t_entry, t_exit = _clip_to_box(origins, directions, *(box or volume_box(volume)),
-                                   camera.far_distance(directions), min(volume.spacing))
-    if box is None:  # the crop box leaves nothing: every ray misses
-        t_exit[:] = -np.inf
+    t_entry, t_exit = RayBox.of([volume]).clip(origins, directions, camera.far_distance(directions),
+                                               min(volume.spacing), crop_box)  # rule 2
     t_entry, t_exit = clip_intervals(origins, directions, t_entry, t_exit, clip_planes)
     step = min(volume.spacing) / sampling_rate
     counts = sample_counts(t_entry, t_exit, step)
@@ -151,7 +149,8 @@ def sample_counts(t_entry: np.ndarray, t_exit: np.ndarray, step: float) -> np.nd
 
 
 class VolumeSampler:
-    """Trilinear reconstruction of normalised intensity at world points, clamp-to-edge."""
+    """Trilinear reconstruction of normalised intensity at world points, clamp-to-edge (rule 4),
+    through the inverse of the volume's affine; gradients in world units (rule 6)."""
 
     def __init__(self, volume: Volume):
         data = np.asarray(volume.data, dtype=np.float64)
@@ -162,6 +161,8 @@ class VolumeSampler:
         self.dims = np.array(volume.dims)
         self.origin = np.asarray(volume.origin, dtype=np.float64)
         self.spacing = np.asarray(volume.spacing, dtype=np.float64)
+        # None on the world axes: exactly the arithmetic from before volumes had directions
+        self.direction = None if volume.is_axis_aligned else np.asarray(volume.direction, dtype=np.float64)
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         """(M, 3) world points (x, y, z) -> (M,) normalised intensities."""
@@ -170,7 +171,10 @@ class VolumeSampler:
     def interpolate(self, table: np.ndarray, points: np.ndarray) -> np.ndarray:
         """Trilinear reconstruction (rule 4) of per-voxel values ``table`` ((N,) or (N, C) in
         [z, y, x] order, x fastest) at (M, 3) world points."""
-        u = np.clip((points - self.origin) / self.spacing, 0.0, self.dims - 1)
+        offset = points - self.origin
+        if self.direction is not None:
+            offset = offset @ self.direction  # along the index axes (the direction is orthonormal)
+        u = np.clip(offset / self.spacing, 0.0, self.dims - 1)
         base = np.minimum(np.floor(u).astype(np.int64), np.maximum(self.dims - 2, 0))
         frac = u - base
         nxt = np.minimum(base + 1, self.dims - 1)
@@ -192,17 +196,25 @@ class VolumeSampler:
         return _lerp(_lerp(c00, c10, fy), _lerp(c01, c11, fy), fz)
 
     def gradient(self, points: np.ndarray) -> np.ndarray:
-        """(M, 3) central differences one voxel away along each axis, per world unit."""
+        """(M, 3) central differences one voxel away along each index axis, per world unit, in
+        world components."""
         grad = np.empty_like(points)
         for axis in range(3):
             offset = np.zeros(3)
             offset[axis] = self.spacing[axis]
+            if self.direction is not None:
+                offset = self.direction @ offset  # one voxel along index axis ``axis``
             grad[:, axis] = (self(points + offset) - self(points - offset)) / (2.0 * self.spacing[axis])
-        return grad
+        return self.to_world(grad)
+
+    def to_world(self, vectors: np.ndarray) -> np.ndarray:
+        """Vectors (M, 3) along the index axes -> world components (untouched on the world axes)."""
+        return vectors if self.direction is None else vectors @ self.direction.T
 
     def voxel_gradient(self, points: np.ndarray, quantized: bool = True) -> np.ndarray:
         """(M, 3) precomputed voxel gradients interpolated trilinearly at world points (rule 6),
-        per world unit; the voxel table is built on first use."""
+        per world unit, in world components; the voxel table (along the index axes) is built on
+        first use."""
         key = "_voxel_gradients_quantized" if quantized else "_voxel_gradients"
         table = self.__dict__.get(key)
         if table is None:
@@ -212,7 +224,7 @@ class VolumeSampler:
                 scale = gradient_scale(table)
                 table = dequantized(quantized_gradients(table, scale), scale)
             table = self.__dict__[key] = table.reshape(-1, 3)
-        return self.interpolate(table, points)
+        return self.to_world(self.interpolate(table, points))
 
 
 def central_differences(padded: np.ndarray, spacing) -> np.ndarray:
@@ -330,27 +342,6 @@ def _check_shading(shading: Shading | None) -> None:
     if shading is not None and shading.gradients not in GRADIENT_MODES:
         raise VGraphError(f"reference ray caster: shading gradients must be one of {GRADIENT_MODES}, "
                           f"got {shading.gradients!r}")
-
-
-# --- geometry -----------------------------------------------------------------------------------
-def _clip_to_box(origins, directions, box_min, box_max, t_far, min_spacing):
-    """Slab test (rule 2): (t_entry, t_exit) per ray; t_exit < t_entry for misses."""
-    eps = BOX_EPSILON * (max(np.abs(box_min).max(), np.abs(box_max).max()) + min_spacing)
-    lo, hi = box_min - eps, box_max + eps
-    t_in = np.zeros(len(origins))
-    t_out = np.array(t_far, dtype=np.float64)
-    for axis in range(3):
-        o, d = origins[:, axis], directions[:, axis]
-        parallel = d == 0.0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t0, t1 = (lo[axis] - o) / d, (hi[axis] - o) / d
-        near_t, far_t = np.minimum(t0, t1), np.maximum(t0, t1)
-        # A ray parallel to the slab is inside it for all t or for none.
-        inside = (o >= lo[axis]) & (o <= hi[axis])
-        near_t[parallel] = np.where(inside[parallel], -np.inf, np.inf)
-        far_t[parallel] = np.where(inside[parallel], np.inf, -np.inf)
-        t_in, t_out = np.maximum(t_in, near_t), np.minimum(t_out, far_t)
-    return t_in, t_out
 
 
 def _lerp(a, b, t):
