@@ -145,11 +145,12 @@ def clip_intervals(origins, directions, t_entry, t_exit, planes):
 
 
 def kept_voxels(volume, planes=(), crop_box=None) -> np.ndarray:
-    """Boolean [z, y, x] mask of the voxels whose centres the planes and the crop box keep (what a
-    clipped render should equal: the volume with the rest set to zero)."""
+    """Boolean [z, y, x] mask of the voxels whose centres (in the world, through the volume's
+    affine) the planes and the crop box keep (what a clipped render should equal: the volume with
+    the rest set to zero)."""
     nx, ny, nz = volume.dims
     z, y, x = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
-    points = np.stack([x, y, z], axis=-1) * np.asarray(volume.spacing) + np.asarray(volume.origin)
+    points = volume.voxel_to_world(np.stack([x, y, z], axis=-1))
     keep = np.ones((nz, ny, nx), dtype=bool)
     for plane in planes:
         keep &= points @ plane.unit_normal() >= plane.offset()
