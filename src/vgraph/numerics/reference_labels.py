@@ -8,6 +8,12 @@ label of each sample by the majority of interpolation weights (vgraph.labels.maj
 first_hit (the first shown label, opaque, its hit refined by halvings of the step); optional
 Blinn-Phong with a headlight (numerics.reference_raycast's model) and the majority rule's normal;
 the result over the background.
+
+It works in the texture coordinates of ``volume`` along its own index axes, so ``volume`` must be
+the one the entry points are of: for an oriented volume (Volume.direction) the copy the ray
+casters draw, on its axes reordered and mirrored (vgraph.gl.raycasting.framed_view.volume_in_frame).
+Lengths, steps and the headlight's angles are the same along those axes as in the world (they are
+turned and mirrored alike), so nothing else changes.
 """
 
 from __future__ import annotations
