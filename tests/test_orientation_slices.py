@@ -12,11 +12,13 @@ import numpy as np
 import pydicom
 import pytest
 from pydicom.dataset import Dataset, FileMetaDataset
+from pydicom.pixels import apply_modality_lut
 from pydicom.uid import CTImageStorage, ExplicitVRLittleEndian, generate_uid
 from scipy import ndimage
 
 from vgraph import VGraphError
 from vgraph.gui.slice_gestures import page_step
+from vgraph.io import read_volume
 from vgraph.processors.slice_viewer import SliceViewer
 from vgraph.slicing import GridBox, plane_axes
 from vgraph.volume import Volume
@@ -82,13 +84,21 @@ def ct_slice(tmp_path):
 
 
 @pytest.mark.parametrize("interpolation", ["nearest", "linear"])
-def test_a_dicom_axial_slice_at_its_own_size_is_pydicoms_array_in_radiological_display(ct_slice, interpolation):
+@pytest.mark.parametrize("route", ["Volume", "read_volume"])
+def test_a_dicom_axial_slice_at_its_own_size_is_pydicoms_array_in_radiological_display(
+        ct_slice, tmp_path, interpolation, route):
+    """Built from the tags here, or read by vgraph's DICOM reader (which applies the rescale to
+    Hounsfield units, as pydicom's apply_modality_lut does)."""
     ds, volume = ct_slice
+    expected = ds.pixel_array
+    if route == "read_volume":
+        volume = read_volume(tmp_path / "ct.dcm")
+        expected = apply_modality_lut(ds.pixel_array, ds)
     np.testing.assert_array_equal(np.asarray(volume.direction), np.diag([-1.0, -1.0, 1.0]))
     image, _ = slice_image(volume, (ds.Columns, ds.Rows), orientation="axial", interpolation=interpolation)
     lo, hi = volume.value_range  # the default window: the whole value range
     values = np.rint(image[..., 0].astype(np.float64) * (hi - lo) + lo)
-    np.testing.assert_array_equal(values, ds.pixel_array)  # row 0 at the top, column 0 at the left
+    np.testing.assert_array_equal(values, expected)  # row 0 at the top, column 0 at the left
     np.testing.assert_array_equal(image[..., 3], 1.0)
 
 
@@ -126,15 +136,33 @@ def volume_of(image: nib.Nifti1Image) -> Volume:
                   direction=affine[:3, :3] / spacing)
 
 
-@pytest.fixture(scope="module")
-def head_copies():
+def nibabel_copies():
     if not MRI.is_file():
         pytest.skip(f"the MRI head is not at {MRI} (the /work/shared checkout is absent)")
     ras = nib.as_closest_canonical(nib.load(MRI))
     lps = ras.as_reoriented(nib.orientations.ornt_transform(nib.orientations.axcodes2ornt("RAS"),
                                                             nib.orientations.axcodes2ornt("LPS")))
     assert nib.aff2axcodes(ras.affine) == ("R", "A", "S") and nib.aff2axcodes(lps.affine) == ("L", "P", "S")
-    return volume_of(ras), volume_of(lps)
+    return ras, lps
+
+
+@pytest.fixture(scope="module")
+def head_copies():
+    return tuple(volume_of(image) for image in nibabel_copies())
+
+
+def test_the_lps_file_read_by_vgraph_gives_the_ras_files_slice(tmp_path):
+    """The user's route: both copies saved by nibabel, read by vgraph's NIfTI reader."""
+    paths = [tmp_path / "ras.nii", tmp_path / "lps.nii"]
+    for image, path in zip(nibabel_copies(), paths):
+        nib.save(image, path)
+    ras, lps = (read_volume(path) for path in paths)
+    size = (232, 160)
+    cursor = tuple(ras.voxel_to_world((83, 121, 70)))
+    from_ras, _ = slice_image(ras, size, orientation="sagittal", cursor=cursor, interpolation="nearest")
+    from_lps, _ = slice_image(lps, size, orientation="sagittal", cursor=cursor, interpolation="nearest")
+    assert from_ras[..., 0].std() > 0.1
+    np.testing.assert_array_equal(from_lps, from_ras)
 
 
 def test_the_copies_hold_every_voxel_at_the_same_world_point(head_copies):
