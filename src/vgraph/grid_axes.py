@@ -15,11 +15,14 @@ volume is; only a tilted acquisition is drawn in a turned frame (vgraph.box_fram
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
+from vgraph.errors import VGraphError
+from vgraph.volume import Volume, keep_value_statistics
 from vgraph.volume_grid import IDENTITY, Matrix3
 
 # Directions that agree this closely (largest element of the difference) are the same: readers
@@ -69,3 +72,31 @@ def axes_against(direction: Matrix3, rotation: Matrix3) -> GridAxes | None:
         if np.abs(turned - axes.matrix).max() <= SAME_DIRECTION:
             return axes
     return None
+
+
+def on_axes(volume: Volume, axes: GridAxes) -> Volume:
+    """``volume``'s voxels on reordered and mirrored index axes (a vgraph.grid_axes.GridAxes: new
+    axis w is old axis order[w], counted backwards where signs[w] < 0): a view of the same array,
+    every voxel at the same world point, the value statistics kept (they do not depend on the
+    voxels' order). How a volume in a direction that permutes and mirrors the world axes is drawn
+    as an axis-aligned box."""
+    if axes.is_identity:
+        return volume
+    if volume.bricks is not None:
+        raise VGraphError(f"volume{' from ' + volume.source if volume.source else ''}: a bricked "
+                          f"volume cannot be drawn on reordered or mirrored axes; convert it again "
+                          f"with vgraph convert, which stores it on axes that need neither")
+    data = np.transpose(volume.data, [2 - axes.order[2 - a] for a in range(3)])
+    data = np.flip(data, axis=[2 - w for w in range(3) if axes.signs[w] < 0])
+    direction = np.asarray(volume.direction) @ axes.matrix
+    old_spacing, dims = np.asarray(volume.spacing), np.asarray(volume.dims)
+    origin = np.asarray(volume.origin, dtype=np.float64).copy()
+    for w, (axis, sign) in enumerate(zip(axes.order, axes.signs)):
+        if sign < 0:  # the new first voxel is the old last one along that axis
+            origin += np.asarray(volume.direction)[:, axis] * old_spacing[axis] * (dims[axis] - 1)
+    changes = {"data": data, "spacing": tuple(float(old_spacing[a]) for a in axes.order),
+               "origin": tuple(float(v) for v in origin),
+               "direction": tuple(tuple(float(v) for v in row) for row in direction)}
+    moved = dataclasses.replace(volume, **changes)
+    keep_value_statistics(volume, moved)
+    return moved

@@ -381,39 +381,16 @@ class Volume:
             changes["declared_range"] = declared_range
         volume = dataclasses.replace(self, **changes)
         if declared_range is None:
-            volume.__dict__.update({key: value for key, value in self.__dict__.items()
-                                    if key in _VALUE_STATISTICS
-                                    or isinstance(key, tuple) and key[0] == "histogram"})
+            keep_value_statistics(self, volume)
         return volume
 
 
-def on_axes(volume: Volume, axes) -> Volume:
-    """``volume``'s voxels on reordered and mirrored index axes (a vgraph.grid_axes.GridAxes: new
-    axis w is old axis order[w], counted backwards where signs[w] < 0): a view of the same array,
-    every voxel at the same world point, the value statistics kept (they do not depend on the
-    voxels' order). How a volume in a direction that permutes and mirrors the world axes is drawn
-    as an axis-aligned box."""
-    if axes.is_identity:
-        return volume
-    if volume.bricks is not None:
-        raise VGraphError(f"volume{' from ' + volume.source if volume.source else ''}: a bricked "
-                          f"volume cannot be drawn on reordered or mirrored axes; convert it again "
-                          f"with vgraph convert, which stores it on axes that need neither")
-    data = np.transpose(volume.data, [2 - axes.order[2 - a] for a in range(3)])
-    data = np.flip(data, axis=[2 - w for w in range(3) if axes.signs[w] < 0])
-    direction = np.asarray(volume.direction) @ axes.matrix
-    old_spacing, dims = np.asarray(volume.spacing), np.asarray(volume.dims)
-    origin = np.asarray(volume.origin, dtype=np.float64).copy()
-    for w, (axis, sign) in enumerate(zip(axes.order, axes.signs)):
-        if sign < 0:  # the new first voxel is the old last one along that axis
-            origin += np.asarray(volume.direction)[:, axis] * old_spacing[axis] * (dims[axis] - 1)
-    changes = {"data": data, "spacing": tuple(float(old_spacing[a]) for a in axes.order),
-               "origin": tuple(float(v) for v in origin),
-               "direction": tuple(tuple(float(v) for v in row) for row in direction)}
-    moved = dataclasses.replace(volume, **changes)
-    moved.__dict__.update({key: value for key, value in volume.__dict__.items()
-                           if key in _VALUE_STATISTICS or isinstance(key, tuple) and key[0] == "histogram"})
-    return moved
+def keep_value_statistics(source: Volume, target: Volume) -> None:
+    """Give ``target``, which holds ``source``'s values on another grid or in another order, what
+    ``source`` worked out from its values alone (extremes, counts, percentiles, histograms), so
+    that they are not read again."""
+    target.__dict__.update({key: value for key, value in source.__dict__.items()
+                            if key in _VALUE_STATISTICS or isinstance(key, tuple) and key[0] == "histogram"})
 
 
 def r16_texels(data: np.ndarray) -> np.ndarray:

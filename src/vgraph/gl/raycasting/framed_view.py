@@ -47,9 +47,9 @@ from vgraph.box_frame import BoxFrame
 from vgraph.camera import Camera
 from vgraph.errors import PropertyError, VGraphError
 from vgraph.gl.raycasting.geometry import VolumeGeometry, box_camera, view_camera
-from vgraph.grid_axes import axes_against, nearest_rotation
+from vgraph.grid_axes import axes_against, nearest_rotation, on_axes
 from vgraph.view_geometry import as_vec3
-from vgraph.volume import IDENTITY, Matrix3, Volume, on_axes
+from vgraph.volume import IDENTITY, Matrix3, Volume
 
 
 @dataclass(frozen=True)
