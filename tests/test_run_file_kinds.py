@@ -191,6 +191,19 @@ def test_no_real_scan_is_taken_for_labels(name):
     kind = file_kind(DATA / name)
     assert kind.kind == "volume" and kind.labels is None, kind.sentence
     assert "holds intensities" in kind.sentence
+    assert kind.ordinary == (name != "cta_stent/stent.npz")  # 33 values: said why not labels
+
+
+@pytest.mark.skipif(not DATA.is_dir(), reason="needs the shared data sets")
+def test_the_line_is_said_where_there_is_something_to_explain(tmp_path, capsys):
+    assert main(["run", str(DATA / "mri_head_tiny" / "HeadMRVolume.mhd"), "-o", str(tmp_path / "h.png"),
+                 "--size", "32x32"]) == 0
+    assert "HeadMRVolume" not in capsys.readouterr().err  # intensities, rendered as ever
+    assert main(["run", str(DATA / "cta_stent" / "stent.npz"), "-o", str(tmp_path / "s.png"),
+                 "--size", "32x32"]) == 0
+    assert ("vgraph: stent.npz holds intensities (int16, 33 distinct values spaced apart over 0..2000, "
+            "0% next to another): shaded volume rendering (RayCaster, auto transfer function); "
+            "--labels renders labels") in capsys.readouterr().err
 
 
 def test_the_shipped_label_volume_is_labels():

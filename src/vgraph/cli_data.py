@@ -31,12 +31,13 @@ def add_render_as(parser: argparse.ArgumentParser) -> None:
 
 def loaded(args) -> Network:
     """The network ``run`` evaluates: a .json network, or the standard network for a data file
-    after one line on stderr saying what it was taken for."""
+    after one line on stderr saying what it was taken for (unless it is an ordinary volume of
+    intensities, ray cast as a volume file always was)."""
     render_as = getattr(args, "render_as", None)
     if not is_volume_path(args.network):
         return vgraph.load(args.network, allow_write=args.allow_write, render_as=render_as)
     kind = file_kind(args.network, render_as)
-    if kind.sentence:
+    if kind.sentence and not kind.ordinary:  # intensities ray cast as ever: nothing to explain
         print(f"vgraph: {kind.sentence}{other_choice(kind)}", file=sys.stderr)
     return volume_network(args.network, kind=kind)
 

@@ -44,12 +44,14 @@ MAX_PIXELS = 4096     # ... and one wider than this shrunk to it (the canvas' lo
 @dataclass(frozen=True)
 class FileKind:
     """The choice for one file: ``kind`` (KINDS), ``facts`` (what the file holds, "" when it
-    could not be read), ``how`` (what is shown), ``forced`` (by render_as), and what the network
-    needs: the label values, the slice's orientation and normal, the canvas size."""
+    could not be read), ``how`` (what is shown), ``forced`` (by render_as), ``ordinary`` (a volume
+    of intensities that neither declares nor nearly looks like labels: nothing to explain), and
+    what the network needs: the label values, the slice's orientation and normal, the canvas size."""
     kind: str
     facts: str
     how: str
     forced: bool = False
+    ordinary: bool = False
     labels: tuple[int, ...] | None = None
     orientation: str = "axial"
     normal: tuple[float, float, float] | None = None
@@ -81,14 +83,14 @@ def file_kind(path: str | Path, render_as: str | None = None) -> FileKind:
     volume = _read(path)
     if volume is None:
         return FileKind("volume", "", "the standard network; its VolumeSource names the problem")
-    labels, facts = _labels(volume, path.name, render_as)
+    labels, facts, ordinary = _labels(volume, path.name, render_as)
     if 1 in volume.dims:
         return _slice(volume, path.name, labels, render_as is not None)
     if labels is not None:
         return FileKind("labels", facts, "rendered as labels by the LabelRayCaster",
                         forced=render_as is not None, labels=labels.values)
     return FileKind("volume", facts, "shaded volume rendering (RayCaster, auto transfer function)",
-                    forced=render_as is not None)
+                    forced=render_as is not None, ordinary=ordinary)
 
 
 def _read(path: Path):
@@ -102,11 +104,19 @@ def _read(path: Path):
         return None
 
 
-def _labels(volume, name: str, render_as: str | None) -> tuple[Labels | None, str]:
-    """(the volume's labels or None for intensities, the facts behind the choice)."""
+def _labels(volume, name: str, render_as: str | None) -> tuple[Labels | None, str, bool]:
+    """(the volume's labels or None for intensities, the facts behind the choice, whether they
+    are ordinary: intensities not declared otherwise and not near the rule for labels)."""
+    labels, facts = _labels_and_facts(volume, name, render_as)
+    ordinary = not labels.found and render_as is None and not volume.holds_labels and not labels.near_miss
+    return (labels if labels.found else None), facts, ordinary
+
+
+def _labels_and_facts(volume, name: str, render_as: str | None) -> tuple[Labels, str]:
     bricked = volume.bricks is not None
+    intensities = Labels(None, "")
     if render_as == "intensity":
-        return None, f"{name}: intensities, as asked"
+        return intensities, f"{name}: intensities, as asked"
     if render_as == "labels":
         if bricked:
             raise VGraphError(f"--labels: {name} is a store drawn brick by brick, and the "
@@ -117,18 +127,17 @@ def _labels(volume, name: str, render_as: str | None) -> tuple[Labels | None, st
         return labels, f"{name}: {_counted(labels)}, as asked"
     if volume.holds_labels:
         if bricked:
-            return None, (f"{name} declares labels, but a store is drawn brick by brick and the "
-                          f"LabelRayCaster needs one texture, so its values are shown as intensities")
+            return intensities, (f"{name} declares labels, but a store is drawn brick by brick and "
+                                 f"the LabelRayCaster needs one texture, so its values are shown as "
+                                 f"intensities")
         labels = declared_labels(volume)
         if labels.found:
             return labels, f"{name} declares labels ({_counted(labels)})"
-        return None, f"{name} declares labels but holds {labels.facts}"
+        return labels, f"{name} declares labels but holds {labels.facts}"
     if bricked:
-        return None, f"{name} holds intensities (a store is labels only when it declares them)"
+        return intensities, f"{name} holds intensities (a store is labels only when it declares them)"
     labels = guessed_labels(volume)
-    if labels.found:
-        return labels, f"{name} holds {labels.facts}"
-    return None, f"{name} holds intensities ({labels.facts})"
+    return labels, f"{name} holds {labels.facts}" if labels.found else f"{name} holds intensities ({labels.facts})"
 
 
 def _counted(labels: Labels) -> str:

@@ -38,9 +38,11 @@ _SAMPLE_VOXELS = 1 << 16
 @dataclass(frozen=True)
 class Labels:
     """What a volume's values say: ``values`` the distinct label values (None when it holds
-    intensities), ``facts`` the words that say why ("29 labels (integer values 0..28)")."""
+    intensities), ``facts`` the words that say why ("29 labels (integer values 0..28)"),
+    ``near_miss`` intensities with few enough values to be labels but spaced apart."""
     values: tuple[int, ...] | None
     facts: str
+    near_miss: bool = False
 
     @property
     def found(self) -> bool:
@@ -60,7 +62,7 @@ def guessed_labels(volume) -> Labels:
     share = neighbour_share(values)
     if share < NEIGHBOUR_SHARE:
         return Labels(None, f"{data.dtype}, {values.size} distinct values spaced apart over "
-                            f"{_span(values)}, {share:.0%} next to another")
+                            f"{_span(values)}, {share:.0%} next to another", near_miss=True)
     return Labels(tuple(int(v) for v in values), f"{values.size} labels (integer values {_span(values)})")
 
 
