@@ -60,6 +60,7 @@ from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import linear_sampler
 from vgraph.gl.shaders import programs
 from vgraph.image import Image
+from vgraph.shown_content import voxels_by_compositing
 from vgraph.volume import Volume
 
 BRICK_SHADER = "bricks/brick.frag.glsl"
@@ -123,6 +124,11 @@ class BrickedRayCaster(RaycasterBase):
         self.load_limit: LoadLimit | None = None  # reading allowed per frame (the GUI's; module docstring)
         self._warned_level = 0  # the budget's level last warned about (0: none)
         self.leaf: LeafPass | None = None  # the leaves split's part of the frame (module docstring)
+
+    def shown_content(self) -> list:
+        """The voxels its transfer function (or, for iso, its iso level) shows (vgraph.blank_causes)."""
+        volume = self.inputs.get("volume")
+        return [voxels_by_compositing("volume", volume, self)] if volume is not None else []
 
     # --- shader ---------------------------------------------------------------------------------
     def shaded(self) -> bool:

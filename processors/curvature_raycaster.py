@@ -35,6 +35,7 @@ from vgraph.gl.raycasting.empty_space import crossed_by, level_occupancy, radii_
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
+from vgraph.shown_content import voxels_reaching
 from vgraph.volume import Volume
 
 SURFACE_SHADER = "curvature/curvature_raycaster.frag.glsl"
@@ -72,6 +73,11 @@ class CurvatureRaycaster(RaycasterBase):
     def visible_content(self) -> str | None:
         volume = self.inputs.get("volume")
         return crossed_by(volume, self.iso_level) if volume is not None else None
+
+    def shown_content(self) -> list:
+        """The voxels inside its iso surface (vgraph.blank_causes)."""
+        volume = self.inputs.get("volume")
+        return [voxels_reaching("volume", volume, self.iso_level)] if volume is not None else []
 
     def skip_values(self, frame):
         """Blocks the surface may cross (components.EmptySpace)."""

@@ -26,6 +26,7 @@ from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, Em
 from vgraph.gl.raycasting.empty_space import occupied_blocks, radii_if_worthwhile, visible_under
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
+from vgraph.shown_content import voxels_under
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
@@ -67,6 +68,11 @@ class CurvatureVolumeRaycaster(RaycasterBase):
     def visible_content(self) -> str | None:
         volume = self.inputs.get("volume")
         return visible_under(volume, self.transfer_function) if volume is not None else None
+
+    def shown_content(self) -> list:
+        """The voxels its transfer function shows (vgraph.blank_causes)."""
+        volume = self.inputs.get("volume")
+        return [voxels_under("volume", volume, self.transfer_function)] if volume is not None else []
 
     def skip_values(self, frame):
         """Blocks where the TF has opacity (components.EmptySpace; "opacity": empty blocks contribute

@@ -43,6 +43,7 @@ from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
 from vgraph.labels import LabelCodes, LabelTable, label_codes
 from vgraph.properties import LabelTableProperty
+from vgraph.shown_content import labelled_voxels
 from vgraph.volume import Volume
 
 SHADER = "labels/label_raycaster.frag.glsl"
@@ -105,6 +106,11 @@ class LabelRayCaster(RaycasterBase):
         codes = cached[0]
         share = (self.label_table.colors(codes.values)[:, 3] > 0.0)[codes.codes].mean()
         return f"{share:.0%} of the voxels hold shown labels" if share > 0 else None
+
+    def shown_content(self) -> list:
+        """The voxels whose label its table shows (vgraph.blank_causes)."""
+        volume = self.inputs.get("labels")
+        return [labelled_voxels("labels", volume, self.label_table)] if volume is not None else []
 
     def skip_values(self, frame):
         """Empty-space skipping (components.EmptySpace): blocks whose voxels, with the one-voxel

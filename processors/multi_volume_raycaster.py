@@ -66,6 +66,7 @@ from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler
 from vgraph.grid_axes import axes_against
 from vgraph.image import Image
+from vgraph.shown_content import voxels_under
 from vgraph.processors.raycaster import needs_bricks
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -154,6 +155,12 @@ class MultiVolumeRayCaster(RaycasterBase):
             if content:
                 seen.append(f"{port}: {content}")
         return "; ".join(seen) or None
+
+    def shown_content(self) -> list:
+        """Each channel's voxels its transfer function shows (vgraph.blank_causes)."""
+        return [voxels_under(port, self.inputs[port], getattr(self, f"transfer_function{port[-1]}"),
+                             f"transfer_function{port[-1]}")
+                for port in CHANNEL_PORTS if self.inputs.get(port) is not None]
 
     def process(self, volume1: Volume, volume2: Volume | None, volume3: Volume | None,
                 volume4: Volume | None, entry: Image, exit: Image) -> dict:

@@ -62,6 +62,7 @@ from vgraph.gl.tetrahedra.order import VisibilityOrder, visible_tetrahedra
 from vgraph.image import Image
 from vgraph.mesh import TetMesh
 from vgraph.properties import TransferFunctionProperty
+from vgraph.shown_content import tetrahedra_under
 
 TETRAHEDRA_SHADERS = ("tetrahedra/project.vert.glsl", "tetrahedra/project.geom.glsl",
                       "tetrahedra/project.frag.glsl")
@@ -149,6 +150,14 @@ class ProjectedTetrahedra(Processor):
             return None
         return f"{share:.0%} of the tetrahedra are visible under the transfer function" if share >= 0.005 \
             else "under 1% of the tetrahedra are visible under the transfer function"
+
+    def shown_content(self) -> list:
+        """The tetrahedra its transfer function shows (vgraph.blank_causes)."""
+        mesh = self.inputs.get("mesh")
+        if mesh is None:
+            return []
+        alpha = self.transfer_function.for_volume(mesh).lut()[:, 3]
+        return [tetrahedra_under("mesh", mesh, self.transfer_function, visible_tetrahedra(mesh, alpha))]
 
     def process(self, mesh: TetMesh) -> dict:
         ctx = self.gl

@@ -40,6 +40,7 @@ from vgraph.gl.raycasting.gradient_volume import gradient_texture, holds_values
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import linear_sampler
 from vgraph.image import Image
+from vgraph.shown_content import voxels_by_compositing
 from vgraph.volume import Volume
 
 SHADER = "raycasting/raycaster.frag.glsl"
@@ -110,6 +111,11 @@ class RayCaster(RaycasterBase):
         if self.compositing == "iso":
             return crossed_by(volume, self.iso_level)
         return visible_under(volume, self.transfer_function)
+
+    def shown_content(self) -> list:
+        """The voxels its transfer function (or, for iso, its iso level) shows (vgraph.blank_causes)."""
+        volume = self.inputs.get("volume")
+        return [voxels_by_compositing("volume", volume, self)] if volume is not None else []
 
     # --- evaluation -----------------------------------------------------------------------------
     def process(self, volume: Volume, entry: Image, exit: Image) -> dict:

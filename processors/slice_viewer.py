@@ -54,6 +54,7 @@ from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sample
 from vgraph.gl.shaders import programs
 from vgraph.image import Image
 from vgraph.numerics.bspline import prefilter
+from vgraph.shown_content import every_voxel, voxels_under
 from vgraph.slicing import DISPLAYS, ORIENTATIONS, SlicePlane, checked_plane, index_vectors
 from vgraph.transfer_function import PRESETS
 from vgraph.volume import Volume
@@ -127,6 +128,16 @@ class SliceViewer(Processor):
         if self.last_plane is None:
             raise VGraphError(f"{self.id}: no slice drawn yet, so no pixel has a world position")
         return self.last_plane.pixel_to_world(column, row, tuple(self.render_size))
+
+    def shown_content(self) -> list:
+        """The voxels its mapping shows: every one through the window, or those the transfer
+        function gives opacity; ``last_plane`` says where the slice lies (vgraph.blank_causes)."""
+        volume = self.inputs.get("volume")
+        if volume is None:
+            return []
+        if self.mapping == "tf":
+            return [voxels_under("volume", volume, self.transfer_function)]
+        return [every_voxel("volume", volume)]
 
     # --- evaluation -----------------------------------------------------------------------------
     def process(self, volume: Volume) -> Image:

@@ -122,11 +122,12 @@ def test_an_empty_render_of_visible_content_warns_naming_the_renderer():
         network.evaluate("rc.image", size=(32, 32))
 
 
-def test_an_empty_render_of_what_the_transfer_function_hides_does_not_warn(recwarn):
+def test_an_empty_render_of_what_the_transfer_function_hides_names_the_transfer_function():
     hidden = {"points": [[0.0, 1, 1, 1, 0.0], [1.0, 1, 1, 1, 0.0]]}
     network = ray_caster_network(Volume(ball()), CAMERA, transfer_function=hidden)
-    network.evaluate("rc.image", size=(32, 32))
-    assert not [w for w in recwarn if issubclass(w.category, BlankImageWarning)]
+    with pytest.warns(BlankImageWarning, match=r"rc \(RayCaster\) rendered an empty image: "
+                                               r"rc\.transfer_function is transparent at every intensity"):
+        network.evaluate("rc.image", size=(32, 32))
 
 
 # Found by the red team (issue 27): a TF that starts rising just after intensity 0 made the

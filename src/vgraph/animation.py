@@ -87,6 +87,9 @@ def render_frame(network: Network, target: str, plan: "FramePlan", index: int,
         raise VGraphError(f"{target} holds {type(image).__name__}, not an image: choose an image "
                           f"port to animate")
     pixels = image.to_numpy()
+    if index == 0:  # said once: the first frame stands for the others
+        from vgraph.time_series import warn_time_series
+        warn_time_series(network, skip=plan.address)  # animating the time step shows them all
     warning = blank_image_warning(network, target, pixels) if index == 0 else None
     if warning:
         warnings.warn(BlankImageWarning(warning), stacklevel=3)

@@ -204,6 +204,7 @@ def command_run(args) -> int:
     from vgraph.atomic import check_output_path, write_text_atomic
     from vgraph.cli_output import check_formats, requested_outputs, write_outputs
     from vgraph.scheduler import blank_image_warning, default_target, evaluate, finish_gl, target_type
+    from vgraph.time_series import warn_time_series
 
     outputs = requested_outputs(args)  # refused before a long evaluation, not after
     if args.profile is not None:
@@ -231,6 +232,7 @@ def command_run(args) -> int:
     finally:
         if args.profile and network.last_evaluation is not None:
             write_text_atomic(args.profile, json.dumps(network.last_evaluation.to_json(), indent=2) + "\n")
+    warn_time_series(network)  # a 4D file's one time point, said once per source
     if outputs:
         write_outputs(outputs, target, network.output(target),
                       lambda pixels: blank_image_warning(network, target, pixels))

@@ -159,6 +159,13 @@ class Processor:
         says so and still produced a uniform image is reported (``scheduler.blank_image_warning``)."""
         return None
 
+    def shown_content(self) -> list | None:
+        """What a renderer's inputs of the last process() should show: one
+        ``vgraph.shown_content.Shown`` per input (empty: no input yet); None for a processor that
+        renders nothing or does not say. A uniform image of a renderer that says is diagnosed by
+        ``vgraph.blank_causes`` (the value range, the transfer function, clip planes, the camera)."""
+        return None
+
     def process(self, **inputs):
         raise NotImplementedError(f"{self.type_name} does not implement process()")
 

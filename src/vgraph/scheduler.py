@@ -274,41 +274,26 @@ class BlankImageWarning(VGraphWarning):
 
 def blank_image_warning(network: Network, target: str, pixels: np.ndarray) -> str | None:
     """A warning when ``pixels`` (the colour image at ``target``: an ``image`` outport or a sink)
-    are all one colour although a renderer it comes from says its inputs have visible content;
-    None otherwise."""
+    are all one colour although a renderer it comes from had something to show, naming the cause
+    (vgraph.blank_causes: the value range, the transfer function, clip planes or crop box, a slice
+    off the volume, the camera); None otherwise. Of several renderers upstream, the nearest whose
+    inputs show something is diagnosed, else the nearest that shows nothing."""
     if pixels.ndim != 3 or pixels.size == 0 or not np.all(pixels == pixels[:1, :1]):
         return None
     if "." in target and split_address(target)[1] != "image":
         return None  # depth, positions, curvature values: flat is no sign of a wrong view
+    from vgraph.blank_causes import diagnose  # imported when an image is blank, not every frame
     processor_id = _target_processor(network, target)
     upstream = nx.shortest_path_length(network.graph.reverse(copy=False), processor_id)
     chain = [network.processors[pid] for pid in sorted(upstream, key=upstream.get)]  # nearest first
+    size = (pixels.shape[1], pixels.shape[0])
+    hidden = None  # the nearest renderer that shows nothing, said if none shows something
     for processor in chain:
-        content = processor.visible_content()
-        if content:
-            return (f"{processor.id} ({processor.type_name}) rendered an empty image although "
-                    f"{content}: is the volume in view (camera position, near and far) and is its "
-                    f"value range right?")
-    return next(filter(None, map(_constant_input, chain)), None)
-
-
-def _constant_input(processor: Processor) -> str | None:
-    """Why a renderer (a processor that says what its inputs should show) of a constant volume
-    shows nothing: one value has no structure, and it sits at one end of the range the volume maps
-    itself to."""
-    if type(processor).visible_content is Processor.visible_content:
-        return None
-    for port, data in getattr(processor, "inputs", {}).items():
-        value = getattr(data, "constant_value", None)
-        if value is not None:
-            low, high = data.value_range
-            return (f"{processor.id} ({processor.type_name}) rendered an empty image: its {port} "
-                    f"({data.source or 'in memory'}) is constant, every finite voxel is {value:.7g} "
-                    f"(intensity {float(data.normalized(value)):.3g} of its value range "
-                    f"[{low:.7g}, {high:.7g}]), and nothing is shown at that value; give the "
-                    f"volume a value_range that places it where the transfer function (or the "
-                    f"iso level) shows it")
-    return None
+        diagnosis = diagnose(network, processor, size)
+        if diagnosis is not None and diagnosis.cause != "nothing_shown":
+            return diagnosis.text
+        hidden = hidden or diagnosis
+    return hidden.text if hidden else None
 
 
 def to_numpy(data):

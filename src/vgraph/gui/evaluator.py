@@ -40,6 +40,7 @@ from vgraph.network import Network
 from vgraph.processor import Processor
 from vgraph.properties import FilePathProperty, Invalidation, TransferFunctionProperty
 from vgraph.scheduler import blank_image_warning, evaluate
+from vgraph.time_series import time_point_note
 from vgraph.transfer_function import ValueScale
 from vgraph.volume import Volume
 
@@ -245,10 +246,11 @@ _summaries: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # processor
 
 
 def data_summary(processor: Processor) -> str:
-    """Dimensions, type, spacing and value range of each volume the processor output, and the
-    size of the file a source read. A few hundred bytes: it crosses the process boundary on
-    every evaluation. Kept per run of the processor: statuses are built for every frame of a
-    drag, and a Zarr store's size is a walk over its chunk files."""
+    """Dimensions, type, spacing and value range of each volume the processor output, the time
+    point of a file with several (vgraph.time_series), and the size of the file a source read. A
+    few hundred bytes: it crosses the process boundary on every evaluation. Kept per run of the
+    processor: statuses are built for every frame of a drag, and a Zarr store's size is a walk over
+    its chunk files."""
     run = (processor.evaluation_count, tuple(id(data) for data in processor.outputs.values()))
     cached = _summaries.get(processor)
     if cached is None or cached[0] != run:
@@ -264,6 +266,9 @@ def _summary(processor: Processor) -> str:
             lo, hi = data.value_range
             lines.append(f"{name}: {x} \u00d7 {y} \u00d7 {z} {data.data.dtype}, spacing "
                          f"({', '.join(f'{s:g}' for s in data.spacing)}), values {lo:g} to {hi:g}")
+    note = time_point_note(processor)  # "t = 0 of 12 time points; choose with source.time_step"
+    if note and lines:
+        lines.append(note)
     if processor.outports and lines:
         for prop in processor.properties.values():
             value = processor.property_values[prop.name]
