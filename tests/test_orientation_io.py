@@ -113,7 +113,8 @@ def dicom_slice(path, position, orientation=(1, 0, 0, 0, 1, 0), index=0, pixel_s
     from pydicom.dataset import Dataset, FileMetaDataset
     from pydicom.uid import ExplicitVRLittleEndian
     meta = FileMetaDataset()
-    meta.MediaStorageSOPClassUID, meta.MediaStorageSOPInstanceUID = "1.2.840.10008.5.1.4.1.1.2", f"1.2.3.{index}"
+    meta.MediaStorageSOPClassUID = "1.2.840.10008.5.1.4.1.1.2"  # CT Image Storage
+    meta.MediaStorageSOPInstanceUID = f"1.2.3.{index}"
     meta.TransferSyntaxUID = ExplicitVRLittleEndian
     ds = Dataset()
     ds.file_meta, ds.SeriesInstanceUID, ds.Rows, ds.Columns = meta, "1.2.3", 3, 4
@@ -240,9 +241,10 @@ def test_a_metaimage_written_by_itk_is_read_onto_its_affine(tmp_path):
 
 
 def test_a_metaimage_that_declares_no_frame_keeps_its_coordinates(tmp_path):
-    header = "NDims = 3\nDimSize = 6 5 4\nElementSpacing = 1 2 3\nOffset = 4 5 6\nElementType = MET_SHORT\n"
+    header = ("NDims = 3\nDimSize = 6 5 4\nElementSpacing = 1 2 3\nOffset = 4 5 6\n"
+              "ElementType = MET_SHORT\nElementDataFile = LOCAL\n")
     path = tmp_path / "plain.mha"
-    path.write_bytes((header + "ElementDataFile = LOCAL\n").encode() + labelled_xyz().T.astype("<i2").tobytes())
+    path.write_bytes(header.encode() + labelled_xyz().T.astype("<i2").tobytes())
     volume = read_volume(path)
     assert volume.is_axis_aligned and volume.origin == (4.0, 5.0, 6.0)
 

@@ -107,11 +107,7 @@ def convert(source, output, *, brick=DEFAULT_BRICK, levels: int | None = None, r
             writer.finish(value_range, data.declared_range, stats.data_range, stats.nonfinite,
                           name=Path(str(source)).name, direction=data.direction)
         if not is_identity(data.direction):
-            warnings.warn(StoreOrientationWarning(
-                f"{output}: the volume's axes are turned against the world's (direction "
-                f"{np.round(data.direction, 4).tolist()}{', x mirrored to make it a rotation' if mirrored else ''}); "
-                f"OME-Zarr holds no rotation, so it is kept in the store's vgraph attributes: "
-                f"vgraph reads it back, other tools show the store unrotated"), stacklevel=2)
+            _warn_turned(output, data.direction, mirrored)
         traced = tracemalloc.get_traced_memory()[1] if trace_memory else None
     finally:
         if trace_memory:
@@ -138,6 +134,15 @@ def as_rotation(data: SlabInput) -> tuple[SlabInput, bool]:
     origin = tuple(float(v) for v in np.asarray(data.origin) + direction[:, 0] * last_x)
     direction = direction * np.array([-1.0, 1.0, 1.0])  # the x column turned round
     return dataclasses.replace(data, origin=origin, direction=checked_direction(direction)), True
+
+
+def _warn_turned(output: Path, direction, mirrored: bool) -> None:
+    mirror = ", x mirrored to make it a rotation" if mirrored else ""
+    warnings.warn(StoreOrientationWarning(
+        f"{output}: the volume's axes are turned against the world's (direction "
+        f"{np.round(direction, 4).tolist()}{mirror}); OME-Zarr holds no rotation, so it is kept in "
+        f"the store's vgraph attributes: vgraph reads it back, other tools show the store "
+        f"unrotated"), stacklevel=3)
 
 
 def checked_brick(brick) -> tuple[int, int, int]:

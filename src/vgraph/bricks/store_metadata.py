@@ -289,9 +289,10 @@ def _direction(ours: dict, path):
     if "direction" not in ours:
         return IDENTITY
     value = ours["direction"]
-    if not (isinstance(value, list) and len(value) == 3 and all(_numbers(row, 3) is not None for row in value)):
-        raise VolumeFileError(path, f"direction must be three rows of three numbers, got {_short(value)}",
-                              "vgraph.direction")
+    if not (isinstance(value, list) and len(value) == 3
+            and all(_numbers(row, 3) is not None for row in value)):
+        raise VolumeFileError(path, f"direction must be three rows of three numbers, got "
+                                    f"{_short(value)}", "vgraph.direction")
     try:
         return checked_direction(value)
     except VolumeGeometryError as error:
