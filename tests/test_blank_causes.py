@@ -106,9 +106,13 @@ def test_vgraph_run_names_the_value_range_property_that_excludes_the_data(tmp_pa
     assert "camera" not in err and "clip" not in err
 
 
-def test_an_iso_level_above_every_value_is_named():
+@pytest.mark.parametrize("processor, properties", [("RayCaster", {"compositing": "iso"}),
+                                                   ("CurvatureRaycaster", {"derivatives": "central"})])
+def test_an_iso_level_above_every_value_is_named(processor, properties):
     volume = Volume(ball(0.4), declared_range=(0.0, 1.0))
-    message = blank_warning(ray_caster_network(volume, CAMERA, compositing="iso", iso_level=0.9))
+    network = ray_caster_network(volume, CAMERA, processor=processor, iso_level=0.9, **properties)
+    message = blank_warning(network)
+    assert message.startswith(f"rc ({processor}) rendered an empty image: ")
     assert "rc.iso_level 0.9 lies above every value" in message
     assert "lower rc.iso_level below 0.3711" in message
     blames_only(message, "rc.iso_level")
@@ -211,6 +215,24 @@ def test_every_ray_caster_names_the_clip_plane(processor, inport, properties):
     assert message.startswith(f"rc ({processor}) rendered an empty image: eep.clip_planes[0] removes "
                               f"every voxel rc shows (it keeps x >= 300")
     blames_only(message, "clip_planes")
+
+
+def test_a_store_over_its_memory_budget_is_judged_from_its_box_without_loading_it(tmp_path):
+    """The RayCaster draws it brick by brick; the diagnosis does not read it whole either: its box
+    (x 0 .. 23) stands in for where the visible voxels lie."""
+    from vgraph.bricks.convert import convert
+    from vgraph.bricks.volume import BrickedVolume
+    np.save(tmp_path / "ball.npy", (ball() * 65535).astype(np.uint16))
+    convert(tmp_path / "ball.npy", tmp_path / "ball.zarr", brick=8, progress=False)
+    store = BrickedVolume.open(tmp_path / "ball.zarr", memory_budget_mb=0.01)
+    network = ball_network(volume=store)
+    network.set("eep.clip_planes", X_BEYOND_300)
+    message = blank_warning(network)
+    assert "eep.clip_planes[0] removes every voxel rc shows (it keeps x >= 300; they lie at x 0 .. 23)" in message
+    network.set("eep.clip_planes", [])
+    network.set("rc.transfer_function", TRANSPARENT)
+    assert "rc.transfer_function is transparent at every intensity" in blank_warning(network)
+    assert store._data is None  # never read whole
 
 
 def test_vgraph_run_names_the_clip_plane_on_stderr(tmp_path, capsys):

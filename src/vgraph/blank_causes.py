@@ -128,6 +128,8 @@ def hidden_because(case: Case, shown) -> str:
         return (f"{control} hides every label {where} holds ({held}); show one of them (an entry with "
                 f"opacity above 0, or unlisted: palette)")
     extremes = finite_extremes(data)
+    if extremes is None and getattr(data, "bricks", None) is not None:  # a store not read whole
+        return f"{control} shows none of the voxels of {where} (judged from the store's summary level)"
     if extremes is None:
         return f"{where} holds no finite value, so nothing can show"
     low, high = (float(v) for v in data.value_range)
