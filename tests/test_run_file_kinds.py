@@ -104,6 +104,18 @@ def test_a_one_slice_nifti_shows_in_the_plane_that_holds_it(tmp_path):
     np.testing.assert_allclose(image, expected, atol=2e-5)
 
 
+def test_a_slice_of_labels_shows_each_voxel_in_its_labels_colour(tmp_path, capsys):
+    labels = (np.indices((12, 10))[0] // 3 + 3 * (np.indices((12, 10))[1] >= 5)).astype(np.uint8)  # (x, y)
+    nib.save(nib.Nifti1Image(labels[:, :, None], np.eye(4)), tmp_path / "labels.nii")  # 0..6 blocks
+    out = tmp_path / "labels.png"
+    assert main(["run", str(tmp_path / "labels.nii"), "-o", str(out), "--size", "12x10"]) == 0
+    assert "labels.nii is a single slice (12 x 10 x 1 voxels) of 7 labels (0..6): shown as an image " \
+           "in its axial plane, a colour per label" in capsys.readouterr().err
+    colours = np.vstack([[0.0, 0.0, 0.0], distinct_label_table(range(7)).colors(np.arange(1, 7))[:, :3]])
+    shown = labels[::-1, ::-1].T  # axial, radiological: image right = -x, image up = +y
+    np.testing.assert_array_equal(np.asarray(PILImage.open(out))[..., :3], np.rint(colours[shown] * 255))
+
+
 def test_an_oblique_slice_is_shown_in_its_own_plane():
     tilt = np.radians(20.0)
     direction = np.array([[1, 0, 0], [0, np.cos(tilt), -np.sin(tilt)], [0, np.sin(tilt), np.cos(tilt)]])

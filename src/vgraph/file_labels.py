@@ -33,6 +33,7 @@ MAX_GUESSED_LABELS = 64
 MAX_LISTED_LABELS = 256  # beyond, a table of one row per label is too long to edit: colours repeat
 NEIGHBOUR_SHARE = 0.5  # of the distinct values that must have a neighbouring value
 _SAMPLE_VOXELS = 1 << 16
+_CHUNK_VOXELS = 1 << 22
 
 
 @dataclass(frozen=True)
@@ -79,20 +80,24 @@ def declared_labels(volume) -> Labels:
 
 
 def distinct_values(data: np.ndarray, limit: int | None) -> np.ndarray | None:
-    """The sorted distinct values of integer ``data``, or None when there are more than
-    ``limit`` (None: no limit)."""
+    """The sorted distinct values (int64) of integer ``data``, or None when there are more than
+    ``limit`` (None: no limit). Counted in chunks: the memory used stays small for any volume."""
     flat = data.reshape(-1)
-    if limit is not None:
-        sample = np.unique(flat[::max(1, flat.size // _SAMPLE_VOXELS)])
-        if sample.size > limit:
+    if limit is not None and np.unique(flat[::max(1, flat.size // _SAMPLE_VOXELS)]).size > limit:
+        return None
+    found = np.empty(0, dtype=np.int64)
+    for start in range(0, flat.size, _CHUNK_VOXELS):
+        found = np.union1d(found, _distinct(flat[start:start + _CHUNK_VOXELS]))
+        if limit is not None and found.size > limit:
             return None
-    if data.dtype.itemsize <= 2:  # one counting pass, no sort
-        low = int(flat.min())
-        counts = np.bincount((flat.astype(np.int64) - low) if low else flat)
-        values = np.flatnonzero(counts) + low
-    else:
-        values = np.unique(flat)
-    return values if limit is None or values.size <= limit else None
+    return found
+
+
+def _distinct(chunk: np.ndarray) -> np.ndarray:
+    if chunk.dtype.itemsize <= 2:  # one counting pass, no sort
+        low = int(chunk.min())
+        return np.flatnonzero(np.bincount(chunk.astype(np.int32) - low)).astype(np.int64) + low
+    return np.unique(chunk).astype(np.int64)
 
 
 def neighbour_share(values: np.ndarray) -> float:
