@@ -14,10 +14,12 @@ Formats (by extension; a folder is a DICOM series):
   .slc               VolVis SLC (8-bit, run-length encoded)         (slc.py)
   .vti               VTK XML ImageData, one scalar array            (vti.py)
   folder .zarr       OME-Zarr image, read lazily as a BrickedVolume (vgraph/bricks/store.py)
-Writing: .npy, .npz, .nrrd, .nii, .nii.gz (writers.py), atomically.
+Writing: .npy, .npz, .nrrd, .nii, .nii.gz, .mha, .vti (writers.py), atomically; all but .npy keep
+the grid.
 
 Every reader returns a Volume with data [z, y, x] in native byte order (file order, x fastest;
-nothing is reoriented), spacing and origin (x, y, z), declared_range where the header states one,
+the voxels are never resampled), spacing and origin (x, y, z) and direction, in RAS patient space
+(orientation.py converts what the file declares), declared_range where the header states one,
 source = str(path) and time_steps. Files with a time axis (4D NIfTI, NRRD whose last axis has
 kind ``time``, 4D MetaImage, NumPy [t, z, y, x]) give the time point ``time_step``; asking any
 file for one it does not hold raises TimeStepError. Any problem with the input raises
