@@ -341,6 +341,24 @@ def test_run_data_out_nii_gz_lands_on_the_same_voxels_in_nibabel(tmp_path):
     np.testing.assert_array_equal(np.asarray(written.dataobj), labelled_xyz())
 
 
+def test_run_on_a_data_file_writes_the_volume_read_and_the_picture_in_one_go(tmp_path):
+    """Without --port, a volume-only format (.nii.gz) writes the volume read, -o the picture, as
+    the issue asks: `vgraph run VOL --data out.nii.gz` then nibabel gives the original affine."""
+    affine = np.array([[-2.0, 0, 0, -100], [0, -2.5, 0, -109], [0, 0, 3, -27], [0, 0, 0, 1]])
+    source = save_nifti(tmp_path / "head_lps.nii.gz", labelled_xyz(), affine)
+    out, picture, image_data = tmp_path / "out.nii.gz", tmp_path / "out.png", tmp_path / "image.npz"
+    done = subprocess.run([sys.executable, "-m", "vgraph", "run", str(source), "--data", str(out),
+                           "-o", str(picture), "--data", str(image_data)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    np.testing.assert_allclose(nib.load(str(out)).affine, affine, atol=1e-6)
+    assert picture.stat().st_size > 0 and np.load(image_data)["image"].shape[-1] == 4
+    refused = subprocess.run([sys.executable, "-m", "vgraph", "run", str(source), "--data", str(out),
+                              "--tiles", "2x2"], capture_output=True, text=True, timeout=300)
+    assert refused.returncode == 2 and "writes the volume read" in refused.stderr
+    assert "Traceback" not in refused.stderr
+
+
 # --- OME-Zarr stores ------------------------------------------------------------------------------
 @pytest.mark.parametrize("turn", ["tilted", "mirrored"])
 def test_convert_keeps_the_direction_in_the_store(tmp_path, turn):

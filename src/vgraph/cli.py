@@ -88,8 +88,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="write the image as an 8-bit PNG")
     run.add_argument("--data", action="append", default=[], type=user_path, metavar="OUT",
                      help="write the data; the extension chooses the format: .npy, .npz (image: "
-                          "float32 H x W x 4; volume: .npz keeps spacing and origin), .nrrd, .nii, "
-                          ".nii.gz (volumes); repeatable")
+                          "float32 H x W x 4; volume: .npz keeps the grid), .nrrd, .nii, .nii.gz, "
+                          ".mha, .vti (volumes, with their affine; run on a data file without "
+                          "--port they write the volume read); repeatable")
     run.add_argument("--npy", type=user_path, metavar="OUT.npy", help="deprecated: --data OUT.npy")
     run.add_argument("--port", help="the port to evaluate, ID.PORT (default: the Canvas)")
     run.add_argument("--size", type=parse_size, metavar="WxH",
@@ -202,7 +203,7 @@ def _print_help(parser: argparse.ArgumentParser) -> int:
 
 def command_run(args) -> int:
     from vgraph.atomic import check_output_path, write_text_atomic
-    from vgraph.cli_output import check_formats, requested_outputs, write_outputs
+    from vgraph.cli_output import check_formats, requested_outputs, targets_of, write_outputs
     from vgraph.scheduler import blank_image_warning, default_target, evaluate, finish_gl, target_type
     from vgraph.time_series import warn_time_series
 
@@ -216,16 +217,21 @@ def command_run(args) -> int:
         set_from_command_line(network, assignment)
     check_before_evaluating(network, args.network)
     target = args.port or (default_target(network) if outputs else None)
-    if outputs:
-        check_formats(outputs, target, target_type(network, target))
+    groups = targets_of(outputs, target, network, from_data_file=is_volume_path(args.network) and not args.port)
+    for each, its_outputs in groups.items():
+        check_formats(its_outputs, each, target_type(network, each))
     if args.cluster is not None or args.split is not None or args.tiles is not None:
+        if set(groups) - {target}:
+            raise VGraphError(f"{', '.join(str(o) for t in groups if t != target for o in groups[t])}: "
+                              f"writes the volume read, which a cluster run does not hold; write "
+                              f"it in a run without --cluster, --split or --tiles")
         from vgraph.distributed.command import run_on_cluster
         return run_on_cluster(args, network, outputs, target)
     started = time.perf_counter()
     try:
         # A profile waits for the GL after each processor, so each time holds its own GL work
         # (docs/cli.md); a run without one lets the GL work overlap with the next processor.
-        report = evaluate(network, [target] if args.port else [], size=args.size,
+        report = evaluate(network, evaluation_targets(network, args.port, groups), size=args.size,
                           finish_each=args.profile is not None)
         finish_gl()  # what is still queued belongs to the evaluation's time printed below
         seconds = time.perf_counter() - started
@@ -233,14 +239,23 @@ def command_run(args) -> int:
         if args.profile and network.last_evaluation is not None:
             write_text_atomic(args.profile, json.dumps(network.last_evaluation.to_json(), indent=2) + "\n")
     warn_time_series(network)  # a 4D file's one time point, said once per source
-    if outputs:
-        write_outputs(outputs, target, network.output(target),
-                      lambda pixels: blank_image_warning(network, target, pixels))
-    else:
+    for each, its_outputs in groups.items():
+        write_outputs(its_outputs, each, network.output(each),
+                      lambda pixels, each=each: blank_image_warning(network, each, pixels))
+    if not outputs:
         say_nothing_was_written(network, report, profile=args.profile)
     ran = ", ".join(report.ids) or "nothing (all valid)"
     print(f"evaluated {ran} in {seconds:.3f} s", file=sys.stderr)
     return EXIT_OK
+
+
+def evaluation_targets(network, port: str | None, groups: dict) -> list[str]:
+    """What ``run`` evaluates: the --port, else every sink (the scheduler's default), and the
+    source's volume where a --data output writes it (cli_output.targets_of)."""
+    if port:
+        return [port]
+    extra = [target for target in groups if target not in {p.id for p in network.sinks()}]
+    return [p.id for p in network.sinks()] + extra if extra else []
 
 
 def say_nothing_was_written(network, report, profile: Path | None) -> None:
@@ -254,7 +269,8 @@ def say_nothing_was_written(network, report, profile: Path | None) -> None:
     has_canvas = any(p.type_name == "Canvas" for p in network.processors.values())
     port = "" if has_canvas else "choose a port with --port ID.PORT and "
     print(f"vgraph: {wrote}: no -o or --data given; {port}write the image with -o OUT.png, the "
-          f"data with --data OUT.npz (or .npy; volumes also .nrrd, .nii, .nii.gz)", file=sys.stderr)
+          f"data with --data OUT.npz (or .npy; volumes also .nrrd, .nii, .nii.gz, .mha, .vti)",
+          file=sys.stderr)
 
 
 def check_before_evaluating(network, file) -> None:

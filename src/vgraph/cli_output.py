@@ -28,7 +28,8 @@ from vgraph.volume import Volume
 
 IMAGE_FORMATS = (".npy", ".npz")
 VOLUME_FORMATS = WRITABLE_EXTENSIONS  # .npy .npz .nrrd .nii .nii.gz
-DATA_FORMATS_TEXT = ".npy or .npz (images, volumes), .nrrd, .nii or .nii.gz (volumes)"
+DATA_FORMATS_TEXT = ".npy or .npz (images, volumes), .nrrd, .nii, .nii.gz, .mha or .vti (volumes)"
+SOURCE_VOLUME = "source.volume"  # what the network made for a data file reads (volume_network)
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,20 @@ def requested_outputs(args) -> list[Output]:
     for output in outputs:
         check_output_path(output.path)  # refuse before a long evaluation, not after
     return outputs
+
+
+def targets_of(outputs: list[Output], target: str | None, network, from_data_file: bool) -> dict:
+    """{target: its outputs}. Run on a data file without --port, a volume-only format (.nrrd,
+    .nii, .mha ...) writes the volume read (``source.volume``), the rest the picture: ``vgraph run
+    head.nii.gz -o head.png --data head.nrrd`` writes both."""
+    groups: dict[str, list[Output]] = {}
+    source, port = SOURCE_VOLUME.split(".")
+    reads_volume = from_data_file and source in network.processors and network[source].outport(port) is not None
+    for output in outputs:
+        volume_only = output.format in VOLUME_FORMATS and output.format not in IMAGE_FORMATS
+        chosen = SOURCE_VOLUME if reads_volume and volume_only else target
+        groups.setdefault(chosen, []).append(output)
+    return groups
 
 
 def check_formats(outputs: list[Output], target: str, data_type: type | None) -> None:

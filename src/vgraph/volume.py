@@ -376,7 +376,7 @@ class Volume:
         worked out from the values so far (extremes, counts, percentiles, histograms) is kept:
         a ray caster's copy in a box's normalised frame does not read the voxels again."""
         changes = {"spacing": spacing or self.spacing, "origin": origin or self.origin,
-                   "direction": direction or self.direction}
+                   "direction": self.direction if direction is None else direction}
         if declared_range is not None:
             changes["declared_range"] = declared_range
         volume = dataclasses.replace(self, **changes)

@@ -221,7 +221,7 @@ class BrickedVolume(Volume):
                                spacing=spacing or self.spacing, origin=origin or self.origin,
                                declared_range=declared_range or self.declared_range,
                                source=self.source, time_steps=self.time_steps,
-                               direction=direction or self.direction)
+                               direction=self.direction if direction is None else direction)
         volume._data = self._data
         return volume
 
