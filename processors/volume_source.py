@@ -17,7 +17,7 @@ from vgraph import (FilePathProperty, FloatProperty, IntProperty, OptionProperty
                     PropertyError, VectorProperty, VGraphError, VGraphWarning)
 from vgraph.bricks.volume import DEFAULT_MEMORY_BUDGET_MB, BrickedVolume
 from vgraph.camera import MAX_COORDINATE
-from vgraph.io import SUPPORTED_EXTENSIONS, TimeStepError, read_volume
+from vgraph.io import SUPPORTED_EXTENSIONS, TimeStepError, is_zarr_group, read_volume
 from vgraph.volume import Volume, VolumeGeometryError
 
 RAW_TYPES = ["uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64"]
@@ -140,6 +140,8 @@ class VolumeSource(Processor):
 def zarr_store(path: Path) -> Path | None:
     """The store folder when ``path`` is an OME-Zarr store or its zarr.json (what a file
     dialog can pick), else None."""
-    if path.name.lower() in ("zarr.json", ".zgroup", ".zattrs") and path.parent.suffix.lower() == ".zarr":
+    if path.name.lower() in ("zarr.json", ".zgroup", ".zattrs") and \
+            (path.parent.suffix.lower() == ".zarr" or is_zarr_group(path.parent)):
         path = path.parent
-    return path if path.suffix.lower() == ".zarr" and path.is_dir() else None
+    is_store = path.suffix.lower() == ".zarr" or is_zarr_group(path)  # also an image inside a store
+    return path if is_store and path.is_dir() else None

@@ -115,14 +115,14 @@ def test_another_tools_ome_zarr_opens_with_time_and_channel_selection(tmp_path, 
     path = foreign_store(tmp_path / "other.zarr", data, zarr_format)
     store = BrickStore(path, time=1, channel=2)
     assert (store.time_steps, store.channels, store.unit) == (2, 3, "micrometer")
-    assert store.brick == (6, 5, 4)
+    assert store.brick == (18, 20, 16)  # chunks of 6 x 5 x 4 grown to whole chunks of at least 16
     assert store.levels[0].spacing == (0.25, 0.5, 2.0) and store.levels[0].origin == (30.0, 20.0, 10.0)
     assert store.levels[1].shape == (5, 5, 6) and store.levels[1].spacing == (0.5, 1.0, 4.0)
     np.testing.assert_array_equal(store.read(0, (0, 0, 0), (9, 10, 11)), data[1, 2])
     for got, expected in zip(store.brick_ranges(0), block_ranges(data[1, 2], store.brick)):
         np.testing.assert_array_equal(got, expected)
-    coarsest = data[1, 2, ::2, ::2, ::2]  # no vgraph attributes: the coarsest level's range
-    assert store.value_range == (float(coarsest.min()), float(coarsest.max()))
+    # no vgraph attributes: the range of the finest level small enough to read whole (level 0)
+    assert store.value_range == (float(data[1, 2].min()), float(data[1, 2].max()))
     volume = BrickedVolume(store)
     assert volume.dims == (11, 10, 9) and volume.time_steps == 2
     np.testing.assert_array_equal(volume.data, data[1, 2])
@@ -155,15 +155,16 @@ def test_a_zarr_group_without_multiscales_is_not_an_ome_zarr(tmp_path):
         BrickStore(tmp_path / "bare.zarr")
 
 
-def test_a_2d_image_is_refused_naming_its_axes(tmp_path):
-    group = zarr.open_group(str(tmp_path / "flat.zarr"), mode="w")
-    group.create_array("0", shape=(4, 5), dtype="uint8")
+def test_an_image_with_one_spatial_axis_is_refused_naming_its_axes(tmp_path):
+    """(A 2D image opens as one slice: tests/test_foreign_ome_zarr.py.)"""
+    group = zarr.open_group(str(tmp_path / "line.zarr"), mode="w")
+    group.create_array("0", shape=(3, 5), dtype="uint8")
     group.attrs["ome"] = {"version": "0.5", "multiscales": [{
-        "axes": [{"name": "y", "type": "space"}, {"name": "x", "type": "space"}],
+        "axes": [{"name": "c", "type": "channel"}, {"name": "x", "type": "space"}],
         "datasets": [{"path": "0", "coordinateTransformations": [{"type": "scale", "scale": [1, 1]}]}]}]}
-    with pytest.raises(VolumeFileError, match=r"flat.zarr \[multiscales.axes\]: a 2D image \(spatial "
-                                              r"axes y, x\)"):
-        BrickStore(tmp_path / "flat.zarr")
+    with pytest.raises(VolumeFileError, match=r"line.zarr \[multiscales.axes\]: an image with 1 spatial "
+                                              r"axes \(x\): vgraph reads images with two"):
+        BrickStore(tmp_path / "line.zarr")
 
 
 def test_our_store_layout_is_ngff_0_5(tmp_path):
@@ -245,7 +246,7 @@ def test_volume_source_accepts_the_stores_zarr_json_and_its_time_axis(store_path
     data = np.arange(2 * 1 * 4 * 4 * 4, dtype=np.uint8).reshape(2, 1, 4, 4, 4)
     path = foreign_store(tmp_path / "series.zarr", data)
     second = source_output(path, time_step=1)
-    assert second.time_steps == 2 and second.value_range == (64.0, 106.0)  # its coarsest level: voxel (2, 2, 2)
+    assert second.time_steps == 2 and second.value_range == (64.0, 127.0)  # level 0 of time point 1
     with pytest.raises(VGraphError, match=r"src.time_step: time step 2 is out of range: .*series.zarr "
                                           r"holds 2 time points"):
         source_output(path, time_step=2)

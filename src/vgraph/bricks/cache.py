@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vgraph.bricks.cells import cell_extent
 from vgraph.bricks.pyramid import BrickSource
 from vgraph.gl.context import release_quietly
 from vgraph.progress import report
@@ -106,12 +107,9 @@ def to_texture_values(block: np.ndarray, fmt: TextureFormat, value_range) -> np.
 
 
 def brick_extent(source: BrickSource, key) -> tuple[np.ndarray, np.ndarray]:
-    """Voxels [start, stop) ([z, y, x]) of a brick's core in its level."""
-    level, index = key[0], np.asarray(key[1:])
-    size = np.asarray(source.brick[::-1])
-    shape = np.asarray(source.levels[level].shape)
-    start = index * size
-    return start, np.minimum(start + size, shape)
+    """Voxels [start, stop) ([z, y, x]) of a brick's core in its level: [i * brick, (i + 1) *
+    brick) where the level halves level 0 (cells.py), else the voxels covering its region."""
+    return cell_extent(source, key)
 
 
 def brick_texture_shape(source: BrickSource, key) -> tuple[int, int, int]:

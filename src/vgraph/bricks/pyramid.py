@@ -6,7 +6,10 @@ Conventions (docs/large-data.md has the long form):
   voxel i of level k + 1 is the mean of voxels 2i and 2i + 1 of level k along each axis (the last
   voxel of an odd axis averages the one voxel it has). So a level's spacing is twice the previous
   one and its first voxel centre lies half a (previous) voxel further: ``origin_{k+1} = origin_k +
-  spacing_k / 2``. Integer data are rounded to the nearest value of their type.
+  spacing_k / 2``. Integer data are rounded to the nearest value of their type. (That is how
+  ArrayPyramid and vgraph convert build levels; another tool's store may keep an axis or reduce
+  it by another factor, with any translation: the renderer places each level by its own spacing
+  and origin, cells.py.)
 - Shapes are [z, y, x] as arrays; spacing and origin are (x, y, z) world units, as in Volume.
 - A brick is a block of ``brick`` voxels (x, y, z) of one level; brick (bx, by, bz) covers voxels
   [bz * brick_z, (bz + 1) * brick_z) ... clamped to the level. ``brick_ranges(level)`` gives the

@@ -1,20 +1,24 @@
 """Which bricks a frame of the bricked ray caster draws, at which level, in which order.
 
 Conventions (docs/bricked_raycaster.md):
-- The pyramid is an octree: brick b of level L covers level-0 voxels [b * B * 2^L, (b + 1) * B *
-  2^L) per axis (B the brick size), exactly its children at level L - 1. The selection walks it
-  from the coarsest level down, so the chosen bricks tile the volume whatever their levels.
+- The pyramid is an octree of cells (vgraph.bricks.cells): cell b of level L covers level-0 voxels
+  [b * B * f_L, (b + 1) * B * f_L) per axis (B the brick size, f_L the level's factor: 2^L where
+  every level halves every axis, 1 along an axis the pyramid keeps), exactly its children at level
+  L - 1, and reads the level-L voxels that cover that region. The selection walks it from the
+  coarsest level down, so the chosen cells ("bricks") tile the volume whatever their levels.
 - A brick *owns* the samples whose level-0 texture coordinate t lies in [j_lo / n, j_hi / n) per
   axis (j the level-0 voxel bounds above, n the level-0 voxels): half-open, so each sample of the
   global lattice lies in exactly one brick; the volume's outer faces are pushed to +-OUTSIDE so
   samples on (or a rounding beyond) the box still have an owner.
 - Level per brick: a level-0 voxel (its longest edge) projects to p pixels at the brick's
-  nearest point; the brick wants level floor(-log2(p) + lod_bias) (voxels of about a pixel at
-  lod_bias 0), clamped to the pyramid and to at least ``floor_level``; ``plan_frame`` raises
-  floor_level until the frame fits the budget.
+  nearest point; the brick wants the coarsest level L with cells.coarseness[L] <= -log2(p) +
+  lod_bias (floor(-log2(p) + lod_bias) where every level halves every axis: voxels of about a
+  pixel at lod_bias 0), clamped to the pyramid and to at least ``floor_level``; ``plan_frame``
+  raises floor_level until the frame fits the budget.
 - Empty bricks: the per-brick ranges of the brick's level (``brick_ranges``), widened to the 3^3
   neighbouring bricks (a sample inside a brick filters voxels up to one voxel outside it),
-  normalised by the value range: dvr drops bricks whose whole range has no LUT opacity
+  normalised by the value range (a cell is empty when every brick its core touches is): dvr
+  drops bricks whose whole range has no LUT opacity
   (empty_space.occupied_blocks, the RayCaster's skipping rule), iso those whose maximum is below the
   level, mip those whose maximum is <= 0.
 - Order: front to back, the grid's sweep order (tetrahedra.cells.axis_order, reversed) at the top
@@ -35,7 +39,8 @@ import numpy as np
 from scipy import ndimage
 
 from vgraph.bricks.cache import LoadLimit, brick_bytes, usable_range
-from vgraph.bricks.pyramid import BrickSource, brick_grid
+from vgraph.bricks.cells import cell_factors, cell_grid, cells_of_bricks, coarseness
+from vgraph.bricks.pyramid import BrickSource
 from vgraph.gl.raycasting.empty_space import occupied_blocks
 from vgraph.gl.tetrahedra.cells import axis_order
 
@@ -85,12 +90,16 @@ class BrickGeometry:
         self.spacing0 = np.asarray(base.spacing, dtype=np.float64)
         self.origin0 = np.asarray(base.origin, dtype=np.float64)
         self.brick = np.asarray(source.brick, dtype=np.float64)          # (x, y, z)
-        self.grids = [np.asarray(brick_grid(level.shape, source.brick)[::-1]) for level in source.levels]
+        factors = [np.asarray(f, dtype=np.int64) for f in cell_factors(source)]
+        self.spans = [self.brick * f for f in factors]                   # level-0 voxels per cell
+        self.ratios = [None] + [b // a for a, b in zip(factors, factors[1:])]  # children per axis
+        self.grids = [np.asarray(cell_grid(source, k)[::-1]) for k in range(len(source.levels))]
+        self.coarseness = coarseness(source)
 
     def voxel_bounds(self, key) -> tuple[np.ndarray, np.ndarray]:
         """Level-0 voxel bounds [lo, hi) (x, y, z) of a brick, hi clipped to the volume."""
         level, index = key[0], np.asarray(key[1:][::-1], dtype=np.float64)
-        span = self.brick * 2.0 ** level
+        span = self.spans[level]
         return index * span, np.minimum((index + 1) * span, self.dims0)
 
     def owner_bounds(self, key) -> tuple[np.ndarray, np.ndarray]:
@@ -103,7 +112,7 @@ class BrickGeometry:
 
     def eye_in_bricks(self, eye, level: int) -> np.ndarray:
         """The eye's position in brick units of ``level`` (x, y, z)."""
-        return ((np.asarray(eye) - self.origin0) / self.spacing0 + 0.5) / (self.brick * 2.0 ** level)
+        return ((np.asarray(eye) - self.origin0) / self.spacing0 + 0.5) / self.spans[level]
 
 
 # --- emptiness ------------------------------------------------------------------------------------
@@ -136,7 +145,7 @@ def level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.nda
     ``level``: arrays [bz, by, bx, 3] (x, y, z)."""
     grid = geometry.grids[level]
     index = np.stack(np.meshgrid(*[np.arange(n) for n in grid[::-1]], indexing="ij"), axis=-1)[..., ::-1]
-    span = geometry.brick * 2.0 ** level
+    span = geometry.spans[level]
     top = geometry.dims0 - 1.0
     lo = np.clip(index * span - 0.5, 0.0, top)
     hi = np.clip(np.minimum((index + 1) * span, geometry.dims0) - 0.5, 0.0, top)
@@ -162,7 +171,8 @@ def desired_levels(geometry: BrickGeometry, camera, size, level: int, lod_bias: 
     distance = np.linalg.norm(np.maximum(np.maximum(lo - eye, eye - hi), 0.0), axis=-1)
     # The longest voxel edge: an anisotropic voxel is refined until its longest side is about a pixel.
     pixels = float(geometry.spacing0.max()) * pixels_per_world(camera, size, distance)
-    return np.floor(-np.log2(np.maximum(pixels, 1e-30)) + lod_bias).astype(np.int64)
+    allowed = -np.log2(np.maximum(pixels, 1e-30)) + lod_bias
+    return np.searchsorted(geometry.coarseness[1:], allowed, side="right").astype(np.int64)
 
 
 def screen_rects(geometry: BrickGeometry, view_projection, size, level: int) -> np.ndarray:
@@ -205,7 +215,7 @@ class LevelTables:
             self._tables[level, what] = {
                 "rects": lambda: screen_rects(self.geometry, self.view_projection, self.size, level),
                 "wants": lambda: desired_levels(self.geometry, self.camera, self.size, level, self.lod_bias),
-                "visible": lambda: np.asarray(self.visible(level), dtype=bool),
+                "visible": lambda: cells_of_bricks(self.geometry.source, level, self.visible(level)),
             }[what]()
         return self._tables[level, what]
 
@@ -230,10 +240,10 @@ def select_bricks(source: BrickSource, camera, size, view_projection, visible, l
             if rect[2] == 0:
                 continue
             if level > min(max(int(wants[z, y, x]), floor_level, 0), top):
-                grid = geometry.grids[level - 1]
-                first = np.array([x, y, z]) * 2
-                counts = np.minimum(first + 2, grid) - first
-                walk(level - 1, front_to_back(counts, eye * 2, forward, perspective, first))
+                grid, ratio = geometry.grids[level - 1], geometry.ratios[level]
+                first = np.array([x, y, z]) * ratio
+                counts = np.minimum(first + ratio, grid) - first
+                walk(level - 1, front_to_back(counts, eye * ratio, forward, perspective, first))
             elif tables(level, "visible")[z, y, x]:
                 chosen.append(((level, z, y, x), tuple(int(v) for v in rect)))
 

@@ -1,12 +1,15 @@
 """BrickStore: an OME-Zarr image on disk as a BrickSource (docs/large-data.md).
 
 Opens vgraph's own stores (store_writer.py) and OME-Zarr images written by other tools (NGFF 0.4
-on zarr v2, 0.5 on zarr v3): the first image of "multiscales", its axes (three of type space,
-taken as z, y, x by name, else in their order; a time and a channel axis are indexed with
-``time`` and ``channel``; any other axis must have size 1), one level per dataset with the
-spacing and origin of its scale and translation (a multiscale-wide transformation applies on
-top). Opening reads metadata only, checked as store_metadata.py says; every file is read through
-store_files.CheckedStore (regular files only, sizes bounded before reading).
+on zarr v2, 0.5 on zarr v3; ome-zarr-py, napari, bioformats2raw's layout 3, whose first image it
+opens): the first image of "multiscales", its axes (three of type space, taken as z, y, x by
+name, else in their order, or two: a 2D image read as one slice; a time and a channel axis are
+indexed with ``time`` and ``channel``; any other axis must have size 1), one level per dataset
+with the spacing and origin of its scale and translation (a multiscale-wide transformation
+applies on top; lengths in one unit), whatever the factor between levels (cells.py). A label
+image ("image-label") sets ``holds_labels``. Opening reads metadata only, checked as
+store_metadata.py says; every file is read through store_files.CheckedStore (regular files only,
+sizes bounded before reading).
 
 Voxels are read by ``read``. A chunk with no file reads as the array's fill value, which is what
 zarr means by it, unless the store's own statistics say otherwise: in vgraph's stores a brick
@@ -16,9 +19,10 @@ Other tools' images have no such statistics: their missing chunks are the fill v
 sparse arrays).
 
 Statistics never read a whole large array: the value range and per-brick ranges of vgraph's
-stores are recorded; for other stores ``value_range`` is the min..max of a bounded sample of the
-coarsest level (pyramid.sample_blocks: the whole level up to SAMPLE_VOXELS voxels in SAMPLE_BRICKS
-bricks; averaging only narrows the range, so it lies within the full-resolution one) and
+stores are recorded; for other stores ``value_range`` is the min..max of the finest level of at
+most SAMPLE_VOXELS voxels in SAMPLE_BRICKS bricks, read whole (level 0 of a store that small:
+exact), else of a bounded sample of the coarsest level (pyramid.sample_blocks; averaging only
+narrows the range, so it lies within the full-resolution one) and
 ``brick_ranges`` reads a level once only if it has at most SCAN_VOXELS voxels in at most SCAN_BRICKS bricks; a larger level's
 bricks are unknown: (-inf, +inf), drawn whenever the renderer asks for them.
 
@@ -30,6 +34,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import warnings
 from functools import cached_property
 from pathlib import Path
 
@@ -37,6 +42,7 @@ import numpy as np
 import zarr.api.asynchronous as zarr_async
 from zarr.core.array import AsyncArray
 
+from vgraph.bricks import foreign_stores as foreign
 from vgraph.bricks import store_metadata as meta
 from vgraph.bricks.pyramid import block_ranges, brick_grid, sample_blocks
 from vgraph.bricks.store_files import CheckedStore, StoreFileError, run
@@ -61,28 +67,32 @@ class BrickStore:
         self._files = CheckedStore(self.path) if self.path.is_dir() else None
         group = _open_group(self.path, self._files)
         attributes = dict(group.attrs)
+        if foreign.bioformats2raw_layout(attributes):
+            group, attributes = self._first_series(group, attributes)
         image = meta.first_image(attributes, self.path)
+        self.holds_labels = foreign.is_label_image(attributes)  # an image of a labels/ group
         self.axes = meta.image_axes(image, self.path)
         self._space = meta.space_axes(self.axes, self.path)
         self.arrays = [self._open_level(group, image, k) for k in range(len(image["datasets"]))]
         dtypes = [meta.voxel_dtype(array, self.path, k) for k, array in enumerate(self.arrays)]
         meta.check_same_kind(self.arrays, dtypes, self.axes, self._space, self.path)
-        self.unit = self.axes[self._space[0]].get("unit")
+        self.unit, units = foreign.space_units(self.axes, self._space, self.path)
         self.time_steps, self.time = self._index("time", time)
         self.channels, self.channel = self._index("channel", channel)
         self._check_other_axes()
-        levels = [meta.level_geometry(image, k, array.shape, self._space, len(self.axes), self.path)
+        levels = [meta.level_geometry(image, k, array.shape, self._space, len(self.axes), self.path, units)
                   for k, array in enumerate(self.arrays)]
         meta.check_extents(levels, self.path)
         self.dtype = dtypes[0]
         self.ours = meta.our_attributes(attributes, len(levels), math.prod(levels[0].shape), self.path)
         self.direction = self.ours["direction"] if self.ours else IDENTITY  # BrickedVolume takes it
-        self.brick = tuple(int(self.arrays[0].chunks[a]) for a in self._space[::-1])
         if self.ours:
+            self.brick = self._chunks_xyz(self.arrays[0])
             meta.check_our_pyramid(levels, self.path)
             self._check_our_chunks()
         else:
-            levels = levels[:meta.halving_levels(levels, self.path)]
+            self.brick = foreign.foreign_brick(self._chunks_xyz(self.arrays[0]))
+            levels = levels[:meta.coarsening_levels(levels, self.path)]
             self.arrays = self.arrays[:len(levels)]
         self.levels = levels
         for k, level in enumerate(levels):
@@ -105,8 +115,12 @@ class BrickStore:
         block = self._get(array, index, level, missing, f"level {level} voxels {lo}..{hi}")
         if missing:
             self._check_missing(level, index, missing)
-        order = np.argsort(np.argsort(self._space))  # array order of the space axes -> z, y, x
-        return to_native(np.transpose(block, order) if list(order) != [0, 1, 2] else block)
+        space = [a for a in self._space if a is not None]
+        order = [sorted(space).index(a) for a in space]  # array order of the space axes -> z, y, x
+        block = np.transpose(block, order) if order != sorted(order) else block
+        if len(space) == 2:  # a 2D image: its one slice
+            block = block[np.newaxis][lo[0]:hi[0]]
+        return to_native(block)
 
     def brick_ranges(self, level: int) -> tuple[np.ndarray, np.ndarray]:
         """Min and max of every brick's finite voxels ([bz, by, bx] float64, NaN: none; -inf and
@@ -128,11 +142,14 @@ class BrickStore:
     @cached_property
     def data_range(self) -> tuple[float, float] | None:
         """Min and max of the finite voxels (None: none is finite): recorded by vgraph convert;
-        for other stores those of a bounded sample of the coarsest level."""
+        for other stores those of the finest level small enough to read whole, else of a bounded
+        sample of the coarsest (a pyramid of another tool may end in a few voxels of averages)."""
         if self.ours:
             return self.ours["data_range"]
+        small = (k for k, level in enumerate(self.levels) if math.prod(level.shape) <= SAMPLE_VOXELS
+                 and math.prod(brick_grid(level.shape, self.brick)) <= SAMPLE_BRICKS)
         low = high = None
-        for block in sample_blocks(self, len(self.levels) - 1, SAMPLE_VOXELS, SAMPLE_BRICKS):
+        for block in sample_blocks(self, next(small, len(self.levels) - 1), SAMPLE_VOXELS, SAMPLE_BRICKS):
             finite = block[np.isfinite(block)] if block.dtype.kind == "f" else block
             if finite.size:
                 low = finite.min() if low is None else min(low, finite.min())
@@ -147,6 +164,30 @@ class BrickStore:
         return self.ours["nonfinite"] if self.ours else None
 
     # --- opening ----------------------------------------------------------------------------------
+    def _first_series(self, group, attributes: dict):
+        """bioformats2raw's collection: the first image (OME/ "series", else group "0"), saying
+        when the collection holds more (the layout asks readers to)."""
+        foreign.check_bioformats2raw(attributes, self.path)
+        ome = _member(group, "OME", self.path)
+        series = foreign.series_paths(dict(ome.attrs) if ome is not None and not isinstance(ome, AsyncArray)
+                                   else None, self.path)
+        name = series[0] if series else "0"
+        image = _member(group, name, self.path)
+        if image is None or isinstance(image, AsyncArray):
+            raise VolumeFileError(self.path, f"a bioformats2raw collection without its image group "
+                                             f"{name!r}", "bioformats2raw.layout")
+        more = len(series) - 1 if series else int(_member(group, "1", self.path) is not None)
+        if more:
+            count = f"{len(series)} images" if series else "more than one image"
+            warnings.warn(foreign.StoreImagesWarning(
+                f"{self.path}: a bioformats2raw collection of {count}: showing the first ({name}); "
+                f"open {self.path / (series[1] if series else '1')} for the next"), stacklevel=3)
+        return image, dict(image.attrs)
+
+    def _chunks_xyz(self, array) -> tuple[int, int, int]:
+        """The array's chunk in voxels (x, y, z); 1 along a 2D image's missing z."""
+        return tuple(int(array.chunks[a]) if a is not None else 1 for a in self._space[::-1])
+
     def _open_level(self, group, image: dict, k: int):
         name = meta.dataset_path(image, k, self.path)
         array = _member(group, name, self.path)
@@ -162,7 +203,7 @@ class BrickStore:
 
     def _check_our_chunks(self) -> None:
         for k, array in enumerate(self.arrays):
-            chunks = tuple(int(array.chunks[a]) for a in self._space[::-1])
+            chunks = self._chunks_xyz(array)
             if chunks != self.ours["brick"] or array.shards:
                 raise VolumeFileError(self.path, f"level {k}: chunks of {chunks} voxels (x, y, z), but the "
                                                  f"store's brick is {self.ours['brick']}: the store is "

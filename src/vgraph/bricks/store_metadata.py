@@ -1,12 +1,15 @@
 """What an OME-Zarr image's metadata says, checked before a voxel is read (docs/large-data.md).
 
-The NGFF side: the first image of "multiscales" (under "ome" in NGFF 0.5), its axes, the dataset
-paths (relative paths inside the store) and their scale and translation. The zarr side, per
-level: the dimensions, one data type for every level, chunks of at most MAX_CHUNK_BYTES and a
-brick grid of at most MAX_BRICKS. Across levels: the same time and channel lengths and extents
-that agree with the scales. vgraph's own stores ("vgraph" attributes, written by vgraph convert)
-are held to their layout exactly: every level the halving of the one before (pyramid.next_level),
-chunks equal to the recorded brick, recorded ranges that are ranges.
+The NGFF side: the first image of "multiscales" (under "ome" in NGFF 0.5), its axes (two or three
+of type space: a 2D image is one slice), the dataset paths (relative paths inside the store) and
+their scale and translation (only those: other transformation types are refused by name), axis
+units (lengths converted to one unit: foreign_stores.py). The zarr side, per level: the dimensions, one data type for
+every level, chunks of at most MAX_CHUNK_BYTES and a brick grid of at most MAX_BRICKS. Across
+levels: the same time and channel lengths, boxes that agree with level 0's, levels no finer than the
+one before along any axis (other tools' pyramids may keep an axis and need not halve exactly:
+cells.py). vgraph's own stores ("vgraph" attributes, written by vgraph convert) are held to their
+layout exactly: every level the halving of the one before (pyramid.next_level), chunks equal to
+the recorded brick, recorded ranges that are ranges.
 
 Every problem raises VolumeFileError naming the store and the metadata field.
 """
@@ -29,8 +32,9 @@ _TYPES = {"t": "time", "c": "channel", "x": "space", "y": "space", "z": "space"}
 
 
 class StoreLevelsWarning(VGraphWarning):
-    """Levels of another tool's OME-Zarr image that are not the halving of the level before
-    (vgraph's pyramid convention) are not used: the store is rendered from the levels before."""
+    """Levels of another tool's OME-Zarr image that are finer than the level before along some
+    axis are not used (a pyramid's levels grow coarser): the store is rendered from the levels
+    before."""
 
 
 # --- the NGFF image -----------------------------------------------------------------------------------
@@ -40,12 +44,23 @@ def first_image(attributes: dict, path) -> dict:
     images = ome.get("multiscales")
     if not isinstance(images, list) or not images or not isinstance(images[0], dict):
         raise VolumeFileError(path, "not an OME-Zarr image: the group attributes have no "
-                                    "'multiscales' list (ome.multiscales in NGFF 0.5)", "multiscales")
+                                    "'multiscales' list (ome.multiscales in NGFF 0.5)" + _what_else(ome),
+                              "multiscales")
     image = images[0]
     if not isinstance(image.get("datasets"), list) or not image["datasets"]:
         raise VolumeFileError(path, "the multiscale image lists no datasets (levels)",
                               "multiscales.datasets")
     return image
+
+
+def _what_else(ome: dict) -> str:
+    """What a group without an image holds instead, and where its images are."""
+    if isinstance(ome.get("labels"), list):
+        names = ", ".join(str(n) for n in ome["labels"][:5])
+        return f"; it is a labels group: open one of its label images ({names})"
+    if "plate" in ome or "well" in ome:
+        return "; it is a high-content screening plate or well: open one field's image group"
+    return ""
 
 
 def image_axes(image: dict, path) -> list[dict]:
@@ -65,16 +80,19 @@ def image_axes(image: dict, path) -> list[dict]:
     return out
 
 
-def space_axes(axes: list[dict], path) -> list[int]:
-    """Indices of the z, y and x axes (by name when named so, else the order given)."""
+def space_axes(axes: list[dict], path) -> list[int | None]:
+    """Indices of the z, y and x axes (by name when named so, else the order given); z is None
+    for a 2D image (y, x), which is read as a volume of one slice."""
     space = [a for a, spec in enumerate(axes) if spec["type"] == "space"]
     names = [axes[a]["name"] for a in space]
-    if len(space) != 3:
-        kind = "a 2D image" if len(space) == 2 else f"an image with {len(space)} spatial axes"
-        raise VolumeFileError(path, f"{kind} (spatial axes {', '.join(names) or 'none'}): a volume "
-                                    f"needs three spatial axes z, y, x", "multiscales.axes")
+    if len(space) not in (2, 3):
+        raise VolumeFileError(path, f"an image with {len(space)} spatial axes ({', '.join(names) or 'none'}): "
+                                    f"vgraph reads images with two (y, x) or three (z, y, x)",
+                              "multiscales.axes")
     by_name = {axes[a]["name"].lower(): a for a in space}
-    return [by_name[n] for n in "zyx"] if set(by_name) == set("zyx") else space
+    order = "zyx"[3 - len(space):]
+    chosen = [by_name[n] for n in order] if set(by_name) == set(order) else space
+    return [None] * (3 - len(space)) + chosen
 
 
 def dataset_path(image: dict, k: int, path) -> str:
@@ -107,6 +125,15 @@ def _scale_translation(transforms, ndim: int, path, k: int):
         kind = transform.get("type") if isinstance(transform, dict) else None
         if kind == "identity":
             continue
+        if isinstance(kind, str) and kind not in ("scale", "translation"):
+            raise VolumeFileError(path, f"level {k}: a coordinate transformation of type {kind!r} "
+                                        f"cannot be rendered yet (vgraph reads scale and translation, "
+                                        f"what NGFF 0.4 and 0.5 allow)", "coordinateTransformations")
+        if isinstance(kind, str) and kind not in transform and "path" in transform:
+            raise VolumeFileError(path, f"level {k}: a {kind} stored as binary data at path "
+                                        f"{_short(transform['path'])} cannot be read yet (vgraph "
+                                        f"reads {kind} given as a list of numbers)",
+                                  "coordinateTransformations")
         values = transform.get(kind) if kind in ("scale", "translation") else None
         numbers = _numbers(values, ndim)
         if numbers is None:
@@ -131,21 +158,32 @@ def _numbers(values, count: int) -> np.ndarray | None:
         return None
 
 
-def level_geometry(image: dict, k: int, shape, space: list[int], ndim: int, path) -> Level:
-    """Level k as a pyramid Level: [z, y, x] voxels, (x, y, z) spacing and origin."""
+def level_geometry(image: dict, k: int, shape, space: list, ndim: int, path,
+                   units=(1.0, 1.0, 1.0)) -> Level:
+    """Level k as a pyramid Level: [z, y, x] voxels, (x, y, z) spacing and origin (the centre of
+    voxel (0, 0, 0): the transformations map array index i to scale * i + translation, and
+    index i is voxel i's centre); ``units`` scales each axis to the world's unit. A 2D image's
+    slice gets the finer of its two spacings as thickness (so it does not change the sampling
+    step) and origin 0."""
     scale, translation = transform(image, k, ndim, path)
-    spacing = tuple(float(scale[a]) for a in space[::-1])
-    if not all(math.isfinite(s) and s > 0 for s in spacing):
+    with np.errstate(all="ignore"):  # overflow to inf is refused below
+        spacing = [float(scale[a]) * f if a is not None else None for a, f in zip(space[::-1], units)]
+        origin = [float(translation[a]) * f if a is not None else 0.0 for a, f in zip(space[::-1], units)]
+    if not all(math.isfinite(s) and s > 0 for s in spacing if s is not None):
         raise VolumeFileError(path, f"level {k}: the scale of the spatial axes must be "
-                                    f"positive, got {spacing} (x, y, z)", "coordinateTransformations")
-    origin = tuple(float(translation[a]) for a in space[::-1])
+                                    f"positive, got {_xyz(spacing)} (x, y, z)", "coordinateTransformations")
     if not all(math.isfinite(o) for o in origin):
         raise VolumeFileError(path, f"level {k}: the translation of the spatial axes must be finite, "
-                                    f"got {origin} (x, y, z)", "coordinateTransformations")
-    level_shape = tuple(int(shape[a]) for a in space)
+                                    f"got {_xyz(origin)} (x, y, z)", "coordinateTransformations")
+    spacing = [min(spacing[:2]) if s is None else s for s in spacing]
+    level_shape = tuple(int(shape[a]) if a is not None else 1 for a in space)
     if 0 in level_shape:
         raise VolumeFileError(path, f"level {k} is empty: shape {level_shape} (z, y, x)", "datasets")
-    return Level(level_shape, spacing, origin)
+    return Level(level_shape, tuple(spacing), tuple(origin))
+
+
+def _xyz(values) -> tuple:
+    return tuple(v for v in values if v is not None)
 
 
 # --- each level's array --------------------------------------------------------------------------------
@@ -210,17 +248,27 @@ def check_same_kind(arrays, dtypes, axes, space, path) -> None:
 
 def check_extents(levels: list[Level], path) -> None:
     """Every level must cover level 0's extent to within one of its own voxels (ceil or floor of
-    n / 2^k voxels of 2^k times the spacing do): shapes and scales that disagree are damage."""
+    n / 2^k voxels of 2^k times the spacing do), and its box (voxel edges) must lie on level 0's
+    to within one of its voxels at both ends: shapes, scales or translations that disagree are
+    damage (a level drawn elsewhere than level 0)."""
     base = levels[0]
     for k, level in enumerate(levels[1:], start=1):
         for axis in range(3):  # x, y, z
             n0, nk = base.shape[2 - axis], level.shape[2 - axis]
-            extent0, extent = n0 * base.spacing[axis], nk * level.spacing[axis]
-            if abs(extent - extent0) > level.spacing[axis] * (1 + 1e-6):
-                raise VolumeFileError(path, f"level {k} ({'x, y, z'.split(', ')[axis]}: {nk} voxels of "
-                                            f"{level.spacing[axis]:g}) does not cover level 0's extent "
-                                            f"({n0} voxels of {base.spacing[axis]:g}): the levels "
+            s0, s = base.spacing[axis], level.spacing[axis]
+            extent0, extent = n0 * s0, nk * s
+            name = "x, y, z".split(", ")[axis]
+            if abs(extent - extent0) > s * (1 + 1e-6):
+                raise VolumeFileError(path, f"level {k} ({name}: {nk} voxels of {s:g}) does not cover "
+                                            f"level 0's extent ({n0} voxels of {s0:g}): the levels "
                                             f"disagree", f"multiscales.datasets[{k}]")
+            start0, start = base.origin[axis] - 0.5 * s0, level.origin[axis] - 0.5 * s
+            if abs(start - start0) > s * (1 + 1e-6) or \
+                    abs(start + extent - start0 - extent0) > s * (1 + 1e-6):
+                raise VolumeFileError(path, f"level {k} ({name}: voxels of {s:g} from {start:g}) lies "
+                                            f"more than one of its voxels off level 0's box ({s0:g} "
+                                            f"from {start0:g}): the translations disagree",
+                                      f"multiscales.datasets[{k}].coordinateTransformations")
 
 
 def check_our_pyramid(levels: list[Level], path) -> None:
@@ -239,18 +287,29 @@ def check_our_pyramid(levels: list[Level], path) -> None:
                                   f"multiscales.datasets[{k}].coordinateTransformations")
 
 
-def halving_levels(levels: list[Level], path) -> int:
-    """How many levels from level 0 each halve the one before (what the bricked renderer's
-    octree needs); the others are dropped with a StoreLevelsWarning."""
+def coarsening_levels(levels: list[Level], path) -> int:
+    """How many levels from level 0 are each no finer than the one before along every axis
+    (spacing and voxel count): a pyramid of another tool may keep an axis and reduce by any
+    factor (cells.py); a level finer than the one before is not a pyramid's, and it and the
+    levels after it are dropped with a StoreLevelsWarning."""
     count = 1
-    while count < len(levels) and levels[count].shape == next_level(levels[count - 1]).shape:
+    while count < len(levels) and _not_finer(levels[count], levels[count - 1]):
         count += 1
     if count < len(levels):
         warnings.warn(StoreLevelsWarning(
-            f"{path}: level {count} has {levels[count].shape} voxels (z, y, x), not the halving of "
-            f"level {count - 1} ({next_level(levels[count - 1]).shape}); levels {count} and finer "
-            f"are not used (vgraph's pyramids halve every axis per level)"), stacklevel=3)
+            f"{path}: level {count} ({_describe(levels[count])}) is finer than level {count - 1} "
+            f"({_describe(levels[count - 1])}) along some axis; levels {count} and after are not "
+            f"used (a pyramid's levels grow coarser)"), stacklevel=3)
     return count
+
+
+def _not_finer(level: Level, before: Level) -> bool:
+    return all(s >= b * (1 - 1e-9) for s, b in zip(level.spacing, before.spacing)) and \
+        all(n <= m for n, m in zip(level.shape, before.shape))
+
+
+def _describe(level: Level) -> str:
+    return f"{level.shape} voxels (z, y, x) of {tuple(float(f'{s:.6g}') for s in level.spacing)} (x, y, z)"
 
 
 # --- vgraph's own attributes ---------------------------------------------------------------------------

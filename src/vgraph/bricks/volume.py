@@ -10,7 +10,8 @@ texture) work for small stores and refuse large ones clearly.
 
 Statistics that a plain Volume computes from its array come from the pyramid instead:
 - ``finite_extremes`` (and so ``value_range``): recorded by vgraph convert at full resolution;
-  for other stores those of a bounded sample of the coarsest level (BrickStore.data_range);
+  for other stores those of the finest level small enough to read whole, else of a bounded
+  sample of the coarsest level (BrickStore.data_range);
 - ``percentiles`` and ``histogram``: from the finest level of at most SUMMARY_VOXELS voxels in
   SUMMARY_BRICKS bricks (the full array once it is loaded; a sample of that size of the coarsest
   level when even that is larger, pyramid.sample_blocks); the 0th and 100th percentiles are the

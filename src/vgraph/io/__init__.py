@@ -13,7 +13,8 @@ Formats (by extension; a folder is a DICOM series):
   .npy / .npz        NumPy arrays [z, y, x]                        (numpy_format.py)
   .slc               VolVis SLC (8-bit, run-length encoded)         (slc.py)
   .vti               VTK XML ImageData, one scalar array            (vti.py)
-  folder .zarr       OME-Zarr image, read lazily as a BrickedVolume (vgraph/bricks/store.py)
+  folder .zarr       OME-Zarr image, read lazily as a BrickedVolume (vgraph/bricks/store.py);
+                     so is any folder holding a zarr group (zarr.json or .zgroup)
 Writing: .npy, .npz, .nrrd, .nii, .nii.gz, .mha, .vti (writers.py), atomically; all but .npy keep
 the grid.
 
@@ -58,6 +59,12 @@ def read_zarr(path, time_step: int = 0) -> Volume:
     (within the default memory budget; docs/large-data.md)."""
     from vgraph.bricks.volume import BrickedVolume  # the bricks import vgraph.io themselves
     return BrickedVolume.open(path, time_step=time_step)
+
+
+def is_zarr_group(path) -> bool:
+    """Whether ``path`` is a folder holding a zarr group: an OME-Zarr image inside a store, such
+    as STORE.zarr/labels/cells or a bioformats2raw series STORE.zarr/0, whatever its name."""
+    return any(os.path.isfile(os.path.join(path, name)) for name in ("zarr.json", ".zgroup"))
 
 
 _READERS = {
@@ -112,7 +119,7 @@ def _reader_for(path: Path, raw: dict | None):
     if raw is not None:
         return lambda p: read_raw(p, raw)
     if os.path.isdir(path):  # False for a name too long: regular_file names that
-        return read_zarr if extension_of(path) == ".zarr" else read_dicom_series
+        return read_zarr if extension_of(path) == ".zarr" or is_zarr_group(path) else read_dicom_series
     regular_file(path)  # before anything opens it: a FIFO would block, /dev/zero never end
     ext = extension_of(path)
     if ext == ".zarr":
