@@ -17,6 +17,7 @@ from vgraph import (FilePathProperty, FloatProperty, IntProperty, OptionProperty
                     PropertyError, VectorProperty, VGraphError, VGraphWarning)
 from vgraph.bricks.volume import DEFAULT_MEMORY_BUDGET_MB, BrickedVolume
 from vgraph.camera import MAX_COORDINATE
+from vgraph.errors import VolumeFileError
 from vgraph.io import SUPPORTED_EXTENSIONS, TimeStepError, is_zarr_group, read_volume
 from vgraph.volume import Volume, VolumeGeometryError
 
@@ -33,6 +34,8 @@ class VolumeSource(Processor):
                                 "OME-Zarr store (.zarr folder)")
     time_step = IntProperty(0, min=0, doc="of a file with a time axis (4D NIfTI, ...): the time "
                                           "point to read, 0 = the first")
+    channel = IntProperty(0, min=0, doc="of an OME-Zarr store with a channel axis (c): the channel "
+                                        "to read, 0 = the first")
     spacing = VectorProperty(None, size=3, min=1.0 / MAX_COORDINATE, max=MAX_COORDINATE, optional=True,
                              doc="voxel spacing (x, y, z) in world units; empty: from the file")
     origin = VectorProperty(None, size=3, min=-MAX_COORDINATE, max=MAX_COORDINATE, optional=True,
@@ -71,13 +74,17 @@ class VolumeSource(Processor):
             held = "1 time point (0)" if count == 1 else f"{count} time points (0 .. {count - 1})"
             raise PropertyError(f"{self.id}.time_step", f"time step {error.time_step} is out of "
                                 f"range: {error.file} holds {held}") from None
+        except VolumeFileError as error:
+            if error.field == "channel":  # the property to change, not the file's field
+                raise PropertyError(f"{self.id}.channel", f"{error.file}: {error.reason}") from None
+            raise
         self._warn_if_flat(volume)
         return self._with_overrides(volume)
 
     def _read(self, path) -> Volume:
         store = zarr_store(Path(path))
         if store is not None:
-            return BrickedVolume.open(store, time_step=self.time_step,
+            return BrickedVolume.open(store, time_step=self.time_step, channel=self.channel,
                                       memory_budget_mb=self.memory_budget)
         return read_volume(path, raw=self._raw_description(), time_step=self.time_step)
 

@@ -26,7 +26,7 @@ from vgraph.bricks.targets import brick_uniforms
 from vgraph.bricks.volume import BrickedVolume
 from vgraph.camera import Camera
 from vgraph.cli import main
-from vgraph.errors import VolumeFileError
+from vgraph.errors import VGraphError, VolumeFileError
 from vgraph.network import Network
 from vgraph.numerics.reference_raycast import volume_box
 from vgraph.testing import ray_caster_network
@@ -322,6 +322,10 @@ def test_time_and_channel_axes_select_one_volume_at_every_level(tmp_path, versio
     assert volume.time_steps == 2 and volume.dims == (40, 32, 8)
     np.testing.assert_array_equal(volume.data, data[1, 0])
     np.testing.assert_array_equal(BrickedVolume.open(path, time_step=0, channel=1).data, data[0, 1])
+    np.testing.assert_array_equal(source_output(path, time_step=1, channel=2).data, data[1, 2])
+    with pytest.raises(VGraphError, match=r"src\.channel: .*tc\.zarr: channel 3 is out of range: the "
+                                            r"image has 3 channel\(s\) \(0 \.\. 2\)"):
+        source_output(path, channel=3)
 
 
 def test_a_2d_image_opens_as_one_slice_at_every_level_and_renders(tmp_path):
