@@ -42,6 +42,7 @@ from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
 from vgraph.labels import LabelCodes, LabelTable, label_codes
+from vgraph.processors.raycaster import needs_bricks
 from vgraph.properties import LabelTableProperty
 from vgraph.shown_content import labelled_voxels
 from vgraph.volume import Volume
@@ -82,9 +83,10 @@ class LabelRayCaster(RaycasterBase):
         # The scheduler's ProcessorError names the processor too; the file says which data.
         consumer = f"{self.id}.labels" + (f" ({labels.source})" if labels.source else "")
         labels.require_samples(consumer)
-        if labels.bricks is not None:
-            raise VGraphError(f"{consumer}: label volumes are drawn from one texture; this one is "
-                              f"bricked ({' x '.join(map(str, labels.dims))} voxels)")
+        if needs_bricks(labels, self.gl):  # a store within its memory budget is read whole
+            raise VGraphError(f"{consumer}: label volumes are drawn from one texture; this one "
+                              f"({' x '.join(map(str, labels.dims))} voxels) exceeds the GL's 3D "
+                              f"texture size or its memory budget (VolumeSource.memory_budget)")
         frame = self.frame(labels, entry, exit)
         codes, texture = label_textures(labels, frame.ctx, consumer)
         self._codes = codes

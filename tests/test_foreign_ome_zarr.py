@@ -349,7 +349,7 @@ def test_a_2d_image_opens_as_one_slice_at_every_level_and_renders(tmp_path):
     np.testing.assert_array_equal(BrickedVolume(second).data[0], data // 2)
 
 
-def test_a_label_image_in_the_labels_group_opens_as_labels(tmp_path):
+def test_a_label_image_in_the_labels_group_opens_as_labels(tmp_path, capsys):
     data = (field((16, 40, 32)) * 60000).astype(np.uint16)
     path = ome_zarr_py_image(tmp_path / "cells.zarr", data, scale_factors=[2], scale={"z": 2.0, "y": 0.5, "x": 0.5})
     labels = np.digitize(field((16, 40, 32)), [0.3, 0.6]).astype(np.uint8)
@@ -364,7 +364,12 @@ def test_a_label_image_in_the_labels_group_opens_as_labels(tmp_path):
     assert volume.dims == (32, 40, 16) and volume.spacing == (0.5, 0.5, 2.0)
     np.testing.assert_array_equal(volume.data, labels)
     assert source_output(label_path / "zarr.json").holds_labels  # what a file dialog picks
+    capsys.readouterr()
     assert main(["run", str(label_path), "-o", str(tmp_path / "labels.png")]) == 0
+    assert "rendered as labels by the LabelRayCaster" in capsys.readouterr().err  # read whole: it fits
+    with PIL.Image.open(tmp_path / "labels.png") as picture:
+        colours = {tuple(c) for c in np.asarray(picture.convert("RGB")).reshape(-1, 3)}
+    assert len(colours) >= 3  # the background and the two labels' colours at least
     with pytest.raises(VolumeFileError, match=r"labels \[multiscales\]: not an OME-Zarr image: .* it is a "
                                               r"labels group: open one of its label images \(nuclei\)"):
         BrickStore(path / "labels")

@@ -113,28 +113,28 @@ def _labels(volume, name: str, render_as: str | None) -> tuple[Labels | None, st
 
 
 def _labels_and_facts(volume, name: str, render_as: str | None) -> tuple[Labels, str]:
-    bricked = volume.bricks is not None
+    bricked = volume.bricks is not None and not volume.fits_budget  # else the LabelRayCaster reads it whole
     intensities = Labels(None, "")
     if render_as == "intensity":
         return intensities, f"{name}: intensities, as asked"
     if render_as == "labels":
         if bricked:
-            raise VGraphError(f"--labels: {name} is a store drawn brick by brick, and the "
-                              f"LabelRayCaster draws labels from one texture")
+            raise VGraphError(f"--labels: {name} is a store larger than its memory budget, drawn "
+                              f"brick by brick, and the LabelRayCaster draws labels from one texture")
         labels = declared_labels(volume)
         if not labels.found:
             raise VGraphError(f"--labels: {name} holds {labels.facts}; labels are whole numbers")
         return labels, f"{name}: {_counted(labels)}, as asked"
     if volume.holds_labels:
         if bricked:
-            return intensities, (f"{name} declares labels, but a store is drawn brick by brick and "
-                                 f"the LabelRayCaster needs one texture, so its values are shown as "
-                                 f"intensities")
+            return intensities, (f"{name} declares labels, but a store larger than its memory "
+                                 f"budget is drawn brick by brick and the LabelRayCaster needs one "
+                                 f"texture, so its values are shown as intensities")
         labels = declared_labels(volume)
         if labels.found:
             return labels, f"{name} declares labels ({_counted(labels)})"
         return labels, f"{name} declares labels but holds {labels.facts}"
-    if bricked:
+    if volume.bricks is not None:
         return intensities, f"{name} holds intensities (a store is labels only when it declares them)"
     labels = guessed_labels(volume)
     return labels, f"{name} holds {labels.facts}" if labels.found else f"{name} holds intensities ({labels.facts})"
