@@ -1,9 +1,12 @@
-"""MeshSource: an unstructured mesh from a file, as tetrahedra with one point scalar (formats, the
-splitting of hexahedra, wedges and pyramids, and the errors: docs/tetrahedra.md, "Meshes and
-MeshSource"; the reader is vgraph.io.meshes)."""
+"""MeshSource: an unstructured mesh from a file, as tetrahedra with one scalar per point or, for a
+cell array, per cell (formats, the splitting of hexahedra, wedges, pyramids and 10-node
+tetrahedra, the choice of array and the errors: docs/tetrahedra.md, "Meshes and MeshSource"; the
+reader is vgraph.io.meshes)."""
 
-from vgraph import (FilePathProperty, FloatProperty, Outport, Processor, PropertyError, StringProperty,
-                    VectorProperty, VGraphError)
+from vgraph import (FilePathProperty, FloatProperty, OptionProperty, Outport, Processor, PropertyError,
+                    StringProperty, VectorProperty, VGraphError)
+from vgraph.errors import MeshFileError
+from vgraph.io.mesh_arrays import CELL_ARRAYS
 from vgraph.io.meshes import FILE_FILTERS, read_mesh
 from vgraph.mesh import TetMesh
 
@@ -15,8 +18,13 @@ class MeshSource(Processor):
     outports = [Outport("mesh", TetMesh)]
     path = FilePathProperty("", filters=FILE_FILTERS + ("*",),
                             doc="the mesh file (.vtk, .vtu, .msh, .mesh, .xdmf, .ex2 with netCDF4, ...)")
-    array = StringProperty("", doc="the point array to render; empty: the first point array; "
-                                   "'cell:NAME' takes a cell array, averaged to the points")
+    array = StringProperty("", doc="the array to render: a point array's name, or a cell array's "
+                                   "(also as 'cell:NAME'); empty: the first point array, else the "
+                                   "first cell array (a warning names it and the others)")
+    cell_arrays = OptionProperty("constant", choices=list(CELL_ARRAYS),
+                                 doc="a cell array is constant: one value inside each cell, as the "
+                                     "file holds it; averaged: each point gets the mean over the "
+                                     "cells that use it, a smooth field blending neighbours")
     component = StringProperty("", doc="of an array with several values per point: 'magnitude', "
                                        "a component's number (0, 1, ...) or X, Y, Z; empty: the "
                                        "magnitude of a 3-component vector (other counts must "
@@ -37,6 +45,14 @@ class MeshSource(Processor):
         self.check()
         if not self.path:
             raise VGraphError(f"{self.id}.path: no mesh file chosen")
-        return read_mesh(self.resolve_path(self.path), array=self.array, component=self.component,
-                         declared_range=self.value_range,
-                         reference_length=self.reference_length or None)
+        try:
+            return read_mesh(self.resolve_path(self.path), array=self.array, component=self.component,
+                             declared_range=self.value_range,
+                             reference_length=self.reference_length or None,
+                             cell_arrays=self.cell_arrays)
+        except MeshFileError as error:
+            if error.field != "array":
+                raise
+            # A name the file does not have (a network made for another mesh): the property to
+            # change, the file, and the names to choose from.
+            raise PropertyError(f"{self.id}.array", f"{error.file}: {error.reason}") from None

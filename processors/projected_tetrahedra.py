@@ -18,6 +18,11 @@ Conventions (docs/tetrahedra_renderer.md has the long form):
   its front faces, and per pixel the ray split at the faces of the cell's five tetrahedra, each
   piece integrated as a projected tetrahedron would be (vgraph.gl.tetrahedra.cells; the same image
   from a fifth of the primitives).
+- Cell scalars (``mesh.per_cell``: a file's cell array) are constant inside each tetrahedron, a
+  first-class mode: every tetrahedron has four vertices of its own carrying its value
+  (TetMesh.vertices), so each pixel's segment has s_front = s_back and both integrations give the
+  integral of a constant, exactly (the preintegrated table read on its diagonal). The visibility
+  order is computed on the shared points as for point scalars.
 - Tetrahedra (cells) whose scalars all have zero opacity under the TF are neither sorted nor drawn
   (``skip_transparent``; they would add exactly nothing).
 - Integration: ``averaged`` (the TF at the mean scalar, alpha = 1 - (1 - a)^(l / L)) or
@@ -48,7 +53,6 @@ from vgraph import (BoolProperty, CameraProperty, ColorProperty, Inport, OptionP
                     PropertyError)
 from vgraph.box_frame import BoxFrame
 from vgraph.camera import Camera
-from vgraph.gl.raycasting.components import TransferFunctionLut
 from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, ray_uniforms, vec
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import TransferFunctionTexture
@@ -63,11 +67,19 @@ from vgraph.image import Image
 from vgraph.mesh import TetMesh
 from vgraph.properties import TransferFunctionProperty
 from vgraph.shown_content import tetrahedra_under
+from vgraph.transfer_function import TransferFunction
 
 TETRAHEDRA_SHADERS = ("tetrahedra/project.vert.glsl", "tetrahedra/project.geom.glsl",
                       "tetrahedra/project.frag.glsl")
 CELL_SHADERS = ("tetrahedra/cells.vert.glsl", "tetrahedra/cells.geom.glsl", "tetrahedra/cells.frag.glsl")
 INTEGRATIONS = ("averaged", "preintegrated")
+# The first look at any mesh's field (what `vgraph run MESH` and a ProjectedTetrahedra from the
+# palette show): placed by percentiles of the scalar, so it needs no units; cool to warm over the
+# whole field, the opacity rising with the value so the high end shows through the rest, and the
+# low end faint but not gone (a cell array of a few values puts many cells there).
+DEFAULT_TRANSFER_FUNCTION = TransferFunction(space="percentile", points=[
+    (0.0, 0.1, 0.2, 0.8, 0.01), (30.0, 0.2, 0.5, 0.9, 0.02), (70.0, 0.9, 0.8, 0.3, 0.08),
+    (100.0, 0.95, 0.2, 0.1, 0.5)])
 
 
 class PreintegrationTable:
@@ -110,9 +122,9 @@ class ProjectedTetrahedra(Processor):
 
     camera = CameraProperty(DEFAULT_CAMERA, doc="the view; by default it fits whatever mesh arrives")
     transfer_function = TransferFunctionProperty(
-        TransferFunctionLut.DEFAULT, doc="RGBA over normalised intensity, data values or percentiles "
+        DEFAULT_TRANSFER_FUNCTION, doc="RGBA over normalised intensity, data values or percentiles "
         "(a preset name or TF file also works); alpha per sample at rate 1, i.e. over the mesh's "
-        "opacity length")
+        "opacity length; by default cool to warm over the percentiles of the field")
     integration = OptionProperty("preintegrated", choices=list(INTEGRATIONS),
                                  doc="averaged: the TF at the mean scalar of each tetrahedron's "
                                      "segment (Shirley-Tuchman); preintegrated: the exact segment "
@@ -285,7 +297,7 @@ class ProjectedTetrahedra(Processor):
         selected = None if selection is None else selection[0]
         if "gl_sort" not in state or state["gl_sort_for"] != selected:
             mask = self._order.selected(mesh, selection)
-            tets = mesh.tets if mask is None else mesh.tets[mask]
+            tets = mesh.vertex_indices if mask is None else mesh.vertex_indices[mask]
             if state.get("gl_sort"):
                 state["gl_sort"].release()
             state.update(gl_sort=GLCentroidSort(ctx, mesh.buffers(ctx)["points"], tets) if len(tets) else None,

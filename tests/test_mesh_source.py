@@ -114,12 +114,16 @@ def test_other_arrays_and_cell_arrays_are_chosen_by_name(data_dir):
     np.testing.assert_array_equal(pres.scalars, reference.point_data["Pres"].astype(np.float32))
     speed = read_mesh(path, array="V")  # a vector gives its length
     np.testing.assert_allclose(speed.scalars, np.linalg.norm(reference.point_data["V"], axis=1), rtol=1e-6)
-    with pytest.warns(VGraphWarning, match="cell array 'ObjectId' was averaged to the points"):
-        objects = read_mesh(path, array="cell:ObjectId")
     ids = reference.cell_data["ObjectId"][0].astype(float)
-    assert objects.scalars.min() >= ids.min() and objects.scalars.max() <= ids.max()
-    with pytest.raises(MeshFileError, match=r"disk_out_ref.vtu \[array 'Nope'\]: no point array 'Nope'; "
-                                            r"the file has 'Temp', 'V', 'Pres', .*'cell:ObjectId'"):
+    for name in ("cell:ObjectId", "ObjectId"):  # no point array has that name: the cell array
+        objects = read_mesh(path, array=name)  # one value per cell, each of its 6 tetrahedra has it
+        assert objects.per_cell and objects.scalar_name == "cell:ObjectId"
+        np.testing.assert_array_equal(objects.scalars, np.repeat(ids, 6).astype(np.float32))
+    averaged = read_mesh(path, array="cell:ObjectId", cell_arrays="averaged")
+    assert not averaged.per_cell and len(averaged.scalars) == len(averaged.points)
+    assert averaged.scalars.min() >= ids.min() and averaged.scalars.max() <= ids.max()
+    with pytest.raises(MeshFileError, match=r"disk_out_ref.vtu \[array\]: no array 'Nope'; the file has "
+                                            r"point arrays 'Temp', 'V', 'Pres', .*; cell array 'ObjectId'"):
         read_mesh(path, array="Nope")
 
 
@@ -205,17 +209,34 @@ def test_wedges_and_pyramids_split_into_three_and_two_with_matching_faces(tmp_pa
     assert mesh.tet_volumes().sum() == pytest.approx(12.0)
 
 
-def test_quadratic_cells_use_their_corners(tmp_path):
+def test_a_quadratic_tetrahedron_splits_into_eight_over_all_its_nodes(tmp_path):
     rng = np.random.default_rng(1)
     corners = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float)
-    edges = [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)]
+    edges = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]  # VTK_QUADRATIC_TETRA's mid-nodes
     mids = np.array([(corners[a] + corners[b]) / 2 for a, b in edges]) + rng.normal(0, 0.01, (6, 3))
     points = np.concatenate([corners, mids])
     mesh = read_mesh(write(tmp_path, "quadratic.vtu", points, [("tetra10", np.arange(10)[None])],
                            point_data={"f": np.arange(10.0)}))
-    assert len(mesh.tets) == 1 and len(mesh.points) == 4
-    assert mesh.tet_volumes()[0] == pytest.approx(1 / 6)
-    np.testing.assert_array_equal(np.sort(mesh.scalars), [0, 1, 2, 3])
+    assert len(mesh.tets) == 8 and len(mesh.points) == 10
+    np.testing.assert_array_equal(np.sort(mesh.scalars), np.arange(10.0))  # mid-node values kept
+    check_conforming(mesh)
+    corner_tets = [t for t in mesh.tets if np.sum(t < 4) == 1]  # a corner and its three mid-nodes
+    assert sorted(int(t[t < 4][0]) for t in corner_tets) == [0, 1, 2, 3]
+    # The 8 fill the cell (its curved edges are straightened through the mid-nodes, so the sum of
+    # their volumes is the corner tetrahedron's volume only up to the mid-nodes' offsets).
+    assert mesh.tet_volumes().sum() == pytest.approx(1 / 6, rel=0.1)
+
+
+def test_higher_order_cells_other_than_tetra10_say_they_use_their_corners(tmp_path):
+    points, index = grid(1, np.random.default_rng(0))
+    hexes = hex_cells(1, index)
+    extra = np.arange(len(points), len(points) + 12)
+    points = np.concatenate([points, np.random.default_rng(1).uniform(0.2, 0.8, (12, 3))])
+    path = write(tmp_path, "hex20.vtu", points, [("hexahedron20", np.concatenate([hexes, extra[None]], axis=1))],
+                 point_data={"f": np.arange(len(points), dtype=float)})
+    with pytest.warns(VGraphWarning, match=r"hexahedron20 cells are drawn as linear cells through their corner nodes"):
+        mesh = read_mesh(path, array="f")
+    assert len(mesh.tets) == 6 and len(mesh.points) == 8
 
 
 def test_negative_tetrahedra_are_turned_and_flat_ones_dropped_with_a_count(tmp_path):
@@ -331,19 +352,30 @@ def test_a_missing_array_lists_the_arrays_there_are(tmp_path):
     points, tets = ONE_TET
     path = write(tmp_path, "t.vtu", points, [("tetra", tets)], point_data={"a": np.zeros(4), "b": np.ones(4)},
                  cell_data={"c": [np.array([7.0])]})
-    with pytest.raises(MeshFileError, match=r"\[array 'z'\]: no point array 'z'; the file has 'a', 'b', 'cell:c'"):
+    with pytest.raises(MeshFileError, match=r"\[array\]: no array 'z'; the file has point arrays 'a', 'b'; "
+                                            r"cell array 'c'"):
         read_mesh(path, array="z")
-    with pytest.raises(MeshFileError, match=r"\[array 'cell:z'\]: no cell array 'z'; the file has 'a', 'b', 'cell:c'"):
+    with pytest.raises(MeshFileError, match=r"\[array\]: no cell array 'z'; the file has point arrays 'a', 'b'; "
+                                            r"cell array 'c'"):
         read_mesh(path, array="cell:z")
-    with pytest.warns(VGraphWarning, match="averaged"):
-        assert read_mesh(path, array="cell:c").scalars.tolist() == [7.0] * 4
+    assert read_mesh(path, array="cell:c").scalars.tolist() == [7.0]  # one tetrahedron, its value
+    assert read_mesh(path, array="cell:c", cell_arrays="averaged").scalars.tolist() == [7.0] * 4
 
 
-def test_a_mesh_without_point_arrays_points_to_its_cell_arrays(tmp_path):
+def test_a_mesh_without_point_arrays_renders_its_first_cell_array_and_says_so(tmp_path):
     points, tets = ONE_TET
-    path = write(tmp_path, "t.vtu", points, [("tetra", tets)], cell_data={"c": [np.array([7.0])]})
-    with pytest.raises(MeshFileError, match=r"no point array to render; the file has 'cell:c' \(ask for a cell"):
-        read_mesh(path)
+    path = write(tmp_path, "t.vtu", points, [("tetra", tets)],
+                 cell_data={"c": [np.array([7.0])], "d": [np.array([1.0])]})
+    with pytest.warns(VGraphWarning, match=r"t.vtu: rendering the cell array \(constant in each cell\) 'c'; "
+                                           r"the file also has cell array 'd'"):
+        mesh = read_mesh(path)
+    assert mesh.per_cell and mesh.scalar_name == "cell:c" and mesh.scalars.tolist() == [7.0]
+
+
+def test_a_mesh_without_arrays_is_refused(tmp_path):
+    points, tets = ONE_TET
+    with pytest.raises(MeshFileError, match=r"t.vtu \[array\]: no array to render: the file has no arrays"):
+        read_mesh(write(tmp_path, "t.vtu", points, [("tetra", tets)]))
 
 
 def test_non_finite_coordinates_are_refused_naming_the_point(tmp_path):

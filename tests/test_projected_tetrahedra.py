@@ -392,7 +392,7 @@ def test_mpvo_renders_like_the_reference(gl):
     from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA
     mesh = grid_mesh(4)
     reference = reference_tetra.render(mesh, DEFAULT_CAMERA, TransferFunctionLut.DEFAULT, (64, 64))
-    processor = ProjectedTetrahedra(visibility_order="mpvo")
+    processor = ProjectedTetrahedra(visibility_order="mpvo", transfer_function=TransferFunctionLut.DEFAULT)
     processor.render_size = (64, 64)
     image = processor.process(mesh)["image"].to_numpy()
     assert psnr(image, reference) >= 40.0

@@ -31,6 +31,7 @@ from vgraph.atomic import write_text_atomic
 from vgraph.errors import NetworkFileError, VGraphError
 from vgraph.file_names import expanded
 from vgraph.json_limits import MAX_NESTING, nesting_depth
+from vgraph.mesh_network import is_mesh_path, mesh_network
 from vgraph.network import Network
 from vgraph.properties import FilePathProperty
 from vgraph.registry import registry
@@ -177,6 +178,11 @@ def load_network(path: str | Path, allow_write=(), render_as: str | None = None)
     path = Path(path)
     if is_volume_path(path):
         return volume_network(path, render_as=render_as)
+    if is_mesh_path(path):  # before JSON: a mesh file is not a broken network (vgraph.mesh_network)
+        if render_as is not None:
+            raise VGraphError(f"{path}: --{render_as} (render_as) applies to volumes; a mesh renders "
+                              f"the array its MeshSource names (--set source.array=NAME)")
+        return mesh_network(path)
     if render_as is not None:
         raise VGraphError(f"{path}: --{render_as} (render_as) applies to a data file, not to a "
                           f"network, whose processors say how it renders")

@@ -2,7 +2,9 @@
 
 Conventions (docs/conventions.md; the same as Volume's where they overlap):
 - ``points`` (N, 3) float32 world coordinates (x, y, z); ``tets`` (M, 4) int32 indices into them;
-  ``scalars`` (N,) float32, the point scalar the renderer classifies.
+  ``scalars`` (N,) float32, the point scalar the renderer classifies, linear inside each
+  tetrahedron; or, with ``per_cell``, (M,) float32, one value per tetrahedron, constant inside it
+  (a file's cell array: a piecewise-constant field, whose ray integral is exact cell by cell).
 - ``value_range`` maps scalars to normalised intensities in [0, 1]: the declared range if given,
   else the finite min..max (a constant mesh gets a representable range, as volumes do). Transfer
   functions in data units and percentiles resolve through it (TransferFunction.for_volume works on
@@ -71,6 +73,7 @@ class TetMesh:
     scalar_name: str = ""
     source: str = ""  # where it came from, for messages
     grid: RegularGrid | None = None
+    per_cell: bool = False  # scalars: one per tetrahedron (constant inside it), not one per point
     _buffers: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
@@ -82,8 +85,9 @@ class TetMesh:
             raise VGraphError(f"mesh{where}: points must be a non-empty (N, 3) array, got {self.points.shape}")
         if self.tets.ndim != 2 or self.tets.shape[1] != 4 or len(self.tets) == 0:
             raise VGraphError(f"mesh{where}: tetrahedra must be a non-empty (M, 4) array, got {self.tets.shape}")
-        if len(self.scalars) != len(self.points):
-            raise VGraphError(f"mesh{where}: {len(self.scalars)} scalars for {len(self.points)} points")
+        carriers = (len(self.tets), "tetrahedra") if self.per_cell else (len(self.points), "points")
+        if len(self.scalars) != carriers[0]:
+            raise VGraphError(f"mesh{where}: {len(self.scalars)} scalars for {carriers[0]} {carriers[1]}")
         if not np.all(np.isfinite(self.points)):
             raise VGraphError(f"mesh{where}: {int((~np.isfinite(self.points)).any(axis=1).sum())} points "
                               f"have non-finite coordinates")
@@ -91,6 +95,8 @@ class TetMesh:
             raise VGraphError(f"mesh{where}: tetrahedron indices must lie in 0 .. {len(self.points) - 1}, "
                               f"found {int(self.tets.min())} .. {int(self.tets.max())}")
         self.declared_range = checked_range(self.declared_range, f"mesh{where}")
+        if self.grid is not None and self.per_cell:
+            raise VGraphError(f"mesh{where}: a mesh cut from a grid has point scalars (the voxels)")
         if self.grid is not None and len(self.tets) != 5 * len(self.grid.cells):
             raise VGraphError(f"mesh{where}: a mesh cut from a grid has 5 tetrahedra per cell, got "
                               f"{len(self.tets)} for {len(self.grid.cells)} cells")
@@ -142,8 +148,17 @@ class TetMesh:
         lo, hi = self.value_range
         return (np.asarray(self.scalars if values is None else values, dtype=np.float64) - lo) / (hi - lo)
 
+    def tet_scalar_ranges(self) -> tuple[np.ndarray, np.ndarray]:
+        """(low, high) normalised scalar of each tetrahedron, float64 (M,): over its four vertices,
+        or its one value (per_cell), which is both."""
+        values = self.normalized()
+        if self.per_cell:
+            return values, values
+        at_vertices = values[self.tets]
+        return at_vertices.min(axis=1), at_vertices.max(axis=1)
+
     def percentiles(self, percents) -> np.ndarray:
-        """Scalar values at ``percents`` (in [0, 100]) of the finite point scalars, as np.percentile's
+        """Scalar values at ``percents`` (in [0, 100]) of the finite scalars, as np.percentile's
         default (linear) method gives them. The scalars are sorted once per mesh: a percentile TF
         asks for them every frame."""
         ranked = self._sorted_scalars
@@ -161,19 +176,40 @@ class TetMesh:
         return np.sort(self.scalars[np.isfinite(self.scalars)].astype(np.float64))
 
     def histogram(self, bins: int = 256) -> tuple[np.ndarray, np.ndarray]:
-        """Counts of the finite point scalars in equal bins over the value range, and the edges in
+        """Counts of the finite scalars in equal bins over the value range, and the edges in
         normalised intensity (the TF editor's histogram)."""
         values = self.normalized()[np.isfinite(self.scalars)]
         counts = np.histogram(np.clip(values, 0.0, 1.0), bins=bins, range=(0.0, 1.0))[0]
         return counts, np.linspace(0.0, 1.0, bins + 1)
 
     # --- GPU ------------------------------------------------------------------------------------
+    @cached_property
+    def vertex_indices(self) -> np.ndarray:
+        """(M, 4) int32: each tetrahedron's vertices in the GL vertex buffer (``buffers``): ``tets``
+        itself, or with ``per_cell`` 4t .. 4t + 3, since there every tetrahedron has four vertices
+        of its own that carry its value."""
+        if not self.per_cell:
+            return self.tets
+        indices = np.arange(4 * len(self.tets), dtype=np.int32).reshape(-1, 4)
+        indices.flags.writeable = False
+        return indices
+
+    def vertices(self) -> np.ndarray:
+        """The GL vertex buffer's content, (K, 4) float32 (x, y, z, normalised scalar): one vertex
+        per point, or with ``per_cell`` four per tetrahedron (its corners, each with its value:
+        a renderer of point scalars then draws the constant field unchanged)."""
+        scalars = self.normalized().astype(np.float32)
+        if self.per_cell:
+            return np.concatenate([self.points[self.tets].reshape(-1, 3),
+                                   np.repeat(scalars, 4)[:, None]], axis=1)
+        return np.concatenate([self.points, scalars[:, None]], axis=1)
+
     def buffers(self, ctx) -> dict:
-        """{"points": vec4 (x, y, z, normalised scalar) float32 buffer, "tets": int32 index buffer}
-        on ``ctx``, uploaded once per context and released with the mesh."""
+        """{"points": the vertex buffer (``vertices``), "tets": ``vertex_indices`` as an int32
+        index buffer} on ``ctx``, uploaded once per context and released with the mesh."""
         key = id(ctx)
         if key not in self._buffers:
-            vertices = np.concatenate([self.points, self.normalized().astype(np.float32)[:, None]], axis=1)
-            self._buffers[key] = {"points": ctx.buffer(np.ascontiguousarray(vertices, dtype=np.float32).tobytes()),
-                                  "tets": ctx.buffer(self.tets.tobytes())}
+            vertices = np.ascontiguousarray(self.vertices(), dtype=np.float32)
+            self._buffers[key] = {"points": ctx.buffer(vertices.tobytes()),
+                                  "tets": ctx.buffer(np.ascontiguousarray(self.vertex_indices).tobytes())}
         return self._buffers[key]

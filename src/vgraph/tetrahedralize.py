@@ -209,10 +209,12 @@ def _split_one(kind: str, cell: np.ndarray) -> np.ndarray:
     return np.array(out, dtype=np.int64).reshape(-1, 4)
 
 
-def orient(points: np.ndarray, tets: np.ndarray, relative_tolerance: float = 1e-7):
-    """(tets with every one positively oriented, number of flat ones dropped). A tetrahedron is
-    flat when |volume| <= relative_tolerance * (longest edge)^3 / 6 (also when it repeats a vertex);
-    a negative one gets its last two vertices swapped."""
+def orient(points: np.ndarray, tets: np.ndarray, relative_tolerance: float = 1e-7, *,
+           with_kept: bool = False):
+    """(tets with every one positively oriented, number of flat ones dropped), and with
+    ``with_kept`` the (M,) bool mask of the tetrahedra kept (for what travels with them, such as
+    cell values). A tetrahedron is flat when |volume| <= relative_tolerance * (longest edge)^3 / 6
+    (also when it repeats a vertex); a negative one gets its last two vertices swapped."""
     p = points.astype(np.float64)[tets]
     six = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0])
     longest = np.zeros(len(tets))
@@ -223,4 +225,6 @@ def orient(points: np.ndarray, tets: np.ndarray, relative_tolerance: float = 1e-
     tets = tets[~flat].copy()
     negative = six[~flat] < 0
     tets[negative, 2], tets[negative, 3] = tets[negative, 3], tets[negative, 2]
+    if with_kept:
+        return tets, int(np.count_nonzero(flat)), ~flat
     return tets, int(np.count_nonzero(flat))

@@ -22,6 +22,7 @@ from PySide6.QtGui import QUndoStack
 
 from vgraph.errors import PropertyError, VGraphError
 from vgraph.fileformat import load_network, save_network
+from vgraph.mesh_network import is_mesh_path
 from vgraph.volume_network import is_volume_path
 from vgraph.gui.commands import (AddProcessor, Connect, Disconnect, LinkProperties, MoveProcessors,
                                  NetworkCommand, RemoveProcessor, SetProperty, Unlink, free_id)
@@ -180,8 +181,9 @@ class Workspace(QObject):
         (``render_as``: vgraph.file_kind)."""
         path = Path(path)
         network = load_network(path, allow_write, render_as)
-        # A volume file opens as a new, untitled network around it: saving must not write over it.
-        self._replace(network, None if is_volume_path(path) else path)
+        # A volume or mesh file opens as a new, untitled network around it: saving must not
+        # write over it.
+        self._replace(network, None if is_volume_path(path) or is_mesh_path(path) else path)
         self.add_recent_file(path)
 
     def restore(self, network: Network, path: Path | None) -> None:

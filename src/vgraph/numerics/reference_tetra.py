@@ -12,7 +12,9 @@ Model, in this order:
    length. Flat tetrahedra (|6 V| <= 1e-12 * longest edge^3) are skipped. The scalar is LINEAR in
    each tetrahedron (barycentric interpolation of the point scalars, as normalised intensities
    ``mesh.normalized``; NaN and -inf count as the value range's low end, +inf as its high end), so
-   along a segment it is linear in t between its values at entry and exit. Segments are
+   along a segment it is linear in t between its values at entry and exit. A mesh of cell
+   scalars (``mesh.per_cell``) is CONSTANT in each tetrahedron: the segment's two values are the
+   cell's, and rule 4 gives its integral in closed form (constant colour and opacity). Segments are
    composited in order of their entry distance. Shared faces are watertight: both tetrahedra use
    the same plane (computed from the face's sorted vertex indices), so one's exit is the other's
    entry, and a ray lying exactly in a face plane (an axis-aligned view of a tetrahedralised grid)
@@ -297,8 +299,13 @@ class _Geometry:
         # A ray exactly in a face plane counts as moved by an infinitesimal TIE_BREAK: it is in
         # the tetrahedron on that side, the one whose outward normal points away from TIE_BREAK.
         self.tie_inside = side * np.einsum("mfk,k->mf", normals, TIE_BREAK) < 0.0
+        self.p0 = corners[:, 0]
+        if mesh.per_cell:  # one value per tetrahedron, constant inside it
+            self.s0 = _intensities(mesh)[keep]
+            self.gradient = np.zeros((len(tets), 3))
+            return
         values = _intensities(mesh)[tets]
-        self.s0, self.p0 = values[:, 0], corners[:, 0]
+        self.s0 = values[:, 0]
         self.gradient = np.linalg.solve(edges, (values[:, 1:] - values[:, :1])[..., None])[..., 0]
 
 

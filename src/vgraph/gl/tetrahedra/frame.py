@@ -41,4 +41,4 @@ def _copy(mesh: TetMesh, frame: BoxFrame) -> TetMesh:
                                    spacing=tuple(s / frame.scale for s in grid.spacing))
     return TetMesh(frame.points(mesh.points), mesh.tets, mesh.scalars,
                    declared_range=mesh.value_range, reference_length=mesh.opacity_length / frame.scale,
-                   scalar_name=mesh.scalar_name, source=mesh.source, grid=grid)
+                   scalar_name=mesh.scalar_name, source=mesh.source, grid=grid, per_cell=mesh.per_cell)

@@ -46,8 +46,7 @@ def visible_tetrahedra(mesh, alpha: np.ndarray) -> np.ndarray:
     entries, as the shader reads it; the scalar inside a tetrahedron lies between its vertices').
     Tetrahedra with a non-finite scalar are kept."""
     from vgraph.tetrahedralize import visible_cells
-    s = mesh.normalized()[mesh.tets]
-    low, high = s.min(axis=1), s.max(axis=1)
+    low, high = mesh.tet_scalar_ranges()
     finite = np.isfinite(low) & np.isfinite(high)
     visible = np.ones(len(mesh.tets), dtype=bool)
     visible[finite] = visible_cells(low[finite], high[finite], alpha)
@@ -56,8 +55,11 @@ def visible_tetrahedra(mesh, alpha: np.ndarray) -> np.ndarray:
 
 class VisibilityOrder:
     """What to draw for the last (mesh, camera), back to front, ready to be an index buffer: int32
-    (M, 4) vertex indices of tetrahedra ("centroid", "mpvo"), or int32 (K,) positions of grid cells
-    ("sweep", vgraph.gl.tetrahedra.cells). ``sorts`` counts the orders computed (tests)."""
+    (M, 4) vertex indices of tetrahedra ("centroid", "mpvo"; ``mesh.vertex_indices``, which are
+    the points' for point scalars), or int32 (K,) positions of grid cells ("sweep",
+    vgraph.gl.tetrahedra.cells). The order itself comes from the points and tetrahedra, so cells
+    of a per-cell mesh are ordered across their shared faces as any. ``sorts`` counts the orders
+    computed (tests)."""
 
     def __init__(self):
         self.key = None
@@ -86,10 +88,11 @@ class VisibilityOrder:
             if getattr(self, "_adjacency_of", None) is not mesh:
                 self._adjacency, self._adjacency_of = FaceAdjacency(mesh.points, mesh.tets), mesh
             order = mpvo_back_to_front(mesh.points, mesh.tets, camera, self._adjacency)
-            indices = mesh.tets[order if mask is None else order[mask[order]]]
+            indices = mesh.vertex_indices[order if mask is None else order[mask[order]]]
         else:
             tets = mesh.tets if mask is None else mesh.tets[mask]
-            indices = tets[back_to_front(mesh.points, tets, camera)]
+            drawn = mesh.vertex_indices if mask is None else mesh.vertex_indices[mask]
+            indices = drawn[back_to_front(mesh.points, tets, camera)]
         self.indices = np.ascontiguousarray(indices, dtype=np.int32)
         self.key, self._mesh = key, mesh  # keep the mesh alive while its id is the key
         self.sorts += 1
