@@ -40,6 +40,7 @@ from vgraph.gl.raycasting.gradient_volume import gradient_texture, holds_values
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import linear_sampler
 from vgraph.image import Image
+from vgraph.properties import TransferFunctionProperty
 from vgraph.shown_content import voxels_by_compositing
 from vgraph.volume import Volume
 
@@ -65,6 +66,15 @@ class RayCaster(RaycasterBase):
                                  doc="dvr, mip, iso (surface at iso_level), first_hit (positions), "
                                      "xray (average intensity)")
     interpolation = OptionProperty("trilinear", choices=["nearest", "trilinear"])
+    # The palette's RayCaster starts as `vgraph run FILE` does (vgraph.volume_network): the ``auto``
+    # transfer function, placed by percentiles, shows any data set without knowing its units or
+    # being squeezed by an outlier voxel (the components' default is a ramp over the normalised
+    # range), shaded. Files of format version 2 and older keep the old defaults (vgraph.fileformat).
+    transfer_function = TransferFunctionProperty(
+        "auto", doc="RGBA over normalised intensity, data values or percentiles (a preset name or "
+        "TF file also works); alpha per sample at rate 1; by default the auto preset")
+    shading = OptionProperty("blinn_phong", choices=["none", "blinn_phong"],
+                             doc="lighting of the samples or surface")
     derivatives = OptionProperty("central", choices=list(DERIVATIVES),
                                  doc="finite differences of the shading normals; precomputed: "
                                      "central differences at the voxels, computed once per volume "

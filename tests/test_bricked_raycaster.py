@@ -19,6 +19,7 @@ from vgraph.testing import ray_caster_network
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
+from helpers.networks import UNSHADED_RAMP
 from helpers.paths import DATA
 
 SIZE = (64, 56)
@@ -53,7 +54,9 @@ def oblique(volume, **changes) -> Camera:
 
 
 def render(volume, camera, processor="BrickedRayCaster", size=SIZE, **properties):
-    network = ray_caster_network(volume, camera, processor, **properties)
+    # Both ray casters unshaded with the normalised ramp unless told (the palette's RayCaster starts
+    # shaded with the auto transfer function): the comparisons are of one configuration.
+    network = ray_caster_network(volume, camera, processor, **{**UNSHADED_RAMP, **properties})
     image = np.asarray(network.evaluate("rc.image", size=size))
     depth = np.asarray(network.evaluate("rc.depth", size=size))
     return image, depth, network["rc"]
@@ -452,7 +455,7 @@ def test_a_raycaster_drawing_a_store_brick_by_brick_refines_under_a_load_limit(t
     camera = oblique(bricked)
     planned, _, rc = render(bricked, camera, "RayCaster", compositing="mip")
     assert rc.load_limit is None and rc.last_frame["complete"]
-    network = ray_caster_network(bricked, camera, "RayCaster", compositing="mip")
+    network = ray_caster_network(bricked, camera, "RayCaster", compositing="mip", **UNSHADED_RAMP)
     seen = refine(network, SIZE, LoadLimit(bricks=6))
     assert not seen[0][0]["complete"] and len(seen) > 1
     np.testing.assert_array_equal(seen[-1][1], planned)

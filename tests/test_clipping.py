@@ -254,6 +254,7 @@ def test_the_bricked_raycaster_respects_the_planes(mode):
     for processor, extra in (("RayCaster", {"early_termination": 1.0}),
                              ("BrickedRayCaster", {"brick_size": 16, "lod_bias": -16.0})):
         network = ray_caster_network(volume, camera, processor, compositing=mode, transfer_function=COLOURED,
+                                     shading="none",
                                      **(extra if mode == "dvr" or processor == "BrickedRayCaster" else {}))
         network.set("eep.clip_planes", planes)
         images[processor] = np.asarray(network.evaluate("rc.image", size=SIZE), dtype=np.float64)

@@ -16,6 +16,7 @@ import pytest
 from vgraph import Network, ProcessorError, VGraphWarning
 from vgraph.camera import Camera
 from vgraph.cli import main
+from vgraph.gl.raycasting.components import TransferFunctionLut
 
 TWELVE_BIT_MAX = 1500
 OUTLIER = 30393
@@ -129,13 +130,13 @@ def test_integer_function_volumes_keep_their_full_scale_range():
 
 
 # --- rendering: not black any more ----------------------------------------------------------------
-def render(path, **properties) -> np.ndarray:
-    """VolumeSource -> EntryExitPoints -> RayCaster (its default transfer function) at 48 x 48."""
+def render(path, rc=None, **properties) -> np.ndarray:
+    """VolumeSource -> EntryExitPoints -> RayCaster (its defaults, or ``rc``) at 48 x 48."""
     network = source(path, **properties)
     volume = volume_of(path, **properties)
     box = (volume.origin, np.add(volume.origin, volume.extent))
     network.add("EntryExitPoints", id="eep", camera=Camera.looking_at_box(*box))
-    network.add("RayCaster", id="rc")
+    network.add("RayCaster", id="rc", **(rc or {}))
     network.link("eep.camera", "rc.camera")
     for a, b in (("src.volume", "eep.volume"), ("src.volume", "rc.volume"),
                  ("eep.entry", "rc.entry"), ("eep.exit", "rc.exit")):
@@ -147,15 +148,21 @@ def render(path, **properties) -> np.ndarray:
 
 def test_a_twelve_bit_scan_renders_through_the_standard_pipeline(tmp_path, twelve_bit):
     path = write_nrrd(tmp_path, ball())
-    drawn = render(path)[..., :3].max(axis=-1) > 0.05
+    ramp = {"transfer_function": TransferFunctionLut.DEFAULT}  # over the normalised range
+    drawn = render(path, ramp)[..., :3].max(axis=-1) > 0.05
     assert drawn.mean() > 0.05 and drawn[18:30, 18:30].all()  # the ball's core, in the middle
-    assert render(path, value_range=[0, 65535])[..., :3].max() == 0.0  # the old rule: black
-    # One outlier voxel puts the bulk below 5 % of min..max, under the default transfer
-    # function's ramp: that is what the robust window is for.
+    assert render(path, ramp, value_range=[0, 65535])[..., :3].max() == 0.0  # the old rule: black
+    # One outlier voxel puts the bulk below 5 % of min..max, under a ramp over the normalised
+    # range: that is what the robust window is for ...
     outlier_path, _ = twelve_bit
-    assert render(outlier_path)[..., :3].max() < 0.05
-    robust = render(outlier_path, window="robust")[..., :3].max(axis=-1) > 0.05
+    assert render(outlier_path, ramp)[..., :3].max() < 0.05
+    robust = render(outlier_path, ramp, window="robust")[..., :3].max(axis=-1) > 0.05
     assert robust.sum() >= drawn.sum()
+    # ... and why the RayCaster starts with the auto transfer function, placed by percentiles of
+    # the voxels (issue 28): the outlier hides nothing from it, whatever the value range.
+    for properties in ({}, {"value_range": [0, 65535]}):
+        auto = render(outlier_path, **properties)[..., :3].max(axis=-1) > 0.05
+        assert auto[18:30, 18:30].all()
 
 
 # --- time points ----------------------------------------------------------------------------------

@@ -1,6 +1,6 @@
 """The .json network format: pydantic models, version migrations, load and atomic save.
 
-    {"format": "vgraph-network", "version": 2, "description": "...",
+    {"format": "vgraph-network", "version": 3, "description": "...",
      "processors": [{"id": "src", "type": "FunctionSelector", "properties": {...}, "position": [x, y]}],
      "connections": [{"from": "src.volume", "to": "spline.volume"}],
      "links": [{"from": "eep.camera", "to": "rc.camera", "bidirectional": false}]}
@@ -10,6 +10,9 @@ its JSON path (``processors[2].properties.iso_level``) and reason; it never chan
 Older versions are upgraded by the chain in ``MIGRATIONS`` before validation; a migration refuses
 fields it does not know, so a mislabelled file is an error rather than an empty network, and a
 value given under both its old and its new name, which it could only carry over by dropping one.
+A property a file leaves out takes the processor's default; where a version changed a default,
+the migration to it writes the old default into older files (``DEFAULTS_BEFORE_VERSION_3``), so
+they keep rendering as they did. Saving writes every property's value.
 
 A file is read only if it is a regular file of at most ``MAX_FILE_BYTES`` nested at most
 ``MAX_NESTING`` deep. Writer paths (``FilePathProperty(writes=True)``) from a file must resolve inside
@@ -39,7 +42,7 @@ from vgraph.volume_network import is_volume_path, volume_network
 from vgraph.write_paths import check_write_paths
 
 FORMAT = "vgraph-network"
-CURRENT_VERSION = 2
+CURRENT_VERSION = 3
 MAX_FILE_BYTES = 64 * 2**20   # the largest shipped network is a few kB
 
 ProcessorId = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_\-]*$")]
@@ -68,7 +71,7 @@ class LinkEntry(ConnectionEntry):
 
 class NetworkDocument(_Strict):
     format: Literal["vgraph-network"]
-    version: Literal[2]
+    version: Literal[3]
     description: str = ""
     processors: list[ProcessorEntry] = []
     connections: list[ConnectionEntry] = []
@@ -150,7 +153,34 @@ def _renamed_twice(index: int, type_name: str, old: str, new: str, properties: d
             f"give one of them")
 
 
-MIGRATIONS: dict[int, Callable[[dict], dict]] = {0: _from_version_0, 1: _from_version_1}
+# Version 3 changed defaults: a RayCaster starts with the `auto` transfer function and Blinn-Phong
+# shading, a ProjectedTetrahedra with a colour map over the percentiles of its field, as `vgraph run
+# FILE` renders (docs/network-format.md, "Defaults"). A saved file holds every value, but a file
+# written by hand may leave one out, which then takes the default: older files get the defaults they
+# were written against, so they render as before.
+_OLD_RAMP = {"space": "normalized", "points": [[0.0, 0.0, 0.0, 0.0, 0.0], [0.45, 0.85, 0.55, 0.3, 0.0],
+                                               [0.55, 0.95, 0.8, 0.6, 0.4], [1.0, 1.0, 1.0, 1.0, 0.8]]}
+DEFAULTS_BEFORE_VERSION_3 = {"RayCaster": {"transfer_function": _OLD_RAMP, "shading": "none"},
+                             "ProjectedTetrahedra": {"transfer_function": _OLD_RAMP}}
+
+
+def _from_version_2(document: dict) -> dict:
+    """Version 2: the processors whose defaults version 3 changed get the old ones where they
+    leave them out; anything malformed is left for validation."""
+    document = json.loads(json.dumps(document))  # a deep copy: the caller's document stays as it was
+    processors = document.get("processors")
+    for entry in processors if isinstance(processors, list) else []:
+        old = DEFAULTS_BEFORE_VERSION_3.get(entry.get("type")) if isinstance(entry, dict) else None
+        if old is None:
+            continue
+        properties = entry.setdefault("properties", {})
+        if isinstance(properties, dict):
+            for name, value in old.items():
+                properties.setdefault(name, json.loads(json.dumps(value)))
+    return {**document, "version": 3}
+
+
+MIGRATIONS: dict[int, Callable[[dict], dict]] = {0: _from_version_0, 1: _from_version_1, 2: _from_version_2}
 
 
 def migrate(document: dict) -> dict:

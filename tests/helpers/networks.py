@@ -1,11 +1,18 @@
 """Networks the rendering tests build."""
 
+from vgraph.gl.raycasting.components import TransferFunctionLut
 from vgraph.testing import ray_caster_network
+
+# What the rendering tests were written against and the CPU reference assumes unless told: no
+# shading and the ray casters' normalised ramp. The palette's RayCaster starts shaded with the auto
+# transfer function (network format version 3, docs/network-format.md), as `vgraph run FILE` does.
+UNSHADED_RAMP = {"transfer_function": TransferFunctionLut.DEFAULT, "shading": "none"}
 
 
 def rendering_network(volume, camera, **raycaster):
-    """GivenVolume -> EntryExitPoints -> RayCaster 'rc', cameras linked (vgraph.testing)."""
-    return ray_caster_network(volume, camera, "RayCaster", id="rc", **raycaster)
+    """GivenVolume -> EntryExitPoints -> RayCaster 'rc', cameras linked (vgraph.testing); unshaded
+    with the normalised ramp unless ``raycaster`` says otherwise."""
+    return ray_caster_network(volume, camera, "RayCaster", id="rc", **{**UNSHADED_RAMP, **raycaster})
 
 
 def bricked_sphere_network(canvas_size):
