@@ -235,3 +235,13 @@ def test_the_shared_post_mesh_runs_from_its_file(tmp_path, capsys):
     assert code == 0 and "rendering the point array 'Pressure', its only array" in err
     drawn = image[..., :3].max(axis=-1) > 0.02
     assert drawn.mean() > 0.1 and drawn[16:48, 16:48].mean() > drawn.mean()
+
+
+def test_the_gui_opens_a_mesh_as_an_untitled_network(window, tmp_path):
+    points, hexes = box_hexes(2)
+    path = write(tmp_path / "part.vtu", points, [("hexahedron", hexes)], point_data={"T": field(points)})
+    window.workspace.open(path)
+    assert window.workspace.path is None     # Save asks for a name: the mesh is never overwritten
+    assert window.workspace.network.get("source.path") == str(tmp_path / "part.vtu")
+    outcome = window.evaluation.run(wait=True)
+    assert not outcome.failed and "canvas" in outcome.frames
