@@ -39,7 +39,9 @@ def answer_dialog(monkeypatch, position=None, opacity=None, color=None, accept=T
 
 
 def test_a_tf_point_typed_in_round_trips_and_is_one_undo_step(window, qtbot, monkeypatch):
+    from vgraph.gl.raycasting.components import TransferFunctionLut
     window.workspace.add_processor("RayCaster", (0, 0), id="rc")
+    window.workspace.set_property("rc.transfer_function", TransferFunctionLut.DEFAULT)  # normalised
     editor = select(window, "rc")["transfer_function"]
     stack, original = window.workspace.undo_stack, window.workspace.network.get("rc.transfer_function")
     low, high = original.points[1][0], original.points[3][0]

@@ -9,6 +9,7 @@ from PySide6.QtCore import QPoint, Qt
 from PySide6.QtGui import QColor
 from PySide6.QtWidgets import QColorDialog
 
+from vgraph.gl.raycasting.components import TransferFunctionLut
 from vgraph.gui import transfer_function_editor as tfe
 from vgraph.transfer_function import PRESETS, TransferFunction, ValueScale
 
@@ -16,8 +17,11 @@ from vgraph.transfer_function import PRESETS, TransferFunction, ValueScale
 
 @pytest.fixture
 def editor(window):
-    """The TF editor of a selected RayCaster (the inspector's editor for transfer functions)."""
+    """The TF editor of a selected RayCaster (the inspector's editor for transfer functions), on
+    the ray casters' ramp over normalised intensity (the palette's RayCaster starts with the auto
+    preset, in percentiles, which the plot edits once a volume has given it a scale)."""
     window.workspace.add_processor("RayCaster", (0, 0), id="rc")
+    window.workspace.set_property("rc.transfer_function", TransferFunctionLut.DEFAULT)
     window.scene.select_processor("rc")
     shown = window.inspector.editors["transfer_function"]
     assert isinstance(shown, tfe.TransferFunctionEditor)
