@@ -51,7 +51,8 @@ def culling() -> None:
     for pid in ("tets", "pt"):
         rc.remove(pid)
     rc.add("EntryExitPoints", id="eep", camera=network["pt"].view_camera)
-    rc.add("RayCaster", id="rc", transfer_function=network.get("pt.transfer_function"), sampling_rate=2.0)
+    rc.add("RayCaster", id="rc", transfer_function=network.get("pt.transfer_function"), sampling_rate=2.0,
+           shading="none")  # as the projected tetrahedra: unshaded (the RayCaster starts shaded)
     rc.link("eep.camera", "rc.camera")
     for a, b in (("source.volume", "eep.volume"), ("source.volume", "rc.volume"), ("eep.entry", "rc.entry"),
                  ("eep.exit", "rc.exit"), ("rc.image", "canvas.image")):
