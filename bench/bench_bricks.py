@@ -61,7 +61,8 @@ def main() -> None:
     print(f"{args.volume}: {volume.dims}, {size[0]} x {size[1]}")
     for name, properties in CASES:
         mode = name.split(",")[0]
-        want, fast = timed(ray_caster_network(volume, camera, "RayCaster", compositing=mode, **properties),
+        want, fast = timed(ray_caster_network(volume, camera, "RayCaster", compositing=mode,
+                                              **{"shading": "none", **properties}),  # as the bricked one
                            size, args.repeats)
         row = [f"{name}: RayCaster {fast * 1e3:.0f} ms"]
         for brick in args.bricks:

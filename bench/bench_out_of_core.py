@@ -155,7 +155,8 @@ def depth_section(args) -> tuple[list[str], list[tuple]]:
         return min(times)
 
     tf = transfer_function()
-    baseline = best(ray_caster_network(volume, camera, "RayCaster", transfer_function=tf, early_termination=1.0))
+    baseline = best(ray_caster_network(volume, camera, "RayCaster", transfer_function=tf, early_termination=1.0,
+                                       shading="none"))  # as the bricked one (the RayCaster starts shaded)
     rows = []
     for brick in (128, 64, 32, 16):
         network = ray_caster_network(volume, camera, "BrickedRayCaster", transfer_function=tf,

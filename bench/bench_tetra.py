@@ -285,7 +285,7 @@ def accuracy_table(args) -> tuple[list[str], list[tuple[str, float, float]]]:
             rows.append((name, seconds, psnr(image, exact), np.abs(image - exact).max()))
     for rate in (0.5, 1.0, 2.0, 4.0):
         rc = ray_caster_network(volume, camera, "RayCaster", transfer_function=transfer_function(),
-                                sampling_rate=rate)
+                                sampling_rate=rate, shading="none")  # as the tetrahedra
         from vgraph.gl.context import get_context
         best = np.inf
         for _ in range(args.repeat):
