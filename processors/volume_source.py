@@ -18,7 +18,7 @@ from vgraph import (FilePathProperty, FloatProperty, IntProperty, OptionProperty
 from vgraph.bricks.volume import DEFAULT_MEMORY_BUDGET_MB, BrickedVolume
 from vgraph.camera import MAX_COORDINATE
 from vgraph.errors import VolumeFileError
-from vgraph.io import SUPPORTED_EXTENSIONS, TimeStepError, is_zarr_group, read_volume
+from vgraph.io import SUPPORTED_EXTENSIONS, TimeStepError, describes_itself, is_zarr_group, read_volume
 from vgraph.volume import Volume, VolumeGeometryError
 
 RAW_TYPES = ["uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64"]
@@ -86,10 +86,16 @@ class VolumeSource(Processor):
         if store is not None:
             return BrickedVolume.open(store, time_step=self.time_step, channel=self.channel,
                                       memory_budget_mb=self.memory_budget)
-        return read_volume(path, raw=self._raw_description(), time_step=self.time_step)
+        return read_volume(path, raw=self._raw_description(Path(path)), time_step=self.time_step)
 
-    def _raw_description(self) -> dict | None:
+    def _raw_description(self, path: Path) -> dict | None:
         if self.raw_dims is None:
+            return None
+        if describes_itself(path):  # a network used as a template on another file
+            warnings.warn(VGraphWarning(
+                f"{self.id}.raw_dims is ignored: {path.name} has a header of its own (the raw "
+                f"settings describe headerless files; set source.raw_dims=null to silence this)"),
+                stacklevel=2)
             return None
         return {"dims": self.raw_dims, "dtype": self.raw_dtype, "endianness": self.raw_endianness,
                 "offset": self.raw_offset}

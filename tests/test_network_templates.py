@@ -23,9 +23,10 @@ from helpers.paths import REPO
 NETWORKS = sorted((REPO / "networks").glob("*.json"))
 SIZE = (96, 80)
 # What else a network needs on data that is not the one it shipped with: the head's skin is cut at
-# x = 100 mm of that head, the hydrogen channel is a headerless file placed one voxel in.
+# x = 100 mm of that head, the hydrogen channel is placed one voxel in (its raw settings are
+# ignored, with a warning, for a file with a header).
 EXTRA = {"head_skin_mesh_bone_volume": ["skin.region_max=null"],
-         "two_channels_hydrogen_neghip": ["hydrogen.origin=null", "hydrogen.raw_dims=null"],
+         "two_channels_hydrogen_neghip": ["hydrogen.origin=null"],
          "tets_lox_post": ["source.array="], "tets_disk_out_ref": ["source.array="]}
 PORT = {"mpr_mri_head": "rc.image"}  # its first canvas is the axial slice; the 3D view frames
 
@@ -135,3 +136,14 @@ def test_the_mpr_slices_take_their_window_from_the_new_data(elsewhere):
     inside = slice_[slice_ > 0.02]
     assert inside.size > 0.1 * slice_.size and np.mean(inside > 0.99) < 0.05  # greys, not saturated
     assert inside.max() > 0.8  # the bright centre reaches the top of the window
+
+
+def test_raw_settings_are_ignored_with_a_warning_for_a_file_with_a_header(elsewhere):
+    """A network made for a headerless raw file, given an NRRD: its raw_dims would read the NRRD
+    as raw bytes ('truncated'); the header wins and a warning names the setting."""
+    network = vgraph.Network()
+    network.add("VolumeSource", id="source", raw_dims=[64, 64, 64], raw_dtype="float32")
+    network.set("source.path", str(elsewhere / "blob.nrrd"))
+    with pytest.warns(vgraph.VGraphWarning, match=r"source\.raw_dims is ignored: blob\.nrrd has a header"):
+        volume = network.evaluate("source.volume")
+    assert volume.shape == (20, 28, 40)

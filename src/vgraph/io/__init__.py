@@ -115,6 +115,12 @@ def read_volume(path, *, raw: dict | None = None, time_step: int = 0) -> Volume:
         raise VolumeFileError(path, out_of_memory_reason("reading it", allocation_size(error))) from error
 
 
+def describes_itself(path: Path) -> bool:
+    """Whether ``path`` is a file (or folder) whose format carries its own grid and type, so that
+    a raw description does not apply to it (NRRD, NIfTI, DICOM, a store ...; not .raw)."""
+    return os.path.isdir(path) or _READERS.get(extension_of(Path(path))) is not None
+
+
 def _reader_for(path: Path, raw: dict | None):
     if raw is not None:
         return lambda p: read_raw(p, raw)
