@@ -54,7 +54,8 @@ from vgraph.errors import VGraphWarning
 from vgraph.gl.context import release_quietly
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, IsoSurface, Light,
-                                             RaycasterBase, Sampling, TransferFunctionLut)
+                                             RaycasterBase, Sampling, TransferFunctionLut, palette_shading,
+                                             palette_transfer_function)
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import linear_sampler
@@ -95,6 +96,8 @@ class BrickedRayCaster(RaycasterBase):
     components = (EntryExit, CameraRays, Sampling, TransferFunctionLut, IsoSurface, Light, Background)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING), doc="dvr, mip, iso (surface at iso_level)")
+    transfer_function = palette_transfer_function()  # auto, shaded: as the RayCaster
+    shading = palette_shading()
     derivatives = OptionProperty("central", choices=list(DERIVATIVES), doc="finite differences of the shading normals")
     brick_size = BrickSizeProperty(64, min=8, max=1024,
                                    doc="voxels per brick edge for in-memory volumes (a BrickedVolume keeps its own)")

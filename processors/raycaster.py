@@ -33,14 +33,14 @@ from __future__ import annotations
 from vgraph import Inport, OptionProperty, Outport, VGraphError
 from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EmptySpace, EntryExit,
                                              FrontToBack, IsoSurface, Light, RaycasterBase, Sampling,
-                                             TransferFunctionLut, VolumeSampling, ray_main_missed)
+                                             TransferFunctionLut, VolumeSampling, palette_shading,
+                                             palette_transfer_function, ray_main_missed)
 from vgraph.gl.raycasting.empty_space import crossed_by, occupied_blocks, radii_if_worthwhile, visible_under
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.gradient_volume import gradient_texture, holds_values
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import linear_sampler
 from vgraph.image import Image
-from vgraph.properties import TransferFunctionProperty
 from vgraph.shown_content import voxels_by_compositing
 from vgraph.volume import Volume
 
@@ -66,15 +66,8 @@ class RayCaster(RaycasterBase):
                                  doc="dvr, mip, iso (surface at iso_level), first_hit (positions), "
                                      "xray (average intensity)")
     interpolation = OptionProperty("trilinear", choices=["nearest", "trilinear"])
-    # The palette's RayCaster starts as `vgraph run FILE` does (vgraph.volume_network): the ``auto``
-    # transfer function, placed by percentiles, shows any data set without knowing its units or
-    # being squeezed by an outlier voxel (the components' default is a ramp over the normalised
-    # range), shaded. Files of format version 2 and older keep the old defaults (vgraph.fileformat).
-    transfer_function = TransferFunctionProperty(
-        "auto", doc="RGBA over normalised intensity, data values or percentiles (a preset name or "
-        "TF file also works); alpha per sample at rate 1; by default the auto preset")
-    shading = OptionProperty("blinn_phong", choices=["none", "blinn_phong"],
-                             doc="lighting of the samples or surface")
+    transfer_function = palette_transfer_function()  # auto, shaded: as vgraph run FILE
+    shading = palette_shading()
     derivatives = OptionProperty("central", choices=list(DERIVATIVES),
                                  doc="finite differences of the shading normals; precomputed: "
                                      "central differences at the voxels, computed once per volume "

@@ -207,7 +207,7 @@ def big_volume() -> Volume:
 def test_a_budget_of_a_few_bricks_evicts_and_reads_again_but_frames_stay_complete():
     volume = big_volume()
     network = ray_caster_network(volume, corner_camera(volume, False), "BrickedRayCaster", compositing="mip",
-                                 brick_size=32, lod_bias=FINEST, ram_budget=4.0, gl_budget=4.0)
+                                 brick_size=32, lod_bias=FINEST, ram_budget=4.0, gl_budget=4.0, **UNSHADED_RAMP)
     rc = network["rc"]
     frames = []
     for right in (False, True, False):
@@ -428,7 +428,7 @@ def test_a_budget_that_cannot_hold_a_coarse_frame_and_the_planned_bricks_draws_t
     count = planned.last_frame["bricks"]
     budget = (count + 1) * (32 + 2 * HALO) ** 3 * 4 / MB
     network = ray_caster_network(volume, oblique(volume), "BrickedRayCaster", compositing="mip", brick_size=32,
-                                 lod_bias=FINEST, ram_budget=budget, gl_budget=budget)
+                                 lod_bias=FINEST, ram_budget=budget, gl_budget=budget, **UNSHADED_RAMP)
     network["rc"].load_limit = LoadLimit(bricks=8)
     network.evaluate("rc.image", size=SIZE)
     assert network["rc"].last_frame["levels"] == [1] and network["rc"].last_frame["bricks_read"] == 9

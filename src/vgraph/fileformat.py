@@ -153,7 +153,7 @@ def _renamed_twice(index: int, type_name: str, old: str, new: str, properties: d
             f"give one of them")
 
 
-# Version 3 changed defaults: a RayCaster starts with the `auto` transfer function and Blinn-Phong
+# Version 3 changed defaults: a RayCaster (and a BrickedRayCaster) starts with the `auto` transfer function and Blinn-Phong
 # shading, a ProjectedTetrahedra with a colour map over the percentiles of its field, as `vgraph run
 # FILE` renders (docs/network-format.md, "Defaults"). A saved file holds every value, but a file
 # written by hand may leave one out, which then takes the default: older files get the defaults they
@@ -161,6 +161,7 @@ def _renamed_twice(index: int, type_name: str, old: str, new: str, properties: d
 _OLD_RAMP = {"space": "normalized", "points": [[0.0, 0.0, 0.0, 0.0, 0.0], [0.45, 0.85, 0.55, 0.3, 0.0],
                                                [0.55, 0.95, 0.8, 0.6, 0.4], [1.0, 1.0, 1.0, 1.0, 0.8]]}
 DEFAULTS_BEFORE_VERSION_3 = {"RayCaster": {"transfer_function": _OLD_RAMP, "shading": "none"},
+                             "BrickedRayCaster": {"transfer_function": _OLD_RAMP, "shading": "none"},
                              "ProjectedTetrahedra": {"transfer_function": _OLD_RAMP}}
 
 

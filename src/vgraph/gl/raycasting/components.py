@@ -286,6 +286,21 @@ class FrontToBack(Component):
                                  "early_termination": self.processor.early_termination})
 
 
+# The palette's volume ray casters (RayCaster, BrickedRayCaster) start as ``vgraph run FILE`` does
+# (vgraph.volume_network): the ``auto`` transfer function, placed by percentiles, shows any data set
+# without knowing its units or being squeezed by an outlier voxel (the components' default is a ramp
+# over the normalised range), shaded. Files of format version 2 and older keep the old defaults
+# (vgraph.fileformat).
+def palette_transfer_function() -> TransferFunctionProperty:
+    return TransferFunctionProperty("auto", doc="RGBA over normalised intensity, data values or "
+                                    "percentiles (a preset name or TF file also works); alpha per "
+                                    "sample at rate 1; by default the auto preset")
+
+
+def palette_shading() -> OptionProperty:
+    return OptionProperty("blinn_phong", choices=["none", "blinn_phong"], doc="lighting of the samples or surface")
+
+
 class TransferFunctionLut(Component):
     """The transfer function as a 4096-entry LUT texture, resolved for the volume."""
 
