@@ -113,7 +113,7 @@ class QtInput:
 
     def press_and_move(self, widget, start, end, seconds: float):
         from PySide6.QtCore import QEvent, Qt
-        from vgraph.gui.scripted_user import send_mouse
+        from scripted_user import send_mouse
         send_mouse(widget, QEvent.MouseButtonPress, start, Qt.LeftButton, Qt.LeftButton)
         steps = max(1, round(seconds / MOVE_S))
         for i in range(1, steps + 1):
@@ -122,7 +122,7 @@ class QtInput:
 
     def release(self, widget, point):
         from PySide6.QtCore import QEvent, Qt
-        from vgraph.gui.scripted_user import send_mouse
+        from scripted_user import send_mouse
         send_mouse(widget, QEvent.MouseButtonRelease, point, Qt.LeftButton, Qt.NoButton)
         yield 0.0
 

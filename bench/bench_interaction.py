@@ -179,7 +179,7 @@ def drive(seconds: float, step) -> tuple[float, float, int]:
 
 def camera_drag(window, seconds: float):
     from PySide6.QtCore import QEvent, QPointF, Qt
-    from vgraph.gui.scripted_user import send_mouse
+    from scripted_user import send_mouse
     canvas = window.canvases.views[CANVAS]
     centre = QPointF(canvas.width() / 2, canvas.height() / 2)
     offset = QPointF(canvas.height() * 0.5, canvas.height() * 0.15)  # about a quarter turn
@@ -204,7 +204,7 @@ def property_drag(window, seconds: float):
 
 def tf_drag(window, seconds: float):
     from PySide6.QtCore import QEvent, Qt
-    from vgraph.gui.scripted_user import send_mouse
+    from scripted_user import send_mouse
     window.scene.select_processor(RAY_CASTER)
     plot = window.inspector.editors["transfer_function"].plot
     index = max(1, len(plot.points) // 2)

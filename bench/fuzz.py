@@ -4,7 +4,7 @@ limits per case.
     .venv/bin/python bench/fuzz.py --minutes 40 [--target all | networks | nrrd,nhdr | ...]
     .venv/bin/python bench/fuzz.py --replay nrrd 1234        # one case again, in this process
 
-Cases come from vgraph.io.fuzz_cases: valid files of every format built from scratch and the
+Cases come from fuzz_cases.py beside this script: valid files of every format built from scratch and the
 shipped networks, mutated (bit flips, truncations, header line edits, numbers replaced by
 extremes, JSON documents edited). The only allowed outcomes are success and a VGraphError. Each
 case runs in a worker process whose address space is limited (RLIMIT_AS: its size at start +
@@ -40,7 +40,7 @@ import traceback
 from collections import Counter, defaultdict
 from pathlib import Path
 
-from vgraph.io.fuzz_cases import TARGETS, make_case, run_case
+from fuzz_cases import TARGETS, make_case, run_case
 
 RESULTS = Path(__file__).resolve().parent / "results" / "fuzz"
 CLUSTER = "cluster"  # bench/cluster_faults.py, run alongside in a process of its own

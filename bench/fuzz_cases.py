@@ -25,10 +25,12 @@ from pathlib import Path
 import numpy as np
 
 from vgraph.errors import VGraphError
-from vgraph.io import fuzz_meshes, fuzz_seeds, fuzz_stores
-from vgraph.io.fuzz_seeds import Case, volume_values
+import fuzz_meshes
+import fuzz_seeds
+import fuzz_stores
+from fuzz_seeds import Case, volume_values
 
-NETWORKS = Path(__file__).resolve().parents[3] / "networks"
+NETWORKS = Path(__file__).resolve().parents[1] / "networks"
 TEXT_EXTREMES = ("0", "-1", "1e30", "-1e30", "nan", "inf", "-inf", "1e400", "2147483648",
                  "4294967296", "-2147483649", "99999999999999999999999", "1e-320", "0x10", "",
                  "1.5", "9" * 5000, "\xff\xfe", "\u0661\u0662", "%.1000000000d", "LIST", "/dev/zero",

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vgraph.io.fuzz_seeds import Case
+from fuzz_seeds import Case
 
 # (extension, meshio file format, writer options, text file?)
 FORMATS = (

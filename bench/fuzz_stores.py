@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vgraph.io.fuzz_seeds import Case, volume_values
+from fuzz_seeds import Case, volume_values
 
 STORE = "v.zarr"
 OUTSIDE = "outside.bin"  # a regular file beside the store, for links that leave it

@@ -4,7 +4,7 @@
         [--network networks/raycast_sphere.json] [--settle-every 1] [--out bench/results]
 
 Opens the network in a MainWindow with its own render process (as ``vgraph gui`` does) and loops
-scripted user actions (``vgraph.gui.scripted_user``): property edits in the inspector, node
+scripted user actions (``bench/scripted_user.py``): property edits in the inspector, node
 drags, a connection deleted, undone, redone and made again with the mouse, trackball drags on the
 canvas, transfer-function point drags. After every ``--settle-every`` actions it waits until the
 render process has caught up. Once a minute (and at the end) it records: actions done and frames
@@ -116,7 +116,7 @@ def print_row(row: Sample) -> None:
 
 def soak(window, minutes: float, settle_every: int) -> tuple[list[Sample], bool]:
     """Run the actions for ``minutes``; returns the samples and whether rendering kept up."""
-    from vgraph.gui.scripted_user import ScriptedUser
+    from scripted_user import ScriptedUser
     user = ScriptedUser(window)
     start = time.monotonic()
     end = start + minutes * MINUTE

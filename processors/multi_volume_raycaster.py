@@ -2,7 +2,7 @@
 function, on the same or on different grids in one world space (in the spirit of Voreen's
 MultiVolumeRaycaster and Inviwo's MultichannelRaycaster).
 
-Conventions (the CPU reference vgraph.multivolume_reference states the same model as formulas):
+Conventions (the CPU reference vgraph.numerics.multivolume_reference states the same model as formulas):
 - Inports ``volume1`` (required) .. ``volume4`` (optional; any subset of 2..4 may be connected),
   and the ``entry`` and ``exit`` images of an EntryExitPoints fed with the same volumes (its
   ``volume`` = volume1, its ``volume2`` .. ``volume4`` the others, in any order): the rays span the

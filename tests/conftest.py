@@ -2,16 +2,22 @@
 
 The toy processors (helpers.toy_processors) are registered here, once, so every test can add
 them by type name; the render process imports them by module name like any plug-in.
+
+bench/ goes on sys.path so the tests import the tools they share with the bench by module name
+(``from fuzz_cases import ...``, ``from scripted_user import ScriptedUser``; docs/architecture.md).
 """
 
 import os
+import sys
 from pathlib import Path
 
 import pytest
 
 import vgraph
 from helpers import toy_processors
-from helpers.paths import DATA
+from helpers.paths import BENCH, DATA
+
+sys.path.append(str(BENCH))  # after the installed packages: a bench script never shadows one
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")  # read when pytest-qt creates the QApplication
 

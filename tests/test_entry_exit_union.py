@@ -12,7 +12,7 @@ import pytest
 
 from vgraph.camera import Camera
 from vgraph.implicit import sample
-from vgraph.multivolume_reference import render_channels
+from vgraph.numerics.multivolume_reference import render_channels
 from vgraph.network import Network
 from vgraph.numerics.reference_raycast import Shading, volume_box
 from vgraph.processors.entry_exit_points import rays_box

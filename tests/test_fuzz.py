@@ -3,7 +3,7 @@ valid files (bit flips, truncations, header line edits, extreme numbers, edited 
 for stores also deleted, swapped and oversized chunks, links and FIFOs) and files of random
 bytes, either succeeds or raises a VGraphError; never another exception.
 
-The cases come from vgraph.io.fuzz_cases, driven here by hypothesis (a modest number of examples
+The cases come from bench/fuzz_cases.py, driven here by hypothesis (a modest number of examples
 per target, so the file runs in well under a minute); bench/fuzz.py runs the same cases for
 minutes with time and memory limits per case.
 """
@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from vgraph.io import SUPPORTED_EXTENSIONS, read_volume
 from vgraph.errors import VGraphError
-from vgraph.io.fuzz_cases import TARGETS, make_case, run_case
+from fuzz_cases import TARGETS, make_case, run_case
 
 EXAMPLES = {"dicom": 100, "networks": 500, "stores": 100}  # a store case builds a zarr store: ~80 ms
 FUZZ_SETTINGS = dict(deadline=None, database=None, derandomize=False,

@@ -16,7 +16,7 @@ from vgraph.gui.live_evaluation import INTERACTIVE_SCALE, LiveEvaluation
 from vgraph.gui.render_messages import RenderJob, RenderResult
 from vgraph.gui.render_server import RenderServer, serve
 from vgraph.gui.evaluator import EvaluationOutcome
-from vgraph.gui.scripted_user import send_mouse
+from scripted_user import send_mouse
 
 from helpers.paths import REPO
 

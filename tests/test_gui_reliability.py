@@ -96,7 +96,7 @@ def test_a_few_hundred_scripted_user_actions_leave_the_window_working(window):
     """The loop of bench/gui_soak.py, bounded: edits, drags, reconnections with undo/redo,
     trackball drags and TF point drags, with the render process catching up now and then."""
     from vgraph.fileformat import network_document
-    from vgraph.gui.scripted_user import ScriptedUser
+    from scripted_user import ScriptedUser
     open_evaluated(window, "raycast_sphere.json")
     original = network_document(window.workspace.network)
     user = ScriptedUser(window)

@@ -15,7 +15,7 @@ import pytest
 
 from vgraph.errors import VolumeFileError
 from vgraph.io import read_volume
-from vgraph.io.fuzz_cases import SEEDS, run_case, write_case
+from fuzz_cases import SEEDS, run_case, write_case
 
 VOLUME_TARGETS = [t for t in SEEDS if t not in ("image", "networks")]
 

@@ -1,5 +1,5 @@
 """MultiVolumeRayCaster: several channels in one ray caster. Images against the CPU reference
-(vgraph.multivolume_reference) for every blend mode with a shifted copy and a channel on another
+(vgraph.numerics.multivolume_reference) for every blend mode with a shifted copy and a channel on another
 grid; closed-form answers (a shifted channel's MIP is the first one's moved by the shift; a linear
 field on another grid shows its own values at the pixels' world points); one channel equals the
 RayCaster; order, gaps between the connected inports, the example network, and the errors."""
@@ -12,7 +12,7 @@ from vgraph.camera import Camera
 from vgraph.cli import main
 from vgraph.errors import PortError
 from vgraph.implicit import sample
-from vgraph.multivolume_reference import render_channels
+from vgraph.numerics.multivolume_reference import render_channels
 from vgraph.network import Network
 from vgraph.scheduler import BlankImageWarning
 from vgraph.numerics.reference_raycast import Shading, volume_box

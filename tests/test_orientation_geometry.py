@@ -9,7 +9,7 @@ import pytest
 
 from vgraph import Network, PropertyError, VGraphError
 from vgraph.camera import Camera
-from vgraph.multivolume_reference import render_channels
+from vgraph.numerics.multivolume_reference import render_channels
 from vgraph.numerics.reference_raycast import Shading, render, volume_box
 from vgraph.processors.iso_surface_extractor import IsoSurfaceExtractor
 from vgraph.processors.volume_to_tet_mesh import VolumeToTetMesh

@@ -33,7 +33,7 @@ from vgraph.bricks.store_metadata import StoreLevelsWarning
 from vgraph.bricks.volume import BrickedVolume
 from vgraph.cli import main
 from vgraph.errors import VolumeFileError
-from vgraph.io.fuzz_stores import zstd_frame_without_size
+from fuzz_stores import zstd_frame_without_size
 
 SHAPE = (72, 128, 128)  # [z, y, x] uint8: 1.1 MiB, over VolumeSource's smallest budget (1 MiB)
 BRICK = 16

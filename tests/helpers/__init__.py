@@ -5,7 +5,8 @@ Fixtures (``window``, ``renderer``, ``gl``, ``data_dir``, ``test_shader_dir``) l
 ``tests/conftest.py``, which pytest gives every test without an import. No test module imports
 another test module: what two test files share belongs here.
 
-- ``paths``: REPO (the repository) and DATA (the shared data sets beside it)
+- ``paths``: REPO (the repository), BENCH (the tools the bench shares with the tests: fuzz cases,
+  the scripted user; conftest puts it on sys.path) and DATA (the shared data sets beside it)
 - ``toy_processors``: small CPU processors (no GL); conftest registers them for every test
 - ``gui``: mouse helpers for the GUI tests
 - ``networks``: networks the rendering tests build

@@ -4,7 +4,7 @@ EntryExitPoints cut every channel as they cut the reference's rays."""
 
 import numpy as np
 
-from vgraph.multivolume_reference import render_channels
+from vgraph.numerics.multivolume_reference import render_channels
 from vgraph.numerics.reference_raycast import Shading
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume

@@ -1,4 +1,4 @@
-"""Boxes of the CPU references (reference_raycast, vgraph.multivolume_reference): where the rays of
+"""Boxes of the CPU references (reference_raycast, multivolume_reference): where the rays of
 one volume or of several start and end, the box a camera frames, and which points a volume holds,
 for volumes whose index axes may be turned against the world (Volume.direction).
 
