@@ -57,8 +57,8 @@ from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass, set_unif
 from vgraph.gl.shaders import programs
 from vgraph.gl.raycasting.framed_view import framed_view, rays_box
 from vgraph.gl.raycasting.geometry import (BOX_EPSILON, DEFAULT_CAMERA, PROXY_MARGIN, VolumeGeometry,
-                                           box_corners, footprint, picture_of, pixel_rays,
-                                           plane_cuts_box, plane_frame, vec)
+                                           box_corners, cube_triangles, footprint, picture_of,
+                                           pixel_rays, plane_cuts_box, plane_frame, vec)
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
 from vgraph.volume import Volume
@@ -83,25 +83,6 @@ def proxy_box_of(min_spacing: float, hit_min, hit_max):
     """The box rasterised to find the pixels to compute (VolumeGeometry.proxy_box for a cropped box)."""
     margin = PROXY_MARGIN * (float((hit_max - hit_min).max()) + min_spacing)
     return hit_min - margin, hit_max + margin
-
-
-def cube_triangles() -> np.ndarray:
-    """The unit cube's 12 triangles as 36 corners (0/1 per axis), float32, each triangle
-    counter-clockwise seen from outside (GL's default front face is the outside)."""
-    corners = []
-    for axis in range(3):
-        u, v = (axis + 1) % 3, (axis + 2) % 3
-        for side in (0.0, 1.0):
-            quad = []
-            for a, b in ((0, 0), (1, 0), (1, 1), (0, 1)):
-                point = np.zeros(3)
-                point[axis], point[u], point[v] = side, a, b
-                quad.append(point)
-            normal = np.cross(quad[1] - quad[0], quad[2] - quad[0])
-            if normal[axis] * (side - 0.5) < 0.0:  # points inwards: reverse the quad
-                quad.reverse()
-            corners += [quad[0], quad[1], quad[2], quad[0], quad[2], quad[3]]
-    return np.array(corners, dtype=np.float32)
 
 
 class EntryExitPoints(Processor):

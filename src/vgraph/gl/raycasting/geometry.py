@@ -201,6 +201,25 @@ def box_corners(box_min, box_max) -> tuple[tuple[float, float, float], ...]:
                  for y in (box_min[1], box_max[1]) for z in (box_min[2], box_max[2]))
 
 
+def cube_triangles() -> np.ndarray:
+    """The unit cube's 12 triangles as 36 corners (0/1 per axis), float32, each triangle
+    counter-clockwise seen from outside (GL's default front face is the outside)."""
+    corners = []
+    for axis in range(3):
+        u, v = (axis + 1) % 3, (axis + 2) % 3
+        for side in (0.0, 1.0):
+            quad = []
+            for a, b in ((0, 0), (1, 0), (1, 1), (0, 1)):
+                point = np.zeros(3)
+                point[axis], point[u], point[v] = side, a, b
+                quad.append(point)
+            normal = np.cross(quad[1] - quad[0], quad[2] - quad[0])
+            if normal[axis] * (side - 0.5) < 0.0:  # points inwards: reverse the quad
+                quad.reverse()
+            corners += [quad[0], quad[1], quad[2], quad[0], quad[2], quad[3]]
+    return np.array(corners, dtype=np.float32)
+
+
 def footprint(view_projection: np.ndarray, corners, size) -> tuple[int, int, int, int] | None:
     """The pixels (x, y, width, height; GL window coordinates, y up) that the box with these
     ``corners`` (box_corners) can cover when rasterised with ``view_projection``, a pixel to spare

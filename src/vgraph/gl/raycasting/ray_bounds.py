@@ -36,7 +36,7 @@ import numpy as np
 
 from vgraph.gl.passes import set_uniforms
 from vgraph.gl.raycasting.empty_space import WALK_BLOCK, pairs_reduced
-from vgraph.gl.raycasting.geometry import VolumeGeometry, pixel_rays, vec
+from vgraph.gl.raycasting.geometry import VolumeGeometry, cube_triangles, pixel_rays, vec
 from vgraph.gl.shaders import programs
 
 SHADERS = ("raycasting/ray_bounds.vert.glsl", "raycasting/ray_bounds.frag.glsl")
@@ -146,7 +146,6 @@ class RayBounds:
 
     def _vertex_array(self, ctx, program):
         if self._cube is None or self._cube[0] is not ctx:
-            from vgraph.processors.entry_exit_points import cube_triangles  # (a processor module)
             self._cube = (ctx, ctx.buffer(cube_triangles().tobytes()))
             self._arrays = {}
         if program not in self._arrays:
