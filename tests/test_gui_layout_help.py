@@ -113,7 +113,7 @@ def test_docs_dialog_lists_the_pages_and_shows_one(qtbot, monkeypatch):
     folder = docs_folder()
     assert folder is not None
     titles = {page.path.name: page.title for page in doc_pages()}
-    assert set(titles) == {p.name for p in (REPO / "docs").glob("*.md")}
+    assert set(titles) == {p.name for p in (REPO / "docs").glob("*.md")} | {"index.md"}   # + the reference's
     assert titles["cli.md"] == "The vgraph command"   # backticks dropped from "# The `vgraph` command"
     dialog = DocsDialog()
     qtbot.addWidget(dialog)
@@ -192,6 +192,27 @@ def test_every_picture_the_docs_link_is_found(qtbot):
             assert path is not None, (page.path.name, link)
             linked.add(path)
     assert linked and linked <= set((REPO / "docs" / "images").glob("*.png"))
+
+
+def test_the_processor_reference_opens_from_the_list_and_its_links(qtbot):
+    """docs/reference/ is a subfolder: its index is listed, a processor's page opens from a link
+    with its picture (../images/...), and its links lead back to the essay pages."""
+    from vgraph.gui.help import document_images, image_path
+    dialog = DocsDialog()
+    qtbot.addWidget(dialog)
+    assert dialog.show_page("index.md")
+    assert dialog.list.currentItem().text() == "Processor reference"
+    dialog._follow(QUrl("RayCaster.md"))
+    assert dialog.shown == docs_folder() / "reference" / "RayCaster.md"
+    assert dialog.list.currentItem() is None and dialog.browser.toPlainText().startswith("RayCaster")
+    assert "sampling_rate" in dialog.browser.toPlainText()
+    pictures = [image_path(dialog.shown, link) for _, link in document_images(dialog.browser.document())]
+    assert pictures == [docs_folder() / "reference" / ".." / "images" / "rendering_compositing.png"]
+    assert pictures[0].is_file()
+    dialog._follow(QUrl("../rendering.md#raycaster"))
+    assert dialog.list.currentItem().text() == "Volume rendering: EntryExitPoints and RayCaster"
+    dialog._follow(QUrl("reference/index.md"))   # rendering.md links the reference's index
+    assert dialog.list.currentItem().text() == "Processor reference"
 
 
 def test_shortcuts_dialog_lists_the_actions_keys(window, qtbot):

@@ -41,8 +41,8 @@ def test_wheel_contains_processors_and_shaders(tmp_path):
         assert f"vgraph/{module.relative_to(REPO / 'src' / 'vgraph').as_posix()}" in names, module
     for shader in (REPO / "shaders").rglob("*.glsl"):
         assert f"vgraph/shaders/{shader.relative_to(REPO / 'shaders').as_posix()}" in names
-    for page in (REPO / "docs").glob("*.md"):   # Help > Documentation reads them offline
-        assert f"vgraph/docs/{page.name}" in names
+    for page in (REPO / "docs").rglob("*.md"):   # Help > Documentation reads them offline
+        assert f"vgraph/docs/{page.relative_to(REPO / 'docs').as_posix()}" in names, page
     assert any(n.endswith("entry_points.txt") for n in names)
     assert_pictures_installed(wheel, tmp_path / "site")
 
@@ -54,12 +54,12 @@ def assert_pictures_installed(wheel, site):
     pictures = [info for info in zipfile.ZipFile(wheel).infolist() if info.filename.startswith("vgraph/docs/images/")]
     assert pictures and sum(info.file_size for info in pictures) < 15e6
     zipfile.ZipFile(wheel).extractall(site)
-    pages = list((site / "vgraph" / "docs").glob("*.md"))
+    pages = list((site / "vgraph" / "docs").rglob("*.md"))   # the processor reference's too
     links = [(page, link) for page in pages
              for link in re.findall(r"!\[[^\]]*\]\(([^)\s]+)\)", page.read_text(encoding="utf-8"))]
     assert links
     for page, link in links:
-        assert image_path(page, link) == site / "vgraph" / "docs" / link, (page.name, link)
+        assert image_path(page, link) == page.parent / link, (page.name, link)
 
 
 def plugin_network(tmp_path, invert_alpha=False):

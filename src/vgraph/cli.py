@@ -24,6 +24,7 @@ from vgraph.cli_data import add_render_as, loaded
 from vgraph.cli_values import parse_size, set_from_command_line, set_view, user_path
 from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
 from vgraph.memory import out_of_memory
+from vgraph.property_text import property_text
 from vgraph.volume_network import is_volume_path
 from vgraph.write_paths import check_writers
 
@@ -308,45 +309,6 @@ def command_list(args) -> int:
     for origin, reason in vgraph.registry.failed_plugins.items():
         print(f"plug-in {origin} failed to load: {reason}", file=sys.stderr)
     return EXIT_OK
-
-
-def property_text(prop) -> str:
-    """One line of ``vgraph list``: name, kind with its choices or range, default, e.g.
-    ``compositing (option: dvr|mip) = 'dvr'``, ``sampling_rate (float 0.05..16) = 1.0``."""
-    kind = prop.kind
-    if kind == "option":
-        kind = f"option: {'|'.join(prop.choices)}"
-    elif kind in ("float", "int"):
-        kind = f"{kind} {_range_text(prop.min, prop.max)}".rstrip()
-    elif kind == "vector":
-        number = "int" if prop.integer else "float"
-        kind = f"{prop.size} {number}s {_range_text(prop.min, prop.max)}".rstrip()
-        kind += ", or None" if prop.optional else ""
-    elif kind == "file_path":
-        kind = f"file_path{', written' if prop.writes else ''}: {' '.join(prop.filters)}"
-    elif kind == "color":
-        kind = "color: RGBA 0..1"
-    return f"{prop.name} ({kind}) = {_default_text(prop)}"
-
-
-def _range_text(low, high) -> str:
-    number = lambda v: f"{v:g}" if isinstance(v, float) else str(v)  # noqa: E731
-    if low is not None and high is not None:
-        return f"{number(low)}..{number(high)}"
-    return f">= {number(low)}" if low is not None else f"<= {number(high)}" if high is not None else ""
-
-
-def _default_text(prop) -> str:
-    value = prop.to_json(prop.default)
-    if prop.kind == "camera":
-        planes = ", automatic near/far" if value.get("near") is None and value.get("far") is None else ""
-        where = "frames the data" if value.get("fit_to_data") else f"at {value.get('position')}"
-        return f"{value.get('projection')} camera, fov {value.get('fov'):g}, {where}{planes}"
-    if prop.kind == "transfer_function" and isinstance(value, dict) and "points" in value:
-        space = f", {value['space']}" if value.get("space") else ""
-        return f"{len(value['points'])} points{space} (--json lists them)"
-    text = repr(value)
-    return text if len(text) <= 80 else text[:76] + " ..."
 
 
 def command_gui(args) -> int:

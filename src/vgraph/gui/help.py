@@ -10,6 +10,9 @@ Conventions:
   when the dialog is resized), so a 1920-pixel screenshot does not push the text sideways.
 - The shortcut list is built from the window's actions, so it cannot drift from what the keys do.
 - A link to another page opens that page in the same browser; any other link goes to the desktop.
+  Links are read relative to the page shown, so the processor reference (docs/reference/, written
+  by vgraph.reference_docs) links to its pictures and to the essay pages with ``../``. The list
+  holds the top-level pages and the reference's index; a processor's page opens from its links.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QListWidget, QListWidg
 import vgraph
 
 START_PAGE = "gui.md"
+REFERENCE_INDEX = "reference/index.md"   # listed with the top-level pages; it links the rest
 MIN_IMAGE_WIDTH = 200   # px: pictures are not scaled below this, however narrow the column
 
 
@@ -57,7 +61,8 @@ def doc_pages(folder: Path | None = None) -> list[Page]:
     folder = folder if folder is not None else docs_folder()
     if folder is None:
         return []
-    return sorted((Page(p, page_title(p)) for p in folder.glob("*.md")), key=lambda p: p.title.lower())
+    paths = [*folder.glob("*.md"), *folder.glob(REFERENCE_INDEX)]
+    return sorted((Page(p, page_title(p)) for p in paths), key=lambda p: p.title.lower())
 
 
 def image_path(page: Path, link: str) -> Path | None:
@@ -110,6 +115,7 @@ class DocsDialog(QDialog):
         self.browser.setVerticalScrollBarPolicy(Qt.ScrollBarAlwaysOn)
         self.browser.viewport().installEventFilter(self)   # refit the pictures on resizes
         self.image_sizes: dict[str, QSize] = {}   # link -> natural size of the shown page's pictures
+        self.shown: Path | None = None   # the page shown; its links are relative to it
         self.browser.anchorClicked.connect(self._follow)
         splitter = QSplitter()
         splitter.addWidget(self.list)
@@ -139,12 +145,26 @@ class DocsDialog(QDialog):
                 return True
         return False
 
+    def show_file(self, path: Path) -> None:
+        """Show the page in file ``path``: a listed page by selecting its row, any other (a
+        processor's reference page) with no row selected."""
+        for row, page in enumerate(self.pages):
+            if page.path.resolve() == path.resolve():
+                self.list.setCurrentRow(row)
+                return
+        self.list.setCurrentRow(-1)
+        self.list.clearSelection()
+        self._show_path(path)
+
     def _show_row(self, row: int) -> None:
         if 0 <= row < len(self.pages):
-            path = self.pages[row].path
-            self.browser.setSearchPaths([str(path.parent)])  # relative images resolve beside the page
-            self.browser.setMarkdown(path.read_text(encoding="utf-8"))
-            self._place_images(path)
+            self._show_path(self.pages[row].path)
+
+    def _show_path(self, path: Path) -> None:
+        self.shown = path
+        self.browser.setSearchPaths([str(path.parent)])  # relative images resolve beside the page
+        self.browser.setMarkdown(path.read_text(encoding="utf-8"))
+        self._place_images(path)
 
     def _place_images(self, page: Path) -> None:
         """Each picture from its file beside the page (``image_path``), fitted to the column."""
@@ -183,15 +203,26 @@ class DocsDialog(QDialog):
         return super().eventFilter(watched, event)
 
     def _follow(self, url: QUrl) -> None:
-        target = url.path() if url.isRelative() or url.isLocalFile() else ""
-        name = Path(url.toLocalFile() if url.isLocalFile() else target).name
-        if name.endswith(".md") and self.show_page(name):
+        page = self._linked_page(url)
+        if page is not None:
+            self.show_file(page)
             if url.fragment():
                 self.browser.scrollToAnchor(url.fragment())
-        elif url.isRelative() and url.fragment() and not target:
+        elif url.isRelative() and url.fragment() and not url.path():
             self.browser.scrollToAnchor(url.fragment())
         else:
             QDesktopServices.openUrl(url)
+
+    def _linked_page(self, url: QUrl) -> Path | None:
+        """The Markdown page a link names, relative to the page shown; None for anything else (a
+        web address, a picture, a page that is missing)."""
+        if url.isLocalFile():
+            path = Path(url.toLocalFile())
+        elif url.isRelative() and url.path() and self.shown is not None:
+            path = self.shown.parent / url.path()
+        else:
+            return None
+        return path if path.suffix == ".md" and path.is_file() else None
 
 
 def redo_keys(platform_keys: list[QKeySequence]) -> list[QKeySequence]:

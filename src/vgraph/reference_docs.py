@@ -1,0 +1,242 @@
+"""The processor reference: one Markdown page per built-in processor, written from its declaration
+(ports with their types, properties with defaults, ranges, choices and docs), and an index by
+category. Run from the repository root after changing a declaration::
+
+    python -m vgraph.reference_docs            # rewrites docs/reference/
+    python -m vgraph.reference_docs FOLDER     # writes the pages into FOLDER instead
+
+Conventions:
+- A page holds the declaration and two small tables of this module: the picture of docs/images
+  that shows the processor (``PICTURES``) and the sections of the essay pages that explain it
+  (``EXPLAINED_IN``). Nothing else is read, so a page changes exactly when its processor's
+  declaration or these tables do; tests/test_reference_docs.py regenerates the pages and compares
+  them with the committed ones, and checks that every picture and section named here exists.
+- Built-in processors only (``vgraph.processors``): a plug-in installed beside vgraph would
+  otherwise change the committed pages. ``vgraph list`` shows plug-ins too, in the same words
+  (vgraph.property_text).
+- The folder belongs to this generator: pages of processors that no longer exist are removed.
+  Every page is written atomically (vgraph.atomic).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from inspect import cleandoc
+from pathlib import Path
+
+from vgraph.atomic import make_folders, write_text_atomic
+from vgraph.errors import VGraphError
+from vgraph.processor import Processor
+from vgraph.property_text import default_text, kind_text
+from vgraph.registry import registry
+
+BUILTIN_MODULE = "vgraph.processors."
+INDEX = "index.md"
+COMMAND = "python -m vgraph.reference_docs"
+
+# The existing picture of docs/images that shows what the processor makes, with its caption.
+PICTURES: dict[str, tuple[str, str]] = {
+    "EntryExitPoints": ("rendering_entry_exit.png", "Entry and exit points of a box"),
+    "RayCaster": ("rendering_compositing.png", "The compositing modes"),
+    "CurvatureRaycaster": ("curvature_measures.png", "Curvature measures of the torus"),
+    "CurvatureVolumeRaycaster": ("curvature_volume.png", "The torus's distance field coloured by curvature"),
+    "MultiVolumeRayCaster": ("exploring_channels_blends.png", "The three blend modes of two channels"),
+    "LabelRayCaster": ("exploring_labels_boundaries.png",
+                       "The RayCaster against the LabelRayCaster on two touching label boxes"),
+    "SliceViewer": ("exploring_slice_display.png",
+                    "An axial slice of the head in radiological (default) and neurological display"),
+    "IsoSurfaceExtractor": ("exploring_surfaces.png", "CT head: skin as a mesh, bone as volume rendering"),
+    "GeometryRenderer": ("exploring_surfaces.png", "CT head: skin as a mesh, bone as volume rendering"),
+    "ProjectedTetrahedra": ("tetra_modes.png",
+                            "Averaged and pre-integrated projection against the exact reference"),
+    "VolumeToTetMesh": ("tetra_culling.png", "The culled bonsai as tetrahedra beside the RayCaster"),
+}
+
+# The sections of the essay pages (relative to docs/) that explain the processor.
+EXPLAINED_IN: dict[str, tuple[str, ...]] = {
+    "BrickedRayCaster": ("bricked_raycaster.md", "large-data.md#rendering"),
+    "ColorBar": ("outputs.md#colorbar", "own-data.md#a-colour-bar"),
+    "CubicSplineProcessor": ("curvature.md#which-volume-goes-in", "tricubic.md"),
+    "CurvatureRaycaster": ("curvature.md#curvatureraycaster",),
+    "CurvatureVolumeRaycaster": ("curvature.md#curvaturevolumeraycaster",),
+    "EntryExitPoints": ("rendering.md#entryexitpoints", "exploring.md#clipping-planes-and-the-crop-box"),
+    "FunctionSelector": ("functions.md",),
+    "GeometryEntryExit": ("exploring.md#geometryentryexit-and-imagecompositor",),
+    "GeometryRenderer": ("exploring.md#geometryrenderer",),
+    "Grayscale": ("scripting.md",),
+    "ImageCompositor": ("exploring.md#geometryentryexit-and-imagecompositor",),
+    "ImageSource": ("scripting.md", "own-data.md#a-single-slice"),
+    "ImageWriter": ("reliability.md",),
+    "IsoSurfaceExtractor": ("exploring.md#isosurfaceextractor",),
+    "LabelRayCaster": ("exploring.md#label-volumes", "own-data.md#label-volumes"),
+    "MeshSource": ("tetrahedra.md#meshes-and-meshsource", "own-data.md#meshes"),
+    "MultiVolumeRayCaster": ("exploring.md#several-volumes-in-one-picture",),
+    "ProjectedTetrahedra": ("tetrahedra_renderer.md", "tetrahedra.md#projectedtetrahedra"),
+    "RayCaster": ("rendering.md#raycaster", "bricked_raycaster.md#what-differs-from-the-raycaster"),
+    "SliceViewer": ("exploring.md#slices-and-the-multi-planar-layout", "own-data.md#a-single-slice"),
+    "SurfaceSource": ("exploring.md#surfacesource",),
+    "VolumeSource": ("volumes.md#reading-volumes", "volumes.md#volume-processors", "own-data.md"),
+    "VolumeToTetMesh": ("tetrahedra.md#volumetotetmesh",),
+    "VolumeWriter": ("volumes.md#writing-volumes",),
+}
+
+
+def builtin_processors() -> list[type[Processor]]:
+    """The processor types of ``vgraph.processors``, by name."""
+    return [cls for cls in registry.all() if cls.__module__.startswith(BUILTIN_MODULE)]
+
+
+def reference_pages() -> dict[str, str]:
+    """File name -> Markdown text of every page: one per built-in processor, and the index."""
+    types = builtin_processors()
+    pages = {f"{cls.type_name}.md": processor_page(cls) for cls in types}
+    pages[INDEX] = index_page(types)
+    return pages
+
+
+def write_reference(folder: Path) -> list[str]:
+    """Write the pages into ``folder`` (made if missing), each atomically, and remove the pages of
+    processors that no longer exist. Returns the names written."""
+    pages = reference_pages()
+    make_folders(folder)
+    for name, text in pages.items():
+        write_text_atomic(folder / name, text)
+    for stale in folder.glob("*.md"):
+        if stale.name not in pages:
+            stale.unlink()
+    return sorted(pages)
+
+
+# --- pages ----------------------------------------------------------------------------------------
+def processor_page(cls: type[Processor]) -> str:
+    lines = [f"# {cls.type_name}", "", *_doc_paragraphs(cls), "",
+             f"Category: {cls.category} · module `{cls.__module__}` · [all processors]({INDEX})", ""]
+    if cls.type_name in PICTURES:
+        image, caption = PICTURES[cls.type_name]
+        lines += [f"![{caption}](../images/{image})", ""]
+    if cls.type_name in EXPLAINED_IN:
+        links = ", ".join(f"[{_link_text(target)}](../{target})" for target in EXPLAINED_IN[cls.type_name])
+        lines += [f"Explained in: {links}.", ""]
+    lines += _ports_section("Inports", cls.inports) + _ports_section("Outports", cls.outports)
+    lines += _properties_section(cls)
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def index_page(types: list[type[Processor]]) -> str:
+    lines = ["# Processor reference", "",
+             "One page per built-in processor: its ports with their data types, its properties with "
+             "defaults, ranges or choices and what they do, and where the essay pages explain it. "
+             f"The pages are written from the processors' declarations by `{COMMAND}` (run from the "
+             "repository root); do not edit them by hand. `vgraph list` prints the same in the "
+             "terminal, plug-ins included.", ""]
+    for category in sorted({cls.category for cls in types}):
+        lines += [f"## {category}", "", "| Processor | What it does |", "|---|---|"]
+        lines += [f"| [{cls.type_name}]({cls.type_name}.md) | {_cell(_summary(cls))} |"
+                  for cls in types if cls.category == category]
+        lines.append("")
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def _summary(cls: type[Processor]) -> str:
+    """The docstring's first paragraph: ``description`` is its first line only, which a docstring
+    wrapped over two lines leaves unfinished."""
+    paragraph = "\n".join(_doc_paragraphs(cls)).split("\n\n")[0]
+    return " ".join(paragraph.split())
+
+
+def _doc_paragraphs(cls: type[Processor]) -> list[str]:
+    """The class docstring (its own, not a base's) as written, else the description."""
+    doc = cls.__dict__.get("__doc__")
+    return cleandoc(doc).splitlines() if doc else [cls.description or "(no description)"]
+
+
+def _ports_section(title: str, ports) -> list[str]:
+    if not ports:
+        return []
+    lines = [f"## {title}", "", "| Port | Data type | Notes | Description |", "|---|---|---|---|"]
+    for port in ports:
+        lines.append(f"| `{port.name}` | {port.type_name} | {_port_flags(port)} | {_cell(port.description)} |")
+    return lines + [""]
+
+
+def _port_flags(port) -> str:
+    flags = [flag for flag in ("optional", "multiple", "on_demand") if getattr(port, flag, False)]
+    return ", ".join(flag.replace("_", " ") for flag in flags)
+
+
+def _properties_section(cls: type[Processor]) -> list[str]:
+    if not cls.properties:
+        return ["## Properties", "", "None.", ""]
+    lines = ["## Properties", "", "| Property | Kind | Default | Description |", "|---|---|---|---|"]
+    for prop in cls.properties.values():
+        lines.append(f"| `{prop.name}` | {_cell(kind_text(prop))} | {_code(_default(prop))} | "
+                     f"{_cell(prop.doc)} |")
+    return lines + [""]
+
+
+def _default(prop) -> str:
+    """As ``vgraph list`` says it, except a transfer function and a label table: in full, as JSON
+    (the page has room for them, where the terminal cuts them short or refers to ``--json``)."""
+    if prop.kind in ("transfer_function", "label_table"):
+        return json.dumps(prop.to_json(prop.default))
+    return default_text(prop)
+
+
+def _link_text(target: str) -> str:
+    """``rendering.md#raycaster`` -> ``rendering.md, raycaster``: the page and the section."""
+    page, _, section = target.partition("#")
+    return f"{page}, {section.replace('-', ' ')}" if section else page
+
+
+def _cell(text: str) -> str:
+    """Text for one cell of a Markdown table: one line, pipes escaped."""
+    return " ".join(text.split()).replace("|", "\\|")
+
+
+def _code(text: str) -> str:
+    return f"`{_cell(text)}`" if "`" not in text else _cell(text)
+
+
+# --- headings, for checking the links of EXPLAINED_IN ---------------------------------------------
+def heading_anchor(heading: str) -> str:
+    """The anchor GitHub gives a heading: lower case, punctuation dropped, spaces as hyphens."""
+    text = heading.strip().lower().replace("`", "")
+    return re.sub(r"[^\w\- ]", "", text).replace(" ", "-")
+
+
+def page_anchors(page: Path) -> set[str]:
+    """The anchors of a Markdown page's headings (outside code blocks)."""
+    anchors, in_code = set(), False
+    for line in page.read_text(encoding="utf-8").splitlines():
+        if line.startswith("```"):
+            in_code = not in_code
+        elif not in_code and re.match(r"#{1,6} ", line):
+            anchors.add(heading_anchor(line.lstrip("#")))
+    return anchors
+
+
+def main(argv: list[str]) -> int:
+    if len(argv) > 1:
+        print(f"usage: {COMMAND} [FOLDER]", file=sys.stderr)
+        return 2
+    if argv:
+        folder = Path(argv[0])
+    elif Path("docs").is_dir():
+        folder = Path("docs") / "reference"
+    else:
+        print(f"{COMMAND}: no docs/ folder here; run it from the repository root or name the folder",
+              file=sys.stderr)
+        return 2
+    try:
+        names = write_reference(folder)
+    except VGraphError as error:
+        print(f"{COMMAND}: {error}", file=sys.stderr)
+        return 2
+    print(f"wrote {len(names)} pages to {folder}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,93 @@
+"""The processor reference (docs/reference/, written by vgraph.reference_docs) is current: written
+again from the declarations it equals the committed pages, it covers every built-in processor, and
+every picture and essay section it names exists."""
+
+from vgraph.registry import registry
+from vgraph.reference_docs import (COMMAND, EXPLAINED_IN, INDEX, PICTURES, builtin_processors, heading_anchor,
+                                   page_anchors, processor_page, write_reference)
+
+from helpers.paths import REPO
+
+DOCS = REPO / "docs"
+REFERENCE = DOCS / "reference"
+REGENERATE = f"run `{COMMAND}` in the repository root and commit docs/reference/"
+
+
+def read_pages(folder):
+    return {page.name: page.read_text(encoding="utf-8") for page in folder.glob("*.md")}
+
+
+def test_the_committed_pages_equal_the_declarations(tmp_path):
+    write_reference(tmp_path)
+    generated, committed = read_pages(tmp_path), read_pages(REFERENCE)
+    missing, extra = sorted(generated.keys() - committed.keys()), sorted(committed.keys() - generated.keys())
+    assert not missing and not extra, f"pages missing: {missing}, pages of no processor: {extra}; {REGENERATE}"
+    stale = sorted(name for name in generated if generated[name] != committed[name])
+    assert not stale, f"out of date: {', '.join(stale)}; {REGENERATE}"
+
+
+def test_every_builtin_processor_has_a_page_listed_in_the_index():
+    types = builtin_processors()
+    assert len(types) >= 20 and {"RayCaster", "VolumeSource", "Canvas"} <= {cls.type_name for cls in types}
+    index = (REFERENCE / INDEX).read_text(encoding="utf-8")
+    for cls in types:
+        assert (REFERENCE / f"{cls.type_name}.md").is_file(), cls.type_name
+        assert f"[{cls.type_name}]({cls.type_name}.md)" in index
+        assert f"## {cls.category}\n" in index
+
+
+def test_a_page_gives_ports_properties_defaults_ranges_and_docs():
+    page = (REFERENCE / "RayCaster.md").read_text(encoding="utf-8")
+    assert page.startswith("# RayCaster\n")
+    assert "| `volume` | Volume |" in page and "| `entry` | Image |" in page
+    assert "| `depth` | Image | on demand |" in page
+    assert "| `compositing` | option: dvr\\|mip\\|iso\\|first_hit\\|xray | `'dvr'` | dvr, mip, iso" in page
+    declared = registry.get("RayCaster").properties["sampling_rate"]   # as `vgraph list` says it
+    assert f"| `sampling_rate` | float {declared.min:g}..{declared.max:g} | `{declared.default!r}` |" in page
+    assert "![The compositing modes](../images/rendering_compositing.png)" in page
+    assert "[rendering.md, raycaster](../rendering.md#raycaster)" in page
+
+
+def test_a_processor_without_properties_or_docs_still_gets_a_page():
+    from vgraph import Inport, Processor
+    from vgraph.image import Image
+
+    class Sink(Processor):
+        inports = [Inport("image", Image, "what is shown", optional=True)]
+
+        def process(self, image):
+            return None
+
+    page = processor_page(Sink)
+    assert page.startswith("# Sink\n\n(no description)\n")
+    assert "| `image` | Image | optional | what is shown |" in page
+    assert "## Properties\n\nNone.\n" in page and "## Outports" not in page
+
+
+def test_pictures_and_sections_named_exist():
+    names = {cls.type_name for cls in builtin_processors()}
+    assert set(PICTURES) <= names and set(EXPLAINED_IN) <= names
+    for image, _ in PICTURES.values():
+        assert (DOCS / "images" / image).is_file(), image
+    for targets in EXPLAINED_IN.values():
+        for target in targets:
+            page, _, anchor = target.partition("#")
+            assert (DOCS / page).is_file(), target
+            assert not anchor or anchor in page_anchors(DOCS / page), f"{target}: no such heading"
+
+
+def test_heading_anchors_are_githubs():
+    assert heading_anchor(" GeometryEntryExit and ImageCompositor") == "geometryentryexit-and-imagecompositor"
+    assert heading_anchor(" `vgraph animate`") == "vgraph-animate"
+    assert heading_anchor(" Volumes: data, files and errors") == "volumes-data-files-and-errors"
+
+
+def test_writing_replaces_old_pages_and_removes_those_of_no_processor(tmp_path):
+    (tmp_path / "Gone.md").write_text("# Gone\n")
+    (tmp_path / "RayCaster.md").write_text("# old\n")
+    (tmp_path / "notes.txt").write_text("kept")
+    names = write_reference(tmp_path)
+    assert "Gone.md" not in names and not (tmp_path / "Gone.md").exists()
+    assert (tmp_path / "RayCaster.md").read_text().startswith("# RayCaster\n")
+    assert (tmp_path / "notes.txt").read_text() == "kept"
+    assert not list(tmp_path.glob(".*"))   # no temporary files left behind
