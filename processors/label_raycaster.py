@@ -40,9 +40,9 @@ from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, Em
 from vgraph.gl.raycasting.empty_space import radii_if_worthwhile, window_reduced
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.targets import RenderTargets
+from vgraph.gl.raycasting.textures import needs_bricks
 from vgraph.image import Image
 from vgraph.labels import LabelCodes, LabelTable, label_codes
-from vgraph.processors.raycaster import needs_bricks
 from vgraph.properties import LabelTableProperty
 from vgraph.shown_content import labelled_voxels
 from vgraph.volume import Volume

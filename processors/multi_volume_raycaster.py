@@ -63,11 +63,10 @@ from vgraph.gl.raycasting.empty_space import visible_under
 from vgraph.gl.raycasting.framed_view import frame_rotation
 from vgraph.gl.raycasting.geometry import VolumeGeometry
 from vgraph.gl.raycasting.targets import RenderTargets
-from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler
+from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler, needs_bricks
 from vgraph.grid_axes import axes_against
 from vgraph.image import Image
 from vgraph.shown_content import voxels_under
-from vgraph.processors.raycaster import needs_bricks
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 

@@ -39,7 +39,7 @@ from vgraph.gl.raycasting.empty_space import crossed_by, occupied_blocks, radii_
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.gradient_volume import gradient_texture, holds_values
 from vgraph.gl.raycasting.targets import RenderTargets
-from vgraph.gl.raycasting.textures import linear_sampler
+from vgraph.gl.raycasting.textures import linear_sampler, needs_bricks
 from vgraph.image import Image
 from vgraph.shown_content import voxels_by_compositing
 from vgraph.volume import Volume
@@ -191,11 +191,3 @@ class RayCaster(RaycasterBase):
             level = self.iso_level
             return (kind, level), lambda low, high: radii_if_worthwhile(high >= level)
         return None
-
-
-def needs_bricks(volume: Volume, ctx) -> bool:
-    """Whether one 3D texture cannot hold the volume: wider than the GL's limit on an axis, or a
-    BrickedVolume whose whole array exceeds its memory budget."""
-    if max(volume.dims) > ctx.info["GL_MAX_3D_TEXTURE_SIZE"]:
-        return True
-    return volume.bricks is not None and not getattr(volume, "fits_budget", True)

@@ -71,3 +71,11 @@ class TransferFunctionTexture(LookupTexture):
         lut = resolved.lut()
         self.alpha = lut[:, 3].copy()
         return lut
+
+
+def needs_bricks(volume: Volume, ctx) -> bool:
+    """Whether one 3D texture cannot hold the volume: wider than the GL's limit on an axis, or a
+    BrickedVolume whose whole array exceeds its memory budget."""
+    if max(volume.dims) > ctx.info["GL_MAX_3D_TEXTURE_SIZE"]:
+        return True
+    return volume.bricks is not None and not getattr(volume, "fits_budget", True)
