@@ -2,9 +2,11 @@
 again from the declarations it equals the committed pages, it covers every built-in processor, and
 every picture and essay section it names exists."""
 
-from vgraph.registry import registry
-from vgraph.reference_docs import (COMMAND, EXPLAINED_IN, INDEX, PICTURES, builtin_processors, heading_anchor,
+import re
+
+from vgraph.reference_docs import (COMMAND, EXPLAINED_IN, INDEX, PICTURES, builtin_processors, heading_anchor, main,
                                    page_anchors, processor_page, write_reference)
+from vgraph.registry import registry
 
 from helpers.paths import REPO
 
@@ -91,3 +93,26 @@ def test_writing_replaces_old_pages_and_removes_those_of_no_processor(tmp_path):
     assert (tmp_path / "RayCaster.md").read_text().startswith("# RayCaster\n")
     assert (tmp_path / "notes.txt").read_text() == "kept"
     assert not list(tmp_path.glob(".*"))   # no temporary files left behind
+
+
+def test_links_into_and_out_of_the_reference_name_existing_pages():
+    """The essay pages link a processor's reference page where they explain its properties (at
+    least rendering.md's RayCaster section); those links and the reference's own resolve."""
+    link = re.compile(r"\]\(([^)#\s]+\.md)(?:#[^)]*)?\)")
+    into = [(page, target) for page in DOCS.glob("*.md") for target in link.findall(page.read_text(encoding="utf-8"))
+            if target.startswith("reference/")]
+    assert ("rendering.md", "reference/RayCaster.md") in {(page.name, target) for page, target in into}
+    out_of = [(page, target) for page in REFERENCE.glob("*.md") for target in link.findall(page.read_text(encoding="utf-8"))]
+    assert len(out_of) > len(builtin_processors())
+    for page, target in into + out_of:
+        assert (page.parent / target).is_file(), f"{page.name} links {target}, which does not exist"
+
+
+def test_the_command_writes_into_docs_reference_or_says_where_to_run_it(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main([]) == 2
+    assert "run it from the repository root or name the folder" in capsys.readouterr().err
+    (tmp_path / "docs").mkdir()
+    assert main([]) == 0
+    assert (tmp_path / "docs" / "reference" / "RayCaster.md").read_text() == (REFERENCE / "RayCaster.md").read_text()
+    assert main(["a", "b"]) == 2 and "usage:" in capsys.readouterr().err
