@@ -47,8 +47,9 @@ PICTURES: dict[str, tuple[str, str]] = {
                        "The RayCaster against the LabelRayCaster on two touching label boxes"),
     "SliceViewer": ("exploring_slice_display.png",
                     "An axial slice of the head in radiological (default) and neurological display"),
-    "IsoSurfaceExtractor": ("exploring_surfaces.png", "CT head: skin as a mesh, bone as volume rendering"),
-    "GeometryRenderer": ("exploring_surfaces.png", "CT head: skin as a mesh, bone as volume rendering"),
+    # networks/head_skin_mesh_bone_volume.json: these four make that picture together
+    **dict.fromkeys(("IsoSurfaceExtractor", "GeometryRenderer", "GeometryEntryExit", "ImageCompositor"),
+                    ("exploring_surfaces.png", "CT head: skin as a mesh, bone as volume rendering")),
     "ProjectedTetrahedra": ("tetra_modes.png",
                             "Averaged and pre-integrated projection against the exact reference"),
     "VolumeToTetMesh": ("tetra_culling.png", "The culled bonsai as tetrahedra beside the RayCaster"),
