@@ -24,13 +24,15 @@ Conventions (docs/rendering.md explains each property with pictures):
   than its memory budget, is drawn brick by brick by a BrickedRayCaster with this processor's
   settings (docs/bricked_raycaster.md); dvr, mip and iso only, and ``precomputed`` derivatives
   become ``central`` there (a gradient volume of a volume that large is what bricking avoids;
-  inside the box both give the same gradient up to 16-bit steps). Its ``load_limit`` (the GUI's:
-  coarse first) goes to that BrickedRayCaster, whose ``last_frame`` is then this one's.
+  inside the box both give the same gradient up to 16-bit steps). The frame context's
+  ``load_limit`` (the GUI's: coarse first; vgraph.frame_context) goes to that BrickedRayCaster,
+  whose ``last_frame`` is then this one's.
 """
 
 from __future__ import annotations
 
 from vgraph import Inport, OptionProperty, Outport, VGraphError
+from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EmptySpace, EntryExit,
                                              FrontToBack, IsoSurface, Light, RaycasterBase, Sampling,
                                              TransferFunctionLut, VolumeSampling, palette_shading,
@@ -61,6 +63,7 @@ class RayCaster(RaycasterBase):
     outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
     components = (EntryExit, CameraRays, VolumeSampling, Sampling, TransferFunctionLut, FrontToBack,
                   IsoSurface, Light, EmptySpace, Background)
+    uses_context = ("load_limit",)  # for the frames drawn brick by brick (module docstring)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING),
                                  doc="dvr, mip, iso (surface at iso_level), first_hit (positions), "
@@ -78,7 +81,6 @@ class RayCaster(RaycasterBase):
         self._targets = {True: RenderTargets(2), False: RenderTargets(1)}  # by: depth output wanted
         self._bricked = None  # the BrickedRayCaster for volumes one texture cannot hold
         self._drew_bricks = False
-        self.load_limit = None  # for that BrickedRayCaster (the render process sets it; not a property)
 
     @property
     def last_frame(self) -> dict:
@@ -121,12 +123,12 @@ class RayCaster(RaycasterBase):
         return [voxels_by_compositing("volume", volume, self)] if volume is not None else []
 
     # --- evaluation -----------------------------------------------------------------------------
-    def process(self, volume: Volume, entry: Image, exit: Image) -> dict:
+    def process(self, volume: Volume, entry: Image, exit: Image, context: FrameContext) -> dict:
         volume.require_samples(f"RayCaster '{self.id}'")
         self.check()
         self._drew_bricks = False
         if needs_bricks(volume, self.gl):
-            return self._brick_by_brick(volume, entry, exit)
+            return self._brick_by_brick(volume, entry, exit, context)
         frame = self.frame(volume, entry, exit)
         with_depth = self.wants("depth")
         targets = self._targets[with_depth]
@@ -137,7 +139,7 @@ class RayCaster(RaycasterBase):
         self.draw(frame, SHADER, targets, own=own, missed=ray_main_missed(self.background, with_depth))
         return outputs
 
-    def _brick_by_brick(self, volume: Volume, entry: Image, exit: Image) -> dict:
+    def _brick_by_brick(self, volume: Volume, entry: Image, exit: Image, context: FrameContext) -> dict:
         """The frame drawn by a BrickedRayCaster that shares this processor's settings."""
         from vgraph.processors.bricked_raycaster import COMPOSITING as BRICKED_MODES, BrickedRayCaster
         if self.compositing not in BRICKED_MODES:
@@ -153,8 +155,7 @@ class RayCaster(RaycasterBase):
         if self.derivatives != "none":  # the BrickedRayCaster has no gradient volume (docstring)
             derivatives = "central" if self.derivatives == "precomputed" else self.derivatives
             self._bricked.set_property("derivatives", derivatives)
-        self._bricked.load_limit = self.load_limit
-        outputs = self._bricked.process(volume, entry, exit)
+        outputs = self._bricked.process(volume, entry, exit, context)
         self._drew_bricks = True
         self.passes = self._bricked.passes
         return outputs

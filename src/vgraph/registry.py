@@ -19,6 +19,9 @@ from vgraph.errors import VGraphError
 from vgraph.processor import Processor
 
 ENTRY_POINT_GROUP = "vgraph.processors"
+# The built-in processors are found by name, as plug-ins are: the registry is part of the model,
+# which the processors import, so it must not import them (docs/architecture.md, "Layers").
+BUILTINS = "vgraph.processors"
 
 
 class Registry:
@@ -74,7 +77,7 @@ class Registry:
 
     # --- loading --------------------------------------------------------------------------------
     def _load_builtins(self) -> None:
-        import vgraph.processors as package
+        package = importlib.import_module(BUILTINS)
         for info in pkgutil.iter_modules(package.__path__, package.__name__ + "."):
             self._load_guarded(info.name, lambda name=info.name: importlib.import_module(name))
 

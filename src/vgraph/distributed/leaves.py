@@ -10,8 +10,9 @@ composited in visibility order on the workers before the frame is resolved once.
   (``split_runs``). A contiguous run composites into one partial image that is exactly one layer
   in visibility order, because every sample lies in exactly one brick and the order is per pixel
   front to back (docs/bricked_raycaster.md).
-- Partials: each run task draws its bricks (selection.LeafPass) and returns the accumulation before
-  the resolve pass: (sum, first), float32 [H, W, 4] each. dvr and iso: premultiplied colour and
+- Partials: each run task draws its bricks (a selection.LeafPass, given to the caster in the frame
+  context, vgraph.frame_context) and returns the accumulation before the resolve pass: (sum,
+  first), float32 [H, W, 4] each. dvr and iso: premultiplied colour and
   the first depth sample, both blended "under"; mip: (maximum, its sample) decided by the depth
   test on 1 - maximum.
 - Composite: adjacent layers are combined pairwise as Dask tasks (a tree of depth log2(runs)), so
@@ -184,28 +185,27 @@ def resolve_task(document, base_dir, target, size, caster, plugins, accumulated)
 
 
 def _draw(document, base_dir, target, size, caster, plugins, result, output=None, **leaf_values):
-    """Evaluate the shipped network with a LeafPass(**leaf_values) in the caster, up to the
+    """Evaluate the shipped network with a LeafPass(**leaf_values) in the frame context, up to the
     caster's image and return ``result(processor, leaf)``, or up to the target and return
-    ``output(network)``. The processor is left as it was (no leaf, its outputs invalid), so a
-    retried or later task on this worker starts afresh: tasks are idempotent."""
+    ``output(network)``. The leaf is this evaluation's argument, not the processor's state: the
+    caster (and what is downstream) runs again for each task's new leaf and for a later task
+    without one, so a retried or later task on this worker starts afresh: tasks are idempotent."""
     from vgraph.bricks.selection import LeafPass
     from vgraph.distributed.worker import _GL_LOCK, _network, load_plugins
+    from vgraph.frame_context import FrameContext
 
     load_plugins(plugins)
     with _GL_LOCK:
         network, full_cameras = _network(document, base_dir, target)
         for address, camera in full_cameras.items():  # a tiles task may have left a tile's camera
             network.set(address, camera)
-        processor = network[caster]
         leaf = LeafPass(**leaf_values)
-        processor.leaf = leaf
-        network.invalidate_downstream(caster)  # the leaf is not a property: the network cannot see it
+        context = FrameContext(leaf=leaf)
         try:
             if output is not None:
-                network.update(target, size=tuple(size))
+                network.update(target, size=tuple(size), context=context)
                 return output(network)
-            network.update(f"{caster}.image", size=tuple(size))
-            return result(processor, leaf)
-        finally:
-            processor.leaf = None
-            network.invalidate_downstream(caster)
+            network.update(f"{caster}.image", size=tuple(size), context=context)
+            return result(network[caster], leaf)
+        finally:  # the caster remembers its last context until the next task: not the arrays
+            leaf.accumulated = leaf.partial = None

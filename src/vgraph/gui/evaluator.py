@@ -32,6 +32,7 @@ import numpy as np
 
 from vgraph.camera import Camera
 from vgraph.errors import ProcessorError, VGraphWarning
+from vgraph.frame_context import FrameContext
 from vgraph.gui.slice_clicks import slice_planes
 from vgraph.image import Image
 from vgraph.imagefile import to_uint8
@@ -69,9 +70,10 @@ class EvaluationOutcome:
 
 
 def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = False,
-                  draw=None) -> EvaluationOutcome:
+                  draw=None, context: FrameContext | None = None) -> EvaluationOutcome:
     """``draw(display, size)``, if given, may return a display's picture drawn elsewhere (a
-    cluster: ``vgraph.gui.cluster``) instead of evaluating it here; None draws it here."""
+    cluster: ``vgraph.gui.cluster``) instead of evaluating it here; None draws it here.
+    ``context``: the frame context of every evaluation (the job's load limit)."""
     outcome = EvaluationOutcome()
     not_ready, writers, targets = network.graph_query(("view", include_writers),
                                                       lambda: _view_plan(network, include_writers))
@@ -85,7 +87,7 @@ def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = 
             with _collected_warnings(outcome.warnings):
                 pixels = draw(target, size) if display and draw is not None else None
                 if pixels is None:
-                    report = evaluate(network, (target,), size, finish_each=True)
+                    report = evaluate(network, (target,), size, finish_each=True, context=context)
                     outcome.ran.extend(report.ids)
         except ProcessorError as error:
             outcome.ran.extend(network.last_evaluation.ids)
