@@ -53,7 +53,7 @@ from vgraph.gui import clip_drag
 from vgraph.gui import slice_clicks, slice_gestures
 from vgraph.gui.image_export import IMAGE_FILTER, suggested_image_path, write_frame
 from vgraph.gui.overlays import ViewGeometry, draw_overlays
-from vgraph.gui.upstream import nearest_upstream, property_of_type
+from vgraph.gui.upstream import NO_CAMERA, nearest_upstream, property_of_type
 from vgraph.properties import CameraProperty
 
 BACKGROUND = QColor(32, 32, 36)
@@ -61,7 +61,6 @@ ZOOM_PER_PIXEL = 0.01      # right drag: factor exp(-k * dy_pixels)
 WHEEL_ZOOM = 1.1           # per 120 units of angleDelta (one notch of a common wheel)
 WHEEL_IDLE_MS = 250        # a wheel burst ends after this long without wheel events
 CLICK_SLOP = 3             # a right press/release closer than this (pixels) is a click (menu)
-NO_CAMERA = "no camera upstream of this canvas"
 _MAX_EXPONENT = 50.0       # keeps exp() and powers finite on absurd drags
 
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vgraph.errors import VGraphError
-from vgraph.gui.upstream import nearest_upstream
+from vgraph.gui.upstream import NO_CAMERA, nearest_upstream
 from vgraph.slicing import SlicePlane
 
 PLANE_SUFFIX = ".slice_plane"
@@ -112,7 +112,6 @@ def world_point(view, viewer_id: str, position) -> np.ndarray | None:
 def click(view, position) -> bool:
     """A left click at ``position`` (widget coordinates) in a CanvasView: move the cursor of the
     SliceViewer it shows there. True when the canvas shows a slice (the click was handled)."""
-    from vgraph.gui.canvas_view import NO_CAMERA
     viewer_id = slice_viewer_for(view.workspace.network, view.canvas_id)
     if viewer_id is None:
         return False

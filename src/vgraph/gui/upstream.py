@@ -7,6 +7,10 @@ from __future__ import annotations
 from collections import deque
 from typing import Callable
 
+# A canvas's message when no camera is upstream of it (here, not in canvas_view, so that the
+# Qt-free slice_clicks, which the render process imports, can compare with it).
+NO_CAMERA = "no camera upstream of this canvas"
+
 
 def nearest_upstream(network, start: str, pick: Callable[[object, str], str | None],
                      include_start: bool = False) -> str | None:
