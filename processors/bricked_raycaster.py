@@ -23,13 +23,14 @@ Conventions (docs/bricked_raycaster.md explains each with the numbers):
 - Per frame the bricks are chosen (selection.plan_frame): in view, not empty under the TF (or
   below the iso level), at the level their projected voxel size asks (``lod_bias``), raised until
   the frame's bricks fit min(ram_budget, gl_budget); a raised level is warned about.
-- ``load_limit`` (an attribute, not a property: only the GUI's render process sets it, scripts and
-  ``vgraph run`` keep None and always draw the planned frame): a frame whose missing bricks cannot
-  be read within it is drawn coarser (selection.coarse_first) and the planned bricks are read
-  ahead within the limit; ``last_frame["complete"]`` says whether the planned frame was drawn.
-- ``leaf`` (an attribute, set only by the leaves split's tasks, vgraph.distributed.leaves): draw a
-  run of the plan's bricks and keep the accumulation before the resolve pass, or resolve an
-  accumulation composited from such runs (selection.LeafPass); None draws the frame as always.
+- The frame context (vgraph.frame_context; not properties) gives two things:
+  ``load_limit`` (only the GUI's render process gives one, scripts and ``vgraph run`` none, so they
+  always draw the planned frame): a frame whose missing bricks cannot be read within it is drawn
+  coarser (selection.coarse_first) and the planned bricks are read ahead within the limit;
+  ``last_frame["complete"]`` says whether the planned frame was drawn. ``leaf`` (only the leaves
+  split's tasks give one, vgraph.distributed.leaves): draw a run of the plan's bricks and keep the
+  accumulation before the resolve pass, or resolve an accumulation composited from such runs
+  (selection.LeafPass); None draws the frame as always.
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.selection import BrickGeometry, FramePlan, LeafPass, coarse_first, plan_frame, visible_bricks
 from vgraph.bricks.targets import Accumulation, brick_uniforms, level_voxel
 from vgraph.errors import VGraphWarning
+from vgraph.frame_context import FrameContext
 from vgraph.gl.context import release_quietly
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, IsoSurface, Light,
@@ -94,6 +96,7 @@ class BrickedRayCaster(RaycasterBase):
     inports = [Inport("volume", Volume), Inport("entry", Image), Inport("exit", Image)]
     outports = [Outport("image", Image), Outport("depth", Image)]
     components = (EntryExit, CameraRays, Sampling, TransferFunctionLut, IsoSurface, Light, Background)
+    uses_context = ("load_limit", "leaf")  # module docstring
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING), doc="dvr, mip, iso (surface at iso_level)")
     transfer_function = palette_transfer_function()  # auto, shaded: as the RayCaster
@@ -124,9 +127,7 @@ class BrickedRayCaster(RaycasterBase):
         self._pyramid = None  # (weakref to the volume, brick size, ArrayPyramid)
         self._alpha_count = {}  # "texture": LUT entries with opacity, cumulated; "key": its alpha
         self.last_frame: dict = {}
-        self.load_limit: LoadLimit | None = None  # reading allowed per frame (the GUI's; module docstring)
         self._warned_level = 0  # the budget's level last warned about (0: none)
-        self.leaf: LeafPass | None = None  # the leaves split's part of the frame (module docstring)
 
     def shown_content(self) -> list:
         """The voxels its transfer function (or, for iso, its iso level) shows (vgraph.blank_causes)."""
@@ -176,7 +177,7 @@ class BrickedRayCaster(RaycasterBase):
         return lambda level: visible_bricks(source, level, mode, alpha, self.iso_level, value_range)
 
     # --- evaluation -----------------------------------------------------------------------------
-    def process(self, volume: Volume, entry: Image, exit: Image) -> dict:
+    def process(self, volume: Volume, entry: Image, exit: Image, context: FrameContext) -> dict:
         volume.require_samples(f"BrickedRayCaster '{self.id}'")
         started = time.perf_counter()
         frame = self.frame(volume, entry, exit)
@@ -186,19 +187,19 @@ class BrickedRayCaster(RaycasterBase):
         geometry = BrickGeometry(source)
         plan = self.plan(source, geometry, frame)
         read_before, seconds_before = self.cache.stats["bricks_read"], self.cache.stats["read_seconds"]
-        drawn = self.limited(source, plan, frame.ctx)
+        drawn = self.limited(source, plan, frame.ctx, context.load_limit)
         accumulation = self._accumulation.ensure(frame.ctx, frame.size)
-        if self.leaf is None:
+        if context.leaf is None:
             self.draw_bricks(frame, geometry, drawn.bricks, accumulation)
         else:
-            drawn = self.leaf_pass(frame, geometry, plan, accumulation)
+            drawn = self.leaf_pass(frame, geometry, plan, accumulation, context.leaf)
         image, depth = self._targets.ensure(frame.ctx, frame.size)
         self.resolve(frame, accumulation)
-        complete = drawn is plan or self.leaf is not None  # (a leaf draws its part of the planned frame)
+        complete = drawn is plan or context.leaf is not None  # (a leaf draws its part of the planned frame)
         if not complete:  # the planned bricks, front first, for the next frame (the GUI asks again)
             self.cache.begin_frame(plan.keys())
             resident = self.cache.resident(frame.ctx)
-            self.cache.read_ahead([key for key in plan.keys() if key not in resident], self.load_limit,
+            self.cache.read_ahead([key for key in plan.keys() if key not in resident], context.load_limit,
                                   self.cache.stats["bricks_read"] - read_before,
                                   self.cache.stats["read_seconds"] - seconds_before)
         self.last_frame = {"bricks": len(drawn.bricks), "floor_level": drawn.floor_level, "bytes": drawn.bytes,
@@ -208,10 +209,9 @@ class BrickedRayCaster(RaycasterBase):
                            "seconds": time.perf_counter() - started}
         return {"image": image, "depth": depth}
 
-    def leaf_pass(self, frame, geometry, plan, accumulation):
+    def leaf_pass(self, frame, geometry, plan, accumulation, leaf: LeafPass):
         """The leaves split's part of the frame (selection.LeafPass): draw its bricks and read the
-        accumulation back, or write the composited accumulation for the resolve pass."""
-        leaf = self.leaf
+        accumulation back into ``leaf``, or write the composited accumulation for the resolve pass."""
         leaf.plan = plan
         if leaf.accumulated is not None:
             accumulation.clear()
@@ -224,15 +224,15 @@ class BrickedRayCaster(RaycasterBase):
                              for texture in accumulation.textures)
         return FramePlan(list(leaf.bricks), plan.floor_level, 0)
 
-    def limited(self, source, plan, ctx):
+    def limited(self, source, plan, ctx, load_limit: LoadLimit | None):
         """The plan to draw, pinned in the caches: ``plan``, or a coarser one under ``load_limit``."""
-        if self.load_limit is None:
+        if load_limit is None:
             drawn = plan
             self.cache.begin_frame(plan.keys())
         else:
             resident = self.cache.resident(ctx)
             budget = int(min(self.ram_budget, self.gl_budget) * MB)
-            drawn = coarse_first(source, plan, resident, self.load_limit, self.cache.seconds_per_byte(), budget)
+            drawn = coarse_first(source, plan, resident, load_limit, self.cache.seconds_per_byte(), budget)
             # The plan's resident bricks stay pinned too: drawing a coarser frame must not evict
             # what earlier frames read ahead, or refining would never end (coarse_first checked
             # that both fit the budget).

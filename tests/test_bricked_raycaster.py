@@ -236,7 +236,7 @@ def test_a_budget_too_small_for_level_0_renders_a_coarser_level_and_says_which()
     with warnings.catch_warnings():  # said once, not every frame
         warnings.simplefilter("error")
         rc.set_property("sampling_rate", 1.5)
-        rc.process(**rc.inputs)
+        rc.process(**rc.inputs, context=rc.evaluated_context)
 
 
 def test_a_budget_below_one_coarsest_brick_is_an_error_naming_both_budgets():
@@ -373,13 +373,13 @@ def test_the_raycaster_draws_a_store_over_its_memory_budget_brick_by_brick(tmp_p
 # --- coarse first under a load limit (the GUI's; scripts have none) ------------------------------------
 def refine(network, size, limit, frames=40):
     """Render the same state until the frame is complete; (last_frame, image) per frame."""
+    from vgraph.frame_context import FrameContext
     rc = network["rc"]
-    rc.load_limit = limit
     seen = []
     while not seen or not seen[-1][0]["complete"]:
         assert len(seen) < frames, [frame for frame, _ in seen]
         network.invalidate_downstream("rc")  # what the render server does for an incomplete frame
-        image = np.asarray(network.evaluate("rc.image", size=size))
+        image = np.asarray(network.evaluate("rc.image", size=size, context=FrameContext(load_limit=limit)))
         seen.append((dict(rc.last_frame), image))
     return seen
 
@@ -390,7 +390,7 @@ def test_scripts_draw_the_planned_frame_at_once():
                                  lod_bias=FINEST)
     network.evaluate("rc.image", size=(48, 40))
     rc = network["rc"]
-    assert rc.load_limit is None and rc.last_frame["complete"] and rc.last_frame["levels"] == [0]
+    assert rc.evaluated_context.load_limit is None and rc.last_frame["complete"] and rc.last_frame["levels"] == [0]
     assert rc.last_frame["bricks_read"] == rc.last_frame["bricks"] == rc.cache.stats["bricks_read"]
 
 
@@ -423,14 +423,14 @@ def test_a_budget_that_cannot_hold_a_coarse_frame_and_the_planned_bricks_draws_t
     Refining must not evict what it read ahead (it would never end), so from then on the plan is
     drawn whole, beyond the limit."""
     from vgraph.bricks.cache import LoadLimit
+    from vgraph.frame_context import FrameContext
     volume = big_volume()
     _, _, planned = render(volume, oblique(volume), compositing="mip", brick_size=32, lod_bias=FINEST)
     count = planned.last_frame["bricks"]
     budget = (count + 1) * (32 + 2 * HALO) ** 3 * 4 / MB
     network = ray_caster_network(volume, oblique(volume), "BrickedRayCaster", compositing="mip", brick_size=32,
                                  lod_bias=FINEST, ram_budget=budget, gl_budget=budget, **UNSHADED_RAMP)
-    network["rc"].load_limit = LoadLimit(bricks=8)
-    network.evaluate("rc.image", size=SIZE)
+    network.evaluate("rc.image", size=SIZE, context=FrameContext(load_limit=LoadLimit(bricks=8)))
     assert network["rc"].last_frame["levels"] == [1] and network["rc"].last_frame["bricks_read"] == 9
     seen = refine(network, SIZE, LoadLimit(bricks=2))
     assert seen[0][0]["levels"] == [1] and not seen[0][0]["complete"] and seen[0][0]["bricks_read"] == 2
@@ -443,7 +443,7 @@ def test_a_budget_that_cannot_hold_a_coarse_frame_and_the_planned_bricks_draws_t
 
 
 def test_a_raycaster_drawing_a_store_brick_by_brick_refines_under_a_load_limit(tmp_path):
-    """The RayCaster hands its load limit to the BrickedRayCaster that draws a store over its
+    """The RayCaster hands the frame context's load limit to the BrickedRayCaster that draws a store over its
     memory budget, and its last_frame says whether the frame was complete (the render process asks)."""
     pytest.importorskip("zarr")
     from vgraph.bricks.cache import LoadLimit
@@ -454,7 +454,7 @@ def test_a_raycaster_drawing_a_store_brick_by_brick_refines_under_a_load_limit(t
     bricked = BrickedVolume.open(tmp_path / "v.zarr", memory_budget_mb=0.05)
     camera = oblique(bricked)
     planned, _, rc = render(bricked, camera, "RayCaster", compositing="mip")
-    assert rc.load_limit is None and rc.last_frame["complete"]
+    assert rc.evaluated_context.load_limit is None and rc.last_frame["complete"]
     network = ray_caster_network(bricked, camera, "RayCaster", compositing="mip", **UNSHADED_RAMP)
     seen = refine(network, SIZE, LoadLimit(bricks=6))
     assert not seen[0][0]["complete"] and len(seen) > 1

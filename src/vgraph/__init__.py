@@ -11,6 +11,7 @@ Scripts meet vgraph through a few names::
 
 from vgraph.errors import (CycleError, NetworkFileError, OutputFileError, PortError, ProcessorError, PropertyError,
                            ShaderError, VGraphError, VGraphWarning, VolumeFileError, WritePathError)
+from vgraph.frame_context import FrameContext
 from vgraph.network import Network
 from vgraph.network import bind_services as _bind_services
 from vgraph.ports import Inport, Outport
@@ -52,7 +53,7 @@ def register(processor_class):
 
 
 __all__ = [
-    "load", "register", "registry", "Network", "Processor", "Inport", "Outport", "Volume",
+    "load", "register", "registry", "Network", "Processor", "FrameContext", "Inport", "Outport", "Volume",
     "Invalidation", "BoolProperty", "CameraProperty", "ColorProperty", "DictProperty", "FilePathProperty",
     "FloatProperty", "IntProperty", "LabelTableProperty", "OptionProperty", "StringProperty",
     "TransferFunctionProperty", "VectorProperty", "VGraphError", "NetworkFileError", "PortError", "CycleError",

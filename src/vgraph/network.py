@@ -74,9 +74,9 @@ class Removal:
 
 class NetworkServices(Protocol):
     """What a Network does beyond being a model; the vgraph package binds ``vgraph.services``."""
-    def update(self, network: Network, targets: tuple[str, ...], size): ...
+    def update(self, network: Network, targets: tuple[str, ...], size, context=None): ...
     def output(self, network: Network, target: str): ...
-    def evaluate(self, network: Network, target: str | None, size): ...
+    def evaluate(self, network: Network, target: str | None, size, context=None): ...
     def picture(self, network: Network) -> bytes | None: ...
     def save(self, network: Network, path: str | Path) -> None: ...
 
@@ -372,18 +372,19 @@ class Network:
         return [p for p in self._processors.values() if not p.outports]
 
     # --- evaluation and files (the bound NetworkServices) ----------------------------------------
-    def update(self, *targets: str, size: tuple[int, int] | None = None):
-        """Evaluate what ``targets`` need ('id.outport' or a sink's id; default: every sink)."""
-        return _bound().update(self, targets, size)
+    def update(self, *targets: str, size: tuple[int, int] | None = None, context=None):
+        """Evaluate what ``targets`` need ('id.outport' or a sink's id; default: every sink);
+        ``context``: the frame's ``vgraph.frame_context.FrameContext`` (None: no field given)."""
+        return _bound().update(self, targets, size, context)
 
     def output(self, target: str):
         """The data at 'id.outport', or what a sink 'id' received (after update)."""
         return _bound().output(self, target)
 
-    def evaluate(self, target: str | None = None, size: tuple[int, int] | None = None):
+    def evaluate(self, target: str | None = None, size: tuple[int, int] | None = None, context=None):
         """Evaluate one target and return its data as numpy: an image as float32 (H, W, 4) with
-        row 0 at the top, a volume as its [z, y, x] array."""
-        return _bound().evaluate(self, target, size)
+        row 0 at the top, a volume as its [z, y, x] array (``context`` as for ``update``)."""
+        return _bound().evaluate(self, target, size, context)
 
     def _repr_png_(self) -> bytes | None:
         """Jupyter shows a network as its picture (see ``vgraph.services.picture``)."""

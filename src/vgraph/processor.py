@@ -16,7 +16,9 @@ A processor reads like its description::
 ``process`` receives one keyword argument per inport (None for an unconnected optional inport, a
 list for a ``multiple`` inport) and returns the outputs: a dict by outport name, a single value when
 there is exactly one outport, or None for a sink. GL work uses ``self.gl`` (the shared context,
-created only when first asked for) and ``self.render_size`` when ``renders_at_size`` is set.
+created only when first asked for) and ``self.render_size`` when ``renders_at_size`` is set. A
+processor that needs what a frame gives beyond its properties (the GUI's load limit) names those
+fields in ``uses_context`` and takes a ``context`` argument too (vgraph.frame_context).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 from vgraph.errors import PropertyError
 from vgraph.file_names import expanded
+from vgraph.frame_context import FrameContext, checked_uses
 from vgraph.ports import Inport, Outport
 from vgraph.progress import report as report_progress
 from vgraph.properties import Invalidation, Property
@@ -45,6 +48,7 @@ class Processor:
     outports: ClassVar[list[Outport]] = []
     properties: ClassVar[dict[str, Property]] = {}
     renders_at_size: ClassVar[bool] = False  # output depends on the requested image size
+    uses_context: ClassVar[tuple[str, ...]] = ()  # FrameContext fields process(..., context) reads
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -62,6 +66,7 @@ class Processor:
             names = [p.name for p in ports]
             if len(set(names)) != len(names):
                 raise ValueError(f"{cls.type_name}: duplicate port names {names}")
+        cls.uses_context = checked_uses(cls.type_name, cls.uses_context, [p.name for p in cls.inports])
 
     def __init__(self, id: str | None = None, **values):
         self.id = id or self.type_name[0].lower() + self.type_name[1:]
@@ -77,6 +82,7 @@ class Processor:
         self.last_seconds: float | None = None
         self.last_error: str | None = None
         self.render_size: tuple[int, int] = (512, 512)
+        self.evaluated_context: FrameContext | None = None  # the (narrowed) context of the last process()
         for name, value in values.items():
             self.set_property(name, value)
 

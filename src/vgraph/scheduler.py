@@ -14,6 +14,10 @@ the processor's own GL work and the records add up to the evaluation's wall time
 records say how long each ``process()`` call took, and the GL work of a processor may be counted
 with a later one or with none (docs/cli.md, ``--profile``). Each processor's start is announced to
 ``vgraph.progress`` listeners (the GUI shows which processor runs).
+
+The frame context (``context=FrameContext(...)``, vgraph.frame_context) goes to the processors that
+declare fields of it in ``uses_context``, narrowed to those fields, as ``process(..., context=)``;
+one whose fields differ from its last evaluation runs again, with what is downstream.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ import numpy as np
 
 from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
 from vgraph import progress
+from vgraph.frame_context import NO_CONTEXT, FrameContext
 from vgraph.gl.context import collect_garbage, get_context, has_context
 from vgraph.memory import out_of_memory
 from vgraph.network import Network, split_address
@@ -69,12 +74,14 @@ class EvaluationReport:
 
 
 def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None,
-             finish_each: bool = False) -> EvaluationReport:
+             finish_each: bool = False, context: FrameContext | None = None) -> EvaluationReport:
     """Run what ``targets`` need (module docstring); ``finish_each``: wait for the GL after each
-    processor, so that its record holds its GL work."""
+    processor, so that its record holds its GL work; ``context``: the frame's context (None: no
+    field given)."""
     targets = list(targets) or [p.id for p in network.sinks()]
     target_ids = [_target_processor(network, t) for t in targets]
     size = _checked_size(size) if size is not None else default_size(network, target_ids)
+    context = _checked_context(context)
     _, order, read = network.graph_query(("plan", tuple(targets), tuple(target_ids)),
                                          lambda: _plan(network, targets, target_ids))
     for pid in order:
@@ -82,6 +89,8 @@ def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None,
         if processor.renders_at_size and processor.render_size != size:
             processor.render_size = size
             network.invalidate_downstream(pid)
+        if processor.uses_context and not _same_context(processor, context):
+            network.invalidate_downstream(pid)  # the frame asks something else of it than last time
     _mark_wanted_outputs(network, read)
 
     report = EvaluationReport(gl_finished=finish_each)
@@ -92,7 +101,7 @@ def evaluate(network: Network, targets=(), size: tuple[int, int] | None = None,
             processor = network.processors[pid]
             if processor.invalid_level != Invalidation.VALID:
                 try:
-                    report.evaluated.append(_run(network, processor, finish_each))
+                    report.evaluated.append(_run(network, processor, finish_each, context))
                 except ProcessorError as error:
                     report.failed = FailureRecord(pid, processor.type_name, processor.last_seconds or 0.0,
                                                   error.reason)
@@ -133,15 +142,18 @@ def _mark_wanted_outputs(network: Network, read) -> None:
         processor.wanted = wanted
 
 
-def _run(network: Network, processor: Processor, finish: bool = False) -> EvaluationRecord:
+def _run(network: Network, processor: Processor, finish: bool = False,
+         context: FrameContext = NO_CONTEXT) -> EvaluationRecord:
     start = time.perf_counter()
+    used = context.narrowed(processor.uses_context) if processor.uses_context else None
     try:
         with progress.running(processor.id, processor.type_name):
             inputs = _gather_inputs(network, processor)
             if not processor.initialized:
                 processor.initialize()
                 processor.initialized = True
-            outputs = _checked_outputs(processor, processor.process(**inputs))
+            extra = {"context": used} if used is not None else {}
+            outputs = _checked_outputs(processor, processor.process(**inputs, **extra))
             if finish:
                 finish_gl()
     except Exception as error:
@@ -152,6 +164,7 @@ def _run(network: Network, processor: Processor, finish: bool = False) -> Evalua
         raise ProcessorError(processor.id, processor.type_name, processor.last_error,
                              internal=not isinstance(error, (VGraphError, MemoryError))) from error
     processor.inputs, processor.outputs = inputs, outputs
+    processor.evaluated_context = used
     processor.invalid_level = Invalidation.VALID
     processor.last_error = None
     processor.last_seconds = time.perf_counter() - start
@@ -256,6 +269,19 @@ def default_size(network: Network, target_ids: list[str]) -> tuple[int, int]:
         if "size" in processor.properties and not processor.outports:
             return tuple(processor.property_values["size"])
     return DEFAULT_SIZE
+
+
+def _same_context(processor: Processor, context: FrameContext) -> bool:
+    """Whether the fields ``processor`` uses hold what they held for its last process()."""
+    return context.narrowed(processor.uses_context).same_as(processor.evaluated_context)
+
+
+def _checked_context(context) -> FrameContext:
+    if context is None:
+        return NO_CONTEXT
+    if not isinstance(context, FrameContext):
+        raise VGraphError(f"context must be a vgraph.frame_context.FrameContext, got {type(context).__name__}")
+    return context
 
 
 def _checked_size(size) -> tuple[int, int]:

@@ -19,18 +19,18 @@ from vgraph.scheduler import (BlankImageWarning, blank_image_warning, default_ta
                               target_data, to_numpy)
 
 
-def update(network: Network, targets: tuple[str, ...], size):
-    return run(network, targets, size)
+def update(network: Network, targets: tuple[str, ...], size, context=None):
+    return run(network, targets, size, context=context)
 
 
 def output(network: Network, target: str):
     return target_data(network, target)
 
 
-def evaluate(network: Network, target: str | None, size):
+def evaluate(network: Network, target: str | None, size, context=None):
     """One target's data as numpy, with a warning when a renderer drew nothing it should have."""
     target = target or default_target(network)
-    run(network, (target,), size)
+    run(network, (target,), size, context=context)
     array = to_numpy(target_data(network, target))
     warning = blank_image_warning(network, target, array)
     if warning:

@@ -66,8 +66,8 @@ class FramePlan:
 
 @dataclass
 class LeafPass:
-    """One task of the leaves split (vgraph.distributed.leaves) in a BrickedRayCaster frame, set as
-    the processor's ``leaf`` attribute (never a saved property; None: the whole frame, as always).
+    """One task of the leaves split (vgraph.distributed.leaves) in a BrickedRayCaster frame, given
+    as the frame context's ``leaf`` (vgraph.frame_context; None: the whole frame, as always).
     In: ``bricks`` (key, rect), front to back, drawn instead of the plan's ([]: none, only plan),
     or ``accumulated``, the (sum, first) accumulation of all the frame's bricks, composited on the
     workers, resolved instead of drawing any. Out: ``plan`` (the frame's FramePlan) and

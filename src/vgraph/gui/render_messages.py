@@ -11,9 +11,9 @@ Protocol (pickled objects over a ``multiprocessing`` pipe, one job in flight at 
   editors, the concrete cameras of the last frame (for zooming a camera that fits the data). A
   result with ``needs_document`` rendered nothing: the changes could not be applied (the process
   has no network, e.g. a new one, or a change failed) and the GUI sends the whole document next.
-- Coarse first: a job's ``load_limit`` (``GUI_LOAD_LIMIT`` unless the GUI says otherwise) goes to
-  every processor that loads bricks progressively (a ``load_limit`` attribute: the BrickedRayCaster),
-  so a frame waits at most about that long for the disk and is drawn coarser meanwhile. A result
+- Coarse first: a job's ``load_limit`` (``GUI_LOAD_LIMIT`` unless the GUI says otherwise) goes, in
+  the frame context (vgraph.frame_context), to every processor that loads bricks progressively
+  (``uses_context`` names it: the BrickedRayCaster, the RayCaster), so a frame waits at most about that long for the disk and is drawn coarser meanwhile. A result
   is ``refining`` when such a processor drew less than it planned (``last_frame["complete"]``);
   the GUI then sends an empty-changes job for the same state, which draws those processors again
   (they are invalidated: the bricks read since make the frame finer), until a frame is complete.

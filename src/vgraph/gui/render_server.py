@@ -14,8 +14,8 @@ import traceback
 from tqdm import tqdm
 
 from vgraph import progress as progress_api
-from vgraph.bricks.cache import LoadLimit
 from vgraph.errors import VGraphError
+from vgraph.frame_context import FrameContext
 from vgraph.gui.changes import apply_changes
 from vgraph.gui.cluster import ClusterRenderer, ClusterView
 from vgraph.gui.evaluator import evaluate_view, histograms, processor_status, value_scales, view_cameras
@@ -50,7 +50,7 @@ class RenderServer:
             view = self._cluster_view(job)
             with progress_api.listening(ProgressForwarder(self.running or _ignore, job.version)):
                 result.outcome = evaluate_view(self.network, job.scale, job.include_writers,
-                                               draw=view.draw if view else None)
+                                               draw=view.draw if view else None, context=frame_context(job))
                 with progress_api.running("", ""):  # the window's own share, no processor's
                     progress_api.report(0, 0, "histograms and statuses for the window")
                     result.statuses = {pid: processor_status(self.network, p)
@@ -93,8 +93,7 @@ class RenderServer:
             # A file's writer paths stay where the window's network was allowed to write, checked
             # again as they write (a link made since the file was opened is not followed)
             self.network.write_confinement = job.write_confinement
-            # Writers write what `vgraph run` writes: complete frames, however long they take.
-            self._limit_loading(None if job.include_writers else job.load_limit)
+            self._refine_incomplete_frames()
         except VGraphError as error:
             self.network = None  # half-applied: rebuild from the next document
             result.error = str(error)
@@ -118,12 +117,12 @@ class RenderServer:
                 self.progress(RenderProgress(job.version, done, total))
         return ClusterView(self.cluster, self.network, progress)
 
-    def _limit_loading(self, limit: LoadLimit | None) -> None:
-        """Give the processors that load progressively the job's limit, and invalidate those whose
-        last frame was incomplete: the same state drawn again is finer (module docstring)."""
+    def _refine_incomplete_frames(self) -> None:
+        """Invalidate the progressively loading processors whose last frame was incomplete: the
+        same state drawn again is finer (render_messages). The load limit itself reaches them
+        in the frame context (``frame_context``), which re-runs them when it changes."""
         for pid, processor in self.network.processors.items():
-            if hasattr(processor, "load_limit"):
-                processor.load_limit = limit
+            if "load_limit" in processor.uses_context:
                 frame = getattr(processor, "last_frame", None)
                 if isinstance(frame, dict) and frame.get("complete") is False:
                     self.network.invalidate_downstream(pid)
@@ -156,6 +155,12 @@ class RenderServer:
                                   "render process: define them in an importable module (a plug-in)")
             registry.load_plugin(module)
             self.imported.add(module)
+
+
+def frame_context(job: RenderJob) -> FrameContext:
+    """The frame context of ``job``'s evaluations: its load limit, none for writer runs (they
+    write what `vgraph run` writes: complete frames, however long they take)."""
+    return FrameContext(load_limit=None if job.include_writers else job.load_limit)
 
 
 def _ignore(message) -> None:
