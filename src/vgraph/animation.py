@@ -355,7 +355,7 @@ def opaque_rgb(pixels: np.ndarray) -> np.ndarray:
 def add_parser(commands) -> argparse.ArgumentParser:
     """Add ``vgraph animate`` to the subparsers of vgraph.cli.build_parser."""
     from vgraph.camera import VIEW_NAMES
-    from vgraph.cli import add_allow_write
+    from vgraph.cli_common import add_allow_write
     from vgraph.cli_values import parse_size, user_path
     parser = commands.add_parser(
         "animate", help="render a turntable or a sweep over a property as MP4, GIF or PNG frames",
@@ -388,16 +388,16 @@ def add_parser(commands) -> argparse.ArgumentParser:
 
 def command_animate(args) -> int:
     import vgraph
-    from vgraph import cli, cli_values
+    from vgraph import cli_common, cli_values
     Output.of(args.output).check(args.size)  # refuse before a long evaluation, not after
     network = vgraph.load(args.network, allow_write=args.allow_write)
     if args.view:
         cli_values.set_view(network, args.view)  # then --set, in vgraph run's order
     for assignment in args.set:
         cli_values.set_from_command_line(network, assignment)  # as vgraph run: paths from the current folder
-    cli.check_before_evaluating(network, args.network)
+    cli_common.check_before_evaluating(network, args.network)
     # A blank first frame warns (BlankImageWarning); vgraph.cli.main prints it as one line.
     count = animate(network, args.output, orbit=args.orbit, frames=args.frames, over=args.over,
                     fps=args.fps, size=args.size, target=args.port, progress=not args.quiet)
     print(f"wrote {count} frames to {args.output}", file=sys.stderr)
-    return cli.EXIT_OK
+    return cli_common.EXIT_OK

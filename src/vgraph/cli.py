@@ -20,17 +20,14 @@ from pathlib import Path
 import vgraph
 from vgraph import animation
 from vgraph.camera import VIEW_NAMES
+from vgraph.cli_common import (EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, add_allow_write,
+                               check_before_evaluating)
 from vgraph.cli_data import add_render_as, loaded
 from vgraph.cli_values import parse_size, set_from_command_line, set_view, user_path
 from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
 from vgraph.memory import out_of_memory
 from vgraph.property_text import property_text
 from vgraph.volume_network import is_volume_path
-from vgraph.write_paths import check_writers
-
-EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT = 0, 1, 2
-EXIT_INTERRUPTED = 130  # 128 + SIGINT, as a shell reports a command stopped by Ctrl-C
-
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
@@ -191,12 +188,6 @@ def add_convert_parser(commands) -> None:
     convert.set_defaults(command=command_convert)
 
 
-def add_allow_write(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--allow-write", action="append", default=[], type=user_path, metavar="DIR",
-                        help="let the network's writers write into DIR too (by default only inside "
-                             "the network file's folder); repeatable")
-
-
 def _print_help(parser: argparse.ArgumentParser) -> int:
     parser.print_help(sys.stderr)
     return EXIT_BAD_INPUT
@@ -272,12 +263,6 @@ def say_nothing_was_written(network, report, profile: Path | None) -> None:
     print(f"vgraph: {wrote}: no -o or --data given; {port}write the image with -o OUT.png, the "
           f"data with --data OUT.npz (or .npy; volumes also .nrrd, .nii, .nii.gz, .mha, .vti)",
           file=sys.stderr)
-
-
-def check_before_evaluating(network, file) -> None:
-    """What ``run`` refuses about a loaded network before evaluating it, beyond what loading
-    refuses; ``validate`` refuses the same: what its writers could not write (vgraph.write_paths)."""
-    check_writers(network, str(file))
 
 
 def command_validate(args) -> int:

@@ -9,13 +9,13 @@ from __future__ import annotations
 import sys
 import time
 
+from vgraph.cli_common import EXIT_INTERRUPTED, EXIT_OK
 from vgraph.errors import VGraphError
 
 
 def run_on_cluster(args, network, outputs, target) -> int:
     """``vgraph run ... --cluster``: the picture rendered by the cluster's workers (tiles or leaves), written
     as a local run writes it (atomically, the same messages)."""
-    from vgraph.cli import EXIT_INTERRUPTED, EXIT_OK
     from vgraph.cli_output import write_image_outputs
     from vgraph.distributed import connect, parse_cluster, parse_grid, render
     from vgraph.distributed.render import prepare
