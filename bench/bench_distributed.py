@@ -106,7 +106,7 @@ def forget_networks() -> None:
 
 def per_tile_counts(network, size) -> dict:
     """(C, R) -> [bricks_read of each tile drawn by a fresh network], and the whole frame's bytes."""
-    from vgraph.distributed.render import shipped
+    from vgraph.distributed.worker import shipped
     from vgraph.distributed.tiles import cameras, cut, set_tile_cameras
     from vgraph.distributed.worker import build
     document, base_dir = shipped(network)

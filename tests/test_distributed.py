@@ -150,7 +150,7 @@ def test_curvature_contour_needs_the_halo():
 def shipped_tiles(network_or_path, size, grid):
     """(the picture assembled from tiles rendered by the workers' code, in this process; the
     single-process picture)."""
-    from vgraph.distributed.render import shipped
+    from vgraph.distributed.worker import shipped
     from vgraph.distributed.tiles import assemble
     from vgraph.distributed.worker import render_tile
     plan = prepare(network_or_path, tiles=grid, size=size)

@@ -82,7 +82,7 @@ def render_leaves(plan, client, runs: int | None = None, plugins=(), timeout=Non
     (default: one per worker); ``timeout`` and ``cluster`` as render() takes them."""
     import uuid
 
-    from vgraph.distributed.render import shipped
+    from vgraph.distributed.worker import shipped
     from vgraph.distributed.watch import results, watch
 
     caster = bricked_caster(plan.network, plan.target)

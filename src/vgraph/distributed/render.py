@@ -11,7 +11,6 @@ docs/distributed.md states.
 
 from __future__ import annotations
 
-import json
 import uuid
 import warnings
 from dataclasses import dataclass
@@ -66,7 +65,7 @@ def render(network_or_path, client, split: str = "tiles", tiles=(2, 2), size=Non
 def render_tiles(plan: Plan, client, plugins=(), timeout: TaskTimeout | None = None,
                  cluster: str | None = None) -> np.ndarray:
     """The picture of ``plan`` drawn by the tiles split (one task per tile)."""
-    from vgraph.distributed.worker import render_tile
+    from vgraph.distributed.worker import render_tile, shipped
 
     document, base_dir = shipped(plan.network)
     # Unique keys: the same tile of another call (a changed file with the same name) is new work.
@@ -112,18 +111,6 @@ def prepare(network_or_path, split: str = "tiles", tiles=(2, 2), size=None,
     if reasons:
         raise TileError("this network cannot be rendered as tiles: " + "; ".join(reasons))
     return Plan(network, target, size, cut(size, grid))
-
-
-def shipped(network) -> tuple[str, str | None]:
-    """(the network's JSON document, the folder its relative paths mean): what a task carries.
-    The folder is the network file's, which the workers must see at the same path (a shared
-    file system), as they see the volumes and OME-Zarr stores the network reads."""
-    from vgraph.fileformat import network_document
-
-    # A network built in a script has no folder: its relative paths mean the client's current one.
-    base_dir = network.base_dir if network.base_dir is not None else Path.cwd()
-    document = network_document(network, base_dir)
-    return json.dumps(document), str(base_dir)
 
 
 def _network(network_or_path):

@@ -109,6 +109,21 @@ def split_cameras(document: str) -> tuple[str, dict]:
     return json.dumps(parsed, sort_keys=True), views
 
 
+def shipped(network) -> tuple[str, str | None]:
+    """(the network's JSON document, the folder its relative paths mean): what a task carries
+    (the client packs it here; ``build`` unpacks it in the worker).
+    The folder is the network file's, which the workers must see at the same path (a shared
+    file system), as they see the volumes and OME-Zarr stores the network reads."""
+    import json
+
+    from vgraph.fileformat import network_document
+
+    # A network built in a script has no folder: its relative paths mean the client's current one.
+    base_dir = network.base_dir if network.base_dir is not None else Path.cwd()
+    document = network_document(network, base_dir)
+    return json.dumps(document), str(base_dir)
+
+
 def build(document: str, base_dir: str | None):
     """The network of a shipped document (migrated and validated as a file would be)."""
     import json
