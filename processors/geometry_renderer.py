@@ -24,13 +24,11 @@ Conventions:
 
 from __future__ import annotations
 
-import weakref
-
 import moderngl
 import numpy as np
 
 from vgraph import (CameraProperty, ColorProperty, Inport, OptionProperty, Outport, Processor,
-                    PropertyError, VectorProperty)
+                    PropertyError, VectorProperty, derived)
 from vgraph.box_frame import BoxFrame
 from vgraph.camera import Camera
 from vgraph.geometry import Geometry
@@ -239,20 +237,18 @@ class GeometryRenderer(Processor):
         return mesh["arrays"][program]
 
 
-_copies: "weakref.WeakKeyDictionary[Geometry, tuple[BoxFrame, Geometry]]" = weakref.WeakKeyDictionary()
-
-
 def _in_frame(geometry: Geometry, frame: BoxFrame) -> Geometry:
     """``geometry`` moved and scaled into ``frame`` (itself for the identity frame): one copy per
-    geometry while it lives; normals, colours and scalars are the same."""
+    geometry while it lives, for the last frame asked (vgraph.derived); normals, colours and
+    scalars are the same."""
     if frame.is_identity:
         return geometry
-    known = _copies.get(geometry)
-    if known is None or known[0] != frame:
-        normals = geometry.normals
-        if normals is not None and frame.is_turned:  # a tilted volume's frame turns them too
-            normals = frame.directions(normals).astype(np.float32)
-        copy = Geometry(frame.points(geometry.vertices), geometry.triangles, colors=geometry.colors,
-                        normals=normals, scalars=geometry.scalars, source=geometry.source)
-        known = _copies[geometry] = (frame, copy)
-    return known[1]
+    return derived.value(geometry, "geometry in frame", lambda: _moved(geometry, frame), params=frame)
+
+
+def _moved(geometry: Geometry, frame: BoxFrame) -> Geometry:
+    normals = geometry.normals
+    if normals is not None and frame.is_turned:  # a tilted volume's frame turns them too
+        normals = frame.directions(normals).astype(np.float32)
+    return Geometry(frame.points(geometry.vertices), geometry.triangles, colors=geometry.colors,
+                    normals=normals, scalars=geometry.scalars, source=geometry.source)

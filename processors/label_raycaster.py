@@ -34,7 +34,7 @@ import math
 import moderngl
 import numpy as np
 
-from vgraph import Inport, OptionProperty, Outport, VGraphError
+from vgraph import Inport, OptionProperty, Outport, VGraphError, derived
 from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EmptySpace, EntryExit, FrontToBack,
                                              Light, RaycasterBase, Sampling)
 from vgraph.gl.raycasting.empty_space import radii_if_worthwhile, window_reduced
@@ -50,7 +50,7 @@ from vgraph.volume import Volume
 SHADER = "labels/label_raycaster.frag.glsl"
 COMPOSITING = ("composite", "first_hit")
 LABEL_ROW = 256  # codes per row of the colour table texture (shaders/labels/majority.glsl)
-_CACHE_KEY = "_label_codes"  # where a volume keeps its codes and their textures
+CODES, CODES_TEXTURE = "label codes", "label codes texture"  # kinds of derived data (vgraph.derived)
 
 
 class LabelRayCaster(RaycasterBase):
@@ -102,10 +102,9 @@ class LabelRayCaster(RaycasterBase):
     def visible_content(self) -> str | None:
         """The share of voxels holding shown labels (for the scheduler's empty-image warning)."""
         volume = self.inputs.get("labels")
-        cached = volume.__dict__.get(_CACHE_KEY) if volume is not None else None
-        if cached is None:  # not drawn (refused, or never run)
+        codes = derived.peek(volume, CODES) if volume is not None else None
+        if codes is None:  # not drawn (refused, or never run)
             return None
-        codes = cached[0]
         share = (self.label_table.colors(codes.values)[:, 3] > 0.0)[codes.codes].mean()
         return f"{share:.0%} of the voxels hold shown labels" if share > 0 else None
 
@@ -126,25 +125,24 @@ class LabelRayCaster(RaycasterBase):
 def label_textures(volume: Volume, ctx: moderngl.Context, consumer: str) -> tuple[LabelCodes, moderngl.Texture]:
     """The volume's label codes and their integer 3D texture on ``ctx``, made once and kept with the
     volume (its ``__dict__``, as its other derived data): another frame, table or ray caster of the
-    same volume reuses them; they go when the volume goes."""
-    cached = volume.__dict__.get(_CACHE_KEY)
-    if cached is None:
-        cached = volume.__dict__[_CACHE_KEY] = (label_codes(volume.data, consumer), {})
-    codes, textures = cached
-    texture = textures.get(id(ctx))
-    if texture is None or texture.ctx is not ctx:
-        limit = ctx.info["GL_MAX_3D_TEXTURE_SIZE"]
-        if max(volume.dims) > limit:
-            raise VGraphError(f"{consumer}: {' x '.join(map(str, volume.dims))} voxels exceed this GL's "
-                              f"3D texture limit of {limit} per axis")
-        dtype = "u2" if codes.codes.dtype == np.uint16 else "u4"
-        texture = ctx.texture3d(volume.dims, 1, np.ascontiguousarray(codes.codes).tobytes(), dtype=dtype,
-                                alignment=1)
-        # Integer textures are incomplete (read as 0) with linear filtering; texelFetch reads them.
-        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        texture.repeat_x = texture.repeat_y = texture.repeat_z = False
-        textures[id(ctx)] = texture
-    return codes, texture
+    same volume reuses them; they go when the volume (the texture: or the context) goes."""
+    codes = derived.value(volume, CODES, lambda: label_codes(volume.data, consumer))
+    return codes, derived.value(volume, CODES_TEXTURE, lambda: _codes_texture(volume, codes, ctx, consumer),
+                                ctx=ctx)
+
+
+def _codes_texture(volume: Volume, codes: LabelCodes, ctx: moderngl.Context, consumer: str) -> moderngl.Texture:
+    limit = ctx.info["GL_MAX_3D_TEXTURE_SIZE"]
+    if max(volume.dims) > limit:
+        raise VGraphError(f"{consumer}: {' x '.join(map(str, volume.dims))} voxels exceed this GL's "
+                          f"3D texture limit of {limit} per axis")
+    dtype = "u2" if codes.codes.dtype == np.uint16 else "u4"
+    texture = ctx.texture3d(volume.dims, 1, np.ascontiguousarray(codes.codes).tobytes(), dtype=dtype,
+                            alignment=1)
+    # Integer textures are incomplete (read as 0) with linear filtering; texelFetch reads them.
+    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    texture.repeat_x = texture.repeat_y = texture.repeat_z = False
+    return texture
 
 
 def shown_blocks(codes: LabelCodes, shown_codes: np.ndarray) -> np.ndarray:

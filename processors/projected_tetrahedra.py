@@ -59,7 +59,7 @@ from vgraph.gl.raycasting.textures import TransferFunctionTexture
 from vgraph.gl.passes import bind_textures, set_uniform
 from vgraph.gl.shaders import programs
 from vgraph.gl.tetrahedra import preintegration
-from vgraph.gl.tetrahedra.cells import cell_attributes, visible_cells_of
+from vgraph.gl.tetrahedra.cells import cell_buffer, visible_cells_of
 from vgraph.gl.tetrahedra.frame import mesh_in_frame
 from vgraph.gl.tetrahedra.gl_sort import GLCentroidSort
 from vgraph.gl.tetrahedra.order import VisibilityOrder, visible_tetrahedra
@@ -267,9 +267,7 @@ class ProjectedTetrahedra(Processor):
         arrays = state["arrays"]
         if program not in arrays:
             if by_cells:
-                if "cells" not in state:
-                    state["cells"] = ctx.buffer(cell_attributes(mesh).tobytes())
-                content = [(state["cells"], "4f 4f 4f", "cell", "scalars_low", "scalars_high")]
+                content = [(cell_buffer(ctx, mesh), "4f 4f 4f", "cell", "scalars_low", "scalars_high")]
             else:
                 content = [(mesh.buffers(ctx)["points"], "4f", "point")]
             arrays[program] = ctx.vertex_array(program, content, index_buffer=index_buffer,

@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from vgraph import ProcessorError
+from vgraph import ProcessorError, derived
 from vgraph.camera import Camera
 from vgraph.errors import NetworkFileError, PropertyError, VGraphError
 from vgraph.fileformat import load_network, save_network
+from vgraph.gl.context import get_context
 from vgraph.gl.raycasting.components import EmptySpace
 from vgraph.labels import BACKGROUND, LabelEntry, LabelTable, label_codes, majority, palette_color
 from vgraph.network import Network
@@ -266,13 +267,14 @@ def test_the_codes_texture_and_skip_blocks_are_kept_when_only_colours_change():
     boxes = touching_boxes()
     network = label_network(boxes, oblique_camera(boxes), label_table=BOX_TABLE)
     first = network.evaluate("lrc.image", size=SIZE)
-    cached = boxes.__dict__["_label_codes"]
-    texture = next(iter(cached[1].values()))
+    cached = derived.peek(boxes, "label codes")
+    texture = derived.peek(boxes, "label codes texture", ctx=get_context())
     blocks = network.processors["lrc"].parts[EmptySpace].blocks
     skip_key = blocks.key
     network.set("lrc.label_table", BOX_TABLE.with_entry(LabelEntry(value=1, color=GREEN)))
     second = network.evaluate("lrc.image", size=SIZE)
-    assert boxes.__dict__["_label_codes"] is cached and next(iter(cached[1].values())) is texture
+    assert derived.peek(boxes, "label codes") is cached and cached is not None
+    assert derived.peek(boxes, "label codes texture", ctx=get_context()) is texture and texture is not None
     assert blocks.key is skip_key                                 # a new colour: the same empty blocks
     assert (np.abs(second - first).max(axis=-1) > 0.5).any()     # label 1 turned from red to green
 

@@ -21,14 +21,13 @@ Conventions (docs/conventions.md; the same as Volume's where they overlap):
 
 from __future__ import annotations
 
-import weakref
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
+from vgraph import derived
 from vgraph.errors import VGraphError
-from vgraph.gl.context import release_quietly
 from vgraph.value_range import checked_range, range_of
 
 
@@ -74,7 +73,6 @@ class TetMesh:
     source: str = ""  # where it came from, for messages
     grid: RegularGrid | None = None
     per_cell: bool = False  # scalars: one per tetrahedron (constant inside it), not one per point
-    _buffers: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
         where = f" from {self.source}" if self.source else ""
@@ -103,7 +101,6 @@ class TetMesh:
         if self.reference_length is not None and not (np.isfinite(self.reference_length)
                                                       and self.reference_length > 0):
             raise VGraphError(f"mesh{where}: reference_length must be positive, got {self.reference_length}")
-        weakref.finalize(self, release_quietly, self._buffers)
 
     # --- geometry -------------------------------------------------------------------------------
     @cached_property
@@ -206,10 +203,11 @@ class TetMesh:
 
     def buffers(self, ctx) -> dict:
         """{"points": the vertex buffer (``vertices``), "tets": ``vertex_indices`` as an int32
-        index buffer} on ``ctx``, uploaded once per context and released with the mesh."""
-        key = id(ctx)
-        if key not in self._buffers:
-            vertices = np.ascontiguousarray(self.vertices(), dtype=np.float32)
-            self._buffers[key] = {"points": ctx.buffer(vertices.tobytes()),
-                                  "tets": ctx.buffer(np.ascontiguousarray(self.vertex_indices).tobytes())}
-        return self._buffers[key]
+        index buffer} on ``ctx``, uploaded once per context and released with the mesh or the
+        context (vgraph.derived)."""
+        return derived.value(self, "mesh buffers", lambda: self._upload(ctx), ctx=ctx)
+
+    def _upload(self, ctx) -> dict:
+        vertices = np.ascontiguousarray(self.vertices(), dtype=np.float32)
+        return {"points": ctx.buffer(vertices.tobytes()),
+                "tets": ctx.buffer(np.ascontiguousarray(self.vertex_indices).tobytes())}

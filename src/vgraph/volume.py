@@ -35,14 +35,13 @@ Conventions (docs/volumes.md says the same for users):
 from __future__ import annotations
 
 import dataclasses
-import weakref
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
+from vgraph import derived
 from vgraph.errors import VGraphError
-from vgraph.gl.context import release_quietly
 from vgraph.memory import OutOfMemoryError, format_bytes, out_of_memory
 from vgraph.rank_table import RankTable
 from vgraph.value_range import checked_range, from_unit, range_of, to_unit
@@ -63,7 +62,7 @@ _SLAB_VOXELS = 2**22  # normalising in float64 slab by slab bounds the temporary
 PRECISIONS = ("full", "16bit")  # of at_precision(): the stored values, or 16-bit codes
 SIXTEEN_BIT_CODES = 65535.0  # the largest code of a 16-bit copy: normalised intensity = q / 65535
 # What a volume keeps from its values alone (the grid does not enter): shared by with_overrides.
-_VALUE_STATISTICS = ("nonfinite_count", "finite_extremes", "value_range", "_ranks")
+_VALUE_STATISTICS = ("nonfinite_count", "finite_extremes", "value_range", "_ranks", "_histograms")
 
 
 @dataclass(eq=False)
@@ -77,7 +76,6 @@ class Volume:
     time_steps: int = 1  # time points in the file this volume is one of (4D files)
     direction: Matrix3 = IDENTITY  # direction cosines in RAS; columns = the index axes
     holds_labels: bool = False  # the file declares label values, not intensities
-    _textures: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
         where = f" from {self.source}" if self.source else ""
@@ -100,7 +98,6 @@ class Volume:
             raise VGraphError(f"volume{where}: time_steps must be a positive integer, "
                               f"got {self.time_steps!r}")
         self.time_steps = int(self.time_steps)
-        weakref.finalize(self, release_quietly, self._textures)
 
     @property
     def bricks(self):
@@ -190,7 +187,7 @@ class Volume:
         if self.finite_extremes is None:
             lo, hi = self.value_range
             return lo + p / 100.0 * (hi - lo)
-        ranks = self._rank_table()
+        ranks = self._ranks
         position = p / 100.0 * (ranks.count - 1)  # np.percentile's 'linear': between order stats
         below = np.floor(position)
         above = np.minimum(below + 1, ranks.count - 1)
@@ -199,10 +196,16 @@ class Volume:
         # weighted, not low + f (high - low): that difference overflows for data near +-1.8e308
         return low * (1.0 - fraction) + high * fraction
 
-    def _rank_table(self) -> "RankTable":
-        if "_ranks" not in self.__dict__:
-            self.__dict__["_ranks"] = RankTable.of(self)
-        return self.__dict__["_ranks"]
+    @cached_property
+    def _ranks(self) -> RankTable:
+        """The table behind percentiles(): one pass over the data, then kept with the volume
+        (a value statistic, its own: not derived data of vgraph.derived)."""
+        return RankTable.of(self)
+
+    @cached_property
+    def _histograms(self) -> dict:
+        """histogram() by its number of bins."""
+        return {}
 
     def _slabs(self):
         flat = self.data.reshape(-1)
@@ -217,8 +220,7 @@ class Volume:
     def histogram(self, bins: int = 256) -> tuple[np.ndarray, np.ndarray]:
         """Counts of finite voxels in ``bins`` equal bins over the value range, and the bin edges
         in normalised intensity."""
-        key = ("histogram", bins)
-        if key not in self.__dict__:
+        if bins not in self._histograms:
             # Binned in normalised float64 units, slab by slab: bins of a range such as
             # [3.4e38, 3.4e38 + 3e32] are not representable in the data's own float32.
             # Values a float32 rounding outside the range (a declared range computed in float64)
@@ -231,8 +233,8 @@ class Volume:
                 slab = self.normalized(stored)
                 inside = slab[(slab >= -rounding) & (slab <= 1.0 + rounding)]
                 counts += np.histogram(np.clip(inside, 0.0, 1.0), bins=bins, range=(0.0, 1.0))[0]
-            self.__dict__[key] = (counts, np.linspace(0.0, 1.0, bins + 1))
-        return self.__dict__[key]
+            self._histograms[bins] = (counts, np.linspace(0.0, 1.0, bins + 1))
+        return self._histograms[bins]
 
     def share_of_voxels(self, test) -> float:
         """Share of the finite voxels whose normalised intensities pass ``test`` (array ->
@@ -270,23 +272,18 @@ class Volume:
     # --- GPU ------------------------------------------------------------------------------------
     def at_precision(self, precision: str) -> "Volume":
         """The volume to sample at ``precision`` (PRECISIONS): itself for "full"; for "16bit" its
-        16-bit copy (module docstring), made once and kept with the volume."""
+        16-bit copy (module docstring), made once and kept while the volume lives (vgraph.derived)."""
         if precision not in PRECISIONS:
             raise VGraphError(f"volume precision must be one of {', '.join(PRECISIONS)}, got {precision!r}")
         if precision == "full" or self.texture_is_r16:
             return self  # stored as R16 already: the copy would be the same texture
-        if "_sixteen_bit" not in self.__dict__:
-            self.__dict__["_sixteen_bit"] = SixteenBitCopy.of(self)
-        return self.__dict__["_sixteen_bit"]
+        return derived.value(self, "16-bit copy", lambda: SixteenBitCopy.of(self))
 
     def texture(self, ctx):
         """The volume as a 3D texture on ``ctx`` (R16 normalised for 8 and 16 bit, otherwise R32F), uploaded
-        once per context and released with the volume. Non-finite voxels are uploaded clamped to
-        the value range so that no shader ever samples NaN."""
-        key = id(ctx)
-        if key not in self._textures:
-            self._textures[key] = self._upload(ctx)
-        return self._textures[key]
+        once per context and released with the volume or the context (vgraph.derived). Non-finite
+        voxels are uploaded clamped to the value range so that no shader ever samples NaN."""
+        return derived.value(self, "volume texture", lambda: self._upload(ctx), ctx=ctx)
 
     def texture_scale_offset(self) -> tuple[float, float]:
         """(scale, offset) with normalised intensity = texture sample * scale + offset."""
@@ -389,8 +386,7 @@ def keep_value_statistics(source: Volume, target: Volume) -> None:
     """Give ``target``, which holds ``source``'s values on another grid or in another order, what
     ``source`` worked out from its values alone (extremes, counts, percentiles, histograms), so
     that they are not read again."""
-    target.__dict__.update({key: value for key, value in source.__dict__.items()
-                            if key in _VALUE_STATISTICS or isinstance(key, tuple) and key[0] == "histogram"})
+    target.__dict__.update({key: value for key, value in source.__dict__.items() if key in _VALUE_STATISTICS})
 
 
 def r16_texels(data: np.ndarray) -> np.ndarray:

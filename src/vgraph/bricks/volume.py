@@ -23,14 +23,13 @@ Statistics that a plain Volume computes from its array come from the pyramid ins
 from __future__ import annotations
 
 import math
-import weakref
+from functools import cached_property
 from types import SimpleNamespace
 
 import numpy as np
 
 from vgraph.bricks.pyramid import Level, brick_grid, sample_blocks
 from vgraph.errors import VGraphError
-from vgraph.gl.context import release_quietly
 from vgraph.io._common import check_memory, format_bytes
 from vgraph.rank_table import RankTable
 from vgraph.value_range import checked_range, range_of
@@ -72,8 +71,6 @@ class BrickedVolume(Volume):
         self.time_steps = int(time_steps or getattr(bricks, "time_steps", 1))
         self.memory_budget_mb = _checked_budget(memory_budget_mb, where)
         self._data = None
-        self._textures = {}
-        weakref.finalize(self, release_quietly, self._textures)
 
     @classmethod
     def open(cls, path, time_step: int = 0, channel: int = 0,
@@ -171,17 +168,16 @@ class BrickedVolume(Volume):
         for block in sample_blocks(self._bricks, self._summary_level(), SUMMARY_VOXELS, SUMMARY_BRICKS):
             yield block.reshape(-1)
 
-    def _rank_table(self) -> RankTable:
-        if "_ranks" not in self.__dict__:
-            # the summary's own extremes too: another tool's recorded range is a coarse level's
-            # (narrower than a finer summary level's), and a damaged store's may be anything
-            recorded, seen = self.finite_extremes, self._summary_extremes()
-            extremes = seen if recorded is None else recorded if seen is None else \
-                (min(recorded[0], seen[0]), max(recorded[1], seen[1]))
-            summary = SimpleNamespace(finite_extremes=extremes, data=SimpleNamespace(dtype=self.dtype),
-                                      _slabs=self._slabs, nonfinite_count=int(self.dtype.kind == "f"))
-            self.__dict__["_ranks"] = RankTable.of(summary)
-        return self.__dict__["_ranks"]
+    @cached_property
+    def _ranks(self) -> RankTable:
+        # the summary's own extremes too: another tool's recorded range is a coarse level's
+        # (narrower than a finer summary level's), and a damaged store's may be anything
+        recorded, seen = self.finite_extremes, self._summary_extremes()
+        extremes = seen if recorded is None else recorded if seen is None else \
+            (min(recorded[0], seen[0]), max(recorded[1], seen[1]))
+        summary = SimpleNamespace(finite_extremes=extremes, data=SimpleNamespace(dtype=self.dtype),
+                                  _slabs=self._slabs, nonfinite_count=int(self.dtype.kind == "f"))
+        return RankTable.of(summary)
 
     def _summary_extremes(self):
         lo = hi = None

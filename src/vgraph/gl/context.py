@@ -9,8 +9,9 @@ Conventions:
   moderngl's default standalone backend (GLX/WGL/CGL). OpenGL 3.3 core is the minimum.
 - An owner that already has a context (a Qt widget, a render process) installs it with
   ``set_context``. vgraph never releases a context it did not create.
-- Caches keyed by context (compiled programs, vertex arrays) register a callback with ``on_release``
-  so they forget a context when it is released or replaced.
+- Caches keyed by context (compiled programs) register a callback with ``on_release`` so they
+  forget a context when it is released or replaced; the cache of derived data (vgraph.derived:
+  textures, buffers, vertex arrays) is told first.
 - GL objects are freed when nothing references them any more: the context runs in moderngl's
   "context_gc" mode (objects whose Python wrapper dies are queued) and the scheduler calls
   ``collect_garbage()`` after every evaluation, so an output replaced by a new one (a plug-in that
@@ -25,6 +26,7 @@ from typing import Callable
 
 import moderngl
 
+from vgraph import derived
 from vgraph.errors import VGraphError
 
 REQUIRED_GL_VERSION = 330
@@ -35,7 +37,7 @@ _SYSTEM_PACKAGES = "libegl1 libgl1 libgl1-mesa-dri libegl-mesa0 (Debian/Ubuntu p
 _lock = threading.RLock()
 _context: moderngl.Context | None = None
 _owned = False  # True when vgraph created the context and must release it
-_release_callbacks: list[Callable[[moderngl.Context], None]] = []
+_release_callbacks: list[Callable[[moderngl.Context], None]] = [derived.forget_context]
 
 
 def get_context() -> moderngl.Context:

@@ -15,7 +15,10 @@ Conventions:
   mathematical (row-major) layout and is transposed to GL's column-major order.
 - A uniform keeps the bytes last written through ``set_uniform`` and is not written again with the
   same bytes (a program keeps its uniforms; a frame sets some 80, most of them unchanged): set a
-  uniform either always through ``set_uniform`` or never.
+  uniform either always through ``set_uniform`` or never. What was written is kept per program
+  in the cache of derived data (vgraph.derived, kind "uniform values"), not on moderngl's objects.
+- The attribute-less vertex array of a program is derived data too ("fullscreen vertex array"),
+  released with the program or its context.
 - The pass uses the context's current enable flags (by default no depth test and no blending).
 """
 
@@ -26,15 +29,12 @@ import struct
 import moderngl
 import numpy as np
 
+from vgraph import derived
 from vgraph.errors import ShaderError
-from vgraph.gl import context as gl_context
 from vgraph.gl.shaders import programs
 from vgraph.image import Image
 
 FULLSCREEN_VERTEX_SHADER = "fullscreen.vert.glsl"
-
-# One attribute-less vertex array per program; programs are compared by identity.
-_vertex_arrays: dict[moderngl.Program, moderngl.VertexArray] = {}
 
 
 def fullscreen_pass(ctx: moderngl.Context, program: moderngl.Program, target: Image,
@@ -74,11 +74,40 @@ def bind_textures(program: moderngl.Program, textures: dict[str, object]) -> dic
 _PLAIN = (float, int, bool, tuple)
 
 
+class UniformValues:
+    """What set_uniform knows of one program: its uniforms by name (None where the program has
+    none of that name), and the value and the bytes last written to each. It holds no reference
+    to the program, which owns it (vgraph.derived drops it when the program goes)."""
+
+    __slots__ = ("members", "values", "written")
+
+    def __init__(self):
+        self.members: dict = {}
+        self.values: dict = {}   # name -> the plain value last written (None: compare the bytes)
+        self.written: dict = {}  # name -> the bytes last written
+
+    def member(self, program: moderngl.Program, name: str):
+        try:
+            return self.members[name]
+        except KeyError:
+            member = self.members[name] = program.get(name, None)
+            return member
+
+
+def uniform_values(program: moderngl.Program) -> UniformValues:
+    """The program's UniformValues, kept while the program and its context live."""
+    return derived.value(program, "uniform values", UniformValues, ctx=program.ctx)
+
+
 def set_uniform(program: moderngl.Program, name: str, value, optional: bool = False) -> bool:
     """Set a uniform; return whether the program uses it. ShaderError if the program's sources do
     not declare ``name`` at all, unless ``optional`` (see the module docstring)."""
-    uniform = program._members.get(name)  # Program.get, without a Python call per uniform
-    if type(value) in _PLAIN and _same(getattr(uniform, "_vgraph_value", None), value):
+    return _set_uniform(program, uniform_values(program), name, value, optional)
+
+
+def _set_uniform(program: moderngl.Program, known: UniformValues, name: str, value, optional: bool) -> bool:
+    uniform = known.member(program, name)
+    if type(value) in _PLAIN and _same(known.values.get(name), value):
         return True  # the value last written (most uniforms of a frame): no packing, no write
     if not isinstance(uniform, moderngl.Uniform):
         source = programs.source_of(program)
@@ -90,25 +119,26 @@ def set_uniform(program: moderngl.Program, name: str, value, optional: bool = Fa
         data = _uniform_bytes(uniform, value)
     else:
         data = _packed(uniform, value.item() if isinstance(value, np.generic) else value)
-    if getattr(uniform, "_vgraph_written", None) != data:
+    if known.written.get(name) != data:
         uniform.write(data)
-        uniform._vgraph_written = data
-    uniform._vgraph_value = value if type(value) in _PLAIN else None
+        known.written[name] = data
+    known.values[name] = value if type(value) in _PLAIN else None
     return True
 
 
 def set_uniforms(program: moderngl.Program, uniforms, optional=frozenset()) -> None:
     """set_uniform for each (name, value), in one loop: a frame sets some 90 uniforms, most of them
     unchanged, and a call apiece was the larger part of their cost."""
-    members = program._members
+    known = uniform_values(program)
+    values = known.values
     for name, value in uniforms.items():
         if type(value) in _PLAIN:
             try:
-                if getattr(members.get(name), "_vgraph_value", None) == value:
+                if values.get(name) == value:
                     continue
             except ValueError:  # a tuple holding arrays: set_uniform compares the bytes
                 pass
-        set_uniform(program, name, value, optional=name in optional)
+        _set_uniform(program, known, name, value, name in optional)
 
 
 def _same(last, value) -> bool:
@@ -138,21 +168,4 @@ def _uniform_bytes(uniform: moderngl.Uniform, value: np.ndarray) -> bytes:
 
 
 def _vertex_array(ctx: moderngl.Context, program: moderngl.Program) -> moderngl.VertexArray:
-    vao = _vertex_arrays.get(program)
-    if vao is None:
-        _forget_released_programs()
-        vao = _vertex_arrays[program] = ctx.vertex_array(program, [])
-    return vao
-
-
-def _forget_released_programs() -> None:
-    for program in [p for p in _vertex_arrays if isinstance(p.mglo, moderngl.InvalidObject)]:
-        _vertex_arrays.pop(program).release()
-
-
-def _forget_context(ctx: moderngl.Context) -> None:
-    for program in [p for p in _vertex_arrays if p.ctx is ctx]:
-        _vertex_arrays.pop(program).release()
-
-
-gl_context.on_release(_forget_context)
+    return derived.value(program, "fullscreen vertex array", lambda: ctx.vertex_array(program, []), ctx=ctx)

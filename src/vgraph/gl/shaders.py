@@ -27,6 +27,7 @@ from pathlib import Path
 
 import moderngl
 
+from vgraph import derived
 from vgraph.errors import ShaderError
 from vgraph.gl import context as gl_context
 
@@ -344,6 +345,7 @@ class ProgramCache:
         for key in [k for k in self._programs if ctx is None or k[0] is ctx]:
             program = self._programs.pop(key)
             self._sources.pop(id(program), None)
+            derived.forget(program)  # its vertex array and uniform values, before the program
             program.release()
         self._given = {key: program for key, program in self._given.items() if ctx is not None and key[0] is not ctx}
 

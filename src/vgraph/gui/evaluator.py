@@ -23,13 +23,13 @@ Conventions:
 from __future__ import annotations
 
 import warnings
-import weakref
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import networkx as nx
 import numpy as np
 
+from vgraph import derived
 from vgraph.camera import Camera
 from vgraph.errors import ProcessorError, VGraphWarning
 from vgraph.frame_context import FrameContext
@@ -244,20 +244,14 @@ def processor_status(network: Network, processor: Processor) -> ProcessorStatus:
     return ProcessorStatus("invalid", "not evaluated", "waiting for evaluation (or for its inputs)")
 
 
-_summaries: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # processor -> (run, summary)
-
-
 def data_summary(processor: Processor) -> str:
     """Dimensions, type, spacing and value range of each volume the processor output, the time
     point of a file with several (vgraph.time_series), and the size of the file a source read. A
     few hundred bytes: it crosses the process boundary on every evaluation. Kept per run of the
     processor: statuses are built for every frame of a drag, and a Zarr store's size is a walk over
-    its chunk files."""
+    its chunk files (vgraph.derived)."""
     run = (processor.evaluation_count, tuple(id(data) for data in processor.outputs.values()))
-    cached = _summaries.get(processor)
-    if cached is None or cached[0] != run:
-        cached = _summaries[processor] = (run, _summary(processor))
-    return cached[1]
+    return derived.value(processor, "data summary", lambda: _summary(processor), params=run)
 
 
 def _summary(processor: Processor) -> str:

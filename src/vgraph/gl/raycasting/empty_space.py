@@ -20,7 +20,6 @@ cover that of their union).
 from __future__ import annotations
 
 import functools
-import weakref
 from collections.abc import Mapping
 from types import MappingProxyType
 
@@ -28,35 +27,35 @@ import moderngl
 import numpy as np
 from scipy import ndimage
 
+from vgraph import derived
 from vgraph.volume import Volume
 
 BLOCK = 4  # voxels per empty-space block along each axis, where rays jump (module docstring)
 WALK_BLOCK = 2 * BLOCK  # where rays walk block by block, and for the ray-bounds boxes
 MIN_EMPTY_FRACTION = 0.1  # below this share of empty blocks, skipping costs more than it saves
 LEVEL_EPSILON = 1e-6  # normalised: block ranges this close to the level count as crossing it
-
-
-_block_ranges: "weakref.WeakKeyDictionary[Volume, dict]" = weakref.WeakKeyDictionary()
+BLOCK_RANGES = "block ranges"  # the kind of derived data (vgraph.derived) of block_ranges
 
 
 def block_ranges(volume: Volume, block: int = BLOCK) -> tuple[np.ndarray, np.ndarray]:
     """(min, max) normalised intensity per block of ``block`` (BLOCK or WALK_BLOCK) voxels, float32
-    arrays [bz, by, bx] (module docstring), computed once per volume. Non-finite voxels count as the
-    texture upload stores them."""
-    cached = _block_ranges.get(volume)
-    if cached is None:
-        data = volume.data
-        if volume.nonfinite_count:
-            lo, hi = volume.value_range
-            data = np.nan_to_num(data, nan=lo, posinf=hi, neginf=lo)  # a copy, same dtype
-        low, high = data, data
-        for axis in range(3):
-            low = window_reduced(low, axis, np.minimum)
-            high = window_reduced(high, axis, np.maximum)
-        fine = (volume.normalized(low).astype(np.float32), volume.normalized(high).astype(np.float32))
-        cached = _block_ranges[volume] = {BLOCK: fine, WALK_BLOCK: (pairs_reduced(fine[0], np.minimum),
-                                                                    pairs_reduced(fine[1], np.maximum))}
-    return cached[block]
+    arrays [bz, by, bx] (module docstring), computed once per volume (vgraph.derived). Non-finite
+    voxels count as the texture upload stores them."""
+    return derived.value(volume, BLOCK_RANGES, lambda: _block_ranges(volume))[block]
+
+
+def _block_ranges(volume: Volume) -> dict:
+    """{BLOCK: (min, max), WALK_BLOCK: (min, max)} of block_ranges."""
+    data = volume.data
+    if volume.nonfinite_count:
+        lo, hi = volume.value_range
+        data = np.nan_to_num(data, nan=lo, posinf=hi, neginf=lo)  # a copy, same dtype
+    low, high = data, data
+    for axis in range(3):
+        low = window_reduced(low, axis, np.minimum)
+        high = window_reduced(high, axis, np.maximum)
+    fine = (volume.normalized(low).astype(np.float32), volume.normalized(high).astype(np.float32))
+    return {BLOCK: fine, WALK_BLOCK: (pairs_reduced(fine[0], np.minimum), pairs_reduced(fine[1], np.maximum))}
 
 
 def window_reduced(array: np.ndarray, axis: int, reducer) -> np.ndarray:

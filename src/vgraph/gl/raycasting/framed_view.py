@@ -43,6 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vgraph import derived
 from vgraph.box_frame import BoxFrame
 from vgraph.camera import Camera
 from vgraph.errors import PropertyError, VGraphError
@@ -100,16 +101,17 @@ def volume_in_frame(volume: Volume, frame: BoxFrame) -> Volume:
     the same voxels and values on its axes reordered and mirrored to follow the frame's
     (vgraph.grid_axes), on the grid spacing / scale from the frame's point of its origin, axis
     aligned there; a BrickedVolume stays bricked (its pyramid regridded, nothing read). Kept while
-    the volume lives."""
+    the volume lives, for the last frame asked (vgraph.derived)."""
     if frame.is_identity and volume.is_axis_aligned:
         return volume
-    known = _copies.get(volume)
-    if known is None or known[0] != frame:
-        moved = on_axes(volume, axes_against(volume.direction, frame.rotation))
-        spacing = as_vec3(np.asarray(moved.spacing, dtype=np.float64) / frame.scale)
-        origin = as_vec3(frame.points(moved.origin))
-        known = _copies[volume] = (frame, moved.with_overrides(spacing, origin, direction=IDENTITY))
-    return known[1]
+    return derived.value(volume, "volume in frame", lambda: _moved(volume, frame), params=frame)
+
+
+def _moved(volume: Volume, frame: BoxFrame) -> Volume:
+    moved = on_axes(volume, axes_against(volume.direction, frame.rotation))
+    spacing = as_vec3(np.asarray(moved.spacing, dtype=np.float64) / frame.scale)
+    origin = as_vec3(frame.points(moved.origin))
+    return moved.with_overrides(spacing, origin, direction=IDENTITY)
 
 
 def frame_rotation(volumes) -> Matrix3:
@@ -143,9 +145,6 @@ def _check_turned_alike(volumes: tuple, owner: str) -> None:
                                 f"{np.round(volumes[0].direction, 6).tolist()}): volumes drawn "
                                 f"together must share their axes up to order and mirroring; "
                                 f"resample one onto the other's grid")
-
-
-_copies: "weakref.WeakKeyDictionary[Volume, tuple[BoxFrame, Volume]]" = weakref.WeakKeyDictionary()
 
 
 def _box_frame(volumes: tuple) -> tuple[BoxFrame, np.ndarray, np.ndarray]:

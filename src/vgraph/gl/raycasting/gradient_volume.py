@@ -17,20 +17,19 @@ llvmpipe far less than a one-channel plus a four-channel one (docs/performance.m
 and the value comes from the volume's texture.
 
 The numpy part works slab by slab (``SLAB_VOXELS``), twice (the scale, then the texels), so a
-512^3 volume needs neither a float64 copy nor a host copy of the texture; the texture is cached per
-volume and context and released with the volume.
+512^3 volume needs neither a float64 copy nor a host copy of the texture; the scale and the texture
+are derived data (vgraph.derived), kept per volume (and context) and released with either.
 """
 
 from __future__ import annotations
 
 import sys
-import weakref
 
 import moderngl
 import numpy as np
 
+from vgraph import derived
 from vgraph.errors import VGraphError
-from vgraph.gl.context import release_quietly
 from vgraph.numerics.reference_raycast import GRADIENT_STEPS, central_differences, gradient_scale
 from vgraph.progress import steps
 from vgraph.volume import Volume, r16_texels
@@ -43,32 +42,20 @@ _INNER = slice(1, -1)
 _NEIGHBOURS = (((_INNER, _INNER, slice(2, None)), (_INNER, _INNER, slice(None, -2))),
                ((_INNER, slice(2, None), _INNER), (_INNER, slice(None, -2), _INNER)),
                ((slice(2, None), _INNER, _INNER), (slice(None, -2), _INNER, _INNER)))
-# volume -> {"scale": per-axis factor, id(ctx): texture}; entries go with their volume.
-_cache: "weakref.WeakKeyDictionary[Volume, dict]" = weakref.WeakKeyDictionary()
+TEXTURE = "gradient texture"  # the kinds of derived data (vgraph.derived) this module makes
+SCALE = "gradient scale"
 
 
 def gradient_texture(ctx: moderngl.Context, volume: Volume) -> tuple[moderngl.Texture3D, np.ndarray]:
     """The volume's gradient texture on ``ctx`` and its per-axis scale (float64 (3,), x y z):
     gradient = texel.rgb * scale. Built on first use, then cached (module docstring)."""
-    entry = _cache.get(volume)
-    if entry is None:
-        entry = _cache[volume] = {}
-        textures: dict = {}
-        entry["textures"] = textures
-        weakref.finalize(volume, release_quietly, textures)
-    textures = entry["textures"]
-    texture = textures.get(id(ctx))
-    if texture is None or texture.ctx is not ctx:
-        if "scale" not in entry:
-            entry["scale"] = _scale(volume)
-        textures[id(ctx)] = texture = _upload(ctx, volume, entry["scale"])
-    return texture, entry["scale"]
+    scale = derived.value(volume, SCALE, lambda: _scale(volume))
+    return derived.value(volume, TEXTURE, lambda: _upload(ctx, volume, scale), ctx=ctx), scale
 
 
 def is_cached(volume: Volume) -> bool:
     """Whether a gradient texture was built for ``volume`` (on any context)."""
-    entry = _cache.get(volume)
-    return bool(entry and entry["textures"])
+    return derived.holds(volume, TEXTURE)
 
 
 def slab_gradients(volume: Volume, z0: int, z1: int) -> np.ndarray:

@@ -10,26 +10,21 @@ the fastest format there.
 
 from __future__ import annotations
 
-import weakref
 from typing import Callable
 
 import moderngl
 import numpy as np
 
+from vgraph import derived
 from vgraph.transfer_function import LUT_SIZE, TransferFunction
 from vgraph.volume import Volume
 
 
 def linear_sampler(ctx: moderngl.Context):
-    """A sampler object with linear filtering and clamp-to-edge (one per context)."""
-    sampler = _samplers.get(ctx)
-    if sampler is None or isinstance(sampler.mglo, moderngl.InvalidObject):
-        sampler = _samplers[ctx] = ctx.sampler(repeat_x=False, repeat_y=False, repeat_z=False,
-                                               filter=(moderngl.LINEAR, moderngl.LINEAR))
-    return sampler
-
-
-_samplers: "weakref.WeakKeyDictionary[moderngl.Context, object]" = weakref.WeakKeyDictionary()
+    """A sampler object with linear filtering and clamp-to-edge (one per context: derived data of
+    the context, vgraph.derived)."""
+    return derived.value(ctx, "linear sampler", lambda: ctx.sampler(
+        repeat_x=False, repeat_y=False, repeat_z=False, filter=(moderngl.LINEAR, moderngl.LINEAR)), ctx=ctx)
 
 
 class LookupTexture:

@@ -17,10 +17,9 @@ faces of the central tetrahedron and composites the (at most three) pieces itsel
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 
+from vgraph import derived
 from vgraph.camera import Camera
 from vgraph.mesh import RegularGrid, TetMesh
 from vgraph.tetrahedralize import CELL_TETS
@@ -56,16 +55,17 @@ def sweep_order(grid: RegularGrid, camera: Camera) -> np.ndarray:
     return swept[swept >= 0]
 
 
-_attributes: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
 def cell_attributes(mesh: TetMesh) -> np.ndarray:
     """(K, 12) float32 per kept cell: its corner 0 in world units and its parity (0 or 1), then the
     normalised scalars of its 8 corners (corner c at offset (c & 1, c >> 1 & 1, c >> 2 & 1)).
-    Computed once per mesh."""
-    if mesh not in _attributes:
-        _attributes[mesh] = _cell_attributes(mesh)
-    return _attributes[mesh]
+    Computed once per mesh (vgraph.derived)."""
+    return derived.value(mesh, "cell attributes", lambda: _cell_attributes(mesh))
+
+
+def cell_buffer(ctx, mesh: TetMesh):
+    """cell_attributes(mesh) as a vertex buffer on ``ctx``, uploaded once per mesh and context and
+    released with either (vgraph.derived)."""
+    return derived.value(mesh, "cell buffer", lambda: ctx.buffer(cell_attributes(mesh).tobytes()), ctx=ctx)
 
 
 def _cell_attributes(mesh: TetMesh) -> np.ndarray:

@@ -14,24 +14,18 @@ is kept while the mesh lives; an ordinary mesh is drawn as it is.
 from __future__ import annotations
 
 import dataclasses
-import weakref
 
+from vgraph import derived
 from vgraph.box_frame import BoxFrame
 from vgraph.mesh import TetMesh
 from vgraph.view_geometry import as_vec3
-
-_copies: "weakref.WeakKeyDictionary[TetMesh, tuple[BoxFrame, TetMesh]]" = weakref.WeakKeyDictionary()
-
 
 def mesh_in_frame(mesh: TetMesh) -> tuple[BoxFrame, TetMesh]:
     """(the frame of the mesh's box, the mesh to draw in it)."""
     frame = BoxFrame.of(*mesh.box)
     if frame.is_identity:
         return frame, mesh
-    known = _copies.get(mesh)
-    if known is None or known[0] != frame:
-        known = _copies[mesh] = (frame, _copy(mesh, frame))
-    return known
+    return frame, derived.value(mesh, "mesh in frame", lambda: _copy(mesh, frame), params=frame)
 
 
 def _copy(mesh: TetMesh, frame: BoxFrame) -> TetMesh:
