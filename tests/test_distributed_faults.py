@@ -191,7 +191,22 @@ def cli(tmp_path, network, *options, env=None):
     command = [sys.executable, "-m", "vgraph", "run", str(path), "-o", str(tmp_path / "out.png"),
                "--size", f"{SIZE[0]}x{SIZE[1]}", "--cluster", "local:2", "--plugin", PLUGIN, *options]
     return subprocess.Popen(command, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, env={**os.environ, **(env or {})})
+                            text=True, env={**os.environ, **(env or {})}, preexec_fn=as_in_a_terminal)
+
+
+def as_in_a_terminal() -> None:
+    """Ctrl-C as a foreground command in a terminal gets it: SIGINT neither blocked nor ignored.
+    A child inherits both, and a test run started in the background (`nohup ... &`, as CI may
+    start it) ignores SIGINT: the command then rightly ignores it too, as a background job does
+    (the test timed out so, with SigIgn 0x1001007 in /proc: SIGHUP, SIGINT, SIGQUIT ignored)."""
+    signal.pthread_sigmask(signal.SIG_SETMASK, [])
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def signal_masks(pid: int) -> str:
+    """The blocked and ignored signal masks of a process (/proc), for a failure's message."""
+    status = open(f"/proc/{pid}/status").read().splitlines()
+    return ", ".join(line for line in status if line.startswith(("SigBlk", "SigIgn")))
 
 
 def first_marker(folder, process, deadline=120.0) -> int:
@@ -274,8 +289,12 @@ def test_cli_ctrl_c_cancels_the_cluster_render(tmp_path):
         first_marker(markers, process)  # a tile is being drawn (and hangs)
         children = descendants(process.pid)
         assert children, "the LocalCluster's worker processes"
+        dispositions = signal_masks(process.pid)
         process.send_signal(signal.SIGINT)
-        _, err = process.communicate(timeout=120)
+        try:
+            _, err = process.communicate(timeout=120)
+        except subprocess.TimeoutExpired:
+            raise AssertionError(f"no exit within 120 s of SIGINT; the command's signals: {dispositions}") from None
     finally:
         if process.poll() is None:
             process.kill()
