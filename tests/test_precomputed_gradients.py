@@ -216,14 +216,15 @@ def test_no_gradient_volume_unless_a_shaded_frame_uses_it(changes):
 
 
 def test_bricked_frames_use_central_differences():
+    from vgraph.frame_context import FrameContext
     from vgraph.processors.raycaster import RayCaster
     volume = sample("torus", 16, "float32")
     from vgraph.processors.bricked_raycaster import BrickedRayCaster
     caster = RayCaster("rc", compositing="iso", shading="blinn_phong", derivatives="precomputed")
     bricked = BrickedRayCaster("rc")
     caster._bricked = bricked
-    bricked.process = lambda volume, entry, exit: {"seen": bricked.derivatives}
-    assert caster._brick_by_brick(volume, None, None) == {"seen": "central"}
+    bricked.process = lambda volume, entry, exit, context: {"seen": bricked.derivatives}
+    assert caster._brick_by_brick(volume, None, None, FrameContext()) == {"seen": "central"}
 
 
 def test_a_store_drawn_brick_by_brick_is_shaded_with_central_differences(tmp_path):
