@@ -32,10 +32,11 @@ def leftovers_of_other_tests_freed():
 def assert_flat(samples):
     after_warm_up = [s for s in samples if s.evaluation >= WARM_UP]
     assert max(s.textures for s in after_warm_up) <= after_warm_up[0].textures, samples
-    # Resident memory swings by a volume's size as arrays come and go: compare the peaks of the
-    # two halves, which a leak raises and a swing does not.
+    # Resident memory swings by a volume's size as arrays come and go (mpr_mri_head: +23 MB at one
+    # sample of the second half only, in a full run): compare the troughs of the two halves, which
+    # a leak raises (it holds on to memory at every sample) and a swing does not.
     half = len(after_warm_up) // 2
-    early, late = (max(s.resident_mb for s in part) for part in (after_warm_up[:half], after_warm_up[half:]))
+    early, late = (min(s.resident_mb for s in part) for part in (after_warm_up[:half], after_warm_up[half:]))
     assert late - early < RESIDENT_SLACK_MB, samples
 
 
