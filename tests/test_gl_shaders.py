@@ -30,7 +30,7 @@ def fixture(name):
 # ---------------------------------------------------------------------------- search path
 
 def test_search_path_starts_with_the_installed_shader_package():
-    assert builtin_shader_dir() == Path(__file__).parents[1] / "shaders"
+    assert builtin_shader_dir().resolve() == (Path(__file__).parents[1] / "shaders").resolve()  # src/vgraph/shaders links there
     assert shader_dirs()[0] == builtin_shader_dir()
     assert TEST_SHADERS.resolve() in shader_dirs()
     add_shader_dir(TEST_SHADERS)  # adding twice does not duplicate
