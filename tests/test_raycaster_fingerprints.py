@@ -1,5 +1,5 @@
-"""The three ray casters give bit-identical outputs to those recorded before their rebuild on
-shared components (tests/helpers/raycaster_cases.py lists the 53 configurations). Bits depend on the GL
+"""Every ray caster gives bit-identical outputs to those recorded before its rebuild on shared
+components (tests/helpers/raycaster_cases.py and more_raycaster_cases.py list the configurations). Bits depend on the GL
 driver, so the comparison runs where the recording was made (Mesa llvmpipe here) and is skipped,
 saying so, elsewhere; record again with `cd tests && python -m helpers.raycaster_cases` after a deliberate change."""
 

@@ -1,4 +1,4 @@
-"""Configurations of the three ray casters whose outputs are fingerprinted (SHA-256 of every output
+"""Configurations of the ray casters whose outputs are fingerprinted (SHA-256 of every output
 array), so that a refactoring can show its images are bit-identical: tests/test_raycaster_fingerprints.py
 compares them with tests/data/raycaster_fingerprints.json, recorded on one GL renderer."""
 
@@ -101,8 +101,10 @@ def curvature_cases():
 
 
 def all_cases():
+    from helpers.more_raycaster_cases import more_cases
     yield from raycaster_cases()
     yield from curvature_cases()
+    yield from more_cases()
 
 
 def fingerprint(network: Network, outports) -> dict[str, str]:
