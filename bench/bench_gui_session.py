@@ -375,7 +375,7 @@ def run_session(args, folder: Path) -> tuple[list[Wait], "object"]:
     from PySide6.QtCore import QSettings
     from PySide6.QtWidgets import QApplication
     from vgraph.gui.app import MainWindow
-    from vgraph.gui.render_process import RenderProcess
+    from vgraph.live.render_process import RenderProcess
     app = QApplication.instance() or QApplication(["vgraph"])
     imported = time.monotonic()
     renderer = RenderProcess()

@@ -251,7 +251,7 @@ def open_window(path: Path, settings_dir: Path):
     from PySide6.QtCore import QSettings
     from PySide6.QtWidgets import QApplication
     from vgraph.gui.app import MainWindow
-    from vgraph.gui.render_process import RenderProcess
+    from vgraph.live.render_process import RenderProcess
     QApplication.instance() or QApplication([])
     settings = QSettings(str(settings_dir / "settings.ini"), QSettings.IniFormat)
     window = MainWindow(settings, RenderProcess())

@@ -72,7 +72,7 @@ def parse_args(argv=None):
 def open_window(network: Path, settings_dir: Path):
     from PySide6.QtCore import QSettings
     from vgraph.gui.app import MainWindow
-    from vgraph.gui.render_process import RenderProcess
+    from vgraph.live.render_process import RenderProcess
     settings = QSettings(str(settings_dir / "settings.ini"), QSettings.IniFormat)
     window = MainWindow(settings, RenderProcess())
     window.show()

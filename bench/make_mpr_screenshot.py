@@ -23,7 +23,7 @@ def shoot(out: Path, size: tuple[int, int], click: tuple[float, float]) -> None:
     from PySide6.QtCore import QPointF, QSettings, Qt
     from PySide6.QtWidgets import QApplication
 
-    from vgraph.gui import slice_clicks
+    from vgraph.live import slice_clicks
     from vgraph.gui.app import MainWindow, save_screenshot
     from vgraph.gui.canvas_grid import tile_canvases
 

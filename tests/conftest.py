@@ -41,7 +41,7 @@ def gl():
 @pytest.fixture(scope="session")
 def renderer():
     """One render process for all GUI tests (starting one takes a second or two)."""
-    from vgraph.gui.render_process import RenderProcess
+    from vgraph.live.render_process import RenderProcess
     process = RenderProcess()
     yield process
     process.stop()

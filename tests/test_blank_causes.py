@@ -351,7 +351,7 @@ def test_a_3d_file_says_nothing_of_time(tmp_path, capsys):
 
 def test_the_gui_status_of_the_source_names_the_time_point(tmp_path):
     import vgraph
-    from vgraph.gui.evaluator import data_summary
+    from vgraph.live.evaluator import data_summary
     from vgraph.time_series import time_series_notes
     network = vgraph.load(four_d_nifti(tmp_path / "series.nii.gz"))
     network.set("source.time_step", 2)

@@ -176,8 +176,8 @@ def test_the_leaves_split_gives_its_leaf_in_the_context(tmp_path):
 
 
 def test_the_render_process_gives_its_load_limit_in_the_context(tmp_path):
-    from vgraph.gui.render_messages import RenderJob
-    from vgraph.gui.render_server import RenderServer
+    from vgraph.live.render_messages import RenderJob
+    from vgraph.live.render_server import RenderServer
 
     server = RenderServer()
     server.network = bricked_network(tmp_path)

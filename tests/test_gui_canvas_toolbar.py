@@ -334,8 +334,8 @@ def test_reported_camera_and_box_project_onto_the_rendered_box(gl):
     opaque everywhere the RayCaster draws the whole box, whose silhouette spans exactly the
     projected corners (to the pixel)."""
     import vgraph
-    from vgraph.gui.evaluator import view_cameras
-    from vgraph.gui.view_boxes import view_boxes
+    from vgraph.live.evaluator import view_cameras
+    from vgraph.live.view_boxes import view_boxes
     from vgraph.imagefile import to_uint8
 
     network = vgraph.load(REPO / "networks" / "raycast_sphere.json")

@@ -8,9 +8,9 @@ import pytest
 import vgraph
 from vgraph.errors import VGraphError
 from vgraph.fileformat import network_document
-from vgraph.gui.cluster import ClusterSetting
-from vgraph.gui.render_messages import RenderJob, RenderProgress
-from vgraph.gui.render_server import RenderServer
+from vgraph.live.cluster import ClusterSetting
+from vgraph.live.render_messages import RenderJob, RenderProgress
+from vgraph.live.render_server import RenderServer
 
 from helpers.paths import REPO
 
@@ -126,7 +126,7 @@ def test_local_setting_starts_its_workers_from_the_render_process_and_closes_the
     """The render process is a daemon; ``local:N`` still starts N worker processes there."""
     import subprocess
 
-    from vgraph.gui.render_process import RenderProcess
+    from vgraph.live.render_process import RenderProcess
     process = RenderProcess()
     try:
         process.submit(sphere_job(cluster=ClusterSetting("local:1", "tiles", (2, 1))))

@@ -9,7 +9,7 @@ from PySide6.QtGui import QColor
 from PySide6.QtWidgets import QColorDialog, QDialog, QStyle
 
 from vgraph.gui import tf_point_dialog
-from vgraph.gui.evaluator import processor_status
+from vgraph.live.evaluator import processor_status
 from vgraph.network import Network
 from vgraph.transfer_function import TransferFunction, ValueScale
 

@@ -12,7 +12,7 @@ import pytest
 
 from helpers.paths import REPO
 from helpers.slow_source import slow_network, slow_source  # noqa: F401 (slow_source: a fixture)
-from vgraph.gui.evaluator import ProcessorStatus
+from vgraph.live.evaluator import ProcessorStatus
 from vgraph.gui.inspector import running_text, timing_text
 from vgraph.progress import Progress
 

@@ -11,11 +11,11 @@ from PySide6.QtCore import QEvent, Qt
 import vgraph
 from vgraph.errors import VGraphError
 from vgraph.fileformat import network_document
-from vgraph.gui.changes import PropertySet
+from vgraph.live.changes import PropertySet
 from vgraph.gui.live_evaluation import INTERACTIVE_SCALE, LiveEvaluation
-from vgraph.gui.render_messages import RenderJob, RenderResult
-from vgraph.gui.render_server import RenderServer, serve
-from vgraph.gui.evaluator import EvaluationOutcome
+from vgraph.live.render_messages import RenderJob, RenderResult
+from vgraph.live.render_server import RenderServer, serve
+from vgraph.live.evaluator import EvaluationOutcome
 from scripted_user import send_mouse
 
 from helpers.paths import REPO

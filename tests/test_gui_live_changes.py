@@ -7,9 +7,9 @@ import signal
 import numpy as np
 
 from vgraph.fileformat import network_document
-from vgraph.gui.changes import PropertySet
-from vgraph.gui.render_messages import RenderJob
-from vgraph.gui.render_server import RenderServer
+from vgraph.live.changes import PropertySet
+from vgraph.live.render_messages import RenderJob
+from vgraph.live.render_server import RenderServer
 
 from helpers.networks import bricked_sphere_network
 from helpers.paths import REPO
@@ -97,7 +97,7 @@ def test_a_render_process_that_asks_for_the_document_gets_it(window, jobs):
 def test_refining_renders_the_same_state_again_and_stops_when_a_frame_reads_nothing(window, jobs, qtbot):
     """A final, refining result is asked for again with no changes; one that read no bricks made
     no progress: refining stops with a warning instead of spinning."""
-    from vgraph.gui.render_messages import RenderResult
+    from vgraph.live.render_messages import RenderResult
     open_small(window)
     evaluation = window.evaluation
     del jobs[:]

@@ -12,7 +12,7 @@ from PySide6.QtGui import QWheelEvent
 from PySide6.QtWidgets import QApplication
 
 from vgraph.gui import slice_gestures
-from vgraph.gui.slice_clicks import OUTSIDE, slice_outlines, slice_viewer_for
+from vgraph.live.slice_clicks import OUTSIDE, slice_outlines, slice_viewer_for
 
 from helpers.gui import open_mpr, send_mouse, settle
 from helpers.paths import DATA

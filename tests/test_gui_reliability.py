@@ -125,7 +125,7 @@ def lone_window(qtbot, tmp_path):
     """A window with a render process of its own: these tests stop and kill it."""
     from PySide6.QtCore import QSettings
     from vgraph.gui.app import MainWindow
-    from vgraph.gui.render_process import RenderProcess
+    from vgraph.live.render_process import RenderProcess
     renderer = RenderProcess()
     main = MainWindow(QSettings(str(tmp_path / "settings.ini"), QSettings.IniFormat), renderer)
     main.show()

@@ -9,11 +9,11 @@ import pytest
 import vgraph
 from vgraph.errors import NetworkFileError
 from vgraph.fileformat import network_document
-from vgraph.gui.changes import PropertySet, append_change, apply_changes, change_of
-from vgraph.gui.mirror import mirror
-from vgraph.gui.render_messages import RenderJob, plugin_modules
-from vgraph.gui.render_process import RenderProcess
-from vgraph.gui.render_server import RenderServer
+from vgraph.live.changes import PropertySet, append_change, apply_changes, change_of
+from vgraph.live.mirror import mirror
+from vgraph.live.render_messages import RenderJob, plugin_modules
+from vgraph.live.render_process import RenderProcess
+from vgraph.live.render_server import RenderServer
 from vgraph.network import Network
 
 from helpers.paths import REPO

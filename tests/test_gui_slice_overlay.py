@@ -14,7 +14,7 @@ from vgraph.gui import overlays
 from vgraph.gui.canvas_toolbar import CanvasPane
 from vgraph.gui.canvas_view import CanvasView
 from vgraph.gui.overlays import ViewGeometry
-from vgraph.gui.slice_clicks import slice_outlines
+from vgraph.live.slice_clicks import slice_outlines
 from helpers.gui import open_mpr, raycast_workspace, settle
 from vgraph.slicing import slice_plane
 

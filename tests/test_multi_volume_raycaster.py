@@ -338,10 +338,10 @@ def test_the_gui_shows_the_network_and_switches_the_blend_mode(window, jobs):
 
 # --- the TF editors in the GUI ------------------------------------------------------------------
 def test_each_transfer_function_is_paired_with_its_channels_volume_for_the_editors(torus, other_grid):
-    """gui.evaluator gives each TF property the histogram and value scale of the volume it
+    """live.evaluator gives each TF property the histogram and value scale of the volume it
     classifies (the MultiVolumeRayCaster's declared pairing); a RayCaster's single TF keeps its
     volume's; a TF whose channel is not connected gets none."""
-    from vgraph.gui.evaluator import histograms, value_scales
+    from vgraph.live.evaluator import histograms, value_scales
     from vgraph.processors.multi_volume_raycaster import MultiVolumeRayCaster
     from vgraph.testing import ray_caster_network
     from vgraph.transfer_function import ValueScale

@@ -7,7 +7,7 @@ import pytest
 import vgraph
 from vgraph import progress
 from vgraph.errors import ProcessorError
-from vgraph.gui.progress_messages import ProcessorProgress, ProgressForwarder
+from vgraph.live.progress_messages import ProcessorProgress, ProgressForwarder
 from vgraph.network import Network
 from vgraph.progress import Progress, Steps, listening, report
 from vgraph.scheduler import evaluate

@@ -260,8 +260,8 @@ def test_the_gui_render_process_checks_the_write_confinement_as_its_writers_writ
     """A GUI left open for hours: the window's network was checked when opened, the render
     process writes; a link made in between is refused there too."""
     from vgraph.fileformat import network_document
-    from vgraph.gui.render_messages import RenderJob
-    from vgraph.gui.render_server import RenderServer
+    from vgraph.live.render_messages import RenderJob
+    from vgraph.live.render_server import RenderServer
     network_file = network_writing_to(tmp_path, "results/torus.nrrd")
     network = vgraph.load(network_file)
     elsewhere = tmp_path / "elsewhere"

@@ -5,13 +5,13 @@ Conventions:
 - The network is the model and never imports Qt. The GUI subscribes to its events
   (``Network.subscribe``) and redraws; every edit goes through a QUndoCommand (``commands.py``)
   that calls Network methods, so undo/redo covers every edit.
-- The GUI process holds no OpenGL context: a render process (``render_process``) owns the EGL
-  context and a mirror of the network, evaluates, and sends frames back as images.
+- The GUI process holds no OpenGL context: a render process (``vgraph.live``, which imports no
+  Qt) owns the EGL context and a mirror of the network, evaluates, and sends frames back as images.
 - Importing ``vgraph.gui`` imports no Qt; the modules below do (``vgraph gui`` imports them lazily).
 
 Modules: app (main window, menus), workspace (file, undo stack, edit operations), commands,
 scene and items (the node editor), interactions (drag-to-connect), palette, editors and inspector
 (property widgets), transfer_function_editor, canvas_view and canvases (the rendered images and
-the trackball), links (link dialog, auto-linked cameras), log (log panel), evaluator, mirror,
-render_process and live_evaluation (what runs, where, and when).
+the trackball), links (link dialog, auto-linked cameras), log (log panel), live_evaluation (what
+runs, where, and when, through the render process of ``vgraph.live``).
 """

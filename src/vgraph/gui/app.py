@@ -35,7 +35,7 @@ from vgraph.errors import VGraphError
 from vgraph.gui.autosave import Autosave
 from vgraph.gui.canvases import CanvasDocks
 from vgraph.gui.cluster_dialog import ClusterDialog, load_setting, save_setting
-from vgraph.gui.evaluator import EvaluationOutcome, format_seconds
+from vgraph.live.evaluator import EvaluationOutcome, format_seconds
 from vgraph.gui.file_actions import FileActions
 from vgraph.gui.help import build_help_menu, redo_keys
 from vgraph.gui import layout
@@ -43,7 +43,7 @@ from vgraph.gui import canvas_grid
 from vgraph.gui.inspector import PropertyInspector
 from vgraph.gui.links import LinkDialog
 from vgraph.gui.live_evaluation import LiveEvaluation
-from vgraph.gui.render_process import RenderProcess
+from vgraph.live.render_process import RenderProcess
 from vgraph.gui.log import LogPanel
 from vgraph.gui.palette import ProcessorPalette
 from vgraph.gui.progress_view import EvaluationProgress

@@ -50,10 +50,11 @@ from PySide6.QtWidgets import QFileDialog, QMenu, QWidget
 from vgraph.camera import VIEWS
 from vgraph.errors import OutputFileError, VGraphError
 from vgraph.gui import clip_drag
-from vgraph.gui import slice_clicks, slice_gestures
+from vgraph.gui import slice_gestures
+from vgraph.live import slice_clicks
 from vgraph.gui.image_export import IMAGE_FILTER, suggested_image_path, write_frame
 from vgraph.gui.overlays import ViewGeometry, draw_overlays
-from vgraph.gui.upstream import NO_CAMERA, nearest_upstream, property_of_type
+from vgraph.live.upstream import NO_CAMERA, nearest_upstream, property_of_type
 from vgraph.properties import CameraProperty
 
 BACKGROUND = QColor(32, 32, 36)

@@ -22,7 +22,7 @@ from PySide6.QtWidgets import QDockWidget, QMainWindow
 from vgraph.gui import layout
 from vgraph.gui.canvas_toolbar import CanvasPane
 from vgraph.gui.canvas_view import CanvasView, camera_property_for
-from vgraph.gui.evaluator import EvaluationOutcome, is_display
+from vgraph.live.evaluator import EvaluationOutcome, is_display
 from vgraph.gui.live_evaluation import LiveEvaluation
 from vgraph.gui.overlays import ViewGeometry
 from vgraph.gui.workspace import Workspace

@@ -17,7 +17,7 @@ import numpy as np
 from PySide6.QtCore import Qt
 
 from vgraph.clipping import ClipPlanesProperty
-from vgraph.gui.upstream import nearest_upstream, property_of_type
+from vgraph.live.upstream import nearest_upstream, property_of_type
 
 NO_PLANE = "no clip plane upstream of this canvas (EntryExitPoints.clip_planes)"
 MIN_SCREEN_NORMAL = 0.3  # below this length of the normal's screen projection: vertical drags

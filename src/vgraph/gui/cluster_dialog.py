@@ -3,7 +3,7 @@
 QSettings keys (the Workspace's settings, so tests use their own file): ``cluster/address``
 (``local:N`` or ``tcp://HOST:PORT`` as ``vgraph run --cluster`` takes it; empty: render in the
 render process), ``cluster/split`` and ``cluster/tiles`` (``CxR``). The window passes the setting
-to ``LiveEvaluation.set_cluster``; the render process does the rest (``vgraph.gui.cluster``).
+to ``LiveEvaluation.set_cluster``; the render process does the rest (``vgraph.live.cluster``).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from PySide6.QtWidgets import (QComboBox, QDialog, QDialogButtonBox, QFormLayout
 
 from vgraph.distributed import SPLITS, parse_cluster, parse_grid
 from vgraph.errors import VGraphError
-from vgraph.gui.cluster import ClusterSetting
+from vgraph.live.cluster import ClusterSetting
 
 
 def parse_setting(address: str, split: str = "tiles", tiles: str = "2x2") -> ClusterSetting | None:

@@ -32,7 +32,7 @@ from vgraph.gui import clip_planes_editor  # noqa: F401  (registers the clip-pla
 from vgraph.gui import label_table_editor  # noqa: F401  (registers the label-table editor)
 from vgraph.gui import camera_editor  # noqa: F401  (registers the camera editor)
 from vgraph.gui.editors import PropertyEditor, editor_for
-from vgraph.gui.evaluator import ProcessorStatus, format_seconds, processor_status
+from vgraph.live.evaluator import ProcessorStatus, format_seconds, processor_status
 from vgraph.gui.progress_view import SHOW_AFTER_SECONDS
 from vgraph.gui.workspace import Workspace
 from vgraph.network import Network

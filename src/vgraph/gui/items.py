@@ -21,7 +21,7 @@ from PySide6.QtGui import QBrush, QColor, QFont, QFontMetrics, QPainterPath, QPa
 from PySide6.QtWidgets import QGraphicsEllipseItem, QGraphicsItem, QGraphicsPathItem
 
 from vgraph.gui.edge_routing import Box, Route, curve_controls, route
-from vgraph.gui.evaluator import ProcessorStatus
+from vgraph.live.evaluator import ProcessorStatus
 from vgraph.network import Connection, Link
 from vgraph.ports import Port
 from vgraph.processor import Processor

@@ -29,7 +29,7 @@ Conventions:
   ("refining...") and the same state is rendered again (an empty-changes job), by itself, until a
   frame is complete; any change takes over as usual. A refining result that read no bricks made
   no progress: refining stops there, with a warning, rather than spin.
-- ``set_cluster(setting)`` (a ``vgraph.gui.cluster.ClusterSetting``, or None) makes the render
+- ``set_cluster(setting)`` (a ``vgraph.live.cluster.ClusterSetting``, or None) makes the render
   process draw the final frames on that cluster (coarse ones stay local) and renders again;
   ``progress(done, total)`` reports its tiles while such a frame is drawn.
 - ``running(progress)`` says which processor the render process runs now and how far its steps
@@ -63,10 +63,10 @@ from PySide6.QtCore import QObject, QTimer, Signal
 
 from vgraph.errors import VGraphError
 from vgraph.fileformat import network_document
-from vgraph.gui.changes import Change, append_change, change_of
-from vgraph.gui.evaluator import EvaluationOutcome, ProcessorStatus, format_seconds, processor_status
-from vgraph.gui.render_messages import GUI_LOAD_LIMIT, RenderJob, RenderResult, plugin_modules
-from vgraph.gui.render_process import RenderProcess, describe_exit
+from vgraph.live.changes import Change, append_change, change_of
+from vgraph.live.evaluator import EvaluationOutcome, ProcessorStatus, format_seconds, processor_status
+from vgraph.live.render_messages import GUI_LOAD_LIMIT, RenderJob, RenderResult, plugin_modules
+from vgraph.live.render_process import RenderProcess, describe_exit
 from vgraph.gui.workspace import Workspace
 from vgraph.network import Network
 

@@ -23,7 +23,7 @@ import networkx as nx
 from PySide6.QtCore import QObject, QTimer
 from PySide6.QtWidgets import QLabel, QProgressBar
 
-from vgraph.gui.evaluator import running_status, waiting_status
+from vgraph.live.evaluator import running_status, waiting_status
 
 SHOW_AFTER_SECONDS = 0.3
 STALE_PREFIX = "updating: "   # the canvas note; a note of another kind is never touched

@@ -20,7 +20,7 @@ from PySide6.QtWidgets import QGraphicsScene, QGraphicsView
 
 from vgraph.errors import VGraphError
 from vgraph.gui.edge_routing import LANE_STEP, MARGIN, Box, free_spot
-from vgraph.gui.evaluator import processor_status
+from vgraph.live.evaluator import processor_status
 from vgraph.gui.interactions import ConnectInteraction
 from vgraph.gui.items import NODE_HEIGHT, NODE_WIDTH, EdgeItem, LinkItem, NodeItem, PortItem
 from vgraph.gui.workspace import Workspace

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vgraph.gui.slice_clicks import PLANE_SUFFIX, VOLUME_SUFFIX, slice_viewer_for
+from vgraph.live.slice_clicks import PLANE_SUFFIX, VOLUME_SUFFIX, slice_viewer_for
 from vgraph.slicing import index_vectors
 from vgraph.volume_grid import IDENTITY
 

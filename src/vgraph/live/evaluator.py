@@ -33,7 +33,7 @@ from vgraph import derived
 from vgraph.camera import Camera
 from vgraph.errors import ProcessorError, VGraphWarning
 from vgraph.frame_context import FrameContext
-from vgraph.gui.slice_clicks import slice_planes
+from vgraph.live.slice_clicks import slice_planes
 from vgraph.image import Image
 from vgraph.imagefile import to_uint8
 from vgraph.mesh import TetMesh
@@ -72,7 +72,7 @@ class EvaluationOutcome:
 def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = False,
                   draw=None, context: FrameContext | None = None) -> EvaluationOutcome:
     """``draw(display, size)``, if given, may return a display's picture drawn elsewhere (a
-    cluster: ``vgraph.gui.cluster``) instead of evaluating it here; None draws it here.
+    cluster: ``vgraph.live.cluster``) instead of evaluating it here; None draws it here.
     ``context``: the frame context of every evaluation (the job's load limit)."""
     outcome = EvaluationOutcome()
     not_ready, writers, targets = network.graph_query(("view", include_writers),
@@ -203,7 +203,7 @@ def classified_inputs(network: Network):
 def view_cameras(network: Network) -> dict:
     """'id.camera' -> the concrete camera of the last frame, for processors that resolved one
     (a camera that fits the data or chooses its near/far needs it to zoom and pan from); and
-    'id.slice_plane' -> a SliceViewer's plane, where a click in its canvas lands (gui.slice_clicks)."""
+    'id.slice_plane' -> a SliceViewer's plane, where a click in its canvas lands (live.slice_clicks)."""
     return {f"{pid}.camera": processor.view_camera for pid, processor in network.processors.items()
             if isinstance(getattr(processor, "view_camera", None), Camera) and "camera" in processor.properties
             } | slice_planes(network)

@@ -1,9 +1,9 @@
-"""What the GUI and its render process (vgraph.gui.render_process) send each other.
+"""What the GUI and its render process (vgraph.live.render_process) send each other.
 
 Protocol (pickled objects over a ``multiprocessing`` pipe, one job in flight at a time):
 - GUI -> render process: a ``RenderJob``, or ``None`` to stop. A job carries either the network as
   a version-1 document (a file opened, a new network, plug-ins that changed, a resync) or the
-  ``changes`` made since the previous job (``vgraph.gui.changes``: property values, processors,
+  ``changes`` made since the previous job (``vgraph.live.changes``: property values, processors,
   connections, links; an empty tuple re-renders), plus the modules that define its plug-in
   processor types, the resolution scale, whether writers run and whether to start from a new network.
 - render process -> GUI: one ``RenderResult`` per job: what ran or failed, a ``ProcessorStatus`` per
@@ -18,7 +18,7 @@ Protocol (pickled objects over a ``multiprocessing`` pipe, one job in flight at 
   the GUI then sends an empty-changes job for the same state, which draws those processors again
   (they are invalidated: the bricks read since make the frame finer), until a frame is complete.
   ``bricks_read`` says whether an incomplete frame made progress.
-- On a cluster: a job's ``cluster`` (``vgraph.gui.cluster.ClusterSetting``, the GUI's "Render on
+- On a cluster: a job's ``cluster`` (``vgraph.live.cluster.ClusterSetting``, the GUI's "Render on
   Cluster" setting) makes the final frames (full scale, no writers) of the displays be drawn by
   that cluster's workers (``vgraph.distributed.render``); meanwhile the render process sends
   ``RenderProgress`` messages (tiles done / total) before the job's one ``RenderResult``. Coarse
@@ -38,9 +38,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vgraph.bricks.cache import LoadLimit
-from vgraph.gui.changes import Change
-from vgraph.gui.cluster import ClusterSetting
-from vgraph.gui.evaluator import EvaluationOutcome, ProcessorStatus
+from vgraph.live.changes import Change
+from vgraph.live.cluster import ClusterSetting
+from vgraph.live.evaluator import EvaluationOutcome, ProcessorStatus
 from vgraph.network import Network
 
 BUILTIN_PACKAGE = "vgraph.processors"

@@ -1,4 +1,4 @@
-"""The render process's side: a ``RenderServer`` turns the jobs of vgraph.gui.render_messages into
+"""The render process's side: a ``RenderServer`` turns the jobs of vgraph.live.render_messages into
 results, and ``serve`` is the process's main loop.
 
 The render process keeps its network between jobs (``mirror`` applies a document as a diff; changes
@@ -16,13 +16,13 @@ from tqdm import tqdm
 from vgraph import progress as progress_api
 from vgraph.errors import VGraphError
 from vgraph.frame_context import FrameContext
-from vgraph.gui.changes import apply_changes
-from vgraph.gui.cluster import ClusterRenderer, ClusterView
-from vgraph.gui.evaluator import evaluate_view, histograms, processor_status, value_scales, view_cameras
-from vgraph.gui.mirror import mirror
-from vgraph.gui.progress_messages import ProgressForwarder
-from vgraph.gui.render_messages import RenderJob, RenderProgress, RenderResult
-from vgraph.gui.view_boxes import view_boxes
+from vgraph.live.changes import apply_changes
+from vgraph.live.cluster import ClusterRenderer, ClusterView
+from vgraph.live.evaluator import evaluate_view, histograms, processor_status, value_scales, view_cameras
+from vgraph.live.mirror import mirror
+from vgraph.live.progress_messages import ProgressForwarder
+from vgraph.live.render_messages import RenderJob, RenderProgress, RenderResult
+from vgraph.live.view_boxes import view_boxes
 from vgraph.network import Network
 from vgraph.registry import registry
 

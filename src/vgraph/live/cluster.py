@@ -205,7 +205,7 @@ class ClusterView:
 
     def statuses(self, statuses: dict) -> dict:
         """The render process's statuses with the processors the cluster drew marked as such."""
-        from vgraph.gui.evaluator import ProcessorStatus, format_seconds
+        from vgraph.live.evaluator import ProcessorStatus, format_seconds
 
         setting, workers = self.renderer.setting, self.renderer.workers
         for producers, seconds in self.drawn.values():

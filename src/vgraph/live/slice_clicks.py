@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vgraph.errors import VGraphError
-from vgraph.gui.upstream import NO_CAMERA, nearest_upstream
+from vgraph.live.upstream import NO_CAMERA, nearest_upstream
 from vgraph.slicing import SlicePlane
 
 PLANE_SUFFIX = ".slice_plane"

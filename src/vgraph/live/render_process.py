@@ -3,7 +3,7 @@
 Why a process: moderngl holds the GIL while it renders, so rendering in a thread of the GUI process
 would freeze the window for a whole frame; and the GUI then needs no GL at all, so it runs (and is
 tested) anywhere Qt runs. The GUI sends what to show, the render process sends frames back.
-What they send: vgraph.gui.render_messages; what the child does: vgraph.gui.render_server.
+What they send: vgraph.live.render_messages; what the child does: vgraph.live.render_server.
 
 ``RenderProcess`` is the GUI's handle (no Qt): ``submit`` a job, ``poll``/``wait`` for the result.
 If the process dies (a driver crash), the result says so with its exit code and the next job
@@ -20,9 +20,9 @@ from collections import deque
 
 from vgraph import progress as progress_api
 from vgraph.errors import VGraphError
-from vgraph.gui.progress_messages import ProcessorProgress
-from vgraph.gui.render_messages import RenderJob, RenderProgress, RenderResult
-from vgraph.gui.render_server import serve
+from vgraph.live.progress_messages import ProcessorProgress
+from vgraph.live.render_messages import RenderJob, RenderProgress, RenderResult
+from vgraph.live.render_server import serve
 
 RECENT_JOBS = 20   # how many recent jobs say how long a job usually takes
 
