@@ -1,7 +1,7 @@
 """BrickedRayCaster (issue #14, part 4): ray casting of a volume brick by brick, for volumes larger
 than memory (a BrickedVolume's pyramid on disk) or than one GL texture.
 
-Conventions (docs/bricked_raycaster.md explains each with the numbers):
+Conventions (docs/explanations/bricked-ray-casting.md explains each with the numbers):
 - Rays come from the EntryExitPoints images, as for the RayCaster, and the samples lie on the
   RayCaster's lattice: sample i at entry + i * step, step = min(spacing) / sampling_rate of level 0.
   Each brick owns a half-open box of that lattice (vgraph.bricks.selection), so every sample is
@@ -53,11 +53,12 @@ from vgraph.bricks.selection import BrickGeometry, FramePlan, LeafPass, coarse_f
 from vgraph.bricks.targets import Accumulation, brick_uniforms, level_voxel
 from vgraph.errors import VGraphWarning
 from vgraph.frame_context import FrameContext
-from vgraph.gl.context import release_quietly
+from vgraph.gl_context import release_quietly
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
-from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, IsoSurface, Light,
-                                             RaycasterBase, Sampling, TransferFunctionLut, palette_shading,
-                                             palette_transfer_function)
+from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, IsoSurface, Sampling,
+                                             TransferFunctionLut, palette_shading, palette_transfer_function)
+from vgraph.gl.raycasting.light import Light
+from vgraph.gl.raycasting.raycaster_base import Binding, Pass, RaycasterBase
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import linear_sampler
@@ -93,9 +94,10 @@ class BrickedRayCaster(RaycasterBase):
     """Ray casting brick by brick, front to back, with levels of detail and memory budgets."""
 
     category = "Volume rendering"
-    inports = [Inport("volume", Volume), Inport("entry", Image), Inport("exit", Image)]
+    inports = [Inport("volume", Volume)]
     outports = [Outport("image", Image), Outport("depth", Image)]
-    components = (EntryExit, CameraRays, Sampling, TransferFunctionLut, IsoSurface, Light, Background)
+    components = (EntryExit(), CameraRays(), Sampling(), TransferFunctionLut(), IsoSurface(),
+                  Light(mode="compositing", shaded_modes=SHADED_MODES), Background())
     uses_context = ("load_limit", "leaf")  # module docstring
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING), doc="dvr, mip, iso (surface at iso_level)")
@@ -135,9 +137,6 @@ class BrickedRayCaster(RaycasterBase):
         return [voxels_by_compositing("volume", volume, self)] if volume is not None else []
 
     # --- shader ---------------------------------------------------------------------------------
-    def shaded(self) -> bool:
-        return self.shading != "none" and self.compositing in SHADED_MODES
-
     def reads_accumulation(self) -> bool:
         """dvr with early termination: each brick continues the sum of the bricks in front."""
         return self.compositing == "dvr" and self.early_termination < 1.0
@@ -269,7 +268,7 @@ class BrickedRayCaster(RaycasterBase):
         ctx = frame.ctx
         binding = self.base_binding(frame)
         program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, BRICK_SHADER, binding.defines, processor=self.id)
-        self.passes.append((BRICK_SHADER, binding.defines))
+        self.passes.append(Pass(BRICK_SHADER, binding.defines))
         scale, offset = self.cache.format.scale, self.cache.format.offset
         uniforms = {**binding.uniforms, "intensity_scale": float(scale), "intensity_offset": float(offset),
                     "opacity_exponent": 1.0 / self.sampling_rate}  # (the RayCaster's FrontToBack sets it)
@@ -360,7 +359,7 @@ class BrickedRayCaster(RaycasterBase):
             binding = binding.merge(self.parts[component].bind(frame))
         program = programs.program(frame.ctx, FULLSCREEN_VERTEX_SHADER, RESOLVE_SHADER, binding.defines,
                                    processor=self.id)
-        self.passes.append((RESOLVE_SHADER, binding.defines))
+        self.passes.append(Pass(RESOLVE_SHADER, binding.defines))
         textures = {**binding.textures, "accumulated_sum": accumulation.textures[0],
                     "accumulated_first": accumulation.textures[1]}
         fullscreen_pass(frame.ctx, program, self._targets, textures, binding.uniforms, samplers=binding.samplers,

@@ -1,6 +1,6 @@
 """CurvatureRaycaster (Cabral 2010 sec. 5.3-5.4): an iso-surface coloured by its curvature.
 
-Conventions (docs/curvature.md explains each property with pictures):
+Conventions (docs/explanations/curvature.md explains each property with pictures):
 - One inport `volume` takes what the derivative mode needs: voxel SAMPLES for the finite-difference
   modes (forward, central, filtered), B-spline COEFFICIENTS (CubicSplineProcessor output) for
   tricubic and tricubic_fast. The other kind is refused with a message saying what to insert or
@@ -10,7 +10,7 @@ Conventions (docs/curvature.md explains each property with pictures):
   `iso_level` (normalised like every iso level; 0.5 is the surface of every FunctionSelector
   volume), found by marching and refined by regula falsi to float precision
   (shaders/curvature/iso_hit.glsl).
-- Curvature (Kindlmann et al. 2003) in 1/world units with the sign of docs/conventions.md: interior brighter,
+- Curvature (Kindlmann et al. 2003) in 1/world units with the sign of docs/explanations/conventions.md: interior brighter,
   a sphere of radius r has k1 = k2 = +1/r. Undefined where |grad f| is too small to give the
   surface a direction (vgraph.gl.curvature.min_gradient); such hits are flagged, not coloured.
 - Built from the shared ray-casting components (vgraph.gl.raycasting.components) and the curvature
@@ -29,9 +29,11 @@ from __future__ import annotations
 
 from vgraph import FloatProperty, Inport, OptionProperty, Outport
 from vgraph.gl.curvature import CurvatureColoring, CurvatureField, RangeReduction, measure_defines, measure_uniforms
-from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EmptySpace, EntryExit, Light,
-                                             RawIsoSurface, RaycasterBase, Sampling, VolumeSampling)
+from vgraph.gl.raycasting.components import (Background, CameraRays, EmptySpace, EntryExit, RawIsoSurface, Sampling,
+                                             VolumeSampling)
 from vgraph.gl.raycasting.empty_space import crossed_by, level_occupancy, radii_if_worthwhile
+from vgraph.gl.raycasting.light import Light
+from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
@@ -40,8 +42,17 @@ from vgraph.volume import Volume
 
 SURFACE_SHADER = "curvature/curvature_raycaster.frag.glsl"
 COLOR_SHADER = "curvature/curvature_color.frag.glsl"
-SURFACE_PARTS = (EntryExit, CameraRays, VolumeSampling, Sampling, RawIsoSurface, CurvatureField, EmptySpace)
-COLOR_PARTS = (CurvatureColoring, Light, Background)
+
+
+def skip_values(raycaster, frame):
+    """Blocks the surface may cross (components.EmptySpace)."""
+    level = raycaster.iso_level
+    return level, lambda low, high: radii_if_worthwhile(level_occupancy(level)(low, high))
+
+
+SURFACE_PARTS = (EntryExit(), CameraRays(), VolumeSampling(), Sampling(), RawIsoSurface(), CurvatureField(),
+                 EmptySpace(skip=skip_values))
+COLOR_PARTS = (CurvatureColoring(), Light(), Background())
 
 
 class CurvatureRaycaster(RaycasterBase):
@@ -51,7 +62,7 @@ class CurvatureRaycaster(RaycasterBase):
     # Curvatures (1/length), positions and the attenuation are world lengths: extreme boxes are
     # refused by name rather than drawn in their normalised frame (components docstring).
     frames_extreme_boxes = False
-    inports = [Inport("volume", Volume), Inport("entry", Image), Inport("exit", Image)]
+    inports = [Inport("volume", Volume)]
     outports = [Outport("image", Image), Outport("curvature", Image), Outport("position", Image),
                 Outport("depth", Image)]
     components = SURFACE_PARTS + COLOR_PARTS
@@ -67,9 +78,6 @@ class CurvatureRaycaster(RaycasterBase):
         self._image = RenderTargets(1)
         self._reduction = RangeReduction()
 
-    def shaded(self) -> bool:
-        return self.shading != "none"
-
     def visible_content(self) -> str | None:
         volume = self.inputs.get("volume")
         return crossed_by(volume, self.iso_level) if volume is not None else None
@@ -78,11 +86,6 @@ class CurvatureRaycaster(RaycasterBase):
         """The voxels inside its iso surface (vgraph.blank_causes)."""
         volume = self.inputs.get("volume")
         return [voxels_reaching("volume", volume, self.iso_level)] if volume is not None else []
-
-    def skip_values(self, frame):
-        """Blocks the surface may cross (components.EmptySpace)."""
-        level = self.iso_level
-        return level, lambda low, high: radii_if_worthwhile(level_occupancy(level)(low, high))
 
     # --- evaluation -----------------------------------------------------------------------------
     def process(self, volume: Volume, entry: Image, exit: Image) -> dict:

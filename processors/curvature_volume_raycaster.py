@@ -1,6 +1,6 @@
 """CurvatureVolumeRaycaster (Cabral 2010 sec. 5.5): direct volume rendering coloured by curvature.
 
-Conventions (docs/curvature.md explains each property):
+Conventions (docs/explanations/curvature.md explains each property):
 - Opacity comes from the scalar transfer function of each sample's normalised intensity (only its
   alpha is used), corrected for the sampling rate as in the RayCaster; colour from the normalised
   curvature of the level set through the sample (the CurvatureRaycaster's measures,
@@ -21,9 +21,11 @@ from __future__ import annotations
 from vgraph import Inport, OptionProperty, Outport, TransferFunctionProperty
 from vgraph.gl.curvature import (CURVATURES, CurvatureColoring, CurvatureField, RangeReduction, measure_defines,
                                  measure_uniforms)
-from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EmptySpace, EntryExit, FrontToBack,
-                                             Light, RaycasterBase, Sampling, TransferFunctionLut, VolumeSampling)
+from vgraph.gl.raycasting.components import (Background, CameraRays, EmptySpace, EntryExit, FrontToBack, Sampling,
+                                             TransferFunctionLut, VolumeSampling)
 from vgraph.gl.raycasting.empty_space import occupied_blocks, radii_if_worthwhile, visible_under
+from vgraph.gl.raycasting.light import Light
+from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
 from vgraph.shown_content import voxels_under
@@ -31,8 +33,18 @@ from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
 SHADER = "curvature/curvature_volume_raycaster.frag.glsl"
-RANGE_PARTS = (EntryExit, CameraRays, VolumeSampling, Sampling, FrontToBack, TransferFunctionLut,
-               CurvatureField, CurvatureColoring, EmptySpace, Background)
+
+
+def skip_values(raycaster, frame):
+    """Blocks where the TF has opacity (components.EmptySpace; "opacity": empty blocks contribute
+    nothing, so ray bounds apply too)."""
+    lut = raycaster.parts[TransferFunctionLut].lut
+    return (("opacity", raycaster.transfer_function),
+            lambda low, high: radii_if_worthwhile(occupied_blocks(low, high, lut.alpha)))
+
+
+RANGE_PARTS = (EntryExit(), CameraRays(), VolumeSampling(), Sampling(), FrontToBack(), TransferFunctionLut(),
+               CurvatureField(), CurvatureColoring(), EmptySpace(skip=skip_values), Background())
 
 # Two translucent shells, at the surface of every FunctionSelector volume (0.5) and inside it;
 # only the opacity is used.
@@ -49,9 +61,9 @@ class CurvatureVolumeRaycaster(RaycasterBase):
     # Curvatures (1/length), positions and the attenuation are world lengths: extreme boxes are
     # refused by name rather than drawn in their normalised frame (components docstring).
     frames_extreme_boxes = False
-    inports = [Inport("volume", Volume), Inport("entry", Image), Inport("exit", Image)]
+    inports = [Inport("volume", Volume)]
     outports = [Outport("image", Image), Outport("depth", Image)]
-    components = RANGE_PARTS + (Light,)
+    components = RANGE_PARTS + (Light(),)
 
     transfer_function = TransferFunctionProperty(
         DEFAULT_TRANSFER_FUNCTION, doc="opacity over normalised intensity (its colours are unused)")
@@ -62,9 +74,6 @@ class CurvatureVolumeRaycaster(RaycasterBase):
         self._targets = RenderTargets(2)  # image (or the range in the first pass), depth
         self._reduction = RangeReduction()
 
-    def shaded(self) -> bool:
-        return self.shading != "none"
-
     def visible_content(self) -> str | None:
         volume = self.inputs.get("volume")
         return visible_under(volume, self.transfer_function) if volume is not None else None
@@ -73,12 +82,6 @@ class CurvatureVolumeRaycaster(RaycasterBase):
         """The voxels its transfer function shows (vgraph.blank_causes)."""
         volume = self.inputs.get("volume")
         return [voxels_under("volume", volume, self.transfer_function)] if volume is not None else []
-
-    def skip_values(self, frame):
-        """Blocks where the TF has opacity (components.EmptySpace; "opacity": empty blocks contribute
-        nothing, so ray bounds apply too)."""
-        lut = self.parts[TransferFunctionLut].lut
-        return ("opacity", self.transfer_function), lambda low, high: radii_if_worthwhile(occupied_blocks(low, high, lut.alpha))
 
     def process(self, volume: Volume, entry: Image, exit: Image) -> dict:
         frame = self.frame(volume, entry, exit)

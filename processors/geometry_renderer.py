@@ -8,7 +8,7 @@ Conventions:
   samples (Blinn-Phong, two-sided, the same properties: raycasting/shading.glsl) with the
   geometry's normals, or area-weighted face normals when it has none. Pixels without geometry
   show ``background``. Colours are premultiplied, as the ray casters' (alpha 1 makes that moot).
-- Depth: the RayCaster's depth output convention (docs/rendering.md): r = window-space depth in
+- Depth: the RayCaster's depth output convention (docs/explanations/ray-casting.md): r = window-space depth in
   [0, 1], g = distance in world units from the pixel's ray start on the near plane (Camera.rays),
   b = 0, a = 1 where a surface is; (1, 0, 0, 0) elsewhere.
 - Camera: with the optional ``volume`` inport connected the camera resolves against the volume's
@@ -32,20 +32,19 @@ from vgraph import (CameraProperty, ColorProperty, Inport, OptionProperty, Outpo
 from vgraph.box_frame import BoxFrame
 from vgraph.camera import Camera
 from vgraph.geometry import Geometry
-from vgraph.gl.context import bind_default_framebuffer
+from vgraph.gl_context import bind_default_framebuffer
 from vgraph.gl.curvature import COLORMAPS, colormap_table
 from vgraph.gl.passes import bind_textures, set_uniform
-from vgraph.gl.raycasting.components import Light
 from vgraph.gl.raycasting.framed_view import framed_view
 from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, ray_uniforms, vec
-from vgraph.gl.raycasting.light import shading_uniforms
+from vgraph.gl.raycasting.light import Light, shading_uniforms
 from vgraph.gl.shaders import programs
 from vgraph.image import Image
 from vgraph.volume import Volume
 
 SHADERS = ("geometry/surface.vert.glsl", "geometry/surface.frag.glsl")
 COLORINGS = ("auto", "uniform", "vertex", "scalar")
-_LIGHT = Light.declare()  # the ray casters' lighting properties, declared once there
+_LIGHT = Light().declare()  # the ray casters' lighting properties, declared once there
 
 
 class GeometryRenderer(Processor):

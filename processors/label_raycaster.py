@@ -1,7 +1,7 @@
 """LabelRayCaster: ray casting of a label volume (integer labels, e.g. a segmentation) coloured by a
 label table, as Voreen's segmentation ray caster and napari's labels layer do.
 
-Conventions (docs/exploring.md has pictures):
+Conventions (docs/guide/exploring.md has pictures):
 - Labels are never interpolated as numbers. Each sample takes its label by the majority of
   interpolation weights (vgraph.labels): the 8 voxels around the sample vote with their trilinear
   weights, the label (or the background: every label that is not shown) with the largest sum wins.
@@ -35,8 +35,9 @@ import moderngl
 import numpy as np
 
 from vgraph import Inport, OptionProperty, Outport, VGraphError, derived
-from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EmptySpace, EntryExit, FrontToBack,
-                                             Light, RaycasterBase, Sampling)
+from vgraph.gl.raycasting.components import Background, CameraRays, EmptySpace, EntryExit, FrontToBack, Sampling
+from vgraph.gl.raycasting.light import Light
+from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.empty_space import radii_if_worthwhile, window_reduced
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.targets import RenderTargets
@@ -53,15 +54,25 @@ LABEL_ROW = 256  # codes per row of the colour table texture (shaders/labels/maj
 CODES, CODES_TEXTURE = "label codes", "label codes texture"  # kinds of derived data (vgraph.derived)
 
 
+def skip_values(raycaster: "LabelRayCaster", frame):
+    """Empty-space skipping (components.EmptySpace): blocks whose voxels, with the one-voxel
+    margin the majority rule reads, hold no shown label are empty. Ray bounds follow from them
+    ("opacity": empty blocks contribute nothing), so the image is the same, only cheaper."""
+    codes = raycaster.frame_codes
+    shown = raycaster.label_table.colors(codes.values)[:, 3] > 0.0  # only this matters, not the colours
+    return ("opacity", shown.tobytes()), lambda low, high: radii_if_worthwhile(shown_blocks(codes, shown))
+
+
 class LabelRayCaster(RaycasterBase):
     """Ray casting of integer labels: a colour and opacity per label, smooth boundaries, no bleeding.
 
     Each sample's label is the majority of its 8 voxels' interpolation weights (module docstring)."""
 
     category = "Volume rendering"
-    inports = [Inport("labels", Volume), Inport("entry", Image), Inport("exit", Image)]
+    inports = [Inport("labels", Volume)]
     outports = [Outport("image", Image)]
-    components = (EntryExit, CameraRays, Sampling, FrontToBack, Light, EmptySpace, Background)
+    components = (EntryExit(), CameraRays(), Sampling(), FrontToBack(), Light(), EmptySpace(skip=skip_values),
+                  Background())
 
     label_table = LabelTableProperty(LabelTable.default(),
                                      doc="per label value: name, colour, opacity, visible; unlisted "
@@ -74,10 +85,7 @@ class LabelRayCaster(RaycasterBase):
         super().__init__(id, **values)
         self._targets = RenderTargets(1)
         self._colors = ColorTable()
-        self._codes: LabelCodes | None = None  # of the frame being drawn (skip_values reads them)
-
-    def shaded(self) -> bool:
-        return self.shading != "none"
+        self.frame_codes: LabelCodes | None = None  # of the frame being drawn (skip_values reads them)
 
     def process(self, labels: Volume, entry: Image, exit: Image) -> Image:
         # The scheduler's ProcessorError names the processor too; the file says which data.
@@ -89,7 +97,7 @@ class LabelRayCaster(RaycasterBase):
                               f"texture size or its memory budget (VolumeSource.memory_budget)")
         frame = self.frame(labels, entry, exit)
         codes, texture = label_textures(labels, frame.ctx, consumer)
-        self._codes = codes
+        self.frame_codes = codes
         colors = self._colors.update(frame.ctx, self.label_table, codes)
         own = Binding(defines={f"COMPOSITING_{self.compositing.upper()}": True},
                       textures={"labels": texture, "label_colors": colors},
@@ -112,14 +120,6 @@ class LabelRayCaster(RaycasterBase):
         """The voxels whose label its table shows (vgraph.blank_causes)."""
         volume = self.inputs.get("labels")
         return [labelled_voxels("labels", volume, self.label_table)] if volume is not None else []
-
-    def skip_values(self, frame):
-        """Empty-space skipping (components.EmptySpace): blocks whose voxels, with the one-voxel
-        margin the majority rule reads, hold no shown label are empty. Ray bounds follow from them
-        ("opacity": empty blocks contribute nothing), so the image is the same, only cheaper."""
-        codes = self._codes
-        shown = self.label_table.colors(codes.values)[:, 3] > 0.0  # only this matters, not the colours
-        return ("opacity", shown.tobytes()), lambda low, high: radii_if_worthwhile(shown_blocks(codes, shown))
 
 
 def label_textures(volume: Volume, ctx: moderngl.Context, consumer: str) -> tuple[LabelCodes, moderngl.Texture]:

@@ -57,8 +57,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from vgraph import FloatProperty, Inport, OptionProperty, Outport, TransferFunctionProperty, VGraphError
-from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EntryExit, Light,
-                                             RaycasterBase, Sampling, ray_main_missed)
+from vgraph.gl.raycasting.components import Background, CameraRays, EntryExit, Sampling, ray_main_missed
+from vgraph.gl.raycasting.light import Light
+from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.empty_space import visible_under
 from vgraph.gl.raycasting.framed_view import frame_rotation
 from vgraph.gl.raycasting.geometry import VolumeGeometry
@@ -108,10 +109,10 @@ class MultiVolumeRayCaster(RaycasterBase):
     # scale (gui/evaluator.py reads this; without it a processor's TFs get its first volume's).
     transfer_function_inports = {f"transfer_function{n}": f"volume{n}" for n in range(1, MAX_CHANNELS + 1)}
     inports = ([Inport("volume1", Volume, "ray positions are in this volume's texture space")]
-               + [Inport(port, Volume, optional=True) for port in CHANNEL_PORTS[1:]]
-               + [Inport("entry", Image), Inport("exit", Image)])
+               + [Inport(port, Volume, optional=True) for port in CHANNEL_PORTS[1:]])
     outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
-    components = (EntryExit, CameraRays, Sampling, Light, Background)
+    components = (EntryExit(), CameraRays(), Sampling(), Light(mode="blend", shaded_modes=SHADED_BLENDS),
+                  Background())
 
     blend = OptionProperty("accumulate", choices=list(BLEND_MODES),
                            doc="accumulate: channels mixed per sample, composited front to back; "
@@ -137,10 +138,6 @@ class MultiVolumeRayCaster(RaycasterBase):
         super().__init__(id, **values)
         self._targets = {True: RenderTargets(2), False: RenderTargets(1)}  # by: depth output wanted
         self._luts = {number: TransferFunctionTexture() for number in range(1, MAX_CHANNELS + 1)}
-
-    def shaded(self) -> bool:
-        """Whether this frame is shaded (the Light component asks)."""
-        return self.shading != "none" and self.blend in SHADED_BLENDS
 
     def visible_content(self) -> str | None:
         """Which channels have voxels their TF shows (for the blank-image warning). Not said for

@@ -1,6 +1,6 @@
 """RayCaster (Inácio 2009 ch. 4.2-4.3): GPU ray casting between the EntryExitPoints images.
 
-Conventions (docs/rendering.md explains each property with pictures):
+Conventions (docs/explanations/ray-casting.md explains each property with pictures):
 - The optical model is the CPU reference's (vgraph.numerics.reference_raycast): samples every
   min(spacing) / sampling_rate world units from the entry point, trilinear reconstruction, the TF's
   4096-entry LUT with linear filtering, opacity correction 1 - (1 - a)^(1 / sampling_rate),
@@ -8,7 +8,7 @@ Conventions (docs/rendering.md explains each property with pictures):
   headlight and central differences (``derivatives = precomputed``: the reference's
   ``Shading(gradients="precomputed")``, voxel gradients computed once per volume and interpolated,
   one fetch a shaded sample; vgraph.gl.raycasting.gradient_volume). The GL image matches the
-  reference within the tolerances in docs/rendering.md.
+  reference within the tolerances in docs/explanations/ray-casting.md.
 - Built from the shared ray-casting components (vgraph.gl.raycasting.components); its own parts
   are the compositing mode, the interpolation and the derivatives for shading. The fragment shader
   is composed from shaders/raycasting/*.glsl with the defines of the components and of
@@ -22,7 +22,7 @@ Conventions (docs/rendering.md explains each property with pictures):
 - The camera must equal the EntryExitPoints camera (link them): it gives depth and view direction.
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
   than its memory budget, is drawn brick by brick by a BrickedRayCaster with this processor's
-  settings (docs/bricked_raycaster.md); dvr, mip and iso only, and ``precomputed`` derivatives
+  settings (docs/explanations/bricked-ray-casting.md); dvr, mip and iso only, and ``precomputed`` derivatives
   become ``central`` there (a gradient volume of a volume that large is what bricking avoids;
   inside the box both give the same gradient up to 16-bit steps). The frame context's
   ``load_limit`` (the GUI's: coarse first; vgraph.frame_context) goes to that BrickedRayCaster,
@@ -33,15 +33,14 @@ from __future__ import annotations
 
 from vgraph import Inport, OptionProperty, Outport, VGraphError
 from vgraph.frame_context import FrameContext
-from vgraph.gl.raycasting.components import (Background, Binding, CameraRays, EmptySpace, EntryExit,
-                                             FrontToBack, IsoSurface, Light, RaycasterBase, Sampling,
-                                             TransferFunctionLut, VolumeSampling, palette_shading,
-                                             palette_transfer_function, ray_main_missed)
+from vgraph.gl.raycasting.components import (Background, CameraRays, EmptySpace, EntryExit, FrontToBack,
+                                             IsoSurface, Sampling, TransferFunctionLut, VolumeSampling,
+                                             palette_shading, palette_transfer_function, ray_main_missed)
 from vgraph.gl.raycasting.empty_space import crossed_by, occupied_blocks, radii_if_worthwhile, visible_under
-from vgraph.gl.raycasting.geometry import vec
-from vgraph.gl.raycasting.gradient_volume import gradient_texture, holds_values
+from vgraph.gl.raycasting.light import Gradients, Light
+from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.targets import RenderTargets
-from vgraph.gl.raycasting.textures import linear_sampler, needs_bricks
+from vgraph.gl.raycasting.textures import needs_bricks
 from vgraph.image import Image
 from vgraph.shown_content import voxels_by_compositing
 from vgraph.volume import Volume
@@ -51,18 +50,37 @@ COMPOSITING = ("dvr", "mip", "iso", "first_hit", "xray")
 SHADED_MODES = ("dvr", "iso")
 SKIPPING = {"dvr": "opacity", "first_hit": "opacity", "iso": "level", "mip": "maximum"}
 DERIVATIVES = ("none", "forward", "backward", "central", "sobel", "precomputed")
-# Raw texture differences -> normalised intensity per world unit: divide by this many spacings.
-DERIVATIVE_SPACINGS = {"forward": 1.0, "backward": 1.0, "central": 2.0, "sobel": 32.0}
+
+
+def skip_values(raycaster: "RayCaster", frame):
+    """What empty-space skipping needs for the compositing mode (components.EmptySpace)."""
+    kind = SKIPPING.get(raycaster.compositing)
+    if kind == "maximum":
+        return kind, lambda low, high: high
+    if kind == "opacity":
+        lut = raycaster.parts[TransferFunctionLut].lut
+        lut.update(frame.ctx, raycaster.transfer_function, frame.volume)  # its alpha, for this volume
+        return (kind, raycaster.transfer_function), lambda low, high: radii_if_worthwhile(
+            occupied_blocks(low, high, lut.alpha))
+    if kind == "level":
+        level = raycaster.iso_level
+        return (kind, level), lambda low, high: radii_if_worthwhile(high >= level)
+    return None
 
 
 class RayCaster(RaycasterBase):
     """Ray casting of a volume between entry and exit points: DVR, MIP, iso-surface and more."""
 
     category = "Volume rendering"
-    inports = [Inport("volume", Volume), Inport("entry", Image), Inport("exit", Image)]
+    inports = [Inport("volume", Volume)]
     outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
-    components = (EntryExit, CameraRays, VolumeSampling, Sampling, TransferFunctionLut, FrontToBack,
-                  IsoSurface, Light, EmptySpace, Background)
+    components = (EntryExit(), CameraRays(), VolumeSampling(), Sampling(), TransferFunctionLut(),
+                  FrontToBack(mode="compositing", corrected=("dvr",)), IsoSurface(),
+                  Gradients(DERIVATIVES, doc="finite differences of the shading normals; precomputed: "
+                                             "central differences at the voxels, computed once per volume "
+                                             "(8 bytes a voxel), one fetch a shaded sample"),
+                  Light(mode="compositing", shaded_modes=SHADED_MODES), EmptySpace(skip=skip_values),
+                  Background())
     uses_context = ("load_limit",)  # for the frames drawn brick by brick (module docstring)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING),
@@ -71,10 +89,6 @@ class RayCaster(RaycasterBase):
     interpolation = OptionProperty("trilinear", choices=["nearest", "trilinear"])
     transfer_function = palette_transfer_function()  # auto, shaded: as vgraph run FILE
     shading = palette_shading()
-    derivatives = OptionProperty("central", choices=list(DERIVATIVES),
-                                 doc="finite differences of the shading normals; precomputed: "
-                                     "central differences at the voxels, computed once per volume "
-                                     "(8 bytes a voxel), one fetch a shaded sample")
 
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
@@ -88,26 +102,10 @@ class RayCaster(RaycasterBase):
         render process asks whether it was complete), else empty."""
         return self._bricked.last_frame if self._drew_bricks else {}
 
-    # --- shader ---------------------------------------------------------------------------------
     def shader_defines(self) -> dict[str, bool]:
-        """The RayCaster's own defines (docs/rendering.md lists them with the components')."""
-        mode = self.compositing
-        defines = {f"COMPOSITING_{mode.upper()}": True,
-                   "INTERPOLATION_NEAREST": self.interpolation == "nearest",
-                   "OPACITY_CORRECTION": mode == "dvr" and self.sampling_rate != 1.0}
-        if self.shaded():
-            defines[f"GRADIENT_{self.derivatives.upper()}"] = True
-        return defines
-
-    def shaded(self) -> bool:
-        return self.shading != "none" and self.compositing in SHADED_MODES
-
-    def check(self) -> None:
-        if self.shading != "none" and self.derivatives == "none":
-            raise VGraphError(f"{self.id}.shading: {self.shading} needs derivatives; set "
-                              f"{self.id}.derivatives to central (or forward, backward, sobel, "
-                              f"precomputed) or "
-                              f"{self.id}.shading to none")
+        """The RayCaster's own defines (docs/explanations/ray-casting.md lists them with the components')."""
+        return {f"COMPOSITING_{self.compositing.upper()}": True,
+                "INTERPOLATION_NEAREST": self.interpolation == "nearest"}
 
     def visible_content(self) -> str | None:
         volume = self.inputs.get("volume")
@@ -125,7 +123,7 @@ class RayCaster(RaycasterBase):
     # --- evaluation -----------------------------------------------------------------------------
     def process(self, volume: Volume, entry: Image, exit: Image, context: FrameContext) -> dict:
         volume.require_samples(f"RayCaster '{self.id}'")
-        self.check()
+        self.parts[Gradients].check()
         self._drew_bricks = False
         if needs_bricks(volume, self.gl):
             return self._brick_by_brick(volume, entry, exit, context)
@@ -134,8 +132,7 @@ class RayCaster(RaycasterBase):
         targets = self._targets[with_depth]
         self._targets[not with_depth].release()  # a scene keeps the images of one kind only
         outputs = dict(zip(("image", "depth"), targets.ensure(frame.ctx, entry.size)))
-        own = self._binding(frame)
-        own.defines["DEPTH_OUTPUT"] = with_depth
+        own = Binding({**self.shader_defines(), "DEPTH_OUTPUT": with_depth})
         self.draw(frame, SHADER, targets, own=own, missed=ray_main_missed(self.background, with_depth))
         return outputs
 
@@ -159,36 +156,3 @@ class RayCaster(RaycasterBase):
         self._drew_bricks = True
         self.passes = self._bricked.passes
         return outputs
-
-    def _binding(self, frame) -> Binding:
-        """The defines, and for shading the gradients' uniforms (and the gradient volume, which
-        only a shaded frame with precomputed derivatives builds and binds)."""
-        binding = Binding(self.shader_defines())
-        if not self.shaded():
-            return binding
-        if self.derivatives == "precomputed":
-            texture, scale = gradient_texture(frame.ctx, frame.volume)
-            binding.defines["GRADIENT_HOLDS_VALUE"] = holds_values(frame.volume)
-            return binding.merge(Binding(textures={"gradients": texture},
-                                         samplers={"gradients": linear_sampler(frame.ctx)},
-                                         uniforms={"gradient_scale": vec(scale)}))
-        scale, _ = frame.volume.texture_scale_offset()
-        spacings = DERIVATIVE_SPACINGS.get(self.derivatives, 1.0)
-        return binding.merge(Binding(uniforms={
-            "voxel_step": vec(1.0 / frame.geometry.dims),
-            "gradient_scale": vec(float(scale) / (spacings * frame.geometry.spacing))}))
-
-    def skip_values(self, frame):
-        """What empty-space skipping needs for this mode (components.EmptySpace)."""
-        kind = SKIPPING.get(self.compositing)
-        if kind == "maximum":
-            return kind, lambda low, high: high
-        if kind == "opacity":
-            lut = self.parts[TransferFunctionLut].lut
-            lut.update(frame.ctx, self.transfer_function, frame.volume)  # its alpha, for this volume
-            return (kind, self.transfer_function), lambda low, high: radii_if_worthwhile(
-                occupied_blocks(low, high, lut.alpha))
-        if kind == "level":
-            level = self.iso_level
-            return (kind, level), lambda low, high: radii_if_worthwhile(high >= level)
-        return None

@@ -135,7 +135,7 @@ def test_bricks_reading_the_accumulation_terminate_rays_where_the_raycaster_does
     got, got_depth, rc = render(volume, oblique(volume), brick_size=16, lod_bias=FINEST, **properties)
     assert psnr(got, want) >= MIN_PSNR  # measured 142-146 dB
     np.testing.assert_allclose(got_depth[..., :2], want_depth[..., :2], atol=1e-4)
-    assert [shader for shader, _ in rc.passes] == ["bricks/brick.frag.glsl", "bricks/resolve.frag.glsl"]
+    assert [p.shader for p in rc.passes] == ["bricks/brick.frag.glsl", "bricks/resolve.frag.glsl"]
     assert rc.passes[0][1]["READ_ACCUMULATION"] and rc.passes[0][1]["EARLY_TERMINATION"]
 
 
@@ -321,7 +321,7 @@ def test_bad_property_values_are_refused_naming_processor_and_field(name, value)
 def test_a_bricked_volume_from_an_ome_zarr_store_renders_like_its_array(tmp_path):
     """The BrickedVolume's own pyramid (vgraph convert) is used: its bricks, not brick_size."""
     pytest.importorskip("zarr")
-    from vgraph.bricks.convert import convert
+    from vgraph.io.convert import convert
     data = (field((45, 38, 51)) * 65535).astype(np.uint16)
     np.save(tmp_path / "v.npy", data)
     convert(tmp_path / "v.npy", tmp_path / "v.zarr", brick=16, progress=False)
@@ -353,7 +353,7 @@ def test_the_raycaster_draws_a_store_over_its_memory_budget_brick_by_brick(tmp_p
     """A BrickedVolume whose whole array exceeds its budget never loads it: the RayCaster's frame
     is drawn from bricks, like the in-memory volume's."""
     pytest.importorskip("zarr")
-    from vgraph.bricks.convert import convert
+    from vgraph.io.convert import convert
     from vgraph.bricks.volume import BrickedVolume
     data = (field((45, 38, 51)) * 65535).astype(np.uint16)
     np.save(tmp_path / "v.npy", data)
@@ -447,7 +447,7 @@ def test_a_raycaster_drawing_a_store_brick_by_brick_refines_under_a_load_limit(t
     memory budget, and its last_frame says whether the frame was complete (the render process asks)."""
     pytest.importorskip("zarr")
     from vgraph.bricks.cache import LoadLimit
-    from vgraph.bricks.convert import convert
+    from vgraph.io.convert import convert
     from vgraph.bricks.volume import BrickedVolume
     np.save(tmp_path / "v.npy", (field((45, 38, 51)) * 65535).astype(np.uint16))
     convert(tmp_path / "v.npy", tmp_path / "v.zarr", brick=16, progress=False)

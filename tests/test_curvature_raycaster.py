@@ -132,8 +132,9 @@ def test_empty_space_skipping_changes_no_pixel_only_work(torus, mode):
                                     empty_space_skipping=skipping)
         results[skipping] = [network.evaluate(f"cr.{name}", size=SIZE)
                              for name in ("image", "curvature", "position", "depth")]
-        (shader, surface), _ = network["cr"].passes
-        assert shader == "curvature/curvature_raycaster.frag.glsl" and surface["SKIP_EMPTY_SPACE"] == skipping
+        surface, _ = network["cr"].passes
+        assert (surface.shader == "curvature/curvature_raycaster.frag.glsl"
+                and surface.defines["SKIP_EMPTY_SPACE"] == skipping)
     for on, off in zip(results[True][:3], results[False][:3]):
         np.testing.assert_array_equal(on, off)
     np.testing.assert_array_equal(results[True][3][..., [0, 1, 3]], results[False][3][..., [0, 1, 3]])
@@ -239,8 +240,8 @@ def test_each_derivative_mode_compiles_only_its_own_code(torus):
         network.set("cr.iso_level", 0.5)
         network.evaluate("cr.curvature", size=(16, 16))  # a uniform changed: no compile
         assert programs.compile_count - before == compiled
-        defines = network.processors["cr"].passes[0][1]
-        texts[mode] = active_source(compose("curvature/curvature_raycaster.frag.glsl", defines).text)
+        surface = network.processors["cr"].passes[0]
+        texts[mode] = active_source(compose(surface.shader, surface.defines, includes=surface.includes).text)
     assert "tricubic_direct_jet_voxel" in texts["tricubic"] and "sample_offset" not in texts["tricubic"]
     assert "tricubic_fast_jet_voxel" in texts["tricubic_fast"]
     for mode in ("forward", "central", "filtered"):

@@ -102,7 +102,7 @@ def test_define_sets_and_recompiles(torus):
     processor = network["cr"]
     network.set("cr.shading", "blinn_phong")
     network.evaluate("cr.image", size=(16, 16))
-    (_, range_pass), (_, colour_pass) = processor.passes
+    range_pass, colour_pass = (one.defines for one in processor.passes)
     assert range_pass["RANGE_PASS"] and not colour_pass["RANGE_PASS"]
     assert "SHADING_BLINN_PHONG" not in range_pass and colour_pass["SHADING_BLINN_PHONG"]
     assert not colour_pass["OPACITY_CORRECTION"]

@@ -221,7 +221,7 @@ def test_the_curvature_raycaster_draws_no_bounds():
                                  derivatives="central")
     network.set("rc.ray_bounds", True)
     network.evaluate("rc.image", size=SIZE)
-    passes = [defines for _, defines in network["rc"].passes]
+    passes = [p.defines for p in network["rc"].passes]
     assert any(defines.get("SKIP_EMPTY_SPACE") for defines in passes)
     assert not any(defines.get("RAY_BOUNDS") for defines in passes)
 
@@ -240,7 +240,7 @@ def test_the_curvature_volume_raycaster_with_bounds(derivatives, normalization):
     network = ray_caster_network(volume, cameras(volume)["perspective"], "CurvatureVolumeRaycaster", id="rc",
                                  derivatives=derivatives, normalization=normalization, transfer_function=surface)
     bounded = render(network, SIZE, True)
-    passes = [defines for _, defines in network["rc"].passes]
+    passes = [p.defines for p in network["rc"].passes]
     assert all(defines.get("RAY_BOUNDS") for defines in passes)
     plain = render(network, SIZE, False)
     assert np.ptp(plain[0][..., 0]) > 0.1

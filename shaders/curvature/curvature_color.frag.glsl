@@ -5,15 +5,13 @@
 // (SHADING_BLINN_PHONG, raycasting/shading.glsl, with the gradient of pass 1) and darkened on
 // the zero contour. Pixels where the ray hit but the curvature is undefined (alpha 0.5) get
 // `undefined_color`; misses get `background`. Output alpha 1 where hit.
-#include "curvature/measure.glsl"
-#include "curvature/normalization.glsl"
+// Its own part; the GLSL of its components (curvature colouring, shading, background) is included
+// ahead of it by RaycasterBase.draw.
 #include "curvature/contour.glsl"
-#include "raycasting/shading.glsl"
 
 uniform sampler2D gradient_image;
 uniform sampler2D position_image;
 uniform sampler2D curvature_range;
-uniform vec4 background;
 uniform vec4 undefined_color;
 uniform vec3 eye;           // world: the camera position (perspective)
 uniform vec3 view_forward;  // world, unit: the view direction (orthographic)

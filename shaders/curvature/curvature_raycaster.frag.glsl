@@ -13,15 +13,11 @@
 //   position   world-space hit point, alpha 1 where the ray hit (else 0)
 //   depth      the RayCaster's depth output at the hit (else (1, 0, samples, 0))
 //   gradient   (internal) gradient in normalised intensity per world unit, alpha 1 where hit
-#include "raycasting/ray.glsl"
-#include "raycasting/pixel_ray.glsl"
-#include "raycasting/depth_output.glsl"
-#include "raycasting/volume_sampling.glsl"
+//
+// Its own part; the GLSL of its components (pixel ray, camera rays and depth output, volume sampling,
+// the curvature field, empty space) is included ahead of it by RaycasterBase.draw.
 #include "raycasting/march.glsl"
-#include "curvature/field_fd.glsl"
-#include "curvature/field_tricubic.glsl"
 #include "curvature/iso_hit.glsl"
-#include "curvature/kindlmann.glsl"
 
 uniform float min_gradient;  // |grad f| at or below this (per world unit): undefined
 

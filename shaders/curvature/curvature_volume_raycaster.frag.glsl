@@ -10,19 +10,11 @@
 // Outputs: `color` = the composited colour over `background` (RANGE_PASS: the range of the
 // measure, see compositing_curvature.glsl); `depth` = the RayCaster's depth output at the first
 // sample with opacity > 0 (else (1, 0, samples, 0)).
-#include "raycasting/ray.glsl"
-#include "raycasting/pixel_ray.glsl"
-#include "raycasting/depth_output.glsl"
-#include "raycasting/background.glsl"
-#include "raycasting/volume_sampling.glsl"
-#include "raycasting/transfer_function.glsl"
+//
+// Its own part; the GLSL of its components (pixel ray, camera rays and depth output, volume
+// sampling, transfer function, curvature field and colouring, empty space, background, shading)
+// is included ahead of it by RaycasterBase.draw.
 #include "raycasting/march.glsl"
-#include "raycasting/shading.glsl"
-#include "curvature/field_fd.glsl"
-#include "curvature/field_tricubic.glsl"
-#include "curvature/kindlmann.glsl"
-#include "curvature/measure.glsl"
-#include "curvature/normalization.glsl"
 #include "curvature/compositing_curvature.glsl"
 
 layout(location = 0) out vec4 color;

@@ -1,6 +1,7 @@
 // The pixel's ray between the EntryExitPoints images (texture coordinates; alpha 0 where the
-// pixel's ray misses the volume's box). Needs ray.glsl. With RAY_BOUNDS, also none where the ray
-// meets no occupied block (ray_bounds.glsl): such pixels show the background.
+// pixel's ray misses the volume's box). With RAY_BOUNDS, also none where the ray meets no
+// occupied block (ray_bounds.glsl): such pixels show the background.
+#include "raycasting/ray.glsl"
 #include "raycasting/ray_bounds.glsl"
 uniform sampler2D entry_points;
 uniform sampler2D exit_points;

@@ -7,14 +7,10 @@
 // Outputs: `color` = the composited colour over `background`; `depth` = (window-space depth in
 // [0, 1] of the depth sample, its distance in world units from the ray's start on the near plane,
 // the number of samples evaluated, 1) where there is a depth sample, else (1, 0, samples, 0).
-#include "raycasting/ray.glsl"
-#include "raycasting/pixel_ray.glsl"
-#include "raycasting/depth_output.glsl"
-#include "raycasting/background.glsl"
-#include "raycasting/volume_sampling.glsl"
-#include "raycasting/transfer_function.glsl"
-#include "raycasting/gradients.glsl"
-#include "raycasting/shading.glsl"
+//
+// The RayCaster's own part; its components' GLSL (pixel ray, camera rays and depth output, volume
+// sampling, transfer function, gradients, shading, empty space, background) is included ahead of
+// it by RaycasterBase.draw.
 #include "raycasting/march.glsl"
 #include "raycasting/compositing_dvr.glsl"
 #include "raycasting/compositing_mip.glsl"

@@ -1,7 +1,7 @@
 """What the curvature ray casters (CurvatureRaycaster, CurvatureVolumeRaycaster) share: their two
 ray-casting components (CurvatureField, CurvatureColoring) and the GPU range reduction.
 
-Conventions (docs/curvature.md explains them for users):
+Conventions (docs/explanations/curvature.md explains them for users):
 - Derivative modes and the volume kind they need: ``forward``, ``central`` and ``filtered`` finite
   differences work on voxel SAMPLES (trilinear texture fetches one voxel apart); ``tricubic`` and
   ``tricubic_fast`` evaluate the cubic B-spline of COEFFICIENTS (CubicSplineProcessor output). A
@@ -37,7 +37,7 @@ import numpy as np
 
 from vgraph.errors import VGraphError
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
-from vgraph.gl.raycasting.components import Binding, Component, Frame
+from vgraph.gl.raycasting.raycaster_base import Binding, Component, Frame
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import LookupTexture
 from vgraph.gl.shaders import programs
@@ -196,8 +196,7 @@ class CurvatureField(Component):
 
     glsl = ("curvature/field_fd.glsl", "curvature/field_tricubic.glsl", "curvature/kindlmann.glsl")
 
-    @staticmethod
-    def declare():
+    def declare(self):
         return {"derivatives": OptionProperty("tricubic", choices=list(DERIVATIVES),
                                               doc="forward, central, filtered differences (voxel samples) "
                                                   "or tricubic, tricubic_fast (B-spline coefficients)")}
@@ -213,12 +212,10 @@ class CurvatureColoring(Component):
 
     glsl = ("curvature/measure.glsl", "curvature/normalization.glsl")
 
-    def __init__(self, processor):
-        super().__init__(processor)
+    def start(self) -> None:
         self.colormap = LookupTexture(COLORMAP_SIZE)
 
-    @staticmethod
-    def declare():
+    def declare(self):
         return {"curvature": OptionProperty("gaussian", choices=list(CURVATURES), doc="the measure shown"),
                 "normalization": OptionProperty("linear", choices=list(NORMALIZATIONS),
                                                 doc="linear: by the largest and smallest curvature "

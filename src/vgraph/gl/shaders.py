@@ -1,6 +1,6 @@
 """GLSL composition (#include, #define) and a program cache keyed by define set.
 
-Conventions (docs/shaders.md has the long form):
+Conventions (docs/explanations/shaders.md has the long form):
 - Shader files end in ``.glsl``: ``NAME.vert.glsl``, ``NAME.frag.glsl``, ``NAME.geom.glsl``,
   ``NAME.comp.glsl`` for stages, plain ``NAME.glsl`` for included libraries. Names are paths relative
   to a shader directory, with ``/`` separators (``"lib/shading.glsl"``).
@@ -8,7 +8,9 @@ Conventions (docs/shaders.md has the long form):
   ``add_shader_dir`` in the order added. The first match wins. ``#include`` looks beside the including
   file first, then along the search path.
 - A composed source is: the top file's ``#version`` line (``#version 330`` if it has none), one
-  ``#define`` per define (sorted keys), then the body with ``#include "name"`` expanded recursively.
+  ``#define`` per define (sorted keys), the files named in ``includes`` (the parts a ray caster's
+  components bring, vgraph.gl.raycasting.raycaster_base), then the body with ``#include "name"``
+  expanded recursively.
   Each file is included at most once per composed source (like ``#pragma once``), which also breaks
   include cycles. Includes are expanded textually, before GLSL's own preprocessor: ``#if`` does not
   guard them.
@@ -29,7 +31,7 @@ import moderngl
 
 from vgraph import derived
 from vgraph.errors import ShaderError
-from vgraph.gl import context as gl_context
+from vgraph import gl_context
 
 DEFINES_FILE = "<defines>"
 DEFAULT_VERSION_LINE = "#version 330"
@@ -129,14 +131,18 @@ def define_lines(defines: dict[str, object] | None) -> tuple[str, ...]:
 
 
 def compose(name: str, defines: dict[str, object] | None = None, *,
-            processor: str | None = None) -> ComposedSource:
-    """Compose shader ``name`` with ``defines``. Errors name the file and line (and ``processor``)."""
+            processor: str | None = None, includes: tuple[str, ...] = ()) -> ComposedSource:
+    """Compose shader ``name`` with ``defines``, the files ``includes`` ahead of its body. Errors
+    name the file and line (and ``processor``)."""
     try:
         top = find_shader(name)
     except ShaderError as exc:
         raise _error(_reason(exc), None, None, processor) from None
     body: list[tuple[str, str, int]] = []  # (text, file, line)
-    version = _expand(top, body, {top}, is_top=True, processor=processor)
+    included = {top}
+    for include in includes:
+        _include(f'#include "{include}"', top, 0, body, included, processor)
+    version = _expand(top, body, included, is_top=True, processor=processor)
 
     texts: list[str] = []
     origins: list[tuple[str, int]] = []
@@ -304,10 +310,11 @@ class ProgramCache:
 
     def program(self, ctx: moderngl.Context, vertex: str, fragment: str,
                 defines: dict[str, object] | None = None,
-                processor: str | None = None, geometry: str | None = None) -> moderngl.Program:
+                processor: str | None = None, geometry: str | None = None,
+                includes: tuple[str, ...] = ()) -> moderngl.Program:
         """The program of ``vertex`` (+ optional ``geometry``) + ``fragment`` shader files composed
-        with ``defines``."""
-        given = (ctx, vertex, geometry, fragment,
+        with ``defines``; ``includes`` go ahead of the fragment shader's body (compose)."""
+        given = (ctx, vertex, geometry, fragment, includes,
                  tuple((name, value.__class__, value) for name, value in (defines or {}).items()))
         try:
             program = self._given.get(given)
@@ -315,12 +322,12 @@ class ProgramCache:
             given = program = None
         if program is not None:
             return program
-        key = (ctx, "program", vertex, geometry, fragment, self._define_key(defines, processor))
+        key = (ctx, "program", vertex, geometry, fragment, includes, self._define_key(defines, processor))
         if key not in self._programs:
             sources = {"vertex": compose(vertex, defines, processor=processor)}
             if geometry is not None:
                 sources["geometry"] = compose(geometry, defines, processor=processor)
-            sources["fragment"] = compose(fragment, defines, processor=processor)
+            sources["fragment"] = compose(fragment, defines, processor=processor, includes=includes)
             self._programs[key] = self._compile(
                 lambda: ctx.program(vertex_shader=sources["vertex"].text,
                                     geometry_shader=sources["geometry"].text if geometry else None,
