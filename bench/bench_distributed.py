@@ -252,7 +252,7 @@ def main(argv=None) -> int:
         out = Path(args.out)
         result = json.loads((out / "distributed_scaling.json").read_text())
         return report(result, out)
-    from vgraph.bricks.convert import convert
+    from vgraph.io.convert import convert
     size = (args.size, args.size)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -63,7 +63,7 @@ def converted_store(args) -> tuple[Path, dict]:
 
 CONVERT = """
 import json, resource, sys
-from vgraph.bricks.convert import convert
+from vgraph.io.convert import convert
 report = convert(sys.argv[1], sys.argv[2], brick=64, progress=False)
 print(json.dumps({"seconds": report.seconds, "bytes_written": report.bytes_written,
                   "levels": [list(shape) for shape in report.shapes],

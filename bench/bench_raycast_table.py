@@ -42,7 +42,7 @@ from bench_vtk import small_png  # noqa: E402
 from raycaster_speed import BONSAI, load_bonsai, network  # noqa: E402
 
 from vgraph.camera import Camera  # noqa: E402
-from vgraph.gl.context import get_context  # noqa: E402
+from vgraph.gl_context import get_context  # noqa: E402
 from vgraph.implicit import sample  # noqa: E402
 from vgraph.numerics.reference_raycast import render, volume_box  # noqa: E402
 from vgraph.transfer_function import TransferFunction  # noqa: E402

@@ -48,7 +48,7 @@ from bench_vtk import TORUS_MIP_TF, load_volume, scenes  # noqa: E402
 from raycaster_speed import FOG_TF, network  # noqa: E402
 
 from vgraph.camera import Camera  # noqa: E402
-from vgraph.gl.context import get_context  # noqa: E402
+from vgraph.gl_context import get_context  # noqa: E402
 from vgraph.numerics.reference_raycast import volume_box  # noqa: E402
 from vgraph.volume import Volume  # noqa: E402
 

@@ -85,7 +85,7 @@ def cameras(mesh, count: int):
 
 
 def time_ours(network, cams, size: int) -> tuple[float, np.ndarray]:
-    from vgraph.gl.context import get_context
+    from vgraph.gl_context import get_context
     ctx = get_context()
     network.set("pt.camera", cams[0].rotate(1.0, 0.0))  # warm up: programs, tables, buffers
     network.update("pt.image", size=(size, size))
@@ -236,7 +236,7 @@ def speed_table(args) -> list[str]:
 def sort_table(args) -> list[str]:
     """The centroid sort with numpy against the same sort on the GL side (compute shaders), best
     of --repeat per camera, on the whole (unculled) meshes."""
-    from vgraph.gl.context import get_context
+    from vgraph.gl_context import get_context
     from vgraph.gl.tetrahedra.gl_sort import GLCentroidSort
     from vgraph.gl.tetrahedra.order import back_to_front
     ctx = get_context()
@@ -286,7 +286,7 @@ def accuracy_table(args) -> tuple[list[str], list[tuple[str, float, float]]]:
     for rate in (0.5, 1.0, 2.0, 4.0):
         rc = ray_caster_network(volume, camera, "RayCaster", transfer_function=transfer_function(),
                                 sampling_rate=rate, shading="none")  # as the tetrahedra
-        from vgraph.gl.context import get_context
+        from vgraph.gl_context import get_context
         best = np.inf
         for _ in range(args.repeat):
             rc["rc"].invalidate()

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vgraph.gl.context import get_context
+from vgraph.gl_context import get_context
 from vgraph.gl.tricubic import FETCHES, VARIANTS, ProbeBatch, evaluate_gl, probe_program
 from vgraph.implicit import sample
 from vgraph.numerics.bspline import bspline_weights, evaluate, prefilter

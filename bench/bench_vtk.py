@@ -58,7 +58,7 @@ from raycaster_speed import (BONSAI, BONSAI_TF, FOG_TF, SURFACE_TF, load_bonsai,
                              network)
 
 from vgraph.camera import Camera  # noqa: E402
-from vgraph.gl.context import get_context  # noqa: E402
+from vgraph.gl_context import get_context  # noqa: E402
 from vgraph.implicit import sample  # noqa: E402
 from vgraph.numerics.reference_raycast import volume_box  # noqa: E402
 from vgraph.transfer_function import TransferFunction  # noqa: E402

@@ -22,7 +22,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_vtk import OurRenderer, camera_sequence, load_volume, scenes  # noqa: E402
 
-from vgraph.gl.context import get_context  # noqa: E402
+from vgraph.gl_context import get_context  # noqa: E402
 from vgraph.gl.raycasting.gradient_volume import gradient_texture  # noqa: E402
 
 

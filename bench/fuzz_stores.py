@@ -63,7 +63,7 @@ def store(rng) -> Case:
 
 
 def ours(rng, folder: Path) -> None:
-    from vgraph.bricks.convert import convert
+    from vgraph.io.convert import convert
     values = volume_values(rng)
     np.save(folder / "v.npy", values)
     convert(folder / "v.npy", folder / STORE, brick=rng.choice((2, 4)), progress=False)

@@ -17,7 +17,7 @@ import numpy as np
 from vgraph import (Inport, OptionProperty, Outport, Processor, PropertyError, TransferFunctionProperty,
                     VectorProperty, VGraphError)
 from vgraph.gl.raycasting.components import TransferFunctionLut
-from vgraph.io._common import available_memory
+from vgraph.memory import available_memory
 from vgraph.mesh import RegularGrid, TetMesh
 from vgraph.tetrahedralize import cell_ranges, visible_cells, volume_tetrahedra
 from vgraph.volume import Volume

@@ -34,7 +34,7 @@ def data_dir():
 
 @pytest.fixture
 def gl():
-    from vgraph.gl.context import get_context
+    from vgraph.gl_context import get_context
     return get_context()
 
 

@@ -220,7 +220,7 @@ def test_every_ray_caster_names_the_clip_plane(processor, inport, properties):
 def test_a_store_over_its_memory_budget_is_judged_from_its_box_without_loading_it(tmp_path):
     """The RayCaster draws it brick by brick; the diagnosis does not read it whole either: its box
     (x 0 .. 23) stands in for where the visible voxels lie."""
-    from vgraph.bricks.convert import convert
+    from vgraph.io.convert import convert
     from vgraph.bricks.volume import BrickedVolume
     np.save(tmp_path / "ball.npy", (ball() * 65535).astype(np.uint16))
     convert(tmp_path / "ball.npy", tmp_path / "ball.zarr", brick=8, progress=False)

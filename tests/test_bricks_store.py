@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import zarr
 
-from vgraph.bricks.convert import convert
+from vgraph.io.convert import convert
 from vgraph.bricks.pyramid import ArrayPyramid, block_ranges
 from vgraph.bricks.store import BrickStore
 from vgraph.bricks.volume import BrickedVolume, MemoryBudgetError

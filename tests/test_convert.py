@@ -1,4 +1,4 @@
-"""vgraph convert (vgraph.bricks.convert): which formats stream, the memory a conversion takes,
+"""vgraph convert (vgraph.io.convert): which formats stream, the memory a conversion takes,
 the errors of bad input, atomic replacement of the store, and the command line."""
 
 import os
@@ -7,7 +7,7 @@ import nibabel as nib
 import numpy as np
 import pytest
 
-from vgraph.bricks.convert import convert
+from vgraph.io.convert import convert
 from vgraph.bricks.store import BrickStore
 from vgraph.bricks.store_writer import StoreWriter
 from vgraph.cli import main

@@ -11,7 +11,7 @@ import numpy as np
 from vgraph import derived
 from vgraph.box_frame import BoxFrame
 from vgraph.camera import Camera
-from vgraph.gl.context import collect_garbage, get_context
+from vgraph.gl_context import collect_garbage, get_context
 from vgraph.gl.raycasting.framed_view import volume_in_frame
 from vgraph.implicit import sample
 from vgraph.leaks import live_gl_textures
@@ -134,7 +134,7 @@ def test_entries_made_on_a_context_are_released_with_it():
     texture = derived.value(source, "test texture", lambda: ctx.texture((4, 4), 1), ctx=other)
     shared = derived.value(source, "test texture", lambda: ctx.texture((4, 4), 1), ctx=ctx)
     kept = derived.value(source, "test number", lambda: 42)
-    derived.forget_context(other)  # what vgraph.gl.context does when a context is released
+    derived.forget_context(other)  # what vgraph.gl_context does when a context is released
     assert isinstance(texture.mglo, moderngl.InvalidObject)
     assert derived.peek(source, "test texture", ctx=other) is None
     assert derived.peek(source, "test texture", ctx=ctx) is shared  # another context's: kept

@@ -253,7 +253,7 @@ def test_tiles_on_two_workers_equal_the_single_process_image(client):
 
 
 def test_tiles_of_an_ome_zarr_store_drawn_brick_by_brick_on_the_workers(client, tmp_path):
-    from vgraph.bricks.convert import convert
+    from vgraph.io.convert import convert
     from vgraph.volume_network import volume_network
     z, y, x = np.meshgrid(*[np.linspace(-1, 1, 128)] * 3, indexing="ij")
     ball = np.clip(255 * (1.0 - np.sqrt(x * x + 1.3 * y * y + z * z)), 0, 255).astype(np.uint8)

@@ -119,7 +119,7 @@ def test_leaves_equal_the_single_process_picture(client, tmp_path, mode, propert
 
 
 def test_leaves_of_an_ome_zarr_store_read_by_the_workers(client, tmp_path):
-    from vgraph.bricks.convert import convert
+    from vgraph.io.convert import convert
     z, y, x = np.meshgrid(*[np.linspace(-1, 1, 96)] * 3, indexing="ij")
     ball = np.clip(255 * (1.0 - np.sqrt(x * x + 1.3 * y * y + z * z)), 0, 255).astype(np.uint8)
     np.save(tmp_path / "ball.npy", ball)

@@ -13,7 +13,7 @@ import pytest
 import vgraph
 from vgraph.camera import Camera
 from vgraph.cli import main
-from vgraph.gl.context import get_context
+from vgraph.gl_context import get_context
 from vgraph.scheduler import BlankImageWarning
 from vgraph.testing import ray_caster_network
 from vgraph.volume import Volume

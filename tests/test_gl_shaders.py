@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vgraph.errors import ShaderError, VGraphError
-from vgraph.gl import context as gl_context
+from vgraph import gl_context
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.shaders import (ProgramCache, add_shader_dir, builtin_shader_dir, compose,
                                define_lines, format_define_value, parse_compiler_log,

@@ -25,7 +25,7 @@ POINTS = 2500
 
 @pytest.fixture(scope="module")
 def ctx():
-    from vgraph.gl.context import get_context
+    from vgraph.gl_context import get_context
     return get_context()
 
 

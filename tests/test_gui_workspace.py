@@ -164,7 +164,7 @@ GL_FREE_SCRIPT = """
 import json, sys
 from PySide6.QtCore import QSettings
 from PySide6.QtWidgets import QApplication
-from vgraph.gl import context
+from vgraph import gl_context
 from vgraph.gui.app import MainWindow
 
 if __name__ == "__main__":
@@ -173,7 +173,7 @@ if __name__ == "__main__":
     assert window.open_network(sys.argv[1])
     outcome = window.evaluation.run(wait=True)
     frame = window.canvases.views["canvas"].frame()
-    print(json.dumps({"ran": outcome.ran, "frame": list(frame.shape), "gl": context.has_context(),
+    print(json.dumps({"ran": outcome.ran, "frame": list(frame.shape), "gl": gl_context.has_context(),
                       "node": window.scene.nodes["gray"].status.state}))
     window.workspace.undo_stack.setClean()
     window.close()

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vgraph.errors import VGraphError
-from vgraph.gl.context import get_context
+from vgraph.gl_context import get_context
 from vgraph.image import Image
 
 

@@ -21,7 +21,8 @@ import numpy as np
 import pytest
 
 from vgraph.errors import VolumeFileError
-from vgraph.io import _common, read_volume
+from vgraph import memory
+from vgraph.io import read_volume
 
 BOMB_BYTES = 64 * 2**20
 SMALL_PEAK = 16 * 2**20
@@ -242,7 +243,7 @@ def test_available_memory_counts_the_address_space_limit(tmp_path, monkeypatch):
         used = next(int(l.split()[1]) * 1024 for l in status if l.startswith("VmSize:"))
     monkeypatch.setattr(resource, "getrlimit", lambda which: (used + 10**6, resource.RLIM_INFINITY)
                         if which == resource.RLIMIT_AS else (resource.RLIM_INFINITY,) * 2)
-    assert _common.available_memory() <= 10**6
+    assert memory.available_memory() <= 10**6
     path = tmp_path / "v.raw"
     path.write_bytes(bytes(2 * 10**6))
     refused(path, "dims", "too large for memory", raw={"dims": (1000, 1000, 2), "dtype": "uint8"})

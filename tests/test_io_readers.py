@@ -355,7 +355,7 @@ def test_truncated_nifti_and_npy(tmp_path):
 
 
 def test_too_large_for_memory_names_both_sizes(tmp_path, monkeypatch, data):
-    monkeypatch.setattr("vgraph.io._common.available_memory", lambda: 1000)
+    monkeypatch.setattr("vgraph.memory.available_memory", lambda: 1000)
     path = tmp_path / "v.raw"
     path.write_bytes(bytes(4096))
     error = error_of(path, raw={"dims": (16, 16, 16), "dtype": "uint8"})

@@ -13,7 +13,7 @@ from vgraph import ProcessorError, derived
 from vgraph.camera import Camera
 from vgraph.errors import NetworkFileError, PropertyError, VGraphError
 from vgraph.fileformat import load_network, save_network
-from vgraph.gl.context import get_context
+from vgraph.gl_context import get_context
 from vgraph.gl.raycasting.components import EmptySpace
 from vgraph.labels import BACKGROUND, LabelEntry, LabelTable, label_codes, majority, palette_color
 from vgraph.network import Network

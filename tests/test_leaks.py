@@ -9,7 +9,7 @@ import warnings
 import pytest
 
 import vgraph
-from vgraph.gl.context import collect_garbage, get_context
+from vgraph.gl_context import collect_garbage, get_context
 from vgraph.leaks import live_gl_textures, repeated_evaluations, writers_redirected
 from helpers.paths import REPO
 

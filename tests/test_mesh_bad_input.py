@@ -273,7 +273,7 @@ def test_counts_a_small_vtk_file_cannot_hold_are_refused_before_reading(tmp_path
 
 def test_a_mesh_larger_than_the_memory_available_is_refused_before_reading(tmp_path, monkeypatch):
     path = write(tmp_path, "m.vtu")
-    monkeypatch.setattr("vgraph.io._common.available_memory", lambda: 100)
+    monkeypatch.setattr("vgraph.memory.available_memory", lambda: 100)
     with pytest.raises(MeshFileError, match=r"m.vtu \[NumberOfPoints\]: too large for memory: "
                                             r"loading needs .* but only 100 bytes is available"):
         read_mesh(path)

@@ -12,7 +12,7 @@ import nrrd
 import numpy as np
 import pytest
 
-from vgraph.bricks.convert import StoreOrientationWarning, convert
+from vgraph.io.convert import StoreOrientationWarning, convert
 from vgraph.bricks.volume import BrickedVolume
 from vgraph.errors import VolumeFileError
 from vgraph.io import read_volume, write_volume

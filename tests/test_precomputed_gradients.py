@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from vgraph.camera import Camera
-from vgraph.gl.context import get_context
+from vgraph.gl_context import get_context
 from vgraph.gl.raycasting import gradient_volume
 from vgraph.gl.raycasting.gradient_volume import gradient_texture, holds_values, is_cached
 from vgraph.gl.shaders import compose
@@ -231,7 +231,7 @@ def test_a_store_drawn_brick_by_brick_is_shaded_with_central_differences(tmp_pat
     """End to end: a BrickedVolume over its memory budget, shaded with precomputed derivatives,
     renders as with central ones and builds no gradient volume."""
     pytest.importorskip("zarr")
-    from vgraph.bricks.convert import convert
+    from vgraph.io.convert import convert
     from vgraph.bricks.volume import BrickedVolume
     np.save(tmp_path / "v.npy", sample("sphere", 32, "uint16").data)
     convert(tmp_path / "v.npy", tmp_path / "v.zarr", brick=16, progress=False)

@@ -24,7 +24,7 @@ def same_driver(gl):
 
 @pytest.fixture(scope="module")
 def gl():
-    from vgraph.gl.context import get_context
+    from vgraph.gl_context import get_context
     return get_context()
 
 

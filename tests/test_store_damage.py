@@ -27,7 +27,7 @@ import pytest
 import zarr
 
 from vgraph.bricks import store as store_module
-from vgraph.bricks.convert import convert
+from vgraph.io.convert import convert
 from vgraph.bricks.store import BrickStore
 from vgraph.bricks.store_metadata import StoreLevelsWarning
 from vgraph.bricks.volume import BrickedVolume
@@ -443,9 +443,8 @@ def test_messages_of_refused_stores_are_not_followed_by_asyncio_noise(store, tmp
 
 
 def test_reads_are_checked_against_the_memory_available(store, monkeypatch):
-    import vgraph.io._common
     opened = BrickStore(store)
-    monkeypatch.setattr(vgraph.io._common, "available_memory", lambda: 2**20)
+    monkeypatch.setattr("vgraph.memory.available_memory", lambda: 2**20)
     with pytest.raises(VolumeFileError, match=r"v.zarr \[0\]: too large for memory: loading needs 1.1 MiB "
                                               r"\(1183744 bytes\) but only 1.0 MiB is available"):
         opened.read(0, (0, 0, 0), SHAPE)

@@ -352,7 +352,7 @@ def test_framed_copies_and_their_textures_go_with_their_volumes():
     a gradient volume, skipping blocks and ray bounds of each copy) leaves no GL texture behind."""
     import gc
 
-    from vgraph.gl.context import collect_garbage, get_context
+    from vgraph.gl_context import collect_garbage, get_context
     from vgraph.leaks import live_gl_textures
 
     def textures_after_rendering() -> int:

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vgraph import VGraphError
-from vgraph.gl.context import get_context
+from vgraph.gl_context import get_context
 from vgraph.implicit import sample
 from vgraph.numerics.reference_raycast import Shading, render
 from vgraph.volume import SIXTEEN_BIT_CODES, SixteenBitCopy, Volume

@@ -206,7 +206,7 @@ def use_mode(net, mode: str) -> None:
 def time_frames(net, camera: Camera, size, repeat: int) -> tuple[float, float, float]:
     """(best, median) wall-clock and median process-CPU milliseconds per frame (module
     docstring); leaves the camera at ``camera``."""
-    from vgraph.gl.context import get_context
+    from vgraph.gl_context import get_context
     ctx = get_context()
     times, cpu_times = [], []
     for k in range(max(1, repeat)):

@@ -309,7 +309,7 @@ def command_gui(args) -> int:
 
 
 def command_convert(args) -> int:
-    from vgraph.bricks.convert import convert
+    from vgraph.io.convert import convert
     raw = None if args.raw_dims is None else {
         "dims": tuple(args.raw_dims), "dtype": args.raw_dtype, "endianness": args.raw_endianness,
         "offset": args.raw_offset}

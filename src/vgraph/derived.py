@@ -11,7 +11,7 @@ Conventions (docs/architecture.md, "One cache for derived data"):
   Params are compared with ``is`` or ``==``, so they need not be hashable.
 - The source owns its entries: when it dies they are dropped, and GL objects among their values
   (a moderngl object, or one inside a tuple, list or dict) are released. An entry made for a
-  context is released too when that context is released or replaced (vgraph.gl.context calls
+  context is released too when that context is released or replaced (vgraph.gl_context calls
   ``forget_context``), and a context whose object is gone never hits.
 - Derived data is what a consumer works out from a source and that the source does not need for
   itself: textures, buffers, vertex arrays, gradient volumes, block ranges, label codes, cell

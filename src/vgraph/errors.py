@@ -64,6 +64,18 @@ class VolumeFileError(VGraphError):
         super().__init__(f"{place}: {reason}")
 
 
+class TimeStepError(VolumeFileError):
+    """The time point asked for is not in the file; ``time_steps`` is how many it holds (so that
+    VolumeSource can name its own property and the count)."""
+
+    def __init__(self, file, time_step, time_steps: int):
+        self.time_step, self.time_steps = time_step, time_steps
+        held = "1 time point (0)" if time_steps == 1 else \
+            f"{time_steps} time points (0 .. {time_steps - 1})"
+        super().__init__(file, f"time step {time_step} is out of range: the file holds {held}",
+                         "time step")
+
+
 class MeshFileError(VolumeFileError):
     """A mesh or surface file could not be read. Names the file and, where known, the part of it
     (a cell block, an array, the points)."""

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from vgraph.errors import VGraphError
-from vgraph.gl.context import bind_default_framebuffer
+from vgraph.gl_context import bind_default_framebuffer
 
 _NORMALISED_MAX = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}
 

@@ -80,7 +80,7 @@ def repeated_evaluations(network: Network, count: int, size=(48, 48), every: int
                          targets=()) -> list[LeakSample]:
     """Evaluate ``count`` times, re-running processor ``i % n`` and its downstream at the i-th
     evaluation; sample textures and memory every ``every`` evaluations (and after the last)."""
-    from vgraph.gl.context import get_context
+    from vgraph.gl_context import get_context
     order = list(network.processors)
     samples = []
     for i in range(count):

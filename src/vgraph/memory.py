@@ -14,7 +14,7 @@ from __future__ import annotations
 import os
 import resource
 
-from vgraph.errors import VGraphError
+from vgraph.errors import VGraphError, VolumeFileError
 
 
 class OutOfMemoryError(VGraphError):
@@ -31,6 +31,15 @@ def available_memory() -> int | None:
     one; None when unknown (the check is then skipped)."""
     limits = [n for n in (_physical_memory_available(), address_space_left()) if n is not None]
     return min(limits) if limits else None
+
+
+def check_memory(file, needed_bytes: int, field: str | None = None) -> None:
+    """Refuse a load of ``file`` that cannot fit before any byte of it is read."""
+    available = available_memory()
+    if available is not None and needed_bytes > available:
+        raise VolumeFileError(file, f"too large for memory: loading needs {format_bytes(needed_bytes)} "
+                                    f"({needed_bytes} bytes) but only {format_bytes(available)} "
+                                    f"is available", field)
 
 
 def _physical_memory_available() -> int | None:

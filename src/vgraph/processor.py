@@ -137,7 +137,7 @@ class Processor:
     @property
     def gl(self):
         """The process's shared moderngl context (created on first use, never by a processor)."""
-        from vgraph.gl.context import get_context
+        from vgraph.gl_context import get_context
         return get_context()
 
     def wants(self, outport: str) -> bool:

@@ -31,7 +31,7 @@ import numpy as np
 from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
 from vgraph import progress
 from vgraph.frame_context import NO_CONTEXT, FrameContext
-from vgraph.gl.context import collect_garbage, get_context, has_context
+from vgraph.gl_context import collect_garbage, get_context, has_context
 from vgraph.memory import out_of_memory
 from vgraph.network import Network, split_address
 from vgraph.processor import Processor

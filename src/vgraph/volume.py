@@ -54,7 +54,7 @@ Vec3 = tuple[float, float, float]
 # uploaded as R16 holding value * 257 (so a sample is still value / 255): llvmpipe, like many GPUs,
 # filters 8-bit textures with 8-bit weights, errors up to 0.007, while R16 filters exactly enough
 # and was measured no slower.
-_TEXTURE_FORMATS = {np.dtype(np.uint8): ("nu2", 255.0), np.dtype(np.uint16): ("nu2", 65535.0)}
+TEXTURE_FORMATS = {np.dtype(np.uint8): ("nu2", 255.0), np.dtype(np.uint16): ("nu2", 65535.0)}
 # float32 keeps ~7 digits from 1.2e-38 to 3.4e38; values and ranges inside these bounds leave room
 # for the shaders' arithmetic (scale, offset, differences) without overflow or subnormals.
 FLOAT32_SAFE = 1e30
@@ -290,14 +290,14 @@ class Volume:
         if self.texture_is_normalized:
             return 1.0, 0.0
         lo, hi = self.value_range
-        full_scale = _TEXTURE_FORMATS.get(self.data.dtype, (None, 1.0))[1]
+        full_scale = TEXTURE_FORMATS.get(self.data.dtype, (None, 1.0))[1]
         return full_scale / (hi - lo), -lo / (hi - lo)
 
     @property
     def texture_is_r16(self) -> bool:
         """Whether the texture is R16 normalised (8- and 16-bit data, 16-bit copies): its texels
         are r16_texels(data)."""
-        return self.data.dtype in _TEXTURE_FORMATS
+        return self.data.dtype in TEXTURE_FORMATS
 
     @property
     def texture_is_normalized(self) -> bool:
@@ -315,7 +315,7 @@ class Volume:
                               f"this GL's 3D texture limit of {limit} per axis (GL_MAX_3D_TEXTURE_SIZE); "
                               f"render it with the RayCaster or BrickedRayCaster (brick by brick), or "
                               f"crop or downsample it")
-        gl_dtype, _ = _TEXTURE_FORMATS.get(self.data.dtype, ("f4", 1.0))
+        gl_dtype, _ = TEXTURE_FORMATS.get(self.data.dtype, ("f4", 1.0))
         texel_bytes = 2 if self.texture_is_r16 else 4
         size = int(np.prod(self.dims, dtype=np.int64)) * texel_bytes
         what = (f"making the {' x '.join(map(str, self.dims))} {'R16' if texel_bytes == 2 else 'R32F'} "
@@ -391,7 +391,7 @@ def keep_value_statistics(source: Volume, target: Volume) -> None:
 
 def r16_texels(data: np.ndarray) -> np.ndarray:
     """The R16 texels of 8- or 16-bit voxels: uint16 as they are, uint8 as value * 257 (the same
-    normalised value, _TEXTURE_FORMATS)."""
+    normalised value, TEXTURE_FORMATS)."""
     if data.dtype == np.uint8:
         return data.astype(np.uint16) * np.uint16(257)
     return data

@@ -100,7 +100,7 @@ def bricked_cases():
 
 
 def wide() -> Volume:
-    from vgraph.gl.context import get_context
+    from vgraph.gl_context import get_context
     limit = get_context().info["GL_MAX_3D_TEXTURE_SIZE"]
     z, y, x = np.meshgrid(*[np.linspace(-1, 1, n) for n in (6, 5, limit + 40)], indexing="ij")
     return Volume((np.clip(1 - np.sqrt(x * x + y * y + z * z), 0, 1)).astype(np.float32), spacing=(0.01, 1.0, 1.0))

@@ -124,7 +124,7 @@ if __name__ == "__main__":  # record: cd tests && python -m helpers.raycaster_ca
     import sys
     from pathlib import Path
 
-    from vgraph.gl.context import get_context
+    from vgraph.gl_context import get_context
     info = get_context().info
     target = Path(__file__).parents[1] / "data" / "raycaster_fingerprints.json"
     target.write_text(json.dumps({"renderer": info["GL_RENDERER"], "version": info["GL_VERSION"],

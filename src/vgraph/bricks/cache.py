@@ -34,15 +34,13 @@ import numpy as np
 
 from vgraph.bricks.cells import cell_extent
 from vgraph.bricks.pyramid import BrickSource
-from vgraph.gl.context import release_quietly
+from vgraph.gl_context import release_quietly
 from vgraph.progress import report
+from vgraph.volume import FLOAT32_SAFE, TEXTURE_FORMATS
 
 HALO = 2
 BLOCK = 8  # voxels per block edge of the empty-space skipping inside a brick
 MB = 1024 * 1024
-# float32 carries values and ranges inside these bounds with room for the shaders' arithmetic
-# (the rule of Volume.texture_is_normalized).
-FLOAT32_SAFE = 1e30
 
 
 @dataclass(frozen=True)
@@ -85,9 +83,9 @@ def texture_format(dtype, value_range) -> TextureFormat:
     """The brick texture format of a source (the rule of Volume.texture and texture_scale_offset)."""
     dtype = np.dtype(dtype)
     lo, hi = usable_range(value_range)
-    if dtype in (np.dtype(np.uint8), np.dtype(np.uint16)):
-        full = 255.0 if dtype == np.uint8 else 65535.0
-        return TextureFormat("nu2", 2, full / (hi - lo), -lo / (hi - lo), False)
+    if dtype in TEXTURE_FORMATS:
+        gl_dtype, full = TEXTURE_FORMATS[dtype]
+        return TextureFormat(gl_dtype, 2, full / (hi - lo), -lo / (hi - lo), False)
     if max(abs(lo), abs(hi)) > FLOAT32_SAFE or hi - lo < 1.0 / FLOAT32_SAFE:
         return TextureFormat("f4", 4, 1.0, 0.0, True)
     return TextureFormat("f4", 4, 1.0 / (hi - lo), -lo / (hi - lo), False)

@@ -46,8 +46,10 @@ from vgraph.bricks import foreign_stores as foreign
 from vgraph.bricks import store_metadata as meta
 from vgraph.bricks.pyramid import block_ranges, brick_grid, sample_blocks
 from vgraph.bricks.store_files import CheckedStore, StoreFileError, run
+from vgraph.byte_order import to_native
 from vgraph.errors import VGraphError, VolumeFileError
-from vgraph.io._common import TimeStepError, check_memory, to_native
+from vgraph.errors import TimeStepError
+from vgraph.memory import check_memory
 from vgraph.value_range import range_of
 from vgraph.volume_grid import IDENTITY
 

@@ -8,7 +8,7 @@ through it, so every key zarr asks for is checked, whatever the array layout:
   descriptor must be a regular file. Symbolic links are followed, as for every volume file, and
   judged by what they lead to: /dev/zero, a FIFO or a folder is refused, a loop cannot be opened;
 - its size must be within the limit of its kind: a metadata document (zarr.json, .zarray, ...)
-  MAX_HEADER_BYTES, a chunk of an array whose limit was set (``limit_chunks``) that limit, and
+  MAX_METADATA_BYTES, a chunk of an array whose limit was set (``limit_chunks``) that limit, and
   every read within the memory available;
 - a chunk must not decode to more than its chunk holds, as far as its codec says so before
   decoding (chunk_codecs.py: zstd, blosc, gzip, zlib);
@@ -37,9 +37,12 @@ from zarr.storage import LocalStore
 
 from vgraph.bricks.chunk_codecs import decoded_size_problem, outer_codec
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import MAX_HEADER_BYTES, available_memory, format_bytes
+from vgraph.memory import available_memory, format_bytes
 
 METADATA_NAMES = frozenset({"zarr.json", ".zarray", ".zattrs", ".zgroup", ".zmetadata"})
+# Metadata documents are small JSON; one beyond this is not metadata, and zarr would parse it whole
+# (the same bound as the volume readers' text headers, vgraph.io).
+MAX_METADATA_BYTES = 8 * 2**20
 SETTLE_SECONDS = 30.0  # how long a failed read waits for the rest of its chunks (local files)
 _KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
           (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
@@ -115,12 +118,12 @@ class CheckedStore(LocalStore):
         """(largest file, decoded bytes, codec checked before decoding) of ``key``."""
         folder, _, name = key.rpartition("/")
         if name in METADATA_NAMES:
-            return MAX_HEADER_BYTES, None, None
+            return MAX_METADATA_BYTES, None, None
         while folder:  # the innermost array the key lies in
             if folder in self.limits:
                 return self.limits[folder]
             folder = folder.rpartition("/")[0]
-        return MAX_HEADER_BYTES, None, None  # nothing but metadata is read before an array's limit is set
+        return MAX_METADATA_BYTES, None, None  # nothing but metadata is read before an array's limit is set
 
 
 def _read_regular_file(path: Path, store: CheckedStore, key: str, byte_range, limit: int) -> bytes | None:

@@ -23,7 +23,7 @@ import numpy as np
 
 from vgraph.bricks.pyramid import Level, brick_grid, next_level
 from vgraph.errors import VGraphWarning, VolumeFileError
-from vgraph.io._common import format_bytes
+from vgraph.memory import format_bytes
 from vgraph.volume_grid import IDENTITY, VolumeGeometryError, checked_direction
 
 MAX_CHUNK_BYTES = 2**30  # one decoded chunk: zarr holds it whole while reading any voxel of it

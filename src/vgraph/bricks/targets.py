@@ -9,8 +9,8 @@ import numpy as np
 
 from vgraph.bricks.cache import BLOCK, HALO, brick_extent
 from vgraph.bricks.selection import BrickGeometry
-from vgraph.gl.context import bind_default_framebuffer, release_quietly
 from vgraph.gl.raycasting.geometry import vec
+from vgraph.gl_context import bind_default_framebuffer, release_quietly
 
 
 class Accumulation:

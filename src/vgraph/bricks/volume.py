@@ -30,10 +30,10 @@ import numpy as np
 
 from vgraph.bricks.pyramid import Level, brick_grid, sample_blocks
 from vgraph.errors import VGraphError
-from vgraph.io._common import check_memory, format_bytes
+from vgraph.memory import check_memory, format_bytes
 from vgraph.rank_table import RankTable
 from vgraph.value_range import checked_range, range_of
-from vgraph.volume import _TEXTURE_FORMATS, FLOAT32_SAFE, Volume
+from vgraph.volume import TEXTURE_FORMATS, FLOAT32_SAFE, Volume
 from vgraph.volume_grid import IDENTITY, check_box, checked_direction, checked_vec3
 
 DEFAULT_MEMORY_BUDGET_MB = 1024
@@ -199,12 +199,12 @@ class BrickedVolume(Volume):
         if self.texture_is_normalized:
             return 1.0, 0.0
         lo, hi = self.value_range
-        full_scale = _TEXTURE_FORMATS.get(self.dtype, (None, 1.0))[1]
+        full_scale = TEXTURE_FORMATS.get(self.dtype, (None, 1.0))[1]
         return full_scale / (hi - lo), -lo / (hi - lo)
 
     @property
     def texture_is_normalized(self) -> bool:
-        if self.dtype in _TEXTURE_FORMATS:
+        if self.dtype in TEXTURE_FORMATS:
             return False
         lo, hi = self.value_range
         return max(abs(lo), abs(hi)) > FLOAT32_SAFE or hi - lo < 1.0 / FLOAT32_SAFE

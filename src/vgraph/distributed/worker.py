@@ -9,7 +9,7 @@
   its volume is read and uploaded to the GPU once and its bricks stay in the BrickedRayCaster's
   cache (Dask's placement sends a leaves run back to that worker); only the renderers run again for
   the new camera.
-- One GL context per worker process: ``vgraph.gl.context.get_context()`` creates the process's
+- One GL context per worker process: ``vgraph.gl_context.get_context()`` creates the process's
   headless EGL context on the first evaluation in that worker (never in the client or the
   scheduler) and every later task reuses it. GL contexts are not thread-safe, so tasks of one
   worker hold ``_GL_LOCK`` while they touch it (workers are started single-threaded anyway).
@@ -65,9 +65,10 @@ def load_plugins(plugins) -> None:
 
 def worker_info() -> dict:
     """Which process this is and what it holds (tests check that contexts are per process and reused)."""
-    from vgraph.gl import context
-    return {"pid": os.getpid(), "has_context": context._context is not None,
-            "context_id": id(context._context) if context._context is not None else None,
+    from vgraph import gl_context
+    held = gl_context.has_context()
+    return {"pid": os.getpid(), "has_context": held,
+            "context_id": id(gl_context.get_context()) if held else None,
             "networks": len(_NETWORKS)}
 
 

@@ -33,9 +33,9 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from vgraph.errors import VolumeFileError
-from vgraph.io._common import (NonFiniteVoxelsWarning, TimeStepError, check_time_step,
-                               file_problem, regular_file)
+from vgraph.bricks.volume import BrickedVolume
+from vgraph.errors import TimeStepError, VolumeFileError
+from vgraph.io._common import NonFiniteVoxelsWarning, check_time_step, file_problem, regular_file
 from vgraph.io.dicom_series import read_dicom_series
 from vgraph.io.metaimage import read_metaimage
 from vgraph.io.nifti import read_nifti
@@ -56,8 +56,7 @@ __all__ = ["read_volume", "write_volume", "SUPPORTED_EXTENSIONS", "WRITABLE_EXTE
 
 def read_zarr(path, time_step: int = 0) -> Volume:
     """An OME-Zarr image as a BrickedVolume: metadata now, voxels when a consumer needs them
-    (within the default memory budget; docs/large-data.md)."""
-    from vgraph.bricks.volume import BrickedVolume  # the bricks import vgraph.io themselves
+    (within the default memory budget; docs/guide/large-data.md)."""
     return BrickedVolume.open(path, time_step=time_step)
 
 

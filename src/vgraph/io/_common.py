@@ -24,8 +24,9 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from vgraph.errors import VGraphError, VolumeFileError
-from vgraph.memory import available_memory, format_bytes  # noqa: F401 (readers import them from here)
+from vgraph.byte_order import to_native
+from vgraph.errors import TimeStepError, VGraphError, VolumeFileError
+from vgraph.memory import check_memory, format_bytes
 from vgraph.progress import Steps
 from vgraph.volume import IDENTITY, Volume, VolumeGeometryError
 
@@ -42,18 +43,6 @@ MAX_HEADER_LINE = 2**20
 class NonFiniteVoxelsWarning(UserWarning):
     """A float volume holds NaN or +-Inf voxels. It was loaded; value ranges, histograms and
     textures skip or clamp those voxels."""
-
-
-class TimeStepError(VolumeFileError):
-    """The time point asked for is not in the file; ``time_steps`` is how many it holds (so that
-    VolumeSource can name its own property and the count)."""
-
-    def __init__(self, file, time_step, time_steps: int):
-        self.time_step, self.time_steps = time_step, time_steps
-        held = "1 time point (0)" if time_steps == 1 else \
-            f"{time_steps} time points (0 .. {time_steps - 1})"
-        super().__init__(file, f"time step {time_step} is out of range: the file holds {held}",
-                         "time step")
 
 
 def check_time_step(file, time_step, time_steps: int) -> int:
@@ -115,16 +104,6 @@ def pad_to_3d(shape_xyz, file, field: str) -> tuple[int, int, int]:
     if len(shape) < 2:
         raise VolumeFileError(file, f"expected a 3D scalar volume, got {len(shape)} axis", field)
     return check_dims(shape + [1] * (3 - len(shape)), file, field)
-
-
-# --- memory --------------------------------------------------------------------------------------
-def check_memory(file, needed_bytes: int, field: str | None = None) -> None:
-    """Refuse a load that cannot fit before any byte of it is read."""
-    available = available_memory()
-    if available is not None and needed_bytes > available:
-        raise VolumeFileError(file, f"too large for memory: loading needs {format_bytes(needed_bytes)} "
-                                    f"({needed_bytes} bytes) but only {format_bytes(available)} "
-                                    f"is available", field)
 
 
 # --- files and headers ---------------------------------------------------------------------------
@@ -236,7 +215,7 @@ def read_raw_array(path, dtype: np.dtype, count: int, *, offset: int = 0,
     except OSError as exc:
         raise VolumeFileError(blame, f"cannot read data file {str(path)!r}: {exc.strerror}",
                               size_field) from exc
-    start = _data_start(path, blame, actual, needed, offset, allow_trailing, size_field)
+    start = data_start(path, blame, actual, needed, offset, allow_trailing, size_field)
     first, number = (0, count) if window is None else window
     check_memory(path, number * dtype.itemsize, size_field)
     out = np.empty(number, dtype=dtype)
@@ -244,8 +223,11 @@ def read_raw_array(path, dtype: np.dtype, count: int, *, offset: int = 0,
     return to_native(out, copy=False)
 
 
-def _data_start(path, blame, actual: int, needed: int, offset: int, allow_trailing: bool,
-                field) -> int:
+def data_start(path, blame, actual: int, needed: int, offset: int, allow_trailing: bool,
+               field) -> int:
+    """Where the voxels start in a data file of ``actual`` bytes that must hold ``needed`` bytes
+    after ``offset`` header bytes (-1: the voxels end the file); a short file, or a longer one
+    where trailing bytes are not allowed, raises a VolumeFileError on ``blame`` and ``field``."""
     where = f"data file {str(path)!r}" if str(blame) != str(path) else "file"
     if offset == -1:
         if actual < needed:
@@ -280,15 +262,6 @@ def _read_into(path, start: int, target: np.ndarray, nbytes: int) -> None:
                 raise VolumeFileError(path, f"file ended after {done} of {nbytes} data bytes")
             done += got
             bar.update(got)
-
-
-def to_native(array: np.ndarray, copy: bool = True) -> np.ndarray:
-    """The same values in native byte order (textures and numpy ufuncs expect it). ``copy=False``
-    swaps a buffer the reader owns in place, so a big-endian file does not need twice the memory."""
-    if array.dtype.byteorder in ("=", "|") or array.dtype.isnative:
-        return array
-    swapped = array.byteswap(inplace=not copy)
-    return swapped.view(array.dtype.newbyteorder("="))
 
 
 # --- numpy dtypes from header words --------------------------------------------------------------

@@ -44,11 +44,11 @@ import pydicom.filereader
 from pydicom.uid import DeflatedExplicitVRLittleEndian
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import (check_memory, check_origin, check_spacing, make_volume,
-                               open_capped, regular_file)
+from vgraph.io._common import check_origin, check_spacing, make_volume, open_capped, regular_file
 from vgraph.io._inflate import check_inflates_within, file_pieces
 from vgraph.io._values import rescaled
 from vgraph.io.orientation import file_direction, lps_ras, split_axes
+from vgraph.memory import check_memory
 from vgraph.progress import steps
 from vgraph.volume import IDENTITY, Volume
 

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from vgraph.errors import MeshFileError, VolumeFileError
-from vgraph.io._common import check_memory, format_bytes
+from vgraph.memory import check_memory, format_bytes
 
 POINT_BYTES = 24
 CELL_BYTES = 64

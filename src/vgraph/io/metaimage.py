@@ -40,12 +40,13 @@ from pathlib import Path
 
 import numpy as np
 
+from vgraph.byte_order import to_native
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import (check_dims, check_memory, check_origin, check_spacing,
-                               check_time_step, header_lines, make_volume, parse_numbers,
-                               read_raw_array, regular_file, to_native)
+from vgraph.io._common import (check_dims, check_origin, check_spacing, check_time_step, header_lines,
+                               make_volume, parse_numbers, read_raw_array, regular_file)
 from vgraph.io._inflate import file_pieces, inflate_into
 from vgraph.io.orientation import LPS_TO_RAS, file_direction, lps_ras
+from vgraph.memory import check_memory
 from vgraph.volume import Volume
 
 ELEMENT_TYPES = {

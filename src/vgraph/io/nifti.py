@@ -39,13 +39,15 @@ from pathlib import Path
 import nibabel as nib
 import numpy as np
 
+from vgraph.byte_order import to_native
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import (MAX_HEADER_BYTES, check_memory, check_origin, check_time_step,
-                               make_volume, pad_to_3d, read_raw_array, regular_file, to_native)
+from vgraph.io._common import (MAX_HEADER_BYTES, check_origin, check_time_step, make_volume, pad_to_3d,
+                               read_raw_array, regular_file)
 from vgraph.io._inflate import file_pieces, inflate_into, inflated_prefix
+from vgraph.io._values import rescaled
 from vgraph.io.label_hints import nifti_says_labels
 from vgraph.io.orientation import split_axes
-from vgraph.io._values import rescaled
+from vgraph.memory import check_memory
 from vgraph.volume import Volume
 
 WRITER_TAG = "vgraph volume"

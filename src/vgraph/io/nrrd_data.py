@@ -23,10 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
+from vgraph.byte_order import to_native
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import check_memory, read_raw_array, regular_file, to_native
+from vgraph.io._common import read_raw_array, regular_file
 from vgraph.io._inflate import file_pieces, inflate_into
 from vgraph.io._values import ascii_values
+from vgraph.memory import check_memory
 
 ENCODINGS = {"raw": "raw", "gzip": "gzip", "gz": "gzip", "bzip2": "bzip2", "bz2": "bzip2",
              "ascii": "ascii", "text": "ascii", "txt": "ascii"}

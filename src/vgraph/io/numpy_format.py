@@ -23,10 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
+from vgraph.byte_order import to_native
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import (check_memory, check_origin, check_spacing, check_time_step,
-                               make_volume, open_capped, read_raw_array, regular_file, to_native)
+from vgraph.io._common import (check_origin, check_spacing, check_time_step, make_volume, open_capped,
+                               read_raw_array, regular_file)
 from vgraph.io.orientation import file_direction
+from vgraph.memory import check_memory
 from vgraph.volume import IDENTITY, Volume
 
 METADATA_KEYS = ("spacing", "origin", "direction", "value_range")

@@ -34,7 +34,7 @@ def read_raw(path, description: dict | None = None) -> Volume:
     path = Path(path)
     if description is None:
         description = description_from_name(path)
-    dims, dtype, spacing, origin, offset = _checked_description(description, path)
+    dims, dtype, spacing, origin, offset = checked_raw_description(description, path)
     regular_file(path)
     count = dims[0] * dims[1] * dims[2]
     flat = read_raw_array(path, dtype, count, offset=0 if offset is None else offset,
@@ -53,7 +53,9 @@ def description_from_name(path: Path) -> dict:
     return {"dims": (int(x), int(y), int(z)), "dtype": dtype.lower()}
 
 
-def _checked_description(description: dict, path: Path):
+def checked_raw_description(description: dict, path: Path):
+    """(dims, dtype, spacing, origin, offset) of a raw description (read_volume's ``raw``), each
+    checked, with errors naming ``path`` and the key."""
     if not isinstance(description, dict):
         raise VolumeFileError(path, f"raw description must be a dict, got {type(description).__name__}",
                               "raw")

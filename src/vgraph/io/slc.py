@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import check_dims, check_memory, check_spacing, make_volume, regular_file
+from vgraph.io._common import check_dims, check_spacing, make_volume, regular_file
+from vgraph.memory import check_memory
 from vgraph.volume import Volume
 
 _NUMBER = re.compile(rb"\s*([-+0-9.eE]+)")

@@ -32,13 +32,15 @@ from pathlib import Path
 
 import numpy as np
 
+from vgraph.byte_order import to_native
 from vgraph.errors import VolumeFileError
-from vgraph.io._common import (check_dims, check_memory, check_origin, check_spacing,
-                               make_volume, parse_numbers, regular_file, to_native)
+from vgraph.io._common import (check_dims, check_origin, check_spacing, make_volume, parse_numbers,
+                               regular_file)
 from vgraph.io._inflate import inflate_into, memory_pieces
 from vgraph.io._values import ascii_values
 from vgraph.io.label_hints import vti_says_labels
 from vgraph.io.orientation import file_direction
+from vgraph.memory import check_memory
 from vgraph.volume import Volume
 
 _TYPES = {"Int8": "i1", "UInt8": "u1", "Int16": "i2", "UInt16": "u2", "Int32": "i4",

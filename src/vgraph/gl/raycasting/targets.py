@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import moderngl
 
-from vgraph.gl.context import bind_default_framebuffer
+from vgraph.gl_context import bind_default_framebuffer
 from vgraph.image import Image
 
 

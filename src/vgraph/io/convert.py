@@ -1,4 +1,4 @@
-"""``vgraph convert``: a volume file -> an OME-Zarr pyramid of bricks (docs/large-data.md).
+"""``vgraph convert``: a volume file -> an OME-Zarr pyramid of bricks (docs/guide/large-data.md).
 
 The input is read in slabs of one brick row (``brick`` z slices) where its format allows
 (slabs.py); each slab is written to level 0 and halved (pyramid.halve, in pieces along y so its
@@ -42,10 +42,10 @@ from tqdm import tqdm
 
 from vgraph.atomic import remove_stale_temporaries
 from vgraph.bricks.pyramid import Level, halve, level_count, next_level
-from vgraph.bricks.slabs import SlabInput, open_input
+from vgraph.io.slabs import SlabInput, open_input
 from vgraph.bricks.store_writer import StoreWriter
 from vgraph.errors import OutputFileError, VGraphError, VGraphWarning
-from vgraph.io._common import format_bytes
+from vgraph.memory import format_bytes
 from vgraph.value_range import range_of
 from vgraph.volume_grid import checked_direction, is_identity
 

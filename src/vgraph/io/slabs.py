@@ -19,12 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
+from vgraph.byte_order import to_native
 from vgraph.errors import VolumeFileError
 from vgraph.io import extension_of, read_volume
 from vgraph.io import metaimage, nifti, nrrd_data, nrrd_format, numpy_format
-from vgraph.io._common import (_data_start, check_dims, check_time_step,
-                               parse_numbers, regular_file, to_native)
-from vgraph.io.raw import _checked_description, description_from_name
+from vgraph.io._common import data_start, check_dims, check_time_step, parse_numbers, regular_file
+from vgraph.io.raw import checked_raw_description, description_from_name
 from vgraph.volume_grid import IDENTITY
 
 
@@ -106,7 +106,7 @@ def _checked_start(data_file, header, dims, dtype, offset, allow_trailing, field
     except OSError as exc:
         raise VolumeFileError(header, f"cannot read data file {str(data_file)!r}: {exc.strerror}",
                               field) from exc
-    start = _data_start(data_file, header, size, count * time_steps * dtype.itemsize, offset,
+    start = data_start(data_file, header, size, count * time_steps * dtype.itemsize, offset,
                         allow_trailing, field)
     return start + time_step * count * dtype.itemsize
 
@@ -114,7 +114,7 @@ def _checked_start(data_file, header, dims, dtype, offset, allow_trailing, field
 # --- formats ------------------------------------------------------------------------------------
 def _raw(path: Path, description, time_step: int):
     description = description_from_name(path) if description is None else description
-    dims, dtype, spacing, origin, offset = _checked_description(description, path)
+    dims, dtype, spacing, origin, offset = checked_raw_description(description, path)
     regular_file(path)
     check_time_step(path, time_step, 1)
     start = _checked_start(path, path, dims, dtype, 0 if offset is None else offset,

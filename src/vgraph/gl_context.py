@@ -136,7 +136,7 @@ def _create_standalone_context() -> moderngl.Context:
         f"no OpenGL {REQUIRED_GL_VERSION // 100}.{REQUIRED_GL_VERSION % 100 // 10} context could be "
         f"created. Tried:\n{tried}\n"
         f"Headless rendering needs EGL and a Mesa driver; install the system packages "
-        f"{_SYSTEM_PACKAGES}, or install a context of your own with vgraph.gl.context.set_context().")
+        f"{_SYSTEM_PACKAGES}, or install a context of your own with vgraph.gl_context.set_context().")
 
 
 def _first_line(exc: BaseException) -> str:
