@@ -11,7 +11,7 @@ from PySide6.QtCore import QEvent, Qt
 import vgraph
 from vgraph.errors import VGraphError
 from vgraph.fileformat import network_document
-from vgraph.live.changes import PropertySet
+from vgraph.edits import SetProperty
 from vgraph.gui.live_evaluation import INTERACTIVE_SCALE, LiveEvaluation
 from vgraph.live.render_messages import RenderJob, RenderResult
 from vgraph.live.render_server import RenderServer, serve
@@ -67,7 +67,7 @@ def test_a_slider_drag_renders_coarse_changes_and_refines_on_release(window, job
         slider.setSliderDown(False)
     settle(window, qtbot)
     assert during and all(job.scale == INTERACTIVE_SCALE and job.document is None for job in during)
-    assert all(isinstance(change, PropertySet) and change.address == "rc.diffuse"
+    assert all(isinstance(change, SetProperty) and change.address == "rc.diffuse"
                for job in during for change in job.changes)
     assert jobs[-1].scale == 1.0 and jobs[-1].document is None
     assert all(width == coarse for width, final in shown[:-1] if not final)
@@ -140,9 +140,9 @@ def test_the_render_process_skips_jobs_that_a_newer_one_waits_behind(gl):
     base_dir = str(network.base_dir)
     first = RenderJob(1, network_document(network), base_dir, stamp=("w", 1), fresh=True)
     second = RenderJob(2, None, base_dir, scale=INTERACTIVE_SCALE, stamp=("w", 2), since=("w", 1),
-                       changes=(PropertySet("rc.sampling_rate", 1.5),))
+                       changes=(SetProperty("rc.sampling_rate", 1.5),))
     third = RenderJob(3, None, base_dir, scale=INTERACTIVE_SCALE, stamp=("w", 3), since=("w", 2),
-                      changes=(PropertySet("rc.diffuse", 0.4),))
+                      changes=(SetProperty("rc.diffuse", 0.4),))
     connection = FakeConnection([first, second, third])
     serve(connection)
     assert [(r.version, r.skipped) for r in connection.sent] == [(1, True), (2, True), (3, False)]

@@ -7,7 +7,7 @@ import signal
 import numpy as np
 
 from vgraph.fileformat import network_document
-from vgraph.live.changes import PropertySet
+from vgraph.edits import SetProperty
 from vgraph.live.render_messages import RenderJob
 from vgraph.live.render_server import RenderServer
 
@@ -35,7 +35,7 @@ def test_a_property_edit_sends_a_change_and_renders_the_documents_frame(window, 
     del jobs[:]
     window.workspace.set_property("rc.sampling_rate", 1.5)
     window.evaluation.run(wait=True)
-    assert [(job.document, job.changes) for job in jobs] == [(None, (PropertySet("rc.sampling_rate", 1.5),))]
+    assert [(job.document, job.changes) for job in jobs] == [(None, (SetProperty("rc.sampling_rate", 1.5),))]
     frame = window.canvases.views["canvas"].frame()
     np.testing.assert_array_equal(frame, document_frame(window))
 
@@ -127,7 +127,7 @@ def test_an_edit_while_a_bricked_frame_refines_takes_over(window, jobs, qtbot, t
     edit = window.evaluation.version
     qtbot.waitUntil(lambda: window.evaluation.idle() and window.canvases.views["canvas"].is_final, timeout=60000)
     changed = [job for job in jobs if job.changes]
-    assert [job.changes for job in changed] == [(PropertySet("rc.sampling_rate", 1.5),)]
+    assert [job.changes for job in changed] == [(SetProperty("rc.sampling_rate", 1.5),)]
     after = jobs[jobs.index(changed[0]):]
     assert all(job.version == edit for job in after)   # nothing more for the state before the edit
     assert not window.evaluation.last_result.refining

@@ -212,7 +212,7 @@ def test_a_long_drag_is_one_undo_step_and_frees_what_each_move_made(window, qtbo
     """PySide6 keeps every undo command that QUndoStack.push merges away alive forever: each
     mouse move of a drag leaked one, with its transfer function (80 KB per drag in the soak)."""
     import gc
-    from vgraph.gui.commands import SetProperty
+    from vgraph.gui.commands import EditCommand
     open_evaluated(window, "raycast_sphere.json")
     window.scene.select_processor("rc")
     plot = window.inspector.editors["transfer_function"].plot
@@ -231,7 +231,7 @@ def test_a_long_drag_is_one_undo_step_and_frees_what_each_move_made(window, qtbo
     assert stack.count() == steps + 1      # the whole drag: one undo step
     gc.collect()
     network = window.workspace.network   # (other tests' windows may still be alive)
-    assert sum(isinstance(o, SetProperty) and o.network is network for o in gc.get_objects()) <= stack.count()
+    assert sum(isinstance(o, EditCommand) and o.network is network for o in gc.get_objects()) <= stack.count()
     stack.undo()
     assert window.workspace.network.get("rc.transfer_function") == original
 

@@ -9,7 +9,8 @@ import pytest
 import vgraph
 from vgraph.errors import NetworkFileError
 from vgraph.fileformat import network_document
-from vgraph.live.changes import PropertySet, append_change, apply_changes, change_of
+from vgraph.edits import SetProperty
+from vgraph.live.changes import append_change, apply_changes, change_of
 from vgraph.live.mirror import mirror
 from vgraph.live.render_messages import RenderJob, plugin_modules
 from vgraph.live.render_process import RenderProcess
@@ -178,10 +179,10 @@ def test_a_slider_drag_sends_its_last_value_but_link_steps_stay_in_order():
     changes = recorder(gui)
     for value in (1.5, 2.5, 3.5):
         gui.set("a.value", value)
-    assert changes == [PropertySet("a.value", 3.5)]
+    assert changes == [SetProperty("a.value", 3.5)]
     gui.link("a.value", "b.value")
     gui.set("a.value", 7.0)
-    assert [type(c).__name__ for c in changes[1:]] == ["PropertySet", "Linked", "PropertySet", "PropertySet"]
+    assert [type(c).__name__ for c in changes[1:]] == ["SetProperty", "LinkProperties", "SetProperty", "SetProperty"]
 
 
 def test_changes_reach_the_server_and_render_what_the_document_renders():
@@ -202,12 +203,12 @@ def test_changes_reach_the_server_and_render_what_the_document_renders():
 def test_the_server_asks_for_a_document_when_changes_cannot_apply():
     gui = summing_network()
     server = RenderServer()
-    change = (PropertySet("a.value", 2.0),)
+    change = (SetProperty("a.value", 2.0),)
     assert server.handle(RenderJob(1, None, changes=change)).needs_document          # no network yet
     assert server.handle(RenderJob(2, network_document(gui), stamp=("gui", 2))).error is None
     stale = server.handle(RenderJob(3, None, changes=change, stamp=("gui", 3), since=("other", 7)))
     assert stale.needs_document and server.network is not None   # another sender's changes: untouched
-    failing = server.handle(RenderJob(3, None, changes=(PropertySet("zz.value", 1.0),),
+    failing = server.handle(RenderJob(3, None, changes=(SetProperty("zz.value", 1.0),),
                                       stamp=("gui", 3), since=("gui", 2)))
     assert failing.needs_document and failing.error is None and server.network is None
 

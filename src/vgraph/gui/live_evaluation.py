@@ -61,9 +61,10 @@ import numpy as np
 
 from PySide6.QtCore import QObject, QTimer, Signal
 
+from vgraph.edits import Edit
 from vgraph.errors import VGraphError
 from vgraph.fileformat import network_document
-from vgraph.live.changes import Change, append_change, change_of
+from vgraph.live.changes import append_change, change_of
 from vgraph.live.evaluator import EvaluationOutcome, ProcessorStatus, format_seconds, processor_status
 from vgraph.live.render_messages import GUI_LOAD_LIMIT, RenderJob, RenderResult, plugin_modules
 from vgraph.live.render_process import RenderProcess, describe_exit
@@ -117,7 +118,7 @@ class LiveEvaluation(QObject):
         self._include_writers = False
         self._fresh = True          # the next job starts the render process's copy afresh
         self._resync = False        # the next job sends the whole document
-        self._changes: list[Change] = []    # edits since the last job
+        self._changes: list[Edit] = []    # edits since the last job
         self._sent_context = None   # (base_dir, plug-in modules) of the last job
         self._last_job: RenderJob | None = None
         self._sender = uuid.uuid4().hex   # tells the render process whose changes a job carries

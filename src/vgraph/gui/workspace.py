@@ -1,8 +1,9 @@
 """The workspace: the open network, its file, its undo stack and the edit operations.
 
 Conventions:
-- Every edit method builds a command (``commands.py``) and runs it through ``execute``: the command
-  is applied once (a refused edit raises VGraphError and changes nothing) and then pushed.
+- Every edit method builds an edit (``vgraph.edits``, read from the network before it changes)
+  and runs it through ``execute`` as an ``EditCommand`` (``commands.py``): the edit is applied once
+  (a refused edit raises VGraphError and changes nothing) and then pushed.
 - ``network_replaced`` is emitted when New/Open put a different Network in place; views rebuild.
 - "Modified" means the undo stack is not at its clean index (set when saved or opened). The
   stack keeps the last ``UNDO_LIMIT`` steps; once the saved state has dropped out of it, undo
@@ -24,8 +25,9 @@ from vgraph.errors import PropertyError, VGraphError
 from vgraph.fileformat import load_network, save_network
 from vgraph.mesh_network import is_mesh_path
 from vgraph.volume_network import is_volume_path
-from vgraph.gui.commands import (AddProcessor, Connect, Disconnect, LinkProperties, MoveProcessors,
-                                 NetworkCommand, RemoveProcessor, SetProperty, Unlink, free_id)
+from vgraph.edits import (AddProcessor, Connect, Disconnect, Edit, LinkProperties, MoveProcessors,
+                          RemoveProcessor, SetProperty, UnlinkProperties)
+from vgraph.gui.commands import EditCommand, free_id
 from vgraph.network import Connection, Link, Network, split_address
 from vgraph.processor import Processor
 from vgraph.properties import CameraProperty
@@ -59,15 +61,17 @@ class Workspace(QObject):
         return self.path.name if self.path else "untitled"
 
     # --- commands -------------------------------------------------------------------------------
-    def execute(self, command: NetworkCommand) -> NetworkCommand:
-        """Apply ``command`` (raises VGraphError if the network refuses it), then push it."""
+    def execute(self, edit: Edit, merge=None) -> EditCommand:
+        """Apply ``edit`` (raises VGraphError if the network refuses it), then push it as one undo
+        step (merged into the last one when it continues it: ``EditCommand``)."""
+        command = EditCommand(self.network, edit, merge)
         command.apply()
         command.applied_once()
         if not self._merged_into_last(command):
             self.undo_stack.push(command)
         return command
 
-    def _merged_into_last(self, command: NetworkCommand) -> bool:
+    def _merged_into_last(self, command: EditCommand) -> bool:
         """Merge a continuing edit (the next mouse move of a drag) into the last command under
         the rules of QUndoStack.push, but here: PySide6 never frees a command that push merges
         away, so every move of a drag leaked one, with its values (a transfer function, a camera)."""
@@ -99,10 +103,10 @@ class Workspace(QObject):
         processor.position = (float(position[0]), float(position[1]))
         leaders = self._camera_leaders(processor) if self.auto_link_cameras else []
         with self._macro(f"Add {processor.id} ({cls.type_name})"):
-            self.execute(AddProcessor(self.network, processor))
+            self.execute(AddProcessor.of(processor))
             for leader, follower in leaders:
-                self.execute(LinkProperties(self.network, leader, follower, bidirectional=True))
-        return processor
+                self.execute(LinkProperties.of(self.network, leader, follower, bidirectional=True))
+        return self.network[processor.id]
 
     def _camera_leaders(self, processor: Processor) -> list[tuple[str, str]]:
         """(existing camera property, new camera property) pairs to link."""
@@ -123,18 +127,18 @@ class Workspace(QObject):
         with self._macro(f"Delete {count} item{'s' if count > 1 else ''}"):
             for link in links:
                 if link in self.network.links:
-                    self.execute(Unlink(self.network, link))
+                    self.execute(UnlinkProperties.of(self.network, link))
             for connection in connections:
                 if connection in self.network.connections:
-                    self.execute(Disconnect(self.network, connection))
+                    self.execute(Disconnect.of(self.network, connection))
             for pid in processor_ids:
                 if pid in self.network:
-                    self.execute(RemoveProcessor(self.network, pid))
+                    self.execute(RemoveProcessor.of(self.network, pid))
 
     def connect(self, source: str, target: str) -> Connection:
         (src, out), (dst, inp) = split_address(source), split_address(target)
         connection = Connection(src, out, dst, inp)
-        self.execute(Connect(self.network, connection))
+        self.execute(Connect(connection))
         return connection
 
     def connection_refusal(self, connection: Connection) -> str | None:
@@ -146,7 +150,7 @@ class Workspace(QObject):
         return None
 
     def disconnect(self, connection: Connection) -> None:
-        self.execute(Disconnect(self.network, connection))
+        self.execute(Disconnect.of(self.network, connection))
 
     def set_property(self, address: str, value, merge=None) -> None:
         """Validate and set a property through the undo stack; an unchanged value pushes nothing."""
@@ -156,19 +160,19 @@ class Workspace(QObject):
             raise PropertyError(address, f"{processor.type_name} has no property '{name}'")
         if processor.properties[name].validate(value, address) == processor.property_values[name]:
             return
-        self.execute(SetProperty(self.network, address, value, merge=merge))
+        self.execute(SetProperty.of(self.network, address, value), merge)
 
     def link(self, source: str, target: str, bidirectional: bool = False) -> None:
-        self.execute(LinkProperties(self.network, source, target, bidirectional))
+        self.execute(LinkProperties.of(self.network, source, target, bidirectional))
 
     def unlink(self, link: Link) -> None:
-        self.execute(Unlink(self.network, link))
+        self.execute(UnlinkProperties.of(self.network, link))
 
     def move(self, positions: dict[str, tuple[float, float]]) -> None:
         changed = {pid: xy for pid, xy in positions.items()
                    if tuple(self.network[pid].position) != tuple(map(float, xy))}
         if changed:
-            self.execute(MoveProcessors(self.network, changed))
+            self.execute(MoveProcessors.of(self.network, changed))
 
     # --- files ----------------------------------------------------------------------------------
     def new(self) -> None:

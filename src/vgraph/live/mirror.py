@@ -4,7 +4,9 @@
 document: processors whose id and type are unchanged are kept (with their uploaded textures,
 compiled shaders and cached outputs); only properties whose values differ are set, so only what
 they invalidate runs again. A slider drag therefore costs one re-render, not a reload of the volume.
-Processors, connections and links that are gone are removed before new ones are added.
+The difference is a sequence of edits (``vgraph.edits``, ``document_edits``), the vocabulary of the
+undo stack and of the changes the GUI sends: processors, connections and links that are gone are
+removed before new ones are added.
 
 Conventions:
 - ``None`` as the network builds a fresh one (``fileformat.build_network``).
@@ -14,10 +16,13 @@ Conventions:
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
+from vgraph.edits import (AddProcessor, Connect, Disconnect, Edit, LinkProperties, MoveProcessors,
+                          RemoveProcessor, SetProperty, UnlinkProperties)
 from vgraph.errors import NetworkFileError, VGraphError
 from vgraph.fileformat import build_network, parse_document
-from vgraph.network import Connection, Network, split_address
-from vgraph.registry import registry
+from vgraph.network import Connection, Link, Network, split_address
 
 
 def mirror(network: Network | None, document: dict, base_dir=None, file: str = "<gui>") -> Network:
@@ -26,31 +31,41 @@ def mirror(network: Network | None, document: dict, base_dir=None, file: str = "
         return build_network(parsed, file, base_dir)
     network.base_dir = base_dir
     network.description = parsed.description
-    wanted = {entry.id: entry for entry in parsed.processors}
-    for pid in [pid for pid, p in network.processors.items()
-                if pid not in wanted or wanted[pid].type != p.type_name]:
-        network.remove(pid)
-    _remove_stale_links(network, parsed.links)
-    _remove_stale_connections(network, parsed.connections)
     problems: list[tuple[str, str]] = []
-    for i, entry in enumerate(parsed.processors):
+    for where, edit in document_edits(network, parsed):
         try:
-            processor = network[entry.id] if entry.id in network else network.add(registry.get(entry.type), id=entry.id)
+            edit.apply(network)
         except VGraphError as error:
-            problems.append((f"processors[{i}].type", str(error)))
-            continue
-        processor.position = entry.position
-        for name, value in entry.properties.items():
-            prop = processor.properties.get(name)
-            if prop is None or prop.to_json(processor.property_values[name]) != value:
-                try:
-                    processor.set_property(name, value)
-                except VGraphError as error:
-                    problems.append((f"processors[{i}].properties.{name}", getattr(error, "reason", str(error))))
-    _add_missing(network, parsed, problems)
+            problems.append((where, getattr(error, "reason", str(error)) if isinstance(edit, SetProperty)
+                             else str(error)))
     if problems:
         raise NetworkFileError(file, problems)
     return network
+
+
+def document_edits(network: Network, parsed) -> Iterator[tuple[str, Edit]]:
+    """The edits that turn ``network`` into the parsed document, each with the document's field it
+    comes from. Each is worked out from the network as the edits before it left it, so they must be
+    applied as they come (one that fails is skipped, and what depends on it is not asked for)."""
+    wanted = {entry.id: entry for entry in parsed.processors}
+    for pid in [pid for pid, p in network.processors.items()
+                if pid not in wanted or wanted[pid].type != p.type_name]:
+        yield f"processors.{pid}", RemoveProcessor(pid)
+    yield from _stale_links(network, parsed.links)
+    yield from _stale_connections(network, parsed.connections)
+    for i, entry in enumerate(parsed.processors):
+        if entry.id not in network:
+            yield f"processors[{i}].type", AddProcessor(entry.id, entry.type, None, {}, tuple(entry.position))
+            if entry.id not in network:   # an unknown type: nothing more to say about it
+                continue
+        processor = network[entry.id]
+        if tuple(processor.position) != tuple(map(float, entry.position)):
+            yield f"processors[{i}].position", MoveProcessors({entry.id: tuple(entry.position)})
+        for name, value in entry.properties.items():
+            prop = processor.properties.get(name)
+            if prop is None or prop.to_json(processor.property_values[name]) != value:
+                yield f"processors[{i}].properties.{name}", SetProperty(f"{entry.id}.{name}", value)
+    yield from _missing(network, parsed)
 
 
 def _connection(entry) -> Connection:
@@ -58,34 +73,29 @@ def _connection(entry) -> Connection:
     return Connection(source, outport, target, inport)
 
 
-def _remove_stale_connections(network: Network, entries) -> None:
+def _stale_connections(network: Network, entries) -> Iterator[tuple[str, Edit]]:
     wanted = [_connection(e) for e in entries]
     for connection in network.connections:
         into_same_inport = [c for c in wanted if (c.target, c.inport) == (connection.target, connection.inport)]
         present = network.inputs_of(connection.target, connection.inport)
         if connection not in wanted or present != into_same_inport[:len(present)]:
-            network.disconnect(connection)
+            yield f"connections.{connection}", Disconnect(connection)
 
 
-def _remove_stale_links(network: Network, entries) -> None:
+def _stale_links(network: Network, entries) -> Iterator[tuple[str, Edit]]:
     wanted = {(e.source, e.target, e.bidirectional) for e in entries}
     for link in list(network.links):
         if (link.source, link.target, link.bidirectional) not in wanted:
-            network.unlink(link.source, link.target)
+            yield f"links.{link.source}", UnlinkProperties(link.source, link.target)
 
 
-def _add_missing(network: Network, parsed, problems: list) -> None:
+def _missing(network: Network, parsed) -> Iterator[tuple[str, Edit]]:
     present = set(network.connections)
     for i, entry in enumerate(parsed.connections):
-        if _connection(entry) not in present:
-            try:
-                network.connect(entry.source, entry.target)
-            except VGraphError as error:
-                problems.append((f"connections[{i}]", str(error)))
+        connection = _connection(entry)
+        if connection not in present:
+            yield f"connections[{i}]", Connect(connection)
     linked = {(l.source, l.target) for l in network.links}
     for i, entry in enumerate(parsed.links):
         if (entry.source, entry.target) not in linked:
-            try:
-                network.link(entry.source, entry.target, bidirectional=entry.bidirectional)
-            except VGraphError as error:
-                problems.append((f"links[{i}]", str(error)))
+            yield f"links[{i}]", LinkProperties(Link(entry.source, entry.target, entry.bidirectional))

@@ -3,9 +3,10 @@
 Protocol (pickled objects over a ``multiprocessing`` pipe, one job in flight at a time):
 - GUI -> render process: a ``RenderJob``, or ``None`` to stop. A job carries either the network as
   a version-1 document (a file opened, a new network, plug-ins that changed, a resync) or the
-  ``changes`` made since the previous job (``vgraph.live.changes``: property values, processors,
-  connections, links; an empty tuple re-renders), plus the modules that define its plug-in
-  processor types, the resolution scale, whether writers run and whether to start from a new network.
+  ``changes`` made since the previous job (the edits of ``vgraph.edits``, gathered by
+  ``vgraph.live.changes``: property values, processors, connections, links; an empty tuple
+  re-renders), plus the modules that define its plug-in processor types, the resolution scale,
+  whether writers run and whether to start from a new network.
 - render process -> GUI: one ``RenderResult`` per job: what ran or failed, a ``ProcessorStatus`` per
   processor, frames for the displays, histograms and value scales for the transfer-function
   editors, the concrete cameras of the last frame (for zooming a camera that fits the data). A
@@ -38,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vgraph.bricks.cache import LoadLimit
-from vgraph.live.changes import Change
+from vgraph.edits import Edit
 from vgraph.live.cluster import ClusterSetting
 from vgraph.live.evaluator import EvaluationOutcome, ProcessorStatus
 from vgraph.network import Network
@@ -59,7 +60,7 @@ class RenderJob:
     scale: float = 1.0
     include_writers: bool = False
     fresh: bool = False        # start from a new network (another file was opened)
-    changes: tuple[Change, ...] = ()
+    changes: tuple[Edit, ...] = ()
     stamp: tuple | None = None  # (sender, version): names the network state this job leaves
     since: tuple | None = None  # the stamp of the state ``changes`` edit (the sender's previous job)
     load_limit: LoadLimit | None = GUI_LOAD_LIMIT  # reading per frame of bricked processors (None: no limit)
