@@ -3,8 +3,8 @@ all views of one ``vgraph.Network``.
 
 Conventions:
 - The network is the model and never imports Qt. The GUI subscribes to its events
-  (``Network.subscribe``) and redraws; every edit goes through a QUndoCommand (``commands.py``)
-  that calls Network methods, so undo/redo covers every edit.
+  (``Network.subscribe``) and redraws; every edit is a record of ``vgraph.edits`` that calls
+  Network methods, pushed in a QUndoCommand (``commands.py``), so undo/redo covers every edit.
 - The GUI process holds no OpenGL context: a render process (``vgraph.live``, which imports no
   Qt) owns the EGL context and a mirror of the network, evaluates, and sends frames back as images.
 - Importing ``vgraph.gui`` imports no Qt; the modules below do (``vgraph gui`` imports them lazily).
