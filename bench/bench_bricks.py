@@ -6,7 +6,7 @@ For each compositing mode (and dvr with early termination 0.99) both processors 
 view at the finest level; the fastest of ``repeats`` frames is kept (each frame re-plans: the
 sampling rate is nudged so the processor evaluates again). PSNR compares the bricked image with
 the RayCaster's (dvr without early termination unless both terminate). Numbers go to
-docs/bricked_raycaster.md.
+docs/explanations/bricked-ray-casting.md.
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ Conventions (what "the same" means here):
   matches (N.H)^32 near the peak for p = 8, so VTK gets specular power 8. Our normals come from
   --derivatives: precomputed (default; a gradient volume built once per volume, like the CPU
   mapper's normals, one fetch a sample) or central (six fetches a sample, nothing precomputed);
-  the two differ only by 16-bit steps of the gradient (docs/rendering.md). The gradient volume is
+  the two differ only by 16-bit steps of the gradient (docs/explanations/ray-casting.md). The gradient volume is
   built in the untimed first frame of a mode, as VTK's CPU mapper builds its normals there.
 - --volume-precision: 16bit (default) samples float volumes (the torus) from a 16-bit copy over
   the value range (error <= 7.6e-6 of the range; VTK's CPU mapper itself works on 15-bit values),

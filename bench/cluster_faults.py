@@ -17,7 +17,7 @@ how long after a task shows up on a worker it strikes (0 to 0.5 s):
 Every tile sleeps 0.1 s (FaultPoint) so that a fault finds a frame in flight. A case must end,
 within --case-seconds, with the right picture (tiles: the single-process pixels bit for bit;
 leaves: at least 50 dB PSNR against them and the 8-bit PNG within one level, as
-docs/distributed.md states) or a ClusterTaskError (exit 2 of vgraph run; the only right end of a
+docs/guide/distributed.md states) or a ClusterTaskError (exit 2 of vgraph run; the only right end of a
 hang). Anything else is a failure: a wrong picture, another exception, or no end in time (a
 hang: the cluster is then started afresh). Printed: cases per fault, outcomes, failures; each
 failure is saved under bench/results/fuzz/cluster/<seed>/case.txt.
@@ -43,7 +43,7 @@ FAULTS = ("kill", "stop", "slow", "slow-short", "hang", "none")
 RESULTS = Path(__file__).resolve().parent / "results" / "fuzz" / "cluster"
 PLUGIN = "vgraph.distributed.faults"
 SIZE = (128, 96)
-LEAVES_PSNR_FLOOR = 50.0  # dB against the single-process picture (docs/distributed.md, Leaves)
+LEAVES_PSNR_FLOOR = 50.0  # dB against the single-process picture (docs/guide/distributed.md, Leaves)
 
 
 def main(argv=None) -> int:

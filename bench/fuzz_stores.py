@@ -1,4 +1,4 @@
-"""Fuzz cases for OME-Zarr stores, the "stores" target of fuzz_cases.py (docs/large-data.md).
+"""Fuzz cases for OME-Zarr stores, the "stores" target of fuzz_cases.py (docs/guide/large-data.md).
 
 A case is a valid store built from scratch, then damaged the ways stores get damaged:
 - seeds: vgraph's own (vgraph convert: per-brick statistics, NGFF 0.5 on zarr v3), another

@@ -1,4 +1,4 @@
-"""The pictures of docs/curvature.md: strips of curvature renderings, one panel per property value.
+"""The pictures of docs/explanations/curvature.md: strips of curvature renderings, one panel per property value.
 
     .venv/bin/python bench/make_curvature_images.py [--out docs/images] [--size 192]
 

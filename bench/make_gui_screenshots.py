@@ -1,4 +1,4 @@
-"""The GUI screenshots of docs/gui.md: the whole main window at 1280 x 800 and 1920 x 1080 with
+"""The GUI screenshots of docs/guide/gui.md: the whole main window at 1280 x 800 and 1920 x 1080 with
 networks/raycast_head.json loaded, rendered and its RayCaster selected (the inspector shows the
 camera and the transfer-function editor), the canvas with its toolbar and the axes and box overlays.
 

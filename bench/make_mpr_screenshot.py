@@ -1,4 +1,4 @@
-"""The multi-planar picture of docs/exploring.md (docs/images/exploring_mpr.png): the main window
+"""The multi-planar picture of docs/guide/exploring.md (docs/images/exploring_mpr.png): the main window
 with networks/mpr_mri_head.json, its canvases tiled (View > Tile Canvases), a click in the axial
 slice that moved the shared cursor (the coronal and sagittal planes follow), the axial viewer
 selected so the inspector shows the SliceViewer's properties.

@@ -3,7 +3,7 @@ stored RAS) and an LPS copy of it (the same voxels stored mirrored in x and y, w
 with the affine that keeps every voxel at its world point), each read by vgraph and drawn by the
 standard `vgraph run FILE` network from the anterior, left and superior views. Both rows must be
 the same picture: readers turn every file into the RAS world, and named views are patient
-directions (docs/conventions.md, "Patient space"). The script prints the largest difference.
+directions (docs/explanations/conventions.md, "Patient space"). The script prints the largest difference.
 
     python bench/make_orientation_images.py [--out PATH] [--data MR.nii.gz]
 """

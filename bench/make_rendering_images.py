@@ -1,8 +1,8 @@
-"""The pictures of docs/rendering.md: strips of small renderings, one panel per property value.
+"""The pictures of docs/explanations/ray-casting.md: strips of small renderings, one panel per property value.
 
     .venv/bin/python bench/make_rendering_images.py [--out docs/images] [--size 192]
 
-Every panel is rendered by the network docs/rendering.md describes (FunctionSelector ->
+Every panel is rendered by the network docs/explanations/ray-casting.md describes (FunctionSelector ->
 EntryExitPoints -> RayCaster, cameras linked) on llvmpipe; each strip is one PNG of a few
 panels with a caption under each."""
 

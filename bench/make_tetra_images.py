@@ -1,4 +1,4 @@
-"""The pictures of docs/tetrahedra.md: the two integration modes against the exact reference on
+"""The pictures of docs/explanations/tetrahedra.md: the two integration modes against the exact reference on
 VTK's post.vtk, and the culled bonsai as tetrahedra beside the RayCaster on the same volume.
 
     .venv/bin/python bench/make_tetra_images.py   (writes docs/images/tetra_*.png)

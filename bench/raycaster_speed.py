@@ -47,7 +47,7 @@ SCENES = {
 
 
 def network(volume: Volume, camera: Camera) -> Network:
-    # Unshaded unless a case says so, as docs/performance.md's tables were measured (the RayCaster
+    # Unshaded unless a case says so, as docs/reports/performance.md's tables were measured (the RayCaster
     # now starts shaded).
     return ray_caster_network(volume, camera, "RayCaster", id="rc", sampling_rate=1.0, shading="none")
 

@@ -1,6 +1,6 @@
 """ColorBar: a labelled colour scale composited over an image, for pictures people share.
 
-Conventions (docs/outputs.md shows them with commands):
+Conventions (docs/guide/outputs.md shows them with commands):
 - The colours are the ``transfer_function`` property's (link it to the ray caster's) or, with
   ``colormap`` set to a name, that colour map as the curvature ray casters sample it (the 256-entry
   LUT with linear interpolation).

@@ -10,7 +10,7 @@ class FunctionSelector(Processor):
 
     category = "Volume"
     outports = [Outport("volume", Volume)]
-    function = OptionProperty("torus", choices=list(FUNCTIONS), doc="the implicit function (docs/functions.md)")
+    function = OptionProperty("torus", choices=list(FUNCTIONS), doc="the implicit function (docs/reference/general/functions.md)")
     resolution = IntProperty(64, min=RESOLUTION_RANGE[0], max=RESOLUTION_RANGE[1],
                              doc="voxels per axis (2^4 .. 2^9)")
     data_type = OptionProperty("float32", choices=list(DATA_TYPES), doc="how the samples are stored")

@@ -1,6 +1,6 @@
 """MeshSource: an unstructured mesh from a file, as tetrahedra with one scalar per point or, for a
 cell array, per cell (formats, the splitting of hexahedra, wedges, pyramids and 10-node
-tetrahedra, the choice of array and the errors: docs/tetrahedra.md, "Meshes and MeshSource"; the
+tetrahedra, the choice of array and the errors: docs/explanations/tetrahedra.md, "Meshes and MeshSource"; the
 reader is vgraph.io.meshes)."""
 
 from vgraph import (FilePathProperty, FloatProperty, OptionProperty, Outport, Processor, PropertyError,

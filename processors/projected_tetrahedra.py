@@ -1,7 +1,7 @@
 """ProjectedTetrahedra (Shirley & Tuchman 1990; Monsalve 2016 ch. 2-4): direct volume rendering of
 a tetrahedral mesh by projecting each tetrahedron to triangles and compositing them back to front.
 
-Conventions (docs/tetrahedra_renderer.md has the long form):
+Conventions (docs/explanations/tetrahedra-renderer.md has the long form):
 - Visibility order: the tetrahedra sorted by centroid, farthest first (depth along the view
   direction for the orthographic camera, distance from the eye for the perspective one;
   vgraph.gl.tetrahedra.order), re-sorted only when the mesh or the concrete camera changes and

@@ -1,6 +1,6 @@
 """SliceViewer: a plane through a volume as an image (the views of a multi-planar layout, MPR).
 
-Conventions (vgraph.slicing has the geometry's long form; docs/exploring.md shows it in use):
+Conventions (vgraph.slicing has the geometry's long form; docs/guide/exploring.md shows it in use):
 - Orientation (world axes RAS, the patient's: x right, y front, z up): axial = constant z,
   coronal = constant y, sagittal = constant x. ``display`` radiological (default: the patient's
   right on the image's left, as DICOM viewers show a slice): axial seen from below (image right =

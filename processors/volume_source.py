@@ -1,5 +1,5 @@
 """VolumeSource: a volume from a file or a DICOM folder (formats and the value-range rule:
-docs/volumes.md).
+docs/guide/volumes.md).
 
 The value range a volume gets, first match wins: the ``value_range`` property; the ``robust``
 window (percentiles of the data, for scans whose few outlier voxels would squeeze the bulk into
@@ -7,7 +7,7 @@ a sliver of [0, 1]); a range the file declares; the data's own min..max.
 
 An OME-Zarr store (a folder ending in .zarr, or its zarr.json) opens as a BrickedVolume: its grid
 and range come from the store's metadata and no voxel is read until a consumer needs them; the
-whole array loads only within ``memory_budget`` (docs/large-data.md).
+whole array loads only within ``memory_budget`` (docs/guide/large-data.md).
 """
 
 import warnings

@@ -1,6 +1,6 @@
 """VolumeToTetMesh: a regular volume as tetrahedra, five per cell (Monsalve 2016 ch. 3), with the
 cells that cannot be seen culled (Retondaro 2008's threshold classification). The cutting, its
-memory cost and the culling rules: vgraph.tetrahedralize and docs/tetrahedra.md, "VolumeToTetMesh".
+memory cost and the culling rules: vgraph.tetrahedralize and docs/explanations/tetrahedra.md, "VolumeToTetMesh".
 
 After process() the processor's ``kept_cells`` and ``total_cells`` say how many of the volume's
 cells became tetrahedra (5 each).
@@ -69,7 +69,7 @@ class VolumeToTetMesh(Processor):
             where=f"{self.id} ({volume.source or 'volume'})", direction=volume.direction)
         lo, hi = volume.value_range
         scalars = volume.data.reshape(-1)[voxels]
-        if scalars.dtype.kind == "f":  # as the textures clamp them (docs/conventions.md)
+        if scalars.dtype.kind == "f":  # as the textures clamp them (docs/explanations/conventions.md)
             scalars = np.nan_to_num(scalars, nan=lo, posinf=hi, neginf=lo)
         cells = np.arange(self.total_cells) if mask is None else np.flatnonzero(mask.reshape(-1))
         grid = RegularGrid(tuple(volume.dims), tuple(map(float, volume.origin)),

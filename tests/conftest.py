@@ -4,7 +4,7 @@ The toy processors (helpers.toy_processors) are registered here, once, so every 
 them by type name; the render process imports them by module name like any plug-in.
 
 bench/ goes on sys.path so the tests import the tools they share with the bench by module name
-(``from fuzz_cases import ...``, ``from scripted_user import ScriptedUser``; docs/architecture.md).
+(``from fuzz_cases import ...``, ``from scripted_user import ScriptedUser``; docs/explanations/architecture.md).
 """
 
 import os

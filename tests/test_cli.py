@@ -345,7 +345,7 @@ HEAD = REPO / "networks" / "raycast_head.json"
 
 
 def head_from_python(view: str, size=(128, 128)) -> np.ndarray:
-    """What docs/cli.md shows for scripts."""
+    """What docs/reference/general/cli.md shows for scripts."""
     import vgraph
     net = vgraph.load(HEAD)
     for processor in net.processors.values():

@@ -1,7 +1,7 @@
 """Stability of the curvature ray casters: vanishing gradients, umbilics, zero Gaussian curvature,
 saddles, stiff fields, radii from one voxel to beyond the volume, quantised data, NaN/Inf voxels,
 levels outside the data, grazing rays. Outputs stay finite; where curvature is undefined the pixel
-is flagged (curvature alpha 0.5, rgb 0; image `undefined_color`). docs/curvature.md ("Stability")
+is flagged (curvature alpha 0.5, rgb 0; image `undefined_color`). docs/explanations/curvature.md ("Stability")
 describes each case and the numbers measured here."""
 
 import warnings

@@ -1,4 +1,4 @@
-"""Rendering on a Dask cluster (issue #15, docs/distributed.md): the camera's tile sub-frustum, the
+"""Rendering on a Dask cluster (issue #15, docs/guide/distributed.md): the camera's tile sub-frustum, the
 tiles split on two local worker processes, ``vgraph run --cluster`` and its bad input."""
 
 import json

@@ -1,4 +1,4 @@
-"""Faults of the cluster (issue 27, defect 6; docs/distributed.md "A worker that stops or dies"):
+"""Faults of the cluster (issue 27, defect 6; docs/guide/distributed.md "A worker that stops or dies"):
 a worker killed, stopped or slowed while a task of the frame is on it, for both splits, ends with
 the right picture; a task that no worker can finish ends with a ClusterTaskError (exit 2) naming
 the cluster, the task and the seconds waited; Ctrl-C of ``vgraph run --cluster`` cancels the

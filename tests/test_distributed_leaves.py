@@ -1,4 +1,4 @@
-"""The leaves split (sort-last, issue #15; docs/distributed.md "Leaves"): runs of a BrickedRayCaster
+"""The leaves split (sort-last, issue #15; docs/guide/distributed.md "Leaves"): runs of a BrickedRayCaster
 frame's bricks drawn on two worker processes and composited in visibility order equal the
 single-process picture; and a worker killed during a render is replaced while the frame still
 completes with the right picture (tiles and leaves)."""

@@ -98,7 +98,7 @@ def test_volume_geometry_outside_float32_world_coordinates_is_refused(field, val
 
 def test_a_volume_wider_than_the_gl_texture_limit_is_drawn_brick_by_brick_or_refused_naming_the_limit():
     """One texture cannot hold it: the texture upload names the limit; the RayCaster draws it brick
-    by brick (docs/bricked_raycaster.md) and refuses, naming the field, the modes bricks lack."""
+    by brick (docs/explanations/bricked-ray-casting.md) and refuses, naming the field, the modes bricks lack."""
     limit = get_context().info["GL_MAX_3D_TEXTURE_SIZE"]
     volume = Volume(np.zeros((4, 4, limit + 1), np.uint8), source="long.raw")
     with pytest.raises(vgraph.VGraphError, match=rf"long.raw: {limit + 1} x 4 x 4 voxels .* limit of "

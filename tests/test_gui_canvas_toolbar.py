@@ -25,8 +25,8 @@ from helpers.widget_pixels import grab_rgba, near_colour, rgb, widget_points
 from helpers.paths import REPO
 
 BOX = ((0.0, 0.0, 0.0), (200.0, 200.0, 100.0))
-# (viewing direction = focus - position, up) of each named view, as docs/conventions.md and
-# docs/rendering.md define them: x right, y to the front, z up; "top" looks down -z with +y up.
+# (viewing direction = focus - position, up) of each named view, as docs/explanations/conventions.md and
+# docs/explanations/ray-casting.md define them: x right, y to the front, z up; "top" looks down -z with +y up.
 EXPECTED_VIEWS = {
     "front": ((0, -1, 0), (0, 0, 1)), "back": ((0, 1, 0), (0, 0, 1)),
     "left": ((1, 0, 0), (0, 0, 1)), "right": ((-1, 0, 0), (0, 0, 1)),
@@ -356,7 +356,7 @@ def test_reported_camera_and_box_project_onto_the_rendered_box(gl):
 
 @pytest.mark.parametrize("size", [(1280, 800), (1920, 1080)])
 def test_nothing_is_cut_off_at_common_screen_sizes(window, qtbot, data_dir, size):
-    """The head network at 1280 x 800 and 1920 x 1080 (docs/gui.md's screenshots): the canvas
+    """The head network at 1280 x 800 and 1920 x 1080 (docs/guide/gui.md's screenshots): the canvas
     below the palette shows its frame, and the RayCaster's inspector shows the camera editor and
     the transfer-function editor whole, without a horizontal scroll bar."""
     from PySide6.QtWidgets import QScrollArea

@@ -112,18 +112,28 @@ def test_docs_dialog_lists_the_pages_and_shows_one(qtbot, monkeypatch):
     monkeypatch.setattr(QNetworkAccessManager, "get", lambda *a: (_ for _ in ()).throw(AssertionError))
     folder = docs_folder()
     assert folder is not None
-    titles = {page.path.name: page.title for page in doc_pages()}
-    assert set(titles) == {p.name for p in (REPO / "docs").glob("*.md")} | {"index.md"}   # + the reference's
-    assert titles["cli.md"] == "The vgraph command"   # backticks dropped from "# The `vgraph` command"
+    pages = doc_pages()
+    titles = {page.path.relative_to(folder).as_posix(): page.title for page in pages}
+    docs = REPO / "docs"
+    expected = {p.relative_to(docs).as_posix() for section in ("guide", "explanations", "reports", "reference/general")
+                for p in (docs / section).glob("*.md")}
+    assert set(titles) == expected | {"README.md", "reference/index.md"}   # not the processors' pages
+    sections = [name.split("/")[0] for name in titles]   # the index, then the guide ... the reports
+    assert sections[0] == "README.md" and sections.index("reports") > sections.index("explanations") \
+        > sections.index("reference") > sections.index("guide")
+    assert titles["reference/general/cli.md"] == "The vgraph command"   # backticks dropped from "# The `vgraph` command"
     dialog = DocsDialog()
     qtbot.addWidget(dialog)
     assert dialog.list.count() == len(titles)
-    assert dialog.list.currentItem().text() == titles["gui.md"]    # opens on the GUI page
-    assert dialog.show_page("cli.md")
+    assert dialog.list.currentItem().text() == titles["guide/gui.md"]    # opens on the GUI page
+    assert dialog.list.currentItem().toolTip() == "guide/gui.md"
+    assert dialog.show_page("cli.md") and dialog.show_page("reference/general/cli.md")
     assert dialog.browser.toPlainText().startswith("The vgraph command")
     assert "vgraph run" in dialog.browser.toPlainText()
     dialog._follow(QUrl("network-format.md#processors"))   # a link between pages stays here
-    assert dialog.list.currentItem().text() == titles["network-format.md"]
+    assert dialog.list.currentItem().text() == titles["reference/general/network-format.md"]
+    dialog._follow(QUrl("../../guide/own-data.md"))       # and between folders
+    assert dialog.list.currentItem().text() == titles["guide/own-data.md"]
 
 
 def test_docs_are_found_in_an_installed_layout(tmp_path, monkeypatch):
@@ -180,7 +190,8 @@ def test_a_pages_pictures_show_from_the_installed_location(qtbot, tmp_path, monk
 
 
 def test_every_picture_the_docs_link_is_found(qtbot):
-    """The repository's pages: every image link names a file beside them (what the wheel ships)."""
+    """The repository's pages: every image link names a file of docs/images (what the wheel ships),
+    from the pages in docs/'s folders too (../images/...)."""
     from vgraph.gui.help import document_images, image_path
     dialog = DocsDialog()
     qtbot.addWidget(dialog)
@@ -190,8 +201,8 @@ def test_every_picture_the_docs_link_is_found(qtbot):
         for _, link in document_images(dialog.browser.document()):
             path = image_path(page.path, link)
             assert path is not None, (page.path.name, link)
-            linked.add(path)
-    assert linked and linked <= set((REPO / "docs" / "images").glob("*.png"))
+            linked.add(path.resolve())
+    assert linked and linked <= {p.resolve() for p in (REPO / "docs" / "images").glob("*.png")}
 
 
 def test_the_processor_reference_opens_from_the_list_and_its_links(qtbot):
@@ -209,9 +220,9 @@ def test_the_processor_reference_opens_from_the_list_and_its_links(qtbot):
     pictures = [image_path(dialog.shown, link) for _, link in document_images(dialog.browser.document())]
     assert pictures == [docs_folder() / "reference" / ".." / "images" / "rendering_compositing.png"]
     assert pictures[0].is_file()
-    dialog._follow(QUrl("../rendering.md#raycaster"))
+    dialog._follow(QUrl("../explanations/ray-casting.md#raycaster"))
     assert dialog.list.currentItem().text() == "Volume rendering: EntryExitPoints and RayCaster"
-    dialog._follow(QUrl("reference/index.md"))   # rendering.md links the reference's index
+    dialog._follow(QUrl("../reference/index.md"))   # ray-casting.md links the reference's index
     assert dialog.list.currentItem().text() == "Processor reference"
 
 

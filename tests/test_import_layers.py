@@ -1,6 +1,6 @@
 """The contracts of pyproject.toml's [tool.importlinter] hold: lower layers never import higher ones
 (the model, then rendering, files and numerics, then the processors, then the applications), the
-render side imports no Qt, and no package has an import circle inside (docs/architecture.md,
+render side imports no Qt, and no package has an import circle inside (docs/explanations/architecture.md,
 "Layers").
 
 import-linter finds a package's modules by walking its folder. The built-in processors and the

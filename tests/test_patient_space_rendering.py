@@ -1,5 +1,5 @@
 """Ray casters draw volumes in patient space: a volume stored on mirrored, reordered or tilted axes
-gives the picture of the same anatomy, for every named view (docs/conventions.md)."""
+gives the picture of the same anatomy, for every named view (docs/explanations/conventions.md)."""
 
 import math
 

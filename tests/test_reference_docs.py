@@ -47,7 +47,7 @@ def test_a_page_gives_ports_properties_defaults_ranges_and_docs():
     declared = registry.get("RayCaster").properties["sampling_rate"]   # as `vgraph list` says it
     assert f"| `sampling_rate` | float {declared.min:g}..{declared.max:g} | `{declared.default!r}` |" in page
     assert "![The compositing modes](../images/rendering_compositing.png)" in page
-    assert "[rendering.md, raycaster](../rendering.md#raycaster)" in page
+    assert "[ray-casting.md, raycaster](../explanations/ray-casting.md#raycaster)" in page
 
 
 def test_a_processor_without_properties_or_docs_still_gets_a_page():
@@ -96,13 +96,17 @@ def test_writing_replaces_old_pages_and_removes_those_of_no_processor(tmp_path):
 
 
 def test_links_into_and_out_of_the_reference_name_existing_pages():
-    """The essay pages link a processor's reference page where they explain its properties (at
-    least rendering.md's RayCaster section); those links and the reference's own resolve."""
+    """The guide and explanation pages link a processor's reference page where they explain its
+    properties (at least ray-casting.md's RayCaster section); those links and the reference's own
+    resolve, the index's links to the hand-written reference pages (reference/general/) included."""
     link = re.compile(r"\]\(([^)#\s]+\.md)(?:#[^)]*)?\)")
-    into = [(page, target) for page in DOCS.glob("*.md") for target in link.findall(page.read_text(encoding="utf-8"))
-            if target.startswith("reference/")]
-    assert ("rendering.md", "reference/RayCaster.md") in {(page.name, target) for page, target in into}
+    essays = [page for page in DOCS.rglob("*.md") if page.parent != REFERENCE]
+    into = [(page, target) for page in essays for target in link.findall(page.read_text(encoding="utf-8"))
+            if (page.parent / target).resolve().parent == REFERENCE.resolve()]
+    assert ("ray-casting.md", "../reference/RayCaster.md") in {(page.name, target) for page, target in into}
     out_of = [(page, target) for page in REFERENCE.glob("*.md") for target in link.findall(page.read_text(encoding="utf-8"))]
+    assert {f"general/{name}" for name in ("cli.md", "network-format.md", "functions.md")} <= {
+        target for page, target in out_of if page.name == INDEX}
     assert len(out_of) > len(builtin_processors())
     for page, target in into + out_of:
         assert (page.parent / target).is_file(), f"{page.name} links {target}, which does not exist"

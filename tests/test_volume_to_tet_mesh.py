@@ -180,7 +180,7 @@ def test_in_a_network_after_a_volume_source(tmp_path):
 
 
 # Measured here (llvmpipe machine, one core busy): 22.8 % of the bonsai's 16.6 M cells kept under
-# 'auto', 3.8 M cells = 18.9 M tetrahedra, in about 3 s (docs/tetrahedra.md).
+# 'auto', 3.8 M cells = 18.9 M tetrahedra, in about 3 s (docs/explanations/tetrahedra.md).
 def test_the_bonsai_under_the_auto_transfer_function(data_dir):
     volume = read_volume(data_dir / "ct_bonsai/bonsai.nii.gz")
     processor = VolumeToTetMesh(culling="transfer_function", transfer_function="auto")

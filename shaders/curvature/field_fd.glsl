@@ -1,7 +1,7 @@
 // The field of the finite-difference modes (DERIVATIVES_FORWARD, _CENTRAL, _FILTERED): the
 // trilinear reconstruction of voxel SAMPLES (raw_sample() of raycasting/volume_sampling.glsl) and
 // its derivatives from samples one voxel apart along each axis (the CPU reference is
-// vgraph.numerics.finite_differences; docs/curvature.md has the formulas):
+// vgraph.numerics.finite_differences; docs/explanations/curvature.md has the formulas):
 //   forward   g_a = f(p + e_a) - f(p), H_ab = f(p + e_a + e_b) - f(p + e_a) - f(p + e_b) + f(p)
 //             (forward differences of the forward differences; 10 fetches)
 //   central   g_a = (f(p + e_a) - f(p - e_a)) / 2, H_aa = f(p + e_a) - 2 f(p) + f(p - e_a),

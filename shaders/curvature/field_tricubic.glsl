@@ -1,6 +1,6 @@
 // The field of the tricubic modes (DERIVATIVES_TRICUBIC; with TRICUBIC_FAST the Sigg-Hadwiger
 // variant): the cubic B-spline of a COEFFICIENT volume (CubicSplineProcessor output) bound as
-// `volume`, with exact value, gradient and Hessian from tricubic/tricubic.glsl (docs/tricubic.md).
+// `volume`, with exact value, gradient and Hessian from tricubic/tricubic.glsl (docs/explanations/tricubic.md).
 // The hit search marches on the 8-fetch fast value (on llvmpipe equal to the direct sum to ~1e-6
 // of the range) and refines the crossing with field_value(), the selected variant's own value, so
 // the hit lies on the level set of the very spline whose derivatives give the curvature.

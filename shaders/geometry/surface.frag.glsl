@@ -1,7 +1,7 @@
 #version 330
 // An opaque surface: its colour (surface_color.glsl), lit with the ray casters' Blinn-Phong model
 // (raycasting/shading.glsl, two-sided), and a depth image in the RayCaster's convention
-// (docs/rendering.md, "The depth output"): r = window depth, g = distance in world units from the
+// (docs/explanations/ray-casting.md, "The depth output"): r = window depth, g = distance in world units from the
 // pixel's ray start on the near plane, b = 0, a = 1. The GL depth test keeps the nearest surface.
 #include "geometry/surface_color.glsl"
 #include "raycasting/shading.glsl"

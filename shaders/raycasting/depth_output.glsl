@@ -1,4 +1,4 @@
-// The depth output of every ray caster (docs/rendering.md): (window-space depth in [0, 1] of the
+// The depth output of every ray caster (docs/explanations/ray-casting.md): (window-space depth in [0, 1] of the
 // depth sample, its distance in world units from the ray's start on the near plane, the number of
 // samples evaluated, 1); (1, 0, samples, 0) where there is none. Needs ray.glsl.
 uniform vec3 texture_to_world_offset;  // p = t * texture_to_world_scale + offset (ray.glsl)

@@ -3,7 +3,7 @@
 // projected corners (two triangles); the fragment stage intersects each pixel's ray with the cell
 // and its five tetrahedra and drops the pixels whose ray misses it (cells.frag.glsl). On llvmpipe
 // the rectangle beats the exact silhouette (a hexagon of four triangles): per triangle costs more
-// than the pixels it adds (docs/tetrahedra_renderer.md, Performance).
+// than the pixels it adds (docs/explanations/tetrahedra-renderer.md, Performance).
 //
 // What the fragment stage needs, flat: the cell's unit coordinates as an affine map of world
 // coordinates, mirrored in x for odd cells (whose corner tetrahedra are then those of an even cell),

@@ -23,7 +23,7 @@
 //
 // Precision: the result inherits the texture unit's interpolation precision. llvmpipe filters
 // float textures with float32 weights; many GPUs quantise the fractional weights to 8 bits,
-// which limits this variant to roughly 1e-3 of the data's variation per voxel (docs/tricubic.md).
+// which limits this variant to roughly 1e-3 of the data's variation per voxel (docs/explanations/tricubic.md).
 //
 // Input and output conventions are those of tricubic_direct.glsl (voxel coordinates in, value
 // and per-voxel derivatives out).

@@ -1,6 +1,6 @@
 """Curvature accuracy against frame time: the measurement behind ``vgraph bench accuracy``.
 
-Definitions (docs/accuracy.md shows the results):
+Definitions (docs/reports/curvature-accuracy.md shows the results):
 - A case is an implicit function (FunctionSelector, default parameters) x resolution x data type x
   derivative mode. It is rendered by FunctionSelector -> CubicSplineProcessor -> EntryExitPoints ->
   CurvatureRaycaster (cameras linked, the ray caster's defaults), built with the Python API; the

@@ -361,7 +361,7 @@ def add_parser(commands) -> argparse.ArgumentParser:
         "animate", help="render a turntable or a sweep over a property as MP4, GIF or PNG frames",
         description="Render frames of a network: the cameras orbit and/or an integer property "
                     "steps through values. Output by name: .mp4, .gif, a folder or a pattern "
-                    "such as frames/turn_{:04d}.png (docs/outputs.md).")
+                    "such as frames/turn_{:04d}.png (docs/guide/outputs.md).")
     parser.add_argument("network", type=user_path, help="the .json network")
     parser.add_argument("-o", "--output", required=True,
                         help="turn.mp4, turn.gif, a folder, or a pattern like frames/turn_{:04d}.png")

@@ -9,7 +9,7 @@ JSON form (world units)::
 height of the view in world units (orthographic), as in VTK.
 
 A tile of the view (``tile(x, y, w, h, W, H)``: one rectangle of a W x H picture rendered on its
-own, docs/distributed.md) adds ``"window": [left, right, bottom, top]``, the rectangle in the full
+own, docs/guide/distributed.md) adds ``"window": [left, right, bottom, top]``, the rectangle in the full
 view's NDC; the projection, the rays and the ray uniforms map it onto the whole image (an off-axis
 sub-frustum) so its pixel centres are the full picture's. Without a window the key is not written.
 
@@ -81,7 +81,7 @@ class Camera(BaseModel):
     fit_to_data: bool = False
     # The part of the full view this camera renders, (left, right, bottom, top) in the full view's
     # NDC; None = all of it. Set by tile() for rendering one rectangle of an image on its own
-    # (docs/distributed.md); saved only when set, so stored networks keep their form.
+    # (docs/guide/distributed.md); saved only when set, so stored networks keep their form.
     window: tuple[float, float, float, float] | None = None
 
     @model_serializer(mode="wrap")

@@ -81,7 +81,7 @@ def build_parser() -> argparse.ArgumentParser:
     run = commands.add_parser("run", help="evaluate a network and write its output")
     run.add_argument("network", type=user_path, help="the .json network, or a data file: a volume, a "
                                                 "single slice, a PNG or JPEG (rendered by the standard "
-                                                "network for what it holds: docs/own-data.md)")
+                                                "network for what it holds: docs/guide/own-data.md)")
     run.add_argument("-o", "--output", type=user_path, metavar="OUT.png",
                      help="write the image as an 8-bit PNG")
     run.add_argument("--data", action="append", default=[], type=user_path, metavar="OUT",
@@ -106,9 +106,9 @@ def build_parser() -> argparse.ArgumentParser:
     add_allow_write(run)
     run.add_argument("--cluster", metavar="local:N|tcp://HOST:PORT",
                      help="render on a Dask cluster: N local worker processes, or a running scheduler "
-                          "whose workers see the network's files at the same paths (docs/distributed.md)")
+                          "whose workers see the network's files at the same paths (docs/guide/distributed.md)")
     run.add_argument("--split", choices=["tiles", "leaves"], help="how --cluster divides the work "
-                     "(default: tiles; leaves: runs of a BrickedRayCaster's bricks, docs/distributed.md)")
+                     "(default: tiles; leaves: runs of a BrickedRayCaster's bricks, docs/guide/distributed.md)")
     run.add_argument("--tiles", metavar="CxR", help="columns x rows of the tiles split (default: 2x2)")
     run.set_defaults(command=command_run)
 
@@ -142,7 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
     benchmarks = bench.add_subparsers(title="benchmarks")
     accuracy = benchmarks.add_parser(
         "accuracy", help="curvature error against frame time per function, resolution, data type "
-                         "and derivative mode (docs/accuracy.md)")
+                         "and derivative mode (docs/reports/curvature-accuracy.md)")
     accuracy.add_argument("--functions", nargs="+", metavar="NAME",
                           help="implicit functions (default: sphere torus ellipsoid saddle)")
     accuracy.add_argument("--resolutions", nargs="+", type=int, metavar="N",
@@ -166,7 +166,7 @@ def build_parser() -> argparse.ArgumentParser:
 def add_convert_parser(commands) -> None:
     convert = commands.add_parser(
         "convert", help="convert a volume file into an OME-Zarr pyramid of bricks (volumes larger "
-                        "than memory: docs/large-data.md)")
+                        "than memory: docs/guide/large-data.md)")
     convert.add_argument("input", type=user_path, help="the volume file; uncompressed raw, NRRD, .nii, "
                                                   "MetaImage and .npy are read slab by slab, other "
                                                   "formats whole")
@@ -222,7 +222,7 @@ def command_run(args) -> int:
     started = time.perf_counter()
     try:
         # A profile waits for the GL after each processor, so each time holds its own GL work
-        # (docs/cli.md); a run without one lets the GL work overlap with the next processor.
+        # (docs/reference/general/cli.md); a run without one lets the GL work overlap with the next processor.
         report = evaluate(network, evaluation_targets(network, args.port, groups), size=args.size,
                           finish_each=args.profile is not None)
         finish_gl()  # what is still queued belongs to the evaluation's time printed below

@@ -1,7 +1,7 @@
 """What the ``vgraph`` subcommands share: the exit statuses, ``--allow-write`` and the checks
 before evaluating. vgraph.cli, vgraph.animation (``vgraph animate``) and vgraph.distributed.command
 (``vgraph run --cluster``) import them from here, not from cli.py, which imports those commands:
-so no import circle runs through the command line (docs/architecture.md, "Layers")."""
+so no import circle runs through the command line (docs/explanations/architecture.md, "Layers")."""
 
 from __future__ import annotations
 

@@ -23,7 +23,7 @@ def add_render_as(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--labels", dest="render_as", action="store_const", const="labels",
                        help="a volume file's values are labels: render them with the "
                             "LabelRayCaster, a colour per label (default: when the file says so "
-                            "or its values look like labels, docs/own-data.md)")
+                            "or its values look like labels, docs/guide/own-data.md)")
     group.add_argument("--intensity", dest="render_as", action="store_const", const="intensity",
                        help="a volume file's values are intensities: ray cast them (or window a "
                             "single slice) even if they look like labels")

@@ -80,7 +80,7 @@ def _from_cwd(value: str) -> str:
 
 def set_view(network, name: str) -> None:
     """Turn every camera property of the network to ``camera.viewed_from(name)`` (the same loop
-    docs/cli.md shows for scripts, so a script gets the same image)."""
+    docs/reference/general/cli.md shows for scripts, so a script gets the same image)."""
     turned = 0
     for processor in network.processors.values():
         for prop_name, prop in processor.properties.items():

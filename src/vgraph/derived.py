@@ -3,7 +3,7 @@ geometry, a program, a context) and kept while the source lives.
 
     texture = derived.value(volume, "volume texture", make=lambda: upload(ctx, volume), ctx=ctx)
 
-Conventions (docs/architecture.md, "One cache for derived data"):
+Conventions (docs/explanations/architecture.md, "One cache for derived data"):
 - An entry is keyed by the source's identity (held weakly), a ``kind`` (a short name, which the
   counters are kept by) and the GL context it lives on, if any. It holds one value and the
   ``params`` it was derived with: asked with other params, the entry is a miss and is replaced (a

@@ -155,7 +155,7 @@ def _renamed_twice(index: int, type_name: str, old: str, new: str, properties: d
 
 # Version 3 changed defaults: a RayCaster (and a BrickedRayCaster) starts with the `auto` transfer function and Blinn-Phong
 # shading, a ProjectedTetrahedra with a colour map over the percentiles of its field, as `vgraph run
-# FILE` renders (docs/network-format.md, "Defaults"). A saved file holds every value, but a file
+# FILE` renders (docs/reference/general/network-format.md, "Defaults"). A saved file holds every value, but a file
 # written by hand may leave one out, which then takes the default: older files get the defaults they
 # were written against, so they render as before.
 _OLD_RAMP = {"space": "normalized", "points": [[0.0, 0.0, 0.0, 0.0, 0.0], [0.45, 0.85, 0.55, 0.3, 0.0],

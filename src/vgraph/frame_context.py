@@ -20,7 +20,7 @@ context as one more keyword argument::
 The scheduler hands such a processor the context narrowed to the fields it declared (the others
 read their defaults, as if no frame gave them), and re-runs it, and what is downstream, when one
 of those fields differs from its last evaluation; a processor that declares none never receives a
-context and is never re-run for one (docs/architecture.md, "Frame context").
+context and is never re-run for one (docs/explanations/architecture.md, "Frame context").
 
 Why an argument and not an attribute the scheduler sets: an attribute set from outside is a
 side channel the processor's description does not show, that outlives the frame it was meant for,

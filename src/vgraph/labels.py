@@ -1,7 +1,7 @@
 """Label volumes: the label table (a colour, opacity and visibility per integer label) and the
 majority-of-interpolation-weights rule that reconstructs labels between voxels.
 
-Conventions (docs/exploring.md shows them with pictures):
+Conventions (docs/guide/exploring.md shows them with pictures):
 - A label volume holds integer labels (any integer dtype, or floats whose values are all whole
   numbers); ``label_codes`` refuses anything else, naming the consumer.
 - ``LabelTable``: ``labels`` lists entries (value, name, RGB colour, opacity, visible). A label the

@@ -1,6 +1,6 @@
 """The TetMesh data type: tetrahedra with one scalar per point, in world units.
 
-Conventions (docs/conventions.md; the same as Volume's where they overlap):
+Conventions (docs/explanations/conventions.md; the same as Volume's where they overlap):
 - ``points`` (N, 3) float32 world coordinates (x, y, z); ``tets`` (M, 4) int32 indices into them;
   ``scalars`` (N,) float32, the point scalar the renderer classifies, linear inside each
   tetrahedron; or, with ``per_cell``, (M,) float32, one value per tetrahedron, constant inside it

@@ -1,6 +1,6 @@
 """A rendering network around an unstructured mesh file: what ``vgraph run MESH``, ``vgraph gui
 MESH`` and ``vgraph.load(MESH)`` give for a .vtu, .vtk, .msh, .mesh ... instead of a .json network
-(the volume's is vgraph.volume_network; docs/own-data.md, "Meshes")::
+(the volume's is vgraph.volume_network; docs/guide/own-data.md, "Meshes")::
 
     MeshSource 'source' -> ProjectedTetrahedra 'pt' -> Canvas 'canvas'
 

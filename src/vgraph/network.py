@@ -17,7 +17,7 @@ costs far more than the answer.
 
 Evaluation and saving are not the model's business: ``update``, ``output``, ``evaluate``, ``save``
 and ``_repr_png_`` forward to the ``NetworkServices`` the vgraph package binds (``vgraph.services``,
-docs/architecture.md), so this module imports neither the scheduler nor the file format.
+docs/explanations/architecture.md), so this module imports neither the scheduler nor the file format.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ the GUI widget. On an instance the attribute reads the current value; assigning 
 
 A change invalidates the processor's output (``Invalidation.OUTPUT``: process() runs again). There
 is one level: GL programs are looked up by their define set in process() (compiled once per set),
-so no property needs a rebuild step of its own (docs/architecture.md). ``Invalidation.RESOURCES``
+so no property needs a rebuild step of its own (docs/explanations/architecture.md). ``Invalidation.RESOURCES``
 remains as an alias of OUTPUT for plug-ins that still declare it.
 """
 
@@ -157,7 +157,7 @@ class FilePathProperty(StringProperty):
     """A path; relative paths are resolved against the network file's folder when used.
     ``filters`` are the file patterns a file dialog offers, e.g. ("*.png", "*.jpg"). ``writes``
     marks an output path: one that comes from a network file must stay inside the file's folder
-    unless the user allows more (docs/reliability.md)."""
+    unless the user allows more (docs/reports/reliability.md)."""
 
     kind = "file_path"
 

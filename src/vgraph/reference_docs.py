@@ -7,14 +7,16 @@ category. Run from the repository root after changing a declaration::
 
 Conventions:
 - A page holds the declaration and two small tables of this module: the picture of docs/images
-  that shows the processor (``PICTURES``) and the sections of the essay pages that explain it
-  (``EXPLAINED_IN``). Nothing else is read, so a page changes exactly when its processor's
+  that shows the processor (``PICTURES``) and the sections of the guide and explanation pages
+  that explain it (``EXPLAINED_IN``). Nothing else is read, so a page changes exactly when its processor's
   declaration or these tables do; tests/test_reference_docs.py regenerates the pages and compares
   them with the committed ones, and checks that every picture and section named here exists.
 - Built-in processors only (``vgraph.processors``): a plug-in installed beside vgraph would
   otherwise change the committed pages. ``vgraph list`` shows plug-ins too, in the same words
   (vgraph.property_text).
-- The folder belongs to this generator: pages of processors that no longer exist are removed.
+- The folder's top level belongs to this generator: pages of processors that no longer exist are
+  removed. The hand-written reference pages (the command line, the network format, the implicit
+  functions) live in its subfolder ``general/`` (``GENERAL_PAGES``), which the index links.
   Every page is written atomically (vgraph.atomic).
 """
 
@@ -35,6 +37,12 @@ from vgraph.registry import registry
 BUILTIN_MODULE = "vgraph.processors."
 INDEX = "index.md"
 COMMAND = "python -m vgraph.reference_docs"
+# The hand-written reference pages beside the generated ones (relative to docs/reference/).
+GENERAL_PAGES: tuple[tuple[str, str], ...] = (
+    ("general/cli.md", "the `vgraph` command: every subcommand and option"),
+    ("general/network-format.md", "the `.json` network format, its errors and migrations"),
+    ("general/functions.md", "FunctionSelector's implicit functions and their Python API"),
+)
 
 # The existing picture of docs/images that shows what the processor makes, with its caption.
 PICTURES: dict[str, tuple[str, str]] = {
@@ -55,32 +63,32 @@ PICTURES: dict[str, tuple[str, str]] = {
     "VolumeToTetMesh": ("tetra_culling.png", "The culled bonsai as tetrahedra beside the RayCaster"),
 }
 
-# The sections of the essay pages (relative to docs/) that explain the processor.
+# The sections of the guide and explanation pages (relative to docs/) that explain the processor.
 EXPLAINED_IN: dict[str, tuple[str, ...]] = {
-    "BrickedRayCaster": ("bricked_raycaster.md", "large-data.md#rendering"),
-    "ColorBar": ("outputs.md#colorbar", "own-data.md#a-colour-bar"),
-    "CubicSplineProcessor": ("curvature.md#which-volume-goes-in", "tricubic.md"),
-    "CurvatureRaycaster": ("curvature.md#curvatureraycaster",),
-    "CurvatureVolumeRaycaster": ("curvature.md#curvaturevolumeraycaster",),
-    "EntryExitPoints": ("rendering.md#entryexitpoints", "exploring.md#clipping-planes-and-the-crop-box"),
-    "FunctionSelector": ("functions.md",),
-    "GeometryEntryExit": ("exploring.md#geometryentryexit-and-imagecompositor",),
-    "GeometryRenderer": ("exploring.md#geometryrenderer",),
-    "Grayscale": ("scripting.md",),
-    "ImageCompositor": ("exploring.md#geometryentryexit-and-imagecompositor",),
-    "ImageSource": ("scripting.md", "own-data.md#a-single-slice"),
-    "ImageWriter": ("reliability.md",),
-    "IsoSurfaceExtractor": ("exploring.md#isosurfaceextractor",),
-    "LabelRayCaster": ("exploring.md#label-volumes", "own-data.md#label-volumes"),
-    "MeshSource": ("tetrahedra.md#meshes-and-meshsource", "own-data.md#meshes"),
-    "MultiVolumeRayCaster": ("exploring.md#several-volumes-in-one-picture",),
-    "ProjectedTetrahedra": ("tetrahedra_renderer.md", "tetrahedra.md#projectedtetrahedra"),
-    "RayCaster": ("rendering.md#raycaster", "bricked_raycaster.md#what-differs-from-the-raycaster"),
-    "SliceViewer": ("exploring.md#slices-and-the-multi-planar-layout", "own-data.md#a-single-slice"),
-    "SurfaceSource": ("exploring.md#surfacesource",),
-    "VolumeSource": ("volumes.md#reading-volumes", "volumes.md#volume-processors", "own-data.md"),
-    "VolumeToTetMesh": ("tetrahedra.md#volumetotetmesh",),
-    "VolumeWriter": ("volumes.md#writing-volumes",),
+    "BrickedRayCaster": ("explanations/bricked-ray-casting.md", "guide/large-data.md#rendering"),
+    "ColorBar": ("guide/outputs.md#colorbar", "guide/own-data.md#a-colour-bar"),
+    "CubicSplineProcessor": ("explanations/curvature.md#which-volume-goes-in", "explanations/tricubic.md"),
+    "CurvatureRaycaster": ("explanations/curvature.md#curvatureraycaster",),
+    "CurvatureVolumeRaycaster": ("explanations/curvature.md#curvaturevolumeraycaster",),
+    "EntryExitPoints": ("explanations/ray-casting.md#entryexitpoints", "guide/clipping.md#clipping-planes-and-the-crop-box"),
+    "FunctionSelector": ("reference/general/functions.md",),
+    "GeometryEntryExit": ("guide/surfaces.md#geometryentryexit-and-imagecompositor",),
+    "GeometryRenderer": ("guide/surfaces.md#geometryrenderer",),
+    "Grayscale": ("guide/scripting.md",),
+    "ImageCompositor": ("guide/surfaces.md#geometryentryexit-and-imagecompositor",),
+    "ImageSource": ("guide/scripting.md", "guide/own-data.md#a-single-slice"),
+    "ImageWriter": ("reports/reliability.md",),
+    "IsoSurfaceExtractor": ("guide/surfaces.md#isosurfaceextractor",),
+    "LabelRayCaster": ("guide/labels.md#label-volumes", "guide/own-data.md#label-volumes"),
+    "MeshSource": ("explanations/tetrahedra.md#meshes-and-meshsource", "guide/own-data.md#meshes"),
+    "MultiVolumeRayCaster": ("guide/several-volumes.md#several-volumes-in-one-picture",),
+    "ProjectedTetrahedra": ("explanations/tetrahedra-renderer.md", "explanations/tetrahedra.md#projectedtetrahedra"),
+    "RayCaster": ("explanations/ray-casting.md#raycaster", "explanations/bricked-ray-casting.md#what-differs-from-the-raycaster"),
+    "SliceViewer": ("guide/slices.md#slices-and-the-multi-planar-layout", "guide/own-data.md#a-single-slice"),
+    "SurfaceSource": ("guide/surfaces.md#surfacesource",),
+    "VolumeSource": ("guide/volumes.md#reading-volumes", "guide/volumes.md#volume-processors", "guide/own-data.md"),
+    "VolumeToTetMesh": ("explanations/tetrahedra.md#volumetotetmesh",),
+    "VolumeWriter": ("guide/volumes.md#writing-volumes",),
 }
 
 
@@ -128,10 +136,13 @@ def processor_page(cls: type[Processor]) -> str:
 def index_page(types: list[type[Processor]]) -> str:
     lines = ["# Processor reference", "",
              "One page per built-in processor: its ports with their data types, its properties with "
-             "defaults, ranges or choices and what they do, and where the essay pages explain it. "
+             "defaults, ranges or choices and what they do, and where the guide and explanation pages explain it. "
              f"The pages are written from the processors' declarations by `{COMMAND}` (run from the "
              "repository root); do not edit them by hand. `vgraph list` prints the same in the "
-             "terminal, plug-ins included.", ""]
+             "terminal, plug-ins included.", "",
+             "Also in the reference:", ""]
+    lines += [f"- [{page.split('/')[-1]}]({page}): {what}" for page, what in GENERAL_PAGES]
+    lines.append("")
     for category in sorted({cls.category for cls in types}):
         lines += [f"## {category}", "", "| Processor | What it does |", "|---|---|"]
         lines += [f"| [{cls.type_name}]({cls.type_name}.md) | {_cell(_summary(cls))} |"
@@ -186,8 +197,10 @@ def _default(prop) -> str:
 
 
 def _link_text(target: str) -> str:
-    """``rendering.md#raycaster`` -> ``rendering.md, raycaster``: the page and the section."""
+    """``explanations/ray-casting.md#raycaster`` -> ``ray-casting.md, raycaster``: the page's
+    file name and the section."""
     page, _, section = target.partition("#")
+    page = page.rsplit("/", 1)[-1]
     return f"{page}, {section.replace('-', ' ')}" if section else page
 
 

@@ -20,7 +20,7 @@ from vgraph.processor import Processor
 
 ENTRY_POINT_GROUP = "vgraph.processors"
 # The built-in processors are found by name, as plug-ins are: the registry is part of the model,
-# which the processors import, so it must not import them (docs/architecture.md, "Layers").
+# which the processors import, so it must not import them (docs/explanations/architecture.md, "Layers").
 BUILTINS = "vgraph.processors"
 
 

@@ -12,7 +12,7 @@ Times: GL calls return before the GL has done the work, which lands on whoever w
 GUI) the scheduler waits for the GL after each processor (``ctx.finish()``), so each record holds
 the processor's own GL work and the records add up to the evaluation's wall time. Without it the
 records say how long each ``process()`` call took, and the GL work of a processor may be counted
-with a later one or with none (docs/cli.md, ``--profile``). Each processor's start is announced to
+with a later one or with none (docs/reference/general/cli.md, ``--profile``). Each processor's start is announced to
 ``vgraph.progress`` listeners (the GUI shows which processor runs).
 
 The frame context (``context=FrameContext(...)``, vgraph.frame_context) goes to the processors that

@@ -3,7 +3,7 @@ by the scheduler and saving by the file format.
 
 The model (network.py) imports neither: ``vgraph/__init__`` binds this module to every Network
 and imports it only when a network is first evaluated or saved, so the model, the scheduler and the
-file format import each other in one direction only (docs/architecture.md).
+file format import each other in one direction only (docs/explanations/architecture.md).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Slice planes: where a SliceViewer's image lies in the world, and its pixel <-> world maps.
 
-Conventions (the SliceViewer's docstring and docs/exploring.md say the same for users):
-- World axes are the patient's, RAS (docs/conventions.md): +x towards the patient's right, +y
+Conventions (the SliceViewer's docstring and docs/guide/exploring.md say the same for users):
+- World axes are the patient's, RAS (docs/explanations/conventions.md): +x towards the patient's right, +y
   to the front (anterior), +z up (superior), as vgraph.camera's named views read them.
 - Named orientations are shown as named views show them. ``display`` radiological (the default,
   the patient's right on the image's left, as DICOM viewers and 3D Slicer show axial and coronal

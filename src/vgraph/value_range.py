@@ -1,4 +1,4 @@
-"""The value-range rule volumes and meshes share (docs/conventions.md): a declared range must be
+"""The value-range rule volumes and meshes share (docs/explanations/conventions.md): a declared range must be
 finite with low < high; otherwise the range is the data's finite min..max, and a constant (or
 empty) data set still maps somewhere; values to and from the unit interval of a range."""
 

@@ -18,7 +18,7 @@ CLIP_MARGIN = 1e-3
 @functools.lru_cache(maxsize=64)
 def frame_basis(position: Vec3, focus: Vec3, up: Vec3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     # Remembered: a frame asks a few renderers' worth of times for the basis of one camera, and
-    # np.cross costs tens of microseconds a call (docs/gui.md, per-frame overhead).
+    # np.cross costs tens of microseconds a call (docs/reports/gui-performance.md, per-frame Python).
     forward = unit_vector(np.subtract(focus, position, dtype=np.float64))
     right = unit_vector(cross3(forward, np.asarray(up, dtype=np.float64)))
     vectors = right, cross3(right, forward), forward

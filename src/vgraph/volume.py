@@ -1,11 +1,11 @@
 """The Volume data type: a [z, y, x] array with its place in the world and its value range.
 
-Conventions (docs/volumes.md says the same for users):
+Conventions (docs/guide/volumes.md says the same for users):
 - ``data`` is indexed [z, y, x]; x varies fastest in memory, as in raw files and GL 3D textures.
 - ``spacing`` and ``origin`` are (x, y, z) in world units, ``direction`` the 3x3 direction
   cosines (rows of the matrix; column c is the world direction of index axis c). Voxel (i, j, k) =
   data[k, j, i] has its centre at origin + direction @ ((i, j, k) * spacing) in patient space, RAS
-  (``affine``; docs/conventions.md). Readers convert what the file declares into it.
+  (``affine``; docs/explanations/conventions.md). Readers convert what the file declares into it.
 - ``value_range`` maps stored values to normalised intensities in [0, 1], the unit of every
   transfer-function position and iso level: the ``declared_range`` (stated by the file or the user)
   if any, else [min, max] of the finite values for EVERY dtype. A type's full scale is not a value
@@ -331,7 +331,7 @@ class Volume:
             raise OutOfMemoryError(f"out of memory: the GL could not allocate {format_bytes(size)} "
                                    f"(GL_OUT_OF_MEMORY) while {what}: render it brick by brick "
                                    f"(the BrickedRayCaster, or vgraph convert into a store: "
-                                   f"docs/large-data.md), or crop or downsample it", size)
+                                   f"docs/guide/large-data.md), or crop or downsample it", size)
         texture.repeat_x = texture.repeat_y = texture.repeat_z = False
         return texture
 

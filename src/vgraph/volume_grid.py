@@ -1,8 +1,8 @@
 """Where a volume's grid can lie: the checks every volume (in memory or bricked) makes of its
-spacing, direction, origin and box (docs/volumes.md, "Limits"), and the grid's affine.
+spacing, direction, origin and box (docs/guide/volumes.md, "Limits"), and the grid's affine.
 
 Voxel (i, j, k) has its centre at ``origin + direction @ ((i, j, k) * spacing)`` in patient space
-(RAS, docs/conventions.md): ``direction`` is the 3x3 matrix of direction cosines, its columns the
+(RAS, docs/explanations/conventions.md): ``direction`` is the 3x3 matrix of direction cosines, its columns the
 world directions of the index axes i, j, k (``grid_affine``).
 
 - direction: finite, columns of unit length and perpendicular to each other within

@@ -2,7 +2,7 @@
 ``vgraph.load(FILE)`` give for a volume or a picture instead of a .json network.
 
 What the file holds chooses the network (vgraph.file_kind); each is the one a user would wire
-first (docs/own-data.md):
+first (docs/guide/own-data.md):
 
 - a volume of intensities::
 

@@ -5,7 +5,7 @@ from vgraph.testing import ray_caster_network
 
 # What the rendering tests were written against and the CPU reference assumes unless told: no
 # shading and the ray casters' normalised ramp. The palette's RayCaster starts shaded with the auto
-# transfer function (network format version 3, docs/network-format.md), as `vgraph run FILE` does.
+# transfer function (network format version 3, docs/reference/general/network-format.md), as `vgraph run FILE` does.
 UNSHADED_RAMP = {"transfer_function": TransferFunctionLut.DEFAULT, "shading": "none"}
 
 

@@ -1,1 +1,1 @@
-"""Volumes larger than memory: a multiresolution pyramid of bricks (docs/large-data.md)."""
+"""Volumes larger than memory: a multiresolution pyramid of bricks (docs/guide/large-data.md)."""

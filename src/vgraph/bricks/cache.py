@@ -1,7 +1,7 @@
 """An LRU cache of bricks for the bricked ray caster: numpy bricks read from a BrickSource (RAM) and
 their 3D textures (GL), each under its own budget in bytes.
 
-Conventions (docs/bricked_raycaster.md has the long form):
+Conventions (docs/explanations/bricked-ray-casting.md has the long form):
 - A brick's key is (level, bz, by, bx). Its data is the brick's voxels with a halo of HALO voxels
   on every side, read from the neighbours and replicated at the level's border (what the whole
   volume's clamp-to-edge texture gives there). HALO = 2: a sample owned by the brick lies within

@@ -1,5 +1,5 @@
 """The cells the bricked renderer walks: an octree over level 0 whose nodes at level L read their
-voxels from level L, whatever factor lies between the levels (docs/bricked_raycaster.md).
+voxels from level L, whatever factor lies between the levels (docs/explanations/bricked-ray-casting.md).
 
 A pyramid need not halve every axis per level: ome-zarr-py keeps z and floors x and y
 (60 -> 30 -> 15 -> 7 -> 3 voxels, scales 0.5, 1, 2, 4.29, 10), bioformats2raw halves x and y

@@ -1,6 +1,6 @@
 """What other tools put around an OME-Zarr image, beyond the NGFF metadata store_metadata.py
 checks: bioformats2raw's collection of images (layout 3), label images ("image-label"), spatial
-axes in different length units, and the bricks of chunks of any shape (docs/large-data.md,
+axes in different length units, and the bricks of chunks of any shape (docs/guide/large-data.md,
 "Stores from other tools"). Problems raise VolumeFileError naming the store and the field.
 """
 

@@ -1,7 +1,7 @@
 """A volume as a multiresolution pyramid of bricks (Retondaro 2008 ch. 3: the octree's levels and
 leaves), the interface the out-of-core store and the bricked ray caster share.
 
-Conventions (docs/large-data.md has the long form):
+Conventions (docs/guide/large-data.md has the long form):
 - Level 0 is the full resolution; level k + 1 halves every axis of level k (``ceil(n / 2)`` voxels):
   voxel i of level k + 1 is the mean of voxels 2i and 2i + 1 of level k along each axis (the last
   voxel of an odd axis averages the one voxel it has). So a level's spacing is twice the previous

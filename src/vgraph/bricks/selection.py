@@ -1,6 +1,6 @@
 """Which bricks a frame of the bricked ray caster draws, at which level, in which order.
 
-Conventions (docs/bricked_raycaster.md):
+Conventions (docs/explanations/bricked-ray-casting.md):
 - The pyramid is an octree of cells (vgraph.bricks.cells): cell b of level L covers level-0 voxels
   [b * B * f_L, (b + 1) * B * f_L) per axis (B the brick size, f_L the level's factor: 2^L where
   every level halves every axis, 1 along an axis the pyramid keeps), exactly its children at level

@@ -1,4 +1,4 @@
-"""BrickStore: an OME-Zarr image on disk as a BrickSource (docs/large-data.md).
+"""BrickStore: an OME-Zarr image on disk as a BrickSource (docs/guide/large-data.md).
 
 Opens vgraph's own stores (store_writer.py) and OME-Zarr images written by other tools (NGFF 0.4
 on zarr v2, 0.5 on zarr v3; ome-zarr-py, napari, bioformats2raw's layout 3, whose first image it

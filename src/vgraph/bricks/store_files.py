@@ -1,5 +1,5 @@
 """The files of an OME-Zarr store on disk, read under the rule of every volume reader
-(docs/volumes.md): regular files only, sizes checked before reading (docs/large-data.md).
+(docs/guide/volumes.md): regular files only, sizes checked before reading (docs/guide/large-data.md).
 
 ``CheckedStore`` is zarr's LocalStore with its reads replaced; zarr opens metadata and chunks
 through it, so every key zarr asks for is checked, whatever the array layout:

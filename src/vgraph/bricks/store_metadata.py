@@ -1,4 +1,4 @@
-"""What an OME-Zarr image's metadata says, checked before a voxel is read (docs/large-data.md).
+"""What an OME-Zarr image's metadata says, checked before a voxel is read (docs/guide/large-data.md).
 
 The NGFF side: the first image of "multiscales" (under "ome" in NGFF 0.5), its axes (two or three
 of type space: a 2D image is one slice), the dataset paths (relative paths inside the store) and

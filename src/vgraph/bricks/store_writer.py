@@ -1,4 +1,4 @@
-"""Writing vgraph's OME-Zarr stores (the layout BrickStore reads; docs/large-data.md).
+"""Writing vgraph's OME-Zarr stores (the layout BrickStore reads; docs/guide/large-data.md).
 
 Layout of a store (zarr v3, OME-NGFF 0.5):
   zarr.json               group attributes: "ome" (NGFF multiscales: axes z, y, x of type space,

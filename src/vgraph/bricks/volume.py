@@ -1,5 +1,5 @@
 """BrickedVolume: a Volume whose voxels stay in a BrickSource (an OME-Zarr store on disk) until a
-consumer asks for the whole array (docs/large-data.md).
+consumer asks for the whole array (docs/guide/large-data.md).
 
 It flows through Volume ports like any volume. Its grid, value range and source come from the
 pyramid's metadata without reading voxels; ``bricks`` is the pyramid, for renderers that read

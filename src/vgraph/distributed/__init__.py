@@ -1,4 +1,4 @@
-"""Rendering on a Dask cluster (issue #15; docs/distributed.md).
+"""Rendering on a Dask cluster (issue #15; docs/guide/distributed.md).
 
 One concept per module: ``tiles`` (cutting a picture, the tile cameras, assembling),
 ``worker`` (what runs in a worker process: the shipped network, its one GL context),

@@ -1,7 +1,7 @@
 """Where the workers come from: ``--cluster local:N`` (a LocalCluster of N single-threaded worker
 processes on this machine, started and closed around one render) or ``--cluster tcp://HOST:PORT``
 (the scheduler of a running cluster; its workers must see the network's files at the same paths).
-Dask distributed is the cluster (docs/distributed.md); vgraph never runs one of its own.
+Dask distributed is the cluster (docs/guide/distributed.md); vgraph never runs one of its own.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Faults for the cluster's fault tests (tests/test_distributed_faults.py) and its fuzz bench
 (bench/cluster_faults.py): workers that die, stop or slow down while a frame's task is on them,
-and tasks that no worker can finish (docs/distributed.md, "A worker that stops or dies").
+and tasks that no worker can finish (docs/guide/distributed.md, "A worker that stops or dies").
 
 - ``FaultPoint`` is a plug-in processor (``--plugin vgraph.distributed.faults``; render's
   ``plugins=``): put between a renderer and the Canvas, it passes the image through in every tile

@@ -9,7 +9,7 @@ composited in visibility order on the workers before the frame is resolved once.
 - Runs: the front-to-back list is cut into contiguous runs of about equal weight, one per worker
   (``split_runs``). A contiguous run composites into one partial image that is exactly one layer
   in visibility order, because every sample lies in exactly one brick and the order is per pixel
-  front to back (docs/bricked_raycaster.md).
+  front to back (docs/explanations/bricked-ray-casting.md).
 - Partials: each run task draws its bricks (a selection.LeafPass, given to the caster in the frame
   context, vgraph.frame_context) and returns the accumulation before the resolve pass: (sum,
   first), float32 [H, W, 4] each. dvr and iso: premultiplied colour and

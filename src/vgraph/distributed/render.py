@@ -6,7 +6,7 @@ The client checks the network (its target is an image, nothing in it needs the w
 the picture into tiles (vgraph.distributed.tiles), submits one task per tile (the network's JSON
 document and its folder, never its volumes) and assembles the rectangles the workers return. The
 result is the picture ``vgraph run`` / ``Network.evaluate`` gives in one process, to the tolerance
-docs/distributed.md states.
+docs/guide/distributed.md states.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ camera's off-axis sub-frustum (``Camera.tile``), and put the rectangles back tog
   look at neighbouring pixels (the CurvatureRaycaster's zero-curvature contour reads one pixel each
   way) then see the same neighbours as in the full image.
 - Some processors depend on the WHOLE image and cannot be tiled: ``untileable`` names them and why,
-  and render() refuses such a network before any task runs (docs/distributed.md).
+  and render() refuses such a network before any task runs (docs/guide/distributed.md).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Watching the tasks of one frame until they are done: a task that runs too long has its worker
-restarted, so that Dask runs it again on another worker (docs/distributed.md, "A worker that
+restarted, so that Dask runs it again on another worker (docs/guide/distributed.md, "A worker that
 stops or dies").
 
 Dask reruns the tasks of a worker that is lost (killed, out of memory, restarted), but it has no

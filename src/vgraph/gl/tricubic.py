@@ -1,6 +1,6 @@
 """Tricubic B-spline evaluation on the GPU (shaders/tricubic/): value, gradient and Hessian at points.
 
-Conventions (docs/tricubic.md has the math and the measured precision):
+Conventions (docs/explanations/tricubic.md has the math and the measured precision):
 - The input is a coefficient Volume (``is_spline_coefficients``, float data, the output of the
   CubicSplineProcessor / numerics.bspline.prefilter), sampled from its R32F ``volume.texture(ctx)``.
 - Points are voxel coordinates (x, y, z), shape (..., 3): voxel (i, j, k) = data[k, j, i] at (i, j, k),

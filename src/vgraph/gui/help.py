@@ -10,9 +10,11 @@ Conventions:
   when the dialog is resized), so a 1920-pixel screenshot does not push the text sideways.
 - The shortcut list is built from the window's actions, so it cannot drift from what the keys do.
 - A link to another page opens that page in the same browser; any other link goes to the desktop.
-  Links are read relative to the page shown, so the processor reference (docs/reference/, written
-  by vgraph.reference_docs) links to its pictures and to the essay pages with ``../``. The list
-  holds the top-level pages and the reference's index; a processor's page opens from its links.
+  Links are read relative to the page shown, so pages in docs/'s folders (guide/, reference/,
+  explanations/, reports/: docs/README.md says what is where) link each other and the pictures
+  with ``../``. The list holds the index, then the guide, the reference's index and its
+  hand-written pages, the explanations and the reports, in that order (``LISTED``); a processor's
+  page (docs/reference/, written by vgraph.reference_docs) opens from the links.
 """
 
 from __future__ import annotations
@@ -28,8 +30,10 @@ from PySide6.QtWidgets import (QDialog, QDialogButtonBox, QListWidget, QListWidg
 
 import vgraph
 
-START_PAGE = "gui.md"
-REFERENCE_INDEX = "reference/index.md"   # listed with the top-level pages; it links the rest
+START_PAGE = "guide/gui.md"
+REFERENCE_INDEX = "reference/index.md"   # listed; it links the processors' pages
+# The pages listed, in this order (relative to docs/); titles sorted within each.
+LISTED = ("*.md", "guide/*.md", REFERENCE_INDEX, "reference/general/*.md", "explanations/*.md", "reports/*.md")
 MIN_IMAGE_WIDTH = 200   # px: pictures are not scaled below this, however narrow the column
 
 
@@ -61,8 +65,11 @@ def doc_pages(folder: Path | None = None) -> list[Page]:
     folder = folder if folder is not None else docs_folder()
     if folder is None:
         return []
-    paths = [*folder.glob("*.md"), *folder.glob(REFERENCE_INDEX)]
-    return sorted((Page(p, page_title(p)) for p in paths), key=lambda p: p.title.lower())
+    pages = []
+    for pattern in LISTED:
+        group = (Page(p, page_title(p)) for p in folder.glob(pattern))
+        pages += sorted(group, key=lambda p: p.title.lower())
+    return pages
 
 
 def image_path(page: Path, link: str) -> Path | None:
@@ -102,12 +109,13 @@ class DocsDialog(QDialog):
     def __init__(self, parent=None, folder: Path | None = None):
         super().__init__(parent)
         self.setWindowTitle("vgraph documentation")
-        self.pages = doc_pages(folder)
+        self.folder = folder if folder is not None else docs_folder()
+        self.pages = doc_pages(self.folder)
         self.list = QListWidget()
         for page in self.pages:
             item = QListWidgetItem(page.title)
             item.setData(Qt.UserRole, str(page.path))
-            item.setToolTip(page.path.name)
+            item.setToolTip(self._name(page.path))
             self.list.addItem(item)
         self.browser = QTextBrowser()
         self.browser.setOpenLinks(False)  # page links are followed here, the rest by the desktop
@@ -130,17 +138,24 @@ class DocsDialog(QDialog):
         if not self.pages:
             self.browser.setMarkdown("No documentation pages were found in this installation.")
         else:
-            names = [page.path.name for page in self.pages]
-            self.list.setCurrentRow(names.index(START_PAGE) if START_PAGE in names else 0)
+            if not self.show_page(START_PAGE):
+                self.list.setCurrentRow(0)
         self.resize(1100, 720)
         # the titles are long ("Volumes larger than memory", ...): show them whole when they fit
         titles = min(self.list.sizeHintForColumn(0) + 24, 380)
         splitter.setSizes([titles, self.width() - titles])
 
+    def _name(self, path: Path) -> str:
+        """The page's path relative to the docs folder ("guide/gui.md"), else its file name."""
+        if self.folder is not None and path.is_relative_to(self.folder):
+            return path.relative_to(self.folder).as_posix()
+        return path.name
+
     def show_page(self, name: str) -> bool:
-        """Show the page whose file is ``name`` (e.g. "cli.md"); False if there is none."""
+        """Show the page ``name``, relative to the docs folder ("guide/gui.md") or a file name
+        ("cli.md"); False if there is none."""
         for row, page in enumerate(self.pages):
-            if page.path.name == name:
+            if name in (page.path.name, self._name(page.path)):
                 self.list.setCurrentRow(row)
                 return True
         return False

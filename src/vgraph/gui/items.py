@@ -7,7 +7,7 @@ Conventions:
 - A port's colour is its data type's: fixed colours for the built-in types, and for any other
   type a hue derived from its name (stable across runs, so a plug-in type keeps its colour).
 - Items only draw; they hold the ids they show and never change the model. The scene owns them.
-- Text is painted directly in ``paint`` (no child text items: see docs/gui.md on PySide6 pitfalls).
+- Text is painted directly in ``paint`` (no child text items: see docs/explanations/gui-internals.md on PySide6 pitfalls).
 """
 
 from __future__ import annotations

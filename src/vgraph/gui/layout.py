@@ -148,7 +148,7 @@ def reset_layout(window) -> None:
 
 def shown_whole(widget: QWidget) -> bool:
     """Whether all of ``widget`` is on screen: visible, and inside the viewport of the scroll area
-    holding it, if any (the check behind docs/gui.md's screenshots: nothing cut off)."""
+    holding it, if any (the check behind docs/guide/gui.md's screenshots: nothing cut off)."""
     if widget is None or not widget.isVisible():
         return False
     area = widget.parent()

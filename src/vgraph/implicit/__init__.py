@@ -1,7 +1,7 @@
 """Implicit test functions for the FunctionSelector: volumes with no file, and the exact truth
 (value, gradient, Hessian, curvature) to measure reconstructions against.
 
-Conventions (docs/functions.md says the same for users):
+Conventions (docs/reference/general/functions.md says the same for users):
 - World points are arrays of shape (N, 3) in (x, y, z) order, evaluated in float64.
 - CT sign: the object's interior has HIGHER values than its exterior; the surface of interest is
   f = 0, and a sphere of radius r has curvatures k1 = k2 = +1/r (1/world unit).

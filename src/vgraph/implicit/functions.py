@@ -5,7 +5,7 @@ value-only, ``jet``/``gradient``/``hessian`` to second order. Points are (N, 3) 
 world order, float64. The interior has HIGHER values than the exterior and the surface is f = 0.
 Forms are distance-like near the surface; singular sets (|p| = 0, axes, core circles) lie at least
 0.05 world units off the surface for every allowed parameter set, and their derivatives read 0.
-The formulas, defaults, ranges and boxes are listed in docs/functions.md.
+The formulas, defaults, ranges and boxes are listed in docs/reference/general/functions.md.
 """
 
 from __future__ import annotations

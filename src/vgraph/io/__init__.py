@@ -25,7 +25,7 @@ source = str(path) and time_steps. Files with a time axis (4D NIfTI, NRRD whose 
 kind ``time``, 4D MetaImage, NumPy [t, z, y, x]) give the time point ``time_step``; asking any
 file for one it does not hold raises TimeStepError. Any problem with the input raises
 VolumeFileError naming the file and the header field; float NaN/Inf voxels load with a
-NonFiniteVoxelsWarning. docs/volumes.md has the details per format.
+NonFiniteVoxelsWarning. docs/guide/volumes.md has the details per format.
 """
 
 from __future__ import annotations

@@ -2,11 +2,11 @@
 a file is a readable regular file and a header a header, exact-size raw reading with progress,
 and turning a [z, y, x] array into a checked ``Volume``.
 
-Conventions kept by every reader (docs/volumes.md says the same for users):
+Conventions kept by every reader (docs/guide/volumes.md says the same for users):
 - arrays come back indexed [z, y, x] in native byte order, x fastest (the file's order);
 - spacing and origin are (x, y, z), origin and direction in RAS patient space (orientation.py);
 - a reader either returns a complete Volume or raises ``VolumeFileError``; nothing half-loaded,
-  and no size from a file is trusted before it is checked (see the Limits in docs/volumes.md);
+  and no size from a file is trusted before it is checked (see the Limits in docs/guide/volumes.md);
 - float volumes with NaN/Inf voxels load, but a ``NonFiniteVoxelsWarning`` names the file and
   the counts;
 - a file with a time axis (4D NIfTI, NRRD with a ``time`` kind, 4D MetaImage, NumPy [t, z, y, x])

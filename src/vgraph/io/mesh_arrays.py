@@ -5,7 +5,7 @@ several components per point (or cell) the component.
         -> Chosen(name, per_cell, values)
     one_value_each(path, values, count, name, component, per="point") -> float64 (count,)
 
-Arrays (docs/tetrahedra.md, "Meshes and MeshSource"): ``array`` empty takes the first point array
+Arrays (docs/explanations/tetrahedra.md, "Meshes and MeshSource"): ``array`` empty takes the first point array
 that is not the format's bookkeeping (Gmsh tags, Medit references), else the first cell array,
 and says which with a VGraphWarning naming the others (one line; a file with several arrays
 renders one of them, which should not go unnoticed); a file with no data arrays but tags renders

@@ -1,4 +1,4 @@
-"""Reading unstructured meshes into a TetMesh (docs/tetrahedra.md, "Meshes and MeshSource").
+"""Reading unstructured meshes into a TetMesh (docs/explanations/tetrahedra.md, "Meshes and MeshSource").
 
     read_mesh(path, array="", declared_range=None, reference_length=None, component="") -> TetMesh
 

@@ -9,7 +9,7 @@ Fields used (http://teem.sourceforge.net/nrrd/format.html):
   data file   one file; ``<pattern> <first> <last> <step> [<subdim>]`` (pattern with one %d);
               or ``LIST [<subdim>]`` with one file name per following header line
 
-Limits (docs/volumes.md): a compressed stream must decompress to exactly the bytes the sizes
+Limits (docs/guide/volumes.md): a compressed stream must decompress to exactly the bytes the sizes
 declare, refused as soon as it holds more; at most MAX_DATA_FILES data files, and their number
 must match the sizes before any name is built or any file is looked at.
 """

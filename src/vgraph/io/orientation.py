@@ -1,6 +1,6 @@
 """A file's grid in patient space: what readers make of the axis vectors a file declares, and what
-writers make of a volume's affine (docs/volumes.md, "World coordinates"; the frame itself:
-docs/conventions.md).
+writers make of a volume's affine (docs/guide/volumes.md, "World coordinates"; the frame itself:
+docs/explanations/conventions.md).
 
 vgraph's world is RAS+, as nibabel's: +x points to the patient's Right, +y Anterior, +z Superior.
 DICOM, ITK (MetaImage) and NRRD's ``left-posterior-superior`` use LPS+: a point or an axis vector

@@ -5,7 +5,7 @@ disk, and moved over the target with os.replace. If anything fails the temporary
 and an existing file of that name is left untouched.
 
 What each format keeps (every one but .npy keeps the grid: read back by vgraph, nibabel,
-SimpleITK or VTK, each voxel lands where it was; docs/volumes.md, "Writing volumes"):
+SimpleITK or VTK, each voxel lands where it was; docs/guide/volumes.md, "Writing volumes"):
   .npy      values only ([z, y, x]); spacing, origin and direction are NOT stored
   .npz      data, spacing, origin, direction, value_range (if declared)
   .nrrd     values (gzip), space right-anterior-superior, space directions (the affine's

@@ -17,7 +17,7 @@ Conventions:
 - Times are honest: the scheduler finishes the GL after each processor (``finish_each``), so a
   node's "evaluated in" holds its own GL work and the nodes' times add up to the frame. Measured
   on llvmpipe (the head ray caster at 128^2 and 512^2) the finishes cost nothing noticeable: the
-  GL work is done before the frame is read back anyway (docs/gui.md, "Timings").
+  GL work is done before the frame is read back anyway (docs/guide/gui.md, "Timings").
 """
 
 from __future__ import annotations

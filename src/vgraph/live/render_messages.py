@@ -47,7 +47,7 @@ from vgraph.network import Network
 BUILTIN_PACKAGE = "vgraph.processors"
 # Reading per frame in the GUI: a frame of a volume on disk shows within about this (plus the
 # drawing) and refines in the following jobs; short enough to feel immediate, long enough that a
-# frame reads a good share of what it needs (docs/bricked_raycaster.md, "In the GUI").
+# frame reads a good share of what it needs (docs/explanations/bricked-ray-casting.md, "In the GUI").
 GUI_LOAD_LIMIT = LoadLimit(seconds=0.25)
 
 

@@ -3,7 +3,7 @@
 Conventions
 - Inputs are in world units: gradient (..., 3) as (df/dx, df/dy, df/dz), Hessian (..., 3, 3) in the
   same (x, y, z) order. Curvatures come out in 1/world-unit.
-- Sign (docs/conventions.md): the object's interior has HIGHER values than its exterior (CT convention). The
+- Sign (docs/explanations/conventions.md): the object's interior has HIGHER values than its exterior (CT convention). The
   outward normal is n = -g/|g|, and a sphere of radius r has k1 = k2 = +1/r; a cylinder of radius R
   has k1 = 1/R, k2 = 0; a saddle has k1 > 0 > k2. Flip the field (f -> -f) for data whose interior
   is darker.

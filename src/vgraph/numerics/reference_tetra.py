@@ -1,5 +1,5 @@
 """Exact CPU reference for rendering tetrahedral meshes (numpy). The GL mesh renderers are tested
-against it; docs/tetrahedra.md ("The exact CPU reference") explains the model.
+against it; docs/explanations/tetrahedra.md ("The exact CPU reference") explains the model.
 
 Model, in this order:
 

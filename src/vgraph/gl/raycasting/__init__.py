@@ -7,5 +7,5 @@
 - ``targets``: output images kept across evaluations;
 - ``light``: Blinn-Phong uniforms;
 - ``components``: the ray-casting components and ``RaycasterBase``, which the ray casters are built
-  from (docs/architecture.md).
+  from (docs/explanations/architecture.md).
 """

@@ -1,4 +1,4 @@
-"""Empty-space skipping (docs/conventions.md) and what a ray caster should show.
+"""Empty-space skipping (docs/explanations/conventions.md) and what a ray caster should show.
 
 Skipping works on blocks of ``block``^3 voxels: block b (per axis) holds the samples whose voxel
 coordinate u = t * dims - 0.5 has floor(u) in [b * block, (b + 1) * block); its range is the min and
@@ -12,7 +12,7 @@ Block sizes: ``BLOCK`` = 4 where rays jump over empty regions (dvr, first_hit, i
 and label ray casters); ``WALK_BLOCK`` = 8 where a ray visits every block on its way (MIP's walk
 over the block maxima) and for the ray-bounds boxes. Jumps cost little since march.glsl makes them
 in a loop of their own, so smaller blocks pay: they fit the visible parts tighter (bonsai 18 %
-occupied instead of 24 %); a walk pays per block (docs/performance.md has the measurements). The
+occupied instead of 24 %); a walk pays per block (docs/reports/performance.md has the measurements). The
 8^3 ranges are the 4^3 ones reduced in pairs, exactly (the windows of two neighbouring blocks
 cover that of their union).
 """

@@ -1,7 +1,7 @@
 """Where a volume is and how the camera's rays meet it: world <-> texture space, the boxes, the
 near and far planes, the ray uniforms, and the concrete camera of a frame.
 
-Conventions (docs/conventions.md has them all):
+Conventions (docs/explanations/conventions.md has them all):
 
 - Texture space: voxel i along an axis has its centre at texture coordinate (i + 0.5) / dims, where
   GL samples a 3D texture. A world point p maps to ``t = ((p - origin) / spacing + 0.5) / dims``
@@ -68,7 +68,7 @@ def picture_of(camera: Camera, size) -> tuple[Camera, tuple[int, int], tuple[int
     in GL window coordinates (x right, y up)) for a tile camera (Camera.tile(x, y, w, h, W, H) of
     a camera without a window); (camera, size, (0, 0)) for any other camera. The pixels of a tile
     are then computed with the whole picture's numbers (pixel_rays), so a tile is bit for bit the
-    same rectangle of the whole picture (docs/distributed.md)."""
+    same rectangle of the whole picture (docs/guide/distributed.md)."""
     window = camera.window
     if window is None:
         return camera, tuple(size), (0, 0)

@@ -13,7 +13,7 @@ decodes texel * 65535 / 32767 - 1 (interpolation is linear, so decoding after th
 same). Where the volume's own texture is R16 (8- and 16-bit data, 16-bit copies), a holds that
 texture's texel (``holds_values``): a shaded sample then reads its value and its gradient in one
 fetch (shaders/raycasting/gradients.glsl, ``shading_texel``), and a four-channel fetch costs
-llvmpipe far less than a one-channel plus a four-channel one (docs/performance.md). Otherwise a is 0
+llvmpipe far less than a one-channel plus a four-channel one (docs/reports/performance.md). Otherwise a is 0
 and the value comes from the volume's texture.
 
 The numpy part works slab by slab (``SLAB_VOXELS``), twice (the scale, then the texels), so a

@@ -1,4 +1,4 @@
-"""Ray bounds from the occupied blocks (RAY_BOUNDS, docs/rendering.md): per pixel, the nearest and
+"""Ray bounds from the occupied blocks (RAY_BOUNDS, docs/explanations/ray-casting.md): per pixel, the nearest and
 farthest point of its ray that is inside a block that can contribute, so that a ray
 samples only between them and a ray that meets no such block is not marched at all (proxy
 geometry as in Voreen, tightened to the blocks of empty-space skipping, in pairs: 8^3 voxels).
@@ -43,7 +43,7 @@ SHADERS = ("raycasting/ray_bounds.vert.glsl", "raycasting/ray_bounds.frag.glsl")
 GROW = 0.5  # voxels: see the module docstring (below one voxel, the blocks' range margin)
 TILE = 4  # pixels per bounds texel and axis: 1/16 of the fragments, bounds a few voxels looser
 FAR = 1e30  # the cleared value: no occupied box along the pixel's ray
-# Where the pass costs more than it saves (measured at 512^2, docs/performance.md): with most
+# Where the pass costs more than it saves (measured at 512^2, docs/reports/performance.md): with most
 # blocks occupied little is left to cut, and scattered blocks make many boxes (the pass took 2-3 ms
 # for 300-600 boxes, 11 ms for 1075, 15 ms for 2034; the bounds saved 0-8 ms a frame).
 MAX_OCCUPIED_FRACTION = 0.75

@@ -1,7 +1,7 @@
 """The centroid sort on the GL side: keys, a bitonic sorting network and the gather of the sorted
 tetrahedra, all in compute shaders (GL 4.3), so the index buffer never goes through the CPU.
 
-Measured against numpy's argsort in bench/bench_tetra.py --sort (docs/tetrahedra_renderer.md,
+Measured against numpy's argsort in bench/bench_tetra.py --sort (docs/explanations/tetrahedra-renderer.md,
 Visibility order): on llvmpipe the network's n log^2 n compare-exchanges lose to numpy's n log n
 sort; on a GPU the same code runs in parallel across thousands of cores. Same order as
 ``order.back_to_front`` up to ties (equal keys may come out in another order).
