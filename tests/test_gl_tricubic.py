@@ -3,7 +3,7 @@ polynomials and the CPU reference numerics.bspline.evaluate.
 
 Errors are measured relative to the scale of each quantity: max |GPU - reference| over a point set
 divided by max |reference| over the same set (value, gradient, Hessian separately). Tolerances
-(docs/explanations/tricubic.md, "Precision"): measured on llvmpipe (float filter weights) at 2e-6 .. 1.4e-5;
+(docs/reports/accuracy.md, "Tricubic B-spline evaluation in GLSL"): measured on llvmpipe (float filter weights) at 2e-6 .. 1.4e-5;
 set with margin, yet a wrong sign, axis or index gives errors of order 0.1 .. 1.
 """
 

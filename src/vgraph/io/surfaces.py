@@ -1,4 +1,4 @@
-"""Reading triangle surfaces into a Geometry (SurfaceSource; docs/guide/exploring.md, "Surfaces").
+"""Reading triangle surfaces into a Geometry (SurfaceSource; docs/guide/surfaces.md, "SurfaceSource").
 
     read_surface(path, array="", component="") -> Geometry
 

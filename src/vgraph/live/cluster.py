@@ -1,4 +1,4 @@
-"""Rendering the GUI's final frames on a Dask cluster (issue #15; docs/guide/gui.md, "Render on cluster").
+"""Rendering the GUI's final frames on a Dask cluster (issue #15; docs/guide/distributed.md, "From the GUI").
 
 The GUI's cluster setting (``ClusterSetting``: ``local:N`` or ``tcp://HOST:PORT``, the split, the
 tiles grid) travels in every ``RenderJob``. The render process (``RenderServer``) then draws the
