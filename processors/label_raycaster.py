@@ -37,7 +37,7 @@ import numpy as np
 from vgraph import Inport, OptionProperty, Outport, VGraphError, derived
 from vgraph.gl.raycasting.components import Background, CameraRays, EmptySpace, EntryExit, FrontToBack, Sampling
 from vgraph.gl.raycasting.light import Light
-from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
+from vgraph.gl.raycasting.raycaster_base import Binding, Frame, RaycasterBase
 from vgraph.gl.raycasting.empty_space import radii_if_worthwhile, window_reduced
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.targets import RenderTargets
@@ -88,24 +88,34 @@ class LabelRayCaster(RaycasterBase):
         self.frame_codes: LabelCodes | None = None  # of the frame being drawn (skip_values reads them)
 
     def process(self, labels: Volume, entry: Image, exit: Image) -> Image:
-        # The scheduler's ProcessorError names the processor too; the file says which data.
+        consumer = self._checked(labels)
+        frame = self.frame(labels, entry, exit)
+        (image,) = self._targets.ensure(frame.ctx, entry.size)
+        self.draw(frame, SHADER, self._targets, own=self._label_binding(frame, labels, consumer))
+        return image
+
+    def _checked(self, labels: Volume) -> str:
+        """``labels`` as the error messages name it, once refused if it cannot be drawn. The
+        scheduler's ProcessorError names the processor too; the file says which data."""
         consumer = f"{self.id}.labels" + (f" ({labels.source})" if labels.source else "")
         labels.require_samples(consumer)
         if needs_bricks(labels, self.gl):  # a store within its memory budget is read whole
             raise VGraphError(f"{consumer}: label volumes are drawn from one texture; this one "
                               f"({' x '.join(map(str, labels.dims))} voxels) exceeds the GL's 3D "
                               f"texture size or its memory budget (VolumeSource.memory_budget)")
-        frame = self.frame(labels, entry, exit)
+        return consumer
+
+    def _label_binding(self, frame: Frame, labels: Volume, consumer: str) -> Binding:
+        """The LabelRayCaster's own part of the pass: the compositing mode, the label codes and
+        the label table resolved per code (majority.glsl), the spacing for shading
+        (label_shading.glsl). The frame's codes are kept for skip_values."""
         codes, texture = label_textures(labels, frame.ctx, consumer)
         self.frame_codes = codes
         colors = self._colors.update(frame.ctx, self.label_table, codes)
-        own = Binding(defines={f"COMPOSITING_{self.compositing.upper()}": True},
-                      textures={"labels": texture, "label_colors": colors},
-                      uniforms={"volume_dims": tuple(int(d) for d in labels.dims),
-                                "voxel_spacing": vec(frame.geometry.spacing)})
-        (image,) = self._targets.ensure(frame.ctx, entry.size)
-        self.draw(frame, SHADER, self._targets, own=own)
-        return image
+        return Binding(defines={f"COMPOSITING_{self.compositing.upper()}": True},
+                       textures={"labels": texture, "label_colors": colors},
+                       uniforms={"volume_dims": tuple(int(d) for d in labels.dims),
+                                 "voxel_spacing": vec(frame.geometry.spacing)})
 
     def visible_content(self) -> str | None:
         """The share of voxels holding shown labels (for the scheduler's empty-image warning)."""

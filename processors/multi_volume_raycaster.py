@@ -19,10 +19,11 @@ Conventions (the CPU reference vgraph.numerics.multivolume_reference states the 
   of voxel centres (grown as the rays' box is): no data there, rather than its edge values smeared
   out by clamp-to-edge. With two or more channels this holds for volume1 too; a lone channel is
   never tested (its rays are its own box: exactly the RayCaster's samples).
-- Samples every ``min(spacing of all channels) / sampling_rate`` world units, trilinear, each
-  channel normalised over its own value range and classified by its own TF (4096-entry LUT).
-  Opacity correction per channel: a TF's alpha is per sample at that channel's rate 1, so
-  ``a' = 1 - (1 - a)^(step / min(spacing of the channel))``.
+- Samples every ``min(spacing of all channels) / sampling_rate`` world units (Sampling over all
+  volumes), trilinear, each channel normalised over its own value range and classified by its own
+  TF (4096-entry LUT; one TransferFunctionLut of four channels). Opacity correction per channel:
+  a TF's alpha is per sample at that channel's rate 1, so ``a' = 1 - (1 - a)^(step / min(spacing
+  of the channel))``.
 - ``blend`` (what a pixel shows):
   ``accumulate``: the channels' samples at one point are mixed into one (Cai & Sakas 1999,
   accumulation-level intermixing) - opacity ``1 - prod(1 - a'_k)``, colour the a'-weighted mean of
@@ -56,19 +57,19 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from vgraph import FloatProperty, Inport, OptionProperty, Outport, TransferFunctionProperty, VGraphError
-from vgraph.gl.raycasting.components import Background, CameraRays, EntryExit, Sampling, ray_main_missed
+from vgraph import FloatProperty, Inport, OptionProperty, Outport, VGraphError
+from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, Sampling,
+                                             TransferFunctionLut, ray_main_missed)
 from vgraph.gl.raycasting.light import Light
-from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
+from vgraph.gl.raycasting.raycaster_base import Binding, Frame, RaycasterBase
 from vgraph.gl.raycasting.empty_space import visible_under
 from vgraph.gl.raycasting.framed_view import frame_rotation
 from vgraph.gl.raycasting.geometry import VolumeGeometry
 from vgraph.gl.raycasting.targets import RenderTargets
-from vgraph.gl.raycasting.textures import TransferFunctionTexture, linear_sampler, needs_bricks
+from vgraph.gl.raycasting.textures import linear_sampler, needs_bricks
 from vgraph.grid_axes import axes_against
 from vgraph.image import Image
 from vgraph.shown_content import voxels_under
-from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
 SHADER = "multivolume/multivolume.frag.glsl"
@@ -76,16 +77,6 @@ MAX_CHANNELS = 4
 CHANNEL_PORTS = tuple(f"volume{n}" for n in range(1, MAX_CHANNELS + 1))
 BLEND_MODES = ("accumulate", "nearest_opaque", "maximum")
 SHADED_BLENDS = ("accumulate", "nearest_opaque")
-
-
-def _ramp(r, g, b, low=0.2, high=0.8, alpha=0.6) -> TransferFunction:
-    """A default TF: transparent below ``low``, rising to ``alpha`` in one colour at ``high``."""
-    return TransferFunction(points=[(0.0, r, g, b, 0.0), (low, r, g, b, 0.0), (high, r, g, b, alpha),
-                                    (1.0, r, g, b, alpha)])
-
-
-# One hue per channel, as microscopy viewers colour channels.
-DEFAULT_TFS = (_ramp(1.0, 0.55, 0.15), _ramp(0.2, 0.6, 1.0), _ramp(0.3, 0.95, 0.35), _ramp(0.95, 0.3, 0.9))
 
 
 @dataclass(frozen=True)
@@ -100,44 +91,41 @@ class Channel:
         return f"volume{self.number}"
 
 
+def connected_channels(raycaster: "MultiVolumeRayCaster", frame: Frame) -> list[int]:
+    """The numbers of the channels of the frame being drawn, in slot order (TransferFunctionLut)."""
+    return [channel.number for channel in raycaster.frame_channels]
+
+
+# transfer_function1 .. 4, slot k the k-th connected channel's TF.
+TRANSFER_FUNCTIONS = TransferFunctionLut(channels=MAX_CHANNELS, connected=connected_channels)
+
+
 class MultiVolumeRayCaster(RaycasterBase):
     """Several volumes (channels) in one ray caster, each with its own TF; accumulate, nearest opaque or
     maximum."""
 
     category = "Volume rendering"
     # Which volume each TF classifies: the GUI's TF editors show that volume's histogram and value
-    # scale (gui/evaluator.py reads this; without it a processor's TFs get its first volume's).
-    transfer_function_inports = {f"transfer_function{n}": f"volume{n}" for n in range(1, MAX_CHANNELS + 1)}
+    # scale (live/evaluator.py reads this; without it a processor's TFs get its first volume's).
+    transfer_function_inports = TRANSFER_FUNCTIONS.transfer_function_inports
     inports = ([Inport("volume1", Volume, "ray positions are in this volume's texture space")]
                + [Inport(port, Volume, optional=True) for port in CHANNEL_PORTS[1:]])
     outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
-    components = (EntryExit(), CameraRays(), Sampling(), Light(mode="blend", shaded_modes=SHADED_BLENDS),
-                  Background())
+    components = (EntryExit(), CameraRays(), Sampling(over="all volumes"), TRANSFER_FUNCTIONS,
+                  FrontToBack(mode="blend", corrected=("accumulate",)),
+                  Light(mode="blend", shaded_modes=SHADED_BLENDS), Background())
 
     blend = OptionProperty("accumulate", choices=list(BLEND_MODES),
                            doc="accumulate: channels mixed per sample, composited front to back; "
                                "nearest_opaque: colour of the first channel to reach opacity_threshold; "
                                "maximum: a MIP per channel, colours added")
-    transfer_function1 = TransferFunctionProperty(DEFAULT_TFS[0], label="Transfer function (volume1)",
-                                                  doc="of volume1 (alpha per sample at rate 1)")
-    transfer_function2 = TransferFunctionProperty(DEFAULT_TFS[1], label="Transfer function (volume2)",
-                                                  doc="of volume2")
-    transfer_function3 = TransferFunctionProperty(DEFAULT_TFS[2], label="Transfer function (volume3)",
-                                                  doc="of volume3")
-    transfer_function4 = TransferFunctionProperty(DEFAULT_TFS[3], label="Transfer function (volume4)",
-                                                  doc="of volume4")
-    sampling_rate = FloatProperty(1.0, min=0.05, max=16.0,
-                                  doc="samples per voxel of the smallest spacing of all channels "
-                                      "(a world-space step)")
     opacity_threshold = FloatProperty(0.5, min=0.001, max=1.0,
                                       doc="nearest_opaque: TF opacity at which a channel counts as hit")
-    early_termination = FloatProperty(0.99, min=0.01, max=1.0,
-                                      doc="accumulate: stop a ray once its opacity reaches this")
 
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
         self._targets = {True: RenderTargets(2), False: RenderTargets(1)}  # by: depth output wanted
-        self._luts = {number: TransferFunctionTexture() for number in range(1, MAX_CHANNELS + 1)}
+        self.frame_channels: list[Channel] = []  # of the frame being drawn (connected_channels)
 
     def visible_content(self) -> str | None:
         """Which channels have voxels their TF shows (for the blank-image warning). Not said for
@@ -169,12 +157,12 @@ class MultiVolumeRayCaster(RaycasterBase):
         # The rays' camera is resolved on the union box, as EntryExitPoints does, and the channels
         # are drawn in its frame.
         frame = self.frame(volume1, entry, exit, volumes=[c.volume for c in channels])
-        channels = [replace(c, volume=framed) for c, framed in zip(channels, frame.volumes)]
+        self.frame_channels = [replace(c, volume=framed) for c, framed in zip(channels, frame.volumes)]
         with_depth = self.wants("depth")
         targets = self._targets[with_depth]
         self._targets[not with_depth].release()  # a scene keeps the images of one kind only
         outputs = dict(zip(("image", "depth"), targets.ensure(frame.ctx, entry.size)))
-        own = self._channel_binding(frame, channels)
+        own = self._channel_binding(frame, self.frame_channels)
         own.defines["DEPTH_OUTPUT"] = with_depth
         self.draw(frame, SHADER, targets, own=own, missed=ray_main_missed(self.background, with_depth))
         return outputs
@@ -208,35 +196,27 @@ class MultiVolumeRayCaster(RaycasterBase):
                                   f"and mirroring; resample one onto the other's grid (e.g. "
                                   f"nibabel.processing.resample_from_to)")
 
-    def _channel_binding(self, frame, channels: list[Channel]) -> Binding:
-        """Defines, textures and uniforms of the channels. Shader slot k (0-based) holds the k-th
+    def _channel_binding(self, frame: Frame, channels: list[Channel]) -> Binding:
+        """The blend, and the channels' volume textures and uniform arrays (their transfer
+        functions come with TransferFunctionLut). Shader slot k (0-based) holds the k-th
         connected channel, whatever its inport number."""
-        step = min(float(np.min(c.volume.spacing)) for c in channels) / self.sampling_rate
-        mode = self.blend
-        binding = Binding(defines={"CHANNELS": len(channels), f"BLEND_{mode.upper()}": True},
-                          uniforms={"step_length": step})  # replaces Sampling's step of volume1 alone
-        rows = [channel_uniforms(frame.geometry, channel.volume, step) for channel in channels]
+        binding = Binding(defines={f"BLEND_{self.blend.upper()}": True})
+        rows = [channel_uniforms(frame.geometry, channel.volume) for channel in channels]
         names = rows[0].keys() if self.shaded() else UNSHADED_UNIFORMS
         binding.uniforms.update({name: np.asarray([row[name] for row in rows], dtype=np.float32)
                                  for name in names})
         for slot, channel in enumerate(channels, start=1):
-            tf = getattr(self, f"transfer_function{channel.number}")
             binding.textures[f"volume{slot}"] = channel.volume.texture(frame.ctx)
             binding.samplers[f"volume{slot}"] = linear_sampler(frame.ctx)
-            binding.textures[f"transfer_function{slot}"] = self._luts[channel.number].update(
-                frame.ctx, tf, channel.volume)
-        if mode == "accumulate":
-            binding.uniforms["early_termination"] = self.early_termination
-        elif mode == "nearest_opaque":
+        if self.blend == "nearest_opaque":
             binding.uniforms["opacity_threshold"] = self.opacity_threshold
         return binding
 
 
-UNSHADED_UNIFORMS = ("channel_scale", "channel_offset", "channel_low", "channel_high", "channel_intensity",
-                     "channel_exponent")
+UNSHADED_UNIFORMS = ("channel_scale", "channel_offset", "channel_low", "channel_high", "channel_intensity")
 
 
-def channel_uniforms(rays: VolumeGeometry, volume: Volume, step: float) -> dict[str, object]:
+def channel_uniforms(rays: VolumeGeometry, volume: Volume) -> dict[str, object]:
     """One channel's row of the uniform arrays of multivolume/channels.glsl (UNSHADED_UNIFORMS, and
     for shading channel_voxel_step and channel_gradient_scale)."""
     geometry = VolumeGeometry.of(volume)
@@ -249,7 +229,6 @@ def channel_uniforms(rays: VolumeGeometry, volume: Volume, step: float) -> dict[
     gradient_scale = intensity_scale / (2.0 * geometry.spacing) * own_spacing / float(rays.spacing.min())
     return {"channel_scale": scale, "channel_offset": offset, "channel_low": low, "channel_high": high,
             "channel_intensity": (intensity_scale, intensity_offset),
-            "channel_exponent": step / own_spacing,  # opacity correction for the channel's own step
             "channel_voxel_step": 1.0 / geometry.dims, "channel_gradient_scale": gradient_scale}
 
 

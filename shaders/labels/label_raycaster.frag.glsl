@@ -4,11 +4,9 @@
 // label table. Defines: exactly one COMPOSITING_* (COMPOSITE, FIRST_HIT), SHADING_BLINN_PHONG with
 // LIGHT_HEADLIGHT, SKIP_EMPTY_SPACE and RAY_BOUNDS (over blocks without shown labels). Output:
 // premultiplied colour over `background`.
-#include "raycasting/ray.glsl"
-#include "raycasting/pixel_ray.glsl"
-#include "raycasting/depth_output.glsl"
-#include "raycasting/background.glsl"
-#include "raycasting/shading.glsl"
+//
+// The LabelRayCaster's own part; its components' GLSL (pixel ray, camera rays and depth output,
+// shading, empty space and ray bounds, background) is included ahead of it by RaycasterBase.draw.
 #include "raycasting/march.glsl"
 #include "labels/majority.glsl"
 #include "labels/label_shading.glsl"

@@ -1,23 +1,21 @@
-// The channels of the MultiVolumeRayCaster: CHANNELS (1..4) volumes, each with its own transfer
-// function, sampled at one ray position. Rays run in the texture space of the first channel over
-// the union of the channels' boxes (EntryExitPoints fed with all of them: coordinates outside
-// [0, 1] where the union leaves the first box); channel k's texture coordinate is t * channel_scale[k] + channel_offset[k]
-// (texture -> world of the first channel, then world -> texture of channel k, combined on the
-// CPU; the identity for channel 0 and for channels on its grid). Slot k holds the k-th connected
-// channel in the samplers volume{k+1} and transfer_function{k+1}, whatever inport it came from.
+// The channels of the MultiVolumeRayCaster: CHANNELS (1..4) volumes sampled at one ray position
+// (the define, and each channel's classification channel_classify and channel_opacity, come with
+// its TransferFunctionLut: raycasting/channel_transfer_functions.glsl). Rays run in the texture
+// space of the first channel over the union of the channels' boxes (EntryExitPoints fed with all
+// of them: coordinates outside [0, 1] where the union leaves the first box); channel k's texture
+// coordinate is t * channel_scale[k] + channel_offset[k] (texture -> world of the first channel,
+// then world -> texture of channel k, combined on the CPU; the identity for channel 0 and for
+// channels on its grid). Slot k holds the k-th connected channel in the sampler volume{k+1},
+// whatever inport it came from.
 uniform sampler3D volume1;
-uniform sampler2D transfer_function1;
 #if CHANNELS >= 2
 uniform sampler3D volume2;
-uniform sampler2D transfer_function2;
 #endif
 #if CHANNELS >= 3
 uniform sampler3D volume3;
-uniform sampler2D transfer_function3;
 #endif
 #if CHANNELS >= 4
 uniform sampler3D volume4;
-uniform sampler2D transfer_function4;
 #endif
 // FOR_EACH_CHANNEL(CALL) expands to CALL(0); CALL(1); ... for the CHANNELS slots: written out with
 // literal indices rather than a loop, because Mesa does not unroll a loop holding this much, and
@@ -39,7 +37,6 @@ uniform vec3 channel_offset[CHANNELS];
 uniform vec3 channel_low[CHANNELS];        // the channel's box of voxel centres (grown like the
 uniform vec3 channel_high[CHANNELS];       // rays' box) in its own texture space
 uniform vec2 channel_intensity[CHANNELS];  // normalised intensity = raw * x + y
-uniform float channel_exponent[CHANNELS];  // opacity correction: step / min(spacing of the channel)
 
 // Channel k's coordinates of ray position t; false where they lie outside the channel's box (it
 // has no data there and contributes nothing, instead of its edge values smeared by clamp-to-edge).
@@ -67,32 +64,6 @@ float channel_raw(int k, vec3 tk) {
 
 float channel_value(int k, vec3 tk) {
     return channel_raw(k, tk) * channel_intensity[k].x + channel_intensity[k].y;
-}
-
-// The 4096-entry LUT as raycasting/transfer_function.glsl reads it: entry i at (i + 0.5) / 4096.
-vec4 lut_lookup(sampler2D lut, float value) {
-    return textureLod(lut, vec2(value * (4095.0 / 4096.0) + 0.5 / 4096.0, 0.5), 0.0);
-}
-
-vec4 channel_classify(int k, float value) {
-#if CHANNELS >= 2
-    if (k == 1) return lut_lookup(transfer_function2, value);
-#endif
-#if CHANNELS >= 3
-    if (k == 2) return lut_lookup(transfer_function3, value);
-#endif
-#if CHANNELS >= 4
-    if (k == 3) return lut_lookup(transfer_function4, value);
-#endif
-    return lut_lookup(transfer_function1, value);
-}
-
-// Opacity correction per channel (raycasting/transfer_function.glsl's rule with the channel's own
-// reference step): a TF's alpha is per sample at the rate 1 of its channel. An exponent of 1 (the
-// finest channel at sampling rate 1) leaves alpha as it is, exactly.
-float channel_opacity(int k, float alpha) {
-    float exponent = channel_exponent[k];
-    return (alpha >= 1.0 || exponent == 1.0) ? alpha : 1.0 - exp2(exponent * log2(1.0 - alpha));
 }
 
 #ifdef SHADING_BLINN_PHONG

@@ -2,14 +2,16 @@
 
 Here: the pixel's ray (EntryExit, CameraRays), the volume and its sampling (VolumeSampling,
 Sampling), compositing front to back with the one opacity correction (FrontToBack), the transfer
-function (TransferFunctionLut), the iso level (IsoSurface, RawIsoSurface), empty-space skipping
-(EmptySpace) and the background. Lighting and the gradients it needs are in
-vgraph.gl.raycasting.light (Light, Gradients).
+functions of one volume or of n channels (TransferFunctionLut), the iso level (IsoSurface,
+RawIsoSurface), empty-space skipping (EmptySpace) and the background. Lighting and the gradients
+it needs are in vgraph.gl.raycasting.light (Light, Gradients).
 """
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Sequence
+
+import numpy as np
 
 from vgraph.gl.raycasting import ray_bounds
 from vgraph.gl.raycasting.empty_space import BLOCK, WALK_BLOCK, SkipBlocks, block_grid_uniforms
@@ -90,15 +92,36 @@ class VolumeSampling(Component):
 
 
 class Sampling(Component):
-    """Samples every min(spacing) / sampling_rate world units along the ray."""
+    """Samples every min(spacing) / sampling_rate world units along the ray: the spacing of the
+    frame's volume, or with ``over="all volumes"`` the smallest of all the frame's volumes (the
+    MultiVolumeRayCaster's channels, so the finest channel is sampled at rate 1)."""
+
+    OVER = ("volume", "all volumes")
+
+    def __init__(self, over: str = "volume"):
+        if over not in self.OVER:
+            raise ValueError(f"Sampling(over={over!r}): one of {', '.join(self.OVER)}")
+        self.over = over
 
     def declare(self):
+        of = "" if self.over == "volume" else " of all volumes"
         return {"sampling_rate": FloatProperty(1.0, min=0.05, max=16.0,
-                                               doc="samples per voxel of the smallest spacing "
-                                                   "(a world-space step)")}
+                                               doc=f"samples per voxel of the smallest spacing{of} "
+                                                   f"(a world-space step)")}
+
+    def step_length(self, frame: Frame) -> float:
+        """World units between samples (ray.glsl's step_length)."""
+        if self.over == "volume":
+            return frame.min_spacing / self.processor.sampling_rate
+        return finest_spacing(frame) / self.processor.sampling_rate
 
     def bind(self, frame: Frame) -> Binding:
-        return Binding(uniforms={"step_length": frame.min_spacing / self.processor.sampling_rate})
+        return Binding(uniforms={"step_length": self.step_length(frame)})
+
+
+def finest_spacing(frame: Frame) -> float:
+    """The smallest spacing of all the frame's volumes."""
+    return min(float(np.min(volume.spacing)) for volume in frame.volumes or (frame.volume,))
 
 
 class FrontToBack(Component):
@@ -141,24 +164,77 @@ def palette_shading() -> OptionProperty:
     return OptionProperty("blinn_phong", choices=["none", "blinn_phong"], doc="lighting of the samples or surface")
 
 
-class TransferFunctionLut(Component):
-    """The transfer function as a 4096-entry LUT texture, resolved for the volume."""
+def _ramp(r, g, b, low=0.2, high=0.8, alpha=0.6) -> TransferFunction:
+    """A channel's default TF: transparent below ``low``, rising to ``alpha`` in one colour at ``high``."""
+    return TransferFunction(points=[(0.0, r, g, b, 0.0), (low, r, g, b, 0.0), (high, r, g, b, alpha),
+                                    (1.0, r, g, b, alpha)])
 
-    glsl = ("raycasting/transfer_function.glsl",)
+
+ChannelNumbers = Callable[[object, Frame], Sequence[int]]
+
+
+class TransferFunctionLut(Component):
+    """Transfer functions as 4096-entry LUT textures, each resolved for the volume it classifies.
+
+    ``channels=1``: ``transfer_function`` of the frame's volume (raycasting/transfer_function.glsl).
+    ``channels=n``: ``transfer_function1`` .. n, of the inports ``<inport>1`` .. n (as
+    ``transfer_function_inports`` pairs them: the GUI shows each TF editor its volume's histogram),
+    one hue per channel by default. ``connected(processor, frame)`` gives the numbers of the
+    channels connected this frame, in the order of ``frame.volumes``: slot k holds the k-th of them,
+    whatever its number (raycasting/channel_transfer_functions.glsl), and the define CHANNELS says
+    how many there are. Each TF's alpha is per sample at rate 1 of its own channel: the slots'
+    ``opacity_reference`` scales FrontToBack's exponent from the finest channel (Sampling's
+    ``over="all volumes"``) to each channel's spacing."""
+
     DEFAULT = TransferFunction(points=[(0.0, 0.0, 0.0, 0.0, 0.0), (0.45, 0.85, 0.55, 0.3, 0.0),
                                        (0.55, 0.95, 0.8, 0.6, 0.4), (1.0, 1.0, 1.0, 1.0, 0.8)])
+    # One hue per channel, as microscopy viewers colour channels.
+    CHANNEL_DEFAULTS = (_ramp(1.0, 0.55, 0.15), _ramp(0.2, 0.6, 1.0), _ramp(0.3, 0.95, 0.35),
+                        _ramp(0.95, 0.3, 0.9))
+
+    def __init__(self, channels: int = 1, inport: str = "volume", connected: ChannelNumbers | None = None):
+        if not 1 <= channels <= len(self.CHANNEL_DEFAULTS):
+            raise ValueError(f"TransferFunctionLut(channels={channels}): 1 to {len(self.CHANNEL_DEFAULTS)}")
+        if channels > 1 and connected is None:
+            raise ValueError("TransferFunctionLut(channels > 1) needs connected(processor, frame)")
+        self.channels, self.inport, self.connected = channels, inport, connected
+        self.glsl = (("raycasting/transfer_function.glsl",) if channels == 1
+                     else ("raycasting/channel_transfer_functions.glsl",))
+
+    @property
+    def transfer_function_inports(self) -> dict[str, str]:
+        """Which inport each TF property classifies."""
+        if self.channels == 1:
+            return {"transfer_function": self.inport}
+        return {f"transfer_function{n}": f"{self.inport}{n}" for n in range(1, self.channels + 1)}
 
     def start(self) -> None:
-        self.lut = TransferFunctionTexture()
+        self.luts = {number: TransferFunctionTexture() for number in range(1, self.channels + 1)}
+        self.lut = self.luts[1]  # the one LUT of channels=1 (the RayCaster's skipping reads its alpha)
 
     def declare(self):
-        return {"transfer_function": TransferFunctionProperty(
-            TransferFunctionLut.DEFAULT, doc="RGBA over normalised intensity, data values or "
-            "percentiles (a preset name or TF file also works); alpha per sample at rate 1")}
+        if self.channels == 1:
+            return {"transfer_function": TransferFunctionProperty(
+                TransferFunctionLut.DEFAULT, doc="RGBA over normalised intensity, data values or "
+                "percentiles (a preset name or TF file also works); alpha per sample at rate 1")}
+        return {name: TransferFunctionProperty(
+                    self.CHANNEL_DEFAULTS[number - 1], label=f"Transfer function ({inport})",
+                    doc=f"of {inport}" + (" (alpha per sample at rate 1)" if number == 1 else ""))
+                for number, (name, inport) in enumerate(self.transfer_function_inports.items(), start=1)}
 
     def bind(self, frame: Frame) -> Binding:
-        texture = self.lut.update(frame.ctx, self.processor.transfer_function, frame.volume)
-        return Binding(textures={"transfer_function": texture})
+        if self.channels == 1:
+            texture = self.lut.update(frame.ctx, self.processor.transfer_function, frame.volume)
+            return Binding(textures={"transfer_function": texture})
+        numbers = list(self.connected(self.processor, frame))
+        volumes = frame.volumes
+        textures = {f"transfer_function{slot}": self.luts[number].update(
+                        frame.ctx, getattr(self.processor, f"transfer_function{number}"), volume)
+                    for slot, (number, volume) in enumerate(zip(numbers, volumes, strict=True), start=1)}
+        finest = finest_spacing(frame)
+        reference = np.asarray([finest / float(np.min(volume.spacing)) for volume in volumes], dtype=np.float32)
+        return Binding(defines={"CHANNELS": len(volumes)}, textures=textures,
+                       uniforms={"opacity_reference": reference})
 
 
 class IsoSurface(Component):
