@@ -66,8 +66,17 @@ RULES = [
     "No import circle between the top-level parts, nor inside a package.",
 ]
 
-# The right-hand column, kept free for the ray casters' component contract.
-SIDE: list[SideBox] = []
+# The right-hand column: the ray casters' component contract (architecture.md, "Ray casters are
+# lists of components"); the components live in gl (raycasting), the ray casters in processors.
+SIDE: list[SideBox] = [
+    SideBox("a component declares", ["inports    EntryExit: entry, exit", "properties declare()",
+                                     "GLSL       glsl: segments", "binding    bind(frame): defines,",
+                                     "           textures, uniforms"]),
+    SideBox("built with what it needs", ["Light(mode, shaded_modes)", "FrontToBack(mode, corrected)",
+                                         "EmptySpace(skip=...)", "TransferFunctionLut(channels=n)"]),
+    SideBox("a ray caster", ["= its components + its own part", "process(): own defines, targets,",
+                             "   then draw(): the parts' GLSL", "   included ahead of its shader"]),
+]
 
 WIDTH, HEIGHT = 14.0, 7.6     # inches at 100 dpi: 1400 x 760 pixels
 LAYERS_RIGHT = 0.70           # the layers take the left 70 %; the rest is SIDE's
@@ -98,7 +107,7 @@ def draw_side(ax, boxes: list[SideBox]) -> None:
                                     facecolor="#eeeeee", edgecolor="#555555"))
         ax.text(left + 0.01, top - 0.02, box.title, fontsize=11, fontweight="bold", va="top")
         for j, line in enumerate(box.lines):
-            ax.text(left + 0.01, top - 0.06 - 0.032 * j, line, fontsize=9, va="top")
+            ax.text(left + 0.01, top - 0.06 - 0.032 * j, line, fontsize=9, va="top", family="monospace")
         top -= height + 0.02
 
 
