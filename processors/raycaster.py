@@ -21,17 +21,21 @@ Conventions (docs/explanations/ray-casting.md explains each property with pictur
   The depth output is on demand: drawn only when a target or a connected processor reads it.
 - The camera must equal the EntryExitPoints camera (link them): it gives depth and view direction.
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
-  than its memory budget, is drawn brick by brick by a BrickedRayCaster with this processor's
-  settings (docs/explanations/bricked-ray-casting.md); dvr, mip and iso only, and ``precomputed`` derivatives
-  become ``central`` there (a gradient volume of a volume that large is what bricking avoids;
-  inside the box both give the same gradient up to 16-bit steps). The frame context's
-  ``load_limit`` (the GUI's: coarse first; vgraph.frame_context) goes to that BrickedRayCaster,
-  whose ``last_frame`` is then this one's.
+  than its memory budget, is drawn brick by brick through the BrickSampling component instead of
+  VolumeSampling (vgraph.bricks.sampling; docs/explanations/bricked-ray-casting.md), as the
+  BrickedRayCaster draws: its properties ``brick_size``, ``lod_bias``, ``ram_budget`` and
+  ``gl_budget`` are this processor's and apply only then. dvr, mip and iso only; ``precomputed``
+  derivatives become ``central`` there (a gradient volume of a volume that large is what bricking
+  avoids; inside the box both give the same gradient up to 16-bit steps); ``volume_precision``
+  and ``interpolation`` do not apply (the bricks keep their own texture format, sampled
+  trilinearly), nor ``ray_bounds``. The frame context's ``load_limit`` (the GUI's: coarse first;
+  vgraph.frame_context) goes to BrickSampling, and ``last_frame`` says what such a frame drew.
 """
 
 from __future__ import annotations
 
 from vgraph import Inport, OptionProperty, Outport, VGraphError
+from vgraph.bricks.sampling import COMPOSITING as BRICKED_MODES, BrickSampling
 from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, CameraRays, EmptySpace, EntryExit, FrontToBack,
                                              IsoSurface, Sampling, TransferFunctionLut, VolumeSampling,
@@ -78,9 +82,13 @@ class RayCaster(RaycasterBase):
                   FrontToBack(mode="compositing", corrected=("dvr",)), IsoSurface(),
                   Gradients(DERIVATIVES, doc="finite differences of the shading normals; precomputed: "
                                              "central differences at the voxels, computed once per volume "
-                                             "(8 bytes a voxel), one fetch a shaded sample"),
+                                             "(8 bytes a voxel), one fetch a shaded sample (central when "
+                                             "drawn brick by brick)"),
                   Light(mode="compositing", shaded_modes=SHADED_MODES), EmptySpace(skip=skip_values),
-                  Background())
+                  Background(), BrickSampling(mode="compositing", when="only for a volume drawn brick by brick"))
+    # A frame samples one texture (every part but BrickSampling) or the bricks (module docstring).
+    ONE_TEXTURE = (EntryExit, CameraRays, VolumeSampling, Sampling, TransferFunctionLut, FrontToBack, IsoSurface,
+                   Gradients, Light, EmptySpace, Background)
     uses_context = ("load_limit",)  # for the frames drawn brick by brick (module docstring)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING),
@@ -93,14 +101,13 @@ class RayCaster(RaycasterBase):
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
         self._targets = {True: RenderTargets(2), False: RenderTargets(1)}  # by: depth output wanted
-        self._bricked = None  # the BrickedRayCaster for volumes one texture cannot hold
         self._drew_bricks = False
 
     @property
     def last_frame(self) -> dict:
-        """The BrickedRayCaster's ``last_frame`` when the last frame was drawn brick by brick (the
-        render process asks whether it was complete), else empty."""
-        return self._bricked.last_frame if self._drew_bricks else {}
+        """BrickSampling's ``last_frame`` when the last frame was drawn brick by brick (the render
+        process asks whether it was complete), else empty."""
+        return self.parts[BrickSampling].last_frame if self._drew_bricks else {}
 
     def shader_defines(self) -> dict[str, bool]:
         """The RayCaster's own defines (docs/explanations/ray-casting.md lists them with the components')."""
@@ -125,34 +132,27 @@ class RayCaster(RaycasterBase):
         volume.require_samples(f"RayCaster '{self.id}'")
         self.parts[Gradients].check()
         self._drew_bricks = False
-        if needs_bricks(volume, self.gl):
-            return self._brick_by_brick(volume, entry, exit, context)
-        frame = self.frame(volume, entry, exit)
+        bricks = needs_bricks(volume, self.gl)
+        if bricks:
+            self._check_bricked_mode(volume)
+        frame = self.frame(volume, entry, exit, parts=[BrickSampling] if bricks else self.ONE_TEXTURE)
         with_depth = self.wants("depth")
         targets = self._targets[with_depth]
         self._targets[not with_depth].release()  # a scene keeps the images of one kind only
         outputs = dict(zip(("image", "depth"), targets.ensure(frame.ctx, entry.size)))
+        if bricks:
+            own = Binding({f"COMPOSITING_{self.compositing.upper()}": True})
+            self.parts[BrickSampling].draw_frame(frame, context, targets, own)
+            self._drew_bricks = True
+            return outputs
         own = Binding({**self.shader_defines(), "DEPTH_OUTPUT": with_depth})
-        self.draw(frame, SHADER, targets, own=own, missed=ray_main_missed(self.background, with_depth))
+        self.draw(frame, SHADER, targets, parts=self.ONE_TEXTURE, own=own,
+                  missed=ray_main_missed(self.background, with_depth))
         return outputs
 
-    def _brick_by_brick(self, volume: Volume, entry: Image, exit: Image, context: FrameContext) -> dict:
-        """The frame drawn by a BrickedRayCaster that shares this processor's settings."""
-        from vgraph.processors.bricked_raycaster import COMPOSITING as BRICKED_MODES, BrickedRayCaster
+    def _check_bricked_mode(self, volume: Volume) -> None:
         if self.compositing not in BRICKED_MODES:
             raise VGraphError(f"{self.id}.compositing: {volume.source or 'the volume'} is drawn brick by "
                               f"brick ({' x '.join(map(str, volume.dims))} voxels do not fit one GL texture "
                               f"or the memory budget), which offers {', '.join(BRICKED_MODES)}, not "
                               f"{self.compositing}")
-        if self._bricked is None:
-            self._bricked = BrickedRayCaster(self.id)
-        for name, value in self.property_values.items():
-            if name in BrickedRayCaster.properties and name != "derivatives":
-                self._bricked.set_property(name, value)
-        if self.derivatives != "none":  # the BrickedRayCaster has no gradient volume (docstring)
-            derivatives = "central" if self.derivatives == "precomputed" else self.derivatives
-            self._bricked.set_property("derivatives", derivatives)
-        outputs = self._bricked.process(volume, entry, exit, context)
-        self._drew_bricks = True
-        self.passes = self._bricked.passes
-        return outputs

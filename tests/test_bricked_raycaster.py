@@ -464,3 +464,21 @@ def test_a_raycaster_drawing_a_store_brick_by_brick_refines_under_a_load_limit(t
     network.invalidate_downstream("src")
     network.evaluate("rc.image", size=SIZE)
     assert network["rc"].last_frame == {}
+
+
+def test_a_raycaster_drawing_brick_by_brick_uses_its_own_brick_properties():
+    """A volume wider than the GL's texture limit: the RayCaster's brick_size and lod_bias are those
+    of its brick sampling (smaller bricks, more of them, the same picture; a positive lod_bias draws
+    coarser levels), as the BrickedRayCaster's are."""
+    from helpers.more_raycaster_cases import oblique as framing, wide
+    volume = wide()
+    frames = {}
+    for brick_size, lod_bias in ((32, FINEST), (64, FINEST), (64, 3.0)):
+        network = ray_caster_network(volume, framing(volume), "RayCaster", compositing="mip",
+                                     brick_size=brick_size, lod_bias=lod_bias, **UNSHADED_RAMP)
+        image = np.asarray(network.evaluate("rc.image", size=SIZE))
+        frames[brick_size, lod_bias] = image, dict(network["rc"].last_frame)
+    (fine_small, small), (fine, large), (_, coarse) = frames.values()
+    assert small["levels"] == large["levels"] == [0] and small["bricks"] > large["bricks"]
+    assert psnr(fine_small, fine) >= MIN_PSNR and fine[..., :3].max() > 0.5
+    assert min(coarse["levels"]) >= 1 and coarse["bricks"] < large["bricks"]

@@ -216,15 +216,17 @@ def test_no_gradient_volume_unless_a_shaded_frame_uses_it(changes):
 
 
 def test_bricked_frames_use_central_differences():
-    from vgraph.frame_context import FrameContext
+    """The RayCaster's brick sampling draws precomputed derivatives as central ones (a gradient
+    volume of a volume that large is what bricking avoids); the others as they are."""
+    from vgraph.bricks.sampling import BrickSampling
+    from vgraph.gl.raycasting.light import Gradients
     from vgraph.processors.raycaster import RayCaster
-    volume = sample("torus", 16, "float32")
-    from vgraph.processors.bricked_raycaster import BrickedRayCaster
     caster = RayCaster("rc", compositing="iso", shading="blinn_phong", derivatives="precomputed")
-    bricked = BrickedRayCaster("rc")
-    caster._bricked = bricked
-    bricked.process = lambda volume, entry, exit, context: {"seen": bricked.derivatives}
-    assert caster._brick_by_brick(volume, None, None, FrameContext()) == {"seen": "central"}
+    bricks = caster.parts[BrickSampling]
+    assert bricks.derivatives() == "central"
+    assert caster.parts[Gradients].defines(bricks.derivatives()) == {"GRADIENT_CENTRAL": True}
+    caster.set_property("derivatives", "sobel")
+    assert bricks.derivatives() == "sobel"
 
 
 def test_a_store_drawn_brick_by_brick_is_shaded_with_central_differences(tmp_path):
@@ -241,7 +243,9 @@ def test_a_store_drawn_brick_by_brick_is_shaded_with_central_differences(tmp_pat
         network = rendering_network(store, oblique_camera(store), compositing="iso", iso_level=0.5,
                                     shading="blinn_phong", derivatives=derivatives)
         images.append(network.evaluate("rc.image", size=(24, 20)))
-        assert network["rc"].last_frame  # drawn by the BrickedRayCaster
+        assert network["rc"].last_frame  # drawn brick by brick
+        brick_pass = network["rc"].passes[0]
+        assert brick_pass.shader == "bricks/brick.frag.glsl" and brick_pass.defines.get("GRADIENT_CENTRAL")
     assert images[0][..., 3].max() == 1.0
     np.testing.assert_array_equal(images[0], images[1])
     assert not is_cached(store)

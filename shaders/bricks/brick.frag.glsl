@@ -1,23 +1,19 @@
 #version 330
-// BrickedRayCaster, one pass per brick (front to back): the samples of the pixel's ray that this
+// BrickSampling (the BrickedRayCaster, the RayCaster for a volume one texture cannot hold), one
+// pass per brick (front to back): the samples of the pixel's ray that this
 // brick owns (brick_span.glsl), composited by the mode's part (exactly one COMPOSITING_* of dvr,
 // mip, iso; SHADING_BLINN_PHONG with one GRADIENT_* and LIGHT_HEADLIGHT; OPACITY_CORRECTION; for
 // dvr READ_ACCUMULATION with EARLY_TERMINATION, front_state.glsl; SKIP_EMPTY_BLOCKS, brick_blocks.glsl).
-// Outputs (processors/bricked_raycaster.py sets blending or the depth test): `sum` = the
+// Outputs (vgraph.bricks.sampling sets blending or the depth test): `sum` = the
 // premultiplied colour and coverage (mip: the maximum and its sample), `first` = (depth sample,
 // 0, 0, 1) where there is one, else 0. Blended passes discard where the brick adds nothing; with
 // READ_ACCUMULATION every pixel is written (the scratch targets are copied back whole).
 // resolve.frag.glsl finishes the frame.
-#include "raycasting/ray.glsl"
-#include "raycasting/pixel_ray.glsl"
-#include "raycasting/depth_output.glsl"  // the camera uniforms of CameraRays (unused here)
-#include "raycasting/transfer_function.glsl"
-#include "bricks/brick_sampling.glsl"
-#include "raycasting/gradients.glsl"
-#include "raycasting/shading.glsl"
-#include "bricks/brick_span.glsl"
-#include "bricks/brick_blocks.glsl"
-#include "bricks/front_state.glsl"
+//
+// The compositing is this shader's own part; the components' GLSL (pixel ray, camera rays and
+// depth output, transfer function, the brick's sampling, span, blocks and front state, gradients,
+// shading) is included ahead of it by the BrickSampling component (vgraph.bricks.sampling,
+// BRICK_PARTS).
 #include "bricks/composite_dvr.glsl"
 #include "bricks/composite_mip.glsl"
 #include "bricks/composite_iso.glsl"

@@ -4,11 +4,8 @@
 // over the background; mip: the accumulated maximum classified once (no opacity correction, no
 // shading), sample 0 where nothing exceeded 0. Depth from the accumulated depth sample along the
 // pixel's ray; its sample counter (b) is 0: the bricks do not count their samples.
-#include "raycasting/ray.glsl"
-#include "raycasting/pixel_ray.glsl"
-#include "raycasting/depth_output.glsl"
-#include "raycasting/background.glsl"
-#include "raycasting/transfer_function.glsl"
+// The components' GLSL (pixel ray, camera rays and depth output, transfer function, background) is
+// included ahead of it (vgraph.bricks.sampling, RESOLVE_PARTS).
 
 uniform sampler2D accumulated_sum;
 uniform sampler2D accumulated_first;

@@ -93,14 +93,16 @@ class Gradients(Component):
                               f"{processor.id}.derivatives to central (or forward, backward, sobel, "
                               f"precomputed) or {processor.id}.shading to none")
 
-    def defines(self) -> dict[str, bool]:
-        """GRADIENT_<derivatives> when the frame is lit."""
-        return {f"GRADIENT_{self.processor.derivatives.upper()}": True} if self.processor.shaded() else {}
+    def defines(self, derivatives: str | None = None) -> dict[str, bool]:
+        """GRADIENT_<derivatives> when the frame is lit (``derivatives``: the processor's unless
+        given; the bricks draw precomputed as central, vgraph.bricks.sampling)."""
+        derivatives = derivatives or self.processor.derivatives
+        return {f"GRADIENT_{derivatives.upper()}": True} if self.processor.shaded() else {}
 
-    def uniforms(self, intensity_scale: float, voxel, spacing) -> dict[str, object]:
+    def uniforms(self, intensity_scale: float, voxel, spacing, derivatives: str | None = None) -> dict[str, object]:
         """The finite differences' uniforms for a grid of texture-space ``voxel`` and world
-        ``spacing`` (a brick's level has its own)."""
-        spacings = DERIVATIVE_SPACINGS[self.processor.derivatives]
+        ``spacing`` (a brick's level has its own); ``derivatives`` as for defines()."""
+        spacings = DERIVATIVE_SPACINGS[derivatives or self.processor.derivatives]
         return {"voxel_step": vec(voxel), "gradient_scale": vec(intensity_scale / (spacings * spacing))}
 
     def bind(self, frame: Frame) -> Binding:

@@ -29,6 +29,9 @@ Conventions:
   and block textures).
 - ``draw`` merges the bindings of the parts a pass uses with the processor's own, the processor's
   last, and draws with the program of that define set (compiled once per set, vgraph.gl.shaders).
+- A sampling component may draw the frame itself, in several passes, each through ``binding()``,
+  ``program()`` or ``draw()`` with the parts it names: BrickSampling (vgraph.bricks.sampling), a
+  pass per brick and a resolve pass; the RayCaster draws through it or VolumeSampling by frame.
 - A frame is drawn in the normalised frame of the volume's box (vgraph.gl.raycasting.framed_view):
   ``frame.volume``, ``frame.geometry`` and ``frame.camera`` are in it, so every length a component
   binds is in its units; only the depth output's distance is scaled back to world units
@@ -180,11 +183,11 @@ class RaycasterBase(Processor):
         """Whether this frame is lit (its Light component says, by its configuration)."""
         return any(part.shades() for part in self.parts.values())
 
-    def frame(self, volume: Volume, entry: Image, exit: Image, volumes=None) -> Frame:
+    def frame(self, volume: Volume, entry: Image, exit: Image, volumes=None, parts=None) -> Frame:
         """The frame of one process(): checks that the entry and exit images belong together and
         resolves the camera on the box of ``volumes`` (default: ``volume`` alone; the union when
         several), in that box's normalised frame (``view_camera`` keeps the camera in world units
-        for the GUI)."""
+        for the GUI); the frame's volume is the one ``parts`` (default: all) see (frame_volume)."""
         if entry.size != exit.size:
             raise VGraphError(f"entry image is {entry.size[0]}x{entry.size[1]} but exit image is "
                               f"{exit.size[0]}x{exit.size[1]}; connect both to one EntryExitPoints")
@@ -194,7 +197,7 @@ class RaycasterBase(Processor):
         self.view_camera = view.world_camera
         self.passes = []
         volume = view.volumes[0]
-        for part in self.parts.values():
+        for part in self.used_parts(parts):
             volume = part.frame_volume(volume)
         return Frame(self.gl, volume, entry, exit, view.camera, VolumeGeometry.of(volume), view.frame,
                      view.volumes)
