@@ -25,9 +25,13 @@ Conventions (docs/explanations/tetrahedra-renderer.md has the long form):
   order is computed on the shared points as for point scalars.
 - Tetrahedra (cells) whose scalars all have zero opacity under the TF are neither sorted nor drawn
   (``skip_transparent``; they would add exactly nothing).
-- Integration: ``averaged`` (the TF at the mean scalar, alpha = 1 - (1 - a)^(l / L)) or
+- Integration: ``averaged`` (the TF at the mean scalar, alpha = 1 - (1 - a)^(l / L)),
   ``preintegrated`` (a 128 x 128 x 32 RGBA32F table of the segment integral over (s_front,
-  s_back, alpha), 8 MiB, rebuilt when the resolved TF changes; vgraph.gl.tetrahedra.preintegration).
+  s_back, alpha), 8 MiB, rebuilt when the resolved TF changes; vgraph.gl.tetrahedra.preintegration)
+  or ``partial`` (partial pre-integration, Moreland & Angel 2004: a 512 x 512 R32F table that does
+  not depend on the TF, built once per context, and the TF's knots, with colour and extinction
+  linear between them, uploaded when the resolved TF changes; each segment integrated piece by
+  piece between knots; vgraph.gl.tetrahedra.partial_preintegration).
   L = mesh.opacity_length: the TF's opacity is that of one sample at rate 1, as in the RayCaster.
 - Compositing: premultiplied "over" (ONE, ONE_MINUS_SRC_ALPHA) into RGBA32F cleared to the
   background, which is the same as compositing over the background afterwards.
@@ -58,7 +62,7 @@ from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import TransferFunctionTexture
 from vgraph.gl.passes import bind_textures, set_uniform
 from vgraph.gl.shaders import programs
-from vgraph.gl.tetrahedra import preintegration
+from vgraph.gl.tetrahedra import partial_preintegration, preintegration
 from vgraph.gl.tetrahedra.cells import cell_buffer, visible_cells_of
 from vgraph.gl.tetrahedra.frame import mesh_in_frame
 from vgraph.gl.tetrahedra.gl_sort import GLCentroidSort
@@ -72,7 +76,7 @@ from vgraph.transfer_function import TransferFunction
 TETRAHEDRA_SHADERS = ("tetrahedra/project.vert.glsl", "tetrahedra/project.geom.glsl",
                       "tetrahedra/project.frag.glsl")
 CELL_SHADERS = ("tetrahedra/cells.vert.glsl", "tetrahedra/cells.geom.glsl", "tetrahedra/cells.frag.glsl")
-INTEGRATIONS = ("averaged", "preintegrated")
+INTEGRATIONS = ("averaged", "preintegrated", "partial")
 # The first look at any mesh's field (what `vgraph run MESH` and a ProjectedTetrahedra from the
 # palette show): placed by percentiles of the scalar, so it needs no units; cool to warm over the
 # whole field, the opacity rising with the value so the high end shows through the rest, and the
@@ -112,6 +116,50 @@ class PreintegrationTable:
         return self.textures
 
 
+class PartialPreintegrationTables:
+    """Partial pre-integration's textures: ``psi`` (the TF-independent table, nearest-free linear
+    filtering, clamp-to-edge; written once per context) and the resolved TF's knots
+    (``knot_positions`` R32F, ``knot_values`` RGBA32F, one row, read with texelFetch), rewritten
+    only when the resolved TF changes; ``builds`` counts the knot uploads."""
+
+    def __init__(self):
+        self.textures = None
+        self.key = None
+        self.knot_count = 0
+        self.builds = 0
+
+    def update(self, ctx, resolved) -> dict:
+        if self.textures is None or self.textures["psi"].ctx is not ctx:
+            size = partial_preintegration.PSI_SIZE
+            psi = ctx.texture((size, size), 1, _psi_table().tobytes(), dtype="f4")
+            psi.repeat_x = psi.repeat_y = False
+            psi.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            self.textures, self.key = {"psi": psi}, None
+        if resolved != self.key:
+            positions, values = partial_preintegration.knots(resolved)
+            for name, data, components in (("knot_positions", positions, 1), ("knot_values", values, 4)):
+                old = self.textures.pop(name, None)
+                if old is not None:
+                    old.release()
+                texture = ctx.texture((len(positions), 1), components,
+                                      np.ascontiguousarray(data, dtype=np.float32).tobytes(), dtype="f4")
+                texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+                self.textures[name] = texture
+            self.knot_count, self.key = len(positions), resolved
+            self.builds += 1
+        return self.textures
+
+
+_PSI = []
+
+
+def _psi_table() -> np.ndarray:
+    """The Psi table, computed once per process (2 s; it depends on nothing)."""
+    if not _PSI:
+        _PSI.append(partial_preintegration.psi_table())
+    return _PSI[0]
+
+
 class ProjectedTetrahedra(Processor):
     """Direct volume rendering of a tetrahedral mesh by projected tetrahedra."""
 
@@ -127,8 +175,11 @@ class ProjectedTetrahedra(Processor):
         "opacity length; by default cool to warm over the percentiles of the field")
     integration = OptionProperty("preintegrated", choices=list(INTEGRATIONS),
                                  doc="averaged: the TF at the mean scalar of each tetrahedron's "
-                                     "segment (Shirley-Tuchman); preintegrated: the exact segment "
-                                     "integral from a table")
+                                     "segment (Shirley-Tuchman); preintegrated: the segment integral "
+                                     "from a table of the TF (Roettger et al.); partial: partial "
+                                     "pre-integration (Moreland-Angel), the segment split at the TF's "
+                                     "points, each piece from a table that does not depend on the TF "
+                                     "(accurate on stiff TFs)")
     background = ColorProperty((0.0, 0.0, 0.0, 1.0))
     visibility_order = OptionProperty("centroid", choices=["centroid", "centroid_gl", "mpvo"],
                                       doc="centroid: sort the tetrahedra's centroids (fast, not "
@@ -149,6 +200,7 @@ class ProjectedTetrahedra(Processor):
         self._order = VisibilityOrder()
         self._lut = TransferFunctionTexture()
         self._table = PreintegrationTable()
+        self._partial = PartialPreintegrationTables()
         self._draw_state: dict = {}  # ctx, index buffer, vertex arrays by program
         self.view_camera = None
 
@@ -181,17 +233,24 @@ class ProjectedTetrahedra(Processor):
 
         by_cells = self.grid_cells and mesh.grid is not None
         shaders = CELL_SHADERS if by_cells else TETRAHEDRA_SHADERS
-        defines = {"INTEGRATION_PREINTEGRATED": self.integration == "preintegrated",
+        defines = {"INTEGRATION_AVERAGED": self.integration == "averaged",
+                   "INTEGRATION_PREINTEGRATED": self.integration == "preintegrated",
+                   "INTEGRATION_PARTIAL": self.integration == "partial",
                    "TABLE_SIZE": preintegration.TABLE_SIZE,
-                   "ALPHA_SLICES": preintegration.ALPHA_SLICES}
+                   "ALPHA_SLICES": preintegration.ALPHA_SLICES,
+                   "PSI_SIZE": partial_preintegration.PSI_SIZE}
         program = programs.program(ctx, shaders[0], shaders[2], defines, processor=self.id,
                                    geometry=shaders[1])
         resolved = self.transfer_function.for_volume(mesh)
         if self.integration == "preintegrated":
             textures = self._table.update(ctx, resolved)
+        elif self.integration == "partial":
+            textures = self._partial.update(ctx, resolved)
         else:
             textures = {"transfer_function": self._lut.update(ctx, self.transfer_function, mesh)}
         uniforms = self._uniforms(mesh, camera, size, by_cells)
+        if self.integration == "partial":
+            uniforms["knot_count"] = self._partial.knot_count
         uniforms["world_length"] = frame.scale
         selection = None
         if self.skip_transparent:
