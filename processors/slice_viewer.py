@@ -11,7 +11,7 @@ Conventions (vgraph.slicing has the geometry's long form; docs/guide/exploring.m
   when the normal is along z), whatever the display.
 - The plane passes through ``cursor``, a world point (None = the centre of the volume). Linking
   the cursors of several SliceViewers makes them one shared cursor: in the GUI a click in one
-  slice moves the others (vgraph.gui.slice_clicks).
+  slice moves the others (vgraph.live.slice_clicks).
 - Everything is in world units through the volume's affine (spacing, direction, origin): the image
   fits the box of the voxels' cells (index box [-1/2, n - 1/2], turned as the volume is) projected
   onto the plane, square pixels, aspect kept; ``zoom`` magnifies about the cursor. A volume whose
