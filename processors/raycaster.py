@@ -86,9 +86,6 @@ class RayCaster(RaycasterBase):
                                              "drawn brick by brick)"),
                   Light(mode="compositing", shaded_modes=SHADED_MODES), EmptySpace(skip=skip_values),
                   Background(), BrickSampling(mode="compositing", when="only for a volume drawn brick by brick"))
-    # A frame samples one texture (every part but BrickSampling) or the bricks (module docstring).
-    ONE_TEXTURE = (EntryExit, CameraRays, VolumeSampling, Sampling, TransferFunctionLut, FrontToBack, IsoSurface,
-                   Gradients, Light, EmptySpace, Background)
     uses_context = ("load_limit",)  # for the frames drawn brick by brick (module docstring)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING),
@@ -135,7 +132,9 @@ class RayCaster(RaycasterBase):
         bricks = needs_bricks(volume, self.gl)
         if bricks:
             self._check_bricked_mode(volume)
-        frame = self.frame(volume, entry, exit, parts=[BrickSampling] if bricks else self.ONE_TEXTURE)
+        # A frame samples one texture (every part but BrickSampling) or the bricks (module docstring).
+        one_texture = [part for part in self.parts if part is not BrickSampling]
+        frame = self.frame(volume, entry, exit, parts=[BrickSampling] if bricks else one_texture)
         with_depth = self.wants("depth")
         targets = self._targets[with_depth]
         self._targets[not with_depth].release()  # a scene keeps the images of one kind only
@@ -146,7 +145,7 @@ class RayCaster(RaycasterBase):
             self._drew_bricks = True
             return outputs
         own = Binding({**self.shader_defines(), "DEPTH_OUTPUT": with_depth})
-        self.draw(frame, SHADER, targets, parts=self.ONE_TEXTURE, own=own,
+        self.draw(frame, SHADER, targets, parts=one_texture, own=own,
                   missed=ray_main_missed(self.background, with_depth))
         return outputs
 
