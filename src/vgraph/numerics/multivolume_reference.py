@@ -22,7 +22,9 @@ Model (rules of vgraph.numerics.reference_raycast unless said otherwise; arithme
 4. ``accumulate``: ``a'_k = 1 - (1 - a_k) ** (step / min(spacing_k))``; per sample
    ``alpha = 1 - prod(1 - a'_k)``, ``rgb = sum(a'_k rgb_k) / sum(a'_k)`` (over channels present
    with a'_k > 0; none: alpha 0); front to back ``C += (1 - A) alpha rgb``, ``A += (1 - A) alpha``,
-   the ray stopping before a sample once ``A >= early_termination``.
+   the ray stopping before a sample once ``A >= early_termination``. In log space as
+   reference_raycast's rule 7: ``a'_k = -expm1(e_k log1p(-a_k))`` (a_k itself where e_k = 1),
+   ``ln(1 - alpha) = sum log1p(-a'_k)``, the ray keeps ``ln(1 - A)``.
 5. ``nearest_opaque``: the first sample where some present channel has ``a_k >= threshold`` (and
    a_k > 0); among those the largest a_k, ties to the lower channel; ``C = rgb_k``, ``A = 1``.
 6. ``maximum``: ``m_k`` = max of ``clip(v_k, 0, 1)`` over the samples where channel k is present
@@ -46,7 +48,8 @@ from vgraph.camera import Camera
 from vgraph.clipping import clip_intervals
 from vgraph.errors import VGraphError
 from vgraph.numerics.reference_boxes import RayBox, inside_grown_box, turned_alike
-from vgraph.numerics.reference_raycast import Shading, VolumeSampler, _shade, lookup, sample_counts
+from vgraph.numerics.reference_raycast import (Shading, VolumeSampler, corrected_opacity, lookup,
+                                              sample_counts, shade_samples)
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
@@ -130,32 +133,35 @@ def _points(origins, directions, t_entry, rays, i, step):
 
 
 def _accumulate(channels, origins, directions, t_entry, counts, step, *, early_termination, shading, **_):
+    """Rule 4 in log space (reference_raycast's rule 7): ln(1 - alpha) of a sample is the sum of
+    its channels' log1p(-a'_k), the ray keeps ln(1 - A)."""
     colour = np.zeros((len(origins), 3))
-    alpha = np.zeros(len(origins))
+    log_transparency = np.zeros(len(origins))  # ln(1 - A)
     active = np.flatnonzero(counts > 0)
     i = 0
     while active.size:
         points = _points(origins, directions, t_entry, active, i, step)
-        transparency = np.ones(len(active))
+        log_sample = np.zeros(len(active))  # ln(1 - alpha) of the sample
         weight = np.zeros(len(active))
         weighted = np.zeros((len(active), 3))
         for k, channel in enumerate(channels):
             rgba, _ = _classified(channel, points, len(channels) == 1)
-            corrected = 1.0 - (1.0 - rgba[:, 3]) ** (step / channel.min_spacing)  # 0 stays 0
+            corrected = corrected_opacity(rgba[:, 3], step / channel.min_spacing)  # 0 stays 0
             if shading is not None:
-                rgba[:, :3] = _shade(channel.sampler, shading, points, directions[active], rgba[:, :3],
-                                     corrected > 0.0)
-            transparency *= 1.0 - corrected
+                rgba[:, :3] = shade_samples(channel.sampler, shading, points, directions[active],
+                                            rgba[:, :3], corrected > 0.0)
+            with np.errstate(divide="ignore"):  # an opaque channel: ln 0 = -inf
+                log_sample += np.log1p(-corrected)
             weight += corrected
             weighted += corrected[:, None] * rgba[:, :3]
-        sample_alpha = np.where(weight > 0.0, 1.0 - transparency, 0.0)
+        sample_alpha = np.where(weight > 0.0, -np.expm1(log_sample), 0.0)
         sample_rgb = weighted / np.where(weight > 0.0, weight, 1.0)[:, None]
-        contribution = (1.0 - alpha[active]) * sample_alpha
-        colour[active] += contribution[:, None] * sample_rgb
-        alpha[active] += contribution
+        colour[active] += (np.exp(log_transparency[active]) * sample_alpha)[:, None] * sample_rgb
+        log_transparency[active] += log_sample
         i += 1
-        active = active[(i < counts[active]) & (alpha[active] < early_termination)]
-    return np.concatenate([colour, alpha[:, None]], axis=1)
+        going = -np.expm1(log_transparency[active]) < early_termination  # A < early_termination
+        active = active[(i < counts[active]) & going]
+    return np.concatenate([colour, -np.expm1(log_transparency)[:, None]], axis=1)
 
 
 def _nearest_opaque(channels, origins, directions, t_entry, counts, step, *, threshold, shading, **_):
@@ -169,8 +175,8 @@ def _nearest_opaque(channels, origins, directions, t_entry, counts, step, *, thr
             sample, present = _classified(channel, points, len(channels) == 1)
             better = present & (sample[:, 3] >= threshold) & (sample[:, 3] > hit[:, 3])
             if shading is not None:
-                sample[:, :3] = _shade(channel.sampler, shading, points, directions[active], sample[:, :3],
-                                       better)
+                sample[:, :3] = shade_samples(channel.sampler, shading, points, directions[active],
+                                              sample[:, :3], better)
             hit[better] = sample[better]
         found = hit[:, 3] > 0.0
         rgba[active[found], :3] = hit[found, :3]

@@ -4,7 +4,8 @@ It takes the rays from the EntryExitPoints images (rgb = texture coordinates, al
 shader does, and follows the same rules: sample i at entry + i * step, step = min(spacing) /
 sampling_rate world units, samples = floor(length / step + 1e-3) + 1 (raycasting/ray.glsl); the
 label of each sample by the majority of interpolation weights (vgraph.labels.majority); composite
-(front to back, opacity corrected to 1 - (1 - a)^(1 / sampling_rate), early termination) or
+(front to back, opacity corrected to 1 - (1 - a)^(1 / sampling_rate), early termination; in log
+space as numerics.reference_raycast's rule 7) or
 first_hit (the first shown label, opaque, its hit refined by halvings of the step); optional
 Blinn-Phong with a headlight (numerics.reference_raycast's model) and the majority rule's normal;
 the result over the background.
@@ -21,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from vgraph.labels import BACKGROUND, LabelTable, label_codes, majority
-from vgraph.numerics.reference_raycast import GRADIENT_EPSILON
+from vgraph.numerics.reference_raycast import GRADIENT_EPSILON, corrected_opacity
 from vgraph.volume import Volume
 
 HIT_REFINEMENT = 6  # halvings of the first hit's step (shaders/labels/compositing_first_hit.glsl)
@@ -48,6 +49,7 @@ def render_labels(volume: Volume, table: LabelTable, entry: np.ndarray, exit: np
     total = np.zeros((len(start), 4))
     active = np.ones(len(start), dtype=bool)
     exponent = 1.0 / sampling_rate
+    log_transparency = np.zeros(len(start))  # ln(1 - A), composite in log space
     for i in range(int(samples.max(initial=0))):
         rays = np.flatnonzero(active & (i < samples))
         if rays.size == 0:
@@ -64,10 +66,11 @@ def render_labels(volume: Volume, table: LabelTable, entry: np.ndarray, exit: np
             total[rays] = np.concatenate([rgb, np.ones((len(rays), 1))], axis=1)
             active[rays] = False
             continue
-        alpha = 1.0 - (1.0 - colors[winner, 3]) ** exponent
-        weight = (1.0 - total[rays, 3]) * alpha
-        total[rays, :3] += weight[:, None] * rgb
-        total[rays, 3] += weight
+        alpha = corrected_opacity(colors[winner, 3], exponent)
+        total[rays, :3] += (np.exp(log_transparency[rays]) * alpha)[:, None] * rgb
+        with np.errstate(divide="ignore"):  # an opaque label: ln 0 = -inf
+            log_transparency[rays] += np.log1p(-alpha)
+        total[rays, 3] = -np.expm1(log_transparency[rays])
         active[rays[total[rays, 3] >= early_termination]] = False
     picture = np.zeros(entry.shape[:2] + (4,))
     picture[hit] = total

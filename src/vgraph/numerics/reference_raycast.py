@@ -54,10 +54,17 @@ Optical model (Inácio 2009 ch. 2.4 and 4.1-4.3), in this order:
    at sampling rate 1); front-to-back ``C += (1 - A) * a' * rgb``, ``A += (1 - A) * a'``, starting
    from C = 0, A = 0. Early termination: before each sample the ray stops if ``A >= early_termination``
    (so an opaque TF takes exactly one sample). Final pixel over the background:
-   ``rgb = C + (1 - A) * bg.rgb``, ``alpha = A + (1 - A) * bg.a``.
+   ``rgb = C + (1 - A) * bg.rgb``, ``alpha = A + (1 - A) * bg.a``. Computed in log space, which is
+   the same arithmetic to rounding for ordinary inputs and stays exact at the extremes (opacities
+   1e-9 and 1 - 1e-9, optical depths 1e-8 to 1e8): ``a' = -expm1(exponent * log1p(-a))`` (a
+   itself at sampling rate 1), the ray keeps ``ln(1 - A) = sum log1p(-a')``, a sample's weight is
+   ``exp(ln(1 - A)) * a'`` and ``A = -expm1(ln(1 - A))``.
 8. MIP: ``m`` = max over all n samples of the normalised intensity clamped to [0, 1] (no early
    termination, no opacity correction, no shading); ``(rgb, a) = TF(m)`` via the LUT as in 5;
    pixel = ``a * rgb + (1 - a) * bg.rgb``, alpha ``a + (1 - a) * bg.a`` - a single DVR sample.
+9. Memory: rays are marched ``chunk_rays`` at a time in lockstep, so the working memory is bounded
+   by the chunk (whatever the sampling rate or optical depth) plus a few float64 numbers per pixel
+   (its ray, interval and result).
 
 The image is float32 (H, W, 4), row 0 at the top. Arithmetic is float64.
 """
@@ -268,10 +275,10 @@ def lookup(lut: np.ndarray, intensity: np.ndarray) -> np.ndarray:
 # --- marching -----------------------------------------------------------------------------------
 def _march_dvr(sampler, lut, origins, directions, t_entry, counts, step, sampling_rate,
                early_termination, shading):
-    """Front-to-back compositing of a chunk of rays in lockstep; returns premultiplied RGBA and
-    the samples taken per ray."""
+    """Front-to-back compositing of a chunk of rays in lockstep, in log space (rule 7); returns
+    premultiplied RGBA and the samples taken per ray."""
     colour = np.zeros((len(origins), 3))
-    alpha = np.zeros(len(origins))
+    log_transparency = np.zeros(len(origins))  # ln(1 - A)
     taken = np.zeros(len(origins), dtype=np.int32)
     exponent = 1.0 / sampling_rate  # step / step_ref with step_ref = min(spacing)
     active = np.flatnonzero(counts > 0)
@@ -279,17 +286,30 @@ def _march_dvr(sampler, lut, origins, directions, t_entry, counts, step, samplin
     while active.size:
         points = origins[active] + (t_entry[active] + i * step)[:, None] * directions[active]
         sample = lookup(lut, sampler(points))
-        opacity = 1.0 - (1.0 - sample[:, 3]) ** exponent
+        opacity = corrected_opacity(sample[:, 3], exponent)
         rgb = sample[:, :3]
         if shading is not None:
-            rgb = _shade(sampler, shading, points, directions[active], rgb, opacity > 0.0)
-        weight = (1.0 - alpha[active]) * opacity
-        colour[active] += weight[:, None] * rgb
-        alpha[active] += weight
+            rgb = shade_samples(sampler, shading, points, directions[active], rgb, opacity > 0.0)
+        colour[active] += (np.exp(log_transparency[active]) * opacity)[:, None] * rgb
+        with np.errstate(divide="ignore"):  # an opaque sample: ln 0 = -inf, the ray stops
+            log_transparency[active] += np.log1p(-opacity)
         taken[active] += 1
         i += 1
-        active = active[(i < counts[active]) & (alpha[active] < early_termination)]
+        going = -np.expm1(log_transparency[active]) < early_termination  # A < early_termination
+        active = active[(i < counts[active]) & going]
+    alpha = -np.expm1(log_transparency)
     return np.concatenate([colour, alpha[:, None]], axis=1), taken
+
+
+def corrected_opacity(alpha: np.ndarray, exponent: float) -> np.ndarray:
+    """Opacity correction ``1 - (1 - a) ** exponent`` in the stable form
+    ``-expm1(exponent * log1p(-a))``: full float64 precision for opacities down to 1e-300 and up
+    to 1 - 1e-16, where the plain form loses the small ones (a = 1e-9: 8e-8 relative). An exponent
+    of 1 leaves alpha as it is; a = 1 stays 1."""
+    if exponent == 1.0:
+        return alpha
+    with np.errstate(divide="ignore"):
+        return -np.expm1(exponent * np.log1p(-alpha))
 
 
 def _march_mip(sampler, lut, origins, directions, t_entry, counts, step, sampling_rate,
@@ -309,7 +329,7 @@ def _march_mip(sampler, lut, origins, directions, t_entry, counts, step, samplin
     return rgba, counts.astype(np.int32)
 
 
-def _shade(sampler, shading, points, directions, rgb, visible):
+def shade_samples(sampler, shading, points, directions, rgb, visible):
     """Blinn-Phong with a two-sided headlight for the visible samples (rule 6)."""
     shaded = rgb.copy()
     if shading.gradients == "precomputed":
@@ -333,9 +353,9 @@ def shade_points(volume: Volume, shading: Shading, points, directions, rgb) -> n
     _check_shading(shading)
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     rgb = np.asarray(rgb, dtype=np.float64).reshape(-1, 3)
-    return _shade(VolumeSampler(volume), shading, points,
-                  np.asarray(directions, dtype=np.float64).reshape(-1, 3), rgb,
-                  np.ones(len(points), dtype=bool))
+    return shade_samples(VolumeSampler(volume), shading, points,
+                         np.asarray(directions, dtype=np.float64).reshape(-1, 3), rgb,
+                         np.ones(len(points), dtype=bool))
 
 
 def _check_shading(shading: Shading | None) -> None:

@@ -34,13 +34,26 @@ Model, in this order:
    b(u)] in closed form), and integration by parts leaves ``rgb = c(h) alpha(h) - (c(h) - c(0))
    mean(alpha)`` with one smooth integral, ``mean(alpha)`` over the piece, done with 16-point
    Gauss-Legendre on sub-intervals with an optical depth of at most 4 each and, where b varies by
-   more than a factor 8, geometric in b (the log singularity of tau at a -> 1). Accurate to ~1e-12.
-5. Compositing front to back, then over the background:
+   more than a factor 8, geometric in b (the log singularity of tau at a -> 1). Past the point
+   where the piece's optical depth reaches 40 the integrand is 1 to within exp(-40) = 4e-18 and is
+   taken as 1, so the quadrature's cost is bounded at any optical depth. Accurate to ~1e-12 for
+   optical depths from 0 to 1e8 and more (tests/test_reference_extremes.py). Small opacities are
+   kept as given (1e-9 in the tests: log1p, expm1); large ones are clamped to MAX_OPACITY (rule
+   3: about float32's last step below 1, so 1 - 1e-9, which a GL texture holds as 1, counts as
+   1 - 1e-7).
+5. Compositing front to back in log space (the transparency in front of a segment is exp(-the
+   optical depth in front of it), its coverage -expm1(-total optical depth)), then over the background:
    ``rgb = C + (1 - A) * bg.rgb``, ``alpha = A + (1 - A) * bg.a``; a ray meeting no tetrahedron is
    the background exactly.
 6. Depth (``return_depth=True``), as the ray casters' depth output: r window-space depth of the
    first point with opacity > 0 (1 where none), g its distance from the ray's start, b the number
    of segments (tetrahedra) the ray crossed, a 1 where there is such a point.
+7. Memory: the image is rendered in bands of rows whose rays meet about ``band_pairs`` pixel
+   boxes of tetrahedra (BAND_PAIRS) together, ray-tetrahedron pairs are tested ``chunk_pairs`` at
+   a time, segments integrated SEGMENT_PIECES segment-pieces at a time and the quadrature runs
+   QUADRATURE_NODES nodes at a time, so the working memory is bounded whatever the image size,
+   the optical depth or the transfer function (post.vtk at 256 x 256 with opacity_length 1e-4:
+   141 MiB traced; it was 5.7 GiB and a MemoryError; bench/reference_memory.py).
 
 Images are float32 (H, W, 4), row 0 at the top; arithmetic is float64.
 """
@@ -64,6 +77,10 @@ GAUSS_POINTS = 16
 MAX_DEPTH_PER_INTERVAL = 4.0  # optical depth of one Gauss-Legendre sub-interval, at most
 MAX_B_RATIO = 8.0  # (1 - a) varies by at most this factor over one sub-interval
 MAX_SPLITS = 4096
+SATURATED_DEPTH = 40.0  # optical depth past which 1 - exp(-Tau) is 1 in float64 (exp(-40) = 4e-18)
+QUADRATURE_NODES = 1 << 20  # Gauss-Legendre nodes per batch, at most (bounded memory)
+SEGMENT_PIECES = 1 << 19  # segments x TF pieces integrated at once, at most (bounded memory)
+BAND_PAIRS = 1 << 20  # pixel boxes of tetrahedra met by one band of rows, about (bounded memory)
 TIE_BREAK = np.array([1.0, 0.7390851332151607, 0.5772156649015329])  # generic direction (rule 2)
 
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(GAUSS_POINTS)
@@ -121,7 +138,7 @@ def _integrate(s_f, s_b, length, pieces: _Pieces, L: float):
     """(premultiplied rgb (n, 3), optical depth (n,), fraction along the segment of the first
     point with opacity > 0 (n,), inf where none) of n segments."""
     n = len(s_f)
-    chunk = max(1024, (1 << 21) // len(pieces.lo))  # segments x pieces per chunk: about 2 M
+    chunk = max(1, SEGMENT_PIECES // len(pieces.lo))
     colour, depth, first = np.zeros((n, 3)), np.zeros(n), np.full(n, np.inf)
     for start in range(0, n, chunk):
         part = slice(start, start + chunk)
@@ -210,12 +227,49 @@ def _mean_log_b(a0, a1, x):
 def _mean_alpha(K, a0, a1):
     """int_0^1 (1 - exp(-Tau(x))) dx per piece, Tau(x) = -K x mean ln b over [0, x]: composite
     16-point Gauss-Legendre on sub-intervals of optical depth <= 4 and, where 1 - a varies by more
-    than a factor 8, geometric in 1 - a."""
-    n = len(K)
-    steepest = np.maximum(-np.log1p(-a0), -np.log1p(-a1)) * K
+    than a factor 8, geometric in 1 - a. Past the point x_s where Tau reaches SATURATED_DEPTH the
+    integrand is 1 to within exp(-40) = 4e-18 and is taken as 1, so the number of sub-intervals is
+    bounded whatever the optical depth; pieces go through the quadrature in batches of at most
+    QUADRATURE_NODES nodes (bounded memory)."""
+    end = _saturation_point(K, a0, a1)
+    mean = 1.0 - end  # the saturated rest [end, 1]
+    at_end = np.where(end < 1.0, -np.log1p(-(a0 + (a1 - a0) * end)), -np.log1p(-a1))
+    steepest = np.maximum(-np.log1p(-a0), at_end) * K * end
     m1 = np.clip(np.ceil(steepest / MAX_DEPTH_PER_INTERVAL), 1, MAX_SPLITS).astype(np.int64)
+    # Nodes per piece, at most: m1 uniform intervals, each cut in up to 64 geometric ones.
+    cost = np.cumsum(m1 * 64 * GAUSS_POINTS)
+    start = 0
+    while start < len(K):
+        base = cost[start - 1] if start else 0
+        stop = max(int(np.searchsorted(cost, base + QUADRATURE_NODES, side="right")), start + 1)
+        part = slice(start, stop)
+        mean[part] += _gauss_legendre(K[part], a0[part], a1[part], end[part], m1[part])
+        start = stop
+    return mean
+
+
+def _saturation_point(K, a0, a1):
+    """Per piece the x in (0, 1] where Tau(x) = SATURATED_DEPTH (1 where Tau(1) is less), by
+    bisection: Tau grows with x."""
+    end = np.ones(len(K))
+    deep = np.flatnonzero(-K * _mean_log_b(a0, a1, 1.0) > SATURATED_DEPTH)
+    if deep.size:
+        k, p0, p1 = K[deep], a0[deep], a1[deep]
+        lo, hi = np.zeros(deep.size), np.ones(deep.size)
+        for _ in range(60):
+            middle = 0.5 * (lo + hi)
+            over = -k * middle * _mean_log_b(p0, p1, middle) > SATURATED_DEPTH
+            hi, lo = np.where(over, middle, hi), np.where(over, lo, middle)
+        end[deep] = hi
+    return end
+
+
+def _gauss_legendre(K, a0, a1, end, m1):
+    """int_0^end (1 - exp(-Tau(x))) dx per piece on m1 uniform sub-intervals, each cut where b
+    varies by more than MAX_B_RATIO (see _mean_alpha)."""
+    n = len(K)
     piece, j, m = _expand(m1)
-    xa, xb = j / m, (j + 1) / m
+    xa, xb = j / m * end[piece], (j + 1) / m * end[piece]
     b_a = 1.0 - (a0[piece] + (a1[piece] - a0[piece]) * xa)
     b_b = 1.0 - (a0[piece] + (a1[piece] - a0[piece]) * xb)
     ratio = np.maximum(b_a, b_b) / np.minimum(b_a, b_b)
@@ -328,11 +382,16 @@ def ray_segments(mesh: TetMesh, camera: Camera, size, *, chunk_pairs: int = 1 <<
     camera = camera.resolved(*mesh.bounds, width / height)
     origins, directions = (a.reshape(-1, 3) for a in camera.rays(width, height))
     t_far = camera.far_distance(directions)
-    return _segments(_Geometry(mesh), camera, width, height, origins, directions, t_far, chunk_pairs)
+    geometry = _Geometry(mesh)
+    boxes = _pixel_boxes(geometry.corners, camera, width, height)
+    return _segments(geometry, boxes, width, (0, height), origins, directions, t_far, chunk_pairs)
 
 
-def _segments(geometry, camera, width, height, origins, directions, t_far, chunk_pairs):
-    c0, c1, r0, r1 = _pixel_boxes(geometry.corners, camera, width, height)
+def _segments(geometry, boxes, width, band, origins, directions, t_far, chunk_pairs):
+    """The segments of the rays in the image rows band = (first, stop), pairs of ray and
+    tetrahedron tested chunk_pairs at a time."""
+    c0, c1, r0, r1 = boxes
+    r0, r1 = np.maximum(r0, band[0]), np.minimum(r1, band[1] - 1)
     counts = np.maximum(c1 - c0 + 1, 0) * np.maximum(r1 - r0 + 1, 0)
     parts = []
     candidates = np.flatnonzero(counts)
@@ -355,6 +414,27 @@ def _segments(geometry, camera, width, height, origins, directions, t_far, chunk
     order = np.lexsort((t_in, ray))
     return Segments(ray[order], geometry.index[tet[order]], t_in[order], t_out[order],
                     s_in[order], s_out[order])
+
+
+def _row_bands(boxes, height, pairs):
+    """Consecutive image rows (first, stop) whose rays meet at most about ``pairs`` pixel boxes of
+    tetrahedra together (one row at least): the image is rendered band by band, so the memory it
+    takes is bounded by ``pairs``, not by the image size."""
+    c0, c1, r0, r1 = boxes
+    columns = np.maximum(c1 - c0 + 1, 0)
+    seen = (columns > 0) & (r1 >= r0)
+    change = np.zeros(height + 1)
+    np.add.at(change, r0[seen], columns[seen])
+    np.add.at(change, r1[seen] + 1, -columns[seen])
+    per_row = np.cumsum(change[:height])
+    bands, first, total = [], 0, 0.0
+    for row, count in enumerate(per_row):
+        if row > first and total + count > pairs:
+            bands.append((first, row))
+            first, total = row, 0.0
+        total += count
+    bands.append((first, height))
+    return bands
 
 
 def _pixel_boxes(corners, camera, width, height):
@@ -404,11 +484,12 @@ def _intersect(geometry, tet, ray, origins, directions, t_far):
 # --- the image ----------------------------------------------------------------------------------
 def render(mesh: TetMesh, camera: Camera, transfer_function: TransferFunction, size, *,
            background=(0.0, 0.0, 0.0, 1.0), mode: str = "exact", return_depth: bool = False,
-           chunk_pairs: int = 1 << 18):
+           chunk_pairs: int = 1 << 18, band_pairs: int = BAND_PAIRS):
     """Render ``mesh`` with the exact emission-absorption integral (module docstring).
 
     ``size`` is (width, height). Returns the float32 (H, W, 4) image, row 0 at the top, and with
-    ``return_depth=True`` also the float32 (H, W, 4) depth image (rule 6)."""
+    ``return_depth=True`` also the float32 (H, W, 4) depth image (rule 6). The rays are rendered
+    in bands of rows meeting about ``band_pairs`` pixel boxes of tetrahedra each (rule 7)."""
     width, height = _check_size(size)
     if mode not in MODES:
         raise VGraphError(f"tetrahedra reference: mode must be one of {MODES}, got {mode!r}")
@@ -419,23 +500,37 @@ def render(mesh: TetMesh, camera: Camera, transfer_function: TransferFunction, s
     camera = camera.resolved(*mesh.bounds, width / height)
     origins, directions = (a.reshape(-1, 3) for a in camera.rays(width, height))
     t_far = camera.far_distance(directions)
-    segments = _segments(_Geometry(mesh), camera, width, height, origins, directions, t_far,
-                         chunk_pairs)
+    geometry = _Geometry(mesh)
     pieces = _Pieces.of(transfer_function.for_volume(mesh))
-    colour, depth, first = _integrate(segments.s_in, segments.s_out, segments.length, pieces,
-                                      mesh.opacity_length)
-
-    rays = width * height
-    before = _exclusive_sums(depth, segments.ray)
-    weight = np.exp(-before)
-    rgb = np.stack([np.bincount(segments.ray, weights=weight * colour[:, c], minlength=rays)
-                    for c in range(3)], axis=1)
-    coverage = -np.expm1(-np.bincount(segments.ray, weights=depth, minlength=rays))[:, None]
-    image = np.concatenate([rgb + (1.0 - coverage) * bg[:3], coverage + (1.0 - coverage) * bg[3]],
-                           axis=1).reshape(height, width, 4).astype(np.float32)
+    boxes = _pixel_boxes(geometry.corners, camera, width, height)
+    image = np.empty((width * height, 4), dtype=np.float32)
+    depth_image = np.empty((width * height, 4), dtype=np.float32) if return_depth else None
+    for band in _row_bands(boxes, height, band_pairs):
+        segments = _segments(geometry, boxes, width, band, origins, directions, t_far, chunk_pairs)
+        rays = slice(band[0] * width, band[1] * width)
+        local = segments.ray - rays.start
+        colour, depth, first = _integrate(segments.s_in, segments.s_out, segments.length, pieces,
+                                          mesh.opacity_length)
+        image[rays] = _composited(local, colour, depth, rays.stop - rays.start, bg)
+        if return_depth:
+            depth_image[rays] = _depth_values(camera, width, height, origins[rays], directions[rays],
+                                              local, segments, first)
+    image = image.reshape(height, width, 4)
     if not return_depth:
         return image
-    return image, _depth_image(camera, origins, directions, segments, first, width, height)
+    return image, depth_image.reshape(height, width, 4)
+
+
+def _composited(ray, colour, depth, rays, bg):
+    """Front-to-back compositing of the segments of ``rays`` rays (ray: each segment's, sorted by
+    ray and entry) in log space: the transparency in front of a segment is exp(-optical depth in
+    front of it), then over the background (rule 5)."""
+    weight = np.exp(-_exclusive_sums(depth, ray))
+    rgb = np.stack([np.bincount(ray, weights=weight * colour[:, c], minlength=rays)
+                    for c in range(3)], axis=1)
+    coverage = -np.expm1(-np.bincount(ray, weights=depth, minlength=rays))[:, None]
+    return np.concatenate([rgb + (1.0 - coverage) * bg[:3], coverage + (1.0 - coverage) * bg[3]],
+                          axis=1)
 
 
 def _exclusive_sums(values, group):
@@ -448,10 +543,11 @@ def _exclusive_sums(values, group):
     return np.maximum(total - total[first_of], 0.0)
 
 
-def _depth_image(camera, origins, directions, segments, first, width, height):
-    rays = width * height
+def _depth_values(camera, width, height, origins, directions, ray, segments, first):
+    """Rule 6 for the rays with these origins and directions (ray: each segment's, 0-based)."""
+    rays = len(origins)
     t = np.full(rays, np.inf)
-    np.minimum.at(t, segments.ray, segments.t_in + first * segments.length)
+    np.minimum.at(t, ray, segments.t_in + first * segments.length)
     found = np.isfinite(t)
     depth = np.zeros((rays, 4))
     depth[:, 0] = 1.0
@@ -460,9 +556,9 @@ def _depth_image(camera, origins, directions, segments, first, width, height):
     clip = points @ matrix[:, :3].T + matrix[:, 3]
     depth[found, 0] = np.clip(0.5 + 0.5 * clip[:, 2] / clip[:, 3], 0.0, 1.0)
     depth[found, 1] = t[found]
-    depth[:, 2] = np.bincount(segments.ray, minlength=rays)
+    depth[:, 2] = np.bincount(ray, minlength=rays)
     depth[found, 3] = 1.0
-    return depth.reshape(height, width, 4).astype(np.float32)
+    return depth
 
 
 def _check_size(size) -> tuple[int, int]:
