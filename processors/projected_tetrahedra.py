@@ -6,7 +6,9 @@ Conventions (docs/explanations/tetrahedra-renderer.md has the long form):
   direction for the orthographic camera, distance from the eye for the perspective one;
   vgraph.gl.tetrahedra.order), re-sorted only when the mesh or the concrete camera changes and
   uploaded as the index buffer. Not exact for every mesh; ``visibility_order = mpvo`` orders
-  across shared faces instead (MPVO, exact for convex meshes; non-convex ones approximated).
+  across shared faces instead (MPVO, exact for convex meshes; non-convex ones approximated), and
+  ``mpvonc`` adds the order across a non-convex mesh's gaps, found by the pixels' rays against its
+  boundary faces (vgraph.gl.tetrahedra.nonconvex; also re-sorted when the image size changes).
 - Projection: the sorted index buffer is drawn as lines_adjacency, four vertices per tetrahedron;
   the geometry shader classifies the projection (classes 1-4, vgraph.gl.tetrahedra.projection)
   and emits 3 or 4 triangles fanned from the thick point with the exact front and back points of
@@ -38,8 +40,9 @@ Conventions (docs/explanations/tetrahedra-renderer.md has the long form):
 - Outputs: ``image`` RGBA32F; ``depth`` RGBA32F with r = window depth of the front point of the
   nearest tetrahedron with opacity (1 where none), g = its distance in world units from the ray's
   start on the near plane, b = 0 (no sample count), a = 1 where there is a depth.
-- Near and far planes do not clip tetrahedra (the automatic planes enclose the mesh); a
-  tetrahedron with a vertex behind the eye is not drawn.
+- The near plane clips: each pixel's segment starts at the near plane at the earliest, where the
+  pixel's ray starts (as in the cell path and the exact reference); the far plane does not clip
+  (the automatic planes enclose the mesh). A tetrahedron with a vertex behind the eye is not drawn.
 - Extreme boxes (1e14 or 1e-12 across, or near the +-1e15 limit; vgraph.box_frame) are drawn in
   their box's normalised frame (vgraph.gl.tetrahedra.frame), where the camera is an ordinary one:
   the same picture as the mesh at ordinary size, the depth output's distance scaled back to world
@@ -181,12 +184,14 @@ class ProjectedTetrahedra(Processor):
                                      "points, each piece from a table that does not depend on the TF "
                                      "(accurate on stiff TFs)")
     background = ColorProperty((0.0, 0.0, 0.0, 1.0))
-    visibility_order = OptionProperty("centroid", choices=["centroid", "centroid_gl", "mpvo"],
+    visibility_order = OptionProperty("centroid", choices=["centroid", "centroid_gl", "mpvo", "mpvonc"],
                                       doc="centroid: sort the tetrahedra's centroids (fast, not "
                                           "exact for every mesh); centroid_gl: the same sort in "
                                           "compute shaders (GL 4.3; pays on a GPU, not on a CPU "
                                           "rasteriser); mpvo: the order across shared faces "
-                                          "(exact for convex meshes, slower)")
+                                          "(exact for convex meshes, slower); mpvonc: MPVO plus the "
+                                          "order across the gaps of a non-convex mesh, found by the "
+                                          "pixels' rays (exact for non-convex meshes, slower still)")
     skip_transparent = BoolProperty(True, doc="leave out tetrahedra whose scalars all have zero "
                                               "opacity under the TF (same image, faster)")
     grid_cells = BoolProperty(True, doc="meshes cut from a volume (VolumeToTetMesh): draw each grid "
@@ -336,7 +341,7 @@ class ProjectedTetrahedra(Processor):
     def _uploaded_order(self, ctx, mesh, camera, selection, method):
         """The index buffer of the order computed with numpy (None: nothing to draw)."""
         state = self._draw_state
-        indices, changed = self._order.update(mesh, camera, selection, method)
+        indices, changed = self._order.update(mesh, camera, selection, method, self.render_size)
         if indices.size == 0:
             return None
         if changed or "indices" not in state:

@@ -481,3 +481,73 @@ def test_partial_preintegration_is_exact_on_a_stiff_tf(gl, projection_name):
     print(f"{projection_name}: {psnr(image, reference):.1f} dB, max {np.abs(image - reference)[..., :3].max():.2g}")
     assert reference[..., :3].max() > 0.3  # the spike shows
     assert psnr(image, reference) >= 100.0 and np.abs(image - reference)[..., :3].max() < 1e-3
+
+
+# --- non-convex meshes: MPVONC; near-plane clipping ------------------------------------------------
+def through_both_arms(mesh, projection_name="perspective"):
+    """A view of the C (vgraph.mesh_shapes.c_shape) whose rays cross one arm, the gap, the other."""
+    return Camera.looking_at_box(*mesh.box, direction=(-1.0, 0.2, -0.3), projection=projection_name)
+
+
+@pytest.mark.parametrize("projection_name", ["perspective", "orthographic"])
+def test_mpvonc_orders_a_non_convex_mesh_exactly(gl, projection_name):
+    """The C seen through both arms, 128 x 128, partial pre-integration, against the exact reference.
+    Measured (perspective / orthographic): mpvonc 101.6 / 100.7 dB (max error 3.1e-4 / 1.1e-4); mpvo
+    67.5 / 70.3 dB (max 0.047 / 0.023: the arms composited in the wrong order); centroid 66.8 dB
+    (perspective)."""
+    reference_tetra = pytest.importorskip("vgraph.numerics.reference_tetra")
+    from vgraph.gl.raycasting.components import TransferFunctionLut
+    from vgraph.mesh_shapes import c_shape
+    mesh, tf, size = c_shape(), TransferFunctionLut.DEFAULT, (128, 128)
+    camera = through_both_arms(mesh, projection_name)
+    reference = reference_tetra.render(mesh, camera, tf, size)
+    reached = {}
+    for order in ("mpvo", "mpvonc"):
+        processor = ProjectedTetrahedra(camera=camera, transfer_function=tf, integration="partial",
+                                        visibility_order=order)
+        processor.render_size = size
+        image = processor.process(mesh)["image"].to_numpy()
+        reached[order] = (psnr(image, reference), float(np.abs(image - reference)[..., :3].max()))
+    print(projection_name, reached)
+    assert reached["mpvonc"][0] >= 95.0 and reached["mpvonc"][1] < 1e-3
+    assert reached["mpvo"][1] > 0.01  # the case needs the gaps: MPVO alone is visibly wrong
+
+
+def test_mpvonc_finds_the_gaps_between_the_arms():
+    """The relations MPVO lacks: seen through both arms, rays leave the near arm and enter the far
+    one; every such pair puts a tetrahedron of the far arm (larger depth) behind one of the near."""
+    from vgraph.gl.tetrahedra.nonconvex import BoundaryFaces, gap_edges
+    from vgraph.gl.tetrahedra.order import centroids
+    from vgraph.mesh_shapes import c_shape
+    mesh = c_shape()
+    camera = through_both_arms(mesh).resolved(*mesh.box, 1.0)
+    boundary = BoundaryFaces(mesh.points, mesh.tets)
+    # 3 x 15 x 3 cells: 2 x (15 x 3 + 3 x 3 + 3 x 15) quads on the surface, two triangles each
+    assert len(boundary.faces) == 2 * 2 * (15 * 3 + 3 * 3 + 3 * 15)
+    normals = np.cross(boundary.corners[:, 1] - boundary.corners[:, 0], boundary.corners[:, 2] - boundary.corners[:, 0])
+    inside = centroids(mesh.points, mesh.tets)[boundary.owner] - boundary.corners[:, 0]
+    assert np.all(np.einsum("ij,ij->i", normals, inside) < 0.0)  # oriented out of the mesh
+    behind, front = gap_edges(boundary, camera, (64, 64))
+    assert len(behind) > 10
+    depth = (centroids(mesh.points, mesh.tets) - camera.position) @ camera.basis()[2]
+    assert np.all(depth[behind] > depth[front])
+
+
+@pytest.mark.parametrize("integration", INTEGRATIONS)
+def test_the_near_plane_clips_tetrahedra(gl, integration):
+    """A near plane through the middle of the mesh: what lies in front of it is cut away, as the
+    exact reference cuts its rays (they start on the near plane). Measured: averaged 43.8 dB,
+    preintegrated 93.0 dB, partial 103.8 dB; the uncut image is 25.1 dB from the cut one."""
+    reference_tetra = pytest.importorskip("vgraph.numerics.reference_tetra")
+    from vgraph.gl.raycasting.components import TransferFunctionLut
+    from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA
+    mesh, tf, size = grid_mesh(5), TransferFunctionLut.DEFAULT, (96, 96)
+    full = DEFAULT_CAMERA.resolved(*mesh.box, 1.0)
+    centre = np.mean(mesh.box, axis=0)
+    middle = float(np.linalg.norm(centre - np.asarray(full.position)))
+    camera = full.model_copy(update={"near": middle, "far": full.far})
+    reference = reference_tetra.render(mesh, camera, tf, size)
+    uncut = reference_tetra.render(mesh, full, tf, size)
+    image, _, _ = render(mesh, camera, size, tf, integration, background=(0.0, 0.0, 0.0, 1.0))
+    assert psnr(uncut, reference) < 30.0  # the cut matters
+    assert psnr(image, reference) >= {"averaged": 40.0, "preintegrated": 88.0, "partial": 98.0}[integration]

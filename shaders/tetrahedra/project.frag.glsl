@@ -32,6 +32,16 @@ void main() {
     vec3 x_back = back_h.xyz / back_h.w;
     float s_front = clamp(scalar_h.x / front_h.w, limits.y, limits.z);
     float s_back = clamp(scalar_h.y / back_h.w, limits.y, limits.z);
+    // Near-plane clipping: the pixel's ray starts on the near plane (as Camera.rays and the cell
+    // path); a segment that begins in front of it begins there, one wholly in front is nothing.
+    float near_front = dot(x_front - near_centre, view_forward);
+    float near_back = dot(x_back - near_centre, view_forward);
+    if (near_back <= 0.0 && near_front <= 0.0) discard;
+    if (near_front < 0.0) {
+        float f = near_front / (near_front - near_back);
+        x_front = mix(x_front, x_back, f);
+        s_front = mix(s_front, s_back, f);
+    }
     // A segment inside the tetrahedron spans at most its depth extent along the view direction;
     // beyond it (a ray grazing a face seen almost edge-on), shorten it to that.
     float thickness = distance(x_front, x_back);

@@ -8,9 +8,11 @@ ch. 4; the approximate order of VTK's and Inviwo's projected-tetrahedra renderer
   from the tetrahedra themselves are composited in the wrong order (small errors where they
   overlap; slivers of split wedges show it). ``mpvo_back_to_front`` is MPVO (Williams 1992): the
   topological order of the "in front of" relation across shared faces, exact for convex acyclic
-  meshes; its extension to non-convex meshes (MPVONC, sorting the boundary faces) and the
-  power-distance sort of Delaunay meshes are not done. Meshes cut from a regular grid are drawn
-  cell by cell in the grid's sweep order instead (vgraph.gl.tetrahedra.cells), which needs no sort.
+  meshes; "mpvonc" adds the relations across the gaps of a non-convex mesh, found by the pixels'
+  rays (vgraph.gl.tetrahedra.nonconvex: MPVONC with Cook et al.'s image-space fix), exact for
+  any acyclic mesh at the image's pixels. The power-distance sort of Delaunay meshes is not done.
+  Meshes cut from a regular grid are drawn cell by cell in the grid's sweep order instead
+  (vgraph.gl.tetrahedra.cells), which needs no sort.
 - The order is recomputed only when the mesh, the concrete camera or the set of tetrahedra to draw
   changes (``VisibilityOrder``). Tetrahedra whose scalars all have zero opacity under the TF can be
   left out first (``transparent_tetrahedra``): they add nothing, and are neither sorted nor drawn.
@@ -21,6 +23,9 @@ from __future__ import annotations
 import numpy as np
 
 from vgraph.camera import Camera
+from vgraph.gl.tetrahedra.cells import sweep_order
+from vgraph.gl.tetrahedra.nonconvex import BoundaryFaces, gap_edges
+from vgraph.tetrahedralize import visible_cells
 
 
 def centroids(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
@@ -45,7 +50,6 @@ def visible_tetrahedra(mesh, alpha: np.ndarray) -> np.ndarray:
     ``alpha`` with opacity > 0 (vgraph.tetrahedralize.visible_cells: the LUT read linearly between
     entries, as the shader reads it; the scalar inside a tetrahedron lies between its vertices').
     Tetrahedra with a non-finite scalar are kept."""
-    from vgraph.tetrahedralize import visible_cells
     low, high = mesh.tet_scalar_ranges()
     finite = np.isfinite(low) & np.isfinite(high)
     visible = np.ones(len(mesh.tets), dtype=bool)
@@ -67,27 +71,35 @@ class VisibilityOrder:
         self.sorts = 0
         self._mask_key, self._mask = None, None
 
-    def update(self, mesh, camera: Camera, selection=None, method: str = "centroid") -> tuple[np.ndarray, bool]:
+    def update(self, mesh, camera: Camera, selection=None, method: str = "centroid",
+               size=None) -> tuple[np.ndarray, bool]:
         """(indices, whether they changed). ``selection``: (key, function returning the bool mask
         of the tetrahedra, or for "sweep" the cells, to draw), or None for all; the mask is
         computed when its key changes, not with every camera. "mpvo" and "sweep" order the whole
         mesh and then take the selection in that order, so hidden tetrahedra or cells still order
-        their neighbours; the face adjacency MPVO needs is built once per mesh."""
+        their neighbours; the face adjacency MPVO needs is built once per mesh. "mpvonc" also
+        needs the image ``size`` (width, height): its rays are the pixels'."""
         eye = tuple(camera.position)
         key = (id(mesh), camera.projection, eye,
                tuple(camera.basis()[2]) if camera.projection != "perspective" else None,
-               None if selection is None else selection[0], method)
+               None if selection is None else selection[0], method,
+               tuple(size) if method == "mpvonc" else None)
         if key == self.key and self.indices is not None:
             return self.indices, False
         mask = self.selected(mesh, selection)
         if method == "sweep":
-            from vgraph.gl.tetrahedra.cells import sweep_order
             order = sweep_order(mesh.grid, camera)
             indices = order if mask is None else order[mask[order]]
-        elif method == "mpvo":
+        elif method in ("mpvo", "mpvonc"):
             if getattr(self, "_adjacency_of", None) is not mesh:
                 self._adjacency, self._adjacency_of = FaceAdjacency(mesh.points, mesh.tets), mesh
-            order = mpvo_back_to_front(mesh.points, mesh.tets, camera, self._adjacency)
+                self._boundary = None
+            gaps = None
+            if method == "mpvonc":
+                if self._boundary is None:
+                    self._boundary = BoundaryFaces(mesh.points, mesh.tets)
+                gaps = gap_edges(self._boundary, camera, size)
+            order = mpvo_back_to_front(mesh.points, mesh.tets, camera, self._adjacency, gaps)
             indices = mesh.vertex_indices[order if mask is None else order[mask[order]]]
         else:
             tets = mesh.tets if mask is None else mesh.tets[mask]
@@ -134,13 +146,14 @@ class FaceAdjacency:
 
 
 def mpvo_back_to_front(points: np.ndarray, tets: np.ndarray, camera: Camera,
-                       adjacency: FaceAdjacency | None = None) -> np.ndarray:
+                       adjacency: FaceAdjacency | None = None, extra=None) -> np.ndarray:
     """Back-to-front order by MPVO (Williams 1992): across every interior face the tetrahedron on
     the eye's side is drawn after the other; a topological sort of that graph (Kahn's algorithm by
     levels, each level farthest centroid first). Exact for convex meshes whose graph is acyclic
     (Delaunay meshes); tetrahedra left in cycles follow in centroid order. Non-convex meshes are
-    not handled as MPVONC does (their boundary faces are not sorted): the levels' centroid order
-    only approximates it."""
+    not handled unless ``extra`` (behind, front) adds the relations across their gaps
+    (vgraph.gl.tetrahedra.nonconvex.gap_edges); without them the levels' centroid order only
+    approximates it."""
     adjacency = adjacency or FaceAdjacency(points, tets)
     m = adjacency.count
     eye = np.asarray(camera.position, dtype=np.float64)
@@ -154,6 +167,8 @@ def mpvo_back_to_front(points: np.ndarray, tets: np.ndarray, camera: Camera,
     front = np.where(first_in_front, adjacency.first, adjacency.second)
     keep = side != 0.0  # a face seen edge-on orders nothing
     behind, front = behind[keep], front[keep]
+    if extra is not None:
+        behind, front = np.concatenate([behind, extra[0]]), np.concatenate([front, extra[1]])
     indegree = np.bincount(front, minlength=m)
     by_source = np.argsort(behind, kind="stable")
     starts = np.concatenate([[0], np.cumsum(np.bincount(behind, minlength=m))])
