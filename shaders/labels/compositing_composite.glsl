@@ -1,9 +1,11 @@
 // COMPOSITING_COMPOSITE: every shown label's colour at its opacity, front-to-back (Inacio 2009
 // eq. 2.3-2.4): C += (1 - A) a' rgb, A += (1 - A) a', a' = 1 - (1 - opacity)^(1 / sampling_rate)
-// (opacity is per sample at rate 1), shaded where SHADING_BLINN_PHONG (inside a label the weight
-// sums have no slope and the colour stays unshaded). Background samples add nothing. The ray stops
-// once A >= early_termination. With SKIP_EMPTY_SPACE, blocks without shown labels are jumped over.
+// (opacity is per sample at rate 1; below 1/64 in the stable form of raycasting/opacity.glsl),
+// shaded where SHADING_BLINN_PHONG (inside a label the weight sums have no slope and the colour
+// stays unshaded). Background samples add nothing. The ray stops once A >= early_termination.
+// With SKIP_EMPTY_SPACE, blocks without shown labels are jumped over.
 #ifdef COMPOSITING_COMPOSITE
+#include "raycasting/opacity.glsl"
 uniform float early_termination;
 uniform float opacity_exponent;  // 1 / sampling_rate
 
@@ -15,7 +17,8 @@ vec4 march(Ray ray) {
         Label label = majority_label(sample_point(ray, float(cursor.i)));
         if (label.code != BACKGROUND) {
             vec4 color = code_color(label.code);
-            float alpha = 1.0 - pow(1.0 - color.a, opacity_exponent);
+            float alpha = color.a >= SMALL_OPACITY ? 1.0 - pow(1.0 - color.a, opacity_exponent)
+                          : opacity_of_depth(opacity_exponent * depth_of_opacity(color.a));
             float weight = (1.0 - sum.a) * alpha;
             sum += vec4(weight * label_shade(color.rgb, label, ray), weight);
             if (sum.a >= early_termination) {

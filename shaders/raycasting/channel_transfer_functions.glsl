@@ -3,6 +3,8 @@
 // connected channel's 4096-entry LUT in transfer_function{k+1}, whatever inport it came from. The
 // LUTs are read as raycasting/transfer_function.glsl reads its one: entry i at (i + 0.5) / 4096,
 // linear filtering, intensities outside [0, 1] clamped to the end entries.
+#include "raycasting/opacity.glsl"
+
 uniform sampler2D transfer_function1;
 #if CHANNELS >= 2
 uniform sampler2D transfer_function2;
@@ -39,8 +41,9 @@ vec4 channel_classify(int k, float value) {
 // reference step): a TF's alpha is per sample at the rate 1 of its channel, so a step gets
 // 1 - (1 - a)^(step / min(spacing of the channel)). Always applied, not only under
 // OPACITY_CORRECTION: at sampling rate 1 a channel coarser than the finest still needs it. An
-// exponent of 1 (the finest channel at sampling rate 1) leaves alpha as it is, exactly.
+// exponent of 1 (the finest channel at sampling rate 1) leaves alpha as it is, exactly. Below an
+// opacity of 1/64 the stable form of raycasting/opacity.glsl.
 float channel_opacity(int k, float alpha) {
     float exponent = opacity_exponent * opacity_reference[k];
-    return (alpha >= 1.0 || exponent == 1.0) ? alpha : 1.0 - exp2(exponent * log2(1.0 - alpha));
+    return (alpha >= 1.0 || exponent == 1.0) ? alpha : corrected_alpha(alpha, exponent);  // opacity.glsl
 }

@@ -7,6 +7,9 @@
 // (their whole text is inside its #ifdef), so their uniforms and textures do not exist.
 uniform float inverse_opacity_length;  // 1 / L (mesh.opacity_length)
 
+// The stable opacity arithmetic they use, here outside their #ifdefs (a file is expanded once,
+// where it is first included).
+#include "raycasting/opacity.glsl"
 #include "segment_averaged.glsl"
 #include "segment_preintegrated.glsl"
 #include "segment_partial.glsl"

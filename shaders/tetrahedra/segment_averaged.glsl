@@ -8,7 +8,7 @@ vec4 segment(float s_front, float s_back, float thickness) {
     float length_in_l = thickness * inverse_opacity_length;
     vec4 c = classify(0.5 * (s_front + s_back));
     float alpha = c.a >= 1.0 ? (thickness > 0.0 ? 1.0 : 0.0)
-                             : 1.0 - exp2(length_in_l * log2(1.0 - c.a));
+                             : opacity_over(c.a, length_in_l);  // raycasting/opacity.glsl
     return vec4(c.rgb * alpha, alpha);
 }
 #endif

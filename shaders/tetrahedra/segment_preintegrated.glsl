@@ -10,7 +10,7 @@ vec4 segment(float s_front, float s_back, float thickness) {
     const float n = float(TABLE_SIZE), t = float(ALPHA_SLICES);
     vec2 st = clamp(vec2(s_front, s_back), 0.0, 1.0) * ((n - 1.0) / n) + 0.5 / n;
     float mean_depth = textureLod(mean_extinction, st, 0.0).r;
-    float alpha = 1.0 - exp(-mean_depth * length_in_l);
+    float alpha = opacity_of_depth(mean_depth * length_in_l);  // 1 - exp(-depth), raycasting/opacity.glsl
     vec3 rgb = textureLod(preintegrated, vec3(st, alpha * ((t - 1.0) / t) + 0.5 / t), 0.0).rgb;
     return vec4(rgb * alpha, alpha);
 }
