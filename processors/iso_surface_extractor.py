@@ -24,6 +24,8 @@ Conventions:
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import map_coordinates
+from skimage.measure import marching_cubes as skimage_marching_cubes
 
 from vgraph import (FloatProperty, Inport, IntProperty, Outport, Processor, PropertyError, VectorProperty,
                     VGraphError)
@@ -118,7 +120,6 @@ def marching_cubes(values: np.ndarray, level: float, spacing, step_size: int = 1
     """(vertices, triangles) of scikit-image's marching cubes on a [z, y, x] array, vertices as
     offsets (x, y, z) from voxel (0, 0, 0) along the index axes, in world units (index * spacing),
     triangles counter-clockwise seen from the side of lower values in those axes."""
-    from skimage.measure import marching_cubes as skimage_marching_cubes  # imported when used: slow import
     if min(values.shape) < 2:
         raise VGraphError(f"marching cubes needs at least 2 voxels along each axis, got {values.shape[::-1]}")
     vertices, triangles, _, _ = skimage_marching_cubes(
@@ -136,7 +137,6 @@ def gradient_normals(values: np.ndarray, spacing, offsets: np.ndarray, triangles
     voxel apart in world units (so anisotropic spacing gives true normals; scikit-image's own
     normals were off by up to 25 degrees on a sphere with spacing 0.7 x 1.1 x 1.6), six
     interpolations instead of a gradient volume. Where the gradient vanishes, the faces' normals."""
-    from scipy.ndimage import map_coordinates
     spacing = np.asarray(spacing, dtype=np.float64)
     voxel = (offsets / spacing)[:, ::-1].T  # [z, y, x] coordinates in ``values``
     gradient = np.empty_like(offsets)
@@ -167,7 +167,6 @@ def to_world(volume: Volume, first, offsets: np.ndarray, normals: np.ndarray, tr
 
 def sample_world(volume: Volume, points: np.ndarray) -> np.ndarray:
     """The volume's values at world points, trilinear, clamped to its box (scipy's map_coordinates)."""
-    from scipy.ndimage import map_coordinates
     voxel = volume.world_to_voxel(points)  # (x, y, z) voxel coordinates
     data = np.asarray(volume.data, dtype=np.float32)
     return map_coordinates(data, voxel[:, ::-1].T, order=1, mode="nearest").astype(np.float32)

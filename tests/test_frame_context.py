@@ -151,14 +151,14 @@ def test_the_leaves_split_gives_its_leaf_in_the_context(tmp_path):
     resolved, they give the single-process picture; the caster gets each task's leaf as its
     argument (no attribute is set on it), and a later frame without one is the whole frame again."""
     from vgraph.distributed.leaves import composite, plan_task, resolve_task, run_task
-    from vgraph.distributed.worker import _network
+    from vgraph.distributed.worker import worker_network
     from vgraph.fileformat import network_document
 
     net = bricked_network(tmp_path)
     reference = net.evaluate("rc.image", size=SIZE)
     document, base_dir = json.dumps(network_document(net, tmp_path)), str(tmp_path)  # what a task carries
     common = (document, base_dir, "rc.image", SIZE, "rc", ())
-    worker_net = _network(document, base_dir, "rc.image")[0]
+    worker_net = worker_network(document, base_dir, "rc.image")[0]
     worker_net.update("rc.image", size=SIZE)
     caster = worker_net["rc"]
     attributes = set(vars(caster))

@@ -31,7 +31,7 @@ class _Services:
     the scheduler (and with it GL) nor the file format, which both import the model."""
 
     def __getattr__(self, name):
-        from vgraph import services
+        from vgraph import services  # imported when first used (this class's docstring)
         return getattr(services, name)
 
 
@@ -43,7 +43,7 @@ def load(path, allow_write=(), render_as=None) -> Network:
     Its writers may write inside the file's folder and the folders in ``allow_write``. A data file
     gives the standard network for what it holds (vgraph.volume_network); ``render_as``
     ("labels" or "intensity") overrides that choice for a volume."""
-    from vgraph.fileformat import load_network
+    from vgraph.fileformat import load_network  # imported when called: the model needs no file format
     return load_network(path, allow_write, render_as)
 
 

@@ -43,9 +43,15 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+from tqdm import tqdm
 
 from vgraph.camera import Camera
 from vgraph.errors import VGraphError
+from vgraph.gl_context import get_context
+from vgraph.implicit import DATA_TYPES, FUNCTIONS, RESOLUTION_RANGE, exact_curvature
+from vgraph.network import Network
+from vgraph.numerics import bspline
+from vgraph.numerics.curvature import kindlmann
 
 GPU_MODES = ("forward", "central", "filtered", "tricubic", "tricubic_fast")
 MODES = GPU_MODES + ("cpu",)
@@ -162,7 +168,6 @@ def evaluated(function: str, volume, points: np.ndarray) -> np.ndarray:
 
 def evaluate_hits(function, volume, measured: dict, points: np.ndarray):
     """(errors per measure, distance statistics) of measured curvature at world points."""
-    from vgraph.implicit import exact_curvature
     errors = relative_errors(measured, exact_curvature(function, points), kappa_floor(volume))
     value, gradient, _ = function.jet(points)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -174,7 +179,6 @@ def evaluate_hits(function, volume, measured: dict, points: np.ndarray):
 # --- the network -----------------------------------------------------------------------------------
 def camera_for(function: str) -> Camera:
     """The view of ``function``'s surface (its whole box for functions without a VIEW_BOXES entry)."""
-    from vgraph.implicit import FUNCTIONS
     box = VIEW_BOXES.get(function) or FUNCTIONS[function].box
     return Camera.looking_at_box(*box, direction=VIEW_DIRECTION)
 
@@ -182,7 +186,6 @@ def camera_for(function: str) -> Camera:
 def build_network(function: str, resolution: int, data_type: str, camera: Camera, **properties):
     """FunctionSelector 'source' -> CubicSplineProcessor 'spline' -> EntryExitPoints 'eep' ->
     CurvatureRaycaster 'cr' (cameras linked)."""
-    from vgraph import Network
     net = Network()
     net.add("FunctionSelector", id="source", function=function, resolution=resolution,
             data_type=data_type)
@@ -206,7 +209,6 @@ def use_mode(net, mode: str) -> None:
 def time_frames(net, camera: Camera, size, repeat: int) -> tuple[float, float, float]:
     """(best, median) wall-clock and median process-CPU milliseconds per frame (module
     docstring); leaves the camera at ``camera``."""
-    from vgraph.gl_context import get_context
     ctx = get_context()
     times, cpu_times = [], []
     for k in range(max(1, repeat)):
@@ -245,14 +247,12 @@ def measure_gpu(net, case: Case, camera: Camera, size, repeat: int):
 
 def measure_cpu(net, case: Case, points: np.ndarray, size, repeat: int) -> Result:
     """The CPU reference at the hits of the GPU tricubic render (the spline must be enabled)."""
-    from vgraph.numerics.bspline import evaluate
-    from vgraph.numerics.curvature import kindlmann
     coefficients = net.output("spline.volume")
     volume = net.output("source.volume")
     times, cpu_times = [], []
     for _ in range(max(1, repeat)):
         start, cpu_start = time.perf_counter(), time.process_time()
-        spline = evaluate(coefficients.data, coefficients.world_to_voxel(points),
+        spline = bspline.evaluate(coefficients.data, coefficients.world_to_voxel(points),
                           coefficients.spacing, derivatives=2)
         curvature = kindlmann(spline.gradient, spline.hessian)
         times.append(1e3 * (time.perf_counter() - start))
@@ -268,7 +268,6 @@ def measure_cpu(net, case: Case, points: np.ndarray, size, repeat: int) -> Resul
 # --- the matrix --------------------------------------------------------------------------------------
 def check_matrix(functions, resolutions, data_types, derivatives) -> None:
     """Refuse unknown names and out-of-range resolutions before minutes of work."""
-    from vgraph.implicit import DATA_TYPES, FUNCTIONS, RESOLUTION_RANGE
     for option, values, known in (("--functions", functions, FUNCTIONS),
                                   ("--data-types", data_types, DATA_TYPES),
                                   ("--derivatives", derivatives, MODES)):
@@ -293,7 +292,6 @@ def run(functions=DEFAULTS["functions"], resolutions=DEFAULTS["resolutions"],
         data_types=DEFAULTS["data_types"], derivatives=DEFAULTS["derivatives"],
         size=DEFAULTS["size"], repeat=DEFAULTS["repeat"], progress: bool = True) -> list[Result]:
     """Measure every case of the matrix; the results come in ``cases()`` order."""
-    from tqdm import tqdm
     check_matrix(functions, resolutions, data_types, derivatives)
     todo = cases(functions, resolutions, data_types, derivatives)
     results: list[Result] = []

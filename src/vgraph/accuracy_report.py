@@ -18,9 +18,11 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import PIL.Image
+import PIL.ImageDraw
 
 from vgraph import accuracy
-from vgraph.accuracy import MEASURES, MODES, Case, Result
+from vgraph.accuracy import MEASURES, MODES, Case, Result, Stats
 from vgraph.camera import Camera
 from vgraph.errors import VGraphError
 
@@ -48,7 +50,6 @@ def write_csv(results: list[Result], path: Path) -> None:
 
 def read_csv(path: Path) -> list[Result]:
     """The results of a written accuracy.csv (to rebuild tables and the plot without measuring)."""
-    from vgraph.accuracy import Stats
     results = []
     with open(path, newline="") as handle:
         for row in csv.DictReader(handle):
@@ -179,7 +180,7 @@ def summary_markdown(results: list[Result], size, repeat: int) -> str:
 def write_plot(results: list[Result], path: Path) -> None:
     """Log-log median k1 error against ms per frame; a line per (mode, data type) through the
     resolutions (marker size grows with resolution)."""
-    import matplotlib
+    import matplotlib  # imported when used: slow to import, and only this plot needs it
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib import ticker
@@ -224,7 +225,6 @@ def write_plot(results: list[Result], path: Path) -> None:
     buffer = io.BytesIO()
     figure.savefig(buffer, dpi=80)
     plt.close(figure)
-    import PIL.Image
     with PIL.Image.open(buffer) as image:  # a 256-colour palette: a third of the bytes
         image.convert("RGB").quantize(256).save(path, optimize=True)
 
@@ -258,8 +258,6 @@ def render_figures(out: Path, panel: int, repeat: int) -> dict[str, list[tuple[n
 
 def write_grid(panels, columns: int, path: Path) -> None:
     """Panels in a grid with a two-line caption under each (8-bit RGB PNG)."""
-    import PIL.Image
-    import PIL.ImageDraw
     size = panels[0][0].shape[0]
     band = 28
     rows = math.ceil(len(panels) / columns)

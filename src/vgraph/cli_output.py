@@ -22,8 +22,10 @@ import numpy as np
 from vgraph.atomic import atomic_path, check_output_path
 from vgraph.errors import VGraphError
 from vgraph.image import Image
+from vgraph.imagefile import write_png
 from vgraph.io import WRITABLE_EXTENSIONS, write_volume
 from vgraph.io.writers import writable_extension
+from vgraph.scheduler import BlankImageWarning, to_numpy
 from vgraph.volume import Volume
 
 IMAGE_FORMATS = (".npy", ".npz")
@@ -108,7 +110,6 @@ def write_outputs(outputs: list[Output], target: str, data, blank_warning) -> No
         pixels = data.to_numpy()
         message = blank_warning(pixels)
         if message:
-            from vgraph.scheduler import BlankImageWarning
             warnings.warn(BlankImageWarning(message), stacklevel=2)
     for output in outputs:
         if isinstance(data, Image):
@@ -131,7 +132,6 @@ def write_image_outputs(outputs: list[Output], pixels: np.ndarray) -> None:
 
 def _write_image(output: Output, pixels: np.ndarray) -> None:
     if output.format == ".png":
-        from vgraph.imagefile import write_png
         write_png(output.path, pixels)
     elif output.format == ".npz":
         with atomic_path(output.path, suffix=".npz") as temporary:
@@ -149,7 +149,6 @@ def _write_array(output: Output, array: np.ndarray) -> None:
 
 
 def _as_array(data, target: str) -> np.ndarray:
-    from vgraph.scheduler import to_numpy
     plain = isinstance(data, (int, float, np.number)) and not isinstance(data, bool)
     array = np.asarray(data) if plain else np.asarray(to_numpy(data))
     if array.dtype.kind not in "biufc":

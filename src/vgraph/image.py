@@ -16,10 +16,14 @@ Conventions:
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
+import PIL.Image
 
 from vgraph.errors import VGraphError
 from vgraph.gl_context import bind_default_framebuffer
+from vgraph.imagefile import to_uint8
 
 _NORMALISED_MAX = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}
 
@@ -72,11 +76,6 @@ class Image:
     def _repr_png_(self) -> bytes:
         """PNG bytes of the pixels, 8-bit RGBA as ``vgraph run -o`` writes them: Jupyter and IPython
         show an Image inline through this."""
-        import io
-
-        import PIL.Image
-
-        from vgraph.imagefile import to_uint8
         buffer = io.BytesIO()
         PIL.Image.fromarray(to_uint8(self.to_numpy())).save(buffer, format="PNG")
         return buffer.getvalue()

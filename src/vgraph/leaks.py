@@ -23,6 +23,9 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from OpenGL import GL
+
+from vgraph.gl_context import get_context
 from vgraph.network import Network
 
 # Texture names are small integers handed out from 1 and reused; scan well past the newest one.
@@ -38,7 +41,6 @@ class LeakSample:
 
 def live_gl_textures(ctx) -> int:
     """How many texture names are alive on ``ctx`` (which must be current, as vgraph's is)."""
-    from OpenGL import GL
     ctx.error  # reading clears it: PyOpenGL would blame glIsTexture for an older error
     probe = ctx.texture((1, 1), 4)
     newest = probe.glo
@@ -80,7 +82,6 @@ def repeated_evaluations(network: Network, count: int, size=(48, 48), every: int
                          targets=()) -> list[LeakSample]:
     """Evaluate ``count`` times, re-running processor ``i % n`` and its downstream at the i-th
     evaluation; sample textures and memory every ``every`` evaluations (and after the last)."""
-    from vgraph.gl_context import get_context
     order = list(network.processors)
     samples = []
     for i in range(count):

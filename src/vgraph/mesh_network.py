@@ -31,6 +31,7 @@ NOT_VOLUME_MESHES = (".svg",)
 def mesh_extensions() -> tuple[str, ...]:
     """File name endings read as meshes: vgraph.io.meshes' and meshio's, longest first, without
     those a VolumeSource reads (``.dat`` is a QVis volume) or that never hold 3D cells."""
+    # imported when used: the readers' libraries (pydicom, nibabel, meshio) take 0.2 s
     from vgraph.io import SUPPORTED_EXTENSIONS
     from vgraph.io.meshes import MESH_EXTENSIONS, meshio_extensions
     known = set(MESH_EXTENSIONS) | set(meshio_extensions())

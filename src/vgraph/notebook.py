@@ -32,6 +32,7 @@ from vgraph.image import Image
 from vgraph.network import Network, split_address
 from vgraph.properties import (BoolProperty, FloatProperty, IntProperty, OptionProperty,
                                TransferFunctionProperty)
+from vgraph.scheduler import default_target
 from vgraph.transfer_function import PRESETS
 
 SLIDER_STEPS = 200  # a float slider moves in this many steps over its range
@@ -43,7 +44,6 @@ class Viewer(widgets.VBox):
     """The network's picture with orbit sliders and widgets for chosen properties."""
 
     def __init__(self, network: Network, size=(384, 384), properties=(), target: str | None = None):
-        from vgraph.scheduler import default_target
         self.network = network
         self.size = (int(size[0]), int(size[1]))
         self.target = target or default_target(network)

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, ClassVar
 from vgraph.errors import PropertyError
 from vgraph.file_names import expanded
 from vgraph.frame_context import FrameContext, checked_uses
+from vgraph.gl_context import get_context
 from vgraph.ports import Inport, Outport
 from vgraph.progress import report as report_progress
 from vgraph.properties import Invalidation, Property
@@ -137,7 +138,6 @@ class Processor:
     @property
     def gl(self):
         """The process's shared moderngl context (created on first use, never by a processor)."""
-        from vgraph.gl_context import get_context
         return get_context()
 
     def wants(self, outport: str) -> bool:

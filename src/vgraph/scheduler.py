@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 import networkx as nx
 import numpy as np
 
-from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
 from vgraph import progress
+from vgraph.errors import ProcessorError, VGraphError, VGraphWarning
 from vgraph.frame_context import NO_CONTEXT, FrameContext
 from vgraph.gl_context import collect_garbage, get_context, has_context
 from vgraph.memory import out_of_memory
@@ -308,7 +308,8 @@ def blank_image_warning(network: Network, target: str, pixels: np.ndarray) -> st
         return None
     if "." in target and split_address(target)[1] != "image":
         return None  # depth, positions, curvature values: flat is no sign of a wrong view
-    from vgraph.blank_causes import diagnose  # imported when an image is blank, not every frame
+    # imported when an image is blank: its 8 ms would slow every command's start (vgraph --help)
+    from vgraph.blank_causes import diagnose
     processor_id = _target_processor(network, target)
     upstream = nx.shortest_path_length(network.graph.reverse(copy=False), processor_id)
     chain = [network.processors[pid] for pid in sorted(upstream, key=upstream.get)]  # nearest first

@@ -53,7 +53,7 @@ PICTURE_WIRES = (("image.image", "canvas.image"),)
 def is_volume_path(path: str | Path) -> bool:
     """Whether ``path`` names a data file (a file a VolumeSource reads, a folder: a DICOM series,
     or a picture) rather than a .json network."""
-    from vgraph.io import SUPPORTED_EXTENSIONS
+    from vgraph.io import SUPPORTED_EXTENSIONS  # imported when used: its readers' libraries take 0.15 s
     path = Path(path)
     name = path.name.lower()
     if name.endswith(".json"):

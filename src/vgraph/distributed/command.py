@@ -10,15 +10,15 @@ import sys
 import time
 
 from vgraph.cli_common import EXIT_INTERRUPTED, EXIT_OK
+from vgraph.distributed import connect, parse_cluster, parse_grid, render
+from vgraph.distributed.render import prepare
 from vgraph.errors import VGraphError
 
 
 def run_on_cluster(args, network, outputs, target) -> int:
     """``vgraph run ... --cluster``: the picture rendered by the cluster's workers (tiles or leaves), written
     as a local run writes it (atomically, the same messages)."""
-    from vgraph.cli_output import write_image_outputs
-    from vgraph.distributed import connect, parse_cluster, parse_grid, render
-    from vgraph.distributed.render import prepare
+    from vgraph.cli_output import write_image_outputs  # imported when used: vgraph.io takes 0.15 s
 
     if args.cluster is None:
         raise VGraphError("--split and --tiles need --cluster local:N or --cluster tcp://HOST:PORT")

@@ -25,8 +25,14 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
+
+import vgraph
 from vgraph import FloatProperty, Inport, OptionProperty, Outport, Processor, StringProperty
+from vgraph.camera import Camera
+from vgraph.distributed.worker import GL_LOCK
 from vgraph.image import Image
+from vgraph.network import Network
 
 FAULTS = ("none", "sleep", "hang", "exit")
 INJECTED = ("kill", "stop", "slow", "cancel")
@@ -113,17 +119,15 @@ def _apply(client, fault: str, address: str, pid: int, seconds: float, key: str)
     elif fault == "slow":
         client.run(_hold_gl_lock, seconds, workers=[address])  # returns once the thread holds on
     else:  # the scheduler drops the task: its future ends cancelled, as the render did not ask
-        from distributed import Future
+        from distributed import Future  # imported when used: Dask loads only for a cluster
         Future(key, client).cancel()
 
 
 def _hold_gl_lock(seconds: float) -> None:
     """In a worker: hold the lock every task takes around its GL work for ``seconds`` (from a
     thread of its own, so the worker keeps answering the scheduler: slow, not stopped)."""
-    from vgraph.distributed.worker import _GL_LOCK
-
     def hold():
-        with _GL_LOCK:
+        with GL_LOCK:
             time.sleep(seconds)
 
     threading.Thread(target=hold, name="vgraph-fault-slow", daemon=True).start()
@@ -144,12 +148,6 @@ def fault_network(folder, fault: str = "none", seconds: float = 1.0, marker: str
     """A network both splits can render, with a FaultPoint 'fault' between its BrickedRayCaster
     'rc' and its Canvas: a ball with ripples saved as ``folder``/ball.npy (the workers read it
     there), an oblique view, dvr with Blinn-Phong. Registers FaultPoint here when it is not yet."""
-    import numpy as np
-
-    import vgraph
-    from vgraph.camera import Camera
-    from vgraph.network import Network
-
     if __name__ not in vgraph.registry.plugins:
         vgraph.registry.load_plugin(__name__)
     folder = Path(folder)

@@ -24,9 +24,17 @@ composited in visibility order on the workers before the frame is resolved once.
 
 from __future__ import annotations
 
+import uuid
+
+import networkx as nx
 import numpy as np
 
+from vgraph.bricks.cache import brick_extent
+from vgraph.bricks.selection import LeafPass
 from vgraph.distributed.tiles import TileError
+from vgraph.distributed.watch import results, watch
+from vgraph.distributed.worker import GL_LOCK, load_plugins, shipped, worker_network
+from vgraph.frame_context import FrameContext
 
 KIND = "BrickedRayCaster"
 DEPTH_STEPS = 2 ** 24 - 1  # the accumulation's depth texture (mip's test on 1 - maximum): 24-bit
@@ -36,8 +44,6 @@ DEPTH_STEPS = 2 ** 24 - 1  # the accumulation's depth texture (mip's test on 1 -
 def bricked_caster(network, target: str) -> str:
     """The id of the one BrickedRayCaster the target needs, refused (TileError) when there is none,
     several, or one whose bricks cannot be composited independently."""
-    import networkx as nx
-
     processor_id = target.partition(".")[0]
     needed = sorted({processor_id, *nx.ancestors(network.graph, processor_id)})
     casters = [pid for pid in needed if network[pid].type_name == KIND]
@@ -80,11 +86,6 @@ def render_leaves(plan, client, runs: int | None = None, plugins=(), timeout=Non
                   cluster: str | None = None) -> np.ndarray:
     """The picture of ``plan`` (render.Plan) drawn by the leaves split; ``runs``: brick runs
     (default: one per worker); ``timeout`` and ``cluster`` as render() takes them."""
-    import uuid
-
-    from vgraph.distributed.worker import shipped
-    from vgraph.distributed.watch import results, watch
-
     caster = bricked_caster(plan.network, plan.target)
     document, base_dir = shipped(plan.network)
     plugins = tuple(plugins)
@@ -157,8 +158,6 @@ def _depth(maximum: np.ndarray) -> np.ndarray:
 # --- the tasks (in worker processes) -----------------------------------------------------------------
 def plan_task(document, base_dir, target, size, caster, plugins) -> tuple[list, list]:
     """(the planned bricks (key, rect) front to back, their weights: voxels of each brick)."""
-    from vgraph.bricks.cache import brick_extent
-
     def planned(processor, leaf):
         source = processor.brick_source(processor.inputs["volume"])
         bricks = [(tuple(int(v) for v in key), tuple(int(v) for v in rect)) for key, rect in leaf.plan.bricks]
@@ -190,13 +189,9 @@ def _draw(document, base_dir, target, size, caster, plugins, result, output=None
     ``output(network)``. The leaf is this evaluation's argument, not the processor's state: the
     caster (and what is downstream) runs again for each task's new leaf and for a later task
     without one, so a retried or later task on this worker starts afresh: tasks are idempotent."""
-    from vgraph.bricks.selection import LeafPass
-    from vgraph.distributed.worker import _GL_LOCK, _network, load_plugins
-    from vgraph.frame_context import FrameContext
-
     load_plugins(plugins)
-    with _GL_LOCK:
-        network, full_cameras = _network(document, base_dir, target)
+    with GL_LOCK:
+        network, full_cameras = worker_network(document, base_dir, target)
         for address, camera in full_cameras.items():  # a tiles task may have left a tile's camera
             network.set(address, camera)
         leaf = LeafPass(**leaf_values)

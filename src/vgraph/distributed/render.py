@@ -18,8 +18,14 @@ from pathlib import Path
 
 import numpy as np
 
+import vgraph
+from vgraph.distributed.leaves import bricked_caster, render_leaves
 from vgraph.distributed.tiles import Tile, TileError, assemble, check_grid, cut, untileable
 from vgraph.distributed.watch import ClusterWarning, TaskCancelledError, TaskTimeout, results, watch
+from vgraph.distributed.worker import render_tile, shipped
+from vgraph.image import Image
+from vgraph.network import Network
+from vgraph.scheduler import default_size, default_target, target_type
 
 SPLITS = ("tiles", "leaves")
 
@@ -53,7 +59,6 @@ def render(network_or_path, client, split: str = "tiles", tiles=(2, 2), size=Non
     for attempt in (1, 2):
         try:
             if split == "leaves":
-                from vgraph.distributed.leaves import render_leaves
                 return render_leaves(plan, client, runs, plugins, timeout, cluster)
             return render_tiles(plan, client, plugins, timeout, cluster)
         except TaskCancelledError as error:  # the scheduler dropped a task: new tasks, once
@@ -65,8 +70,6 @@ def render(network_or_path, client, split: str = "tiles", tiles=(2, 2), size=Non
 def render_tiles(plan: Plan, client, plugins=(), timeout: TaskTimeout | None = None,
                  cluster: str | None = None) -> np.ndarray:
     """The picture of ``plan`` drawn by the tiles split (one task per tile)."""
-    from vgraph.distributed.worker import render_tile, shipped
-
     document, base_dir = shipped(plan.network)
     # Unique keys: the same tile of another call (a changed file with the same name) is new work.
     token = uuid.uuid4().hex[:12]
@@ -89,9 +92,6 @@ def prepare(network_or_path, split: str = "tiles", tiles=(2, 2), size=None,
     """Check everything render() can refuse without a cluster (``vgraph run --cluster`` asks
     before starting one): the split, the grid, the target (an image) and the network (nothing in
     it needs the whole image)."""
-    from vgraph.image import Image
-    from vgraph.scheduler import default_size, default_target, target_type
-
     if split not in SPLITS:
         raise TileError(f"unknown split '{split}'; choose one of {', '.join(SPLITS)}")
     grid = check_grid(tiles)
@@ -104,7 +104,6 @@ def prepare(network_or_path, split: str = "tiles", tiles=(2, 2), size=None,
     size = tuple(int(v) for v in size) if size is not None else \
         tuple(default_size(network, [target.partition(".")[0]]))
     if split == "leaves":  # every worker renders the whole picture: nothing needs to be tileable
-        from vgraph.distributed.leaves import bricked_caster
         bricked_caster(network, target)
         return Plan(network, target, size, [])
     reasons = untileable(network, target)
@@ -114,12 +113,9 @@ def prepare(network_or_path, split: str = "tiles", tiles=(2, 2), size=None,
 
 
 def _network(network_or_path):
-    from vgraph.network import Network
-
     if isinstance(network_or_path, Network):
         return network_or_path
     if isinstance(network_or_path, (str, Path)):
-        import vgraph
         return vgraph.load(network_or_path)
     raise TypeError(f"render() takes a Network or the path of a network or volume file, got "
                     f"{type(network_or_path).__name__}")

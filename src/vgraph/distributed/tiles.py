@@ -13,9 +13,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import networkx as nx
 import numpy as np
 
 from vgraph.errors import VGraphError
+from vgraph.image import Image
 
 HALO = 1  # pixels: the widest neighbourhood an image pass of a renderer reads (contour.glsl: 1)
 
@@ -93,8 +95,6 @@ def assemble(size: tuple[int, int], tiles: list[Tile], pixels: list[np.ndarray])
 def untileable(network, target: str) -> list[str]:
     """Why the part of ``network`` that ``target`` needs cannot be rendered tile by tile: one line
     per processor that depends on the whole image (empty: it can)."""
-    import networkx as nx
-
     processor_id = target.partition(".")[0]
     needed = {processor_id, *nx.ancestors(network.graph, processor_id)}
     reasons = []
@@ -118,8 +118,6 @@ def untileable(network, target: str) -> list[str]:
 
 def _draws_without_a_camera(processor) -> bool:
     """Whether the processor makes an image from no image and without a camera."""
-    from vgraph.image import Image
-
     makes_image = any(issubclass(port.data_type, Image) for port in processor.outports)
     reads_image = any(issubclass(port.data_type, Image) for port in processor.inports)
     has_camera = any(prop.kind == "camera" for prop in processor.properties.values())

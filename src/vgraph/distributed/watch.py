@@ -73,6 +73,7 @@ class TaskTimeout:
     @classmethod
     def from_config(cls) -> "TaskTimeout":
         """The numbers of the Dask configuration's ``vgraph.task-timeout`` (DEFAULTS where unset)."""
+        # Dask (0.4 s to import) loads only when a cluster is used
         import dask
 
         values = {name: dask.config.get(f"vgraph.task-timeout.{name}", default)
@@ -143,6 +144,7 @@ class _Frame:
         self.abandoned: set[str] = set()  # workers to restart once the frame is given up
 
     def run(self) -> None:
+        # Dask (0.4 s to import) loads only when a cluster is used
         from distributed import wait
         from distributed.client import FuturesCancelledError
 
@@ -232,6 +234,7 @@ def _silent(client, workers) -> set[str]:
     (or three heartbeat intervals, on a large cluster) ago, by the scheduler's clock: stopped, or
     stuck where they cannot even answer."""
     def ages(dask_scheduler=None):
+        # Dask (0.4 s to import) loads only when a cluster is used
         from distributed.scheduler import heartbeat_interval
 
         now = time.time()
@@ -274,6 +277,7 @@ def _raise_for(future, state: _Task, cluster: str) -> None:
                                  cluster)
     if future.status != "error":
         return
+    # Dask (0.4 s to import) loads only when a cluster is used
     from distributed import KilledWorker
 
     error = future.exception()
@@ -296,6 +300,7 @@ def _cancelled_reason(future) -> str:
 def results(client, tasks: dict, cluster: str | None = None) -> list:
     """The results of ``tasks`` (future -> label, all done), in their order; a future the
     scheduler cancelled meanwhile is a TaskCancelledError."""
+    # Dask (0.4 s to import) loads only when a cluster is used
     from distributed.client import FutureCancelledError
 
     try:

@@ -12,22 +12,27 @@
 - One GL context per worker process: ``vgraph.gl_context.get_context()`` creates the process's
   headless EGL context on the first evaluation in that worker (never in the client or the
   scheduler) and every later task reuses it. GL contexts are not thread-safe, so tasks of one
-  worker hold ``_GL_LOCK`` while they touch it (workers are started single-threaded anyway).
+  worker hold ``GL_LOCK`` while they touch it (workers are started single-threaded anyway).
 """
 
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import threading
 from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
+import vgraph
+from vgraph import gl_context
 from vgraph.distributed.tiles import Tile, cameras, set_tile_cameras
+from vgraph.fileformat import build_network, network_document, parse_document
 
-_GL_LOCK = threading.Lock()
+GL_LOCK = threading.Lock()
 _NETWORKS: OrderedDict[str, tuple] = OrderedDict()  # key -> (network, full cameras)
 _KEPT = 2  # networks kept per worker (each may hold a volume on the GPU)
 _PREPARED = False  # load_plugins has set this process up
@@ -38,8 +43,8 @@ def render_tile(document: str, base_dir: str | None, target: str, size: tuple[in
     """The rendered rectangle of ``tile`` (its halo included) of the ``size`` image of ``target``,
     float32 (h, w, 4), row 0 at the top: the task of the tiles split."""
     load_plugins(plugins)
-    with _GL_LOCK:
-        network, full_cameras = _network(document, base_dir, target)
+    with GL_LOCK:
+        network, full_cameras = worker_network(document, base_dir, target)
         set_tile_cameras(network, full_cameras, tile, size)
         network.update(target, size=tuple(tile.rendered[2:]))
         return np.ascontiguousarray(network.output(target).to_numpy(), dtype=np.float32)
@@ -47,15 +52,12 @@ def render_tile(document: str, base_dir: str | None, target: str, size: tuple[in
 
 def load_plugins(plugins) -> None:
     """Once per worker process: its own progress-bar lock, and the plug-ins' processor types."""
-    import vgraph
-
     global _PREPARED
     if not _PREPARED:
         # tqdm's default lock is a multiprocessing semaphore, registered with the resource
         # tracker this process shares with the client: a worker killed by its nanny (a stalled
         # task) never unregisters it, and the tracker warns about it as `vgraph run` ends. A
         # worker's bars are never shown; a thread lock serves them.
-        from tqdm import tqdm
         tqdm.set_lock(threading.RLock())
         _PREPARED = True
     for module in plugins:  # the processor types of a plug-in network (vgraph run --plugin)
@@ -65,14 +67,13 @@ def load_plugins(plugins) -> None:
 
 def worker_info() -> dict:
     """Which process this is and what it holds (tests check that contexts are per process and reused)."""
-    from vgraph import gl_context
     held = gl_context.has_context()
     return {"pid": os.getpid(), "has_context": held,
             "context_id": id(gl_context.get_context()) if held else None,
             "networks": len(_NETWORKS)}
 
 
-def _network(document: str, base_dir: str | None, target: str):
+def worker_network(document: str, base_dir: str | None, target: str):
     """The built network of ``document`` with its cameras as the document has them. Networks are
     kept by the document without its cameras: a frame from another view reuses the network (its
     volume, its bricks in the BrickedRayCaster's cache) and only sets the new cameras."""
@@ -94,9 +95,6 @@ def _network(document: str, base_dir: str | None, target: str):
 
 def split_cameras(document: str) -> tuple[str, dict]:
     """(the document without its camera properties, as canonical JSON; 'id.name' -> camera value)."""
-    import json
-
-    import vgraph
     parsed = json.loads(document)
     views = {}
     for entry in parsed.get("processors", []):
@@ -115,10 +113,6 @@ def shipped(network) -> tuple[str, str | None]:
     (the client packs it here; ``build`` unpacks it in the worker).
     The folder is the network file's, which the workers must see at the same path (a shared
     file system), as they see the volumes and OME-Zarr stores the network reads."""
-    import json
-
-    from vgraph.fileformat import network_document
-
     # A network built in a script has no folder: its relative paths mean the client's current one.
     base_dir = network.base_dir if network.base_dir is not None else Path.cwd()
     document = network_document(network, base_dir)
@@ -127,10 +121,6 @@ def shipped(network) -> tuple[str, str | None]:
 
 def build(document: str, base_dir: str | None):
     """The network of a shipped document (migrated and validated as a file would be)."""
-    import json
-
-    from vgraph.fileformat import build_network, parse_document
-
     source = f"<network shipped from {base_dir or 'the client'}>"
     parsed = parse_document(json.loads(document), source)
     return build_network(parsed, source, base_dir=Path(base_dir) if base_dir else None)

@@ -61,11 +61,13 @@ FILE_FILTERS = tuple(f"*{e}" for e in MESH_EXTENSIONS)
 _CELL_KIND = re.compile(r"^(tetra|hexahedron|wedge|pyramid)(\d*)$")
 
 def meshio_extensions() -> tuple[str, ...]:
-    from meshio._helpers import extension_to_filetypes
+    from meshio._helpers import extension_to_filetypes  # imported when used: meshio takes 40 ms
     return tuple(extension_to_filetypes)
 
 
-def _extension(path: Path) -> str:
+def mesh_extension(path: Path) -> str:
+    """The longest mesh extension (vgraph's or meshio's) that ``path``'s name ends with, lower
+    case; else its suffix."""
     name = path.name.lower()
     known = sorted(set(MESH_EXTENSIONS) | set(meshio_extensions()), key=len, reverse=True)
     return next((e for e in known if name.endswith(e)), path.suffix.lower())
@@ -143,7 +145,7 @@ def raw_points(path: Path, raw) -> np.ndarray:
 
 def _check_extension(path: Path) -> str:
     """The file's extension, refused when no reader knows it or its package is missing."""
-    extension = _extension(path)
+    extension = mesh_extension(path)
     if extension not in MESH_EXTENSIONS and extension not in meshio_extensions():
         raise MeshFileError(path, f"unknown mesh format {extension or '(no extension)'!r}: "
                                   f"expected one of {', '.join(MESH_EXTENSIONS)} (or another "

@@ -38,7 +38,7 @@ _LOCK = threading.Lock()
 
 def read_meshio(path: Path):
     """The mesh in ``path`` as meshio reads it (module docstring)."""
-    from meshio._helpers import _filetypes_from_path, reader_map
+    from meshio._helpers import _filetypes_from_path, reader_map  # imported when used: meshio takes 40 ms
     reasons = []
     for file_format in _filetypes_from_path(path):
         try:
@@ -82,7 +82,7 @@ class _Recorder:
 @contextlib.contextmanager
 def _meshio_messages():
     """meshio's warnings and info lines during the block, as a list (module docstring)."""
-    import meshio._common as common
+    import meshio._common as common  # imported when used, as read_meshio imports meshio
     with _LOCK, warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
         warnings.simplefilter("ignore")  # numpy's and meshio's Python warnings: we report ourselves
         console, common.Console = common.Console, _Recorder
@@ -109,6 +109,7 @@ def _read_exodus(path: Path):
     netCDF4. meshio 5.3's reader expects one ``vals_nod_var<i>`` per variable and fails with a
     KeyError on files that hold them all in one ``vals_nod_var`` (time, variable, node), as the
     shared disk_out_ref.ex2 does."""
+    # imported when used: netCDF4 is optional (only Exodus needs it), meshio takes 40 ms
     import meshio
     import netCDF4
     from meshio.exodus._exodus import categorize, exodus_to_meshio_type

@@ -38,7 +38,7 @@ from vgraph.io._common import file_problem
 from vgraph.io.mesh_arrays import one_value_each
 from vgraph.io.mesh_counts import check_declared_counts
 from vgraph.io.mesh_geometry import check_points
-from vgraph.io.meshes import _extension, meshio_extensions, raw_points
+from vgraph.io.meshes import mesh_extension, meshio_extensions, raw_points
 from vgraph.io.meshio_reading import read_meshio
 
 SURFACE_EXTENSIONS = (".obj", ".stl", ".ply", ".off", ".vtk", ".vtu")
@@ -55,7 +55,7 @@ def read_surface(path, array: str = "", component: str = "") -> Geometry:
     problem = file_problem(path)
     if problem is not None:
         raise MeshFileError(path, "file " + problem)
-    extension = _extension(path)
+    extension = mesh_extension(path)
     if extension not in SURFACE_EXTENSIONS and extension not in meshio_extensions():
         raise MeshFileError(path, f"unknown surface format {extension or '(no extension)'!r}: "
                                   f"expected one of {', '.join(SURFACE_EXTENSIONS)} (or another "

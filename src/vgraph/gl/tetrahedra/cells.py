@@ -22,7 +22,7 @@ import numpy as np
 from vgraph import derived
 from vgraph.camera import Camera
 from vgraph.mesh import RegularGrid, TetMesh
-from vgraph.tetrahedralize import CELL_TETS
+from vgraph.tetrahedralize import CELL_TETS, visible_cells
 
 # For each parity, where corner c of a cell first appears among the 5 x 4 vertex slots of the
 # cell's tetrahedra (CELL_TETS): the mesh point of the corner is tets[5 k : 5 k + 5].ravel()[slot].
@@ -84,7 +84,6 @@ def visible_cells_of(mesh: TetMesh, alpha: np.ndarray) -> np.ndarray:
     """(K,) bool: the kept cells whose scalars reach an opacity > 0 under the LUT ``alpha``
     (vgraph.tetrahedralize.visible_cells on the range of the cell's eight corners, which is the
     union of its tetrahedra's ranges). Cells with a non-finite scalar are kept."""
-    from vgraph.tetrahedralize import visible_cells
     scalars = cell_attributes(mesh)[:, 4:]
     low, high = scalars.min(axis=1), scalars.max(axis=1)
     finite = np.isfinite(low) & np.isfinite(high)
