@@ -1,4 +1,4 @@
-"""Reading and writing volume files.
+"""Reading, writing and converting volume files.
 
     read_volume(path, *, raw=None, time_step=0) -> Volume
     write_volume(volume, path) -> Path
@@ -16,7 +16,9 @@ Formats (by extension; a folder is a DICOM series):
   folder .zarr       OME-Zarr image, read lazily as a BrickedVolume (vgraph/bricks/store.py);
                      so is any folder holding a zarr group (zarr.json or .zgroup)
 Writing: .npy, .npz, .nrrd, .nii, .nii.gz, .mha, .vti (writers.py), atomically; all but .npy keep
-the grid.
+the grid. Converting: ``vgraph convert`` writes any of these as an OME-Zarr pyramid of bricks
+(convert.py), reading the input slab by slab where its format allows (slabs.py). io sits above
+vgraph.bricks: it opens and writes stores through it, and the bricks never import io.
 
 Every reader returns a Volume with data [z, y, x] in native byte order (file order, x fastest;
 the voxels are never resampled), spacing and origin (x, y, z) and direction, in RAS patient space
