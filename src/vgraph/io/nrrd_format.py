@@ -31,8 +31,8 @@ import numpy as np
 from vgraph.errors import VolumeFileError
 from vgraph.io._common import (check_origin, check_spacing, check_time_step, header_lines,
                                make_volume, pad_to_3d, regular_file)
-from vgraph.io.nrrd_data import MAX_DATA_FILES, read_data
 from vgraph.io.label_hints import nrrd_says_labels
+from vgraph.io.nrrd_data import MAX_DATA_FILES, read_data
 from vgraph.io.orientation import split_axes
 from vgraph.volume import IDENTITY, Volume
 
