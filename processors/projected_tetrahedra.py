@@ -120,8 +120,8 @@ class PreintegrationTable:
 
 
 class PartialPreintegrationTables:
-    """Partial pre-integration's textures: ``psi`` (the TF-independent table, nearest-free linear
-    filtering, clamp-to-edge; written once per context) and the resolved TF's knots
+    """Partial pre-integration's textures: ``phi`` (the TF-independent table, linear filtering,
+    clamp-to-edge; written once per context) and the resolved TF's knots
     (``knot_positions`` R32F, ``knot_values`` RGBA32F, one row, read with texelFetch), rewritten
     only when the resolved TF changes; ``builds`` counts the knot uploads."""
 
@@ -132,12 +132,12 @@ class PartialPreintegrationTables:
         self.builds = 0
 
     def update(self, ctx, resolved) -> dict:
-        if self.textures is None or self.textures["psi"].ctx is not ctx:
+        if self.textures is None or self.textures["phi"].ctx is not ctx:
             size = partial_preintegration.PSI_SIZE
-            psi = ctx.texture((size, size), 1, _psi_table().tobytes(), dtype="f4")
-            psi.repeat_x = psi.repeat_y = False
-            psi.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            self.textures, self.key = {"psi": psi}, None
+            phi = ctx.texture((size, size), 1, _phi_table().tobytes(), dtype="f4")
+            phi.repeat_x = phi.repeat_y = False
+            phi.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            self.textures, self.key = {"phi": phi}, None
         if resolved != self.key:
             positions, values = partial_preintegration.knots(resolved)
             for name, data, components in (("knot_positions", positions, 1), ("knot_values", values, 4)):
@@ -153,14 +153,14 @@ class PartialPreintegrationTables:
         return self.textures
 
 
-_PSI = []
+_PHI = []
 
 
-def _psi_table() -> np.ndarray:
-    """The Psi table, computed once per process (2 s; it depends on nothing)."""
-    if not _PSI:
-        _PSI.append(partial_preintegration.psi_table())
-    return _PSI[0]
+def _phi_table() -> np.ndarray:
+    """The Phi table, computed once per process (2 s; it depends on nothing)."""
+    if not _PHI:
+        _PHI.append(partial_preintegration.phi_table())
+    return _PHI[0]
 
 
 class ProjectedTetrahedra(Processor):
@@ -243,7 +243,8 @@ class ProjectedTetrahedra(Processor):
                    "INTEGRATION_PARTIAL": self.integration == "partial",
                    "TABLE_SIZE": preintegration.TABLE_SIZE,
                    "ALPHA_SLICES": preintegration.ALPHA_SLICES,
-                   "PSI_SIZE": partial_preintegration.PSI_SIZE}
+                   "PSI_SIZE": partial_preintegration.PSI_SIZE,
+                   "PHI_SERIES_DEPTH": partial_preintegration.PHI_SERIES_DEPTH}
         program = programs.program(ctx, shaders[0], shaders[2], defines, processor=self.id,
                                    geometry=shaders[1])
         resolved = self.transfer_function.for_volume(mesh)

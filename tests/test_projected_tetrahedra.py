@@ -69,7 +69,7 @@ INTEGRATIONS = ("averaged", "preintegrated", "partial")
 # homogeneous attributes, so perspective needs no approximation).
 ORTHOGRAPHIC_TOLERANCE = 2e-6
 PERSPECTIVE_TOLERANCE = 1e-5
-TABLE_READ_TOLERANCE = 3e-5  # partial pre-integration's Psi table read bilinearly: measured 1.7e-5
+TABLE_READ_TOLERANCE = 3e-5  # partial pre-integration's Phi table read bilinearly: measured 1.5e-5
 
 CLASS_1 = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.3, 0.3, 0.8]])  # 3 inside 0-1-2 seen along z
 CLASS_2 = np.array([[0, 0, 0], [1, 1, 0], [1, 0, 0.8], [0, 1, 0.8]])    # edges 0-1 and 2-3 cross
@@ -431,7 +431,7 @@ def stiff_mesh() -> TetMesh:
     return TetMesh(mesh.points, mesh.tets, mesh.scalars * 100.0, reference_length=1.0)
 
 
-def test_psi_table_holds_the_closed_forms():
+def test_phi_table_holds_the_closed_forms():
     from scipy.special import erf
     from vgraph.gl.tetrahedra import partial_preintegration as partial
     depth = np.array([0.0, 1e-3, 0.5, 2.0, 30.0, 1e4])
@@ -439,17 +439,28 @@ def test_psi_table_holds_the_closed_forms():
     assert np.abs(partial.psi(depth, depth) - constant).max() < 1e-12  # tau constant
     rising = np.sqrt(np.pi / (2 * depth[1:])) * erf(np.sqrt(depth[1:] / 2))  # tau from 0 to D_b
     assert np.abs(partial.psi(0.0, depth[1:]) - rising).max() < 1e-12
-    # The table read as the shader reads it (bilinear at gamma = D / (1 + D)): measured max 1.7e-5.
-    table = partial.psi_table()
+    assert np.abs(partial.phi(depth, 0.3) + partial.psi(depth, 0.3) - 1.0).max() < 1e-12
+    assert abs(partial.phi(1e-9, 1e-9) / 5e-10 - 1.0) < 1e-8  # exact in relative terms when small
     rng = np.random.default_rng(5)
-    d_f, d_b = rng.exponential(3.0, 4000), rng.exponential(3.0, 4000)
+    # The series the shader takes below PHI_SERIES_DEPTH: measured relative error 2.0e-5.
+    small = rng.random((2, 4000)) * partial.PHI_SERIES_DEPTH
+    assert np.max(np.abs(partial.phi_series(*small) / partial.phi(*small) - 1.0)) < 3e-5
+    # The table read as the shader reads it (bilinear at gamma = D / (1 + D)): measured max 1.5e-5,
+    # and relatively 4.8e-5 just above PHI_SERIES_DEPTH.
+    table = partial.phi_table()
     n = table.shape[0]
-    x, y = d_f / (1 + d_f) * (n - 1), d_b / (1 + d_b) * (n - 1)
-    i, j = np.minimum(x.astype(int), n - 2), np.minimum(y.astype(int), n - 2)
-    fx, fy = x - i, y - j
-    read = ((1 - fy) * ((1 - fx) * table[j, i] + fx * table[j, i + 1])
-            + fy * ((1 - fx) * table[j + 1, i] + fx * table[j + 1, i + 1]))
-    assert np.abs(read - partial.psi(d_f, d_b)).max() < TABLE_READ_TOLERANCE
+
+    def read(d_f, d_b):
+        x, y = d_f / (1 + d_f) * (n - 1), d_b / (1 + d_b) * (n - 1)
+        i, j = np.minimum(x.astype(int), n - 2), np.minimum(y.astype(int), n - 2)
+        fx, fy = x - i, y - j
+        return ((1 - fy) * ((1 - fx) * table[j, i] + fx * table[j, i + 1])
+                + fy * ((1 - fx) * table[j + 1, i] + fx * table[j + 1, i + 1]))
+
+    d_f, d_b = rng.exponential(3.0, 4000), rng.exponential(3.0, 4000)
+    assert np.abs(read(d_f, d_b) - partial.phi(d_f, d_b)).max() < TABLE_READ_TOLERANCE
+    d_f, d_b = partial.PHI_SERIES_DEPTH * (1 + rng.random((2, 4000)))
+    assert np.max(np.abs(read(d_f, d_b) / partial.phi(d_f, d_b) - 1.0)) < 1e-4
 
 
 def test_partial_segments_match_the_exact_integral_on_a_spike():
@@ -470,7 +481,7 @@ def test_partial_segments_match_the_exact_integral_on_a_spike():
 @pytest.mark.parametrize("projection_name", ["perspective", "orthographic"])
 def test_partial_preintegration_is_exact_on_a_stiff_tf(gl, projection_name):
     """A spike one data unit wide on a 0..100 field (stiff_mesh), 128 x 128, against the exact
-    reference. Measured: partial 109.4 dB (max 2.2e-4) perspective, 109.9 dB (max 4.7e-5)
+    reference. Measured: partial 114.7 dB (max 2.1e-4) perspective, 118.1 dB (max 4.6e-5)
     orthographic; on the same view pre-integrated gives 53 dB (max 0.14), averaged 32 dB (max 0.86)."""
     reference_tetra = pytest.importorskip("vgraph.numerics.reference_tetra")
     from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA

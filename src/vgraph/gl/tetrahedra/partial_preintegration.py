@@ -8,11 +8,15 @@ length), the optical depth to u is T(u) = D_f u + (D_b - D_f) u^2 / 2, the trans
 zeta = exp(-(D_f + D_b) / 2), and integration by parts gives the premultiplied colour
 
     C = integral_0^1 c(u) T'(u) exp(-T(u)) du = c_f (1 - Psi) + c_b (Psi - zeta),
-    Psi(D_f, D_b) = integral_0^1 exp(-T(u)) du,
+    Psi(D_f, D_b) = integral_0^1 exp(-T(u)) du.
 
-the one function of two variables the table holds, at gamma = D / (1 + D) on [0, 1]^2 (so every
-depth from 0 to infinity has a place; ``psi_table``). The shader (shaders/tetrahedra/
-segment_partial.glsl) composites the pieces front to back.
+The table holds Phi = 1 - Psi = integral_0^1 (1 - exp(-T(u))) du, the piece's mean opacity, at
+gamma = D / (1 + D) on [0, 1]^2 (so every depth from 0 to infinity has a place; ``phi_table``), so
+that C = c_f Phi + c_b (alpha - Phi) with alpha = 1 - zeta keeps small opacities in float32
+(1 - Psi would round to 0 below 6e-8); below PHI_SERIES_DEPTH the shader takes Phi from its series
+(``phi_series``), where the table's bilinear read is relatively coarse. The shader
+(shaders/tetrahedra/segment_partial.glsl) composites the pieces front to back, summing their
+optical depths (the segment's alpha is 1 - exp(-sum), computed stably).
 
 vgraph's TF is linear in opacity a, and its extinction tau = -ln(1 - a) / L is not linear where a
 changes: ``knots`` adds points inside each of the TF's linear pieces, geometric in 1 - a, until
@@ -30,11 +34,28 @@ import numpy as np
 from vgraph.transfer_function import TransferFunction
 
 PSI_SIZE = 512          # the table's nodes per axis (gamma at k / (PSI_SIZE - 1))
+PHI_SERIES_DEPTH = 1.0 / 64.0  # below, in D_f and D_b, Phi from its series (relative error < 3e-5)
 KNOT_TOLERANCE = 1e-4   # max error of L tau interpolated linearly between knots
 MAX_KNOTS = 4096        # the knot textures' width; a TF needing more gets a coarser tolerance
 MAX_OPACITY = 1.0 - 1e-7  # as vgraph.numerics.reference_tetra: finite extinction at a = 1
 _GAUSS_NODES, _GAUSS_WEIGHTS = np.polynomial.legendre.leggauss(16)
 _GAUSS_NODES, _GAUSS_WEIGHTS = (_GAUSS_NODES + 1.0) / 2.0, _GAUSS_WEIGHTS / 2.0
+
+
+def phi(depth_front, depth_back) -> np.ndarray:
+    """Phi(D_f, D_b) = integral_0^1 (1 - exp(-T(u))) du = 1 - Psi (module docstring), float64,
+    broadcast: the same quadrature with -expm1, exact in relative terms at small depths too."""
+    return _quadrature(depth_front, depth_back, lambda t: -np.expm1(-t), tail=1.0)
+
+
+def phi_series(depth_front, depth_back) -> np.ndarray:
+    """Phi by its series for small depths: integral of T - T^2 / 2 (what the shader computes below
+    PHI_SERIES_DEPTH; the next term is below D^3 / 24)."""
+    d_f, d_b = (np.asarray(v, dtype=np.float64) for v in (depth_front, depth_back))
+    first = d_f / 3.0 + d_b / 6.0
+    slope = d_b - d_f
+    second = d_f * d_f / 3.0 + d_f * slope / 4.0 + slope * slope / 20.0
+    return first - 0.5 * second
 
 
 def psi(depth_front, depth_back) -> np.ndarray:
@@ -43,6 +64,11 @@ def psi(depth_front, depth_back) -> np.ndarray:
     Composite 16-point Gauss-Legendre on 16 intervals over [0, u_end], where T(u_end) >= 60 or
     u_end = 1: beyond, exp(-T) < 1e-26. T >= D_f u and T >= (D_b - D_f) u^2 / 2 when tau rises,
     T >= u (D_f + D_b) / 2 when it falls (T concave), which bound u_end."""
+    return _quadrature(depth_front, depth_back, lambda t: np.exp(-t), tail=0.0)
+
+
+def _quadrature(depth_front, depth_back, integrand, tail: float) -> np.ndarray:
+    """integral_0^1 integrand(T(u)) du, with integrand(T) = ``tail`` past u_end (see psi)."""
     d_f, d_b = np.broadcast_arrays(np.asarray(depth_front, np.float64), np.asarray(depth_back, np.float64))
     half_slope = 0.5 * (d_b - d_f)
     with np.errstate(divide="ignore"):
@@ -54,19 +80,19 @@ def psi(depth_front, depth_back) -> np.ndarray:
     weights = np.tile(_GAUSS_WEIGHTS, intervals) / intervals
     u = u_end[..., None] * x
     t = d_f[..., None] * u + half_slope[..., None] * u * u
-    return (np.exp(-t) @ weights) * u_end
+    return (integrand(t) @ weights) * u_end + tail * (1.0 - u_end)
 
 
-def psi_table(size: int = PSI_SIZE) -> np.ndarray:
-    """(size, size) float32 Psi at gamma_f = i / (size - 1) (x, fastest) and gamma_b = j / (size - 1)
-    (y), D = gamma / (1 - gamma); the last row and column (D infinite) are 0."""
+def phi_table(size: int = PSI_SIZE) -> np.ndarray:
+    """(size, size) float32 Phi at gamma_f = i / (size - 1) (x, fastest) and gamma_b = j / (size - 1)
+    (y), D = gamma / (1 - gamma); the last row and column (D infinite) are 1."""
     gamma = np.linspace(0.0, 1.0, size)
     with np.errstate(divide="ignore"):
         depth = np.where(gamma < 1.0, gamma / np.maximum(1.0 - gamma, 1e-300), np.inf)
-    table = np.zeros((size, size))
+    table = np.ones((size, size))
     finite = depth[:-1]
     for j, d_b in enumerate(finite):  # rows keep memory small (size x 256 nodes)
-        table[j, :-1] = psi(finite, d_b)
+        table[j, :-1] = phi(finite, d_b)
     return table.astype(np.float32)
 
 
@@ -119,7 +145,7 @@ def segment_integral(s_front, s_back, length, tf: TransferFunction, reference_le
     cross = np.where((cross > 0.0) & (cross < 1.0), cross, 2.0)
     splits = np.sort(np.concatenate([np.zeros((len(ds), 1)), cross, np.ones((len(ds), 1))], axis=1), axis=1)
     splits = np.minimum(splits, 1.0)
-    colour, transparency = np.zeros((len(ds), 3)), np.ones(len(ds))
+    colour, total = np.zeros((len(ds), 3)), np.zeros(len(ds))
     for k in range(splits.shape[1] - 1):
         x0, x1 = splits[:, k], splits[:, k + 1]
         mid = s_front + ds * 0.5 * (x0 + x1)
@@ -128,11 +154,12 @@ def segment_integral(s_front, s_back, length, tf: TransferFunction, reference_le
         v1 = _on_piece(positions, values, piece, s_front + ds * x1)
         scale = (x1 - x0) * length / reference_length
         d_f, d_b = v0[:, 3] * scale, v1[:, 3] * scale
-        zeta = np.exp(-0.5 * (d_f + d_b))
-        p = psi(d_f, d_b)
-        colour += transparency[:, None] * (v0[:, :3] * (1.0 - p)[:, None] + v1[:, :3] * (p - zeta)[:, None])
-        transparency *= zeta
-    return np.concatenate([colour, (1.0 - transparency)[:, None]], axis=1)
+        depth = 0.5 * (d_f + d_b)
+        mean_opacity = phi(d_f, d_b)
+        piece = v0[:, :3] * mean_opacity[:, None] + v1[:, :3] * (-np.expm1(-depth) - mean_opacity)[:, None]
+        colour += np.exp(-total)[:, None] * piece
+        total += depth
+    return np.concatenate([colour, -np.expm1(-total)[:, None]], axis=1)
 
 
 def _on_piece(positions, values, piece, s):
