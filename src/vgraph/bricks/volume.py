@@ -76,7 +76,7 @@ class BrickedVolume(Volume):
     def open(cls, path, time_step: int = 0, channel: int = 0,
              memory_budget_mb: float = DEFAULT_MEMORY_BUDGET_MB) -> "BrickedVolume":
         """The OME-Zarr image at ``path`` (metadata only; no voxel is read)."""
-        from vgraph.bricks.store import BrickStore  # imported when used: zarr takes 0.3 s
+        from vgraph.bricks.store import BrickStore  # imported when used: zarr takes 0.2 s
         store = BrickStore(path, time=time_step, channel=channel)
         return cls(store, memory_budget_mb=memory_budget_mb)
 
