@@ -1,7 +1,7 @@
 """ProjectedTetrahedra: error against frame time for every integration x visibility order (issue 30).
 
     .venv/bin/python bench/bench_tetra_accuracy.py [--size 256] [--repeat 3] [--meshes post disk grid c]
-        [--out bench/results/tetra_accuracy.md]
+        [--out bench/results/tetra_accuracy.md] [--plot docs/images/tetra_error_time.png]
 
 For each mesh and transfer function, every integration (averaged, preintegrated, partial) with
 every visibility order (centroid, mpvo, mpvonc) is compared with the exact CPU reference
@@ -19,7 +19,7 @@ again), including the sort, the draw and glFinish, not the read-back. Meshes:
 Transfer functions: "ramp", the ray casters' default (TransferFunctionLut.DEFAULT); "spike", an
 opacity spike to 0.9 whose base is 1 % of the value range wide (one data unit on the 0..100
 grid), at the field's median, the colour turning across it. Prints the settings and a table;
---out also writes them as markdown.
+--out also writes them as markdown, --plot PSNR against frame time, a panel per mesh and TF.
 """
 
 from __future__ import annotations
@@ -99,12 +99,46 @@ def measure(mesh, camera, tf, reference, size, repeat, integration, order):
     return psnr(image, reference), float(error.max()), min(times)
 
 
+def plot(results, path: Path) -> None:
+    """PSNR against frame time, a panel per (mesh, TF): colour = integration, marker = order."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import matplotlib.ticker
+    panels = list(dict.fromkeys((mesh, tf) for mesh, tf, *_ in results))
+    columns = min(4, len(panels))
+    rows = -(-len(panels) // columns)
+    figure, axes = plt.subplots(rows, columns, figsize=(3.2 * columns, 2.8 * rows), squeeze=False)
+    colours = dict(zip(INTEGRATIONS, ("tab:orange", "tab:blue", "tab:green")))
+    markers = dict(zip(ORDERS, ("o", "s", "^")))
+    for axis, (mesh, tf) in zip(axes.ravel(), panels):
+        for _, _, integration, order, db, seconds in (r for r in results if r[:2] == (mesh, tf)):
+            axis.scatter(seconds * 1000, min(db, 130.0), color=colours[integration], marker=markers[order],
+                         label=f"{integration}, {order}")
+        axis.set_xscale("log")
+        axis.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+        axis.set_title(f"{mesh}, {tf}", fontsize=8)
+        axis.set_xlabel("frame (ms)", fontsize=7)
+        axis.set_ylabel("PSNR (dB)", fontsize=7)
+        axis.tick_params(labelsize=7)
+    for axis in axes.ravel()[len(panels):]:
+        axis.axis("off")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    figure.legend(handles, labels, loc="lower center", ncol=5, fontsize=7)
+    figure.tight_layout(rect=(0, 0.08, 1, 1))
+    from vgraph.atomic import atomic_path
+    with atomic_path(path) as temporary:
+        figure.savefig(temporary, dpi=100)
+    plt.close(figure)
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--meshes", nargs="+", default=["post", "disk", "grid", "c"])
     parser.add_argument("--out", type=Path)
+    parser.add_argument("--plot", type=Path)
     args = parser.parse_args(argv)
     from vgraph.gl_context import get_context
     from vgraph.numerics import reference_tetra
@@ -116,6 +150,7 @@ def main(argv=None) -> None:
              "| mesh | tetrahedra | TF | integration | order | PSNR (dB) | max error | frame (ms) |",
              "|---|---|---|---|---|---|---|---|"]
     print("\n".join(lines), flush=True)
+    results = []  # (mesh, TF, integration, order, PSNR, seconds)
     for label, mesh, camera in meshes(args.meshes):
         for tf_name, tf in transfer_functions(mesh).items():
             reference = reference_tetra.render(mesh, camera, tf, size)
@@ -126,7 +161,10 @@ def main(argv=None) -> None:
                     line = (f"| {label} | {len(mesh.tets):,} | {tf_name} | {integration} | {order} | "
                             f"{db:.1f} | {worst:.2g} | {seconds * 1000:.0f} |")
                     lines.append(line)
+                    results.append((label, tf_name, integration, order, db, seconds))
                     print(line, flush=True)
+    if args.plot:
+        plot(results, args.plot)
     if args.out:
         from vgraph.atomic import atomic_path
         with atomic_path(args.out) as temporary:
