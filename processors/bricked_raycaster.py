@@ -4,7 +4,8 @@ than memory (a BrickedVolume's pyramid on disk) or than one GL texture.
 Conventions (docs/explanations/bricked-ray-casting.md explains each with the numbers):
 - Built from the shared ray-casting components (vgraph.gl.raycasting.raycaster_base): the volume
   is sampled by BrickSampling (vgraph.bricks.sampling: the pyramid, the brick cache under
-  ``ram_budget`` and ``gl_budget``, the frame's plan with its levels of detail, the per-brick
+  ``ram_budget`` and ``gl_budget``, the frame's plan with its levels of detail (by footprint,
+  ``lod_bias``, and for dvr by an error bound under the TF, ``max_error``), the per-brick
   passes and the resolve pass, ``last_frame``), which the RayCaster also draws through when one
   texture cannot hold its volume. Opacity correction and ``early_termination`` are FrontToBack's
   (below 1, dvr: each brick reads the accumulation, two passes a brick), the shading normals

@@ -48,6 +48,10 @@ int last_in_block(Ray ray, ivec3 k, int i) {
     return max(i, int(ceil(leave - 1e-3)) - 1);
 }
 #define SKIP_BLOCK_IF(ray, t, i, condition) { ivec3 k = block_of(t); vec2 range = block_range(k); if (condition) { i = last_in_block(ray, k, i); continue; } }
+// The same for a loop whose next index is `next` (composite_dvr.glsl): it goes on at the first
+// sample past the block, whatever the brick's lattice.
+#define SKIP_BLOCK_TO(ray, t, i, next, condition) { ivec3 k = block_of(t); vec2 range = block_range(k); if (condition) { next = last_in_block(ray, k, i) + 1; continue; } }
 #else
 #define SKIP_BLOCK_IF(ray, t, i, condition)
+#define SKIP_BLOCK_TO(ray, t, i, next, condition)
 #endif

@@ -4,9 +4,16 @@
 // faces of the volume pushed far out), so each sample is taken in exactly one brick. The slab
 // intersection gives the candidate index range, widened by one sample on each side against
 // rounding; owns() decides each sample with the same float expression in every brick.
-// Needs ray.glsl.
+// A brick of a coarse level samples on its own lattice (level_stride > 1: the level's step is
+// level_stride steps of level 0, 2^L where every axis halves): it takes its first owned sample and
+// then every sample of index k * level_stride it owns, each standing for the level-0 samples up to
+// the next one it takes (its `weight`, at most level_stride; the last stops at the brick's last owned
+// sample), its opacity corrected for that many steps (stepped_opacity). The brick's samples thus
+// stand for exactly the level-0 samples it owns: no gap and no overlap at a seam between levels.
+// Needs ray.glsl and transfer_function.glsl.
 uniform vec3 owner_lo;
 uniform vec3 owner_hi;
+uniform int level_stride;  // 1 at level 0
 
 struct Span {
     int first;  // candidate samples first .. last (may be empty: first > last)
@@ -34,4 +41,33 @@ Span owned_span(Ray ray) {
         return Span(1, 0);
     }
     return Span(max(int(floor(enter)) - 1, 0), min(int(ceil(leave)) + 1, ray.samples - 1));
+}
+
+// The owned samples of a coarse brick, first .. last (the owned samples of a ray in a box are one
+// run: sample_point is monotone in i); first > last where it owns none.
+Span owned_run(Ray ray, Span span) {
+    int first = span.first;
+    while (first <= span.last && !owns(sample_point(ray, float(first)))) {
+        ++first;
+    }
+    int last = span.last;
+    while (last >= first && !owns(sample_point(ray, float(last)))) {
+        --last;
+    }
+    return Span(first, last);
+}
+
+// The sample after i that this brick takes (level 0: i + 1), at most last + 1.
+int next_taken(int i, int last) {
+    return min((i / level_stride + 1) * level_stride, last + 1);
+}
+
+// A sample's opacity standing for `weight` steps of level 0 (FrontToBack's opacity_exponent per
+// step): 1 - (1 - a)^(exponent * weight), the composite of `weight` level-0 samples of that value;
+// a weight of 1 is corrected_opacity itself (level 0 stays the RayCaster's sum).
+float stepped_opacity(float alpha, int weight) {
+    if (weight == 1) {
+        return corrected_opacity(alpha);
+    }
+    return alpha >= 1.0 ? 1.0 : 1.0 - exp2(opacity_exponent * float(weight) * log2(1.0 - alpha));
 }

@@ -6,7 +6,9 @@
 // - READ_ACCUMULATION: they start at what the bricks in front left (front_state.glsl), so the sum
 //   is the RayCaster's, sample by sample, and EARLY_TERMINATION stops it where the RayCaster does
 //   (once A >= early_termination).
-// Depth: the first sample with a' > 0.
+// Depth: the first sample with a' > 0. A brick of a coarse level takes only the samples of its
+// lattice, each for the level-0 samples up to the next (brick_span.glsl: owned_run, next_taken,
+// stepped_opacity); at level 0 every candidate is tested and taken as before.
 #ifdef COMPOSITING_DVR
 uniform float early_termination;
 
@@ -16,16 +18,19 @@ void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {
         return;  // the ray stopped in a brick in front
     }
 #endif
-    for (int i = span.first; i <= span.last; ++i) {
+    Span run = level_stride == 1 ? span : owned_run(ray, span);
+    int next = run.first;
+    for (int i = run.first; i <= run.last; i = next) {
+        next = next_taken(i, run.last);
         vec3 t = sample_point(ray, float(i));
         if (!owns(t)) {
             continue;
         }
-        SKIP_BLOCK_IF(ray, t, i, transparent(range))
+        SKIP_BLOCK_TO(ray, t, i, next, transparent(range))
         float raw = raw_sample(t);
         vec4 color = classify(raw * intensity_scale + intensity_offset);
         if (color.a > 0.0) {
-            float alpha = corrected_opacity(color.a);
+            float alpha = stepped_opacity(color.a, next - i);
 #ifdef SHADING_BLINN_PHONG
             color.rgb = shade(color.rgb, gradient(t, raw), -ray.direction);
 #endif

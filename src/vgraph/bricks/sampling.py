@@ -34,8 +34,14 @@ Conventions (docs/explanations/bricked-ray-casting.md explains each with the num
   or 1e-12 across, far from the origin) is drawn in its normalised frame as the RayCaster draws
   one: the pyramid is the framed copy's (a BrickedVolume regridded, nothing read).
 - Per frame the bricks are chosen (selection.plan_frame): in view, not empty under the TF (or
-  below the iso level), at the level their projected voxel size asks (``lod_bias``), raised until
-  the frame's bricks fit min(ram_budget, gl_budget); a raised level is warned about.
+  below the iso level), at the level their projected voxel size asks (``lod_bias``), for dvr
+  refined where their error bound under the TF (vgraph.bricks.lod_error) would take the frame's
+  over ``max_error`` (1, the default: no refining), raised until the frame's bricks fit
+  min(ram_budget, gl_budget); a raised level is warned about. ``last_frame["error_bound"]``: the
+  most any pixel of the frame can differ from the level-0 frame (dvr; None for mip and iso).
+- A dvr brick of a coarse level samples its own lattice: every level_stride-th sample of level
+  0's (BrickGeometry.strides), each standing for the level-0 samples up to the next
+  (bricks/brick_span.glsl), so a coarse level is cheaper and seams between levels stay exact.
 - The frame context (vgraph.frame_context; not properties) gives two things:
   ``load_limit`` (only the GUI's render process gives one, scripts and ``vgraph run`` none, so they
   always draw the planned frame): a frame whose missing bricks cannot be read within it is drawn
@@ -59,6 +65,7 @@ import numpy as np
 from pydantic import AfterValidator, Field, StrictInt
 
 from vgraph.bricks.cache import MB, BrickCache, LoadLimit
+from vgraph.bricks.lod_error import LodErrors, TransferFunctionSpread
 from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.selection import BrickGeometry, FramePlan, LeafPass, coarse_first, plan_frame, visible_bricks
 from vgraph.bricks.targets import Accumulation, brick_uniforms, level_voxel
@@ -116,7 +123,12 @@ class BrickSampling(Component):
                 "lod_bias": FloatProperty(0.0, min=-16.0, max=16.0,
                                           doc=f"levels coarser (+) or finer (-) than voxels of about a pixel{when}"),
                 "ram_budget": FloatProperty(1024.0, min=0.01, max=1e7, doc=f"MB of bricks kept in memory{when}"),
-                "gl_budget": FloatProperty(512.0, min=0.01, max=1e7, doc=f"MB of brick textures kept on the GL{when}")}
+                "gl_budget": FloatProperty(512.0, min=0.01, max=1e7, doc=f"MB of brick textures kept on the GL{when}"),
+                "max_error": FloatProperty(1.0, min=0.0, max=1.0,
+                                           doc="dvr: the most any pixel may move from the level-0 frame by "
+                                               "bricks drawn coarser (a bound under the transfer function; "
+                                               "last_frame['error_bound']); 1: levels by footprint alone"
+                                               f"{when}")}
 
     def start(self) -> None:
         processor = self.processor
@@ -132,6 +144,8 @@ class BrickSampling(Component):
         self.pyramid = None  # (weakref to the volume, brick size, ArrayPyramid)
         self.last_frame: dict = {}
         self.warned_level = 0  # the budget's level last warned about (0: none)
+        self.spread = (None, None)  # (the resolved TF and lighting, its TransferFunctionSpread)
+        self.warned_mode = None  # the compositing mode last warned about max_error not applying to
 
     @property
     def compositing(self) -> str:
@@ -170,12 +184,35 @@ class BrickSampling(Component):
     def budget(self) -> int:
         return int(min(self.processor.ram_budget, self.processor.gl_budget) * MB)
 
-    def plan(self, source, frame: Frame) -> FramePlan:
+    def lod_errors(self, source, geometry, frame: Frame) -> LodErrors | None:
+        """The frame's error bounds per brick and level (vgraph.bricks.lod_error); None for mip and
+        iso, whose levels go by footprint alone (said once when max_error asks for more)."""
+        processor = self.processor
+        if self.compositing != "dvr":
+            if processor.max_error < 1.0 and self.warned_mode != self.compositing:
+                self.warn(f"{processor.type_name} '{processor.id}': max_error bounds dvr frames only; "
+                          f"{self.compositing} chooses levels by footprint (lod_bias)")
+            self.warned_mode = self.compositing
+            return None
+        self.warned_mode = None
+        lighting = (processor.ambient, processor.diffuse, processor.specular) if processor.shaded() else None
+        key = (processor.transfer_function.for_volume(frame.volume), lighting)
+        if self.spread[0] != key:
+            self.spread = (key, TransferFunctionSpread(key[0].lut(), lighting))
+        stops = processor.early_termination if self.reads_accumulation() else 1.0
+        return LodErrors(source, geometry, self.spread[1], processor.sampling_rate,
+                         processor.parts[FrontToBack].opacity_exponent(), stops, frame.volume.value_range)
+
+    def warn(self, message: str) -> None:
+        log.warning(message)
+        warnings.warn(message, VGraphWarning, stacklevel=4)
+
+    def plan(self, source, frame: Frame, errors: LodErrors | None) -> FramePlan:
         processor = self.processor
         view_projection = frame.camera.view_projection(frame.size[0] / frame.size[1])
         try:
             plan = plan_frame(source, frame.camera, frame.size, view_projection, self.visible(source, frame),
-                              processor.lod_bias, self.budget())
+                              processor.lod_bias, self.budget(), errors, processor.max_error)
         except ValueError as error:
             raise VGraphError(f"{processor.id}.ram_budget / {processor.id}.gl_budget: {error}; raise the "
                               f"budgets or use smaller bricks") from None
@@ -184,8 +221,10 @@ class BrickSampling(Component):
             message = (f"{processor.type_name} '{processor.id}': the budget ({budget:g} MB) "
                        f"cannot hold the frame's finer bricks; rendering at level {plan.floor_level} "
                        f"or coarser ({len(plan.bricks)} bricks, {plan.bytes / MB:.2f} MB)")
-            log.warning(message)
-            warnings.warn(message, VGraphWarning, stacklevel=3)
+            bound = errors.frame_bound(plan.bricks, frame.size) if errors is not None else None
+            if bound is not None and bound > processor.max_error:
+                message += f"; its error bound {bound:.3g} is over max_error {processor.max_error:g}"
+            self.warn(message)
         self.warned_level = plan.floor_level
         return plan
 
@@ -212,7 +251,8 @@ class BrickSampling(Component):
         self.cache.use_source(source, frame.volume.value_range)
         self.cache.set_budgets(self.processor.ram_budget, self.processor.gl_budget)
         geometry = BrickGeometry(source)
-        plan = self.plan(source, frame)
+        errors = self.lod_errors(source, geometry, frame)
+        plan = self.plan(source, frame, errors)
         read_before, seconds_before = self.cache.stats["bricks_read"], self.cache.stats["read_seconds"]
         drawn = self.limited(source, plan, frame.ctx, context.load_limit)
         accumulation = self.accumulation.ensure(frame.ctx, frame.size)
@@ -231,6 +271,9 @@ class BrickSampling(Component):
         self.last_frame = {"bricks": len(drawn.bricks), "floor_level": drawn.floor_level, "bytes": drawn.bytes,
                            "levels": sorted({key[0] for key, _ in drawn.bricks}), "complete": complete,
                            "planned_floor_level": plan.floor_level,
+                           # the most a pixel can differ from the level-0 frame (dvr; lod_error)
+                           "error_bound": None if errors is None else errors.frame_bound(
+                               plan.bricks if context.leaf is not None else drawn.bricks, frame.size),
                            "bricks_read": self.cache.stats["bricks_read"] - read_before,
                            "seconds": time.perf_counter() - started}
 

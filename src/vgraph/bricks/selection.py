@@ -95,6 +95,10 @@ class BrickGeometry:
         self.ratios = [None] + [b // a for a, b in zip(factors, factors[1:])]  # children per axis
         self.grids = [np.asarray(cell_grid(source, k)[::-1]) for k in range(len(source.levels))]
         self.coarseness = coarseness(source)
+        # Level-0 samples per sample of each level (brick_span.glsl): the level's smallest cell
+        # edge over level 0's smallest voxel edge, whole (2^L where every axis halves).
+        finest = float(self.spacing0.min())
+        self.strides = [max(1, int(math.floor(float((f * self.spacing0).min()) / finest + 1e-9))) for f in factors]
 
     def voxel_bounds(self, key) -> tuple[np.ndarray, np.ndarray]:
         """Level-0 voxel bounds [lo, hi) (x, y, z) of a brick, hi clipped to the volume."""
@@ -222,9 +226,11 @@ class LevelTables:
 
 def select_bricks(source: BrickSource, camera, size, view_projection, visible, lod_bias: float,
                   floor_level: int = 0, geometry: BrickGeometry | None = None,
-                  tables: LevelTables | None = None) -> list:
+                  tables: LevelTables | None = None, too_coarse: Callable[[int], np.ndarray] | None = None) -> list:
     """(key, rect) of the bricks to draw, front to back (see the module docstring). ``visible(level)``
-    is the bool [z, y, x] array of bricks that can contribute at that level."""
+    is the bool [z, y, x] array of bricks that can contribute at that level; ``too_coarse(level)``,
+    where given, the bool [z, y, x] array of cells of that level to refine whatever their footprint
+    (their error bound is over the frame's share, plan_frame), down to ``floor_level``."""
     geometry = geometry or BrickGeometry(source)
     tables = tables or LevelTables(geometry, camera, size, view_projection, visible, lod_bias)
     top = len(source.levels) - 1
@@ -239,7 +245,8 @@ def select_bricks(source: BrickSource, camera, size, view_projection, visible, l
             rect = rects[z, y, x]
             if rect[2] == 0:
                 continue
-            if level > min(max(int(wants[z, y, x]), floor_level, 0), top):
+            if level > min(max(int(wants[z, y, x]), floor_level, 0), top) or (
+                    too_coarse is not None and level > floor_level and too_coarse(level)[z, y, x]):
                 grid, ratio = geometry.grids[level - 1], geometry.ratios[level]
                 first = np.array([x, y, z]) * ratio
                 counts = np.minimum(first + ratio, grid) - first
@@ -253,14 +260,28 @@ def select_bricks(source: BrickSource, camera, size, view_projection, visible, l
 
 
 def plan_frame(source: BrickSource, camera, size, view_projection, visible, lod_bias: float,
-               budget_bytes: int) -> FramePlan:
+               budget_bytes: int, errors=None, max_error: float = 1.0) -> FramePlan:
     """The frame's bricks at the finest levels whose bricks fit ``budget_bytes`` together; raises
-    ValueError when not even the coarsest level fits."""
+    ValueError when not even the coarsest level fits. With ``errors`` (a lod_error.LodErrors) and
+    ``max_error`` < 1, a cell is also refined where its error bound is over a share of
+    ``max_error``: the share starts at max_error and is divided by 8, then 0, until the frame's bound is
+    within max_error (at share 0 every cell that can move a pixel is refined down to the floor)."""
     geometry = BrickGeometry(source)
     tables = LevelTables(geometry, camera, size, view_projection, visible, lod_bias)
 
+    def select_at(floor_level: int, share: float | None) -> list:
+        too_coarse = None if share is None else (lambda level: errors(level) > share)
+        return select_bricks(source, camera, size, view_projection, visible, lod_bias, floor_level, geometry,
+                             tables, too_coarse)
+
     def select(floor_level: int) -> list:
-        return select_bricks(source, camera, size, view_projection, visible, lod_bias, floor_level, geometry, tables)
+        if errors is None or max_error >= 1.0:
+            return select_at(floor_level, None)
+        for share in (max_error, max_error / 8.0, 0.0):
+            bricks = select_at(floor_level, share)
+            if errors.frame_bound(bricks, size) <= max_error:
+                break
+        return bricks
 
     for floor_level in range(len(source.levels)):
         bricks = select(floor_level)

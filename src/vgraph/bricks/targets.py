@@ -80,7 +80,8 @@ def brick_uniforms(geometry: BrickGeometry, key) -> dict:
     lo, hi = geometry.owner_bounds(key)
     core = m - 2 * HALO  # (x, y, z)
     return {"brick_scale": vec(scale), "brick_offset": vec(offset), "owner_lo": vec(lo), "owner_hi": vec(hi),
-            "brick_texels": vec(m), "block_count": tuple(int(-(-int(n) // BLOCK)) for n in core)}
+            "brick_texels": vec(m), "block_count": tuple(int(-(-int(n) // BLOCK)) for n in core),
+            "level_stride": geometry.strides[key[0]]}
 
 
 def level_voxel(geometry: BrickGeometry, level: int) -> np.ndarray:
