@@ -36,6 +36,7 @@ Model (rules of vgraph.numerics.reference_raycast unless said otherwise; arithme
    gradient, before the mix (accumulate: channels with a'_k > 0) or at the hit (nearest_opaque).
 8. Pixel: ``rgb = C + (1 - A) bg.rgb``, ``alpha = A + (1 - A) bg.a``; float32 (H, W, 4), row 0 at
    the top.
+9. Memory: the rays are marched ``chunk_rays`` at a time (reference_raycast's rule 9).
 """
 
 from __future__ import annotations
@@ -80,7 +81,8 @@ class _Channel:
 def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate",
                     sampling_rate: float = 1.0, early_termination: float = 0.99,
                     opacity_threshold: float = 0.5, background=(0.0, 0.0, 0.0, 1.0),
-                    shading: Shading | None = None, clip_planes=(), crop_box=None) -> np.ndarray:
+                    shading: Shading | None = None, clip_planes=(), crop_box=None,
+                    chunk_rays: int = 65536) -> np.ndarray:
     """Render ``channels``, a list of (Volume, TransferFunction), the rays spanning the union of
     their boxes, as the MultiVolumeRayCaster does (model in the module docstring). ``size`` is (width, height);
     ``clip_planes`` and ``crop_box`` are those of the EntryExitPoints."""
@@ -100,8 +102,12 @@ def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate"
     step = min(c.min_spacing for c in ready) / sampling_rate
     counts = sample_counts(t_entry, t_exit, step)
     march = {"accumulate": _accumulate, "nearest_opaque": _nearest_opaque, "maximum": _maximum}[blend]
-    rgba = march(ready, origins, directions, t_entry, counts, step,
-                 early_termination=early_termination, threshold=opacity_threshold, shading=shading)
+    rgba = np.empty((len(origins), 4))
+    for start in range(0, len(origins), chunk_rays):  # rule 9: bounded memory
+        rays = slice(start, start + chunk_rays)
+        rgba[rays] = march(ready, origins[rays], directions[rays], t_entry[rays], counts[rays], step,
+                           early_termination=early_termination, threshold=opacity_threshold,
+                           shading=shading)
     bg = np.asarray(background, dtype=np.float64)
     coverage = rgba[:, 3:4]
     image = np.concatenate([rgba[:, :3] + (1.0 - coverage) * bg[:3], coverage + (1.0 - coverage) * bg[3]],

@@ -8,7 +8,7 @@ label of each sample by the majority of interpolation weights (vgraph.labels.maj
 space as numerics.reference_raycast's rule 7) or
 first_hit (the first shown label, opaque, its hit refined by halvings of the step); optional
 Blinn-Phong with a headlight (numerics.reference_raycast's model) and the majority rule's normal;
-the result over the background.
+the result over the background. Rays are marched CHUNK_RAYS at a time (bounded memory).
 
 It works in the texture coordinates of ``volume`` along its own index axes, so ``volume`` must be
 the one the entry points are of: for an oriented volume (Volume.direction) the copy the ray
@@ -25,6 +25,7 @@ from vgraph.labels import BACKGROUND, LabelTable, label_codes, majority
 from vgraph.numerics.reference_raycast import GRADIENT_EPSILON, corrected_opacity
 from vgraph.volume import Volume
 
+CHUNK_RAYS = 65536  # rays marched together, at most (bounded memory)
 HIT_REFINEMENT = 6  # halvings of the first hit's step (shaders/labels/compositing_first_hit.glsl)
 
 
@@ -47,8 +48,24 @@ def render_labels(volume: Volume, table: LabelTable, entry: np.ndarray, exit: np
     step = np.where(length[:, None] > 0.0, along * (step_length / np.maximum(length, 1e-300))[:, None], 0.0)
     direction = along * dims * spacing / np.maximum(length, 1e-300)[:, None]
     total = np.zeros((len(start), 4))
+    march = dict(classes=classes, colors=colors, spacing=spacing, mode=mode, exponent=1.0 / sampling_rate,
+                 early_termination=early_termination, shading=shading)
+    for first in range(0, len(start), CHUNK_RAYS):  # bounded memory, whatever the image size
+        rays = slice(first, first + CHUNK_RAYS)
+        total[rays] = _march(start[rays], step[rays], direction[rays], samples[rays], **march)
+    picture = np.zeros(entry.shape[:2] + (4,))
+    picture[hit] = total
+    bg = np.asarray(background, dtype=np.float64)
+    return np.concatenate([picture[..., :3] + (1.0 - picture[..., 3:]) * bg[:3],
+                           picture[..., 3:] + (1.0 - picture[..., 3:]) * bg[3]], axis=-1)
+
+
+def _march(start, step, direction, samples, *, classes, colors, spacing, mode, exponent,
+           early_termination, shading):
+    """Premultiplied RGBA of rays from ``start`` by ``step`` (texture coordinates) for ``samples``
+    samples each, composited in log space or to the first hit."""
+    total = np.zeros((len(start), 4))
     active = np.ones(len(start), dtype=bool)
-    exponent = 1.0 / sampling_rate
     log_transparency = np.zeros(len(start))  # ln(1 - A), composite in log space
     for i in range(int(samples.max(initial=0))):
         rays = np.flatnonzero(active & (i < samples))
@@ -72,11 +89,7 @@ def render_labels(volume: Volume, table: LabelTable, entry: np.ndarray, exit: np
             log_transparency[rays] += np.log1p(-alpha)
         total[rays, 3] = -np.expm1(log_transparency[rays])
         active[rays[total[rays, 3] >= early_termination]] = False
-    picture = np.zeros(entry.shape[:2] + (4,))
-    picture[hit] = total
-    bg = np.asarray(background, dtype=np.float64)
-    return np.concatenate([picture[..., :3] + (1.0 - picture[..., 3:]) * bg[:3],
-                           picture[..., 3:] + (1.0 - picture[..., 3:]) * bg[3]], axis=-1)
+    return total
 
 
 def _refined_hit(classes, start, step, i, winner, normal):
