@@ -134,3 +134,34 @@ def test_max_error_bounds_dvr_only_and_says_so_for_mip():
     assert rc.last_frame["error_bound"] is None
     assert any(issubclass(w.category, VGraphWarning) and "max_error bounds dvr frames only" in str(w.message)
                for w in caught)
+
+
+@pytest.mark.parametrize("properties", [{"shading": "blinn_phong"}, {"early_termination": 0.99}],
+                         ids=["lit", "terminating"])
+def test_lit_and_terminating_frames_stay_within_their_bound(properties):
+    """Lighting widens the colours a sample can take (any normal); early termination adds
+    2 (1 - early_termination) once a brick moves."""
+    error, frame = frames(GENTLE, max_error=0.5, **properties)
+    assert error <= frame["error_bound"] + ROUNDING, (error, frame)
+    unbudgeted_error, unbudgeted = frames(SPIKE, lod_bias=2.0, **properties)
+    assert max(unbudgeted["levels"]) >= 1
+    assert unbudgeted_error <= unbudgeted["error_bound"] + ROUNDING, (unbudgeted_error, unbudgeted)
+
+
+def test_the_raycaster_drawing_brick_by_brick_has_the_budget_too():
+    """A volume wider than the GL's texture limit: the RayCaster's own brick sampling refines under
+    a spike TF with max_error as the BrickedRayCaster's does, and reports the frame's bound."""
+    from helpers.more_raycaster_cases import oblique as framing, wide
+    from helpers.networks import UNSHADED_RAMP
+    from vgraph.testing import ray_caster_network
+    volume = wide()
+    spike = TransferFunction(points=[(0.0, 1, 0.8, 0.3, 0.0), (0.29, 1, 0.8, 0.3, 0.0), (0.3, 1, 0.8, 0.3, 0.6),
+                                     (0.31, 1, 0.8, 0.3, 0.0), (1.0, 1, 0.8, 0.3, 0.0)])
+    frames_ = {}
+    for max_error in (1.0, 0.1):
+        network = ray_caster_network(volume, framing(volume), "RayCaster", brick_size=64, lod_bias=3.0,
+                                     max_error=max_error, **{**UNSHADED_RAMP, "transfer_function": spike})
+        network.evaluate("rc.image", size=SIZE)
+        frames_[max_error] = dict(network["rc"].last_frame)
+    assert min(frames_[1.0]["levels"]) >= 1 and frames_[1.0]["error_bound"] > 0.1
+    assert frames_[0.1]["levels"] == [0] and frames_[0.1]["error_bound"] == 0.0
