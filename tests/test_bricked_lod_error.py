@@ -24,6 +24,7 @@ GENTLE = TransferFunction(points=[(0.0, 0.6, 0.6, 0.6, 0.01), (1.0, 0.6, 0.6, 0.
 SPIKE = TransferFunction(points=[(0.0, 1, 0.8, 0.3, 0.0), (0.49, 1, 0.8, 0.3, 0.0), (0.5, 1, 0.8, 0.3, 0.5),
                                  (0.51, 1, 0.8, 0.3, 0.0), (1.0, 1, 0.8, 0.3, 0.0)])
 FLAT = TransferFunction(points=[(0.0, 0.2, 0.7, 0.9, 0.03), (1.0, 0.2, 0.7, 0.9, 0.03)])
+FAINT_FLAT = TransferFunction(points=[(0.0, 0.2, 0.7, 0.9, 1e-6), (1.0, 0.2, 0.7, 0.9, 1e-6)])
 
 
 def composite(alpha, colour):
@@ -89,6 +90,19 @@ def test_coarse_levels_sample_their_own_lattice_without_gaps_at_the_seams():
     error, frame = frames(FLAT, max_error=0.01)
     assert max(frame["levels"]) >= 2 and frame["error_bound"] == 0.0
     assert error <= ROUNDING, error
+
+
+def test_a_faint_medium_keeps_its_opacity_at_coarse_levels():
+    """Opacity 1e-6 per sample: a coarse sample's opacity for w steps is computed in the stable form
+    (raycasting/opacity.glsl; 1 - (1 - a)^w through exp2 and log2 is off by percents in float32)."""
+    volume = big_volume()
+    camera = oblique(volume)
+    reference, _, _ = render(volume, camera, size=SIZE, transfer_function=FAINT_FLAT, lod_bias=FINEST, brick_size=16)
+    image, _, rc = render(volume, camera, size=SIZE, transfer_function=FAINT_FLAT, lod_bias=3.0, brick_size=16)
+    assert max(rc.last_frame["levels"]) >= 2
+    lit = reference[..., :3] > 1e-6
+    relative = np.abs(image[..., :3] - reference[..., :3])[lit] / reference[..., :3][lit]
+    assert lit.sum() > 100 and relative.max() <= 1e-4, relative.max()
 
 
 @pytest.mark.parametrize("tf, name", [(GENTLE, "gentle"), (SPIKE, "spike")])
