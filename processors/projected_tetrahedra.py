@@ -60,7 +60,7 @@ from vgraph import (BoolProperty, CameraProperty, ColorProperty, Inport, OptionP
                     PropertyError)
 from vgraph.box_frame import BoxFrame
 from vgraph.camera import Camera
-from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, ray_uniforms, vec
+from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, picture_of, pixel_rays, vec
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import TransferFunctionTexture
 from vgraph.gl.passes import bind_textures, set_uniform
@@ -255,6 +255,12 @@ class ProjectedTetrahedra(Processor):
         else:
             textures = {"transfer_function": self._lut.update(ctx, self.transfer_function, mesh)}
         uniforms = self._uniforms(mesh, camera, size, by_cells)
+        # A tile (Camera.tile) projects and orders with the whole picture's numbers and is drawn
+        # through the whole picture's viewport shifted to it, so it rasterises the whole picture's
+        # pixels: its own sub-frustum moved vertices by float32 rounding, enough to take or leave a
+        # pixel at a face's edge (docs/guide/distributed.md, "Accuracy").
+        whole, whole_size, offset = self._whole_picture(ctx, camera, size)
+        uniforms["view_projection"] = whole.view_projection(whole_size[0] / whole_size[1])
         if self.integration == "partial":
             uniforms["knot_count"] = self._partial.knot_count
         uniforms["world_length"] = frame.scale
@@ -262,12 +268,12 @@ class ProjectedTetrahedra(Processor):
         if self.skip_transparent:
             visible = visible_cells_of if by_cells else visible_tetrahedra
             selection = (resolved, lambda: visible(mesh, resolved.lut()[:, 3]))
-        vertex_array = self._vertex_array(ctx, program, mesh, camera, selection, by_cells)
+        vertex_array = self._vertex_array(ctx, program, mesh, whole, selection, by_cells, whole_size)
         if vertex_array is None:  # every tetrahedron is transparent
             return {"image": image, "depth": depth}
 
         self._targets.framebuffer.use()
-        ctx.viewport = (0, 0, *size)
+        ctx.viewport = (-offset[0], -offset[1], *whole_size)
         bind_textures(program, textures)
         for name, value in uniforms.items():
             set_uniform(program, name, value)
@@ -283,6 +289,15 @@ class ProjectedTetrahedra(Processor):
             ctx.blend_func = moderngl.DEFAULT_BLENDING
             ctx.disable(moderngl.BLEND)
         return {"image": image, "depth": depth}
+
+    @staticmethod
+    def _whole_picture(ctx, camera, size):
+        """picture_of(camera, size), or the tile itself where the GL cannot hold the whole
+        picture's viewport."""
+        whole, whole_size, offset = picture_of(camera, size)
+        if max(whole_size) > min(ctx.info["GL_MAX_VIEWPORT_DIMS"]):
+            return camera, tuple(size), (0, 0)
+        return whole, whole_size, offset
 
     def _view(self, mesh: TetMesh, size) -> tuple[BoxFrame, TetMesh, Camera]:
         """(the frame ``mesh`` is drawn in, the mesh drawn there, the concrete camera there): an
@@ -305,10 +320,10 @@ class ProjectedTetrahedra(Processor):
 
     @staticmethod
     def _uniforms(mesh: TetMesh, camera, size, by_cells: bool) -> dict:
+        rays = pixel_rays(camera, size)  # a tile's pixels take the whole picture's rays
         uniforms = {"view_projection": camera.view_projection(size[0] / size[1]),
                     "inverse_opacity_length": 1.0 / float(mesh.opacity_length),
-                    "viewport_size": (float(size[0]), float(size[1]))}
-        rays = ray_uniforms(camera, size)
+                    "viewport_size": rays["viewport_size"], "pixel_offset": rays["pixel_offset"]}
         if by_cells:  # rays from the pixel (origin and direction) and the cells' size
             uniforms.update(rays, spacing=vec(mesh.grid.spacing))
         else:  # where the pixel's ray starts (the depth output's distance), the view direction
@@ -316,7 +331,7 @@ class ProjectedTetrahedra(Processor):
                             view_forward=vec(camera.basis()[2]))
         return uniforms
 
-    def _vertex_array(self, ctx, program, mesh: TetMesh, camera, selection, by_cells: bool):
+    def _vertex_array(self, ctx, program, mesh: TetMesh, camera, selection, by_cells: bool, size):
         """The vertex array of the mesh's points (or grid cells) with the tetrahedra (cells) to
         draw in visibility order (None when there are none)."""
         state = self._draw_state
@@ -326,7 +341,7 @@ class ProjectedTetrahedra(Processor):
             state.update(ctx=ctx, mesh=mesh, by_cells=by_cells, arrays={})
         method = "sweep" if by_cells else self.visibility_order
         index_buffer = (self._gl_sorted(ctx, mesh, camera, selection) if method == "centroid_gl"
-                        else self._uploaded_order(ctx, mesh, camera, selection, method))
+                        else self._uploaded_order(ctx, mesh, camera, selection, method, size))
         if index_buffer is None:
             return None
         arrays = state["arrays"]
@@ -339,10 +354,10 @@ class ProjectedTetrahedra(Processor):
                                                index_element_size=4)
         return arrays[program]
 
-    def _uploaded_order(self, ctx, mesh, camera, selection, method):
+    def _uploaded_order(self, ctx, mesh, camera, selection, method, size):
         """The index buffer of the order computed with numpy (None: nothing to draw)."""
         state = self._draw_state
-        indices, changed = self._order.update(mesh, camera, selection, method, self.render_size)
+        indices, changed = self._order.update(mesh, camera, selection, method, size)
         if indices.size == 0:
             return None
         if changed or "indices" not in state:

@@ -21,6 +21,9 @@ from helpers.paths import REPO
 
 SPHERE = REPO / "networks" / "raycast_sphere.json"
 PSNR_FLOOR = 50.0  # dB against the single-process picture (the issue's bar)
+# dvr regroups the "under" sums of the bricks' colours: measured up to 1.2e-7 (tests/
+# test_distributed_stiff.py and `bench/distributed_tolerances.py`); mip and iso are identical.
+DVR_TOLERANCE = 1e-6
 # A local cluster without a dashboard still serves HTTP, on another port if 8787 is taken.
 pytestmark = pytest.mark.filterwarnings("ignore:Port 8787 is already in use")
 
@@ -112,10 +115,14 @@ def test_leaves_equal_the_single_process_picture(client, tmp_path, mode, propert
     for runs in (None, 3):  # one run per worker; three runs: a tree of two composites
         image = render(network, client, split="leaves", size=(64, 48), runs=runs)
         assert image.shape == reference.shape and image.dtype == np.float32
-        assert psnr(image, reference) >= PSNR_FLOOR, (mode, runs, psnr(image, reference))
-    # The depth output (the first depth sample, or mip's maximum's) is resolved from the composite too.
+        if mode == "dvr":
+            assert np.abs(image - reference).max() <= DVR_TOLERANCE, (runs, np.abs(image - reference).max())
+        else:
+            assert np.array_equal(image, reference), (mode, runs)
+    # The depth output (the first depth sample, or mip's maximum's) is resolved from the composite
+    # too, identical (the composite blends with IEEE arithmetic as the GL does).
     depth = render(network, client, split="leaves", target="rc.depth", size=(64, 48), runs=3)
-    assert np.allclose(depth, network.evaluate("rc.depth", size=(64, 48)), atol=1e-5, equal_nan=True)
+    assert np.array_equal(depth, network.evaluate("rc.depth", size=(64, 48)), equal_nan=True)
 
 
 def test_leaves_of_an_ome_zarr_store_read_by_the_workers(client, tmp_path):

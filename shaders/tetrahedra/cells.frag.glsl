@@ -22,7 +22,8 @@ flat in vec4 unit_origin;  // cells.geom.glsl
 flat in vec4 planes[5];
 uniform vec3 spacing;
 uniform mat4 view_projection;
-uniform vec2 viewport_size;
+uniform vec2 viewport_size;  // of the whole picture; pixel_offset: this image's place in it
+uniform vec2 pixel_offset;   // (geometry.pixel_rays: a tile's rays are the whole picture's)
 uniform vec3 near_centre;      // the pixel centre (ndc_x, ndc_y) starts its ray at near_centre +
 uniform vec3 near_right;       // ndc_x near_right + ndc_y near_up and goes along direction_centre +
 uniform vec3 near_up;          // ndc_x direction_right + ndc_y direction_up (Camera.rays)
@@ -63,7 +64,7 @@ void add_piece(float a, float b) {
 }
 
 void main() {
-    vec2 ndc = gl_FragCoord.xy / viewport_size * 2.0 - 1.0;
+    vec2 ndc = (gl_FragCoord.xy + pixel_offset) / viewport_size * 2.0 - 1.0;
     origin = near_centre + ndc.x * near_right + ndc.y * near_up;
     direction = direction_centre + ndc.x * direction_right + ndc.y * direction_up;
     scale = length(direction);

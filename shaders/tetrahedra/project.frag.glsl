@@ -17,7 +17,8 @@ flat in vec3 limits;  // (depth extent of the tetrahedron along view_forward, sc
 uniform vec3 view_forward;
 
 uniform mat4 view_projection;
-uniform vec2 viewport_size;
+uniform vec2 viewport_size;  // of the whole picture; pixel_offset: this image's place in it
+uniform vec2 pixel_offset;   // (geometry.pixel_rays: a tile's rays are the whole picture's)
 uniform vec3 near_centre;  // the pixel centre (ndc_x, ndc_y) is at near_centre + ndc_x near_right
 uniform vec3 near_right;   // + ndc_y near_up on the near plane (where Camera.rays start)
 uniform vec3 near_up;
@@ -50,7 +51,7 @@ void main() {
     color = segment(s_front, s_back, thickness);
     if (color.a > 0.0) {
         vec4 clip = view_projection * vec4(x_front, 1.0);
-        vec2 ndc = gl_FragCoord.xy / viewport_size * 2.0 - 1.0;
+        vec2 ndc = (gl_FragCoord.xy + pixel_offset) / viewport_size * 2.0 - 1.0;
         vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
         depth = vec4(clip.z / clip.w * 0.5 + 0.5, distance(x_front, origin) * world_length, 0.0, 1.0);
     } else {
