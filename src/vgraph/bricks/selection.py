@@ -270,9 +270,15 @@ def plan_frame(source: BrickSource, camera, size, view_projection, visible, lod_
     tables = LevelTables(geometry, camera, size, view_projection, visible, lod_bias)
 
     def select_at(floor_level: int, share: float | None) -> list:
-        too_coarse = None if share is None else (lambda level: errors(level) > share)
+        over: dict = {}  # level -> cells whose bound is over the share
+
+        def too_coarse(level: int) -> np.ndarray:
+            if level not in over:
+                over[level] = errors(level) > share
+            return over[level]
+
         return select_bricks(source, camera, size, view_projection, visible, lod_bias, floor_level, geometry,
-                             tables, too_coarse)
+                             tables, None if share is None else too_coarse)
 
     def select(floor_level: int) -> list:
         if errors is None or max_error >= 1.0:
