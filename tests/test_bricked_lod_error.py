@@ -179,3 +179,14 @@ def test_the_raycaster_drawing_brick_by_brick_has_the_budget_too():
         frames_[max_error] = dict(network["rc"].last_frame)
     assert min(frames_[1.0]["levels"]) >= 1 and frames_[1.0]["error_bound"] > 0.1
     assert frames_[0.1]["levels"] == [0] and frames_[0.1]["error_bound"] == 0.0
+
+
+def test_a_budget_that_raises_the_level_says_when_the_bound_is_over_max_error():
+    volume = big_volume()
+    camera = oblique(volume)
+    reference, _, _ = render(volume, camera, size=SIZE, transfer_function=SPIKE, brick_size=32, lod_bias=FINEST)
+    with pytest.warns(VGraphWarning, match=r"rendering at level 1 .*its error bound 1 is over max_error 0.1"):
+        image, _, rc = render(volume, camera, size=SIZE, transfer_function=SPIKE, brick_size=32, lod_bias=FINEST,
+                              max_error=0.1, ram_budget=4.0, gl_budget=4.0)
+    assert rc.last_frame["floor_level"] == 1 and rc.last_frame["error_bound"] == 1.0
+    assert np.abs(image - reference).max() <= rc.last_frame["error_bound"]
