@@ -134,7 +134,7 @@ class PartialPreintegrationTables:
     def update(self, ctx, resolved) -> dict:
         if self.textures is None or self.textures["phi"].ctx is not ctx:
             size = partial_preintegration.PSI_SIZE
-            phi = ctx.texture((size, size), 1, _phi_table().tobytes(), dtype="f4")
+            phi = ctx.texture((size, size), 1, partial_preintegration.phi_table().tobytes(), dtype="f4")
             phi.repeat_x = phi.repeat_y = False
             phi.filter = (moderngl.LINEAR, moderngl.LINEAR)
             self.textures, self.key = {"phi": phi}, None
@@ -151,16 +151,6 @@ class PartialPreintegrationTables:
             self.knot_count, self.key = len(positions), resolved
             self.builds += 1
         return self.textures
-
-
-_PHI = []
-
-
-def _phi_table() -> np.ndarray:
-    """The Phi table, computed once per process (2 s; it depends on nothing)."""
-    if not _PHI:
-        _PHI.append(partial_preintegration.phi_table())
-    return _PHI[0]
 
 
 class ProjectedTetrahedra(Processor):

@@ -27,6 +27,7 @@ a does not change needs no knots, however stiff the TF.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -83,9 +84,11 @@ def _quadrature(depth_front, depth_back, integrand, tail: float) -> np.ndarray:
     return (integrand(t) @ weights) * u_end + tail * (1.0 - u_end)
 
 
+@functools.cache
 def phi_table(size: int = PSI_SIZE) -> np.ndarray:
     """(size, size) float32 Phi at gamma_f = i / (size - 1) (x, fastest) and gamma_b = j / (size - 1)
-    (y), D = gamma / (1 - gamma); the last row and column (D infinite) are 1."""
+    (y), D = gamma / (1 - gamma); the last row and column (D infinite) are 1. Computed once per
+    process (2 s; it depends on nothing) and read-only."""
     gamma = np.linspace(0.0, 1.0, size)
     with np.errstate(divide="ignore"):
         depth = np.where(gamma < 1.0, gamma / np.maximum(1.0 - gamma, 1e-300), np.inf)
@@ -93,7 +96,9 @@ def phi_table(size: int = PSI_SIZE) -> np.ndarray:
     finite = depth[:-1]
     for j, d_b in enumerate(finite):  # rows keep memory small (size x 256 nodes)
         table[j, :-1] = phi(finite, d_b)
-    return table.astype(np.float32)
+    table = table.astype(np.float32)
+    table.flags.writeable = False
+    return table
 
 
 def knots(tf: TransferFunction, tolerance: float = KNOT_TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
