@@ -52,12 +52,14 @@ def test_build_the_curvature_torus_with_the_mouse_tune_it_and_save_it(window, qt
                                   ("canvas", "Canvas")):
         ids[shipped_id] = add_from_palette(qtbot, window, type_name)
     window.fit_action.trigger()                                      # View > Fit Network
-    for source, target in (("source.volume", "spline.volume"), ("spline.volume", "eep.volume"),
-                           ("spline.volume", "curvature.volume"), ("eep.entry", "curvature.entry"),
-                           ("eep.exit", "curvature.exit"), ("curvature.image", "canvas.image")):
-        (s, o), (t, i) = source.split("."), target.split(".")
-        connect(qtbot, window, f"{ids[s]}.{o}", f"{ids[t]}.{i}")
     network = window.workspace.network
+    # Each new processor was connected to the one before it where the ports pair unambiguously.
+    made = {(f"{c.source}.{c.outport}", f"{c.target}.{c.inport}") for c in network.connections}
+    address = lambda a: f"{ids[a.split('.')[0]]}.{a.split('.')[1]}"
+    assert made == {(address(s), address(t)) for s, t in (
+        ("source.volume", "spline.volume"), ("spline.volume", "eep.volume"), ("eep.entry", "curvature.entry"),
+        ("eep.exit", "curvature.exit"), ("curvature.image", "canvas.image"))}
+    connect(qtbot, window, address("spline.volume"), address("curvature.volume"))   # the one left
     assert len(network.connections) == 6
 
     # tune: a colour map in the inspector, then turn the torus on the canvas

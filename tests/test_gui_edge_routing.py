@@ -243,3 +243,18 @@ def test_a_connection_to_an_inport_above_goes_around_its_own_nodes(scene):
     assert (first.x, first.y) == (start.x(), start.y()) and (last.x, last.y) == (end.x(), end.y())
     scene.workspace.move({"sink": (0.0, 300.0)})   # back below: the curve again
     assert same_path(edge.path(), connection_path(*ports(scene)))
+
+
+def test_a_connection_up_a_tight_column_goes_around_the_nodes_in_it():
+    """Nodes added one under another 31 units apart (less than a stub and its margins): the
+    connection from the third to the first (an inport above) used to keep the curve through the
+    second until a node moved (issue 32, item 3); the stubs now shorten to fit."""
+    column = {pid: Box.of(0, y, NODE_WIDTH, NODE_HEIGHT) for pid, y in (("rc", 0), ("vs", 93), ("eep", 186), ("canvas", 279))}
+    start, end = (40.0, 186.0 + NODE_HEIGHT), (40.0, 0.0)
+    others = {pid: box for pid, box in column.items() if pid not in ("rc", "eep")}
+    course = route(start, end, others, ends=(column["eep"], column["rc"]))
+    assert not course.curved and "vs" in course.avoided
+    assert not any(segment_hits(p, q, box) for p, q in zip(course.points, course.points[1:])
+                   for box in column.values() if box not in (column["eep"], column["rc"]))
+    for p, q in zip(course.points[1:-2], course.points[2:-1]):   # the middle legs: clear of their own nodes
+        assert not segment_hits(p, q, column["eep"]) and not segment_hits(p, q, column["rc"])

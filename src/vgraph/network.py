@@ -267,7 +267,9 @@ class Network:
         self._emit("connected", connection=connection)
         return connection
 
-    def check_connection(self, c: Connection) -> None:
+    def check_connection(self, c: Connection, replacing: bool = False) -> None:
+        """Raises why ``c`` cannot be made; ``replacing``: a taken single inport is no reason
+        (the caller disconnects it first; the cycle test does not depend on that connection)."""
         outport = self[c.source].outport(c.outport)
         if outport is None:
             raise PortError(f"{c.source} ({self[c.source].type_name}) has no outport '{c.outport}' "
@@ -282,7 +284,7 @@ class Network:
         if c in self._connections:
             raise PortError(f"{c} is already connected")
         taken = self.inputs_of(c.target, c.inport)
-        if taken and not inport.multiple:
+        if taken and not inport.multiple and not replacing:
             raise PortError(f"inport {c.target}.{c.inport} is already connected to {taken[0].source}."
                             f"{taken[0].outport}; disconnect it first")
         if c.source == c.target or nx.has_path(self.graph, c.target, c.source):

@@ -27,7 +27,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from PySide6.QtCore import QSettings, Qt
-from PySide6.QtGui import QAction, QKeySequence
+from PySide6.QtGui import QAction, QCursor, QKeySequence
 from PySide6.QtWidgets import QApplication, QDockWidget, QMainWindow, QMessageBox, QPushButton
 
 from vgraph.atomic import atomic_path
@@ -58,6 +58,7 @@ class MainWindow(FileActions, QMainWindow):
         self.autosave = Autosave(self.workspace, self.workspace.settings, self)
         self.scene = NetworkScene(self.workspace, self, status_of=self.evaluation.status_of)
         self.view = NetworkView(self.scene)
+        self.insert_at = None   # where Find Processor's choice goes (the mouse in the editor)
         self.setCentralWidget(self.view)
         self.palette = ProcessorPalette()
         self.inspector = PropertyInspector(self.workspace, status_of=self.evaluation.status_of)
@@ -124,6 +125,7 @@ class MainWindow(FileActions, QMainWindow):
         self.delete_action = self._action("&Delete", self.scene.delete_selected, QKeySequence.Delete)
         self.select_all_action = self._action("Select &All", self._select_all, QKeySequence.SelectAll)
         self.links_action = self._action("Property &Links...", self.edit_links, "Ctrl+L")
+        self.find_action = self._action("&Find Processor...", self.find_processor, QKeySequence.Find)
         self.auto_link_action = self._action("Auto-link &Cameras", self._set_auto_link, checkable=True,
                                              checked=self.workspace.auto_link_cameras)
         self.zoom_in_action = self._action("Zoom &In", lambda: self.view.zoom(1.25), QKeySequence.ZoomIn)
@@ -157,7 +159,7 @@ class MainWindow(FileActions, QMainWindow):
         edit_menu = bar.addMenu("&Edit")
         edit_menu.addActions([self.undo_action, self.redo_action])
         edit_menu.addSeparator()
-        edit_menu.addActions([self.delete_action, self.select_all_action])
+        edit_menu.addActions([self.delete_action, self.select_all_action, self.find_action])
         edit_menu.addSeparator()
         edit_menu.addActions([self.links_action, self.auto_link_action])
         self.view_menu = view_menu = bar.addMenu("&View")
@@ -210,14 +212,33 @@ class MainWindow(FileActions, QMainWindow):
 
     # --- editing -------------------------------------------------------------------------------
     def add_processor(self, type_name: str):
-        center = self.view.mapToScene(self.view.viewport().rect().center())
+        """Add from the palette: at the point Find Processor was asked at, else after the anchor
+        (below or beside it, connected where unambiguous: placement.py), else mid-view."""
+        anchor, at, self.insert_at = self.scene.anchor(), self.insert_at, None
         try:
-            processor = self.workspace.add_processor(type_name, self.scene.free_position(center))
+            if at is not None:
+                position = self.scene.free_position(at)
+            elif anchor is not None:
+                position = self.scene.spot_after(anchor, type_name)
+            else:
+                position = self.scene.free_position(self.view.mapToScene(self.view.viewport().rect().center()))
+            processor = self.workspace.add_processor(type_name, position, after=anchor)
         except VGraphError as error:
             self.show_message(f"Cannot add {type_name}: {error}")
             return None
         self.scene.select_processor(processor.id)
         return processor
+
+    def find_processor(self) -> None:
+        """Edit > Find Processor (Ctrl+F): the palette's search, for a processor that goes where
+        the mouse is in the network editor (else where it would go from the palette)."""
+        cursor = self.view.viewport().mapFromGlobal(QCursor.pos())
+        inside = self.view.viewport().rect().contains(cursor)
+        self.insert_at = self.view.mapToScene(cursor) if inside else None
+        self.palette_dock.show()
+        self.palette_dock.raise_()
+        self.palette.search.setFocus()
+        self.palette.search.selectAll()
 
     def edit_links(self) -> None:
         LinkDialog(self.workspace, self).exec()
@@ -240,6 +261,9 @@ class MainWindow(FileActions, QMainWindow):
         self.inspector.show_processor(processors[0] if len(processors) == 1 else None)
 
     def _network_replaced(self, network) -> None:
+        self.view.resetTransform()   # New must not keep the last network's zoom (Open then fits)
+        self.view.centerOn(0.0, 0.0)
+        self.insert_at = None
         self.failures.clear()
         self.inspector.show_processor(None)
 

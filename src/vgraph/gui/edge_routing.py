@@ -155,8 +155,10 @@ def route(start: Point, end: Point, obstacles: Mapping[object, Box], margin: flo
     middle = _LegTest(others + ([source, target] if ends else []))
     (x0, y0), (x1, y1) = start, end
     for _, a, b, c in sorted(_candidates(start, end, middle.boxes, lane))[:MAX_CHECKS]:
-        if (first.vertical(x0, y0, a) and middle.horizontal(a, x0, c) and middle.vertical(c, a, b)
-                and middle.horizontal(b, c, x1) and last.vertical(x1, b, y1)):
+        # The legs beside the stubs may pass within the margin of their own node (a stub shortened
+        # to fit between its port and the next node), never through it: a > y0 and b < y1.
+        if (first.vertical(x0, y0, a) and first.horizontal(a, x0, c) and middle.vertical(c, a, b)
+                and last.horizontal(b, c, x1) and last.vertical(x1, b, y1)):
             return Route(_simplified([start, (x0, a), (c, a), (c, b), (x1, b), end]), False, hit)
     return Route(curve, True, hit)
 
@@ -190,7 +192,12 @@ def _candidates(start: Point, end: Point, boxes: Iterable[tuple], lane: float) -
     Costed without building the polylines: most are never tested."""
     boxes = [Box(*box) for box in boxes]
     (x0, y0), (x1, y1) = start, end
-    leave, enter = y0 + STUB + lane, y1 - STUB - lane
+    # A stub is shortened to half the gap when a node lies closer than the stub below the outport
+    # (above the inport): a column of nodes added one under another leaves less than a stub.
+    below = [box.top for box in boxes if box.left < x0 < box.right and box.top > y0]
+    above = [box.bottom for box in boxes if box.left < x1 < box.right and box.bottom < y1]
+    leave = min([y0 + STUB + lane] + [(y0 + top) / 2 for top in below])
+    enter = max([y1 - STUB - lane] + [(y1 + bottom) / 2 for bottom in above])
     channels = {x0, x1}
     for box in boxes:
         channels.update((box.left - lane, box.right + lane))

@@ -4,7 +4,8 @@
 inport is judged with ``Network.check_connection`` on the hypothetical connection: acceptable ones
 are highlighted, refused ones greyed; hovering a refused one puts the network's reason in the status
 bar, and releasing on it keeps the reason there (nothing is connected). Releasing on an acceptable
-inport connects through the undo stack.
+inport connects through the undo stack; a taken single inport is acceptable: its connection is
+replaced (one undo step, ``Workspace.connect(replacing=True)``).
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ class ConnectInteraction:
             for port in node.ports.values():
                 if port.direction != "in":
                     continue
-                reason = self.scene.workspace.connection_refusal(self.connection_to(port))
+                reason = self.scene.workspace.connection_refusal(self.connection_to(port), replacing=True)
                 self.refusals[port] = reason
                 port.highlight("compatible" if reason is None else "refused")
 
@@ -62,9 +63,12 @@ class ConnectInteraction:
         self.line.setPath(connection_path(self.source.scenePos(), end))
         if target is not None:
             reason = self.refusals[target]
+            connection = self.connection_to(target)
+            replaced = self.scene.workspace.replaced_by(connection)
             self.scene.status_message.emit(
                 f"Refused: {reason}" if reason else
-                f"Release to connect {self.connection_to(target)}")
+                f"Release to replace {replaced} by {connection}" if replaced else
+                f"Release to connect {connection}")
 
     def finish(self, scene_pos: QPointF) -> Connection | None:
         """Connect if released on an acceptable inport; returns the connection made."""
@@ -80,7 +84,7 @@ class ConnectInteraction:
         connection = self.connection_to(target)
         try:
             self.scene.workspace.connect(f"{connection.source}.{connection.outport}",
-                                         f"{connection.target}.{connection.inport}")
+                                         f"{connection.target}.{connection.inport}", replacing=True)
         except VGraphError as error:  # the network changed under the drag: report, do not crash
             self.scene.status_message.emit(f"Refused: {error}")
             return None

@@ -9,7 +9,9 @@ Conventions:
 - Drops from the palette carry the processor type name as ``PROCESSOR_MIME_TYPE``.
 - Connections go around unrelated nodes (edge_routing.py). A node that moves re-routes its own
   connections, those it now lies on and those that went around it; the rest keep their course.
-  New processors (added or dropped) go to the nearest spot covering no node and no connection.
+  New processors (added or dropped) go to the nearest spot covering no node and no connection;
+  one added after another (``spot_after``) asks for the spot below it when it takes its data,
+  else beside it (placement.py). ``last_added`` is the anchor when nothing is selected.
 """
 
 from __future__ import annotations
@@ -22,9 +24,11 @@ from vgraph.errors import VGraphError
 from vgraph.gui.edge_routing import LANE_STEP, MARGIN, Box, free_spot
 from vgraph.live.evaluator import processor_status
 from vgraph.gui.interactions import ConnectInteraction
+from vgraph.gui.placement import feeds, spot_after
 from vgraph.gui.items import NODE_HEIGHT, NODE_WIDTH, EdgeItem, LinkItem, NodeItem, PortItem
 from vgraph.gui.workspace import Workspace
 from vgraph.network import Connection, Link, Network
+from vgraph.registry import registry
 
 PROCESSOR_MIME_TYPE = "application/x-vgraph-processor-type"
 SCENE_EXTENT = 20000.0
@@ -46,6 +50,7 @@ class NetworkScene(QGraphicsScene):
         self.link_items: dict[Link, LinkItem] = {}
         self.links_visible = True
         self.interaction: ConnectInteraction | None = None
+        self.last_added: str | None = None
         self.setSceneRect(QRectF(-SCENE_EXTENT / 2, -SCENE_EXTENT / 2, SCENE_EXTENT, SCENE_EXTENT))
         workspace.network_replaced.connect(self.set_network)
         self.set_network(workspace.network)
@@ -56,6 +61,7 @@ class NetworkScene(QGraphicsScene):
         self.clear()
         self.nodes.clear(), self.edges.clear(), self.link_items.clear()
         self.network = network
+        self.last_added = None
         network.subscribe(self._on_event)
         for processor in network.processors.values():
             self._add_node(processor)
@@ -169,7 +175,23 @@ class NetworkScene(QGraphicsScene):
         processors, connections, links = self.selection()
         self.workspace.remove(processors, connections, links)
 
+    def anchor(self) -> str | None:
+        """The processor a new one follows: the one selected, else the last added (if still there)."""
+        processors = self.selection()[0]
+        if len(processors) == 1:
+            return processors[0]
+        return self.last_added if self.last_added in self.nodes else None
+
+    def spot_after(self, anchor_id: str, type_name: str) -> tuple[float, float]:
+        """Where a ``type_name`` processor added after ``anchor_id`` goes: below it when it takes
+        its data, else to its right, moved to the nearest free spot."""
+        node = self.nodes[anchor_id]
+        fed = feeds(self.network[anchor_id], registry.get(type_name))
+        x, y = spot_after((node.x(), node.y()), (NODE_WIDTH, NODE_HEIGHT), fed)
+        return self.free_position(QPointF(x, y), centred=False)
+
     def select_processor(self, processor_id: str) -> None:
+        self.last_added = processor_id
         self.clearSelection()
         self.nodes[processor_id].setSelected(True)
 

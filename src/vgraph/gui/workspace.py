@@ -28,6 +28,7 @@ from vgraph.volume_network import is_volume_path
 from vgraph.edits import (AddProcessor, Connect, Disconnect, Edit, LinkProperties, MoveProcessors,
                           RemoveProcessor, SetProperty, UnlinkProperties)
 from vgraph.gui.commands import EditCommand, free_id
+from vgraph.gui.placement import matching_connections
 from vgraph.network import Connection, Link, Network, split_address
 from vgraph.processor import Processor
 from vgraph.properties import CameraProperty
@@ -95,7 +96,10 @@ class Workspace(QObject):
             self.undo_stack.endMacro()
             self._macro_depth -= 1
 
-    def add_processor(self, type_name: str, position=(0.0, 0.0), id: str | None = None) -> Processor:
+    def add_processor(self, type_name: str, position=(0.0, 0.0), id: str | None = None,
+                      after: str | None = None) -> Processor:
+        """Add a processor; ``after``: the processor it follows (placement.py), whose outports
+        it is connected to where that is unambiguous, in the same undo step."""
         cls = registry.get(type_name)
         if id is not None and id in self.network:  # refuse before an (empty) undo macro opens
             raise VGraphError(f"a processor with id '{id}' already exists")
@@ -106,6 +110,10 @@ class Workspace(QObject):
             self.execute(AddProcessor.of(processor))
             for leader, follower in leaders:
                 self.execute(LinkProperties.of(self.network, leader, follower, bidirectional=True))
+            if after is not None and after in self.network:
+                for connection in matching_connections(self.network, after, processor):
+                    if self.connection_refusal(connection) is None:
+                        self.execute(Connect(connection))
         return self.network[processor.id]
 
     def _camera_leaders(self, processor: Processor) -> list[tuple[str, str]]:
@@ -135,16 +143,35 @@ class Workspace(QObject):
                 if pid in self.network:
                     self.execute(RemoveProcessor.of(self.network, pid))
 
-    def connect(self, source: str, target: str) -> Connection:
+    def connect(self, source: str, target: str, replacing: bool = False) -> Connection:
+        """Connect; ``replacing``: a taken single inport gives up its connection for this one,
+        in the same place of the connection order and in one undo step (as Voreen and Inviwo)."""
         (src, out), (dst, inp) = split_address(source), split_address(target)
         connection = Connection(src, out, dst, inp)
-        self.execute(Connect(connection))
+        replaced = self.replaced_by(connection) if replacing else None
+        if replaced is None:
+            self.execute(Connect(connection))
+            return connection
+        self.network.check_connection(connection, replacing=True)  # refuse before the macro opens
+        with self._macro(f"Replace {replaced} by {connection}"):
+            disconnect = Disconnect.of(self.network, replaced)
+            self.execute(disconnect)
+            self.execute(Connect(connection, disconnect.index))
         return connection
 
-    def connection_refusal(self, connection: Connection) -> str | None:
-        """Why the network would refuse ``connection`` (None: it would accept it)."""
+    def replaced_by(self, connection: Connection) -> Connection | None:
+        """The connection ``connection`` would replace: the one holding its single inport."""
+        inport = self.network[connection.target].inport(connection.inport)
+        taken = self.network.inputs_of(connection.target, connection.inport)
+        if inport is None or inport.multiple or not taken or taken[0] == connection:
+            return None
+        return taken[0]
+
+    def connection_refusal(self, connection: Connection, replacing: bool = False) -> str | None:
+        """Why the network would refuse ``connection`` (None: it would accept it); ``replacing``:
+        a taken single inport is no reason."""
         try:
-            self.network.check_connection(connection)
+            self.network.check_connection(connection, replacing=replacing)
         except VGraphError as error:
             return str(error)
         return None
