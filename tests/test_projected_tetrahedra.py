@@ -562,3 +562,24 @@ def test_the_near_plane_clips_tetrahedra(gl, integration):
     image, _, _ = render(mesh, camera, size, tf, integration, background=(0.0, 0.0, 0.0, 1.0))
     assert psnr(uncut, reference) < 30.0  # the cut matters
     assert psnr(image, reference) >= {"averaged": 40.0, "preintegrated": 88.0, "partial": 98.0}[integration]
+
+
+def test_partial_knots_and_the_mpvonc_order_are_redone_only_when_needed(gl):
+    """Knots are uploaded when the resolved TF changes (the Phi table never); the mpvonc order is
+    computed again when the camera or the image size changes (its rays are the pixels')."""
+    from vgraph.mesh_shapes import c_shape
+    mesh = c_shape()
+    processor = ProjectedTetrahedra(integration="partial", visibility_order="mpvonc")
+    processor.render_size = (32, 32)
+    processor.process(mesh)
+    assert processor._partial.builds == 1 and processor._order.sorts == 1
+    processor.process(mesh)
+    processor.background = (0.1, 0.1, 0.1, 1.0)
+    processor.process(mesh)
+    assert processor._partial.builds == 1 and processor._order.sorts == 1
+    processor.render_size = (40, 32)
+    processor.process(mesh)
+    assert processor._partial.builds == 1 and processor._order.sorts == 2
+    processor.transfer_function = constant_tf()
+    processor.process(mesh)
+    assert processor._partial.builds == 2 and processor._partial.knot_count == 2
