@@ -23,8 +23,8 @@ Conventions (docs/explanations/ray-casting.md explains each property with pictur
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
   than its memory budget, is drawn brick by brick through the BrickSampling component instead of
   VolumeSampling (vgraph.bricks.sampling; docs/explanations/bricked-ray-casting.md), as the
-  BrickedRayCaster draws: its properties ``brick_size``, ``lod_bias``, ``ram_budget`` and
-  ``gl_budget`` are this processor's and apply only then. dvr, mip and iso only; ``precomputed``
+  BrickedRayCaster draws: its properties ``brick_size``, ``lod_bias``, ``max_error``,
+  ``ram_budget`` and ``gl_budget`` are this processor's and apply only then. dvr, mip and iso only; ``precomputed``
   derivatives become ``central`` there (a gradient volume of a volume that large is what bricking
   avoids; inside the box both give the same gradient up to 16-bit steps); ``volume_precision``
   and ``interpolation`` do not apply (the bricks keep their own texture format, sampled
