@@ -44,8 +44,9 @@ Conventions:
 The watchdog (``check_renderer``, every ``WATCHDOG_MS``) is what keeps the window honest about
 the render process, which it cannot see otherwise:
 - a job running longer than ``stall_limit()`` (``STALL_MIN_SECONDS``, or ``STALL_FACTOR`` times
-  the median of the recent jobs if that is longer) is reported once through ``warning`` and then
-  every tick through ``stalled(seconds)``; ``cancel()`` kills that process and starts a new one.
+  the median of the same network's recent jobs if that is longer; ``STALL_FIRST_SECONDS`` before
+  the network's first frame, which loads its data) is reported once through ``warning``, with
+  the processor running, and then every tick through ``stalled(seconds)``; ``cancel()`` kills that process and starts a new one.
   After a cancel nothing is sent until the next change, so a network that hangs the render
   process does not hang it again at once;
 - a render process found dead, busy or idle, is reported through ``crashed`` with its exit code
@@ -80,6 +81,7 @@ MAX_IN_FLIGHT = 4           # jobs queued while dragging: a few small pickles, n
 WATCHDOG_MS = 1000
 STALL_MIN_SECONDS = 10.0    # no job is called stuck sooner (loading a large volume takes a while)
 STALL_FACTOR = 10.0         # ... nor before it took this many times as long as recent jobs
+STALL_FIRST_SECONDS = 60.0  # a network's first frame, with nothing of its own to compare: it loads
 
 
 class LiveEvaluation(QObject):
@@ -97,9 +99,11 @@ class LiveEvaluation(QObject):
     received = Signal(object)   # every RenderResult as it arrives, before it is shown (timing)
 
     def __init__(self, workspace: Workspace, renderer: RenderProcess | None = None, parent=None,
-                 stall_min_seconds: float = STALL_MIN_SECONDS, stall_factor: float = STALL_FACTOR):
+                 stall_min_seconds: float = STALL_MIN_SECONDS, stall_factor: float = STALL_FACTOR,
+                 stall_first_seconds: float = STALL_FIRST_SECONDS):
         super().__init__(parent)
         self.stall_min_seconds, self.stall_factor = stall_min_seconds, stall_factor
+        self.stall_first_seconds = stall_first_seconds
         self._stall_reported = False
         self.workspace = workspace
         self.renderer = renderer or RenderProcess()
@@ -344,9 +348,12 @@ class LiveEvaluation(QObject):
 
     # --- the watchdog ---------------------------------------------------------------------------
     def stall_limit(self) -> float:
-        """Seconds after which the job in flight is reported as overdue."""
+        """Seconds after which the job in flight is reported as overdue: compared with this
+        network's frames (the render process forgets the last network's when a fresh job starts)."""
         typical = self.renderer.typical_seconds()
-        return max(self.stall_min_seconds, self.stall_factor * typical if typical else 0.0)
+        if typical is None:
+            return max(self.stall_min_seconds, self.stall_first_seconds)
+        return max(self.stall_min_seconds, self.stall_factor * typical)
 
     def check_renderer(self) -> None:
         """Report an overdue job; report and replace a render process that died while idle (one
@@ -362,9 +369,12 @@ class LiveEvaluation(QObject):
         if not self._stall_reported:
             self._stall_reported = True
             typical = self.renderer.typical_seconds()
-            usual = f", recent ones took {format_seconds(typical)}" if typical else ""
+            usual = (f", this network's recent frames took {format_seconds(typical)}" if typical
+                     else ", the first frame of this network")
+            running = getattr(self.renderer, "running", None)
+            now = f" (running {running.describe()})" if running is not None and running.describe() else ""
             self.warning.emit(f"the render process has been working on one frame for "
-                              f"{format_seconds(seconds)}{usual}; it may be stuck: "
+                              f"{format_seconds(seconds)}{now}{usual}; it may be stuck: "
                               f"Network > Cancel Rendering stops it")
         self.stalled.emit(seconds)
 

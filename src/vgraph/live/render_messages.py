@@ -67,6 +67,7 @@ class RenderJob:
     cluster: ClusterSetting | None = None  # draw the final frames on this cluster (None: here)
     write_confinement: object | None = None  # the window's network's (vgraph.write_paths.Confinement)
     sent: float = 0.0          # time.monotonic() when the window sent it (RenderResult.submitted)
+    history: int = 0           # which network's frame times it counts in (RenderProcess.history)
 
 
 @dataclass

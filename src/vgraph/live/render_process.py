@@ -54,7 +54,8 @@ class RenderProcess:
         self._connection = None
         self.jobs: deque[RenderJob] = deque()  # in flight, oldest first
         self.job_started = 0.0              # time.monotonic() when the oldest job began, as seen from here
-        self.recent_seconds: deque[float] = deque(maxlen=RECENT_JOBS)
+        self.recent_seconds: deque[float] = deque(maxlen=RECENT_JOBS)   # of the current network's jobs
+        self.history = 0   # counts fresh jobs: a job of an earlier network does not count in recent_seconds
         self.starts = 0                     # processes started so far
         self.progress: RenderProgress | None = None  # the last progress of the job in flight
         self.running: progress_api.Progress | None = None  # the processor running in that job
@@ -81,6 +82,7 @@ class RenderProcess:
         return time.monotonic() - self.job_started if self.busy else 0.0
 
     def typical_seconds(self) -> float | None:
+        """The median time of the current network's recent jobs (None before its first answer)."""
         return statistics.median(self.recent_seconds) if self.recent_seconds else None
 
     def died(self) -> int | None:
@@ -96,7 +98,10 @@ class RenderProcess:
         if not self.jobs:
             self.job_started = time.monotonic()
             self.progress = self.running = None
-        job.sent = time.monotonic()
+        if job.fresh:   # another network: its frames are compared with its own, not the last one's
+            self.history += 1
+            self.recent_seconds.clear()
+        job.sent, job.history = time.monotonic(), self.history
         self.jobs.append(job)
         try:
             self._connection.send(job)
@@ -121,7 +126,7 @@ class RenderProcess:
                     break
                 self.progress = result
             now = time.monotonic()
-            if not result.skipped:
+            if not result.skipped and self.job.history == self.history:
                 self.recent_seconds.append(now - max(self.job_started, result.started))
             result.submitted, result.received = self.job.sent, now
             self.jobs.popleft()

@@ -1,0 +1,125 @@
+"""Truthful state (issue 32, item 5): the watchdog compares a frame with the same network's frames
+and says what runs."""
+
+import time
+
+from PySide6.QtCore import QSettings
+
+from vgraph.gui.live_evaluation import STALL_FIRST_SECONDS, LiveEvaluation
+from vgraph.gui.workspace import Workspace
+from vgraph.live.render_messages import RenderJob, RenderResult
+from vgraph.live.render_process import RenderProcess
+from vgraph.progress import Progress
+
+
+class AlivePipe:
+    """Stands for the render process and its pipe: answers each job when the test says so."""
+
+    pid = 1
+
+    def __init__(self):
+        self.results = []
+
+    def is_alive(self):
+        return True
+
+    def send(self, job):
+        pass
+
+    def poll(self, timeout=None):
+        return bool(self.results)
+
+    def recv(self):
+        return self.results.pop(0)
+
+
+def render_process_with(pipe) -> RenderProcess:
+    renderer = RenderProcess()
+    renderer._process = renderer._connection = pipe
+    return renderer
+
+
+def answer(renderer, pipe, seconds: float):
+    """The job in flight answered after ``seconds``."""
+    renderer.job_started -= seconds
+    pipe.results.append(RenderResult(version=renderer.job.version))
+    return renderer.poll()
+
+
+def test_frame_times_count_for_their_own_network_only():
+    pipe = AlivePipe()
+    renderer = render_process_with(pipe)
+    for version in (1, 2):                       # the first network: 5 s frames
+        renderer.submit(RenderJob(version, None))
+        answer(renderer, pipe, 5.0)
+    assert 5.0 <= renderer.typical_seconds() < 5.5
+    renderer.submit(RenderJob(3, None))          # still rendering the first network ...
+    renderer.submit(RenderJob(4, {}, fresh=True))  # ... when another is opened
+    assert renderer.typical_seconds() is None    # nothing known of the new network yet
+    answer(renderer, pipe, 5.0)                  # the old network's frame: not the new one's history
+    assert renderer.typical_seconds() is None
+    answer(renderer, pipe, 0.2)
+    assert 0.2 <= renderer.typical_seconds() < 0.7
+
+
+class StandIn:
+    """A render process working on one job for ``elapsed_seconds``, with a processor running."""
+
+    pid, progress, in_flight = 7, None, 1
+
+    def __init__(self, typical, running=None):
+        self.typical, self.running, self.elapsed_seconds = typical, running, 0.0
+
+    busy = property(lambda self: True)
+
+    def elapsed(self):
+        return self.elapsed_seconds
+
+    def typical_seconds(self):
+        return self.typical
+
+    def submit(self, job):
+        pass
+
+    def poll(self):
+        return None
+
+    def died(self):
+        return None
+
+
+def evaluation_with(qtbot, tmp_path, renderer):
+    workspace = Workspace(QSettings(str(tmp_path / "s.ini"), QSettings.IniFormat))
+    evaluation = LiveEvaluation(workspace, renderer)
+    evaluation.watchdog.stop()
+    warnings = []
+    evaluation.warning.connect(warnings.append)
+    return evaluation, warnings
+
+
+def test_a_first_frame_is_not_called_stuck_by_the_last_networks_frame_times(qtbot, tmp_path):
+    """Opening tets_bonsai after raycast_head: a 20 s first frame was 'may be stuck' (the head's
+    frames took 0.2 s). With nothing of its own to compare, a first frame gets a minute."""
+    renderer = StandIn(typical=None, running=Progress("mesh", "MeshSource", "reading tets_bonsai.vtu"))
+    evaluation, warnings = evaluation_with(qtbot, tmp_path, renderer)
+    assert evaluation.stall_limit() == STALL_FIRST_SECONDS
+    renderer.elapsed_seconds = 20.0
+    evaluation.check_renderer()
+    assert warnings == []
+    renderer.elapsed_seconds = STALL_FIRST_SECONDS + 1
+    evaluation.check_renderer()
+    assert len(warnings) == 1
+    assert "(running mesh (MeshSource): reading tets_bonsai.vtu)" in warnings[0]
+    assert "the first frame of this network" in warnings[0]
+
+
+def test_a_frame_far_slower_than_this_networks_frames_is_reported_with_what_runs(qtbot, tmp_path):
+    renderer = StandIn(typical=2.0, running=Progress("rc", "RayCaster", "", 0, 0, time.monotonic()))
+    evaluation, warnings = evaluation_with(qtbot, tmp_path, renderer)
+    assert evaluation.stall_limit() == 20.0
+    renderer.elapsed_seconds = 19.0
+    evaluation.check_renderer()
+    assert warnings == []
+    renderer.elapsed_seconds = 21.0
+    evaluation.check_renderer()
+    assert "(running rc (RayCaster))" in warnings[0] and "this network's recent frames took 2" in warnings[0]
