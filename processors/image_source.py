@@ -34,6 +34,9 @@ class ImageSource(Processor):
     outports = [Outport("image", Image)]
     path = FilePathProperty("", filters=("*.png", "*.jpg", "*.jpeg"), doc="the image file")
 
+    def awaiting(self) -> str | None:
+        return None if self.path else "an image file"
+
     def process(self):
         return Image.from_numpy(self.gl, read_image_file(self.id, self.path, self.resolve_path(self.path)))
 

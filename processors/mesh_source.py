@@ -41,6 +41,9 @@ class MeshSource(Processor):
             raise PropertyError(f"{self.id}.value_range", f"low must be below high, got "
                                 f"({self.value_range[0]:g}, {self.value_range[1]:g})")
 
+    def awaiting(self) -> str | None:
+        return None if self.path else "a mesh file"
+
     def process(self) -> TetMesh:
         self.check()
         if not self.path:

@@ -21,6 +21,9 @@ class SurfaceSource(Processor):
                                        "magnitude of a 3-component vector (other counts must "
                                        "choose)")
 
+    def awaiting(self) -> str | None:
+        return None if self.path else "a surface file"
+
     def process(self) -> Geometry:
         if not self.path:
             raise VGraphError(f"{self.id}.path: no surface file chosen")

@@ -63,6 +63,9 @@ class VolumeSource(Processor):
             raise PropertyError(f"{self.id}.window_percentiles",
                                 f"the low percentile must be below the high one, got ({low:g}, {high:g})")
 
+    def awaiting(self) -> str | None:
+        return None if self.path else "a volume file"
+
     def process(self) -> Volume:
         self.check()
         if not self.path:

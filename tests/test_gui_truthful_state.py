@@ -123,3 +123,23 @@ def test_a_frame_far_slower_than_this_networks_frames_is_reported_with_what_runs
     renderer.elapsed_seconds = 21.0
     evaluation.check_renderer()
     assert "(running rc (RayCaster))" in warnings[0] and "this network's recent frames took 2" in warnings[0]
+
+
+def test_a_new_volume_source_without_a_file_is_neutral_and_says_it_needs_one(window):
+    window.palette.processor_chosen.emit("VolumeSource")
+    outcome = window.evaluation.run(wait=True)
+    assert "volumeSource" not in outcome.failed
+    assert window.log.messages("error") == []
+    status = window.scene.nodes["volumeSource"].status
+    assert status.state == "not_ready" and status.text == "needs a volume file"
+    assert "path" in status.detail
+
+
+def test_vgraph_run_still_refuses_a_volume_source_without_a_file():
+    import pytest
+    import vgraph
+    from vgraph.errors import VGraphError
+    network = vgraph.Network()
+    network.add("VolumeSource", id="source")
+    with pytest.raises(VGraphError, match="source.path: no volume file chosen"):
+        network.evaluate("source")

@@ -159,6 +159,12 @@ class Processor:
         """Refuse property values that are impossible together (raise VGraphError naming the
         property); called when a network file is loaded, so ``validate`` catches what ``run`` would."""
 
+    def awaiting(self) -> str | None:
+        """What the processor waits for from the user before it can run at all ("a volume file"),
+        or None. The GUI does not run it meanwhile and its node says so, as for an unconnected
+        inport: a new source without a file is no error (``vgraph run`` still refuses it by name)."""
+        return None
+
     def visible_content(self) -> str | None:
         """What the inputs of the last process() should make visible, in words ("12% of the voxels
         are visible under the transfer function"), or None when nothing or unknown. A renderer that

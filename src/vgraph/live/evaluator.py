@@ -138,7 +138,7 @@ def ready_processors(network: Network, order: list[str]) -> set[str]:
         processor = network[pid]
         connected = all(inport.optional or network.inputs_of(pid, inport.name)
                         for inport in processor.inports)
-        if connected and all(u in ready for u in network.graph.predecessors(pid)):
+        if connected and processor.awaiting() is None and all(u in ready for u in network.graph.predecessors(pid)):
             ready.add(pid)
     return ready
 
@@ -238,6 +238,10 @@ def processor_status(network: Network, processor: Processor) -> ProcessorStatus:
     if missing:
         return ProcessorStatus("not_ready", "inport not connected",
                                f"required inports not connected: {', '.join(missing)}")
+    awaited = processor.awaiting()
+    if awaited:
+        return ProcessorStatus("not_ready", f"needs {awaited}",
+                               f"choose {awaited} in the Properties panel (path) to run it")
     if is_writer(type(processor)):
         return ProcessorStatus("writer", "writes on request",
                                "writers run with Network > Run Writers, not on every edit")
