@@ -24,6 +24,9 @@ from vgraph.volume import Volume, VolumeGeometryError
 RAW_TYPES = ["uint8", "int8", "uint16", "int16", "uint32", "int32", "float32", "float64"]
 
 
+RAW_FIELDS = {"raw_dims", "raw_dtype", "raw_endianness", "raw_offset"}  # headerless files only
+
+
 class VolumeSource(Processor):
     """Reads a volume file (QVis, raw, NRRD, NIfTI, MetaImage, DICOM folder, NumPy)."""
 
@@ -62,6 +65,21 @@ class VolumeSource(Processor):
         if not low < high:
             raise PropertyError(f"{self.id}.window_percentiles",
                                 f"the low percentile must be below the high one, got ({low:g}, {high:g})")
+
+    def values_in_use(self) -> dict:
+        volume = self.outputs.get("volume")
+        if volume is None:
+            return {}
+        used = {"spacing": volume.spacing, "origin": volume.origin, "value_range": volume.value_range}
+        return {name: tuple(float(v) for v in value) for name, value in used.items()
+                if self.property_values[name] is None}
+
+    def inapplicable(self) -> set[str]:
+        if not self.path:
+            return set()
+        path = Path(self.resolve_path(self.path))
+        hidden = set() if zarr_store(path) is not None else {"memory_budget"}
+        return hidden | (RAW_FIELDS if describes_itself(path) else set())
 
     def awaiting(self) -> str | None:
         return None if self.path else "a volume file"

@@ -143,3 +143,37 @@ def test_vgraph_run_still_refuses_a_volume_source_without_a_file():
     network.add("VolumeSource", id="source")
     with pytest.raises(VGraphError, match="source.path: no volume file chosen"):
         network.evaluate("source")
+
+
+RAW_FIELDS = ("raw_dims", "raw_dtype", "raw_endianness", "raw_offset")
+
+
+def test_auto_fields_show_the_values_in_use_and_raw_fields_hide_for_a_nifti_file(window, tmp_path):
+    import nibabel
+    import numpy as np
+    from vgraph.io import read_volume
+    path = tmp_path / "small.nii.gz"
+    nibabel.save(nibabel.Nifti1Image(np.arange(120, dtype=np.int16).reshape(4, 5, 6),
+                                     np.diag([0.5, 0.75, 2.0, 1.0])), path)
+    expected = read_volume(path)
+    workspace, inspector = window.workspace, window.inspector
+    workspace.add_processor("VolumeSource", (0, 0), id="source")
+    workspace.set_property("source.path", str(path))
+    window.evaluation.run(wait=True)
+    window.scene.select_processor("source")
+    for name, used in (("spacing", expected.spacing), ("origin", expected.origin),
+                       ("value_range", expected.value_range)):
+        editor = inspector.editors[name]
+        assert editor.auto.isChecked() and not any(spin.isEnabled() for spin in editor.spins)  # greyed
+        assert np.allclose([spin.value() for spin in editor.spins], used, atol=1e-4), name
+    assert tuple(expected.spacing) != (1.0, 1.0, 1.0)   # not the old placeholder
+    for name in RAW_FIELDS + ("memory_budget",):   # a NIfTI file has its header; it is no store
+        assert not inspector.form.isRowVisible(inspector.editors[name]), name
+    assert inspector.form.isRowVisible(inspector.editors["spacing"])
+    # Unchecking auto starts from the value in use, not from 1.
+    inspector.editors["spacing"].auto.setChecked(False)
+    assert np.allclose(workspace.network.get("source.spacing"), expected.spacing)
+    # A headerless raw file needs them: they show again.
+    workspace.set_property("source.path", str(tmp_path / "data.raw"))
+    for name in RAW_FIELDS:
+        assert inspector.form.isRowVisible(inspector.editors[name]), name

@@ -165,6 +165,16 @@ class Processor:
         inport: a new source without a file is no error (``vgraph run`` still refuses it by name)."""
         return None
 
+    def values_in_use(self) -> dict:
+        """The values its automatic properties (those left None: "from the file") took in the
+        last run, by property name; the inspector shows them greyed in place of a placeholder."""
+        return {}
+
+    def inapplicable(self) -> set[str]:
+        """Properties that do not apply to the current values (the raw-file settings of a source
+        whose file has a header); the inspector hides them."""
+        return set()
+
     def visible_content(self) -> str | None:
         """What the inputs of the last process() should make visible, in words ("12% of the voxels
         are visible under the transfer function"), or None when nothing or unknown. A renderer that

@@ -267,11 +267,26 @@ class VectorEditor(PropertyEditor):
     def _show(self, value):
         if self.auto is not None:
             self.auto.setChecked(value is None)
-        # With no value the boxes show 1 (clamped to the range): a valid start when "auto" is unchecked.
-        for spin, component in zip(self.spins, value or (1,) * len(self.spins)):
+        # With no value the boxes show the value in use (show_in_use) once a frame says it, else 1
+        # (clamped to the range): a valid start when "auto" is unchecked.
+        for spin, component in zip(self.spins, value or self.in_use or (1,) * len(self.spins)):
             spin.setValue(component)
         for spin in self.spins:
             spin.setEnabled(value is not None)
+
+    in_use = None
+
+    def show_in_use(self, value) -> None:
+        """The value an automatic (None) property took in the last run, shown greyed in the
+        disabled boxes; unchecking "auto" starts from it."""
+        self.in_use = tuple(value)
+        if self.auto is None or not self.auto.isChecked():
+            return
+        for spin, component in zip(self.spins, self.in_use):
+            spin.blockSignals(True)   # showing is no edit
+            spin.setValue(component)
+            spin.blockSignals(False)
+            spin.setToolTip(f"in use: {component:g} (from the data; uncheck auto to set it)")
 
 
 class ColorEditor(PropertyEditor):

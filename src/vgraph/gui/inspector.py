@@ -184,6 +184,17 @@ class PropertyInspector(QWidget):
             self.data.setText(status.data)
             self.data.setVisible(bool(status.data))
             self._show_timing()
+            for name, value in status.in_use:
+                if hasattr(self.editors.get(name), "show_in_use"):
+                    self.editors[name].show_in_use(value)
+            self._hide_inapplicable()
+
+    def _hide_inapplicable(self) -> None:
+        """Rows of properties that do not apply (Processor.inapplicable: raw-file settings for a
+        file with a header) are hidden."""
+        hidden = self.network[self.processor_id].inapplicable()
+        for name, editor in self.editors.items():
+            self.form.setRowVisible(editor, name not in hidden)
 
     # --- timing ---------------------------------------------------------------------------------
     def _progress(self, progress) -> None:

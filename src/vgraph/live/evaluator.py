@@ -220,6 +220,7 @@ class ProcessorStatus:
     data: str = ""
     seconds: float | None = None   # the last run's wall time, its GL work included
     fraction: float | None = None  # "running": how far its steps are (None: no steps known)
+    in_use: tuple = ()  # (property, value) of its automatic properties in the last run (values_in_use)
 
 
 def processor_status(network: Network, processor: Processor) -> ProcessorStatus:
@@ -232,7 +233,8 @@ def processor_status(network: Network, processor: Processor) -> ProcessorStatus:
                                f"up to date; ran {processor.evaluation_count} time"
                                f"{'s' * (processor.evaluation_count != 1)}, the last run took "
                                f"{format_seconds(seconds)} (its GL work included)",
-                               data_summary(processor), seconds)
+                               data_summary(processor), seconds,
+                               in_use=tuple(processor.values_in_use().items()))
     missing = [p.name for p in processor.inports
                if not p.optional and not network.inputs_of(processor.id, p.name)]
     if missing:
