@@ -52,7 +52,7 @@ def spike_tf(centre: float, width: float = 1.0, opacity: float = 0.9) -> Transfe
 
 def ball_file(folder: Path, shape=(37, 29, 41)) -> Path:
     """A ball with ripples in 0..100 data units, saved where the workers read it."""
-    path = Path(folder) / "ripple_ball.npy"
+    path = Path(folder) / f"ripple_ball_{'x'.join(map(str, shape))}.npy"
     if not path.exists():
         z, y, x = np.meshgrid(*[np.linspace(-1, 1, n) for n in shape], indexing="ij")
         data = np.clip(1.0 - np.sqrt(x * x + 1.3 * y * y + z * z), 0, 1) + 0.15 * np.sin(9 * x)
@@ -60,10 +60,10 @@ def ball_file(folder: Path, shape=(37, 29, 41)) -> Path:
     return path
 
 
-def bricked_network(folder: Path, **properties) -> Network:
+def bricked_network(folder: Path, shape=(37, 29, 41), **properties) -> Network:
     """VolumeSource -> EntryExitPoints -> BrickedRayCaster 'rc' (16^3 bricks, all at level 0) ->
-    Canvas, an oblique view of the rippled ball."""
-    path = ball_file(folder)
+    Canvas, an oblique view of the rippled ball of ``shape``."""
+    path = ball_file(folder, shape)
     network = Network(base_dir=path.parent)
     network.add("VolumeSource", id="source", path=str(path))
     camera = Camera(position=(0.7, -0.5, 1.0), focus=(0, 0, 0), near=None, far=None, fit_to_data=True)
