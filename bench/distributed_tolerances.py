@@ -52,9 +52,9 @@ def cases(folder: Path, size: int):
         for split, parts in (("tiles", (2, 3)), ("leaves", 3)):
             yield f"bricked {mode} {split}", lambda m=mode, e=extra: bricked_network(
                 folder, compositing=m, **e), split, parts, wide
-    for split, parts in (("tiles", (2, 3)), ("leaves", 3)):  # coarser levels where the pixels allow
-        yield f"bricked dvr levels 96^3 lod_bias 0 {split}", lambda: bricked_network(
-            folder, shape=(96, 96, 96), lod_bias=0.0, shading="blinn_phong"), split, parts, wide
+    for split, parts in (("tiles", (2, 3)), ("leaves", 3)):  # 48 x 36 pixels: levels 1 and 2
+        yield f"bricked dvr coarser levels (96^3, lod_bias 0) {split}", lambda: bricked_network(
+            folder, shape=(96, 96, 96), lod_bias=0.0, shading="blinn_phong"), split, parts, (48, 36)
     # Stiff cases (issue 30, item 6)
     for split, parts in (("tiles", (2, 3)), ("leaves", 3)):
         yield f"bricked spike TF {split}", lambda: bricked_network(
