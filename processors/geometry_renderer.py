@@ -36,7 +36,7 @@ from vgraph.gl_context import bind_default_framebuffer
 from vgraph.gl.curvature import COLORMAPS, colormap_table
 from vgraph.gl.passes import bind_textures, set_uniform
 from vgraph.gl.raycasting.framed_view import framed_view
-from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, ray_uniforms, vec
+from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, picture_of, pixel_rays, vec
 from vgraph.gl.raycasting.light import Light, shading_uniforms
 from vgraph.gl.shaders import programs
 from vgraph.image import Image
@@ -87,7 +87,12 @@ class GeometryRenderer(Processor):
         frame, drawn, camera = self._view(geometry, volume, size)
         image, depth, framebuffer = self._targets(ctx, size)
         framebuffer.use()
-        ctx.viewport = (0, 0, *size)
+        # A tile (Camera.tile) is drawn through the whole picture's projection and viewport shifted
+        # to it, so it rasterises the whole picture's pixels (docs/guide/distributed.md, "Accuracy").
+        whole, whole_size, offset = picture_of(camera, size)
+        if max(whole_size) > min(ctx.info["GL_MAX_VIEWPORT_DIMS"]):
+            whole, whole_size, offset = camera, tuple(size), (0, 0)
+        ctx.viewport = (-offset[0], -offset[1], *whole_size)
         framebuffer.clear(depth=1.0)
         image.framebuffer.clear(*(float(v) for v in self.background))
         depth.framebuffer.clear(1.0, 0.0, 0.0, 0.0)
@@ -102,6 +107,7 @@ class GeometryRenderer(Processor):
         framebuffer.use()
         bind_textures(program, textures)
         uniforms = self._uniforms(drawn, camera, size, coloring, frame)
+        uniforms["view_projection"] = whole.view_projection(whole_size[0] / whole_size[1])
         uniforms["world_length"] = frame.scale
         for name, value in uniforms.items():
             set_uniform(program, name, value)
@@ -164,10 +170,10 @@ class GeometryRenderer(Processor):
         return frame, drawn, camera
 
     def _uniforms(self, geometry: Geometry, camera, size, coloring: str, frame: BoxFrame) -> dict:
-        rays = ray_uniforms(camera, size)
+        rays = pixel_rays(camera, size)  # a tile's pixels take the whole picture's rays
         uniforms = {"view_projection": camera.view_projection(size[0] / size[1]),
-                    "viewport_size": (float(size[0]), float(size[1])),
-                    **{name: rays[name] for name in ("near_centre", "near_right", "near_up")}}
+                    **{name: rays[name] for name in ("viewport_size", "pixel_offset", "near_centre",
+                                                     "near_right", "near_up")}}
         if camera.projection == "perspective":
             uniforms["eye"] = vec(camera.position)
         else:

@@ -27,6 +27,10 @@ TORUS = REPO / "networks" / "curvature_torus.json"
 # `bench/distributed_tolerances.py --size 64`: 2.2e-6 (tets_lox_post) to 1.1e-5 (tets_disk_out_ref),
 # in every integration and order (docs/guide/distributed.md, "Accuracy").
 TETRA_TOLERANCE = 2e-5
+# GeometryRenderer draws a tile the same way; its surfaces' interpolated normals and positions
+# differ by float32 rounding, which shading multiplies: measured 9.6e-6 at 64 x 64, 1.7e-5 at
+# 128 x 128 (head_skin_mesh_bone_volume.json in 2 x 2 tiles; before issue 30: 1.3e-5, 2.5e-5).
+GEOMETRY_TOLERANCE = 2e-5
 
 
 # --- the camera's sub-frustum (no cluster) --------------------------------------------------------
@@ -166,6 +170,13 @@ def test_grid_cells_tiles_are_the_single_process_pixels_bit_for_bit(data_dir):
     image, reference = shipped_tiles(shipped_network("tets_bonsai"), (64, 64), (2, 2))
     assert np.ptp(reference[..., :3]) > 0.1
     assert np.array_equal(image, reference)
+
+
+def test_geometry_renderer_tiles_of_a_shipped_network(data_dir):
+    from distributed_cases import shipped_network
+    image, reference = shipped_tiles(shipped_network("head_skin_mesh_bone_volume"), (64, 64), (2, 2))
+    assert np.ptp(reference[..., :3]) > 0.1
+    assert np.abs(image - reference).max() <= GEOMETRY_TOLERANCE
 
 
 def test_curvature_contour_needs_the_halo():

@@ -6,7 +6,8 @@
 #include "geometry/surface_color.glsl"
 #include "raycasting/shading.glsl"
 
-uniform vec2 viewport_size;
+uniform vec2 viewport_size;  // of the whole picture; pixel_offset: this image's place in it
+uniform vec2 pixel_offset;   // (geometry.pixel_rays: a tile's rays are the whole picture's)
 uniform vec3 near_centre;  // the pixel centre (ndc_x, ndc_y) is at near_centre + ndc_x near_right
 uniform vec3 near_right;   // + ndc_y near_up on the near plane (where Camera.rays start)
 uniform vec3 near_up;
@@ -36,7 +37,7 @@ void main() {
     rgb = shade(rgb, world_normal, towards_viewer);
 #endif
     color = vec4(rgb, 1.0);
-    vec2 ndc = gl_FragCoord.xy / viewport_size * 2.0 - 1.0;
+    vec2 ndc = (gl_FragCoord.xy + pixel_offset) / viewport_size * 2.0 - 1.0;
     vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
     depth = vec4(gl_FragCoord.z, distance(world, origin) * world_length, 0.0, 1.0);
 }
