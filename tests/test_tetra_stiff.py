@@ -130,8 +130,10 @@ def test_opacities_near_0_and_1(gl, integration, opacity):
 @pytest.mark.parametrize("integration", ["preintegrated", "partial"])
 def test_tiles_of_a_non_convex_mesh_match_the_whole_image(gl, integration):
     """The C seen through both arms, drawn whole and as four uneven tiles (Camera.tile, as the
-    cluster draws them) with the mpvonc order, whose rays are then each tile's pixels': measured
-    max 3.5e-4 (the same with centroid and mpvo: the tiles' sub-frustum rounding, not the order)."""
+    cluster draws them) with the mpvonc order: a tile draws the whole picture's pixels (its
+    projection and order are the whole picture's), so only float rounding of what the GPU
+    interpolates across a face differs: measured max 4.4e-6, asserted 2e-5 as for every
+    ProjectedTetrahedra tile (docs/guide/distributed.md)."""
     from vgraph.mesh_shapes import c_shape
     mesh = c_shape()
     camera = Camera.looking_at_box(*mesh.box, direction=(-1.0, 0.2, -0.3)).resolved(*mesh.box, 1.0)
@@ -148,4 +150,4 @@ def test_tiles_of_a_non_convex_mesh_match_the_whole_image(gl, integration):
     for x, y, w, h in ((0, 0, 48, 40), (48, 0, 48, 40), (0, 40, 48, 56), (48, 40, 48, 56)):
         stitched[y:y + h, x:x + w] = image(camera.tile(x, y, w, h, width, height), (w, h))
     assert whole[..., :3].max() > 0.1  # the C shows
-    assert np.abs(whole - stitched).max() < 1e-3
+    assert np.abs(whole - stitched).max() < 2e-5
