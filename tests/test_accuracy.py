@@ -103,7 +103,7 @@ def test_csv_round_trip(torus_results, tmp_path):
 # --- the command ----------------------------------------------------------------------------------
 def test_command_writes_csv_markdown_plot_and_figures(tmp_path, capsys):
     out = tmp_path / "acc"
-    code = main(["bench", "accuracy", "--functions", "sphere", "--resolutions", "32",
+    code = main(["bench", "accuracy", "--renderers", "curvature", "--functions", "sphere", "--resolutions", "32",
                  "--derivatives", "forward", "central", "tricubic", "cpu", "--data-types", "float32",
                  "--repeat", "1", "--size", "48x40", "--out", str(out)])
     assert code == 0

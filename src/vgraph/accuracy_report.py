@@ -301,14 +301,18 @@ def options(args) -> dict:
             for key, value in ((k, base[k] if v is None else v) for k, v in chosen.items())}
 
 
-def command(args) -> int:
-    """``vgraph bench accuracy``: measure, print the summary, write the files."""
+def checked_options(args) -> dict:
+    """The matrix of the command line, refused (VGraphError) before any work if it is wrong."""
     matrix = options(args)
     if matrix["repeat"] < 1:
         raise VGraphError(f"--repeat must be at least 1, got {matrix['repeat']}")
     accuracy.check_matrix(*(matrix[k] for k in ("functions", "resolutions", "data_types",
                                                 "derivatives")))
-    out = Path(args.out) if getattr(args, "out", None) else DEFAULT_OUT
+    return matrix
+
+
+def measure_and_write(matrix: dict, out: Path) -> list[Path]:
+    """Measure the matrix, print the summary, write the files into ``out``; their paths."""
     out.mkdir(parents=True, exist_ok=True)
     results = accuracy.run(**matrix)
     panel = min(matrix["size"][1], FIGURE_PANEL)
@@ -318,6 +322,12 @@ def command(args) -> int:
     write_csv(results, out / "accuracy.csv")
     write_plot(results, out / "accuracy.png")
     print(summary)
-    names = ["accuracy.csv", "accuracy.md", "accuracy.png", *(f"{n}.png" for n in FIGURES)]
-    print("wrote " + ", ".join(str(out / n) for n in names), file=sys.stderr)
+    return [out / n for n in ("accuracy.csv", "accuracy.md", "accuracy.png", *(f"{n}.png" for n in FIGURES))]
+
+
+def command(args) -> int:
+    """The curvature section alone: measure, print the summary, write the files."""
+    out = Path(args.out) if getattr(args, "out", None) else DEFAULT_OUT
+    written = measure_and_write(checked_options(args), out)
+    print("wrote " + ", ".join(map(str, written)), file=sys.stderr)
     return 0

@@ -140,28 +140,51 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_convert_parser(commands)
 
-    bench = commands.add_parser("bench", help="benchmarks: curvature accuracy against frame time")
+    bench = commands.add_parser("bench", help="benchmarks: error against frame time per renderer")
     bench.set_defaults(command=lambda args: _print_help(bench))
     benchmarks = bench.add_subparsers(title="benchmarks")
     accuracy = benchmarks.add_parser(
-        "accuracy", help="curvature error against frame time per function, resolution, data type "
-                         "and derivative mode (docs/reports/curvature-accuracy.md)")
-    accuracy.add_argument("--functions", nargs="+", metavar="NAME",
-                          help="implicit functions (default: sphere torus ellipsoid saddle)")
-    accuracy.add_argument("--resolutions", nargs="+", type=int, metavar="N",
-                          help="voxels per axis (default: 32 64 128 256)")
-    accuracy.add_argument("--derivatives", nargs="+", metavar="MODE",
-                          help="forward central filtered tricubic tricubic_fast cpu (default: all)")
-    accuracy.add_argument("--data-types", nargs="+", metavar="TYPE",
-                          help="uint8 uint16 float32 (default: all)")
-    accuracy.add_argument("--repeat", type=int, help="timed frames per case (default: 7)")
-    accuracy.add_argument("--size", type=parse_size, help="image size WxH (default: 256x256)")
+        "accuracy", help="error against frame time, a section per renderer: curvature, projected "
+                         "tetrahedra, bricked levels (docs/reports/accuracy.md)")
+    accuracy.add_argument("--renderers", nargs="+", metavar="NAME",
+                          help="sections to measure: curvature tetrahedra bricked (default: all)")
+    accuracy.add_argument("--repeat", type=int,
+                          help="timed frames per case (default: curvature 7, tetrahedra 3, bricked 3)")
+    accuracy.add_argument("--size", type=parse_size,
+                          help="image size WxH (default: curvature and tetrahedra 256x256, bricked 192x192)")
     accuracy.add_argument("--out", type=user_path,
                           help="output folder (default: bench/results/accuracy)")
     accuracy.add_argument("--quick", action="store_true",
-                          help="a small matrix in seconds (sphere, torus; 32, 64; uint8, float32; "
-                               "forward, central, tricubic, cpu; 128x128; repeat 2); given "
-                               "options still apply")
+                          help="small matrices in seconds, no data files (curvature: sphere, torus; 32, 64; "
+                               "uint8, float32; forward, central, tricubic, cpu; 128x128; repeat 2. "
+                               "tetrahedra: grid and c, 96x96, repeat 1. bricked: synthetic, 16^3 bricks, "
+                               "96x96, repeat 1); given options still apply")
+    curvature = accuracy.add_argument_group("curvature (CurvatureRaycaster)")
+    curvature.add_argument("--functions", nargs="+", metavar="NAME",
+                           help="implicit functions (default: sphere torus ellipsoid saddle)")
+    curvature.add_argument("--resolutions", nargs="+", type=int, metavar="N",
+                           help="voxels per axis (default: 32 64 128 256)")
+    curvature.add_argument("--derivatives", nargs="+", metavar="MODE",
+                           help="forward central filtered tricubic tricubic_fast cpu (default: all)")
+    curvature.add_argument("--data-types", nargs="+", metavar="TYPE",
+                           help="uint8 uint16 float32 (default: all)")
+    tetrahedra = accuracy.add_argument_group("tetrahedra (ProjectedTetrahedra)")
+    tetrahedra.add_argument("--meshes", nargs="+", metavar="NAME",
+                            help="post disk grid c (default: all; grid and c are made here, no data)")
+    tetrahedra.add_argument("--integrations", nargs="+", metavar="MODE",
+                            help="averaged preintegrated partial (default: all)")
+    tetrahedra.add_argument("--orders", nargs="+", metavar="ORDER",
+                            help="centroid mpvo mpvonc (default: all)")
+    tetrahedra.add_argument("--post-mesh", type=user_path, metavar="FILE",
+                            help="the post mesh (default: ../shared/data/tet_lox_post/post.vtk)")
+    tetrahedra.add_argument("--disk-mesh", type=user_path, metavar="FILE",
+                            help="the disk mesh (default: ../shared/data/hex_disk_out_ref/disk_out_ref.vtu)")
+    bricked = accuracy.add_argument_group("bricked (BrickedRayCaster levels of detail)")
+    bricked.add_argument("--volumes", nargs="+", metavar="NAME",
+                         help="bonsai synthetic (default: both; synthetic is made here, no data)")
+    bricked.add_argument("--bonsai", type=user_path, metavar="FILE",
+                         help="the bonsai volume (default: ../shared/data/ct_bonsai/bonsai.nii.gz)")
+    bricked.add_argument("--brick", type=int, metavar="N", help="brick edge in voxels (default: 32)")
     accuracy.set_defaults(command=command_bench_accuracy)
     return parser
 
@@ -322,5 +345,5 @@ def command_convert(args) -> int:
 
 
 def command_bench_accuracy(args) -> int:
-    from vgraph.accuracy_report import command  # imported here: the benchmark needs matplotlib
+    from vgraph.accuracy_sections import command  # imported here: the benchmark needs matplotlib
     return command(args)
