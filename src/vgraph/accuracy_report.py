@@ -23,6 +23,8 @@ import PIL.ImageDraw
 
 from vgraph import accuracy
 from vgraph.accuracy import MEASURES, MODES, Case, Result, Stats
+from vgraph.accuracy_common import write_text
+from vgraph.atomic import atomic_path
 from vgraph.camera import Camera
 from vgraph.errors import VGraphError
 
@@ -42,7 +44,7 @@ MARKERS = {"uint8": "^", "uint16": "s", "float32": "o"}
 # --- tables --------------------------------------------------------------------------------------------
 def write_csv(results: list[Result], path: Path) -> None:
     rows = [r.row() for r in results]
-    with open(path, "w", newline="") as handle:
+    with atomic_path(path) as temporary, open(temporary, "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]) if rows else ["function"])
         writer.writeheader()
         writer.writerows(rows)
@@ -226,7 +228,8 @@ def write_plot(results: list[Result], path: Path) -> None:
     figure.savefig(buffer, dpi=80)
     plt.close(figure)
     with PIL.Image.open(buffer) as image:  # a 256-colour palette: a third of the bytes
-        image.convert("RGB").quantize(256).save(path, optimize=True)
+        with atomic_path(path) as temporary:
+            image.convert("RGB").quantize(256).save(temporary, format="PNG", optimize=True)
 
 
 # --- the seed's figures ------------------------------------------------------------------------------------
@@ -271,7 +274,8 @@ def write_grid(panels, columns: int, path: Path) -> None:
                   fill=(0, 0, 0))
         draw.text((x + 4, y + size + 14), f"median error k1 {percent(result.errors['k1'].median)}, "
                   f"K {percent(result.errors['K'].median)}", fill=(0, 0, 0))
-    canvas.save(path, optimize=True)
+    with atomic_path(path) as temporary:
+        canvas.save(temporary, format="PNG", optimize=True)
 
 
 def percent(value: float) -> str:
@@ -318,7 +322,7 @@ def measure_and_write(matrix: dict, out: Path) -> list[Path]:
     panel = min(matrix["size"][1], FIGURE_PANEL)
     figures = render_figures(out, panel, matrix["repeat"])
     summary = summary_markdown(results, matrix["size"], matrix["repeat"])
-    (out / "accuracy.md").write_text(summary + "\n# Figures (torus)\n" + figures_markdown(figures))
+    write_text(out / "accuracy.md", summary + "\n# Figures (torus)\n" + figures_markdown(figures))
     write_csv(results, out / "accuracy.csv")
     write_plot(results, out / "accuracy.png")
     print(summary)
