@@ -253,6 +253,19 @@ def test_lod_bias_picks_levels_from_the_projected_voxel_size():
     assert rc.last_frame["levels"] == [0]
 
 
+def test_finest_level_draws_no_brick_finer_and_without_a_budget_warning():
+    """finest_level L with lod_bias -16 draws every brick at level L (how the accuracy report
+    compares levels); the level was asked for, so nothing warns of a raised one."""
+    volume = big_volume()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        level_1, _, rc = render(volume, oblique(volume), size=(32, 32), brick_size=32, lod_bias=FINEST,
+                                finest_level=1)
+    assert rc.last_frame["levels"] == [1] and rc.last_frame["floor_level"] == 1
+    level_0, _, _ = render(volume, oblique(volume), size=(32, 32), brick_size=32, lod_bias=FINEST)
+    assert 0 < np.abs(level_1 - level_0).max() < 0.5  # the same picture, coarser
+
+
 def test_a_camera_inside_the_volume_matches_the_raycaster():
     """Bricks behind the eye get the whole viewport; rays start on the near plane."""
     volume = big_volume()

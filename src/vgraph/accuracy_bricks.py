@@ -4,12 +4,12 @@
 
 Transfer functions: smooth (a ramp over 0.3..1), stiff (a spike 0.02 wide at 0.45) and faint
 (opacity 0.002..0.004, one colour: the regime where the bound lets levels coarsen). Rows per
-volume and transfer function: every level 0..n drawn everywhere (the footprint's choice replaced
-by that level, ``forced_levels``: the ray caster has no property that forces one), then the
-footprint asking for the coarsest level (lod_bias 15) under max_error 1 (no budget), 0.5, 0.1 and
-0.02. Each row gives the frame time (median of ``repeat`` frames; the rows' frames are
-interleaved, one frame of each row per round after a round that reads the bricks and compiles,
-each frame re-planned by nudging lod_bias by -1e-6 and back), the PSNR and max error
+volume and transfer function: every level 0..n drawn everywhere (``finest_level`` n with lod_bias
+-16: every brick asks for level 0 and gets n), then the footprint asking for the coarsest level
+(lod_bias 15) under max_error 1 (no budget), 0.5, 0.1 and 0.02. Each row gives the frame time
+(median of ``repeat`` frames; the rows' frames are interleaved, one frame of each row per round
+after a round that reads the bricks and compiles, each frame re-planned by nudging lod_bias by
+1e-6 and back), the PSNR and max error
 (vgraph.accuracy_common) against the level-0 frame, the reference here, and the frame's reported
 bound (last_frame["error_bound"]). Unshaded dvr, no early termination, sampling rate 1.
 
@@ -19,7 +19,6 @@ Marschner-Lobb function sampled at 64^3 uint8 by vgraph.implicit: no data).
 
 from __future__ import annotations
 
-import contextlib
 import statistics
 import time
 from dataclasses import dataclass
@@ -28,7 +27,6 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-import vgraph.bricks.selection as selection
 from vgraph.accuracy_common import (BONSAI, machine_line, max_error, plot_error_against_time, psnr,
                                     require_file, write_text)
 from vgraph.camera import Camera
@@ -48,6 +46,7 @@ FAINT = TransferFunction(points=[(0.0, 0.9, 0.8, 0.6, 0.0), (0.2, 0.9, 0.8, 0.6,
 TRANSFER_FUNCTIONS = {"smooth": SMOOTH, "stiff": STIFF, "faint": FAINT}
 BUDGETS = (1.0, 0.5, 0.1, 0.02)
 COARSEST = 15.0  # lod_bias asking every brick for the coarsest level
+FINEST = -16.0  # lod_bias asking every brick for level 0 (finest_level then sets the level drawn)
 VOLUMES = ("bonsai", "synthetic")
 SYNTHETIC_RESOLUTION = 64
 DEFAULTS = {"volumes": VOLUMES, "size": (192, 192), "repeat": 3, "brick": 32}
@@ -101,47 +100,28 @@ def check_options(volumes, repeat: int, brick: int, bonsai) -> None:
         require_file(bonsai, "--bonsai")
 
 
-@contextlib.contextmanager
-def forced_levels():
-    """While open, selection's footprint choice is replaced by ``force.level`` for every brick
-    when that is not None (then the frame draws that level everywhere); restored on leaving."""
-    footprint = selection.desired_levels
-
-    def force(geometry, camera, size, level, lod_bias):
-        wanted = footprint(geometry, camera, size, level, lod_bias)
-        return wanted if force.level is None else np.full_like(wanted, force.level)
-
-    force.level = None
-    selection.desired_levels = force
-    try:
-        yield force
-    finally:
-        selection.desired_levels = footprint
-
-
 def networks(volume, camera, tf, brick: int, levels: int):
-    """(label, network, forced level or None) of every row of one transfer function."""
-    rows = [(f"level {level}", ray_caster_network(volume, camera, "BrickedRayCaster", lod_bias=0.0,
-                                                  transfer_function=tf, brick_size=brick, **COMMON),
-             level) for level in range(levels)]
+    """(label, network, its lod_bias) of every row of one transfer function."""
+    rows = [(f"level {level}", ray_caster_network(volume, camera, "BrickedRayCaster", lod_bias=FINEST,
+                                                  finest_level=level, transfer_function=tf, brick_size=brick,
+                                                  **COMMON), FINEST) for level in range(levels)]
     rows += [(f"lod_bias {COARSEST:g}, max_error {budget:g}",
               ray_caster_network(volume, camera, "BrickedRayCaster", lod_bias=COARSEST, max_error=budget,
-                                 transfer_function=tf, brick_size=brick, **COMMON), None)
+                                 transfer_function=tf, brick_size=brick, **COMMON), COARSEST)
              for budget in BUDGETS]
     return rows
 
 
-def frame(network, force, forced, size, odd: bool):
+def frame(network, lod_bias: float, size, odd: bool):
     """One re-planned frame: (image, seconds, last_frame)."""
-    force.level = forced
-    network.set("rc.lod_bias", (0.0 if forced is not None else COARSEST) - 1e-6 * odd)
+    network.set("rc.lod_bias", lod_bias + 1e-6 * odd)
     began = time.perf_counter()
     image = np.asarray(network.evaluate("rc.image", size=size))
     return image, time.perf_counter() - began, dict(network["rc"].last_frame)
 
 
 # --- measuring -------------------------------------------------------------------------------------
-def measure_tf(label, volume, camera, tf_name, tf, brick, size, repeat, force, bar) -> list[Row]:
+def measure_tf(label, volume, camera, tf_name, tf, brick, size, repeat, bar) -> list[Row]:
     probe = ray_caster_network(volume, camera, "BrickedRayCaster", brick_size=brick)
     levels = len(probe["rc"].brick_source(volume).levels)
     table = networks(volume, camera, tf, brick, levels)
@@ -149,8 +129,8 @@ def measure_tf(label, volume, camera, tf_name, tf, brick, size, repeat, force, b
     frames = {}
     for round_ in range(repeat + 1):  # round 0 warms (reads the bricks, compiles)
         bar.set_postfix_str(f"{label} {tf_name}: round {round_} of {repeat}")
-        for name, network, forced in table:
-            image, seconds, last = frame(network, force, forced, size, bool(round_ % 2))
+        for name, network, lod_bias in table:
+            image, seconds, last = frame(network, lod_bias, size, bool(round_ % 2))
             if round_:
                 times[name].append(seconds)
             frames[name] = image, last
@@ -172,12 +152,12 @@ def run(volumes=VOLUMES, size=(192, 192), repeat: int = 3, brick: int = 32, bons
     check_options(volumes, repeat, brick, bonsai)
     rows = []
     with tqdm(total=len(volumes) * len(TRANSFER_FUNCTIONS), desc="bricked", unit="TF",
-              disable=not progress) as bar, forced_levels() as force:
+              disable=not progress) as bar:
         for name in volumes:
             label, volume = load_volume(name, Path(bonsai))
             camera = camera_for(volume)
             for tf_name, tf in TRANSFER_FUNCTIONS.items():
-                rows += measure_tf(label, volume, camera, tf_name, tf, brick, size, repeat, force, bar)
+                rows += measure_tf(label, volume, camera, tf_name, tf, brick, size, repeat, bar)
                 bar.update(1)
     return rows
 

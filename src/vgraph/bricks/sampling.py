@@ -122,6 +122,9 @@ class BrickSampling(Component):
                                                 f"volumes (a BrickedVolume keeps its own){when}"),
                 "lod_bias": FloatProperty(0.0, min=-16.0, max=16.0,
                                           doc=f"levels coarser (+) or finer (-) than voxels of about a pixel{when}"),
+                "finest_level": IntProperty(0, min=0, max=32,
+                                            doc="no brick finer than this level (0: the data's own); with "
+                                                f"lod_bias -16 every brick is drawn at it{when}"),
                 "ram_budget": FloatProperty(1024.0, min=0.01, max=1e7, doc=f"MB of bricks kept in memory{when}"),
                 "gl_budget": FloatProperty(512.0, min=0.01, max=1e7, doc=f"MB of brick textures kept on the GL{when}"),
                 "max_error": FloatProperty(1.0, min=0.0, max=1.0,
@@ -212,11 +215,13 @@ class BrickSampling(Component):
         view_projection = frame.camera.view_projection(frame.size[0] / frame.size[1])
         try:
             plan = plan_frame(source, frame.camera, frame.size, view_projection, self.visible(source, frame),
-                              processor.lod_bias, self.budget(), errors, processor.max_error)
+                              processor.lod_bias, self.budget(), errors, processor.max_error,
+                              processor.finest_level)
         except ValueError as error:
             raise VGraphError(f"{processor.id}.ram_budget / {processor.id}.gl_budget: {error}; raise the "
                               f"budgets or use smaller bricks") from None
-        if plan.floor_level > 0 and plan.floor_level != self.warned_level:  # once per change, not per frame
+        asked = min(processor.finest_level, len(source.levels) - 1)
+        if plan.floor_level > asked and plan.floor_level != self.warned_level:  # once per change, not per frame
             budget = min(processor.ram_budget, processor.gl_budget)
             message = (f"{processor.type_name} '{processor.id}': the budget ({budget:g} MB) "
                        f"cannot hold the frame's finer bricks; rendering at level {plan.floor_level} "

@@ -260,9 +260,10 @@ def select_bricks(source: BrickSource, camera, size, view_projection, visible, l
 
 
 def plan_frame(source: BrickSource, camera, size, view_projection, visible, lod_bias: float,
-               budget_bytes: int, errors=None, max_error: float = 1.0) -> FramePlan:
-    """The frame's bricks at the finest levels whose bricks fit ``budget_bytes`` together; raises
-    ValueError when not even the coarsest level fits. With ``errors`` (a lod_error.LodErrors) and
+               budget_bytes: int, errors=None, max_error: float = 1.0, finest_level: int = 0) -> FramePlan:
+    """The frame's bricks at the finest levels, none finer than ``finest_level`` (clamped to the
+    coarsest), whose bricks fit ``budget_bytes`` together; raises ValueError when not even the
+    coarsest level fits. With ``errors`` (a lod_error.LodErrors) and
     ``max_error`` < 1, a cell is also refined where its error bound is over a share of
     ``max_error``: the share starts at max_error and is divided by 8, then 0, until the frame's bound is
     within max_error (at share 0 every cell that can move a pixel is refined down to the floor)."""
@@ -289,7 +290,7 @@ def plan_frame(source: BrickSource, camera, size, view_projection, visible, lod_
                 break
         return bricks
 
-    for floor_level in range(len(source.levels)):
+    for floor_level in range(min(finest_level, len(source.levels) - 1), len(source.levels)):
         bricks = select(floor_level)
         total = sum(brick_bytes(source, key) for key, _ in bricks)
         if total <= budget_bytes:
