@@ -177,3 +177,22 @@ def test_auto_fields_show_the_values_in_use_and_raw_fields_hide_for_a_nifti_file
     workspace.set_property("source.path", str(tmp_path / "data.raw"))
     for name in RAW_FIELDS:
         assert inspector.form.isRowVisible(inspector.editors[name]), name
+
+
+def test_an_image_emptied_by_a_clip_plane_or_the_crop_box_says_so_in_the_log(window):
+    """The empty-image warning the window logs names the cut that emptied the image, not the
+    camera or the value range."""
+    from helpers.paths import REPO
+    assert window.open_network(REPO / "networks" / "raycast_sphere.json")
+    window.evaluation.run(wait=True)
+    assert window.blank_warnings == {}
+    window.workspace.set_property("eep.clip_planes", [{"normal": [1, 0, 0], "point": [500, 0, 0]}])
+    window.evaluation.run(wait=True)
+    warning = window.blank_warnings["canvas"]
+    assert "eep.clip_planes[0] removes every voxel" in warning and "camera" not in warning
+    assert any("eep.clip_planes[0]" in message for message in window.log.messages("warning"))
+    window.workspace.set_property("eep.clip_planes", [])
+    window.workspace.set_property("eep.crop_box", [400, 400, 400, 500, 500, 500])
+    window.evaluation.run(wait=True)
+    warning = window.blank_warnings["canvas"]
+    assert "eep.crop_box holds no voxel" in warning and "camera" not in warning
