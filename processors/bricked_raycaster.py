@@ -75,6 +75,9 @@ class BrickedRayCaster(RaycasterBase):
         """What the last frame drew (BrickSampling.draw_frame): bricks, levels, whether complete."""
         return self.bricks.last_frame
 
+    def frame_summary(self) -> str:
+        return self.bricks.summary()
+
     def brick_source(self, volume: Volume):
         """The volume's pyramid of bricks as this processor draws it (BrickSampling.brick_source)."""
         return self.bricks.brick_source(volume)

@@ -106,6 +106,10 @@ class RayCaster(RaycasterBase):
         process asks whether it was complete), else empty."""
         return self.parts[BrickSampling].last_frame if self._drew_bricks else {}
 
+    def frame_summary(self) -> str:
+        """A frame drawn brick by brick in a line (BrickSampling.summary); else nothing."""
+        return self.parts[BrickSampling].summary() if self._drew_bricks else ""
+
     def shader_defines(self) -> dict[str, bool]:
         """The RayCaster's own defines (docs/explanations/ray-casting.md lists them with the components')."""
         return {f"COMPOSITING_{self.compositing.upper()}": True,

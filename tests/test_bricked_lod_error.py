@@ -190,3 +190,16 @@ def test_a_budget_that_raises_the_level_says_when_the_bound_is_over_max_error():
                               max_error=0.1, ram_budget=4.0, gl_budget=4.0)
     assert rc.last_frame["floor_level"] == 1 and rc.last_frame["error_bound"] == 1.0
     assert np.abs(image - reference).max() <= rc.last_frame["error_bound"]
+
+
+def test_the_inspector_line_gives_the_frames_levels_and_bound():
+    """What the GUI shows of a bricked frame (its node's status data, Processor.frame_summary): the
+    levels drawn and the bound against the level-0 frame with the budget it was held to."""
+    from vgraph.live.evaluator import processor_status
+    volume = big_volume()
+    _, _, rc = render(volume, oblique(volume), size=SIZE, transfer_function=GENTLE, brick_size=16, lod_bias=2.0,
+                      max_error=0.5)
+    line = processor_status(rc.network, rc).data.splitlines()[-1]
+    levels = rc.last_frame["levels"]
+    assert line.startswith(f"bricks: level {levels[0]}") and f"{rc.last_frame['bricks']} bricks" in line
+    assert f"error bound {rc.last_frame['error_bound']:.3g} against the level-0 frame (max_error 0.5)" in line

@@ -170,6 +170,11 @@ class Processor:
         last run, by property name; the inspector shows them greyed in place of a placeholder."""
         return {}
 
+    def frame_summary(self) -> str:
+        """What its last frame drew beyond its outputs, in a line for the inspector (a bricked
+        frame's levels and error bound); empty when there is nothing to say."""
+        return ""
+
     def inapplicable(self) -> set[str]:
         """Properties that do not apply to the current values (the raw-file settings of a source
         whose file has a header); the inspector hides them."""

@@ -282,6 +282,20 @@ class BrickSampling(Component):
                            "bricks_read": self.cache.stats["bricks_read"] - read_before,
                            "seconds": time.perf_counter() - started}
 
+    def summary(self) -> str:
+        """The last frame in a line (the inspector's, Processor.frame_summary): its levels and
+        bricks, its error bound against the level-0 frame (dvr) and whether it is still refining."""
+        frame = self.last_frame
+        if not frame:
+            return ""
+        levels = frame["levels"]
+        span = "-" if not levels else str(levels[0]) if len(levels) == 1 else f"{levels[0]}-{levels[-1]}"
+        line = f"bricks: level {span}, {frame['bricks']} bricks ({frame['bytes'] / MB:.1f} MB)"
+        if frame.get("error_bound") is not None:
+            line += (f"; error bound {frame['error_bound']:.3g} against the level-0 frame "
+                     f"(max_error {self.processor.max_error:g})")
+        return line + ("" if frame["complete"] else "; refining")
+
     def leaf_pass(self, frame, geometry, plan, accumulation, leaf: LeafPass, own: Binding) -> FramePlan:
         """The leaves split's part of the frame (selection.LeafPass): draw its bricks and read the
         accumulation back into ``leaf``, or write the composited accumulation for the resolve pass."""

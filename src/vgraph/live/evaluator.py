@@ -233,8 +233,8 @@ def processor_status(network: Network, processor: Processor) -> ProcessorStatus:
                                f"up to date; ran {processor.evaluation_count} time"
                                f"{'s' * (processor.evaluation_count != 1)}, the last run took "
                                f"{format_seconds(seconds)} (its GL work included)",
-                               data_summary(processor), seconds,
-                               in_use=tuple(processor.values_in_use().items()))
+                               "\n".join(filter(None, (data_summary(processor), processor.frame_summary()))),
+                               seconds, in_use=tuple(processor.values_in_use().items()))
     missing = [p.name for p in processor.inports
                if not p.optional and not network.inputs_of(processor.id, p.name)]
     if missing:
