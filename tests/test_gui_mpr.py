@@ -248,3 +248,121 @@ def test_an_auto_window_drags_from_the_whole_value_range(mpr, qtbot):
     centre, width = network.get("axial.window")
     np.testing.assert_allclose(width, span - 12 * span / height, rtol=1e-4)
     np.testing.assert_allclose(centre, low + span / 2 - 8 * span / height, rtol=1e-4)
+
+
+# --- the crosshair and readouts drawn on screen (slice_overlay.py) ------------------------------
+
+class _Network:
+    """What the overlay reads of a network: the viewers' ids and properties."""
+    def __init__(self, properties):
+        self.properties = properties
+        self.processors = {key.split(".")[0]: None for key in properties}
+
+    def get(self, address):
+        return self.properties.get(address)
+
+
+def _planes(cursor, size=(64, 64)):
+    from vgraph.slicing import slice_plane
+    return {f"{name}.slice_plane": slice_plane(name, None, cursor, 1.0, (0.0, 0.0, 0.0), (1.0, 1.0, 2.0),
+                                               (64, 64, 32), size)
+            for name in ("axial", "coronal", "sagittal")}
+
+
+def _painted(viewer, cameras, side=256):
+    """The overlay of ``viewer`` painted over black at side x side screen pixels: (H, W, 3)."""
+    from PySide6.QtCore import QRectF
+    from PySide6.QtGui import QImage, QPainter
+    from vgraph.gui.slice_overlay import draw_slice_overlay
+    network = _Network({f"{n}.{key}": value for n in ("axial", "coronal", "sagittal")
+                        for key, value in (("orientation", n), ("cursor", CURSOR), ("mapping", "window"),
+                                           ("window", (100.0, 50.0)))})
+    image = QImage(side, side, QImage.Format_RGBA8888)
+    image.fill(0xFF000000)
+    painter = QPainter(image)
+    draw_slice_overlay(painter, viewer, network, cameras, QRectF(0, 0, side, side))
+    painter.end()
+    return np.frombuffer(image.constBits(), np.uint8).reshape(side, side, 4)[..., :3].astype(int)
+
+
+CURSOR = (20.0, 30.0, 40.0)
+SLICER = {"axial": (243, 74, 51), "sagittal": (237, 213, 76), "coronal": (110, 176, 75)}
+
+
+def _line_pixels(pixels, colour, tolerance=40):
+    return np.abs(pixels - np.array(colour)).max(axis=-1) <= tolerance
+
+
+@pytest.mark.parametrize("viewer, across, along", [("axial", "coronal", "sagittal"),
+                                                   ("coronal", "axial", "sagittal"),
+                                                   ("sagittal", "axial", "coronal")])
+def test_the_crosshair_lines_take_the_colour_of_the_plane_they_mark(qapp, viewer, across, along):
+    """In each view the other two planes cross at the cursor, 2 screen pixels wide at 4x the
+    frame's resolution, in Slicer's colours: ``across`` is the horizontal line, ``along`` the
+    vertical one."""
+    side = 256
+    cameras = _planes(CURSOR)
+    pixels = _painted(viewer, cameras, side)
+    u, v = cameras[f"{viewer}.slice_plane"].uv_of(CURSOR)
+    column, row = u * side, (1.0 - v) * side
+    horizontal, vertical = _line_pixels(pixels, SLICER[across]), _line_pixels(pixels, SLICER[along])
+    # along a column away from the crossing the horizontal line is >= 2 px thick, at the cursor's row
+    x = int(column + 40) % side
+    rows = np.nonzero(horizontal[:, x])[0]
+    assert len(rows) >= 2 and abs(rows.mean() - row) <= 1.0, (viewer, rows, row)
+    y = int(row + 40) % side
+    columns = np.nonzero(vertical[y, :])[0]
+    assert len(columns) >= 2 and abs(columns.mean() - column) <= 1.0, (viewer, columns, column)
+    # the view's own colour marks no line inside the image (only its outline at the box's edge)
+    own = _line_pixels(pixels, SLICER[viewer])
+    assert not own[int(row) + 10: int(row) + 20, int(column) + 10: int(column) + 20].any()
+
+
+def test_the_intersection_of_two_planes_in_image_coordinates():
+    from vgraph.gui.slice_overlay import clipped_to_image, intersection_uv
+    cameras = _planes(CURSOR)
+    axial, coronal = cameras["axial.slice_plane"], cameras["coronal.slice_plane"]
+    point, direction = intersection_uv(axial, coronal)
+    np.testing.assert_allclose(axial.world_at(*point)[1], CURSOR[1], atol=1e-9)  # on y = cursor's y
+    assert abs(direction[1]) < 1e-12                                               # horizontal
+    start, end = clipped_to_image(point, direction)
+    np.testing.assert_allclose(sorted([start[0], end[0]]), [0.0, 1.0])
+    assert intersection_uv(axial, axial) is None                                   # parallel
+    assert clipped_to_image(np.array([0.5, 1.5]), np.array([1.0, 0.0])) is None    # misses the image
+
+
+def test_the_readouts_give_the_slice_position_and_the_window():
+    from vgraph.gui.slice_overlay import readouts
+    from vgraph.live.slice_clicks import SliceVolume
+    cameras = _planes(CURSOR)
+    cameras["axial.slice_volume"] = SliceVolume((1.0, 1.0, 2.0), (0.0, 1000.0))
+    network = _Network({"axial.orientation": "axial", "axial.cursor": CURSOR,
+                        "axial.mapping": "window", "axial.window": (100.0, 50.0)})
+    # z = 40 world units with 2 per voxel: index 20, the 21st of 32 slices
+    assert readouts("axial", network, cameras) == ["Axial  S 40.0  slice 21/32", "W 50  L 100"]
+    network.properties["axial.window"] = None  # auto: the whole value range
+    assert readouts("axial", network, cameras)[1] == "W 1000  L 500"
+
+
+def test_the_mpr_views_draw_the_crosshair_on_screen_not_into_the_frame(mpr, qtbot):
+    """The shipped MPR network draws no crosshair into its images; the views draw the other
+    planes' lines over them at screen resolution, and the Slices toggle hides them."""
+    axial = mpr.canvases.views["axial_canvas"]
+    axial.resize(300, 300)
+    qtbot.waitUntil(lambda: axial.width() == 300)
+    plane = mpr.evaluation.view_cameras["axial.slice_plane"]
+    u, v = plane.uv_of(plane.centre)  # the cursor is automatic: the volume's centre
+    rect = axial.image_rect()
+    shown = axial.grab().toImage().convertToFormat(axial.grab().toImage().Format.Format_RGBA8888)
+    pixels = np.frombuffer(shown.constBits(), np.uint8).reshape(shown.height(), shown.width(), 4)
+    ratio = shown.width() / axial.width()
+    x = int((rect.left() + 0.1 * rect.width()) * ratio)
+    row = (rect.top() + (1.0 - v) * rect.height()) * ratio
+    green = np.nonzero(_line_pixels(pixels[..., :3].astype(int), SLICER["coronal"])[:, x])[0]
+    assert len(green) >= 2 and abs(green.mean() - row) <= 1.5 * ratio, (green, row)
+    frame_pixels = frame(mpr, "axial_canvas")[..., :3].astype(int)
+    assert not _line_pixels(frame_pixels, SLICER["coronal"], 20).any()  # not in the image
+    axial.set_slices_visible(False)
+    hidden = axial.grab().toImage().convertToFormat(shown.format())
+    bare = np.frombuffer(hidden.constBits(), np.uint8).reshape(hidden.height(), hidden.width(), 4)
+    assert not _line_pixels(bare[..., :3].astype(int), SLICER["coronal"])[:, x].any()

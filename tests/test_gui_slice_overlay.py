@@ -106,10 +106,11 @@ def test_each_outline_is_drawn_where_its_corners_project_in_its_colour(ws, qtbot
         assert any(inside_polygon((x + 0.5, y + 0.5), p, 2.5) for p in projected.values()), (x, y)
 
 
-def test_colours_follow_the_orientation_axes_of_the_triad():
-    assert overlays.SLICE_COLOURS["axial"] == overlays.AXIS_COLOURS["z"]     # constant z
-    assert overlays.SLICE_COLOURS["coronal"] == overlays.AXIS_COLOURS["y"]   # constant y
-    assert overlays.SLICE_COLOURS["sagittal"] == overlays.AXIS_COLOURS["x"]  # constant x
+def test_colours_follow_3d_slicer():
+    """Axial red, sagittal yellow, coronal green, as 3D Slicer's views (and the slice views'
+    crosshairs, slice_overlay.py)."""
+    rgb_of = {name: overlays.SLICE_COLOURS[name].getRgb()[:3] for name in ("axial", "sagittal", "coronal")}
+    assert rgb_of == {"axial": (243, 74, 51), "sagittal": (237, 213, 76), "coronal": (110, 176, 75)}
 
 
 def test_near_plane_clipping_keeps_the_part_in_front():

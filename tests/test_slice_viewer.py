@@ -254,7 +254,7 @@ def test_the_mpr_network_runs_from_the_cli(tmp_path):
                  "--size", "64x64", "--data", str(out)]) == 0
     image = np.load(out)
     # The head's box is 160 x 143.7 world units across x and z: full width, transparent rows
-    # above and below; the crosshair (at the volume's centre) crosses the middle.
+    # above and below. The network draws no crosshair into the image (the GUI draws it on screen).
     assert image.shape == (64, 64, 4)
-    assert np.all(image[0, :20, 3] == 0.0) and image[32, 10, 3] == 1.0  # (the crosshair: column 32)
+    assert np.all(image[0, :20, 3] == 0.0) and image[32, 10, 3] == 1.0
     np.testing.assert_allclose(image[32, 10, :3], image[32, 10, 0])  # grey in the window

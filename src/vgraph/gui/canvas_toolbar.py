@@ -15,7 +15,8 @@ Conventions:
 - Overlay switches are remembered per canvas id in the window's QSettings
   (``canvas/<id>/axes``, ``canvas/<id>/box``, ``canvas/<id>/slices``): the triad and the slices
   are on and the box off the first time. "Slices" draws the planes of the network's
-  SliceViewers in a 3D canvas (overlays.py), so it shows nothing in a network without them.
+  SliceViewers in a 3D canvas (overlays.py), and the crosshair lines, outline and readouts in a
+  slice canvas (slice_overlay.py), so it shows nothing in a network without them.
 """
 
 from __future__ import annotations
@@ -72,8 +73,9 @@ class CanvasToolbar(QToolBar):
                                      AXES_KEY, view.set_axes_visible, checkable=True)
         self.box_action = self._add("Box", "Show the data's bounding box", BOX_KEY,
                                     view.set_box_visible, checkable=True)
-        self.slices_action = self._add("Slices", "Show the SliceViewers' planes (axial blue, coronal "
-                                       "green, sagittal red)", SLICES_KEY, view.set_slices_visible,
+        self.slices_action = self._add("Slices", "Show the SliceViewers' planes: outlines in a 3D "
+                                       "view, crosshairs and readouts in a slice view (axial red, "
+                                       "sagittal yellow, coronal green)", SLICES_KEY, view.set_slices_visible,
                                        checkable=True)
         self.addSeparator()
         self.save_action = self._add("Save Image...", "Save the frame as a PNG, as `vgraph run` writes "

@@ -54,6 +54,7 @@ from vgraph.gui import slice_gestures
 from vgraph.live import slice_clicks
 from vgraph.gui.image_export import IMAGE_FILTER, suggested_image_path, write_frame
 from vgraph.gui.overlays import ViewGeometry, draw_overlays
+from vgraph.gui.slice_overlay import draw_slice_overlay
 from vgraph.live.upstream import NO_CAMERA, nearest_upstream, property_of_type
 from vgraph.properties import CameraProperty
 
@@ -168,6 +169,10 @@ class CanvasView(QWidget):
             slices = (slice_clicks.slice_overlays(self.workspace.network, self.view_cameras())
                       if self._slices and self._geometry is not None else ())
             draw_overlays(painter, self._geometry, self.image_rect(), **self._overlays, slices=slices)
+            viewer_id = slice_clicks.slice_viewer_for(self.workspace.network, self.canvas_id)
+            if self._slices and viewer_id is not None:
+                draw_slice_overlay(painter, viewer_id, self.workspace.network, self.view_cameras(),
+                                   self.image_rect())
         if self._message:
             box = painter.fontMetrics().boundingRect(self._message).adjusted(-4, -2, 4, 2)
             box.moveBottomLeft(self.rect().bottomLeft() + QPointF(4, -4).toPoint())

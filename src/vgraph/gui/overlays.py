@@ -17,8 +17,8 @@ convention of ``Camera.rays``: pixel column c spans [c, c + 1)).
   pointing away from the viewer are drawn first, so the nearer ones cover them.
 - Slices: the polygon where each SliceViewer's plane cuts its volume's box (slice_clicks
   ``slice_overlays``), clipped against the near plane like the box, its edges in the colour of
-  its orientation: the axis it is constant along, as the triad colours it (axial = constant z,
-  blue; coronal = constant y, green; sagittal = constant x, red; custom magenta), over a faint
+  its plane as 3D Slicer colours it (axial red, sagittal yellow, coronal green; custom
+  magenta; the slice views' crosshairs use the same colours, slice_overlay.py), over a faint
   fill of the same colour so the plane reads as a surface.
 """
 
@@ -36,8 +36,10 @@ BOX_COLOUR = QColor(255, 200, 0)
 BOX_WIDTH = 2.0
 AXIS_COLOURS = {"x": QColor(235, 60, 60), "y": QColor(60, 210, 60), "z": QColor(70, 130, 255)}
 AXIS_WIDTH = 3.0
-SLICE_COLOURS = {"axial": AXIS_COLOURS["z"], "coronal": AXIS_COLOURS["y"],
-                 "sagittal": AXIS_COLOURS["x"], "custom": QColor(230, 110, 230)}
+# 3D Slicer's slice colours: a line or outline takes the colour of the plane it marks, in the
+# 3D view and in the slice views alike (slice_overlay.py).
+SLICE_COLOURS = {"axial": QColor(243, 74, 51), "sagittal": QColor(237, 213, 76),
+                 "coronal": QColor(110, 176, 75), "custom": QColor(230, 110, 230)}
 SLICE_WIDTH = 2.0
 SLICE_FILL_ALPHA = 40
 TRIAD_MARGIN = 20.0      # px from the frame's corner to the triad's reach (room for the labels)
