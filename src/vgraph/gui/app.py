@@ -46,6 +46,7 @@ from vgraph.gui.live_evaluation import LiveEvaluation
 from vgraph.live.render_process import RenderProcess
 from vgraph.gui.log import LogPanel
 from vgraph.gui.palette import ProcessorPalette
+from vgraph.gui.perspectives import Perspectives
 from vgraph.gui.progress_view import EvaluationProgress
 from vgraph.gui.scene import NetworkScene, NetworkView
 from vgraph.gui.workspace import Workspace
@@ -71,11 +72,13 @@ class MainWindow(FileActions, QMainWindow):
         self.failures: dict[str, str] = {}
         self.remember_layout = True  # a screenshot run leaves the user's layout alone
         self.blank_warnings: dict[str, str] = {}  # display id -> the empty-image warning logged
+        self.perspectives = Perspectives(self)  # editing and views layouts (perspectives.py)
         self._build_actions()
         self._build_menus()
         self._wire()
         if not layout.restore_layout(self, self.workspace.settings):
             self.arrange(*layout.first_run_size(self))
+        self.perspectives.restore()
         self._update_title()
         self.set_cluster(load_setting(self.workspace.settings), save=False)
 
@@ -168,6 +171,8 @@ class MainWindow(FileActions, QMainWindow):
         view_menu.addSeparator()
         view_menu.addSeparator()  # the docks go between the separators: canvas docks come and go
         view_menu.addActions([self.tile_canvases_action, self.reset_layout_action])
+        view_menu.addSeparator()
+        view_menu.addActions(self.perspectives.menu_actions())
         view_menu.aboutToShow.connect(self.refresh_dock_menu)
         self.refresh_dock_menu()
         network_menu = bar.addMenu("&Network")
@@ -332,6 +337,7 @@ class MainWindow(FileActions, QMainWindow):
         self.autosave.remove()   # a clean exit: the changes were saved or discarded on purpose
         self.evaluation.shutdown()
         if self.remember_layout:
+            self.perspectives.save()
             layout.save_layout(self, self.workspace.settings)
         event.accept()
 

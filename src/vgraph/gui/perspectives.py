@@ -1,0 +1,169 @@
+"""Two perspectives of the main window, as Voreen's development and application modes.
+
+- ``editing``: today's layout, the network editor in the middle (layout.py).
+- ``views``: the canvases take the centre of the window: the network editor, the palette and the
+  log are hidden, the canvases fill the room they leave (one alone; two side by side; three or
+  four in a 2 x 2 grid, as Slicer's "Four-Up": canvas_grid.py), and the properties of the selected
+  processor sit in a side panel as wide as what it shows (``properties_width``), at most
+  ``MAX_PROPERTIES_FRACTION`` of the window.
+
+Switching: View > Perspective, the Perspective toolbar, Ctrl+1 / Ctrl+2, or F9 to toggle. Each
+perspective's dock and splitter state (QMainWindow.saveState) is kept in the window's QSettings
+under ``perspective/<name>/state`` when it is left, and put back when it is entered again; which
+one is current (``perspective/current``) comes back with a new window. A perspective never entered
+gets its default arrangement. Canvas docks come and go with the network: a canvas added while the
+views perspective is current is tiled with the others at once.
+"""
+
+from __future__ import annotations
+
+from PySide6.QtCore import QObject, QTimer, Qt
+from PySide6.QtGui import QAction, QActionGroup, QKeySequence
+from PySide6.QtWidgets import QApplication, QMainWindow, QToolBar
+
+from vgraph.gui import canvas_grid
+from vgraph.gui.layout import INSPECTOR_CHROME, STATE_VERSION
+
+EDITING, VIEWS = "editing", "views"
+TITLES = {EDITING: "&Edit Network", VIEWS: "&Views"}
+KEYS = {EDITING: "Ctrl+1", VIEWS: "Ctrl+2"}
+TOGGLE_KEY = "F9"
+CURRENT_KEY = "perspective/current"
+MIN_PROPERTIES_WIDTH = 220
+MAX_PROPERTIES_FRACTION = 0.3
+
+
+def state_key(name: str) -> str:
+    return f"perspective/{name}/state"
+
+
+def properties_width(window: QMainWindow) -> int:
+    """The width the inspector's form asks for, within [MIN_PROPERTIES_WIDTH, 30 % of the window]."""
+    wanted = window.inspector.form_host.sizeHint().width() + INSPECTOR_CHROME
+    return max(MIN_PROPERTIES_WIDTH, min(wanted, int(window.width() * MAX_PROPERTIES_FRACTION)))
+
+
+class Perspectives(QObject):
+    def __init__(self, window: QMainWindow):
+        super().__init__(window)
+        self.window = window
+        self.settings = window.workspace.settings
+        self.current = EDITING
+        self.central = None   # the central widget while the views perspective has taken it out
+        self.actions: dict[str, QAction] = {}
+        group = QActionGroup(self)
+        for name in (EDITING, VIEWS):
+            action = QAction(TITLES[name].replace("&", ""), window, checkable=True)
+            action.setText(TITLES[name])
+            action.setShortcut(QKeySequence(KEYS[name]))
+            action.setToolTip(f"{TITLES[name].replace('&', '')} perspective ({KEYS[name]}; {TOGGLE_KEY} toggles)")
+            action.triggered.connect(lambda _=False, n=name: self.switch(n))
+            group.addAction(action)
+            self.actions[name] = action
+        self.actions[EDITING].setChecked(True)
+        self.toggle_action = QAction("&Toggle Perspective", window)
+        self.toggle_action.setShortcut(QKeySequence(TOGGLE_KEY))
+        self.toggle_action.triggered.connect(self.toggle)
+        self.toolbar = QToolBar("Perspective", window)
+        self.toolbar.setObjectName("Perspective")   # saveState needs it
+        self.toolbar.addActions(list(self.actions.values()))
+        window.addToolBar(Qt.TopToolBarArea, self.toolbar)
+        window.workspace.network_replaced.connect(self._network_replaced)
+        window.scene.selectionChanged.connect(self._selection_changed)
+
+    def menu_actions(self) -> list[QAction]:
+        return [*self.actions.values(), self.toggle_action]
+
+    def toggle(self) -> None:
+        self.switch(VIEWS if self.current == EDITING else EDITING)
+
+    def switch(self, name: str) -> None:
+        """Keep the current perspective's state, then enter ``name``'s (remembered or default)."""
+        if name == self.current:
+            self.actions[name].setChecked(True)
+            return
+        self.settings.setValue(state_key(self.current), self.window.saveState(STATE_VERSION))
+        self.enter(name)
+
+    def enter(self, name: str) -> None:
+        self.current = name
+        self.settings.setValue(CURRENT_KEY, name)
+        self.actions[name].setChecked(True)
+        self._show_editor(name == EDITING)
+        state = self.settings.value(state_key(name))
+        if state is None or not self.window.restoreState(state, STATE_VERSION):
+            self._default(name)
+        elif name == VIEWS:
+            self.tile_canvases()   # the network's canvases may not be those of the saved state
+        self.settings.sync()
+
+    def restore(self) -> None:
+        """A new window: back to the perspective the last one was left in (its state is the
+        window's, restored by layout.restore_layout)."""
+        if self.settings.value(CURRENT_KEY) == VIEWS:
+            self.current = VIEWS
+            self.actions[VIEWS].setChecked(True)
+            self._show_editor(False)
+
+    def _show_editor(self, shown: bool) -> None:
+        """Put the central widget (the network editor) in or take it out: a hidden central
+        widget keeps its room, a taken one leaves it to the docks."""
+        window = self.window
+        if shown and window.centralWidget() is None:
+            window.setCentralWidget(self.central)
+            self.central.show()
+        elif not shown and window.centralWidget() is not None:
+            self.central = window.takeCentralWidget()
+            self.central.hide()
+
+    def _default(self, name: str) -> None:
+        window = self.window
+        if name == EDITING:
+            from vgraph.gui import layout
+            layout.reset_layout(window)
+            return
+        for dock in (window.palette_dock, window.log_dock):
+            dock.hide()
+        window.properties_dock.show()
+        self.tile_canvases()
+
+    def save(self) -> None:
+        """The window closes: keep the current perspective's state too."""
+        self.settings.setValue(state_key(self.current), self.window.saveState(STATE_VERSION))
+        self.settings.setValue(CURRENT_KEY, self.current)
+
+    def tile_canvases(self) -> None:
+        """The canvases side by side or in a grid, the properties panel fitted to its form."""
+        window = self.window
+        docks = [dock for dock in window.canvases.docks.values() if not dock.isFloating()]
+        for dock in docks:
+            dock.show()
+        canvas_grid.tile_canvases(window, docks)
+        QApplication.processEvents()   # the grid's layout first, or the resize below is lost
+        self.fit_properties()
+
+    def fit_properties(self) -> None:
+        """The properties panel as wide as its form; the canvases' columns share the rest."""
+        window, dock = self.window, self.window.properties_dock
+        if not dock.isVisible() or dock.isFloating():
+            return
+        width = properties_width(window)
+        window.resizeDocks([dock], [width], Qt.Horizontal)
+        columns = self._first_row()
+        if columns:
+            share = (window.width() - width) // len(columns)
+            window.resizeDocks(columns, [share] * len(columns), Qt.Horizontal)
+
+    def _first_row(self) -> list:
+        """The visible canvas docks at the top of the grid, left to right."""
+        docks = [d for d in self.window.canvases.docks.values() if d.isVisible() and not d.isFloating()]
+        top = min((d.y() for d in docks), default=0)
+        return sorted((d for d in docks if d.y() == top), key=lambda d: d.x())
+
+    def _network_replaced(self, _network) -> None:
+        if self.current == VIEWS:
+            self.tile_canvases()
+
+    def _selection_changed(self) -> None:
+        if self.current == VIEWS:
+            QTimer.singleShot(0, self.fit_properties)   # after the inspector has shown the new form

@@ -1,0 +1,80 @@
+"""The two perspectives (gui/perspectives.py): in the views perspective the canvases get at least
+half of the window's area at 1280 x 800 and 1920 x 1080 (measured on the widgets), the network
+editor comes back in the editing perspective, and a new window starts in the perspective (and its
+dock state) the last one was closed in."""
+
+import pytest
+from PySide6.QtCore import QSettings, Qt
+from PySide6.QtWidgets import QApplication
+
+from helpers.gui import MPR_CANVASES
+from helpers.paths import REPO
+
+
+def canvas_share(window) -> float:
+    """The canvases' visible area over the window's."""
+    area = sum(view.width() * view.height() for view in window.canvases.views.values()
+               if view.isVisible() and not view.visibleRegion().isEmpty())
+    return area / (window.width() * window.height())
+
+
+def process(qtbot):
+    for _ in range(3):
+        QApplication.processEvents()
+    qtbot.wait(50)
+
+
+@pytest.mark.parametrize("size", [(1280, 800), (1920, 1080)])
+def test_views_perspective_gives_the_canvases_half_the_window(window, qtbot, size):
+    window.arrange(*size)
+    assert window.open_network(REPO / "networks" / "mpr_mri_head.json")
+    process(qtbot)
+    editing_share, editor_size = canvas_share(window), window.view.size()
+    window.perspectives.switch("views")
+    process(qtbot)
+    assert not window.view.isVisible() and not window.palette_dock.isVisible()
+    assert all(window.canvases.views[c].isVisible() for c in MPR_CANVASES)
+    share = canvas_share(window)
+    assert share >= 0.5, f"canvases take {share:.0%} of {size}"
+    assert share > editing_share
+    window.perspectives.switch("editing")
+    process(qtbot)
+    assert window.view.isVisible() and window.palette_dock.isVisible()
+    assert window.view.size() == editor_size and window.perspectives.actions["editing"].isChecked()
+
+
+def test_f9_toggles_and_the_toolbar_switches(window, qtbot):
+    assert window.perspectives.current == "editing"
+    qtbot.keyClick(window, Qt.Key_F9)
+    assert window.perspectives.current == "views" and not window.view.isVisible()
+    window.perspectives.toolbar.widgetForAction(window.perspectives.actions["editing"]).click()
+    assert window.perspectives.current == "editing" and window.view.isVisible()
+
+
+def test_a_new_window_comes_back_in_the_last_perspective(qtbot, tmp_path, renderer):
+    from vgraph.gui.app import MainWindow
+    path = tmp_path / "settings.ini"
+    first = MainWindow(QSettings(str(path), QSettings.IniFormat), renderer)
+    first.show()
+    qtbot.waitExposed(first)
+    first.perspectives.switch("views")
+    first.log_dock.show()        # a change the user made to the views perspective
+    process(qtbot)
+    first.close()
+    first.deleteLater()
+    second = MainWindow(QSettings(str(path), QSettings.IniFormat), renderer)
+    second.show()
+    qtbot.waitExposed(second)
+    try:
+        assert second.perspectives.current == "views"
+        assert not second.view.isVisible() and second.log_dock.isVisible()
+        assert not second.palette_dock.isVisible()
+        second.perspectives.switch("editing")   # the editing state kept when the first left it
+        process(qtbot)
+        assert second.view.isVisible() and second.palette_dock.isVisible()
+        second.perspectives.switch("views")     # the views state kept when it was left
+        process(qtbot)
+        assert second.log_dock.isVisible() and not second.palette_dock.isVisible()
+    finally:
+        second.close()
+        second.deleteLater()
