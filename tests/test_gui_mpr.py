@@ -366,3 +366,36 @@ def test_the_mpr_views_draw_the_crosshair_on_screen_not_into_the_frame(mpr, qtbo
     hidden = axial.grab().toImage().convertToFormat(shown.format())
     bare = np.frombuffer(hidden.constBits(), np.uint8).reshape(hidden.height(), hidden.width(), 4)
     assert not _line_pixels(bare[..., :3].astype(int), SLICER["coronal"])[:, x].any()
+
+
+def left_drag(view, start, end, steps=4, modifiers=Qt.NoModifier, button=Qt.LeftButton):
+    send_mouse(view, QEvent.MouseButtonPress, start, button, button, modifiers)
+    for i in range(1, steps + 1):
+        pos = (start[0] + (end[0] - start[0]) * i / steps, start[1] + (end[1] - start[1]) * i / steps)
+        send_mouse(view, QEvent.MouseMove, pos, Qt.NoButton, button, modifiers)
+    send_mouse(view, QEvent.MouseButtonRelease, end, button, Qt.NoButton, modifiers)
+
+
+def test_a_left_drag_in_a_slice_moves_the_cursor_and_the_other_slices_follow(mpr, qtbot):
+    network, undo = mpr.workspace.network, mpr.workspace.undo_stack
+    axial = mpr.canvases.views["axial_canvas"]
+    plane = mpr.evaluation.view_cameras["axial.slice_plane"]
+    depth = undo.count()
+    start, end = widget_point(axial, 0.3, 0.7), widget_point(axial, 0.6, 0.4)
+    left_drag(axial, (start.x(), start.y()), (end.x(), end.y()))
+    assert axial.message() == ""  # no "no camera upstream of this canvas"
+    rect = axial.image_rect()
+    u, v = (end.x() - rect.left()) / rect.width(), 1.0 - (end.y() - rect.top()) / rect.height()
+    np.testing.assert_allclose(network.get("axial.cursor"), plane.world_at(u, v), atol=1e-9)
+    assert network.get("coronal.cursor") == network.get("sagittal.cursor") == network.get("axial.cursor")
+    assert undo.count() == depth + 1  # the whole drag is one step
+    settle(mpr, qtbot)
+    for viewer in ("coronal", "sagittal"):
+        moved = mpr.evaluation.view_cameras[f"{viewer}.slice_plane"]
+        np.testing.assert_allclose(np.dot(np.array(network.get("axial.cursor")) - moved.centre,
+                                          moved.normal), 0.0, atol=1e-6)
+    # dragged beyond the image the cursor stays on its edge
+    far = (rect.right() + 50, rect.center().y())
+    left_drag(axial, (end.x(), end.y()), far)
+    np.testing.assert_allclose(mpr.evaluation.view_cameras["axial.slice_plane"].uv_of(
+        network.get("axial.cursor"))[0], 1.0, atol=1e-9)

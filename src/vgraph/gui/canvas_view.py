@@ -12,8 +12,9 @@ Interaction (on the camera returned by ``camera_property_for``, i.e. the nearest
 - middle drag or shift + left drag: pan, ``Camera.pan(dx / h, -dy / h)``, so the scene follows the
   cursor.
 - ctrl + left drag: moves the first clip plane upstream along its normal (clip_drag.py).
-- a canvas that shows a slice and has no camera (slice_gestures.py): a left click moves the shared
-  cursor (slice_clicks.py), the wheel pages through the volume, a right drag sets window/level.
+- a canvas that shows a slice and has no camera (slice_gestures.py): a left click or drag moves
+  the shared cursor (slice_clicks.py; the cursor follows the mouse), the wheel pages through the
+  volume, a right drag sets window/level.
 - a camera that fits the data (``Camera.fit_to_data``) keeps fitting while it rotates; zoom and pan
   start from the camera of the last frame (``view_cameras``, from the render process) and store it,
   so the view does not jump. The context menu's View entries (and the toolbar, canvas_toolbar.py)
@@ -244,6 +245,11 @@ class CanvasView(QWidget):
             if self._drag is not None:
                 event.accept()
                 return
+        if address is None and mode == "rotate":  # a left drag on a slice: the cursor follows
+            self._drag = slice_gestures.begin_cursor(self, event, ("canvas", next(self._keys)))
+            if self._drag is not None:
+                event.accept()
+                return
         if address is None and mode != "zoom":  # a right click may still be for the menu
             self.set_message(NO_CAMERA)
         self._drag = {"mode": mode, "button": button, "start": event.position(), "active": False,
@@ -264,6 +270,11 @@ class CanvasView(QWidget):
         if drag["mode"] == "window":
             if drag["active"] or math.hypot(dx, dy) >= CLICK_SLOP:
                 slice_gestures.move_window(self, drag, dx, dy)
+            event.accept()
+            return
+        if drag["mode"] == "cursor":
+            if drag["active"] or math.hypot(dx, dy) >= CLICK_SLOP:
+                slice_gestures.move_cursor(self, drag, event.position())
             event.accept()
             return
         if drag["address"] is None:
@@ -289,7 +300,7 @@ class CanvasView(QWidget):
             self.interacting.emit(False)
         elif drag["mode"] in ("zoom", "window") and (event.position() - drag["start"]).manhattanLength() < CLICK_SLOP:
             self.context_menu().exec(event.globalPosition().toPoint())
-        elif drag["mode"] == "rotate" and (event.position() - drag["start"]).manhattanLength() < CLICK_SLOP:
+        elif drag["mode"] == "cursor" and (event.position() - drag["start"]).manhattanLength() < CLICK_SLOP:
             slice_clicks.click(self, event.position())  # a left click in a slice moves its cursor
         event.accept()
 

@@ -1,4 +1,7 @@
-"""The wheel and the right drag on a slice canvas (one that shows a SliceViewer and has no camera).
+"""The mouse on a slice canvas (one that shows a SliceViewer and has no camera).
+
+- Left drag: the cursor follows the mouse (the world point under it on the plane shown at the
+  press, held to the image's edges), so the linked slices follow; a left click is slice_clicks.py.
 
 - Wheel: pages through the volume. Each notch moves the viewer's ``cursor`` along the plane's
   normal by one voxel step, ``SHIFT_STEPS`` steps with Shift; forward (away from the user) moves
@@ -118,3 +121,30 @@ def move_window(view, gesture: dict, dx: float, dy: float) -> None:
     narrowest = MIN_WIDTH_FRACTION * gesture["span"]
     view._apply(gesture, lambda start: (float(start[0] - dy * per_pixel),
                                         float(max(start[1] + dx * per_pixel, narrowest))))
+
+
+def begin_cursor(view, event, key) -> dict | None:
+    """A left drag's state on a slice canvas (mode "cursor"), or None when it shows no slice.
+    The drag maps the mouse through the plane shown at the press, so the cursor follows the
+    mouse even while the frames that follow it come in."""
+    network = view.workspace.network
+    viewer_id = slice_viewer_for(network, view.canvas_id)
+    if viewer_id is None:
+        return None
+    return {"mode": "cursor", "button": event.button(), "start": event.position(), "active": False,
+            "key": key, "address": f"{viewer_id}.cursor", "camera": None,
+            "plane": view.view_cameras().get(viewer_id + PLANE_SUFFIX)}
+
+
+def move_cursor(view, gesture: dict, position) -> None:
+    """Put the cursor at the world point under ``position`` (widget pixels), held to the image's
+    edges when the mouse leaves it."""
+    plane = gesture["plane"]
+    if plane is None or view.frame() is None:
+        view.set_message(NOT_DRAWN)
+        return
+    rect = view.image_rect()
+    u = float(np.clip((position.x() - rect.left()) / rect.width(), 0.0, 1.0))
+    v = float(np.clip(1.0 - (position.y() - rect.top()) / rect.height(), 0.0, 1.0))
+    point = plane.world_at(u, v)
+    view._apply(gesture, lambda _: tuple(float(x) for x in point))
