@@ -5,7 +5,11 @@ camera and the transfer-function editor), the canvas with its toolbar and the ax
     xvfb-run -s "-screen 0 1920x1080x24" .venv/bin/python bench/make_gui_screenshots.py
     QT_QPA_PLATFORM=offscreen .venv/bin/python bench/make_gui_screenshots.py   # no X server
         [--network networks/raycast_head.json] [--select rc] [--out docs/images]
-        [--sizes 1280x800 1920x1080]
+        [--sizes 1280x800 1920x1080] [--perspective views]
+
+``--perspective views`` shoots the views perspective (gui/perspectives.py) instead, to
+<out>/gui_views_<W>x<H>.png (the docs use networks/mpr_mri_head.json with --select canvas), and
+prints which share of the window's area the canvases take.
 
 Each size gets a fresh window with its own settings file (the user's remembered layout is not
 used), laid out as a first run on a screen of that size (``layout.arrange``), so the pictures show
@@ -24,7 +28,14 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 
 
-def shoot(network: Path, select: str, size: tuple[int, int], out: Path) -> dict:
+def canvas_share(window) -> float:
+    """The canvases' visible area over the window's (tests/test_gui_perspectives.py measures the same)."""
+    area = sum(view.width() * view.height() for view in window.canvases.views.values()
+               if view.isVisible() and not view.visibleRegion().isEmpty())
+    return area / (window.width() * window.height())
+
+
+def shoot(network: Path, select: str, size: tuple[int, int], out: Path, perspective: str = "editing") -> dict:
     from PySide6.QtCore import QSettings
     from PySide6.QtWidgets import QApplication, QScrollArea
 
@@ -45,9 +56,19 @@ def shoot(network: Path, select: str, size: tuple[int, int], out: Path) -> dict:
         window.workspace.open(network)
         window.view.fit_network()
         window.scene.select_processor(select)
+        if perspective != "editing":
+            window.perspectives.switch(perspective)
         window.evaluation.run(wait=True)
         for _ in range(5):
             app.processEvents()
+        if perspective != "editing":
+            path = out / f"gui_{perspective}_{size[0]}x{size[1]}.png"
+            report = {"window": (window.width(), window.height()),
+                      "canvases' share of the window": f"{canvas_share(window):.0%}"}
+            save_screenshot(window, path)
+            window.deleteLater()
+            app.processEvents()
+            return report
         scroll = window.inspector.findChild(QScrollArea)
         editors = window.inspector.findChildren(TransferFunctionEditor)
         report = {
@@ -71,13 +92,14 @@ def main(argv=None) -> int:
     parser.add_argument("--select", default="rc", help="processor shown in the inspector")
     parser.add_argument("--out", type=Path, default=REPO / "docs" / "images")
     parser.add_argument("--sizes", nargs="+", default=["1280x800", "1920x1080"])
+    parser.add_argument("--perspective", choices=["editing", "views"], default="editing")
     args = parser.parse_args(argv)
     if not os.environ.get("DISPLAY") and "QT_QPA_PLATFORM" not in os.environ:
         os.environ["QT_QPA_PLATFORM"] = "offscreen"
     args.out.mkdir(parents=True, exist_ok=True)
     for text in args.sizes:
         width, height = (int(v) for v in text.lower().split("x"))
-        report = shoot(args.network.resolve(), args.select, (width, height), args.out)
+        report = shoot(args.network.resolve(), args.select, (width, height), args.out, args.perspective)
         print(f"{width}x{height}: " + ", ".join(f"{k}: {v}" for k, v in report.items()))
     return 0
 

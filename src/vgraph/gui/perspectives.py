@@ -7,7 +7,8 @@
   processor sit in a side panel as wide as what it shows (``properties_width``), at most
   ``MAX_PROPERTIES_FRACTION`` of the window.
 
-Switching: View > Perspective, the Perspective toolbar, Ctrl+1 / Ctrl+2, or F9 to toggle. Each
+Switching: the View menu, the Perspective toolbar, or F9 to toggle (Ctrl+1 and the like are the
+canvases' view keys: canvas_toolbar.py). Each
 perspective's dock and splitter state (QMainWindow.saveState) is kept in the window's QSettings
 under ``perspective/<name>/state`` when it is left, and put back when it is entered again; which
 one is current (``perspective/current``) comes back with a new window. A perspective never entered
@@ -26,7 +27,6 @@ from vgraph.gui.layout import INSPECTOR_CHROME, STATE_VERSION
 
 EDITING, VIEWS = "editing", "views"
 TITLES = {EDITING: "&Edit Network", VIEWS: "&Views"}
-KEYS = {EDITING: "Ctrl+1", VIEWS: "Ctrl+2"}
 TOGGLE_KEY = "F9"
 CURRENT_KEY = "perspective/current"
 MIN_PROPERTIES_WIDTH = 220
@@ -55,8 +55,7 @@ class Perspectives(QObject):
         for name in (EDITING, VIEWS):
             action = QAction(TITLES[name].replace("&", ""), window, checkable=True)
             action.setText(TITLES[name])
-            action.setShortcut(QKeySequence(KEYS[name]))
-            action.setToolTip(f"{TITLES[name].replace('&', '')} perspective ({KEYS[name]}; {TOGGLE_KEY} toggles)")
+            action.setToolTip(f"{TITLES[name].replace('&', '')} perspective ({TOGGLE_KEY} toggles)")
             action.triggered.connect(lambda _=False, n=name: self.switch(n))
             group.addAction(action)
             self.actions[name] = action
