@@ -22,6 +22,14 @@ Conventions (vgraph.slicing has the geometry's long form; docs/guide/exploring.m
 - The plane reaches the shader in voxel indices: its centre and edge vectors mapped through the
   inverse affine in float64 on the CPU (vgraph.slicing.GridBox), so a pixel costs one
   multiply-add per axis and an axis-aligned volume gets exactly the numbers it got before.
+- Thick slab (``slab_thickness`` > 0, world units): maximum intensity projection over the slab
+  centred on the plane, each pixel the largest intensity of samples along the normal one voxel
+  step apart (vgraph.slicing.voxel_step; for an axis-aligned slice the spacing along its axis),
+  the plane's and as many as fit within half the thickness on either side (a thickness of 4
+  voxel steps: 5 samples; under 2 steps: the plane alone), samples outside the cells skipped;
+  the mapping applies to that maximum. A pixel is inside the image where its plane point is.
+- ``pan``: a world vector whose part in the plane moves the image's centre; linked between the
+  viewers (as networks/mpr_mri_head.json links it and ``zoom``) it pans them together.
 - interpolation: nearest (the voxel whose cell holds the point), linear (trilinear), cubic (the
   cubic B-spline through the voxels, Cabral 2010 sec. 3.1-3.2: the volume's normalised
   intensities are prefiltered once per volume on the CPU, mirror boundary, and evaluated by the
@@ -55,7 +63,7 @@ from vgraph.gl.shaders import programs
 from vgraph.image import Image
 from vgraph.numerics.bspline import prefilter
 from vgraph.shown_content import every_voxel, voxels_under
-from vgraph.slicing import DISPLAYS, ORIENTATIONS, SlicePlane, checked_plane, index_vectors
+from vgraph.slicing import DISPLAYS, ORIENTATIONS, SlicePlane, checked_plane, index_vectors, voxel_step
 from vgraph.transfer_function import PRESETS
 from vgraph.volume import Volume
 
@@ -95,7 +103,15 @@ class SliceViewer(Processor):
                                                  doc="colours and opacities for mapping = tf")
     zoom = FloatProperty(1.0, min=0.01, max=1000.0,
                          doc="1 fits the volume; larger magnifies about the cursor")
-    crosshair = BoolProperty(False, doc="draw the cursor's row and column of pixels")
+    pan = VectorProperty((0.0, 0.0, 0.0), size=3,
+                         doc="world vector moving the image's centre (its part in the plane); "
+                             "link it between viewers for a linked pan")
+    slab_thickness = FloatProperty(0.0, min=0.0, max=1e6,
+                                   doc="thick-slab MIP: the largest value over this thickness "
+                                       "(world units) centred on the plane; 0: the plane alone")
+    crosshair = BoolProperty(False, doc="draw the cursor's row and column of pixels into the image "
+                                        "(for scripts and exports; the GUI draws the slices' "
+                                        "crosshairs on screen)")
     crosshair_color = ColorProperty((1.0, 0.8, 0.1, 1.0), doc="colour of the crosshair")
 
     def __init__(self, id: str | None = None, **values):
@@ -120,7 +136,7 @@ class SliceViewer(Processor):
         return checked_plane(f"{self.id}", orientation=self.orientation, normal=self.normal,
                              cursor=self.cursor, zoom=self.zoom, origin=volume.origin,
                              spacing=volume.spacing, dims=volume.dims, size=tuple(size),
-                             direction=volume.direction, display=self.display)
+                             direction=volume.direction, display=self.display, pan=self.pan)
 
     def pixel_to_world(self, column, row) -> np.ndarray:
         """World points of pixel centres (column, row) of the last image, row 0 at the top;
@@ -148,7 +164,8 @@ class SliceViewer(Processor):
         ctx = self.gl
         sampled = self._coefficients(volume) if self.interpolation == "cubic" else volume
         defines = {f"INTERPOLATION_{self.interpolation.upper()}": True,
-                   f"MAPPING_{self.mapping.upper()}": True, "CROSSHAIR": self.crosshair}
+                   f"MAPPING_{self.mapping.upper()}": True, "CROSSHAIR": self.crosshair,
+                   "SLAB": self.slab_steps(volume, plane) > 0}
         program = programs.program(ctx, FULLSCREEN_VERTEX_SHADER, SHADER, defines, processor=self.id)
         textures = {"volume": sampled.texture(ctx)}
         if self.mapping == "tf":
@@ -157,7 +174,8 @@ class SliceViewer(Processor):
         fullscreen_pass(ctx, program, target, textures=textures,
                         uniforms=self._uniforms(volume, sampled, plane, size),
                         samplers={"volume": linear_sampler(ctx)} if self.interpolation == "linear" else None,
-                        optional={"volume_dims", "cursor_pixel", "crosshair_color"})
+                        optional={"volume_dims", "cursor_pixel", "crosshair_color", "voxel_normal",
+                                  "slab_half_steps"})
         self.last_plane = plane
         return target
 
@@ -173,12 +191,26 @@ class SliceViewer(Processor):
             "volume_dims": tuple(int(n) for n in volume.dims),
             "intensity_scale": float(scale), "intensity_offset": float(offset),
             "window_low": low, "window_width": width}
+        half_steps = self.slab_steps(volume, plane)
+        if half_steps:
+            step = voxel_step(plane.normal, volume.spacing, volume.direction)
+            uniforms["voxel_normal"] = _vec(index_vectors(np.asarray(plane.normal) * step,
+                                                          volume.spacing, volume.direction))
+            uniforms["slab_half_steps"] = half_steps
         if self.crosshair:
             point = plane.centre if self.cursor is None else self.cursor
             u, v = plane.uv_of(point)
             uniforms["cursor_pixel"] = _vec((u * size[0], v * size[1]))
             uniforms["crosshair_color"] = tuple(self.crosshair_color)
         return uniforms
+
+    def slab_steps(self, volume: Volume, plane: SlicePlane) -> int:
+        """Samples on either side of the plane in a thick slab: one voxel step apart (voxel_step),
+        as many as fit in half the thickness (0: no slab)."""
+        if not self.slab_thickness > 0.0:
+            return 0
+        step = voxel_step(plane.normal, volume.spacing, volume.direction)
+        return int(np.floor(self.slab_thickness / 2.0 / step + 1e-9))
 
     def _window_normalised(self, volume: Volume) -> tuple[float, float]:
         """The window's lower end and width as normalised intensities of ``volume``."""

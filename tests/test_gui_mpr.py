@@ -399,3 +399,40 @@ def test_a_left_drag_in_a_slice_moves_the_cursor_and_the_other_slices_follow(mpr
     left_drag(axial, (end.x(), end.y()), far)
     np.testing.assert_allclose(mpr.evaluation.view_cameras["axial.slice_plane"].uv_of(
         network.get("axial.cursor"))[0], 1.0, atol=1e-9)
+
+
+def test_ctrl_wheel_zooms_and_a_middle_drag_pans_all_slice_views_together(mpr, qtbot):
+    network, undo = mpr.workspace.network, mpr.workspace.undo_stack
+    axial = mpr.canvases.views["axial_canvas"]
+    depth = undo.count()
+    wheel(axial, 2, Qt.ControlModifier)
+    wheel(axial, 1, Qt.ControlModifier)
+    end_wheel_burst(axial, qtbot)
+    np.testing.assert_allclose(network.get("axial.zoom"), 1.1 ** 3)
+    assert network.get("coronal.zoom") == network.get("sagittal.zoom") == network.get("axial.zoom")
+    assert network.get("axial.cursor") is None  # Ctrl + wheel zooms, it does not page
+    assert undo.count() == depth + 1
+    settle(mpr, qtbot)
+
+    plane = mpr.evaluation.view_cameras["axial.slice_plane"]
+    rect = axial.image_rect()
+    start = (rect.center().x(), rect.center().y())
+    left_drag(axial, start, (start[0] + 20, start[1] - 10), button=Qt.MiddleButton)
+    # the image follows the mouse: its centre moves 20 px left and 10 px down in the world
+    expected = (-20 / rect.width() * np.array(plane.right) - 10 / rect.height() * np.array(plane.up))
+    np.testing.assert_allclose(network.get("axial.pan"), expected, atol=1e-9)
+    assert network.get("coronal.pan") == network.get("sagittal.pan") == network.get("axial.pan")
+    assert network.get("axial.cursor") is None  # panning moves no cursor
+    settle(mpr, qtbot)
+    moved = mpr.evaluation.view_cameras["axial.slice_plane"]
+    np.testing.assert_allclose(np.subtract(moved.centre, plane.centre), expected, atol=1e-6)
+    # the coronal view (right -x, up +z) pans by the same world vector's x part
+    coronal = mpr.evaluation.view_cameras["coronal.slice_plane"]
+    assert abs(expected[0]) > 1.0
+    np.testing.assert_allclose(coronal.centre[0], moved.centre[0], atol=1e-6)
+    # Shift + left drag pans too; one undo step each
+    depth = undo.count()
+    left_drag(axial, start, (start[0] - 15, start[1]), modifiers=Qt.ShiftModifier)
+    assert undo.count() == depth + 1 and network.get("axial.cursor") is None
+    undo.undo()
+    np.testing.assert_allclose(network.get("axial.pan"), expected, atol=1e-9)

@@ -102,6 +102,14 @@ def index_vectors(vectors, spacing, direction: Matrix3 = IDENTITY) -> np.ndarray
     return vectors / np.asarray(spacing, dtype=np.float64)
 
 
+def voxel_step(normal, spacing, direction: Matrix3 = IDENTITY) -> float:
+    """World distance along the unit ``normal`` that spans one voxel of a grid with that spacing
+    and direction: the distance whose displacement, counted in voxels, is 1 long (for an axial,
+    coronal or sagittal slice of an axis-aligned volume, the spacing along its axis). The wheel
+    pages by it and a thick slab samples at it."""
+    return 1.0 / float(np.linalg.norm(index_vectors(normal, spacing, direction)))
+
+
 @dataclass(frozen=True)
 class SlicePlane:
     """An image's rectangle in the world: plain tuples, so it pickles to the GUI process."""
@@ -204,9 +212,11 @@ def plane_axes(orientation: str, normal=None, display: str = "radiological"
 
 def slice_plane(orientation: str, normal, cursor, zoom: float, origin, spacing, dims,
                 size: tuple[int, int], direction: Matrix3 = IDENTITY,
-                display: str = "radiological") -> SlicePlane:
+                display: str = "radiological", pan=None) -> SlicePlane:
     """The rectangle an image of ``size`` pixels shows of a volume with that grid (module
-    docstring). ``cursor`` None = the box centre. ValueError for a zero normal or zoom <= 0."""
+    docstring). ``cursor`` None = the box centre; ``pan`` a world vector whose part in the plane
+    moves the image's centre (so one pan vector linked between views pans them together).
+    ValueError for a zero normal or zoom <= 0."""
     if not zoom > 0.0:
         raise ValueError(f"the zoom must be positive, got {zoom!r}")
     n, right, up = plane_axes(orientation, normal, display)
@@ -222,6 +232,9 @@ def slice_plane(orientation: str, normal, cursor, zoom: float, origin, spacing, 
     towards = box_centre - point
     in_plane = towards - (towards @ n) * n
     centre = point + in_plane / zoom
+    if pan is not None and np.any(np.asarray(pan, dtype=np.float64)):
+        pan = np.asarray(pan, dtype=np.float64)
+        centre = centre + pan - (pan @ n) * n
     return SlicePlane(centre=_tuple(centre), right=_tuple(right * pixel * width),
                       up=_tuple(up * pixel * height), normal=_tuple(n), box=box)
 

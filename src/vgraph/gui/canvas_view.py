@@ -14,7 +14,7 @@ Interaction (on the camera returned by ``camera_property_for``, i.e. the nearest
 - ctrl + left drag: moves the first clip plane upstream along its normal (clip_drag.py).
 - a canvas that shows a slice and has no camera (slice_gestures.py): a left click or drag moves
   the shared cursor (slice_clicks.py; the cursor follows the mouse), the wheel pages through the
-  volume, a right drag sets window/level.
+  volume, a right drag sets window/level, a middle (Shift + left) drag pans and Ctrl + wheel zooms.
 - a camera that fits the data (``Camera.fit_to_data``) keeps fitting while it rotates; zoom and pan
   start from the camera of the last frame (``view_cameras``, from the render process) and store it,
   so the view does not jump. The context menu's View entries (and the toolbar, canvas_toolbar.py)
@@ -245,8 +245,9 @@ class CanvasView(QWidget):
             if self._drag is not None:
                 event.accept()
                 return
-        if address is None and mode == "rotate":  # a left drag on a slice: the cursor follows
-            self._drag = slice_gestures.begin_cursor(self, event, ("canvas", next(self._keys)))
+        if address is None and mode in ("rotate", "pan"):  # on a slice: the cursor, or pan
+            begin = slice_gestures.begin_cursor if mode == "rotate" else slice_gestures.begin_pan
+            self._drag = begin(self, event, ("canvas", next(self._keys)))
             if self._drag is not None:
                 event.accept()
                 return
@@ -270,6 +271,10 @@ class CanvasView(QWidget):
         if drag["mode"] == "window":
             if drag["active"] or math.hypot(dx, dy) >= CLICK_SLOP:
                 slice_gestures.move_window(self, drag, dx, dy)
+            event.accept()
+            return
+        if drag["mode"] == "slice_pan":
+            slice_gestures.move_pan(self, drag, dx, dy)
             event.accept()
             return
         if drag["mode"] == "cursor":
@@ -311,7 +316,7 @@ class CanvasView(QWidget):
         if notches == 0.0:
             return
         if self._wheel is None:
-            self._wheel = self._start_wheel()
+            self._wheel = self._start_wheel(bool(event.modifiers() & Qt.ControlModifier))
             if self._wheel is None:
                 return
         wheel = self._wheel
@@ -320,15 +325,20 @@ class CanvasView(QWidget):
         if wheel["mode"] == "page":
             slice_gestures.page(self, wheel, notches, shift)
             return
+        if wheel["mode"] == "slice_zoom":
+            slice_gestures.zoom(self, wheel, notches, WHEEL_ZOOM)
+            return
         wheel["notches"] += notches
         exponent = float(np.clip(wheel["notches"] * math.log(WHEEL_ZOOM), -_MAX_EXPONENT, _MAX_EXPONENT))
         self._apply(wheel, lambda c: c.zoom(math.exp(exponent)))
 
-    def _start_wheel(self) -> dict | None:
-        """A wheel burst's state: paging on a slice canvas without a camera, else camera zoom."""
+    def _start_wheel(self, ctrl: bool = False) -> dict | None:
+        """A wheel burst's state: paging (Ctrl: zooming) on a slice canvas without a camera, else
+        camera zoom."""
         key = ("canvas", next(self._keys))
         if camera_property_for(self.workspace.network, self.canvas_id) is None:
-            gesture = slice_gestures.begin_page(self, key)
+            begin = slice_gestures.begin_zoom if ctrl else slice_gestures.begin_page
+            gesture = begin(self, key)
             if gesture is not None:
                 return gesture
         start = self._begin_gesture()

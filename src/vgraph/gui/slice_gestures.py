@@ -13,6 +13,9 @@
   The plane stops at the first and last voxel centre along the normal (the corners of the box of
   voxel centres, oriented as the volume). A cursor that was None (the volume's centre) starts
   from the plane's centre, which is then the box centre.
+- Middle drag or Shift + left drag: pans (``pan``: the image follows the mouse); Ctrl + wheel
+  zooms (``zoom``, 1.1 per notch). Linked between the viewers, as networks/mpr_mri_head.json
+  links them, every slice view zooms and pans with the one under the mouse.
 - Right drag: window/level, as medical viewers do it: horizontal changes the width (right =
   wider, less contrast), vertical the centre (up = higher); a drag over the frame's height
   changes either by the volume's value range. Only with ``mapping = window`` (a TF-mapped
@@ -30,9 +33,10 @@ from __future__ import annotations
 import numpy as np
 
 from vgraph.live.slice_clicks import PLANE_SUFFIX, VOLUME_SUFFIX, slice_viewer_for
-from vgraph.slicing import index_vectors
+from vgraph.slicing import voxel_step
 from vgraph.volume_grid import IDENTITY
 
+ZOOM_RANGE = (0.01, 1000.0)  # SliceViewer.zoom's limits
 SHIFT_STEPS = 10          # voxel steps per wheel notch with Shift
 MIN_WIDTH_FRACTION = 1e-3  # the window never gets narrower than this part of the value range
 NOT_DRAWN = "the slice is not drawn yet"
@@ -52,7 +56,7 @@ def _reported(view, viewer_id: str):
 def page_step(normal, spacing, direction=IDENTITY) -> float:
     """World distance along the unit ``normal`` that spans one voxel of a grid with that spacing
     and direction (module docstring)."""
-    return 1.0 / float(np.linalg.norm(index_vectors(normal, spacing, direction)))
+    return voxel_step(normal, spacing, direction)
 
 
 def begin_page(view, key) -> dict | None:
@@ -148,3 +152,46 @@ def move_cursor(view, gesture: dict, position) -> None:
     v = float(np.clip(1.0 - (position.y() - rect.top()) / rect.height(), 0.0, 1.0))
     point = plane.world_at(u, v)
     view._apply(gesture, lambda _: tuple(float(x) for x in point))
+
+
+def begin_pan(view, event, key) -> dict | None:
+    """A middle (or Shift + left) drag's state on a slice canvas (mode "slice_pan"), or None when
+    it shows no slice: the viewer's ``pan`` moves so the image follows the mouse."""
+    network = view.workspace.network
+    viewer_id = slice_viewer_for(network, view.canvas_id)
+    if viewer_id is None:
+        return None
+    return {"mode": "slice_pan", "button": event.button(), "start": event.position(),
+            "active": False, "key": key, "address": f"{viewer_id}.pan",
+            "camera": np.asarray(network.get(f"{viewer_id}.pan"), dtype=np.float64),
+            "plane": view.view_cameras().get(viewer_id + PLANE_SUFFIX)}
+
+
+def move_pan(view, gesture: dict, dx: float, dy: float) -> None:
+    """Pan for a drag of (dx, dy) Qt pixels (y down) from the press point: the image's centre
+    moves against the mouse by the world size of those pixels in the plane shown at the press."""
+    plane = gesture["plane"]
+    if plane is None:
+        view.set_message(NOT_DRAWN)
+        return
+    rect = view.image_rect()
+    offset = (-dx / rect.width() * np.asarray(plane.right, dtype=np.float64)
+              + dy / rect.height() * np.asarray(plane.up, dtype=np.float64))
+    view._apply(gesture, lambda start: tuple(float(x) for x in start + offset))
+
+
+def begin_zoom(view, key) -> dict | None:
+    """A Ctrl + wheel burst's state on a slice canvas (mode "slice_zoom"), or None."""
+    network = view.workspace.network
+    viewer_id = slice_viewer_for(network, view.canvas_id)
+    if viewer_id is None:
+        return None
+    return {"mode": "slice_zoom", "address": f"{viewer_id}.zoom", "key": key, "active": False,
+            "camera": float(network.get(f"{viewer_id}.zoom")), "notches": 0.0}
+
+
+def zoom(view, gesture: dict, notches: float, factor: float) -> None:
+    """Magnify by ``factor`` per notch of the burst (forward zooms in), within the zoom's range."""
+    gesture["notches"] += notches
+    exponent = float(np.clip(gesture["notches"] * np.log(factor), -50.0, 50.0))
+    view._apply(gesture, lambda start: float(np.clip(start * np.exp(exponent), *ZOOM_RANGE)))
