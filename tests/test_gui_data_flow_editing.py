@@ -100,6 +100,7 @@ def test_file_new_resets_the_zoom(window):
 
 
 def test_ctrl_f_searches_the_palette_and_inserts_at_the_mouse(window, qtbot):
+    window.welcome.page.empty_button.click()   # from the welcome page to the (empty) editor
     viewport = window.view.viewport()
     at = QPointF(viewport.width() * 0.25, viewport.height() * 0.75).toPoint()
     QCursor.setPos(viewport.mapToGlobal(at))

@@ -49,6 +49,7 @@ from vgraph.gui.palette import ProcessorPalette
 from vgraph.gui.perspectives import Perspectives
 from vgraph.gui.progress_view import EvaluationProgress
 from vgraph.gui.scene import NetworkScene, NetworkView
+from vgraph.gui.welcome import WelcomeSwitch
 from vgraph.gui.workspace import Workspace
 
 class MainWindow(FileActions, QMainWindow):
@@ -60,7 +61,8 @@ class MainWindow(FileActions, QMainWindow):
         self.scene = NetworkScene(self.workspace, self, status_of=self.evaluation.status_of)
         self.view = NetworkView(self.scene)
         self.insert_at = None   # where Find Processor's choice goes (the mouse in the editor)
-        self.setCentralWidget(self.view)
+        self.welcome = WelcomeSwitch(self)  # the welcome page while there is no network (welcome.py)
+        self.setCentralWidget(self.welcome.stack)
         self.palette = ProcessorPalette()
         self.inspector = PropertyInspector(self.workspace, status_of=self.evaluation.status_of)
         self.log = LogPanel()
@@ -237,6 +239,7 @@ class MainWindow(FileActions, QMainWindow):
     def find_processor(self) -> None:
         """Edit > Find Processor (Ctrl+F): the palette's search, for a processor that goes where
         the mouse is in the network editor (else where it would go from the palette)."""
+        self.welcome.show_editor()   # from the welcome page: the editor, to insert into
         cursor = self.view.viewport().mapFromGlobal(QCursor.pos())
         inside = self.view.viewport().rect().contains(cursor)
         self.insert_at = self.view.mapToScene(cursor) if inside else None
@@ -331,7 +334,7 @@ class MainWindow(FileActions, QMainWindow):
         if not self.confirm_discard():
             event.ignore()
             return
-        for view in (self.scene, self.inspector, self.canvases):
+        for view in (self.scene, self.inspector, self.canvases, self.welcome):
             view.detach()
         self.autosave.stop()
         self.autosave.remove()   # a clean exit: the changes were saved or discarded on purpose
