@@ -342,6 +342,13 @@ def test_the_readouts_give_the_slice_position_and_the_window():
     assert readouts("axial", network, cameras) == ["Axial  S 40.0  slice 21/32", "W 50  L 100"]
     network.properties["axial.window"] = None  # auto: the whole value range
     assert readouts("axial", network, cameras)[1] == "W 1000  L 500"
+    network.properties["axial.slab_thickness"] = 10.0
+    assert readouts("axial", network, cameras)[0] == "Axial  S 40.0  slice 21/32  MIP slab 10"
+    # RAS letters: +x is the patient's right, +y anterior; the number is the distance from 0
+    from vgraph.gui.slice_overlay import position_text
+    assert position_text("sagittal", cameras["sagittal.slice_plane"], (-7.0, 30.0, 40.0)).startswith("Sagittal  L 7.0")
+    assert position_text("sagittal", cameras["sagittal.slice_plane"], (7.0, 30.0, 40.0)).startswith("Sagittal  R 7.0")
+    assert position_text("coronal", cameras["coronal.slice_plane"], (7.0, -3.0, 40.0)).startswith("Coronal  P 3.0")
 
 
 def test_the_mpr_views_draw_the_crosshair_on_screen_not_into_the_frame(mpr, qtbot):

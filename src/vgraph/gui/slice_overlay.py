@@ -1,5 +1,7 @@
 """What a slice canvas draws over its frame at screen resolution: the other slices' planes as
-crosshair lines, its own plane's outline, and readouts of the slice position and window/level.
+crosshair lines, its own plane's outline, and readouts (top left) of the slice position (RAS
+letter and world coordinate, slice number along the index axis nearest the normal, the thick
+slab when there is one) and the window/level in data values.
 
 Painted by Qt on the widget (CanvasView.paintEvent, with the "Slices" overlay toggle), never into
 the frame, so the lines stay crisp and 2 px wide however small the view shows the image, and a
@@ -35,7 +37,7 @@ READOUT_COLOUR = QColor(235, 235, 235)
 READOUT_MARGIN = 6
 _PARALLEL = 1e-6
 # The world axis a plane of an orientation is constant along, and the RAS letters of its ends.
-_POSITION_AXES = {"axial": (2, "I", "S"), "coronal": (1, "P", "A"), "sagittal": (0, "R", "L")}
+_POSITION_AXES = {"axial": (2, "I", "S"), "coronal": (1, "P", "A"), "sagittal": (0, "L", "R")}
 
 
 def colour_of(orientation: str) -> QColor:
@@ -138,6 +140,9 @@ def readouts(viewer_id: str, network, cameras: dict) -> list[str]:
         return []
     lines = [position_text(network.get(f"{viewer_id}.orientation"), plane,
                            network.get(f"{viewer_id}.cursor"))]
+    slab = network.get(f"{viewer_id}.slab_thickness") or 0.0
+    if slab > 0.0:
+        lines[0] += f"  MIP slab {slab:g}"
     if network.get(f"{viewer_id}.mapping") == "window":
         text = window_text(network.get(f"{viewer_id}.window"), cameras.get(viewer_id + VOLUME_SUFFIX))
         if text:
