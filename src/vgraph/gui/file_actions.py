@@ -27,12 +27,14 @@ from vgraph.errors import VGraphError, WritePathError
 from vgraph.gui.autosave import FoundAutosave
 from vgraph.gui.canvas_toolbar import save_complete_frame
 from vgraph.io import SUPPORTED_EXTENSIONS
+from vgraph.io.meshes import FILE_FILTERS as MESH_FILTERS
 
 UNTITLED = "untitled.json"
 NETWORK_FILTER = "vgraph networks (*.json);;All files (*)"
-# Open also takes a volume file: it opens as a new network around it (vgraph.volume_network).
-OPEN_FILTER = ("vgraph networks or volumes (*.json " + " ".join(f"*{e}" for e in SUPPORTED_EXTENSIONS)
-               + ");;" + NETWORK_FILTER)
+# Open also takes a volume or mesh file: it opens as a new network around it
+# (vgraph.volume_network, vgraph.mesh_network).
+OPEN_FILTER = ("vgraph networks, volumes or meshes (*.json " + " ".join(f"*{e}" for e in SUPPORTED_EXTENSIONS)
+               + " " + " ".join(MESH_FILTERS) + ");;" + NETWORK_FILTER)
 
 
 class FileActions:
@@ -68,7 +70,7 @@ class FileActions:
         return box.clickedButton() is allow
 
     def ask_open_path(self) -> str:
-        path, _ = QFileDialog.getOpenFileName(self, "Open network or volume", self._start_dir(), OPEN_FILTER)
+        path, _ = QFileDialog.getOpenFileName(self, "Open network, volume or mesh", self._start_dir(), OPEN_FILTER)
         return path
 
     def ask_save_path(self) -> str:

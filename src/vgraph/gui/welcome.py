@@ -29,6 +29,7 @@ from PySide6.QtWidgets import (QFrame, QHBoxLayout, QLabel, QListView, QListWidg
 import vgraph
 
 THUMBNAIL_SIZE = 128   # px, the thumbnails' longer side
+ICON_SIZE = 96         # px, as the page shows them: two or three a row in the editor's column
 
 
 def examples_folder() -> Path | None:
@@ -101,8 +102,8 @@ class WelcomePage(QWidget):
     def _example_list(self, examples: list[Example]) -> QListWidget:
         listing = QListWidget()
         listing.setViewMode(QListView.IconMode)
-        listing.setIconSize(QSize(THUMBNAIL_SIZE, THUMBNAIL_SIZE))
-        listing.setGridSize(QSize(THUMBNAIL_SIZE + 48, THUMBNAIL_SIZE + 40))
+        listing.setIconSize(QSize(ICON_SIZE, ICON_SIZE))
+        listing.setGridSize(QSize(ICON_SIZE + 48, ICON_SIZE + 40))
         listing.setResizeMode(QListView.Adjust)
         listing.setMovement(QListView.Static)
         listing.setWordWrap(True)
