@@ -50,6 +50,7 @@ def test_views_perspective_gives_the_canvases_half_the_window(window, qtbot, siz
 
 def test_f9_toggles_and_the_toolbar_switches(window, qtbot):
     assert window.perspectives.current == "editing"
+    assert window.open_network(REPO / "networks" / "raycast_sphere.json")
     qtbot.keyClick(window, Qt.Key_F9)
     assert window.perspectives.current == "views" and not editor_shown(window)
     window.perspectives.toolbar.widgetForAction(window.perspectives.actions["editing"]).click()
@@ -63,6 +64,7 @@ def test_a_new_window_comes_back_in_the_last_perspective(qtbot, tmp_path, render
     first.show()
     qtbot.waitExposed(first)
     first.perspectives.switch("views")
+    assert first.welcome.showing() and editor_shown(first)   # an empty window keeps its welcome
     first.log_dock.show()        # a change the user made to the views perspective
     process(qtbot)
     first.close()
@@ -72,8 +74,11 @@ def test_a_new_window_comes_back_in_the_last_perspective(qtbot, tmp_path, render
     qtbot.waitExposed(second)
     try:
         assert second.perspectives.current == "views"
-        assert not editor_shown(second) and second.log_dock.isVisible()
-        assert not second.palette_dock.isVisible()
+        assert second.log_dock.isVisible() and not second.palette_dock.isVisible()
+        assert editor_shown(second) and second.welcome.showing()   # no network yet: where to start
+        assert second.open_network(REPO / "networks" / "raycast_sphere.json")
+        process(qtbot)
+        assert not editor_shown(second) and second.canvases.views["canvas"].isVisible()
         second.perspectives.switch("editing")   # the editing state kept when the first left it
         process(qtbot)
         assert editor_shown(second) and second.palette_dock.isVisible()
@@ -83,3 +88,14 @@ def test_a_new_window_comes_back_in_the_last_perspective(qtbot, tmp_path, render
     finally:
         second.close()
         second.deleteLater()
+
+
+def test_reset_layout_goes_back_to_the_editing_layout(window, qtbot):
+    assert window.open_network(REPO / "networks" / "raycast_sphere.json")
+    window.perspectives.switch("views")
+    process(qtbot)
+    window.reset_layout_action.trigger()
+    process(qtbot)
+    assert window.perspectives.current == "editing" and window.view.isVisible()
+    assert window.palette_dock.isVisible() and window.log_dock.isVisible()
+    assert window.workspace.settings.value("perspective/views/state") is None

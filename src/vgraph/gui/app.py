@@ -142,7 +142,7 @@ class MainWindow(FileActions, QMainWindow):
         self.writers_action = self._action("Run &Writers", lambda: self.evaluation.run(include_writers=True),
                                            "Ctrl+R")
         self.cancel_action = self._action("&Cancel Rendering", self.cancel_rendering)
-        self.reset_layout_action = self._action("&Reset Layout", lambda: layout.reset_layout(self))
+        self.reset_layout_action = self._action("&Reset Layout", lambda: self.perspectives.reset())
         self.tile_canvases_action = self._action(  # side by side, e.g. a multi-planar layout
             "&Tile Canvases", lambda: canvas_grid.tile_canvases(self, list(self.canvases.docks.values())))
         self.cancel_action.setEnabled(False)

@@ -12,7 +12,9 @@ canvases' view keys: canvas_toolbar.py). Each
 perspective's dock and splitter state (QMainWindow.saveState) is kept in the window's QSettings
 under ``perspective/<name>/state`` when it is left, and put back when it is entered again; which
 one is current (``perspective/current``) comes back with a new window. A perspective never entered
-gets its default arrangement. Canvas docks come and go with the network: a canvas added while the
+gets its default arrangement; View > Reset Layout goes back to the editing perspective's first-run
+layout and forgets both. While there is no network the views perspective shows the welcome page
+(welcome.py) in the middle, so that an empty window always offers a start. Canvas docks come and go with the network: a canvas added while the
 views perspective is current is tiled with the others at once.
 """
 
@@ -88,7 +90,7 @@ class Perspectives(QObject):
         self.current = name
         self.settings.setValue(CURRENT_KEY, name)
         self.actions[name].setChecked(True)
-        self._show_editor(name == EDITING)
+        self._show_central()
         state = self.settings.value(state_key(name))
         if state is None or not self.window.restoreState(state, STATE_VERSION):
             self._default(name)
@@ -102,7 +104,12 @@ class Perspectives(QObject):
         if self.settings.value(CURRENT_KEY) == VIEWS:
             self.current = VIEWS
             self.actions[VIEWS].setChecked(True)
-            self._show_editor(False)
+            self._show_central()
+
+    def _show_central(self) -> None:
+        """The editor in the editing perspective; in the views one only the welcome page, while
+        there is no network (an empty views perspective would show nothing to start from)."""
+        self._show_editor(self.current == EDITING or not self.window.workspace.network.processors)
 
     def _show_editor(self, shown: bool) -> None:
         """Put the central widget (the network editor) in or take it out: a hidden central
@@ -161,7 +168,20 @@ class Perspectives(QObject):
 
     def _network_replaced(self, _network) -> None:
         if self.current == VIEWS:
+            self._show_central()
             self.tile_canvases()
+
+    def reset(self) -> None:
+        """View > Reset Layout: the editing perspective's first-run layout; both perspectives'
+        stored states are forgotten."""
+        from vgraph.gui import layout
+        self.current = EDITING
+        self.actions[EDITING].setChecked(True)
+        self._show_central()
+        for name in (EDITING, VIEWS):
+            self.settings.remove(state_key(name))
+        self.settings.setValue(CURRENT_KEY, EDITING)
+        layout.reset_layout(self.window)
 
     def _selection_changed(self) -> None:
         if self.current == VIEWS:
