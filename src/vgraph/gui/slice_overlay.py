@@ -28,6 +28,7 @@ from PySide6.QtCore import QLineF, QPointF, QRectF, Qt
 from PySide6.QtGui import QColor, QPainter, QPen, QPolygonF
 
 from vgraph.gui.overlays import SLICE_COLOURS
+from vgraph.errors import VGraphError
 from vgraph.live.slice_clicks import PLANE_SUFFIX, VOLUME_SUFFIX
 from vgraph.slicing import index_vectors
 
@@ -42,6 +43,15 @@ _POSITION_AXES = {"axial": (2, "I", "S"), "coronal": (1, "P", "A"), "sagittal": 
 
 def colour_of(orientation: str) -> QColor:
     return SLICE_COLOURS.get(orientation, SLICE_COLOURS["custom"])
+
+
+def orientation_of(network, viewer_id: str) -> str:
+    """The viewer's orientation; 'custom' for a processor that reports a plane without one (a
+    plug-in's)."""
+    try:
+        return network.get(f"{viewer_id}.orientation")
+    except VGraphError:
+        return "custom"
 
 
 def intersection_uv(own, other) -> tuple[np.ndarray, np.ndarray] | None:
@@ -96,7 +106,7 @@ def crosshair_lines(own_id: str, network, cameras: dict, rect: QRectF) -> list[t
         line = intersection_uv(own, plane)
         ends = None if line is None else clipped_to_image(*line)
         if ends is not None:
-            lines.append((colour_of(network.get(f"{viewer_id}.orientation")),
+            lines.append((colour_of(orientation_of(network, viewer_id)),
                           QLineF(uv_to_widget(ends[0], rect), uv_to_widget(ends[1], rect))))
     return lines
 
