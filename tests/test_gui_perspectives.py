@@ -42,6 +42,13 @@ def test_views_perspective_gives_the_canvases_half_the_window(window, qtbot, siz
     share = canvas_share(window)
     assert share >= 0.5, f"canvases take {share:.0%} of {size}"
     assert share > editing_share
+    # "3D + 3 slices": the 3D view large on the left, the slices stacked beside it
+    views = window.canvases.views
+    main = views["canvas"].mapTo(window, views["canvas"].rect().topLeft())
+    for name in MPR_CANVASES[:3]:
+        corner = views[name].mapTo(window, views[name].rect().topLeft())
+        assert corner.x() > main.x() + views["canvas"].width() - 20
+        assert views["canvas"].width() * views["canvas"].height() > 2 * views[name].width() * views[name].height()
     window.perspectives.switch("editing")
     process(qtbot)
     assert window.view.isVisible() and window.palette_dock.isVisible()

@@ -2,10 +2,13 @@
 
 - ``editing``: today's layout, the network editor in the middle (layout.py).
 - ``views``: the canvases take the centre of the window: the network editor, the palette and the
-  log are hidden, the canvases fill the room they leave (one alone; two side by side; three or
-  four in a 2 x 2 grid, as Slicer's "Four-Up": canvas_grid.py), and the properties of the selected
+  log are hidden, the canvases fill the room they leave, and the properties of the selected
   processor sit in a side panel as wide as what it shows (``properties_width``), at most
   ``MAX_PROPERTIES_FRACTION`` of the window.
+  The canvases: one 3D view (a canvas with a camera upstream) and two or three slice views (no
+  camera: SliceViewer) as Slicer's "3D + 3 slices": the 3D view large on the left
+  (``MAIN_VIEW_FRACTION`` of the canvases' width), the slices stacked beside it; otherwise one
+  alone, two side by side, three or four in a 2 x 2 grid, as Slicer's "Four-Up" (canvas_grid.py).
 
 Switching: the View menu, the Perspective toolbar, or F9 to toggle (Ctrl+1 and the like are the
 canvases' view keys: canvas_toolbar.py). Each
@@ -33,6 +36,7 @@ TOGGLE_KEY = "F9"
 CURRENT_KEY = "perspective/current"
 MIN_PROPERTIES_WIDTH = 220
 MAX_PROPERTIES_FRACTION = 0.3
+MAIN_VIEW_FRACTION = 2 / 3
 
 
 def state_key(name: str) -> str:
@@ -144,21 +148,52 @@ class Perspectives(QObject):
         docks = [dock for dock in window.canvases.docks.values() if not dock.isFloating()]
         for dock in docks:
             dock.show()
-        canvas_grid.tile_canvases(window, docks)
-        QApplication.processEvents()   # the grid's layout first, or the resize below is lost
-        self.fit_properties()
+        main, slices = self._main_and_slices(docks)
+        if main is not None:
+            self._main_beside_slices(main, slices)
+        else:
+            canvas_grid.tile_canvases(window, docks)
+        QApplication.processEvents()   # the grid's layout first, or the resizes below are lost
+        self.fit_properties(main)
 
-    def fit_properties(self) -> None:
-        """The properties panel as wide as its form; the canvases' columns share the rest."""
+    def _main_and_slices(self, docks: list) -> tuple:
+        """(the 3D view's dock, the slice views' docks) for "3D + slices", else (None, [])."""
+        from vgraph.gui.canvas_view import camera_property_for
+        network, ids = self.window.workspace.network, {id(d): pid for pid, d in self.window.canvases.docks.items()}
+        with_camera = [d for d in docks if camera_property_for(network, ids[id(d)]) is not None]
+        slices = [d for d in docks if d not in with_camera]
+        if len(with_camera) == 1 and 2 <= len(slices) <= 3:
+            return with_camera[0], slices
+        return None, []
+
+    def _main_beside_slices(self, main, slices: list) -> None:
+        window = self.window
+        for dock in [main, *slices]:
+            window.removeDockWidget(dock)
+        QApplication.processEvents()   # lets an emptied tab bar go (as canvas_grid does)
+        window.addDockWidget(Qt.LeftDockWidgetArea, main)
+        window.splitDockWidget(main, slices[0], Qt.Horizontal)
+        for above, below in zip(slices, slices[1:]):
+            window.splitDockWidget(above, below, Qt.Vertical)
+        for dock in [main, *slices]:
+            dock.setFloating(False)
+            dock.show()
+        window.resizeDocks(slices, [window.height() // len(slices)] * len(slices), Qt.Vertical)
+
+    def fit_properties(self, main=None) -> None:
+        """The properties panel as wide as its form; the canvases' columns share the rest (the
+        3D view ``main``, if any, gets MAIN_VIEW_FRACTION of it)."""
         window, dock = self.window, self.window.properties_dock
         if not dock.isVisible() or dock.isFloating():
             return
         width = properties_width(window)
         window.resizeDocks([dock], [width], Qt.Horizontal)
-        columns = self._first_row()
-        if columns:
-            share = (window.width() - width) // len(columns)
-            window.resizeDocks(columns, [share] * len(columns), Qt.Horizontal)
+        columns, room = self._first_row(), window.width() - width
+        if main is not None and len(columns) == 2:
+            window.resizeDocks(columns, [int(room * MAIN_VIEW_FRACTION), room - int(room * MAIN_VIEW_FRACTION)],
+                               Qt.Horizontal)
+        elif columns:
+            window.resizeDocks(columns, [room // len(columns)] * len(columns), Qt.Horizontal)
 
     def _first_row(self) -> list:
         """The visible canvas docks at the top of the grid, left to right."""
