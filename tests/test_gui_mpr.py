@@ -443,3 +443,13 @@ def test_ctrl_wheel_zooms_and_a_middle_drag_pans_all_slice_views_together(mpr, q
     assert undo.count() == depth + 1 and network.get("axial.cursor") is None
     undo.undo()
     np.testing.assert_allclose(network.get("axial.pan"), expected, atol=1e-9)
+
+
+def test_the_lines_go_through_the_cursor_the_network_holds_before_the_frames_arrive(qapp):
+    """During a drag the other planes' reported frames lag; the lines follow the network's cursor."""
+    from vgraph.gui.slice_overlay import intersection_uv
+    cameras = _planes(CURSOR)
+    axial, coronal = cameras["axial.slice_plane"], cameras["coronal.slice_plane"]
+    moved = (CURSOR[0], CURSOR[1] + 6.0, CURSOR[2])
+    point, _ = intersection_uv(axial, coronal, moved)
+    np.testing.assert_allclose(axial.world_at(*point)[1], moved[1], atol=1e-9)

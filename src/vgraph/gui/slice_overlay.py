@@ -18,7 +18,9 @@ Geometry comes from the planes the render process reported with the view cameras
 with its normal) cuts this viewer's plane, put into this image's (u, v), clipped to the image
 and mapped to the widget by the rectangle the frame is drawn in, as the click mapping does in
 reverse. Only viewers slicing the same volume grid are drawn, and planes parallel to this one
-give no line.
+give no line. A line goes through the other viewer's cursor as the network holds it (its
+reported plane's centre while the cursor is automatic), so during a cursor drag the lines follow
+the mouse before the other slices' frames arrive.
 """
 
 from __future__ import annotations
@@ -54,9 +56,9 @@ def orientation_of(network, viewer_id: str) -> str:
         return "custom"
 
 
-def intersection_uv(own, other) -> tuple[np.ndarray, np.ndarray] | None:
-    """The line where ``other``'s plane cuts ``own``'s, in own's image coordinates: (point,
-    direction), or None when the planes are parallel."""
+def intersection_uv(own, other, through=None) -> tuple[np.ndarray, np.ndarray] | None:
+    """The line where ``other``'s plane (through ``through``, default its centre) cuts ``own``'s,
+    in own's image coordinates: (point, direction), or None when the planes are parallel."""
     n1, n2 = np.asarray(own.normal, float), np.asarray(other.normal, float)
     direction = np.cross(n1, n2)
     if np.linalg.norm(direction) < _PARALLEL:
@@ -65,10 +67,20 @@ def intersection_uv(own, other) -> tuple[np.ndarray, np.ndarray] | None:
     # centre along the in-plane direction perpendicular to the line.
     towards = np.cross(direction, n1)  # in own's plane, across the line
     centre = np.asarray(own.centre, float)
-    t = (np.asarray(other.centre, float) - centre) @ n2 / (towards @ n2)
+    on_other = np.asarray(other.centre if through is None else through, float)
+    t = (on_other - centre) @ n2 / (towards @ n2)
     point = centre + t * towards
     start, end = own.uv_of(np.stack([point, point + direction]))
     return start, end - start
+
+
+def _cursor(network, viewer_id: str):
+    """The viewer's cursor as the network holds it now (None: automatic, or no cursor): the
+    lines follow a drag at once instead of waiting for the other viewers' next frames."""
+    try:
+        return network.get(f"{viewer_id}.cursor")
+    except VGraphError:
+        return None
 
 
 def clipped_to_image(point, direction) -> tuple[np.ndarray, np.ndarray] | None:
@@ -103,7 +115,7 @@ def crosshair_lines(own_id: str, network, cameras: dict, rect: QRectF) -> list[t
         if (not key.endswith(PLANE_SUFFIX) or viewer_id == own_id
                 or viewer_id not in network.processors or plane.box != own.box):
             continue
-        line = intersection_uv(own, plane)
+        line = intersection_uv(own, plane, _cursor(network, viewer_id))
         ends = None if line is None else clipped_to_image(*line)
         if ends is not None:
             lines.append((colour_of(orientation_of(network, viewer_id)),
