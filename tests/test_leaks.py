@@ -4,13 +4,16 @@ textures (by the GL itself) and resident memory. Before outputs were freed when 
 Grayscale re-evaluated 300 times grew by 170 MB and a chain of 50 leaked 2000 textures."""
 
 import gc
-import warnings
+import json
+import os
+import subprocess
+import sys
 
 import pytest
 
 import vgraph
 from vgraph.gl_context import collect_garbage, get_context
-from vgraph.leaks import live_gl_textures, repeated_evaluations, writers_redirected
+from vgraph.leaks import LeakSample, live_gl_textures, repeated_evaluations
 from helpers.paths import REPO
 
 # The culled bonsai as millions of tetrahedra takes seconds per evaluation: 500 of them would take
@@ -42,10 +45,12 @@ def assert_flat(samples):
 
 @pytest.mark.parametrize("path", NETWORKS, ids=[p.stem for p in NETWORKS])
 def test_shipped_network_holds_constant_textures_and_memory(path, tmp_path, data_dir):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        network = writers_redirected(vgraph.load(path), tmp_path)
-        assert_flat(repeated_evaluations(network, EVALUATIONS, every=50))
+    """Each network in a process of its own (helpers/leak_run.py says why)."""
+    done = subprocess.run([sys.executable, "-m", "helpers.leak_run", str(path), str(tmp_path), str(EVALUATIONS), "50"],
+                          cwd=REPO / "tests", capture_output=True, text=True, timeout=900,
+                          env={**os.environ, "PYTHONPATH": str(REPO / "tests")})
+    assert done.returncode == 0, done.stderr
+    assert_flat([LeakSample(**json.loads(line)) for line in done.stdout.splitlines()])
 
 
 def test_tetrahedra_from_a_volume_hold_constant_buffers_and_memory():
