@@ -14,7 +14,9 @@ The session (on a copy of the network in a temporary folder, so Save writes ther
 3. drags a transfer-function control point up with the mouse; waits for the refined image;
 4. orbits the camera with a mouse drag on the canvas; waits for the refined image after release;
 5. presses Ctrl+S; waits until the file is written; then Ctrl+Shift+S, waits for the dialog, types
-   a new file name, presses Return and waits until that file is written.
+   a new file name, presses Return and waits until that file is written;
+6. presses F9: waits for the views perspective (gui/perspectives.py; the canvas's share of the
+   window is noted), and F9 again: waits for the network editor.
 
 With ``--xvfb`` the script runs itself again on a private Xvfb display with Qt's xcb platform, and
 the input is real X input from ``xdotool`` (mouse moves, button and key presses, typed text), as a
@@ -103,7 +105,7 @@ class QtInput:
     Keys go through a zero timer, since a shortcut may open a modal dialog (a nested event loop)."""
 
     KEYS = {"Return": "Key_Return", "ctrl+a": ("Key_A", "ControlModifier"), "ctrl+s": ("Key_S", "ControlModifier"),
-            "ctrl+shift+s": ("Key_S", "ControlModifier|ShiftModifier")}
+            "ctrl+shift+s": ("Key_S", "ControlModifier|ShiftModifier"), "F9": "Key_F9"}
 
     def click(self, widget, point):
         from PySide6.QtCore import Qt
@@ -281,6 +283,21 @@ def session(window, user, frames: FrameLog, folder: Path, quick: bool, waits: li
     yield from user.keys(dialog, "Return")
     yield lambda: copy.exists() and window.workspace.path == copy and window.workspace.undo_stack.isClean()
     waits.append(Wait("Save As + Return", "saved", round(time.monotonic() - mark, 3), copy.name))
+
+    # F9: the views perspective (the canvas takes the window), then F9 back to the editor.
+    yield from user.click(view.viewport(), QPointF(8, 8))
+    window.activateWindow()   # a click does that under X; Qt events after the closed dialog do not
+    yield lambda: QApplication.activeWindow() is window
+    mark = time.monotonic()
+    yield from user.keys(view.viewport(), "F9")
+    yield lambda: window.perspectives.current == "views" and window.evaluation.idle() and canvas.isVisible()
+    share = canvas.width() * canvas.height() / (window.width() * window.height())
+    waits.append(Wait("F9", "views perspective", round(time.monotonic() - mark, 3),
+                      f"the canvas takes {share:.0%} of the window"))
+    mark = time.monotonic()
+    yield from user.keys(canvas, "F9")
+    yield lambda: window.perspectives.current == "editing" and view.isVisible()
+    waits.append(Wait("F9 again", "network editor", round(time.monotonic() - mark, 3)))
 
 
 def _opacity_near(transfer_function, position: float) -> float:

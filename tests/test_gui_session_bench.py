@@ -31,7 +31,8 @@ def test_the_scripted_session_edits_orbits_and_saves(window, jobs, tmp_path, dat
     assert [(w.step, w.waits_for) for w in waits] == [
         ("launch", "first image"), ("sampling rate typed in", "refined image"),
         ("TF point dragged", "refined image"), ("camera orbited", "refined image"),
-        ("Ctrl+S", "saved"), ("Ctrl+Shift+S", "Save As dialog"), ("Save As + Return", "saved")]
+        ("Ctrl+S", "saved"), ("Ctrl+Shift+S", "Save As dialog"), ("Save As + Return", "saved"),
+        ("F9", "views perspective"), ("F9 again", "network editor")]
     assert all(math.isfinite(w.seconds) and w.seconds >= 0 for w in waits)
     saved, copy = json.loads(network.read_text()), json.loads((tmp_path / "session_copy.json").read_text())
     rc = {p["id"]: p for p in saved["processors"]}["rc"]["properties"]
