@@ -383,7 +383,7 @@ def ray_segments(mesh: TetMesh, camera: Camera, size, *, chunk_pairs: int = 1 <<
     origins, directions = (a.reshape(-1, 3) for a in camera.rays(width, height))
     t_far = camera.far_distance(directions)
     geometry = _Geometry(mesh)
-    boxes = _pixel_boxes(geometry.corners, camera, width, height)
+    boxes = pixel_boxes(geometry.corners, camera, width, height)
     return _segments(geometry, boxes, width, (0, height), origins, directions, t_far, chunk_pairs)
 
 
@@ -437,9 +437,10 @@ def _row_bands(boxes, height, pairs):
     return bands
 
 
-def _pixel_boxes(corners, camera, width, height):
-    """Inclusive pixel ranges (c0, c1, r0, r1) that may see each tetrahedron (a one-pixel margin);
-    the whole image for a tetrahedron reaching behind the eye, none for one wholly behind it."""
+def pixel_boxes(corners, camera, width, height):
+    """Inclusive pixel ranges (c0, c1, r0, r1) that may see each tetrahedron (or face: ``corners``
+    [m, k, 3]; a one-pixel margin); the whole image for one reaching behind the eye, none (c1 = -1)
+    for one wholly behind it."""
     matrix = camera.view_projection(width / height)
     clip = np.einsum("ij,mkj->mki", matrix[:, :3], corners) + matrix[:, 3]
     w = clip[..., 3]
@@ -502,7 +503,7 @@ def render(mesh: TetMesh, camera: Camera, transfer_function: TransferFunction, s
     t_far = camera.far_distance(directions)
     geometry = _Geometry(mesh)
     pieces = _Pieces.of(transfer_function.for_volume(mesh))
-    boxes = _pixel_boxes(geometry.corners, camera, width, height)
+    boxes = pixel_boxes(geometry.corners, camera, width, height)
     image = np.empty((width * height, 4), dtype=np.float32)
     depth_image = np.empty((width * height, 4), dtype=np.float32) if return_depth else None
     for band in _row_bands(boxes, height, band_pairs):

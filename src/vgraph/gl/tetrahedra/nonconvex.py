@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from vgraph.camera import Camera
+from vgraph.numerics.reference_tetra import pixel_boxes
 
 CHUNK_PAIRS = 1 << 20  # (face, pixel) pairs tested at a time: bounded memory
 
@@ -68,23 +69,8 @@ def gap_edges(boundary: BoundaryFaces, camera: Camera, size) -> tuple[np.ndarray
 def _candidate_pairs(corners, camera: Camera, width: int, height: int):
     """(faces, ray indices) in chunks: each face with the pixels of its projected bounding box
     (one pixel of margin); every pixel for a face reaching behind the eye."""
-    matrix = camera.view_projection(width / height)
-    clip = np.einsum("ij,mkj->mki", matrix[:, :3], corners) + matrix[:, 3]
-    w = clip[..., 3]
-    ahead = w > 1e-12 * np.abs(clip[..., :3]).max(axis=-1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ndc = clip[..., :2] / w[..., None]
-    cols = (ndc[..., 0] + 1.0) / 2.0 * width - 0.5
-    rows = (1.0 - ndc[..., 1]) / 2.0 * height - 0.5
-    whole = ~ahead.all(axis=1)
-    cols[whole], rows[whole] = 0.0, 0.0
-    c0 = np.clip(np.floor(cols.min(axis=1)) - 1, 0, width).astype(np.int64)
-    c1 = np.clip(np.ceil(cols.max(axis=1)) + 1, -1, width - 1).astype(np.int64)
-    r0 = np.clip(np.floor(rows.min(axis=1)) - 1, 0, height).astype(np.int64)
-    r1 = np.clip(np.ceil(rows.max(axis=1)) + 1, -1, height - 1).astype(np.int64)
-    c0[whole], c1[whole], r0[whole], r1[whole] = 0, width - 1, 0, height - 1
+    c0, c1, r0, r1 = pixel_boxes(corners, camera, width, height)
     counts = np.maximum(c1 - c0 + 1, 0) * np.maximum(r1 - r0 + 1, 0)
-    counts[~ahead.any(axis=1)] = 0
     candidates = np.flatnonzero(counts)
     bounds = np.cumsum(counts[candidates])
     start = 0
