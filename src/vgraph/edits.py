@@ -74,6 +74,10 @@ class SetProperty:
         prop = network[processor_id].properties[name]
         return cls(address, prop.to_json(prop.validate(value, address, network.base_dir)), old)
 
+    def describe(self) -> str:
+        """What Edit > Undo names it."""
+        return f"Set {self.address}"
+
     def apply(self, network: Network) -> None:
         network.set(self.address, self.value)
 
@@ -91,6 +95,10 @@ class MoveProcessors:
     def of(cls, network: Network, positions: dict) -> MoveProcessors:
         return cls({pid: tuple(map(float, xy)) for pid, xy in positions.items()},
                    {pid: tuple(network[pid].position) for pid in positions})
+
+    def describe(self) -> str:
+        """What Edit > Undo names it."""
+        return f"Move {', '.join(self.positions)}"
 
     def apply(self, network: Network) -> None:
         for pid, xy in self.positions.items():
@@ -122,6 +130,10 @@ class AddProcessor:
                   for name, prop in processor.properties.items()}
         return cls(processor.id, processor.type_name, index, values, tuple(map(float, processor.position)))
 
+    def describe(self) -> str:
+        """What Edit > Undo names it."""
+        return f"Add {self.id} ({self.type})"
+
     def apply(self, network: Network) -> None:
         processor = registry.get(self.type)(id=self.id)
         for name, value in self.properties.items():
@@ -152,6 +164,10 @@ class RemoveProcessor:
                       links=tuple((i, l) for i, l in enumerate(network.links) if l.touches(processor_id)))
         return cls(processor_id, was)
 
+    def describe(self) -> str:
+        """What Edit > Undo names it."""
+        return f"Remove {self.id} ({self.was.type})" if self.was else f"Remove {self.id}"
+
     def apply(self, network: Network) -> None:
         network.remove(self.id)
 
@@ -166,6 +182,10 @@ class RemoveProcessor:
 class Connect:
     connection: Connection
     index: int | None = None   # in the connection order (and so in the inport's inputs)
+
+    def describe(self) -> str:
+        """What Edit > Undo names it."""
+        return f"Connect {self.connection}"
 
     def apply(self, network: Network) -> None:
         network.connect(*self.connection.ends, index=self.index)
@@ -183,6 +203,10 @@ class Disconnect:
     def of(cls, network: Network, connection: Connection) -> Disconnect:
         order = network.connections
         return cls(connection, order.index(connection) if connection in order else UNKNOWN)
+
+    def describe(self) -> str:
+        """What Edit > Undo names it."""
+        return f"Disconnect {self.connection}"
 
     def apply(self, network: Network) -> None:
         network.disconnect(self.connection)
@@ -203,6 +227,10 @@ class LinkProperties:
     @classmethod
     def of(cls, network: Network, source: str, target: str, bidirectional: bool = False) -> LinkProperties:
         return cls(Link(source, target, bidirectional), None, json_value(network, target))
+
+    def describe(self) -> str:
+        """What Edit > Undo names it."""
+        return f"Link {self.link.source} {'<->' if self.link.bidirectional else '->'} {self.link.target}"
 
     def apply(self, network: Network) -> None:
         network.link(self.link.source, self.link.target, self.link.bidirectional, index=self.index)
@@ -225,6 +253,10 @@ class UnlinkProperties:
         order = network.links
         relink = LinkProperties(link, order.index(link)) if link in order else None
         return cls(link.source, link.target, relink)
+
+    def describe(self) -> str:
+        """What Edit > Undo names it."""
+        return f"Unlink {self.source} -> {self.target}"
 
     def apply(self, network: Network) -> None:
         network.unlink(self.source, self.target)

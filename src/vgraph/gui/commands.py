@@ -19,8 +19,7 @@ from dataclasses import replace
 
 from PySide6.QtGui import QUndoCommand
 
-from vgraph.edits import (AddProcessor, Connect, Disconnect, Edit, LinkProperties, MoveProcessors,
-                          RemoveProcessor, SetProperty, UnlinkProperties)
+from vgraph.edits import Edit, SetProperty
 from vgraph.network import Network
 
 MERGE_PROPERTY_EDITS = 1001  # QUndoCommand.id() of property edits that merge (slider drags)
@@ -32,33 +31,12 @@ def free_id(network: Network, type_name: str) -> str:
     return next(f"{stem}{i or ''}" for i in itertools.count() if f"{stem}{i or ''}" not in network)
 
 
-def undo_text(edit: Edit) -> str:
-    """What Edit > Undo names the edit."""
-    if isinstance(edit, SetProperty):
-        return f"Set {edit.address}"
-    if isinstance(edit, MoveProcessors):
-        return f"Move {', '.join(edit.positions)}"
-    if isinstance(edit, AddProcessor):
-        return f"Add {edit.id} ({edit.type})"
-    if isinstance(edit, RemoveProcessor):
-        return f"Remove {edit.id} ({edit.was.type})" if edit.was else f"Remove {edit.id}"
-    if isinstance(edit, Connect):
-        return f"Connect {edit.connection}"
-    if isinstance(edit, Disconnect):
-        return f"Disconnect {edit.connection}"
-    if isinstance(edit, LinkProperties):
-        return f"Link {edit.link.source} {'<->' if edit.link.bidirectional else '->'} {edit.link.target}"
-    if isinstance(edit, UnlinkProperties):
-        return f"Unlink {edit.source} -> {edit.target}"
-    raise TypeError(f"not an edit: {edit!r}")
-
-
 class EditCommand(QUndoCommand):
     """One undo step: ``edit`` on ``network``. Consecutive property edits of one property with the
     same ``merge`` key (one slider drag) become one step; ``merge=None`` never merges."""
 
     def __init__(self, network: Network, edit: Edit, merge=None, parent: QUndoCommand | None = None):
-        super().__init__(undo_text(edit), parent)
+        super().__init__(edit.describe(), parent)
         self.network = network
         self.edit = edit
         self.merge = merge if isinstance(edit, SetProperty) else None
