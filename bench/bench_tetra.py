@@ -1,21 +1,31 @@
 """Projected tetrahedra: ours against VTK, and error against run time (Monsalve 2016 tables 4-6
 redone on this machine; issue #13's benchmarks).
 
-    .venv/bin/python bench/bench_tetra.py [--sizes 64 128x128x58 256x128x64 256] [--size 512]
-        [--repeat 3] [--out bench/results] [--accuracy-grid 32] [--skip-vtk] [--max-tetrahedra N]
+    .venv/bin/python bench/bench_tetra.py [--sizes 64 128x128x58 256x128x64] [--size 512]
+        [--repeat 3] [--out bench/results] [--accuracy-grid 32] [--skip-vtk] [--zsweep]
+        [--skip-speed] [--skip-accuracy] [--sort-sizes ...]
 
 Meshes are made from the CT bonsai (256^3, shared/data) by taking every k-th voxel (64^3 is the
-seed's "fuel" size, 5 tetrahedra per cell: 1.25 M tetrahedra), with and without VolumeToTetMesh's
-culling of cells the transfer function leaves transparent (VTK does not cull, so it also gets the
-culled mesh, made by us, for the second comparison). Our renderer also skips transparent
-tetrahedra by itself (ProjectedTetrahedra.skip_transparent, on by default), so its "none" row is
-culled at draw time. Ours draws these meshes cell by cell (grid_cells, the default for meshes cut
-from a volume) and, for comparison, tetrahedron by tetrahedron (grid_cells off, centroid sort). For each mesh, image size and integration mode the best of
---repeat frames is timed (a frame: camera set, render, glFinish / WaitForCompletion, no read-back;
-each frame turns the camera so no renderer reuses a sort). VTK runs vtkProjectedTetrahedraMapper
-and vtkUnstructuredGridVolumeZSweepMapper in a spawned worker process (VTK and our EGL context do
-not share a process), with the same points, tetrahedra, scalars, TF (data units, opacity unit
-distance = the mesh's reference length), camera and image size.
+seed's "fuel" size, 5 tetrahedra per cell: 1.25 M tetrahedra before culling) and culling the cells
+the transfer function leaves transparent (VolumeToTetMesh, culling = transfer_function): 111 k,
+354 k and 820 k tetrahedra for the default sizes. Every renderer draws the same culled mesh (the
+same work on both sides: an earlier version also compared our draw-time-culled frame of the whole
+mesh with VTK drawing all of it, which is not the same work, so that row is gone). Ours draws it
+cell by cell (grid_cells, the default for meshes cut from a volume; averaged and pre-integrated)
+and tetrahedron by tetrahedron (grid_cells off, centroid sort, pre-integrated), each variant its
+own ProjectedTetrahedra so that no frame switches a renderer's settings.
+
+Fairness (issue #31): VTK's vtkProjectedTetrahedraMapper (and with --zsweep
+vtkUnstructuredGridVolumeZSweepMapper) runs with multisampling off (SetMultiSamples(0): VTK's
+default window takes 8 samples a pixel, which alone made its PT 1.9-2.1x slower), in a spawned
+worker process (VTK and our EGL context do not share a process) that the parent drives frame by
+frame. Every renderer draws one untimed warm-up frame, then --repeat rounds of one frame per
+renderer in turn (ours, ours, ours, VTK, ours, ...), each round with a new camera, so load from
+other processes hits all alike. A frame: camera set, render, glFinish / WaitForCompletion, no
+read-back. The table gives min / median / max of each renderer's frames and the ratio of the
+medians with the range of the per-round ratios, and prints the settings (VTK version, window
+class, GetMultiSamples()) above it. Same points, tetrahedra, scalars, TF (data units, opacity unit
+distance = the mesh's reference length), camera and image size on both sides.
 
 Accuracy: on a small mesh (--accuracy-grid voxels per axis) every renderer's image is compared with
 the exact CPU reference (vgraph.numerics.reference_tetra) by PSNR over RGB in 8 bits and the max
@@ -84,40 +94,59 @@ def cameras(mesh, count: int):
     return [base.rotate(0.05 * k, 0.0).resolved(*mesh.box, 1.0) for k in range(count)]
 
 
-def time_ours(network, cams, size: int) -> tuple[float, np.ndarray]:
+def camera_tuple(camera) -> tuple:
+    """What VTK's worker needs of a camera (our Camera does not cross the pipe by design)."""
+    return (camera.position, camera.focus, camera.up, camera.fov, camera.near, camera.far)
+
+
+def interleaved(renderers: dict, cams, warm_up_camera) -> tuple[dict, list[tuple[int, str]]]:
+    """Every renderer (name -> frame(camera) -> seconds) draws one untimed warm-up frame, then
+    rounds of one frame each, in turn: renderer A, B, C, A, B, C, ... so load from other processes
+    hits all alike. Returns the seconds of each renderer's frames and the order they were drawn in."""
+    for frame in renderers.values():
+        frame(warm_up_camera)  # untimed: programs, tables, buffers, VTK's first render
+    seconds, order = {name: [] for name in renderers}, []
+    for round_index, camera in enumerate(cams):
+        for name, frame in renderers.items():
+            seconds[name].append(frame(camera))
+            order.append((round_index, name))
+    return seconds, order
+
+
+def spread(values) -> str:
+    """min / median / max of a renderer's frames, in seconds."""
+    if not values:
+        return "(not run)"
+    return f"{min(values):.3f} / {float(np.median(values)):.3f} / {max(values):.3f}"
+
+
+def our_frame(network, pid: str, size: int):
+    """A frame of processor ``pid``: camera set, render, glFinish (no read-back)."""
     from vgraph.gl_context import get_context
     ctx = get_context()
-    network.set("pt.camera", cams[0].rotate(1.0, 0.0))  # warm up: programs, tables, buffers
-    network.update("pt.image", size=(size, size))
-    best = np.inf
-    for camera in cams:
-        network.set("pt.camera", camera)
-        network.invalidate_downstream("pt")  # the same camera twice must still render
+
+    def frame(camera) -> float:
+        network.set(f"{pid}.camera", camera)
+        network.invalidate_downstream(pid)  # the same camera twice must still render
         start = time.perf_counter()
-        network.update("pt.image", size=(size, size))
+        network.update(f"{pid}.image", size=(size, size))
         ctx.finish()
-        best = min(best, time.perf_counter() - start)
-    return best, network.output("pt.image").to_numpy()
+        return time.perf_counter() - start
+    return frame
+
+
+def time_ours(network, cams, size: int) -> tuple[float, np.ndarray]:
+    """Best of ``cams`` frames of processor "pt" after a warm-up frame, and the last image."""
+    seconds, _ = interleaved({"pt": our_frame(network, "pt", size)}, cams, cams[0].rotate(1.0, 0.0))
+    return min(seconds["pt"]), network.output("pt.image").to_numpy()
 
 
 # --- VTK, in its own process -------------------------------------------------------------------------
-def vtk_frames(connection, points, tets, scalars, value_range, reference_length, tf_points, cams, size, kind):
-    """Worker: render the mesh with a VTK mapper for each camera; send (best seconds, RGBA image)."""
-    import os
-    os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"  # headless, before VTK loads
+# VTK's EGL window and our moderngl EGL context disturb each other in one process (bench_vtk.py), so
+# VTK runs in a spawned worker that the parent drives frame by frame; the worker times its own frames.
+def vtk_mapper_window(grid, tf_points, value_range, reference_length, size, kind):
+    """(render window, renderer) of one VTK mapper on ``grid``, multisampling off."""
     import vtk
-    from vtk.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
-    grid = vtk.vtkUnstructuredGrid()
-    vtk_points = vtk.vtkPoints()
-    vtk_points.SetData(numpy_to_vtk(points.astype(np.float32), deep=True))
-    grid.SetPoints(vtk_points)
-    cells = np.hstack([np.full((len(tets), 1), 4), tets]).astype(np.int64).ravel()
-    cell_array = vtk.vtkCellArray()
-    cell_array.SetCells(len(tets), numpy_to_vtkIdTypeArray(cells, deep=True))
-    grid.SetCells(vtk.VTK_TETRA, cell_array)
-    array = numpy_to_vtk(scalars.astype(np.float32), deep=True)
-    array.SetName("s")
-    grid.GetPointData().SetScalars(array)
     lo, hi = value_range
     colour, opacity = vtk.vtkColorTransferFunction(), vtk.vtkPiecewiseFunction()
     for position, r, g, b, a in tf_points:
@@ -138,10 +167,43 @@ def vtk_frames(connection, points, tets, scalars, value_range, reference_length,
     renderer.SetBackground(0, 0, 0)
     window = vtk.vtkRenderWindow()
     window.SetOffScreenRendering(1)
+    window.SetMultiSamples(0)  # VTK's default is 8 samples a pixel: 2x the work, as bench_vtk.py
     window.AddRenderer(renderer)
     window.SetSize(size, size)
-    best = np.inf
-    for position, focus, up, fov, near, far in cams:
+    return window, renderer
+
+
+def vtk_grid(points, tets, scalars):
+    import vtk
+    from vtk.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
+    grid = vtk.vtkUnstructuredGrid()
+    vtk_points = vtk.vtkPoints()
+    vtk_points.SetData(numpy_to_vtk(points.astype(np.float32), deep=True))
+    grid.SetPoints(vtk_points)
+    cells = np.hstack([np.full((len(tets), 1), 4), tets]).astype(np.int64).ravel()
+    cell_array = vtk.vtkCellArray()
+    cell_array.SetCells(len(tets), numpy_to_vtkIdTypeArray(cells, deep=True))
+    grid.SetCells(vtk.VTK_TETRA, cell_array)
+    array = numpy_to_vtk(scalars.astype(np.float32), deep=True)
+    array.SetName("s")
+    grid.GetPointData().SetScalars(array)
+    return grid
+
+
+def vtk_worker(connection, points, tets, scalars, value_range, reference_length, tf_points, size, kinds):
+    """Worker: one window per mapper kind ("pt", "zsweep"); answers ("render", kind, camera) with the
+    frame's seconds, ("image", kind, None) with its RGBA image, ("settings", kind, None) with the
+    window's class and GetMultiSamples(); None ends it."""
+    import os
+    os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = "vtkEGLRenderWindow"  # headless, before VTK loads
+    import vtk
+    grid = vtk_grid(points, tets, scalars)
+    windows = {kind: vtk_mapper_window(grid, tf_points, value_range, reference_length, size, kind)
+               for kind in kinds}
+
+    def render(kind, cam):
+        window, renderer = windows[kind]
+        position, focus, up, fov, near, far = cam
         camera = renderer.GetActiveCamera()
         camera.SetPosition(*position)
         camera.SetFocalPoint(*focus)
@@ -151,27 +213,53 @@ def vtk_frames(connection, points, tets, scalars, value_range, reference_length,
         start = time.perf_counter()
         window.Render()
         window.WaitForCompletion()
-        best = min(best, time.perf_counter() - start)
-    grab = vtk.vtkWindowToImageFilter()
-    grab.SetInput(window)
-    grab.SetInputBufferTypeToRGBA()
-    grab.Update()
-    from vtk.util.numpy_support import vtk_to_numpy
-    image = vtk_to_numpy(grab.GetOutput().GetPointData().GetScalars()).reshape(size, size, 4)[::-1]
-    connection.send((best, image.astype(np.float32) / 255.0))
+        return time.perf_counter() - start
+
+    def image(kind, _):
+        from vtk.util.numpy_support import vtk_to_numpy
+        grab = vtk.vtkWindowToImageFilter()
+        grab.SetInput(windows[kind][0])
+        grab.SetInputBufferTypeToRGBA()
+        grab.ShouldRerenderOff()
+        grab.Update()
+        pixels = vtk_to_numpy(grab.GetOutput().GetPointData().GetScalars()).reshape(size, size, 4)[::-1]
+        return pixels.astype(np.float32) / 255.0
+
+    def settings(kind, _):
+        window = windows[kind][0]
+        return {"window": window.GetClassName(), "multisamples": window.GetMultiSamples(),
+                "vtk": vtk.vtkVersion.GetVTKVersion()}
+
+    commands = {"render": render, "image": image, "settings": settings}
+    connection.send("ready")
+    while (message := connection.recv()) is not None:
+        command, kind, argument = message
+        connection.send(commands[command](kind, argument))
 
 
-def time_vtk(kind, mesh, tf, cams, size):
-    context = multiprocessing.get_context("spawn")
-    ours, theirs = context.Pipe()
-    cam_tuples = [(c.position, c.focus, c.up, c.fov, c.near, c.far) for c in cams]
-    worker = context.Process(target=vtk_frames, args=(theirs, mesh.points, mesh.tets, mesh.scalars,
-                                                      mesh.value_range, mesh.opacity_length,
-                                                      tf.for_volume(mesh).points, cam_tuples, size, kind))
-    worker.start()
-    result = ours.recv() if ours.poll(3600) else (np.nan, None)
-    worker.join(60)
-    return result
+class VtkWorker:
+    """VTK's mappers on one mesh in a spawned process, driven frame by frame from this one."""
+
+    def __init__(self, mesh, tf, size: int, kinds=("pt",)):
+        context = multiprocessing.get_context("spawn")
+        self.connection, theirs = context.Pipe()
+        self.process = context.Process(target=vtk_worker, daemon=True, args=(
+            theirs, mesh.points, mesh.tets, mesh.scalars, mesh.value_range, mesh.opacity_length,
+            tf.for_volume(mesh).points, size, tuple(kinds)))
+        self.process.start()
+        if not self.connection.poll(600) or self.connection.recv() != "ready":
+            raise RuntimeError("VTK's worker did not start")
+
+    def call(self, command: str, kind: str, argument=None):
+        self.connection.send((command, kind, argument))
+        return self.connection.recv()
+
+    def frame(self, kind: str):
+        return lambda camera: self.call("render", kind, camera_tuple(camera))
+
+    def close(self) -> None:
+        self.connection.send(None)
+        self.process.join(60)
 
 
 def psnr(a: np.ndarray, b: np.ndarray) -> float:
@@ -182,54 +270,94 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
 
 
 # --- the runs ---------------------------------------------------------------------------------------
-def gl_mebibytes(network) -> float:
+def gl_mebibytes(network, pid: str) -> float:
     """The GL buffers the renderer draws from: the mesh's points (tetrahedra path) or the cells'
     data (cells path), and the index buffer in visibility order."""
     import moderngl
-    pt = network.processors["pt"]
-    state = pt._draw_state
+    state = network.processors[pid]._draw_state
     used = [b for b in state.values() if isinstance(b, moderngl.Buffer)]
     if not state.get("by_cells"):
         used.append(network.output("tets.mesh").buffers(state["ctx"])["points"])
     return sum(b.size for b in used) / 2**20
 
 
-def speed_table(args) -> list[str]:
-    lines = ["| mesh (voxels) | culling | tetrahedra | cells, averaged (s) | cells, pre-integrated (s) "
-             "| tetrahedra, pre-integrated (s) | GL memory cells / tetrahedra (MiB) | VTK PT (s) "
-             "| VTK ZSweep (s) | VTK PT / cells averaged | VTK PT / cells pre-integrated |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+OURS = {"cells averaged": ("averaged", True), "cells preintegrated": ("preintegrated", True),
+        "tets preintegrated": ("preintegrated", False)}
+
+
+def speed_network(volume):
+    """The culled mesh drawn by one ProjectedTetrahedra per variant of OURS (pid = the variant's
+    name with "_" for " "), so alternating frames never switch a renderer's settings."""
+    network = mesh_network(volume, "transfer_function", "averaged")
+    network.remove("pt")
+    for label, (integration, cells) in OURS.items():
+        pid = label.replace(" ", "_")
+        network.add("ProjectedTetrahedra", id=pid, transfer_function=transfer_function(),
+                    integration=integration, grid_cells=cells)
+        network.connect("tets.mesh", f"{pid}.mesh")
+    network.update("tets.mesh")
+    return network
+
+
+def speed_rows(args) -> tuple[list[dict], list]:
+    """Per mesh size: the culled mesh, our variants and VTK's mappers drawn in alternating frames.
+    Returns a row per mesh and, per mesh, the order the frames were drawn in."""
+    rows, orders = [], []
     for dims in tqdm([parse_dims(s) for s in args.sizes], desc="meshes", file=sys.stderr):
-        volume = bonsai_volume(dims)
-        for culling in ("none", "transfer_function"):
-            times, memory = {}, {}
-            network = mesh_network(volume, culling, "averaged")
-            network.update("tets.mesh")
-            mesh = network.output("tets.mesh")
-            cams = cameras(mesh, args.repeat)
-            many = len(mesh.tets) > args.max_tetrahedra
-            for label, integration, cells in (("cells averaged", "averaged", True),
-                                              ("cells preintegrated", "preintegrated", True),
-                                              ("tets preintegrated", "preintegrated", False)):
-                if many and not cells:
-                    times[label] = memory[label] = np.nan
-                    continue
-                network.set("pt.integration", integration)
-                network.set("pt.grid_cells", cells)
-                times[label], _ = time_ours(network, cams, args.size)
-                memory[label] = gl_mebibytes(network)
-            network.remove("pt")  # free its buffers before VTK's process starts
-            vtk_pt = vtk_zs = np.nan
-            if not args.skip_vtk and not many:
-                vtk_pt, _ = time_vtk("pt", mesh, transfer_function(), cams, args.size)
-                if len(mesh.tets) <= 2_000_000:  # ZSweep is far slower; only where it finishes
-                    vtk_zs, _ = time_vtk("zsweep", mesh, transfer_function(), cams, args.size)
-            lines.append(f"| {'x'.join(map(str, dims))} | {culling} | {len(mesh.tets):,} | "
-                         f"{times['cells averaged']:.3f} | {times['cells preintegrated']:.3f} | "
-                         f"{times['tets preintegrated']:.3f} | {memory['cells preintegrated']:.1f} / "
-                         f"{memory['tets preintegrated']:.1f} | {vtk_pt:.3f} | {vtk_zs:.3f} | "
-                         f"{vtk_pt / times['cells averaged']:.1f} | {vtk_pt / times['cells preintegrated']:.1f} |")
-            del network, mesh
+        network = speed_network(bonsai_volume(dims))
+        mesh = network.output("tets.mesh")
+        cams = cameras(mesh, args.repeat)
+        renderers = {label: our_frame(network, label.replace(" ", "_"), args.size) for label in OURS}
+        worker, settings = None, {}
+        if not args.skip_vtk:
+            kinds = ("pt", "zsweep") if args.zsweep else ("pt",)
+            worker = VtkWorker(mesh, transfer_function(), args.size, kinds)
+            settings = worker.call("settings", "pt")
+            renderers.update({f"VTK {kind}": worker.frame(kind) for kind in kinds})
+        try:
+            seconds, order = interleaved(renderers, cams, cams[0].rotate(1.0, 0.0))
+        finally:
+            if worker is not None:
+                worker.close()
+        memory = {label: gl_mebibytes(network, label.replace(" ", "_")) for label in OURS}
+        rows.append(dict(dims=dims, tetrahedra=len(mesh.tets), seconds=seconds, memory=memory, vtk=settings))
+        orders.append(order)
+        del network, mesh
+    return rows, orders
+
+
+def ratio(seconds: dict, peer: str, ours: str) -> str:
+    """Median of the peer's frames over the median of ours, and the range of the per-round ratios."""
+    if peer not in seconds:
+        return "(not run)"
+    per_round = np.array(seconds[peer]) / np.array(seconds[ours])
+    medians = float(np.median(seconds[peer])) / float(np.median(seconds[ours]))
+    return f"{medians:.2f} ({per_round.min():.2f}-{per_round.max():.2f})"
+
+
+def speed_table(args) -> list[str]:
+    rows, _ = speed_rows(args)
+    vtk = next((r["vtk"] for r in rows if r["vtk"]), {})
+    lines = [f"Settings: {args.size}^2 image; meshes culled by VolumeToTetMesh (culling = transfer_function), "
+             f"the same tetrahedra for every renderer; one untimed warm-up frame per renderer, then "
+             f"{args.repeat} rounds of one frame per renderer in turn, each round a new camera; a frame "
+             f"is camera set, render, glFinish / WaitForCompletion, no read-back. VTK "
+             f"{vtk.get('vtk', '(not run)')} in a spawned process driven frame by frame, window "
+             f"{vtk.get('window', '-')}, GetMultiSamples() = {vtk.get('multisamples', '-')}. "
+             "Times: min / median / max seconds; ratios: median / median (range of the per-round ratios).",
+             "", "| mesh (voxels) | tetrahedra | cells, averaged (s) | cells, pre-integrated (s) "
+             "| tetrahedra, pre-integrated (s) | GL memory cells / tetrahedra (MiB) | VTK PT (s) "
+             + ("| VTK ZSweep (s) " if args.zsweep else "")
+             + "| VTK PT / cells averaged | VTK PT / cells pre-integrated |",
+             "|---|---|---|---|---|---|---|" + ("---|" if args.zsweep else "") + "---|---|"]
+    for row in rows:
+        s = row["seconds"]
+        lines.append(f"| {'x'.join(map(str, row['dims']))} | {row['tetrahedra']:,} | "
+                     f"{spread(s['cells averaged'])} | {spread(s['cells preintegrated'])} | "
+                     f"{spread(s['tets preintegrated'])} | {row['memory']['cells preintegrated']:.1f} / "
+                     f"{row['memory']['tets preintegrated']:.1f} | {spread(s.get('VTK pt', []))} | "
+                     + (f"{spread(s.get('VTK zsweep', []))} | " if args.zsweep else "")
+                     + f"{ratio(s, 'VTK pt', 'cells averaged')} | {ratio(s, 'VTK pt', 'cells preintegrated')} |")
     return lines
 
 
@@ -297,10 +425,16 @@ def accuracy_table(args) -> tuple[list[str], list[tuple[str, float, float]]]:
         image = rc.output("rc.image").to_numpy()
         rows.append((f"RayCaster, rate {rate:g} (trilinear)", best, psnr(image, exact), np.abs(image - exact).max()))
     if not args.skip_vtk:
-        for kind, label in (("pt", "VTK projected tetrahedra"), ("zsweep", "VTK ZSweep")):
-            seconds, image = time_vtk(kind, mesh, transfer_function(), [camera] * args.repeat, size)
-            if image is not None:
-                rows.append((label, seconds, psnr(image, exact), np.abs(image[..., :3] - exact[..., :3]).max()))
+        worker = VtkWorker(mesh, transfer_function(), size, ("pt", "zsweep"))
+        try:
+            for kind, label in (("pt", "VTK projected tetrahedra"), ("zsweep", "VTK ZSweep")):
+                seconds, _ = interleaved({kind: worker.frame(kind)}, [camera] * args.repeat,
+                                         camera.rotate(1.0, 0.0))
+                image = worker.call("image", kind)
+                rows.append((label, min(seconds[kind]), psnr(image, exact),
+                             np.abs(image[..., :3] - exact[..., :3]).max()))
+        finally:
+            worker.close()
     lines = [f"| renderer ({args.accuracy_grid}^3 voxels, {len(mesh.tets):,} tetrahedra, {size}^2) | "
              "frame (s) | PSNR vs exact (dB) | max error |", "|---|---|---|---|"]
     lines += [f"| {name} | {t:.4f} | {p:.1f} | {e:.4f} |" for name, t, p, e in rows]
@@ -324,16 +458,16 @@ def plot(rows, path: Path) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", nargs="+", default=["64", "128x128x58", "256x128x64", "256"])
+    parser.add_argument("--sizes", nargs="+", default=["64", "128x128x58", "256x128x64"])
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--accuracy-grid", type=int, default=32)
     parser.add_argument("--accuracy-size", type=int, default=128)
     parser.add_argument("--skip-vtk", action="store_true")
-    parser.add_argument("--max-tetrahedra", type=int, default=12_000_000,
-                        help="larger meshes: only our cells path (VTK and our tetrahedra path "
-                             "would take minutes and tens of GB)")
+    parser.add_argument("--zsweep", action="store_true",
+                        help="also VTK's ZSweep mapper in the speed table (3-4x slower than its PT)")
     parser.add_argument("--skip-speed", action="store_true")
+    parser.add_argument("--skip-accuracy", action="store_true")
     parser.add_argument("--sort-sizes", nargs="*", default=["32", "64"],
                         help="meshes on which the numpy and GL-side centroid sorts are timed")
     parser.add_argument("--out", type=Path, default=ROOT / "bench" / "results")
@@ -344,9 +478,10 @@ def main() -> None:
         report += ["## Speed", "", *speed_table(args), ""]
     if args.sort_sizes:
         report += ["## The centroid sort: numpy or GL", "", *sort_table(args), ""]
-    lines, rows = accuracy_table(args)
-    report += ["## Error against frame time", "", *lines, ""]
-    plot(rows, args.out / "tetra_accuracy.png")
+    if not args.skip_accuracy:
+        lines, rows = accuracy_table(args)
+        report += ["## Error against frame time", "", *lines, ""]
+        plot(rows, args.out / "tetra_accuracy.png")
     text = "\n".join(report) + "\n"
     (args.out / "tetra.md").write_text(text)
     print(text)
