@@ -48,6 +48,9 @@ import numpy as np
 from tqdm import tqdm
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from interleave import interleaved, spread  # noqa: E402
+
 BONSAI = ROOT.parent / "shared" / "data" / "ct_bonsai" / "bonsai.nii.gz"
 
 
@@ -97,27 +100,6 @@ def cameras(mesh, count: int):
 def camera_tuple(camera) -> tuple:
     """What VTK's worker needs of a camera (our Camera does not cross the pipe by design)."""
     return (camera.position, camera.focus, camera.up, camera.fov, camera.near, camera.far)
-
-
-def interleaved(renderers: dict, cams, warm_up_camera) -> tuple[dict, list[tuple[int, str]]]:
-    """Every renderer (name -> frame(camera) -> seconds) draws one untimed warm-up frame, then
-    rounds of one frame each, in turn: renderer A, B, C, A, B, C, ... so load from other processes
-    hits all alike. Returns the seconds of each renderer's frames and the order they were drawn in."""
-    for frame in renderers.values():
-        frame(warm_up_camera)  # untimed: programs, tables, buffers, VTK's first render
-    seconds, order = {name: [] for name in renderers}, []
-    for round_index, camera in enumerate(cams):
-        for name, frame in renderers.items():
-            seconds[name].append(frame(camera))
-            order.append((round_index, name))
-    return seconds, order
-
-
-def spread(values) -> str:
-    """min / median / max of a renderer's frames, in seconds."""
-    if not values:
-        return "(not run)"
-    return f"{min(values):.3f} / {float(np.median(values)):.3f} / {max(values):.3f}"
 
 
 def our_frame(network, pid: str, size: int):
