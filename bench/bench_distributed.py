@@ -13,10 +13,12 @@ bricks it needs from the store itself, as on a cluster with a shared file system
 2. Frames on a LocalCluster of 1 and 2 single-threaded workers, tiles split (grids 1x1, 2x1, 2x2,
    4x4) and leaves split (if ``split="leaves"`` works; NotImplementedError leaves it empty). Each
    configuration starts from workers that dropped their networks (cold: the network is built, the store read and
-   uploaded) and is timed cold and then warm (same frame again: nothing read). Bytes read per
+   uploaded) and is timed cold and then warm (same frame again: nothing read). The two clusters run
+   side by side and --rounds rounds (default 3) measure every configuration on each cluster in turn,
+   so load drift falls on all alike (issue #31); the table gives min / median / max. Bytes read per
    worker are MEASURED on the workers: the BrickCache stats of the networks each worker built,
    fetched with ``client.run``.
-3. A cost model fitted (non-negative least squares) to the cold frame times:
+3. A cost model fitted (non-negative least squares) to the median cold frame times:
        time = setup + per_brick * bricks read by the busiest worker
                     + per_tile * tasks of the busiest worker + composite * parts composited
    and its predictions for 4, 8, 16, 32 and 64 workers (tiles: the smallest counted grid with a
@@ -39,6 +41,9 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from interleave import spread  # noqa: E402
 
 DATA = Path("/work/shared/data")
 DATA_SETS = {"bonsai": DATA / "ct_bonsai" / "bonsai.nii.gz", "engine": DATA / "ct_engine" / "engine.nii.gz"}
@@ -132,53 +137,84 @@ def timed_render(client, network, split, grid, size):
     return time.perf_counter() - start
 
 
-def run_cluster(workers: int | str, networks: dict, size) -> list[dict]:
-    """The configurations on a LocalCluster of ``workers`` processes, or (an address) on the running
-    cluster there with all its workers (its workers must see the temporary stores: run the bench
-    with TMPDIR on the shared file system)."""
-    import contextlib
-
+def open_client(stack, workers: int | str):
+    """(client, number of workers): a LocalCluster of ``workers`` single-threaded processes, or (an
+    address) the running cluster there with all its workers (its workers must see the temporary
+    stores: run the bench with TMPDIR on the shared file system)."""
     from distributed import Client, LocalCluster
-    rows = []
+    if isinstance(workers, str):
+        client = stack.enter_context(Client(workers, timeout=10))
+        return client, len(client.scheduler_info()["workers"])
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Port 8787 is already in use", category=UserWarning)
+        cluster = stack.enter_context(LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+            dashboard_address=None, silence_logs=50))
+    return stack.enter_context(Client(cluster)), workers
+
+
+def measure(client, network, split, grid, size) -> dict:
+    """One configuration once: a cold frame (workers dropped their networks: built, read and uploaded
+    again; the GL context stays), what each worker read, and the best of two warm frames."""
+    client.run(forget_networks)
+    try:
+        cold = timed_render(client, network, split, grid, size)
+    except NotImplementedError as error:
+        return {"error": f"not implemented: {error}"}
+    except Exception as error:  # e.g. the leaves split being written right now
+        return {"error": f"{type(error).__name__}: {error}"}
+    stats = client.run(worker_stats)
+    return {"cold_s": cold,
+            "bytes_per_worker": sorted((s["bytes_read"] for s in stats.values()), reverse=True),
+            "bricks_per_worker": sorted((s["bricks_read"] for s in stats.values()), reverse=True),
+            "warm_s": min(timed_render(client, network, split, grid, size) for _ in range(2))}
+
+
+def run_clusters(worker_counts: list, networks: dict, size, rounds: int) -> list[dict]:
+    """Every configuration on every cluster, in alternation: the clusters run side by side and each
+    round measures every (data, split, grid) on each cluster in turn, so drift in the machine's load
+    falls on all configurations alike (issue #31: measured in separate phases, one worker's tile took
+    9.7 s in one phase and 6.8 s in the next). A row per configuration and cluster: the median cold
+    and warm times, with every round's times beside them."""
+    import contextlib
+    configs = [("tiles", g) for g in GRIDS] + [("leaves", (1, 1))]
+    samples, failed = {}, {}
     with contextlib.ExitStack() as stack:
-        if isinstance(workers, str):
-            client = stack.enter_context(Client(workers, timeout=10))
-            workers = len(client.scheduler_info()["workers"])
-        else:
-            with warnings.catch_warnings():
-                warnings.filterwarnings("ignore", message="Port 8787 is already in use", category=UserWarning)
-                cluster = stack.enter_context(LocalCluster(
-                    n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                    dashboard_address=None, silence_logs=50))
-            client = stack.enter_context(Client(cluster))
-        # Every worker makes its GL context once, before anything is timed (a worker's lifetime cost).
+        clients = [open_client(stack, workers) for workers in worker_counts]
         first = next(iter(networks.values()))
-        timed_render(client, first, "tiles", (workers * 2, 1), (64, 64))
-        for name, network in networks.items():
-            configs = [("tiles", g) for g in GRIDS] + [("leaves", (1, 1))]
-            for split, grid in configs:
-                row = {"data": name, "workers": workers, "split": split,
-                       "grid": f"{grid[0]}x{grid[1]}" if split == "tiles" else "-"}
-                client.run(forget_networks)  # cold: nothing built, read or uploaded (the GL context stays)
-                try:
-                    row["cold_s"] = timed_render(client, network, split, grid, size)
-                except NotImplementedError as error:
-                    row["error"] = f"not implemented: {error}"
-                    rows.append(row)
-                    print(row, file=sys.stderr)
-                    continue
-                except Exception as error:  # e.g. the leaves split being written right now
-                    row["error"] = f"{type(error).__name__}: {error}"
-                    rows.append(row)
-                    print(row, file=sys.stderr)
-                    continue
-                stats = client.run(worker_stats)
-                row["bytes_per_worker"] = sorted((s["bytes_read"] for s in stats.values()), reverse=True)
-                row["bricks_per_worker"] = sorted((s["bricks_read"] for s in stats.values()), reverse=True)
-                row["warm_s"] = min(timed_render(client, network, split, grid, size) for _ in range(2))
-                rows.append(row)
-                print(row, file=sys.stderr)
+        for client, workers in clients:  # every worker makes its GL context once, before any timing
+            timed_render(client, first, "tiles", (workers * 2, 1), (64, 64))
+        for round_index in range(rounds):
+            for name, network in networks.items():
+                for split, grid in configs:
+                    for client, workers in clients:
+                        key = (name, workers, split, f"{grid[0]}x{grid[1]}" if split == "tiles" else "-")
+                        if key in failed:
+                            continue
+                        sample = measure(client, network, split, grid, size)
+                        print(round_index, key, sample, file=sys.stderr)
+                        if "error" in sample:
+                            failed[key] = sample["error"]
+                        else:
+                            samples.setdefault(key, []).append(sample)
+    rows = []
+    for key in sorted(set(samples) | set(failed), key=lambda k: (k[0], k[1], k[2] != "tiles", _count_or_zero(k[3]))):
+        row = dict(zip(("data", "workers", "split", "grid"), key))
+        if key in failed:
+            rows.append({**row, "error": failed[key]})
+            continue
+        runs = samples[key]
+        rows.append({**row, "cold_s": float(np.median([r["cold_s"] for r in runs])),
+                     "cold_all": [r["cold_s"] for r in runs],
+                     "warm_s": float(np.median([r["warm_s"] for r in runs])),
+                     "warm_all": [r["warm_s"] for r in runs],
+                     "bytes_per_worker": runs[0]["bytes_per_worker"],
+                     "bricks_per_worker": runs[0]["bricks_per_worker"]})
     return rows
+
+
+def _count_or_zero(grid: str) -> int:
+    return _count(grid) if grid != "-" else 0
 
 
 def fit(rows: list[dict]) -> dict:
@@ -245,6 +281,9 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
     parser.add_argument("--scheduler", help="tcp://HOST:PORT of a running cluster to measure instead of "
                         "LocalClusters of 1 and 2 workers (a real-cluster check)")
+    parser.add_argument("--rounds", type=int, default=3,
+                        help="rounds of every configuration on every cluster in turn (the table gives "
+                             "the median and the spread)")
     parser.add_argument("--refit", action="store_true",
                         help="fit, predict, tabulate and plot the measurements in OUT again (no runs)")
     args = parser.parse_args(argv)
@@ -264,13 +303,11 @@ def main(argv=None) -> int:
             networks[name] = network_for(store)
             counts[name] = per_tile_counts(networks[name], size)
             print(name, {g: sum(c["bricks"]) for g, c in counts[name].items()}, file=sys.stderr)
-        if args.scheduler:
-            rows = run_cluster(args.scheduler, networks, size)
-        else:
-            rows = run_cluster(1, networks, size) + run_cluster(2, networks, size)
+        rows = run_clusters([args.scheduler] if args.scheduler else [1, 2], networks, size, args.rounds)
     cluster = f"the cluster at {args.scheduler}" if args.scheduler else \
         "a LocalCluster of single-threaded workers on this machine"
-    return report({"size": size, "brick": BRICK, "rows": rows, "counts": counts, "cluster": cluster}, out)
+    return report({"size": size, "brick": BRICK, "rows": rows, "counts": counts, "cluster": cluster,
+                   "rounds": args.rounds}, out)
 
 
 def report(result: dict, out: Path) -> int:
@@ -288,7 +325,10 @@ def report(result: dict, out: Path) -> int:
 def markdown(result: dict) -> str:
     mb = 1 / 2 ** 20
     lines = [f"Frames {result['size'][0]}x{result['size'][1]}, BrickedRayCaster, OME-Zarr bricks of "
-             f"{result['brick']}^3, on {result.get('cluster', 'a LocalCluster on this machine')}.", "",
+             f"{result['brick']}^3, on {result.get('cluster', 'a LocalCluster on this machine')}"
+             + (f"; {result['rounds']} rounds, every configuration on every cluster in turn; times "
+                "min / median / max, the model fitted to the medians." if "rounds" in result
+                else "; each configuration measured once, in phases (before issue #31).") , "",
              "| data | workers | split | tiles | cold s | warm s | MB read per worker | bricks per worker | model s |",
              "|---|---|---|---|---|---|---|---|---|"]
     for r in result["rows"]:
@@ -296,8 +336,8 @@ def markdown(result: dict) -> str:
             lines.append(f"| {r['data']} | {r['workers']} | {r['split']} | {r['grid']} | - | - | - | - | "
                          f"({r['error'][:60]}) |")
             continue
-        lines.append(f"| {r['data']} | {r['workers']} | {r['split']} | {r['grid']} | {r['cold_s']:.2f} | "
-                     f"{r['warm_s']:.2f} | {' / '.join(f'{b * mb:.1f}' for b in r['bytes_per_worker'])} | "
+        lines.append(f"| {r['data']} | {r['workers']} | {r['split']} | {r['grid']} | {_times(r, 'cold')} | "
+                     f"{_times(r, 'warm')} | {' / '.join(f'{b * mb:.1f}' for b in r['bytes_per_worker'])} | "
                      f"{' / '.join(map(str, r['bricks_per_worker']))} | {r.get('model_s', float('nan')):.2f} |")
     lines += ["", "Bricks read by each tile drawn alone (fresh network), summed over the tiles "
               "(redundancy = sum / bricks of the whole frame):", "",
@@ -320,6 +360,13 @@ def markdown(result: dict) -> str:
                          f"{p['tiles_redundancy']:.2f}x | {p['tiles_s']:.2f} | {p['leaves_bricks_per_worker']} | "
                          f"{p['leaves_s']:.2f} |")
     return "\n".join(lines) + "\n"
+
+
+def _times(row: dict, which: str) -> str:
+    """min / median / max over the rounds (one number from a run before rounds)."""
+    if f"{which}_all" not in row:
+        return f"{row[f'{which}_s']:.2f}"
+    return spread(row[f"{which}_all"], 2)
 
 
 def plot(result: dict, path: Path) -> None:
