@@ -21,9 +21,9 @@ ROOT = Path(__file__).resolve().parents[1]
 BONSAI = ROOT.parent / "shared" / "data" / "ct_bonsai" / "bonsai.nii.gz"
 
 
-def resample(size: int, out: Path) -> Path:
+def resample(size: int, out: Path, bonsai: Path = BONSAI) -> Path:
     from vgraph.io import read_volume
-    source = read_volume(BONSAI)
+    source = read_volume(bonsai)  # bench/gpu/measure.py passes its carried copy
     data = source.data.astype(np.float32)
     n_in = data.shape[0]
     out.parent.mkdir(parents=True, exist_ok=True)
