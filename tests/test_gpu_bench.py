@@ -36,3 +36,29 @@ def test_dry_run_writes_the_table_and_every_image_matches_its_llvmpipe_reference
     assert [row["workers"] for row in result["distributed"]] == [1, 2, 4]
     assert all(row["status"] for row in result["distributed"])
     assert "| workers | status |" in markdown
+
+
+def test_distributed_rows_set_each_cluster_against_the_model_fitted_on_one_and_two_workers(tmp_path):
+    """The 4+ worker rows take bench_distributed's prediction for the grid it predicts with and the
+    measured cold frame on that grid (bench_distributed's JSON, in the shape it writes)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("gpu_measure", ROOT / "bench" / "gpu" / "measure.py")
+    measure = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(measure)
+    fitted = {"rows": [{"data": "bonsai", "workers": 1, "split": "tiles", "grid": "1x1", "cold_s": 2.0, "model_s": 1.9},
+                       {"data": "bonsai", "workers": 2, "split": "leaves", "grid": "-", "cold_s": 1.5}],
+              "predictions": {"bonsai": [{"workers": 4, "grid": "2x2", "tiles_s": 0.8},
+                                         {"workers": 8, "grid": "4x4", "tiles_s": 0.5}]}}
+    (tmp_path / "distributed_scaling.json").write_text(json.dumps(
+        {"rows": [{"data": "bonsai", "workers": 4, "split": "tiles", "grid": "2x2", "cold_s": 1.0},
+                  {"data": "bonsai", "workers": 4, "split": "tiles", "grid": "4x4", "cold_s": 3.0}]}))
+    one = measure._readable(measure._measured_row, fitted, 1, "ok", 10.0)
+    assert one["cases"] == [{"data": "bonsai", "grid": "1x1", "cold_s": 2.0, "model_s": 1.9}]
+    four = measure._readable(measure._predicted_row, fitted, 4, "ok", 5.0, tmp_path)
+    assert four["cases"] == [{"data": "bonsai", "grid": "2x2", "model_s": 0.8, "cold_s": 1.0}]
+    broken = measure._readable(measure._predicted_row, fitted, 16, "ok", 5.0, tmp_path)  # no prediction for 16
+    assert broken["status"].startswith("ran, but its JSON was not understood")
+    table = measure.markdown({"device": "d", "cpus": 16, "python": "3.12", "dry_run": False, "travelling_mib": 50.0,
+                              "seconds": 300, "budget_s": 390, "repeat": 5, "renders": [],
+                              "distributed": [one, four, broken]})
+    assert "| 4 | ok | 5.0 | bonsai | 2x2 | 1.000 | 0.800 | 1.250 |" in table

@@ -169,7 +169,10 @@ def distributed_phase(settings: dict, deadline: float, out: Path) -> tuple[list[
     and the 1+2-worker result (model and predictions; None if it did not finish). ``out`` is a work
     folder: the run tool brings back at most 8 files, so its tables and plots stay there."""
     env = os.environ | {"VGRAPH_BENCH_DATA": str(data_folder())}
-    script = [sys.executable, str(ROOT / "bench" / "bench_distributed.py"), "--size", str(settings["dist_size"])]
+    source = ROOT / "bench" / "bench_distributed.py"
+    script = [sys.executable, str(source), "--size", str(settings["dist_size"])]
+    if "--rounds" in source.read_text():  # one round per configuration: four clusters must fit the budget
+        script += ["--rounds", "1"]
     rows, base = [], out / "distributed_1_2"
     small = [n for n in settings["workers"] if n <= 2]
     status, seconds = _run(script + ["--out", str(base)], env, deadline)
@@ -203,7 +206,8 @@ def _run(command: list[str], env: dict, deadline: float) -> tuple[str, float]:
         _, stderr = process.communicate(timeout=max(deadline - start, 1))
     except subprocess.TimeoutExpired:
         os.killpg(process.pid, signal.SIGKILL)
-        process.communicate()
+        _, stderr = process.communicate()
+        print(f"{command[1]} stopped at the budget; its last lines:\n{stderr[-1500:]}", file=sys.stderr)
         return "killed at the time budget", time.monotonic() - start
     if process.returncode:
         print(stderr[-3000:], file=sys.stderr)
@@ -269,8 +273,9 @@ def markdown(result: dict) -> str:
              "| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
     for row in result["renders"]:
         lines.append("| " + " | ".join("" if row.get(c) is None else str(row[c]) for c in COLUMNS) + " |")
-    lines += ["", "bench_distributed (tiles split, cold frames, single-threaded CPU workers): measured against "
-              "the cost model fitted to 1 and 2 workers (for 4+ workers: its prediction for that grid).", "",
+    lines += ["", f"bench_distributed --size {result.get('distributed_size')} (tiles split, cold frames, one round, "
+              "single-threaded CPU workers): measured against the cost model fitted to 1 and 2 workers "
+              "(for 4+ workers: its prediction for that grid).", "",
               "| workers | status | phase s | data | grid | measured cold s | model s | measured / model |",
               "|---|---|---|---|---|---|---|---|"]
     for row in result["distributed"]:
@@ -299,7 +304,7 @@ def main(argv=None) -> int:
     budget = args.budget or settings["budget"]
     start = time.monotonic()
     args.out.mkdir(parents=True, exist_ok=True)
-    result = {"dry_run": args.dry_run, "budget_s": budget, "repeat": settings["repeat"], "cpus": os.cpu_count(),
+    result = {"dry_run": args.dry_run, "distributed_size": settings["dist_size"], "budget_s": budget, "repeat": settings["repeat"], "cpus": os.cpu_count(),
               "python": platform.python_version(), "travelling_mib": travelling_mib(), "device": device_name()}
     print(f"travelling: {result['travelling_mib']:.1f} MiB; device: {result['device']}", file=sys.stderr, flush=True)
     with tempfile.TemporaryDirectory(prefix="vgraph-gpu-bench-") as work:
