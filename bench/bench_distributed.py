@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import tempfile
 import time
@@ -45,7 +46,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from interleave import spread  # noqa: E402
 
-DATA = Path("/work/shared/data")
+# VGRAPH_BENCH_DATA: a copy of the data sets elsewhere (bench/gpu/run.sh carries one to a GPU machine)
+DATA = Path(os.environ.get("VGRAPH_BENCH_DATA", "/work/shared/data"))
 DATA_SETS = {"bonsai": DATA / "ct_bonsai" / "bonsai.nii.gz", "engine": DATA / "ct_engine" / "engine.nii.gz"}
 BRICK = 32               # voxels per brick edge of the stores
 LOD_BIAS = -4.0         # finer than any grid here asks for: level 0 everywhere (network_for)
