@@ -256,10 +256,13 @@ def gl_mebibytes(network, pid: str) -> float:
     """The GL buffers the renderer draws from: the mesh's points (tetrahedra path) or the cells'
     data (cells path), and the index buffer in visibility order."""
     import moderngl
+
+    from vgraph.gl.tetrahedra.cells import cell_buffer
     state = network.processors[pid]._draw_state
+    mesh = network.output("tets.mesh")
     used = [b for b in state.values() if isinstance(b, moderngl.Buffer)]
-    if not state.get("by_cells"):
-        used.append(network.output("tets.mesh").buffers(state["ctx"])["points"])
+    # The cells' data (cached per mesh and context) or the mesh's points (per mesh)
+    used.append(cell_buffer(state["ctx"], mesh) if state.get("by_cells") else mesh.buffers(state["ctx"])["points"])
     return sum(b.size for b in used) / 2**20
 
 
