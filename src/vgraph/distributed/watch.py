@@ -43,6 +43,9 @@ from vgraph.errors import VGraphError, VGraphWarning
 POLL_SECONDS = 0.5  # how often the scheduler is asked where the frame's tasks are
 SILENT_SECONDS = 5.0  # a worker unheard of this long has stopped (heartbeats: every 0.5 s, <= 10 workers)
 RESTART_SECONDS = 30.0  # for a nanny to stop its worker; one that cannot is removed from the scheduler
+# A cluster whose workers were all restarted has none until they are back: a new Python process
+# importing vgraph, seconds on a loaded machine. Only after this is it "left without workers".
+COMEBACK_SECONDS = 30.0
 DEFAULTS = {"first": 120.0, "multiple": 10.0, "floor": 30.0, "attempts": 3}
 
 
@@ -141,6 +144,7 @@ class _Frame:
         self.slowest: float | None = None  # seconds, of the slowest finished task
         self.restarted: set[str] = set()  # workers restarted and not yet gone from the scheduler
         self.workerless_since: float | None = None
+        self.restarted_at: float | None = None  # when this frame last restarted workers
         self.abandoned: set[str] = set()  # workers to restart once the frame is given up
 
     def run(self) -> None:
@@ -204,6 +208,8 @@ class _Frame:
         overdue = {worker for _, worker, _ in late} | silent
         _restart(self.client, overdue)
         self.restarted |= overdue
+        if overdue:
+            self.restarted_at = now
         for state, worker, seconds in late:  # say so: the frame goes on, later than it would have
             warnings.warn(ClusterWarning(
                 f"cluster {self.cluster}: {state.label} was {seconds:.0f} s on worker {worker} (a task "
@@ -216,13 +222,15 @@ class _Frame:
 
     def check_workers(self, processing: dict, allowance: float, now: float) -> None:
         """A cluster left without workers (all lost, none coming back) finishes nothing: after the
-        allowance the frame ends, naming a task that waits."""
+        allowance the frame ends, naming a task that waits; workers this frame restarted get
+        COMEBACK_SECONDS more to come back."""
         if processing:
             self.workerless_since = None
             return
+        coming_back = self.restarted_at is not None and now - self.restarted_at < COMEBACK_SECONDS
         if self.workerless_since is None:
             self.workerless_since = now
-        elif now - self.workerless_since > allowance:
+        elif now - self.workerless_since > allowance and not coming_back:
             label = self.states[next(iter(self.pending)).key].label
             raise ClusterTaskError(label, f"the cluster has had no worker for "
                                    f"{now - self.workerless_since:.0f} s (waited {now - self.start:.0f} s)",
