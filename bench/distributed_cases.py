@@ -61,10 +61,14 @@ def ball_file(folder: Path, shape=(37, 29, 41)) -> Path:
 
 
 def bricked_network(folder: Path, shape=(37, 29, 41), **properties) -> Network:
-    """VolumeSource -> EntryExitPoints -> BrickedRayCaster 'rc' (16^3 bricks, all at level 0) ->
-    Canvas, an oblique view of the rippled ball of ``shape``."""
-    path = ball_file(folder, shape)
-    network = Network(base_dir=path.parent)
+    """bricked_network_of the rippled ball of ``shape`` (16^3 bricks, all at level 0)."""
+    return bricked_network_of(ball_file(folder, shape), **properties)
+
+
+def bricked_network_of(path: Path, **properties) -> Network:
+    """VolumeSource of ``path`` -> EntryExitPoints -> BrickedRayCaster 'rc' (16^3 bricks, all at
+    level 0, unless ``properties`` say otherwise) -> Canvas, an oblique view."""
+    network = Network(base_dir=Path(path).parent)
     network.add("VolumeSource", id="source", path=str(path))
     camera = Camera(position=(0.7, -0.5, 1.0), focus=(0, 0, 0), near=None, far=None, fit_to_data=True)
     network.add("EntryExitPoints", id="eep", camera=camera)

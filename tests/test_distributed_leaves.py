@@ -11,12 +11,11 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from vgraph.camera import Camera
 from vgraph.distributed import TileError, render
 from vgraph.distributed.leaves import composite, split_runs
 from vgraph.distributed.render import prepare
-from vgraph.network import Network
 
+from distributed_cases import bricked_network_of as bricked_network
 from helpers.paths import REPO
 
 SPHERE = REPO / "networks" / "raycast_sphere.json"
@@ -40,21 +39,6 @@ def volume_file(folder, shape=(37, 29, 41)):
     path = folder / "ball.npy"
     np.save(path, np.clip(data, 0, 1).astype(np.float32))
     return path
-
-
-def bricked_network(path, **properties) -> Network:
-    """VolumeSource -> EntryExitPoints -> BrickedRayCaster 'rc' -> Canvas, an oblique view."""
-    network = Network(base_dir=path.parent)
-    network.add("VolumeSource", id="source", path=str(path))
-    camera = Camera(position=(0.7, -0.5, 1.0), focus=(0, 0, 0), near=None, far=None, fit_to_data=True)
-    network.add("EntryExitPoints", id="eep", camera=camera)
-    network.add("BrickedRayCaster", id="rc", **{"brick_size": 16, "lod_bias": -16.0, **properties})
-    network.add("Canvas", id="canvas")
-    network.link("eep.camera", "rc.camera")
-    for source, target in (("source.volume", "eep.volume"), ("source.volume", "rc.volume"),
-                           ("eep.entry", "rc.entry"), ("eep.exit", "rc.exit"), ("rc.image", "canvas.image")):
-        network.connect(source, target)
-    return network
 
 
 # --- without a cluster ------------------------------------------------------------------------------
