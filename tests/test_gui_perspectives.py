@@ -106,3 +106,52 @@ def test_reset_layout_goes_back_to_the_editing_layout(window, qtbot):
     assert window.perspectives.current == "editing" and window.view.isVisible()
     assert window.palette_dock.isVisible() and window.log_dock.isVisible()
     assert window.workspace.settings.value("perspective/views/state") is None
+
+
+def view_rects(window) -> dict:
+    """Each canvas view's rectangle in window coordinates, for those on screen (not behind a tab)."""
+    rects = {}
+    for name, view in window.canvases.views.items():
+        if view.isVisible() and not view.visibleRegion().isEmpty():
+            rects[name] = view.rect().translated(view.mapTo(window, view.rect().topLeft()))
+    return rects
+
+
+def assert_tiled(window, count: int) -> dict:
+    """``count`` canvases all on screen at once (none tabbed behind another), none overlapping."""
+    rects = view_rects(window)
+    assert len(window.canvases.views) == count and len(rects) == count, f"on screen: {sorted(rects)}"
+    for a in rects:
+        for b in rects:
+            assert a == b or not rects[a].intersects(rects[b]), f"{a} overlaps {b}"
+    return rects
+
+
+def test_a_canvas_added_or_removed_in_the_views_perspective_is_tiled(window, qtbot):
+    """One canvas at a time, as a user adds them: 1x2, then '3D + slices', then a 2 x 2 grid, and
+    back on undo; never a tab behind the others."""
+    window.arrange(1280, 800)
+    assert window.open_network(REPO / "networks" / "raycast_sphere.json")
+    window.perspectives.switch("views")
+    process(qtbot)
+    workspace = window.workspace
+    workspace.add_processor("Canvas", (400, 0), id="second")
+    process(qtbot)
+    rects = assert_tiled(window, 2)
+    assert rects["canvas"].top() == rects["second"].top() and rects["canvas"].right() < rects["second"].left()
+    workspace.add_processor("Canvas", (400, 100), id="third")
+    process(qtbot)
+    rects = assert_tiled(window, 3)   # the 3D view (camera upstream) left and large, slices stacked
+    assert rects["second"].left() > rects["canvas"].right() and rects["third"].top() > rects["second"].bottom()
+    assert rects["canvas"].width() > rects["second"].width()
+    workspace.add_processor("Canvas", (400, 200), id="fourth")
+    process(qtbot)
+    assert_tiled(window, 4)
+    workspace.remove(processor_ids=["canvas"])   # three canvases, none a 3D view: a 2 x 2 grid
+    process(qtbot)
+    rects = assert_tiled(window, 3)
+    assert rects["second"].top() == rects["third"].top() and rects["fourth"].top() > rects["second"].bottom()
+    workspace.undo_stack.undo()   # the 3D view back: '3D + 3 slices'
+    process(qtbot)
+    rects = assert_tiled(window, 4)
+    assert all(rects[name].left() > rects["canvas"].right() for name in ("second", "third", "fourth"))

@@ -31,6 +31,9 @@ from vgraph.network import Network
 
 class CanvasDocks(QObject):
     problem = Signal(str)  # a canvas could not do what was asked (e.g. save its image)
+    # A canvas was added to or removed from the network one at a time (not when a whole network is
+    # opened: Workspace.network_replaced says that), so a layout can re-tile its canvases.
+    docks_changed = Signal()
 
     def __init__(self, window: QMainWindow, workspace: Workspace, evaluation: LiveEvaluation):
         super().__init__(window)
@@ -54,7 +57,8 @@ class CanvasDocks(QObject):
         self.network = network
         network.subscribe(self._on_event)
         for processor in network.processors.values():
-            self._on_event("processor_added", processor=processor)
+            if is_display(type(processor)):
+                self._add(processor.id)
 
     def detach(self) -> None:
         if self.network is not None:
@@ -63,8 +67,10 @@ class CanvasDocks(QObject):
     def _on_event(self, event: str, **details) -> None:
         if event == "processor_added" and is_display(type(details["processor"])):
             self._add(details["processor"].id)
+            self.docks_changed.emit()
         elif event == "processor_removed" and details["processor"].id in self.docks:
             self._remove(details["processor"].id)
+            self.docks_changed.emit()
 
     def _add(self, processor_id: str) -> None:
         view = CanvasView(self.workspace, processor_id, view_cameras=lambda: self.evaluation.view_cameras)

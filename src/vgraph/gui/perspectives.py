@@ -17,8 +17,12 @@ under ``perspective/<name>/state`` when it is left, and put back when it is ente
 one is current (``perspective/current``) comes back with a new window. A perspective never entered
 gets its default arrangement; View > Reset Layout goes back to the editing perspective's first-run
 layout and forgets both. While there is no network the views perspective shows the welcome page
-(welcome.py) in the middle, so that an empty window always offers a start. Canvas docks come and go with the network: a canvas added while the
-views perspective is current is tiled with the others at once.
+(welcome.py) in the middle, so that an empty window always offers a start.
+
+Canvas docks come and go with the network: whenever a canvas is added or removed while the views
+perspective is current (one at a time, by an edit, undo or redo), the canvases are tiled again as
+above once the event loop is back (an undo that brings back several canvases re-tiles once),
+instead of the new one being tabbed behind the others.
 """
 
 from __future__ import annotations
@@ -74,6 +78,9 @@ class Perspectives(QObject):
         self.toolbar.addActions(list(self.actions.values()))
         window.addToolBar(Qt.TopToolBarArea, self.toolbar)
         window.workspace.network_replaced.connect(self._network_replaced)
+        self._retile = QTimer(self, singleShot=True, interval=0)
+        self._retile.timeout.connect(self._retile_canvases)
+        window.canvases.docks_changed.connect(self._canvases_changed)
         window.scene.selectionChanged.connect(self._selection_changed)
 
     def menu_actions(self) -> list[QAction]:
@@ -204,6 +211,15 @@ class Perspectives(QObject):
     def _network_replaced(self, _network) -> None:
         if self.current == VIEWS:
             self._show_central()
+            self.tile_canvases()
+
+    def _canvases_changed(self) -> None:
+        if self.current == VIEWS:
+            self._retile.start()
+
+    def _retile_canvases(self) -> None:
+        if self.current == VIEWS:
+            self._show_central()   # the first canvas of an empty network takes the welcome's place
             self.tile_canvases()
 
     def reset(self) -> None:
