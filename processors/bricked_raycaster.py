@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from vgraph import BoolProperty, FloatProperty, Inport, OptionProperty, Outport
 from vgraph.bricks.cache import BrickCache
+from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.sampling import COMPOSITING, BrickSampling
 from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, IsoSurface, Sampling,
@@ -34,6 +35,7 @@ from vgraph.volume import Volume
 
 SHADED_MODES = ("dvr", "iso")
 DERIVATIVES = ("central", "forward", "backward", "sobel")  # each reads at most one voxel away
+METHODS = ("passes", "single_pass")  # BrickSampling's, PagedSampling's (vgraph.bricks.paged_sampling)
 
 
 class BrickedRayCaster(RaycasterBase):
@@ -45,7 +47,7 @@ class BrickedRayCaster(RaycasterBase):
     components = (EntryExit(), CameraRays(), Sampling(), TransferFunctionLut(),
                   FrontToBack(mode="compositing", corrected=("dvr",), early_termination=1.0), IsoSurface(),
                   BrickSampling(mode="compositing"), Gradients(DERIVATIVES),
-                  Light(mode="compositing", shaded_modes=SHADED_MODES), Background())
+                  Light(mode="compositing", shaded_modes=SHADED_MODES), Background(), PagedSampling())
     uses_context = ("load_limit", "leaf")  # BrickSampling's (vgraph.bricks.sampling)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING), doc="dvr, mip, iso (surface at iso_level)")
@@ -54,6 +56,10 @@ class BrickedRayCaster(RaycasterBase):
     early_termination = FloatProperty(1.0, min=0.01, max=1.0,  # FrontToBack's, with what it costs here
                                       doc="dvr: stop a ray once its opacity reaches this (as the RayCaster's); "
                                           "below 1 each brick reads the accumulation: two passes a brick")
+    method = OptionProperty("passes", choices=list(METHODS),
+                            doc="passes: a fullscreen pass per brick, blended; single_pass: one pass whose "
+                                "rays walk a page table of the bricks in an atlas (gl_budget MB), with early "
+                                "termination across bricks (issue #33)")
     empty_space_skipping = BoolProperty(True, doc="inside a brick, skip blocks of 8^3 voxels that cannot "
                                                   "contribute (same image, faster); empty bricks are always skipped")
 
@@ -72,8 +78,9 @@ class BrickedRayCaster(RaycasterBase):
 
     @property
     def last_frame(self) -> dict:
-        """What the last frame drew (BrickSampling.draw_frame): bricks, levels, whether complete."""
-        return self.bricks.last_frame
+        """What the last frame drew (BrickSampling.draw_frame, or PagedSampling's with
+        ``method`` single_pass): bricks, levels, whether complete."""
+        return self.parts[PagedSampling].last_frame if self.method == "single_pass" else self.bricks.last_frame
 
     def frame_summary(self) -> str:
         return self.bricks.summary()
@@ -92,5 +99,8 @@ class BrickedRayCaster(RaycasterBase):
         frame = self.frame(volume, entry, exit)
         own = Binding(defines={f"COMPOSITING_{self.compositing.upper()}": True})
         image, depth = self._targets.ensure(frame.ctx, frame.size)
-        self.bricks.draw_frame(frame, context, self._targets, own)
+        if self.method == "single_pass":
+            self.parts[PagedSampling].draw_frame(frame, context, self._targets, own)
+        else:
+            self.bricks.draw_frame(frame, context, self._targets, own)
         return {"image": image, "depth": depth}

@@ -74,6 +74,19 @@ bool next_occupied_sample(inout March cursor, Ray ray) {
     skip_empty_space(cursor, ray);
     return cursor.i < ray.samples;
 }
+#elif defined(PAGED_SAMPLING)
+// The single-pass bricked ray caster's hook (bricks/paged_sampling.glsl, included ahead): jump
+// over the cells of the page table that are not drawn (empty under the TF, or missing).
+bool skip_empty_space(inout March cursor, Ray ray) {
+    int before = cursor.i;
+    while (cursor.i < ray.samples && paged_skipped(cursor.i, ray)) {}
+    return cursor.i != before;
+}
+
+bool next_occupied_sample(inout March cursor, Ray ray) {
+    skip_empty_space(cursor, ray);
+    return cursor.i < ray.samples;
+}
 #else
 // Literals, not functions returning them: Mesa then compiles exactly the plain loop (with a
 // function the tricubic CurvatureVolumeRaycaster's colours moved by a float rounding, 4e-7).
