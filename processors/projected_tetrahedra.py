@@ -47,6 +47,9 @@ Conventions (docs/explanations/tetrahedra-renderer.md has the long form):
   their box's normalised frame (vgraph.gl.tetrahedra.frame), where the camera is an ordinary one:
   the same picture as the mesh at ordinary size, the depth output's distance scaled back to world
   units (``world_length``), ``view_camera`` in world units (None where a Camera cannot hold it).
+- While the user drags (the frame context's ``interactive``: the GUI's coarse frames) the mesh's
+  coarse level of detail is drawn (``coarse_tetrahedra``; vgraph.mesh_lod, made once per
+  mesh); the frame after the release draws the mesh itself, the same image as without the drag.
 - An image left uniform although some tetrahedra are visible under the TF is reported
   (``visible_content``, scheduler.blank_image_warning).
 """
@@ -56,10 +59,11 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from vgraph import (BoolProperty, CameraProperty, ColorProperty, Inport, OptionProperty, Outport, Processor,
-                    PropertyError)
+from vgraph import (BoolProperty, CameraProperty, ColorProperty, Inport, IntProperty, OptionProperty, Outport,
+                    Processor, PropertyError)
 from vgraph.box_frame import BoxFrame
 from vgraph.camera import Camera
+from vgraph.frame_context import NO_CONTEXT, FrameContext
 from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA, picture_of, pixel_rays, vec
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import TransferFunctionTexture
@@ -72,6 +76,7 @@ from vgraph.gl.tetrahedra.gl_sort import GLCentroidSort
 from vgraph.gl.tetrahedra.order import VisibilityOrder, visible_tetrahedra
 from vgraph.image import Image
 from vgraph.mesh import TetMesh
+from vgraph.mesh_lod import COARSE_TETRAHEDRA, coarse_mesh
 from vgraph.properties import TransferFunctionProperty
 from vgraph.shown_content import tetrahedra_under
 from vgraph.transfer_function import TransferFunction
@@ -160,6 +165,7 @@ class ProjectedTetrahedra(Processor):
     inports = [Inport("mesh", TetMesh)]
     outports = [Outport("image", Image), Outport("depth", Image)]
     renders_at_size = True
+    uses_context = ("interactive",)
 
     camera = CameraProperty(DEFAULT_CAMERA, doc="the view; by default it fits whatever mesh arrives")
     transfer_function = TransferFunctionProperty(
@@ -188,6 +194,10 @@ class ProjectedTetrahedra(Processor):
                                         "cell once, in the grid's sweep order, its five tetrahedra "
                                         "integrated per pixel (same image, faster); off: each "
                                         "tetrahedron by itself, in the visibility_order")
+    coarse_tetrahedra = IntProperty(COARSE_TETRAHEDRA, min=0, doc="while the mouse drags in the GUI, "
+                                    "draw the mesh clustered to about this many tetrahedra (made once "
+                                    "per mesh), the mesh itself after the release; 0: the mesh itself "
+                                    "while dragging too")
 
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
@@ -218,7 +228,9 @@ class ProjectedTetrahedra(Processor):
         alpha = self.transfer_function.for_volume(mesh).lut()[:, 3]
         return [tetrahedra_under("mesh", mesh, self.transfer_function, visible_tetrahedra(mesh, alpha))]
 
-    def process(self, mesh: TetMesh) -> dict:
+    def process(self, mesh: TetMesh, context: FrameContext = NO_CONTEXT) -> dict:
+        if context.interactive and self.coarse_tetrahedra:  # a drag's frame: the coarse level of detail
+            mesh = coarse_mesh(mesh, self.coarse_tetrahedra)
         ctx = self.gl
         size = self.render_size
         frame, mesh, camera = self._view(mesh, size)

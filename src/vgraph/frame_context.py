@@ -2,7 +2,8 @@
 
 A property is part of the network (saved, linked, edited, undone). Some things a frame needs are
 not: how much the GUI's render process lets a frame read (``load_limit``), which of a frame's
-bricks a cluster task draws (``leaf``). They belong to the one evaluation that asks for them, so
+bricks a cluster task draws (``leaf``), whether the frame is one of a drag's (``interactive``: a
+ProjectedTetrahedra then draws its mesh's coarse level of detail, vgraph.mesh_lod). They belong to the one evaluation that asks for them, so
 they travel as its explicit argument::
 
     evaluate(network, ["rc.image"], size, context=FrameContext(load_limit=LoadLimit(bricks=8)))
@@ -50,6 +51,7 @@ class FrameContext:
 
     load_limit: LoadLimit | None = None  # reading per frame of progressive processors (the GUI's); None: no limit
     leaf: LeafPass | None = None  # the leaves split's part of a BrickedRayCaster frame; None: the whole frame
+    interactive: bool = False  # a frame drawn while the user drags (the GUI's coarse frames): a coarser level of detail will do
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:

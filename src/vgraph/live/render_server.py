@@ -193,8 +193,12 @@ class RenderServer:
 
 def frame_context(job: RenderJob) -> FrameContext:
     """The frame context of ``job``'s evaluations: its load limit, none for writer runs (they
-    write what `vgraph run` writes: complete frames, however long they take)."""
-    return FrameContext(load_limit=None if job.include_writers else job.load_limit)
+    write what `vgraph run` writes: complete frames, however long they take); and whether it is
+    a drag's frame (drawn below full scale: the GUI asks for those only while the mouse moves),
+    where meshes are drawn at their coarse level of detail (vgraph.mesh_lod)."""
+    if job.include_writers:
+        return FrameContext()
+    return FrameContext(load_limit=job.load_limit, interactive=job.scale < 1.0)
 
 
 def _ignore(message) -> None:
