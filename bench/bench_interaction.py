@@ -1,8 +1,8 @@
 """GUI interaction: frames per second while the user drags, and the time to the refined frame.
 
     QT_QPA_PLATFORM=offscreen .venv/bin/python bench/bench_interaction.py
-        [--networks head bonsai] [--drags camera property tf] [--seconds 2] [--out bench/results]
-        [--xvfb]
+        [--networks head bonsai tets_bonsai] [--drags camera property tf] [--seconds 2]
+        [--coarse-tetrahedra N] [--out bench/results] [--xvfb]
 
 Opens each network in a MainWindow with its own render process (as ``vgraph gui`` does), the
 Canvas at 512 x 512, and drives three drags with input events every 16 ms (a 60 Hz mouse):
@@ -13,7 +13,11 @@ Canvas at 512 x 512, and drives three drags with input events every 16 ms (a 60 
 - tf: a control point of the transfer-function plot dragged up and down with the mouse.
 
 Networks: ``head`` is networks/raycast_head.json; ``bonsai`` is the same network on
-shared/data/ct_bonsai (256^3 uint8), with a camera that fits the data and a leaves-and-pot TF.
+shared/data/ct_bonsai (256^3 uint8), with a camera that fits the data and a leaves-and-pot TF;
+``tets_bonsai`` is networks/tets_bonsai.json (the culled bonsai as 6.2 M tetrahedra, projected),
+dragged with the camera only (its other drags would cut the mesh again each frame), its
+ProjectedTetrahedra's ``coarse_tetrahedra`` set to ``--coarse-tetrahedra`` when given (0: the
+whole mesh while dragging, as before vgraph.mesh_lod; default: the processor's).
 
 Per drag it records, at the window, every frame given to the canvas (``LiveEvaluation.frames``:
 when, its size, final or not) and when it was first painted (an event filter on the canvas) and, in the render process, every job (``RenderResult``'s timestamps: submitted,
@@ -54,6 +58,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 DATA = REPO.parent / "shared" / "data"
 HEAD = REPO / "networks" / "raycast_head.json"
+TETS_BONSAI = REPO / "networks" / "tets_bonsai.json"
 BONSAI = DATA / "ct_bonsai" / "bonsai.nii.gz"
 BONSAI_TF = [[0.0, 0, 0, 0, 0], [0.15, 0.3, 0.6, 0.2, 0.0], [0.3, 0.4, 0.8, 0.3, 0.3],
              [0.75, 0.8, 0.6, 0.4, 0.5], [1.0, 1.0, 1.0, 1.0, 0.9]]
@@ -220,6 +225,7 @@ def tf_drag(window, seconds: float):
 
 
 DRAGS = {"camera": camera_drag, "property": property_drag, "tf": tf_drag}
+NETWORK_DRAGS = {"tets_bonsai": ("camera",)}  # the drags a network is measured with, if not all
 
 
 def measure(window, recorder: Recorder, network: str, drag: str, seconds: float) -> Row:
@@ -247,7 +253,7 @@ def measure(window, recorder: Recorder, network: str, drag: str, seconds: float)
                round(refined_window[-1][3] - end, 2) if refined_window else float("nan"))
 
 
-def open_window(path: Path, settings_dir: Path):
+def open_window(path: Path, settings_dir: Path, properties: dict | None = None):
     from PySide6.QtCore import QSettings
     from PySide6.QtWidgets import QApplication
     from vgraph.gui.app import MainWindow
@@ -260,6 +266,8 @@ def open_window(path: Path, settings_dir: Path):
     if not window.open_network(path):
         raise SystemExit(f"cannot open {path}")
     window.workspace.network.set(f"{CANVAS}.size", [512, 512])
+    for address, value in (properties or {}).items():
+        window.workspace.network.set(address, value)
     window.evaluation.run(wait=True)
     settle(window)
     return window
@@ -346,10 +354,12 @@ def python_overhead(path: Path, frames: int = 300) -> tuple[float, float, float,
 
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--networks", nargs="+", choices=["head", "bonsai"], default=["head", "bonsai"])
+    parser.add_argument("--networks", nargs="+", choices=["head", "bonsai", "tets_bonsai"], default=["head", "bonsai"])
     parser.add_argument("--drags", nargs="+", choices=list(DRAGS), default=list(DRAGS))
     parser.add_argument("--seconds", type=float, default=2.0, help="length of each drag")
     parser.add_argument("--repeat", type=int, default=1, help="drags of each kind per network")
+    parser.add_argument("--coarse-tetrahedra", type=int, default=None,
+                        help="tets_bonsai: the ProjectedTetrahedra's coarse_tetrahedra (0: the whole mesh while dragging)")
     parser.add_argument("--out", type=Path, default=REPO / "bench" / "results")
     parser.add_argument("--xvfb", action="store_true", help="run under Xvfb (a real X server)")
     parser.add_argument("--overhead", action="store_true",
@@ -392,14 +402,17 @@ def main(argv=None) -> int:
     print("  ".join(f"{h:>{max(len(h), 6)}}" for h in HEADER), flush=True)
     with tempfile.TemporaryDirectory() as folder:
         folder = Path(folder)
-        paths = {"head": HEAD, "bonsai": bonsai_network(folder)}
+        paths = {"head": HEAD, "bonsai": bonsai_network(folder), "tets_bonsai": TETS_BONSAI}
         for name in args.networks:
-            window = open_window(paths[name], folder)
+            properties = {} if name != "tets_bonsai" or args.coarse_tetrahedra is None else \
+                {"pt.coarse_tetrahedra": args.coarse_tetrahedra}
+            window = open_window(paths[name], folder, properties)
             recorder = Recorder(window)
+            label = name + "".join(f" {a.split('.')[-1]}={v}" for a, v in properties.items())
             try:
-                for drag in args.drags:
+                for drag in [d for d in args.drags if d in NETWORK_DRAGS.get(name, DRAGS)]:
                     for _ in range(args.repeat):
-                        row = measure(window, recorder, name, drag, args.seconds)
+                        row = measure(window, recorder, label, drag, args.seconds)
                         rows.append(row)
                         print_row(row)
             finally:
