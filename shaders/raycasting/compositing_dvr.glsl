@@ -3,8 +3,49 @@
 // SHADING_BLINN_PHONG (only samples with a' > 0 are shaded: the others add nothing). The ray stops
 // once A >= early_termination. Depth: the first sample with a' > 0. With SKIP_EMPTY_SPACE, regions
 // of blocks where the TF has no opacity are jumped over (empty_space.glsl).
+//
+// With SKIP_EMPTY_SPACE the loops below look the block up only before every second to fourth
+// sample, and take the samples between without asking: llvmpipe runs a loop's whole body for its 8
+// lanes in every pass, so the look-up (and the jump code after it) cost as much at every sample as
+// where a ray jumps. A sample taken in an empty block adds exactly nothing (every intensity its
+// reconstruction can reach has TF opacity 0, empty_space.py), so the image and depth do not change;
+// only the sample counter of the depth output counts the extra samples. More samples per look-up
+// than these lost again (measured in docs/reports/performance.md); without skipping the plain loop
+// is the fastest.
 #ifdef COMPOSITING_DVR
 uniform float early_termination;
+
+// Sample i of the ray composited into sum; true once the ray is opaque enough to stop.
+bool composited(Ray ray, int i, inout vec4 sum, inout Result result) {
+    vec3 t = sample_point(ray, float(i));
+    vec4 texel = shading_texel(t);  // raw value in .a (gradients.glsl)
+    vec4 color = classify(texel.a * intensity_scale + intensity_offset);
+    result.taken++;
+    if (color.a > 0.0) {
+        float alpha = corrected_opacity(color.a);
+#ifdef SHADING_BLINN_PHONG
+        color.rgb = shade(color.rgb, texel_gradient(t, texel), -ray.direction);
+#endif
+        if (result.depth_sample < 0.0) {
+            result.depth_sample = float(i);
+        }
+        float weight = (1.0 - sum.a) * alpha;
+        sum += vec4(weight * color.rgb, weight);
+        return sum.a >= early_termination;
+    }
+    return false;
+}
+
+#ifdef SHADING_BLINN_PHONG
+// Whether sample i is visible (counted as taken when not: the main loop takes it again).
+bool visible(Ray ray, int i, inout Result result) {
+    if (classify(intensity(sample_point(ray, float(i)))).a > 0.0) {
+        return true;
+    }
+    result.taken++;
+    return false;
+}
+#endif
 
 Result march(Ray ray) {
     Result result = empty_result();
@@ -15,33 +56,29 @@ Result march(Ray ray) {
     // runs a branch for a whole group of pixels when one of them takes it (a GPU's warp) or always
     // (llvmpipe's 8 lanes), so in a single loop rays still in empty space would pay for shading.
     while (cursor.i < ray.samples) {
-        if (!next_occupied_sample(cursor, ray)) break;
-        if (classify(intensity(sample_point(ray, float(cursor.i)))).a > 0.0) break;
-        result.taken++;
+        if (!next_occupied_sample(cursor, ray) || visible(ray, cursor.i, result)) break;
         ++cursor.i;
+#ifdef SKIP_EMPTY_SPACE
+        if (cursor.i >= ray.samples || visible(ray, cursor.i, result)) break;
+        ++cursor.i;
+        if (cursor.i >= ray.samples || visible(ray, cursor.i, result)) break;
+        ++cursor.i;
+#endif
     }
 #endif
     while (cursor.i < ray.samples) {
-        if (!next_occupied_sample(cursor, ray)) break;
-        vec3 t = sample_point(ray, float(cursor.i));
-        vec4 texel = shading_texel(t);  // raw value in .a (gradients.glsl)
-        vec4 color = classify(texel.a * intensity_scale + intensity_offset);
-        result.taken++;
-        if (color.a > 0.0) {
-            float alpha = corrected_opacity(color.a);
-#ifdef SHADING_BLINN_PHONG
-            color.rgb = shade(color.rgb, texel_gradient(t, texel), -ray.direction);
-#endif
-            if (result.depth_sample < 0.0) {
-                result.depth_sample = float(cursor.i);
-            }
-            float weight = (1.0 - sum.a) * alpha;
-            sum += vec4(weight * color.rgb, weight);
-            if (sum.a >= early_termination) {
-                break;
-            }
-        }
+        if (!next_occupied_sample(cursor, ray) || composited(ray, cursor.i, sum, result)) break;
         ++cursor.i;
+#ifdef SKIP_EMPTY_SPACE
+        if (cursor.i >= ray.samples || composited(ray, cursor.i, sum, result)) break;
+        ++cursor.i;
+#ifndef SHADING_BLINN_PHONG  // a shaded sample costs more: one more per look-up only
+        if (cursor.i >= ray.samples || composited(ray, cursor.i, sum, result)) break;
+        ++cursor.i;
+        if (cursor.i >= ray.samples || composited(ray, cursor.i, sum, result)) break;
+        ++cursor.i;
+#endif
+#endif
     }
     result.color = sum;
     return result;
