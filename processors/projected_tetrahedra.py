@@ -39,7 +39,9 @@ Conventions (docs/explanations/tetrahedra-renderer.md has the long form):
   background, which is the same as compositing over the background afterwards.
 - Outputs: ``image`` RGBA32F; ``depth`` RGBA32F with r = window depth of the front point of the
   nearest tetrahedron with opacity (1 where none), g = its distance in world units from the ray's
-  start on the near plane, b = 0 (no sample count), a = 1 where there is a depth.
+  start on the near plane, b = 0 (no sample count), a = 1 where there is a depth. The depth is on
+  demand (drawn, with DEPTH_OUTPUT and a second render target, only when something reads it): on
+  llvmpipe the second RGBA32F target took about a third of a frame (issue #31).
 - The near plane clips: each pixel's segment starts at the near plane at the earliest, where the
   pixel's ray starts (as in the cell path and the exact reference); the far plane does not clip
   (the automatic planes enclose the mesh). A tetrahedron with a vertex behind the eye is not drawn.
@@ -163,7 +165,7 @@ class ProjectedTetrahedra(Processor):
 
     category = "Mesh rendering"
     inports = [Inport("mesh", TetMesh)]
-    outports = [Outport("image", Image), Outport("depth", Image)]
+    outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
     renders_at_size = True
     uses_context = ("interactive",)
 
@@ -201,7 +203,7 @@ class ProjectedTetrahedra(Processor):
 
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
-        self._targets = RenderTargets(2)
+        self._targets = {True: RenderTargets(2), False: RenderTargets(1)}  # by: depth output wanted
         self._order = VisibilityOrder()
         self._lut = TransferFunctionTexture()
         self._table = PreintegrationTable()
@@ -234,9 +236,13 @@ class ProjectedTetrahedra(Processor):
         ctx = self.gl
         size = self.render_size
         frame, mesh, camera = self._view(mesh, size)
-        image, depth = self._targets.ensure(ctx, size)
-        image.framebuffer.clear(*(float(v) for v in self.background))
-        depth.framebuffer.clear(1.0, 0.0, 0.0, 0.0)
+        with_depth = self.wants("depth")
+        targets = self._targets[with_depth]
+        self._targets[not with_depth].release()  # a scene keeps the images of one kind only
+        outputs = dict(zip(("image", "depth"), targets.ensure(ctx, size)))
+        outputs["image"].framebuffer.clear(*(float(v) for v in self.background))
+        if with_depth:
+            outputs["depth"].framebuffer.clear(1.0, 0.0, 0.0, 0.0)
 
         by_cells = self.grid_cells and mesh.grid is not None
         shaders = CELL_SHADERS if by_cells else TETRAHEDRA_SHADERS
@@ -245,7 +251,7 @@ class ProjectedTetrahedra(Processor):
                    "INTEGRATION_PARTIAL": self.integration == "partial",
                    "TABLE_SIZE": preintegration.TABLE_SIZE,
                    "ALPHA_SLICES": preintegration.ALPHA_SLICES,
-                   "PSI_SIZE": partial_preintegration.PSI_SIZE,
+                   "PSI_SIZE": partial_preintegration.PSI_SIZE, "DEPTH_OUTPUT": with_depth,
                    "PHI_SERIES_DEPTH": partial_preintegration.PHI_SERIES_DEPTH}
         program = programs.program(ctx, shaders[0], shaders[2], defines, processor=self.id,
                                    geometry=shaders[1])
@@ -272,9 +278,9 @@ class ProjectedTetrahedra(Processor):
             selection = (resolved, lambda: visible(mesh, resolved.lut()[:, 3]))
         vertex_array = self._vertex_array(ctx, program, mesh, whole, selection, by_cells, whole_size)
         if vertex_array is None:  # every tetrahedron is transparent
-            return {"image": image, "depth": depth}
+            return outputs
 
-        self._targets.framebuffer.use()
+        targets.framebuffer.use()
         ctx.viewport = (-offset[0], -offset[1], *whole_size)
         bind_textures(program, textures)
         for name, value in uniforms.items():
@@ -290,7 +296,7 @@ class ProjectedTetrahedra(Processor):
         finally:
             ctx.blend_func = moderngl.DEFAULT_BLENDING
             ctx.disable(moderngl.BLEND)
-        return {"image": image, "depth": depth}
+        return outputs
 
     @staticmethod
     def _whole_picture(ctx, camera, size):

@@ -137,6 +137,7 @@ def render(mesh, camera, integration, grid_cells, size=(72, 64), order="mpvo"):
                                     transfer_function=TransferFunctionLut.DEFAULT,
                                     background=(0.0, 0.0, 0.0, 0.0))
     processor.render_size = size
+    processor.wanted = frozenset({"depth"})  # an on-demand outport, as a network reading it asks
     out = processor.process(mesh)
     return out["image"].to_numpy(), out["depth"].to_numpy(), processor
 
@@ -212,3 +213,28 @@ def test_the_sort_on_the_gl_side_gives_the_numpy_order(gl):
         on_gl, _, _ = render(mesh, camera, "averaged", False, order="centroid_gl")
         with_numpy, _, _ = render(mesh, camera, "averaged", False, order="centroid")
         assert np.abs(on_gl - with_numpy).max() < 1e-3
+
+
+@pytest.mark.parametrize("grid_cells", [True, False])
+@pytest.mark.parametrize("integration", ["averaged", "preintegrated"])
+def test_the_depth_is_drawn_only_when_read_and_the_image_is_the_same(gl, grid_cells, integration):
+    """The depth outport is on demand: a network that reads only the image draws one render target
+    and leaves the depth out; reading the depth draws it, and the image is bit for bit the same
+    either way (issue #31: the second RGBA32F target cost a third of a frame on llvmpipe)."""
+    from vgraph.network import Network
+    from vgraph.testing import GivenVolume
+    network = Network()
+    network.add(GivenVolume(id="src", volume=blob()))
+    network.add("VolumeToTetMesh", id="tets", transfer_function=TransferFunctionLut.DEFAULT)
+    network.add("ProjectedTetrahedra", id="pt", transfer_function=TransferFunctionLut.DEFAULT,
+                integration=integration, grid_cells=grid_cells, camera=cameras(cut(blob()))[0])
+    network.connect("src.volume", "tets.volume")
+    network.connect("tets.mesh", "pt.mesh")
+    alone = network.evaluate("pt.image", size=(72, 64))
+    assert network.processors["pt"].outputs.get("depth") is None
+    depth = network.evaluate("pt.depth", size=(72, 64))
+    assert (depth[..., 3] == 1.0).sum() > 0 and depth[..., 0].min() < 1.0
+    with_depth = network.evaluate("pt.image", size=(72, 64))
+    assert alone[..., 3].max() > 0.2 and np.array_equal(alone, with_depth)
+    expected, expected_depth, _ = render(cut(blob()), cameras(cut(blob()))[0], integration, grid_cells)
+    assert np.array_equal(depth, expected_depth)

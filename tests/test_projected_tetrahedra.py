@@ -84,6 +84,7 @@ def render(mesh, camera, size, tf, integration, background=(0.0, 0.0, 0.0, 0.0))
     processor = ProjectedTetrahedra(transfer_function=tf, integration=integration,
                                     background=background, camera=camera)
     processor.render_size = size
+    processor.wanted = frozenset({"depth"})  # an on-demand outport, as a network reading it asks
     out = processor.process(mesh)
     return out["image"].to_numpy(), out["depth"].to_numpy(), processor
 
@@ -323,6 +324,7 @@ def test_skipping_transparent_tetrahedra_changes_nothing(gl, integration):
         assert np.abs(images[False] - images[True]).max() < 1e-3
     empty = ProjectedTetrahedra(transfer_function=constant_tf(a=0.0), background=(0.1, 0.2, 0.3, 1.0))
     empty.render_size = (16, 16)
+    empty.wanted = frozenset({"depth"})
     out = empty.process(mesh)
     assert np.allclose(out["image"].to_numpy(), (0.1, 0.2, 0.3, 1.0)) and np.all(out["depth"].to_numpy()[..., 0] == 1.0)
 

@@ -15,7 +15,8 @@
 // projected tetrahedra integrate whole tetrahedra.
 //
 // Rays start on the near plane (t = 0), which clips cells in front of it.
-// Second output (the depth image): as project.frag.glsl's, for the first piece with opacity.
+// Second output (the depth image, with DEPTH_OUTPUT): as project.frag.glsl's, for the first piece
+// with opacity.
 #include "segment.glsl"
 
 flat in vec4 unit_origin;  // cells.geom.glsl
@@ -34,7 +35,9 @@ uniform float world_length;  // world units per unit of the drawn mesh (a mesh d
                              // normalised frame, vgraph.gl.tetrahedra.frame; else 1)
 
 layout(location = 0) out vec4 color;
+#ifdef DEPTH_OUTPUT
 layout(location = 1) out vec4 depth;
+#endif
 
 // f_c(p) for the corner tetrahedra of an even cell, c = 000, 110, 101, 011: CORNER_SLOPES * p +
 // CORNER_OFFSETS (columns: the x, y and z slopes of the four).
@@ -55,11 +58,13 @@ void add_piece(float a, float b) {
                  + corner.w * planes[3] + (1.0 - dot(corner, vec4(1.0))) * planes[4];
     float at_origin = dot(plane.xyz, o) + plane.w, slope = dot(plane.xyz, d);
     vec4 piece = segment(at_origin + a * slope, at_origin + b * slope, (b - a) * scale);
+#ifdef DEPTH_OUTPUT
     if (piece.a > 0.0 && depth.a == 0.0) {
         vec3 front = origin + a * direction;
         vec4 clip = view_projection * vec4(front, 1.0);
         depth = vec4(clip.z / clip.w * 0.5 + 0.5, distance(front, origin) * world_length, 0.0, 1.0);
     }
+#endif
     color += (1.0 - color.a) * piece;
 }
 
@@ -89,7 +94,9 @@ void main() {
     bvec4 parallel = equal(f_d, vec4(0.0)), outside = lessThan(f_o, vec4(1.0));
     if (dot(vec4(parallel), vec4(outside)) > 0.0) c_out = c_in;  // parallel to a face, outside it
     color = vec4(0.0);
+#ifdef DEPTH_OUTPUT
     depth = vec4(0.0);
+#endif
     if (c_out > c_in) {  // corner, central, corner (either corner piece may be empty)
         add_piece(t_in, c_in);
         add_piece(c_in, c_out);

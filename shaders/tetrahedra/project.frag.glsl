@@ -5,7 +5,7 @@
 //
 // The integral itself (averaged or pre-integrated): segment.glsl.
 //
-// Second output (the depth image): (window depth of the front point, its distance from the ray's
+// Second output (the depth image, with DEPTH_OUTPUT: only when something reads it): (window depth of the front point, its distance from the ray's
 // start on the near plane, 0, 1) where alpha > 0, else 0, which the blending leaves as it was: the
 // last tetrahedron with opacity drawn, the nearest in the visibility order, wins.
 #include "segment.glsl"
@@ -26,7 +26,9 @@ uniform float world_length;  // world units per unit of the drawn mesh (a mesh d
                              // normalised frame, vgraph.gl.tetrahedra.frame; else 1)
 
 layout(location = 0) out vec4 color;
+#ifdef DEPTH_OUTPUT
 layout(location = 1) out vec4 depth;
+#endif
 
 void main() {
     vec3 x_front = front_h.xyz / front_h.w;
@@ -49,6 +51,7 @@ void main() {
     float across = abs(dot(x_back - x_front, view_forward));
     if (across > limits.x) thickness *= limits.x / across;
     color = segment(s_front, s_back, thickness);
+#ifdef DEPTH_OUTPUT
     if (color.a > 0.0) {
         vec4 clip = view_projection * vec4(x_front, 1.0);
         vec2 ndc = (gl_FragCoord.xy + pixel_offset) / viewport_size * 2.0 - 1.0;
@@ -57,4 +60,5 @@ void main() {
     } else {
         depth = vec4(0.0);
     }
+#endif
 }
