@@ -12,13 +12,16 @@ from vgraph.bricks import atlas as atlas_module
 from vgraph.bricks.atlas import BrickAtlas, slot_grid_of, slot_shape_of
 from vgraph.bricks.cache import HALO, LoadLimit, read_with_halo, texture_format, to_texture_values
 from vgraph.bricks.page_table import EMPTY, REFINE, RESIDENT, PageTable, children_of, parent_of, texel_offset
+from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.pyramid import ArrayPyramid
+from vgraph.bricks.sampling import BrickSampling
 from vgraph.bricks.selection import BrickGeometry
 from vgraph.frame_context import FrameContext
 from vgraph.testing import ray_caster_network
 from vgraph.volume import Volume
 
 from helpers.networks import UNSHADED_RAMP
+import test_bricked_raycaster
 from test_bricked_raycaster import FINEST, SIZE, WINDOW, field, oblique, odd_volume, render
 
 ONE_STEP = 1.0 / 255.0  # the issue's bound: images within one 8-bit step of the in-core RayCaster
@@ -61,6 +64,16 @@ def test_page_table_marks_resident_refined_missing_and_empty_cells():
     assert entry((0, 1, 0, 0)).tolist() == [0.25, 0, 0, EMPTY]  # a child of a refined cell not planned
     assert entry((1, 0, 1, 1)).tolist() == [0.25, 0, 0, EMPTY]
     assert entry((0, 2, 2, 3))[3] == 0                        # below an empty cell: never reached
+
+    # The leaf table: each level-0 cell as the shader reads it (a = 1 + level drawn, or -(1 + level
+    # where the walk stopped) when nothing is drawn).
+    leaf = PageTable.resolve(geometry, table)
+    assert leaf.shape == (3, 3, 4, 4)
+    assert leaf[0, 0, 0].tolist() == [10.5, 0.5, 0.5, 1.0]      # resident at level 0
+    assert leaf[0, 0, 1].tolist() == [30.5, 0.5, 0.5, 3.0]      # missing: from the top level
+    assert leaf[0, 1, 0].tolist() == [0.25, 0.0, 0.0, -1.0]     # empty at level 0
+    assert leaf[0, 2, 2].tolist() == [0.25, 0.0, 0.0, -2.0]     # empty at level 1: jump its cell
+    assert leaf[2, 2, 3].tolist() == [30.5, 0.5, 0.5, 3.0]      # the missing level-1 cell, from level 2
 
 
 def test_texel_offset_takes_level_voxels_to_the_slot():
@@ -128,6 +141,23 @@ def test_single_pass_at_level_0_equals_the_in_core_raycaster(case):
     np.testing.assert_allclose(got_depth[..., :2][hit], want_depth[..., :2][hit], atol=1e-3 * volume.dims[0])
 
 
+bonsai = test_bricked_raycaster.bonsai  # the fixture: the CT bonsai at 64^3
+
+
+@pytest.mark.parametrize("mode", ["dvr", "mip", "iso"])
+def test_bonsai_at_level_0_equals_the_in_core_raycaster(bonsai, mode):
+    """uint8 CT (64^3, the atlas in R16 as the volume's texture), shaded dvr with the RayCaster's
+    default early termination: rays stop inside whichever brick they reach 0.99 in."""
+    properties = {"dvr": {"transfer_function": WINDOW, "shading": "blinn_phong", "early_termination": 0.99},
+                  "mip": {}, "iso": {"iso_level": 0.3, "shading": "blinn_phong"}}[mode]
+    properties = {**UNSHADED_RAMP, "compositing": mode, **properties}
+    camera = oblique(bonsai)
+    want, _, _ = render(bonsai, camera, "RayCaster", **properties)
+    got, _, rc = single_pass(bonsai, camera, brick_size=16, lod_bias=FINEST, **properties)
+    assert rc.last_frame["levels"] == [0] and rc.last_frame["complete"]
+    assert np.abs(got - want).max() <= ONE_STEP and got[..., :3].std() > 0.01
+
+
 def sparse_ball() -> Volume:
     """A small ball in the middle of 41 x 29 x 37 voxels, zero around it: most bricks of 8 (and
     their neighbours, which a brick's samples may filter) are empty."""
@@ -166,6 +196,27 @@ def test_missing_bricks_are_drawn_from_a_coarser_resident_level():
     full = np.asarray(network.evaluate("rc.image", size=SIZE))  # no limit: level 0 read and drawn
     assert rc.last_frame["levels"] == [0] and rc.last_frame["complete"]
     assert np.abs(full - image).max() > 5 * ONE_STEP  # level 0 is another image
+
+
+def test_frames_under_a_load_limit_refine_to_the_level_0_image():
+    volume = odd_volume()
+    network = ray_caster_network(volume, oblique(volume), "BrickedRayCaster", method="single_pass", brick_size=16,
+                                 lod_bias=FINEST, **UNSHADED_RAMP)
+    want = np.asarray(network.evaluate("rc.image", size=SIZE))
+    network["rc"].parts[BrickSampling].cache.clear()  # nothing in memory: read again, 4 bricks a frame
+    network["rc"].parts[PagedSampling].atlas.release()
+    limited = FrameContext(load_limit=LoadLimit(bricks=4))
+    frames = []
+    for _ in range(12):
+        network.set("rc.sampling_rate", 1.0 + 1e-6 * (len(frames) + 1))  # (a new frame each time)
+        image = np.asarray(network.evaluate("rc.image", size=SIZE, context=limited))
+        frames.append(dict(network["rc"].last_frame))
+        if frames[-1]["complete"]:
+            break
+    assert not frames[0]["complete"] and frames[0]["levels"][-1] > 0  # coarse first
+    assert frames[-1]["complete"] and frames[-1]["levels"] == [0] and len(frames) > 2
+    assert all(later["missing"] <= earlier["missing"] for earlier, later in zip(frames, frames[1:]))
+    assert np.abs(image - want).max() <= 2 * ONE_STEP  # (the sampling rate moved by 1e-5)
 
 
 # --- refusals ---------------------------------------------------------------------------------------

@@ -77,7 +77,7 @@ class BrickAtlas:
 
     def __init__(self):
         self.gl: dict = {}  # "texture": the atlas (released with the owner)
-        self.key = None
+        self.key = self.source = None
         self.slots: OrderedDict = OrderedDict()  # brick key -> slot, least recently used first
         self.free: list[int] = []
         self.pinned: frozenset = frozenset()
@@ -89,8 +89,9 @@ class BrickAtlas:
 
     def ensure(self, ctx, source, fmt: TextureFormat, budget_bytes: int) -> "BrickAtlas":
         """The atlas for ``source`` under ``budget_bytes`` on ``ctx`` (module docstring)."""
-        key = (id(ctx), id(source), fmt, int(budget_bytes))
-        if key == self.key and self.gl.get("texture") is not None:
+        key = (fmt, int(budget_bytes))
+        texture = self.gl.get("texture")
+        if key == self.key and source is self.source and texture is not None and texture.ctx is ctx:
             return self
         slot_shape = slot_shape_of(source)
         slot_bytes = math.prod(slot_shape) * fmt.itemsize
@@ -105,7 +106,8 @@ class BrickAtlas:
         texture = ctx.texture3d(size, 1, dtype=fmt.gl_dtype)
         texture.repeat_x = texture.repeat_y = texture.repeat_z = False
         self.gl["texture"] = texture
-        self.key, self.slot_shape, self.slot_grid, self.capacity = key, slot_shape, grid, slots
+        self.key, self.source = key, source  # (the source by identity: another one's bricks are not these)
+        self.slot_shape, self.slot_grid, self.capacity = slot_shape, grid, slots
         self.size = size
         self.slots.clear()
         self.free = list(range(slots))
@@ -161,6 +163,6 @@ class BrickAtlas:
     def release(self) -> None:
         release_quietly(self.gl)
         self.gl.clear()
-        self.key = None
+        self.key = self.source = None
         self.slots.clear()
         self.free = []

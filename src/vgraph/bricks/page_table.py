@@ -12,12 +12,21 @@ Conventions:
   transfer function, or off screen; r = a normalised intensity every sample there may take, the
   cell's smallest, which adds nothing in any mode). No flag: MISSING, a cell the plan draws but
   the atlas does not hold; r = 0.
-- The shader (bricks/paged_sampling.glsl) walks each sample from the top level down: through
-  REFINE cells, remembering the last RESIDENT one; it stops at a cell without REFINE. EMPTY skips
-  the cell; RESIDENT draws it; MISSING draws the last resident ancestor's brick (a coarser level:
-  the finest resident level the plan allows), or nothing when there is none. So the plan is the
-  LOD rule (BrickSampling's: footprint, lod_bias, max_error, the budget's floor level) and the
-  page table says how much of it is resident.
+- The walk of a sample from the top level down: through REFINE cells, remembering the last
+  RESIDENT one, it stops at a cell without REFINE. EMPTY skips the cell; RESIDENT draws it;
+  MISSING draws the last resident ancestor's brick (a coarser level: the finest resident level the
+  plan allows), or nothing when there is none. So the plan is the LOD rule (BrickSampling's:
+  footprint, lod_bias, max_error, the budget's floor level) and the page table says how much of
+  it is resident.
+- The shader does not walk: ``resolve`` walks every level-0 cell on the CPU (a few numpy passes,
+  top down) into the *leaf table*, one RGBA32F entry per level-0 cell that the shader reads once
+  per sample (bricks/paged_sampling.glsl): drawn, a = 1 + the level drawn, rgb = that brick's
+  texel offset; not drawn, a = -(1 + the level of the cell where the walk stopped, whose box a
+  ray may jump over), r = the value. Why flat: llvmpipe runs every ``if`` for all 8 pixels of a
+  SIMD group whether or not one takes it, so a walk "only when a ray enters a new cell" cost a
+  walk per sample (5-8x the in-core frame); one fetch of a small table costs about one sample's.
+  Its size is level 0's cell grid (a 16384^3 volume in bricks of 64: 256^3 cells, 256 MB), which
+  a page table of several levels would avoid (not done yet).
 """
 
 from __future__ import annotations
@@ -106,8 +115,40 @@ class PageTable:
                 cell[3] += RESIDENT
         return table
 
+    @staticmethod
+    def resolve(geometry: BrickGeometry, table: np.ndarray) -> np.ndarray:
+        """The leaf table of ``table`` (entries()): float32 [z, y, x, 4] over level 0's cells (module
+        docstring), the walk of every level-0 cell done top down with whole levels at a time."""
+        _, z_offsets = PageTable.layout(geometry)
+        top = len(geometry.grids) - 1
+        leaf = fallback = None  # per cell of the level: the walk's result so far, its last resident
+        for level in range(top, -1, -1):
+            nx, ny, nz = (int(n) for n in geometry.grids[level])
+            entries = table[z_offsets[level]:z_offsets[level] + nz, :ny, :nx]
+            if leaf is None:
+                leaf = np.zeros(entries.shape, dtype=np.float32)  # a = 0: not decided yet
+                fallback = np.zeros(entries.shape, dtype=np.float32)  # a = 0: no resident ancestor
+            else:
+                ratio = geometry.ratios[level + 1][::-1]  # children per axis, [z, y, x]
+                index = np.ix_(*[np.arange(n) // int(r) for n, r in zip(entries.shape[:3], ratio)])
+                leaf, fallback = leaf[index], fallback[index]
+            flags = np.rint(entries[..., 3]).astype(np.int64)
+            open_ = leaf[..., 3] == 0.0
+            resident = open_ & ((flags & RESIDENT) != 0)
+            fallback[resident] = np.concatenate([entries[resident][:, :3],
+                                                 np.full((int(resident.sum()), 1), level + 1.0)], axis=1)
+            stops = open_ & ((flags & REFINE) == 0)
+            empty = stops & ((flags & EMPTY) != 0)
+            drawn = stops & ~empty & (fallback[..., 3] > 0.0)
+            leaf[drawn] = fallback[drawn]
+            nothing = stops & ~drawn  # empty, or missing without a resident ancestor (value 0)
+            leaf[nothing] = 0.0
+            leaf[nothing & empty, 0] = entries[nothing & empty][:, 0]
+            leaf[nothing, 3] = -(level + 1.0)
+        return leaf
+
     def upload(self, ctx, table: np.ndarray):
-        """The entries as the RGBA32F texture (kept while its size and context stay)."""
+        """``table`` (the leaf table) as the RGBA32F texture (kept while its size and context stay)."""
         size = table.shape[2], table.shape[1], table.shape[0]
         texture = self.gl.get("texture")
         if texture is None or texture.ctx is not ctx or texture.size != size:

@@ -11,9 +11,11 @@ Conventions (docs/explanations/bricked-ray-casting.md, "One pass, a page table")
   RayCaster's, unchanged. march.glsl's PAGED_SAMPLING hook jumps over cells that are not drawn.
 - The frame's plan is BrickSampling's (the same pyramid, brick cache, levels of detail by
   footprint, ``lod_bias``, ``max_error`` and the budget's floor level, the GUI's ``load_limit``):
-  its bricks are placed in the atlas (read through the brick cache), the page table marks them,
-  their ancestors (REFINE) and the cells the plan leaves out (EMPTY). A planned brick the atlas
-  does not hold is drawn from its finest resident ancestor.
+  its bricks, and the planned ones already in memory, are placed in the atlas (read through the
+  brick cache), the page table marks them, their ancestors (REFINE) and the cells the plan leaves
+  out (EMPTY), and its leaf table (PageTable.resolve) is what the shader reads. A planned brick
+  the atlas does not hold is drawn from its finest resident ancestor; under a ``load_limit`` the
+  missing ones are read ahead for the next frame (``last_frame["complete"]`` False until then).
 - The atlas holds ``gl_budget`` MB of slots at most (no more than the pyramid's bricks); a budget
   that needs a texture past GL_MAX_3D_TEXTURE_SIZE, or holds not one brick, is a VGraphError
   naming ``<processor>.gl_budget``.
@@ -84,18 +86,27 @@ class PagedSampling(Component):
         geometry = BrickGeometry(source)
         errors = bricks.lod_errors(source, geometry, frame)
         plan = bricks.plan(source, frame, errors)
-        read_before = cache.stats["bricks_read"]
+        read_before, seconds_before = cache.stats["bricks_read"], cache.stats["read_seconds"]
         resident_before = set(self.atlas.slots) if self.atlas.key is not None else set()
         drawn = bricks.limited(source, plan, frame.ctx, context.load_limit)
         atlas = self.ensure_atlas(frame.ctx, source, cache.format)
-        atlas.begin_frame(set(drawn.keys()) | (set(plan.keys()) & resident_before))
-        placed = [key for key in drawn.keys() if atlas.place(key, lambda key=key: cache.brick(key)) is not None]
+        # The bricks to draw, and the planned ones already in memory (read ahead by earlier frames):
+        # their upload costs no reading, and the page table draws each cell at the finest it holds.
+        wanted = list(dict.fromkeys(drawn.keys() + [key for key in plan.keys() if key in cache.ram]))
+        atlas.begin_frame(set(wanted) | (set(plan.keys()) & resident_before))
+        placed = [key for key in wanted if atlas.place(key, lambda key=key: cache.brick(key)) is not None]
         offsets = {key: texel_offset(source, key, atlas.slot_origin(slot)) for key, slot in atlas.slots.items()}
         table = PageTable.entries(geometry, plan.keys(), offsets, self.lows(source, geometry, frame))
-        self.frame_binding = self.binding_of(frame, geometry, source, self.page_table.upload(frame.ctx, table))
+        leaf = self.page_table.upload(frame.ctx, PageTable.resolve(geometry, table))
+        self.frame_binding = self.binding_of(frame, geometry, source, leaf)
         self.draw(frame, target, own)
         missing = [key for key in plan.keys() if key not in offsets]
         complete = not missing
+        if missing and context.load_limit is not None:  # the next frame refines (the GUI asks again)
+            cache.begin_frame(plan.keys())
+            cache.read_ahead([key for key in missing if key not in cache.ram], context.load_limit,
+                             cache.stats["bricks_read"] - read_before,
+                             cache.stats["read_seconds"] - seconds_before)
         self.last_frame = {"bricks": len(placed), "floor_level": drawn.floor_level, "bytes": drawn.bytes,
                            "levels": sorted({key[0] for key in placed}), "complete": complete,
                            "planned_floor_level": plan.floor_level, "missing": len(missing),
@@ -122,12 +133,11 @@ class PagedSampling(Component):
             return values
         return low
 
-    def binding_of(self, frame: Frame, geometry: BrickGeometry, source, page_table) -> Binding:
-        """The pass's atlas, page table and their uniforms (bricks/paged_sampling.glsl)."""
+    def binding_of(self, frame: Frame, geometry: BrickGeometry, source, leaf) -> Binding:
+        """The pass's atlas, leaf table and their uniforms (bricks/paged_sampling.glsl)."""
         processor, atlas = self.processor, self.atlas
         fmt = processor.parts[BrickSampling].cache.format
         levels = len(source.levels)
-        _, z_offsets = PageTable.layout(geometry)
         spacing0, origin0, dims0 = geometry.spacing0, geometry.origin0, geometry.dims0
         level_scale, level_offset = [], []
         for level in source.levels:
@@ -137,8 +147,9 @@ class PagedSampling(Component):
         uniforms = {"intensity_scale": float(fmt.scale), "intensity_offset": float(fmt.offset),
                     "atlas_texels": vec(np.asarray(atlas.size, dtype=np.float64)),
                     "page_grid": np.asarray([np.asarray(g) for g in geometry.grids], dtype=np.int32),
-                    "page_z": np.asarray(z_offsets, dtype=np.int32),
                     "cell_scale": np.asarray([dims0 / span for span in geometry.spans], dtype=np.float32),
+                    "leaf_grid": tuple(int(n) for n in geometry.grids[0]),
+                    "leaf_scale": vec(dims0 / geometry.spans[0]),
                     "level_scale": np.asarray(level_scale, dtype=np.float32),
                     "level_offset": np.asarray(level_offset, dtype=np.float32)}
         defines = {"PAGED_SAMPLING": True, "PAGE_LEVELS": levels}
@@ -149,7 +160,7 @@ class PagedSampling(Component):
             defines.update(gradients.defines(derivatives))
             voxel, spacing = level_voxel(geometry, 0)
             uniforms.update(gradients.uniforms(float(fmt.scale), voxel, spacing, derivatives))
-        return Binding(defines, textures={"volume": atlas.texture, "page_table": page_table},
+        return Binding(defines, textures={"volume": atlas.texture, "page_table": leaf},
                        samplers={"volume": linear_sampler(frame.ctx)}, uniforms=uniforms)
 
     def draw(self, frame: Frame, target, own: Binding) -> None:

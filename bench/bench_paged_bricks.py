@@ -1,0 +1,93 @@
+"""Benchmark (issue #33, item 1): the BrickedRayCaster's single pass through a page table against
+its pass per brick and the in-core RayCaster, everything resident at level 0.
+
+Usage:  python bench/bench_paged_bricks.py [--volume FILE] [--size 256] [--rounds 3] [--bricks 32 64]
+
+Per compositing mode, the variants draw one untimed frame, then take turns frame by frame
+(bench/interleave.py), each frame re-planned (the sampling rate is nudged so the processor
+evaluates again); min / median / max per variant. Beside each bricked variant: its largest pixel
+difference from the RayCaster's image (in 8-bit steps) and its PSNR. The RayCaster and the single
+pass share ``early_termination`` (the pass per brick has none at 1.0). Numbers go to
+docs/explanations/bricked-ray-casting.md ("One pass, a page table").
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from vgraph.camera import Camera
+from vgraph.io import read_volume
+from vgraph.numerics.reference_raycast import volume_box
+from vgraph.testing import ray_caster_network
+from vgraph.transfer_function import TransferFunction
+
+from interleave import interleaved, spread
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+WINDOW = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.3, 0.2, 0.4, 0.9, 0.0),
+                                  (0.6, 1.0, 0.7, 0.2, 0.3), (1.0, 1, 1, 1, 0.6)])
+CASES = [("dvr", {"transfer_function": WINDOW, "early_termination": 1.0}),
+         ("dvr shaded, termination 0.99", {"transfer_function": WINDOW, "early_termination": 0.99,
+                                            "shading": "blinn_phong"}),
+         ("mip", {}), ("iso", {"iso_level": 0.3})]
+
+
+def psnr(a, b) -> float:
+    mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
+    return float("inf") if mse == 0.0 else 10.0 * np.log10(1.0 / mse)
+
+
+def frame_of(network, size, images: dict, name: str):
+    """A frame(argument) -> seconds for interleaved(); the last image is kept in ``images``."""
+    count = [0]
+
+    def frame(_argument) -> float:
+        count[0] += 1
+        network.set("rc.sampling_rate", 1.0 + 1e-6 * count[0])
+        began = time.perf_counter()
+        images[name] = np.asarray(network.evaluate("rc.image", size=size))
+        return time.perf_counter() - began
+    return frame
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--volume", default=str(DATA / "ct_bonsai" / "bonsai.nii.gz"))
+    parser.add_argument("--size", type=int, default=256)
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--bricks", type=int, nargs="+", default=[32, 64])
+    args = parser.parse_args()
+    volume = read_volume(args.volume)
+    camera = Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
+    size = (args.size, args.size)
+    print(f"{args.volume}: {volume.dims}, {size[0]} x {size[1]}, {args.rounds} rounds (min / median / max ms)")
+    for name, properties in CASES:
+        mode = name.split(" ")[0].rstrip(",")
+        properties = {"shading": "none", "compositing": mode, **properties}
+        variants, images = {}, {}
+        variants["RayCaster"] = frame_of(ray_caster_network(volume, camera, "RayCaster", **properties),
+                                         size, images, "RayCaster")
+        for brick in args.bricks:
+            for method in ("passes", "single_pass"):
+                label = f"{method} {brick}^3"
+                network = ray_caster_network(volume, camera, "BrickedRayCaster", brick_size=brick, lod_bias=-16.0,
+                                             method=method, **properties)
+                variants[label] = frame_of(network, size, images, label)
+        seconds, _ = interleaved(variants, [None] * args.rounds, None)
+        print(f"{name}:")
+        for label, values in seconds.items():
+            line = f"  {label:>18}: {spread([v * 1e3 for v in values], 0)} ms"
+            median = float(np.median(values)) / float(np.median(seconds["RayCaster"]))
+            if label != "RayCaster":
+                steps = float(np.abs(images[label] - images["RayCaster"]).max()) * 255.0
+                line += (f"  ({median:.2f}x the RayCaster; max difference {steps:.2f} steps of 1/255, "
+                         f"PSNR {psnr(images[label], images['RayCaster']):.1f} dB)")
+            print(line, flush=True)
+
+
+if __name__ == "__main__":
+    main()
