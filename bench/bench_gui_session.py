@@ -16,7 +16,14 @@ The session (on a copy of the network in a temporary folder, so Save writes ther
 5. presses Ctrl+S; waits until the file is written; then Ctrl+Shift+S, waits for the dialog, types
    a new file name, presses Return and waits until that file is written;
 6. presses F9: waits for the views perspective (gui/perspectives.py; the canvas's share of the
-   window is noted), and F9 again: waits for the network editor.
+   window is noted), and F9 again: waits for the network editor;
+7. MPR (gui_session_mpr.py): Ctrl+O, types the path of a copy of networks/mpr_mri_head.json, waits
+   for its four images; F9; in the axial slice view a left drag (the cursor follows), a right drag
+   (window/level) and three wheel notches (paging), each waited for until the linked coronal view's
+   refined image; the window is grabbed; F9 back;
+8. placement (gui_session_placement.py): Ctrl+S, Ctrl+N, then double-clicks VolumeSource,
+   EntryExitPoints, RayCaster and Canvas in the palette: each must land below the one before and
+   connect to it.
 
 With ``--xvfb`` the script runs itself again on a private Xvfb display with Qt's xcb platform, and
 the input is real X input from ``xdotool`` (mouse moves, button and key presses, typed text), as a
@@ -25,7 +32,9 @@ sent to the same widgets. Each wait is timed from the moment the input is sent (
 released, Return or the shortcut pressed) to the moment the result is there (the refined frame
 painted: LiveEvaluation.frames with final=True and the canvas's next paint; a saved file: the
 workspace clean and the file on disk). The table is printed and written to
-bench/results/gui_session_<time>.json, .csv and .png (a bar per wait) with a grab of the window.
+bench/results/gui_session_<time>.json, .csv and .png (a bar per wait) with grabs of the window: at
+the end (_window.png) and in the views perspective after the MPR gestures (_mpr.png). The input,
+the timed log and the MPR and placement steps are the gui_session_*.py modules beside this one.
 """
 
 from __future__ import annotations
@@ -42,169 +51,32 @@ import shutil  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
-from dataclasses import asdict, dataclass  # noqa: E402
+from dataclasses import asdict  # noqa: E402
 from pathlib import Path  # noqa: E402
+
+from gui_session_input import QtInput, XdotoolInput  # noqa: E402
+from gui_session_log import FrameLog, Wait  # noqa: E402
+from gui_session_mpr import mpr_steps  # noqa: E402
+from gui_session_placement import placement_steps  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 NETWORK = REPO / "networks" / "raycast_head.json"
+MPR_NETWORK = REPO / "networks" / "mpr_mri_head.json"
 CANVAS, RAY_CASTER = "canvas", "rc"
-MOVE_S = 0.016          # one mouse move per 60 Hz frame
 WAIT_TIMEOUT_S = 180.0  # a step that takes longer has failed (60 s with --quick)
-
-
-@dataclass
-class Wait:
-    step: str         # what the user did
-    waits_for: str    # what the user waits for
-    seconds: float    # from the input (or the launch) to it
-    detail: str = ""
-
-
-# --- input: xdotool on a real X server, or Qt events -------------------------------------------
-class XdotoolInput:
-    """Real X input. Each action is a generator that yields the xdotool process it started (the
-    session waits for it to exit while Qt goes on processing events)."""
-
-    def __init__(self):
-        if shutil.which("xdotool") is None:
-            raise SystemExit("--xvfb needs xdotool (apt install xdotool)")
-
-    @staticmethod
-    def _at(widget, point) -> list[str]:
-        from PySide6.QtCore import QPoint
-        spot = widget.mapToGlobal(QPoint(round(point.x()), round(point.y())))
-        return [str(spot.x()), str(spot.y())]
-
-    def _run(self, *args: str):
-        yield subprocess.Popen(["xdotool", *args])
-
-    def click(self, widget, point):
-        yield from self._run("mousemove", "--sync", *self._at(widget, point), "click", "1")
-
-    def press_and_move(self, widget, start, end, seconds: float):
-        """Press at ``start`` and move to ``end`` in ``seconds`` (the button stays down)."""
-        steps = max(1, round(seconds / MOVE_S))
-        moves = []
-        for i in range(1, steps + 1):
-            moves += ["mousemove", *self._at(widget, start + (end - start) * (i / steps)), "sleep", str(MOVE_S)]
-        yield from self._run("mousemove", "--sync", *self._at(widget, start), "mousedown", "1", *moves)
-
-    def release(self, widget, point):
-        yield from self._run("mouseup", "1")
-
-    def keys(self, widget, combo: str):
-        """``combo`` in xdotool's spelling (ctrl+s, Return); goes to the focused window."""
-        yield from self._run("key", "--clearmodifiers", combo)
-
-    def type(self, widget, text: str):
-        yield from self._run("type", "--delay", "15", text)
-
-
-class QtInput:
-    """Qt events sent to the widgets (no X server): the paths a test or the offscreen platform has.
-    Keys go through a zero timer, since a shortcut may open a modal dialog (a nested event loop)."""
-
-    KEYS = {"Return": "Key_Return", "ctrl+a": ("Key_A", "ControlModifier"), "ctrl+s": ("Key_S", "ControlModifier"),
-            "ctrl+shift+s": ("Key_S", "ControlModifier|ShiftModifier"), "F9": "Key_F9"}
-
-    def click(self, widget, point):
-        from PySide6.QtCore import Qt
-        from PySide6.QtTest import QTest
-        QTest.mouseClick(widget, Qt.LeftButton, Qt.NoModifier, point.toPoint())
-        yield 0.0
-
-    def press_and_move(self, widget, start, end, seconds: float):
-        from PySide6.QtCore import QEvent, Qt
-        from scripted_user import send_mouse
-        send_mouse(widget, QEvent.MouseButtonPress, start, Qt.LeftButton, Qt.LeftButton)
-        steps = max(1, round(seconds / MOVE_S))
-        for i in range(1, steps + 1):
-            yield MOVE_S
-            send_mouse(widget, QEvent.MouseMove, start + (end - start) * (i / steps), Qt.NoButton, Qt.LeftButton)
-
-    def release(self, widget, point):
-        from PySide6.QtCore import QEvent, Qt
-        from scripted_user import send_mouse
-        send_mouse(widget, QEvent.MouseButtonRelease, point, Qt.LeftButton, Qt.NoButton)
-        yield 0.0
-
-    def keys(self, widget, combo: str):
-        from PySide6.QtCore import Qt, QTimer
-        from PySide6.QtTest import QTest
-        from PySide6.QtWidgets import QApplication
-        key, modifiers = self.KEYS[combo] if isinstance(self.KEYS[combo], tuple) else (self.KEYS[combo], "NoModifier")
-        flags = Qt.KeyboardModifier(0)
-        for name in modifiers.split("|"):
-            flags |= getattr(Qt, name)
-        target = QApplication.focusWidget() or widget
-        QTimer.singleShot(0, lambda: QTest.keyClick(target, getattr(Qt, key), flags))
-        yield 0.01
-
-    def type(self, widget, text: str):
-        from PySide6.QtTest import QTest
-        from PySide6.QtWidgets import QApplication
-        QTest.keyClicks(QApplication.focusWidget() or widget, text)
-        yield 0.0
-
-
-# --- what the window shows, timed --------------------------------------------------------------
-class FrameLog:
-    """Frames given to the canvas and when each was first painted (an event filter on the canvas)."""
-
-    def __init__(self, window):
-        from PySide6.QtCore import QEvent, QObject
-        self.frames: list[list] = []   # [time given, final, time first painted or None]
-        self.results: list = []        # every RenderResult received (the render process's timestamps)
-        window.evaluation.frames.connect(self._given)
-        window.evaluation.received.connect(self.results.append)
-        log = self
-
-        class Painted(QObject):
-            def eventFilter(self, watched, event):
-                if event.type() == QEvent.Paint and log.frames and log.frames[-1][2] is None:
-                    log.frames[-1][2] = time.monotonic()
-                return False
-        self.filter = Painted()
-        window.canvases.views[CANVAS].installEventFilter(self.filter)
-
-    def _given(self, frames: dict, final: bool) -> None:
-        if CANVAS in frames:
-            self.frames.append([time.monotonic(), bool(final), None])
-
-    def refined_after(self, mark: float) -> float | None:
-        """When the first full frame given after ``mark`` was painted (None: not yet)."""
-        for given, final, painted in self.frames:
-            if given >= mark and final and painted is not None:
-                return painted
-        return None
-
-    def render_time_of(self, painted: float) -> str:
-        """What the render process did for the full frame painted at ``painted``."""
-        full = [r for r in self.results if r.scale == 1.0 and r.outcome.frames and r.received <= painted]
-        if not full:
-            return ""
-        result = full[-1]
-        return (f"render process: started {painted - result.started:.2f} s before the paint, "
-                f"evaluated in {result.seconds:.2f} s")
-
-    def shown_between(self, start: float, end: float) -> int:
-        return sum(1 for _, _, painted in self.frames if painted is not None and start <= painted <= end)
 
 
 # --- the session ---------------------------------------------------------------------------------
 def session(window, user, frames: FrameLog, folder: Path, quick: bool, waits: list[Wait],
-            opened: float = LAUNCHED):
+            opened: float = LAUNCHED, shots: dict | None = None):
     """The user's steps (a generator: yields what to wait for; see ``Stepper``); ``opened``: when
-    the network was opened."""
+    the network was opened; ``shots``: grabs of the window taken on the way (name: QPixmap)."""
     from PySide6.QtCore import QPointF
     from PySide6.QtWidgets import QApplication, QFileDialog, QScrollArea
     from vgraph.gui.items import NODE_HEIGHT, NODE_WIDTH
 
     def refined(step: str, mark: float, detail: str = ""):
-        yield lambda: frames.refined_after(mark) is not None and window.evaluation.idle()
-        painted = frames.refined_after(mark)
-        waits.append(Wait(step, "refined image", round(painted - mark, 3),
-                          "; ".join(d for d in (detail, frames.render_time_of(painted)) if d)))
+        yield from frames.refined(window, waits, step, mark, detail)
 
     yield lambda: frames.refined_after(LAUNCHED) is not None
     first = frames.refined_after(LAUNCHED)
@@ -299,6 +171,13 @@ def session(window, user, frames: FrameLog, folder: Path, quick: bool, waits: li
     yield lambda: window.perspectives.current == "editing" and view.isVisible()
     waits.append(Wait("F9 again", "network editor", round(time.monotonic() - mark, 3)))
 
+    # MPR: open the multi-planar network, drag, window/level and page in a slice (gui_session_mpr.py);
+    # then a new network built by double-clicks in the palette (gui_session_placement.py).
+    mpr_size = window.workspace.network.get(f"{CANVAS}.size")[0] if quick else None
+    yield from mpr_steps(window, user, copy_network(MPR_NETWORK, folder), waits,
+                         {} if shots is None else shots, quick, mpr_size)
+    yield from placement_steps(window, user, waits)
+
 
 def _opacity_near(transfer_function, position: float) -> float:
     """The opacity of the transfer function's control point nearest ``position``."""
@@ -388,7 +267,7 @@ def copy_network(source: Path, folder: Path) -> Path:
     return target
 
 
-def run_session(args, folder: Path) -> tuple[list[Wait], "object"]:
+def run_session(args, folder: Path) -> tuple[list[Wait], dict]:
     from PySide6.QtCore import QSettings
     from PySide6.QtWidgets import QApplication
     from vgraph.gui.app import MainWindow
@@ -418,19 +297,20 @@ def run_session(args, folder: Path) -> tuple[list[Wait], "object"]:
         raise SystemExit(f"cannot open {network}")
     waits.append(Wait("launch", "network opened", round(time.monotonic() - opened, 3), args.network.name))
     window.workspace.network.set(f"{CANVAS}.size", [args.size, args.size])  # the bench's, not an edit
-    frames = FrameLog(window)
+    frames = FrameLog(window, CANVAS)
+    shots: dict = {}
     try:
-        Stepper(session(window, user, frames, folder, args.quick, waits, opened),
+        Stepper(session(window, user, frames, folder, args.quick, waits, opened, shots),
                 60.0 if args.quick else WAIT_TIMEOUT_S).run()
-        shot = window.grab()
+        shots["window"] = window.grab()
     finally:
         window.workspace.undo_stack.setClean()
         window.close()
         window.evaluation.shutdown()
-    return waits, shot
+    return waits, shots
 
 
-def report(waits: list[Wait], out: Path, shot, platform: str) -> Path:
+def report(waits: list[Wait], out: Path, shots: dict, platform: str) -> Path:
     width = max(len(f"{w.step}: {w.waits_for}") for w in waits)
     print(f"platform: {platform}")
     print(f"{'what the user waits for':<{width}}  {'seconds':>8}  detail")
@@ -445,9 +325,9 @@ def report(waits: list[Wait], out: Path, shot, platform: str) -> Path:
         writer.writeheader()
         writer.writerows(asdict(w) for w in waits)
     plot(waits, stem.with_suffix(".png"), platform)
-    if shot is not None:
-        shot.save(str(stem) + "_window.png")
-    print(f"wrote {stem}.json, .csv, .png and _window.png")
+    for name, shot in shots.items():
+        shot.save(f"{stem}_{name}.png")
+    print(f"wrote {stem}.json, .csv, .png and " + ", ".join(f"_{name}.png" for name in shots))
     return stem
 
 
@@ -505,8 +385,8 @@ def main(argv=None) -> int:
         return under_xvfb(argv)
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
     with tempfile.TemporaryDirectory() as folder:
-        waits, shot = run_session(args, Path(folder))
-    report(waits, args.out, shot, os.environ["QT_QPA_PLATFORM"])
+        waits, shots = run_session(args, Path(folder))
+    report(waits, args.out, shots, os.environ["QT_QPA_PLATFORM"])
     return 0
 
 
