@@ -1,19 +1,22 @@
 """Benchmark (issue #33, item 1): the BrickedRayCaster's single pass through a page table against
 its pass per brick and the in-core RayCaster, everything resident at level 0.
 
-Usage:  python bench/bench_paged_bricks.py [--volume FILE] [--size 256] [--rounds 3] [--bricks 32 64]
+Usage:  python bench/bench_paged_bricks.py [--volume FILE] [--size 256] [--rounds 3] [--bricks 32 64] [--cpu]
 
 Per compositing mode, the variants draw one untimed frame, then take turns frame by frame
 (bench/interleave.py), each frame re-planned (the sampling rate is nudged so the processor
 evaluates again); min / median / max per variant. Beside each bricked variant: its largest pixel
 difference from the RayCaster's image (in 8-bit steps) and its PSNR. The RayCaster and the single
-pass share ``early_termination`` (the pass per brick has none at 1.0). Numbers go to
+pass share ``early_termination`` (the pass per brick has none at 1.0). ``--cpu`` times the process's
+CPU seconds (all of llvmpipe's threads) instead of the wall clock: steady on a machine that other
+jobs share, and on llvmpipe the same work. Numbers go to
 docs/explanations/bricked-ray-casting.md ("One pass, a page table").
 """
 
 from __future__ import annotations
 
 import argparse
+import resource
 import time
 from pathlib import Path
 
@@ -41,16 +44,21 @@ def psnr(a, b) -> float:
     return float("inf") if mse == 0.0 else 10.0 * np.log10(1.0 / mse)
 
 
-def frame_of(network, size, images: dict, name: str):
+def cpu_seconds() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def frame_of(network, size, images: dict, name: str, clock=time.perf_counter):
     """A frame(argument) -> seconds for interleaved(); the last image is kept in ``images``."""
     count = [0]
 
     def frame(_argument) -> float:
         count[0] += 1
         network.set("rc.sampling_rate", 1.0 + 1e-6 * count[0])
-        began = time.perf_counter()
+        began = clock()
         images[name] = np.asarray(network.evaluate("rc.image", size=size))
-        return time.perf_counter() - began
+        return clock() - began
     return frame
 
 
@@ -60,23 +68,26 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--bricks", type=int, nargs="+", default=[32, 64])
+    parser.add_argument("--cpu", action="store_true", help="CPU seconds of the process, not wall seconds")
     args = parser.parse_args()
+    clock = cpu_seconds if args.cpu else time.perf_counter
     volume = read_volume(args.volume)
     camera = Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
     size = (args.size, args.size)
-    print(f"{args.volume}: {volume.dims}, {size[0]} x {size[1]}, {args.rounds} rounds (min / median / max ms)")
+    print(f"{args.volume}: {volume.dims}, {size[0]} x {size[1]}, {args.rounds} rounds (min / median / max ms, "
+          f"{'CPU' if args.cpu else 'wall'})")
     for name, properties in CASES:
         mode = name.split(" ")[0].rstrip(",")
         properties = {"shading": "none", "compositing": mode, **properties}
         variants, images = {}, {}
         variants["RayCaster"] = frame_of(ray_caster_network(volume, camera, "RayCaster", **properties),
-                                         size, images, "RayCaster")
+                                         size, images, "RayCaster", clock)
         for brick in args.bricks:
             for method in ("passes", "single_pass"):
                 label = f"{method} {brick}^3"
                 network = ray_caster_network(volume, camera, "BrickedRayCaster", brick_size=brick, lod_bias=-16.0,
                                              method=method, **properties)
-                variants[label] = frame_of(network, size, images, label)
+                variants[label] = frame_of(network, size, images, label, clock)
         seconds, _ = interleaved(variants, [None] * args.rounds, None)
         print(f"{name}:")
         for label, values in seconds.items():

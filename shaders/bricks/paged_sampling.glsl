@@ -1,7 +1,7 @@
 // PagedSampling (issue #33, item 1; vgraph.bricks.paged_sampling): the volume sampled in one pass
 // through a page table and a brick atlas. Same names as raycasting/volume_sampling.glsl
 // (raw_sample, intensity, volume, intensity_scale/offset), so the RayCaster's compositing,
-// gradients and shading work unchanged; march.glsl's PAGED_SAMPLING hook calls paged_skipped() to
+// gradients and shading work unchanged; march.glsl's PAGED_SKIPPING hook calls paged_skipped() to
 // jump over cells that add nothing.
 //
 // A sample at level-0 texture coordinate t reads the leaf table's entry of its level-0 cell
@@ -49,7 +49,7 @@ float intensity(vec3 t) {
 }
 
 // Where sample i lies in a cell that is not drawn, move i to the first sample past the cell where
-// the walk stopped and return true (march.glsl's PAGED_SAMPLING hook jumps until this returns
+// the walk stopped and return true (march.glsl's PAGED_SKIPPING hook jumps until this returns
 // false).
 bool paged_skipped(inout int i, Ray ray) {
     vec3 t = sample_point(ray, float(i));

@@ -74,7 +74,7 @@ bool next_occupied_sample(inout March cursor, Ray ray) {
     skip_empty_space(cursor, ray);
     return cursor.i < ray.samples;
 }
-#elif defined(PAGED_SAMPLING)
+#elif defined(PAGED_SKIPPING)
 // The single-pass bricked ray caster's hook (bricks/paged_sampling.glsl, included ahead): jump
 // over the cells of the page table that are not drawn (empty under the TF, or missing).
 bool skip_empty_space(inout March cursor, Ray ray) {

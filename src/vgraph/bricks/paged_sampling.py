@@ -8,7 +8,8 @@ Conventions (docs/explanations/bricked-ray-casting.md, "One pass, a page table")
 - Its GLSL (bricks/paged_sampling.glsl) replaces VolumeSampling's: raw_sample(t) and intensity(t)
   of a level-0 texture coordinate, so the compositing modes (dvr, mip, iso), FrontToBack's opacity
   correction and early termination, the transfer function, the gradients and the lighting are the
-  RayCaster's, unchanged. march.glsl's PAGED_SAMPLING hook jumps over cells that are not drawn.
+  RayCaster's, unchanged. march.glsl's PAGED_SKIPPING hook jumps over cells that are not drawn
+  (defined only in frames that have such cells).
 - The frame's plan is BrickSampling's (the same pyramid, brick cache, levels of detail by
   footprint, ``lod_bias``, ``max_error`` and the budget's floor level, the GUI's ``load_limit``):
   its bricks, and the planned ones already in memory, are placed in the atlas (read through the
@@ -97,8 +98,11 @@ class PagedSampling(Component):
         placed = [key for key in wanted if atlas.place(key, lambda key=key: cache.brick(key)) is not None]
         offsets = {key: texel_offset(source, key, atlas.slot_origin(slot)) for key, slot in atlas.slots.items()}
         table = PageTable.entries(geometry, plan.keys(), offsets, self.lows(source, geometry, frame))
-        leaf = self.page_table.upload(frame.ctx, PageTable.resolve(geometry, table))
+        resolved = PageTable.resolve(geometry, table)
+        leaf = self.page_table.upload(frame.ctx, resolved)
         self.frame_binding = self.binding_of(frame, geometry, source, leaf)
+        # march.glsl's jumps only where some cell is not drawn: on llvmpipe they cost every sample
+        self.frame_binding.defines["PAGED_SKIPPING"] = bool((resolved[..., 3] < 0.0).any())
         self.draw(frame, target, own)
         missing = [key for key in plan.keys() if key not in offsets]
         complete = not missing
@@ -152,7 +156,7 @@ class PagedSampling(Component):
                     "leaf_scale": vec(dims0 / geometry.spans[0]),
                     "level_scale": np.asarray(level_scale, dtype=np.float32),
                     "level_offset": np.asarray(level_offset, dtype=np.float32)}
-        defines = {"PAGED_SAMPLING": True, "PAGE_LEVELS": levels}
+        defines = {"PAGE_LEVELS": levels}
         if processor.shaded():
             gradients = processor.parts[Gradients]
             gradients.check()
