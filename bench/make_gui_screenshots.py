@@ -5,11 +5,13 @@ camera and the transfer-function editor), the canvas with its toolbar and the ax
     xvfb-run -s "-screen 0 1920x1080x24" .venv/bin/python bench/make_gui_screenshots.py
     QT_QPA_PLATFORM=offscreen .venv/bin/python bench/make_gui_screenshots.py   # no X server
         [--network networks/raycast_head.json] [--select rc] [--out docs/images]
-        [--sizes 1280x800 1920x1080] [--perspective views]
+        [--sizes 1280x800 1920x1080] [--perspective views] [--welcome]
 
 ``--perspective views`` shoots the views perspective (gui/perspectives.py) instead, to
 <out>/gui_views_<W>x<H>.png (the docs use networks/mpr_mri_head.json with --select canvas), and
-prints which share of the window's area the canvases take.
+prints which share of the window's area the canvases take. ``--welcome`` shoots the first window
+a user sees, without a network (the welcome page: gui/welcome.py), to <out>/gui_welcome_<W>x<H>.png,
+with two of the shipped networks as its recent files (``WELCOME_RECENT``); the docs use 1280x800.
 
 Each size gets a fresh window with its own settings file (the user's remembered layout is not
 used), laid out as a first run on a screen of that size (``layout.arrange``), so the pictures show
@@ -26,6 +28,7 @@ import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
+WELCOME_RECENT = ("networks/mpr_mri_head.json", "networks/raycast_head.json")   # most recent first
 
 
 def canvas_share(window) -> float:
@@ -86,6 +89,35 @@ def shoot(network: Path, select: str, size: tuple[int, int], out: Path, perspect
     return report
 
 
+def shoot_welcome(size: tuple[int, int], out: Path) -> dict:
+    """The window as it opens without a network: the welcome page in the middle (module docstring)."""
+    from PySide6.QtCore import QSettings
+    from PySide6.QtWidgets import QApplication
+
+    from vgraph.gui.app import MainWindow, save_screenshot
+
+    app = QApplication.instance() or QApplication([sys.argv[0]])
+    app.setApplicationName("vgraph")
+    with tempfile.TemporaryDirectory() as folder:
+        settings = QSettings(str(Path(folder) / "settings.ini"), QSettings.IniFormat)
+        window = MainWindow(settings)
+        window.remember_layout = False
+        for name in reversed(WELCOME_RECENT):
+            window.workspace.add_recent_file(REPO / name)
+        window.arrange(*size)
+        window.show()
+        for _ in range(5):
+            app.processEvents()
+        page = window.welcome.page
+        report = {"window": (window.width(), window.height()), "welcome page shown": window.welcome.showing(),
+                  "page's share of the window": f"{page.width() * page.height() / (window.width() * window.height()):.0%}"}
+        path = out / f"gui_welcome_{size[0]}x{size[1]}.png"
+        save_screenshot(window, path)
+        window.deleteLater()
+        app.processEvents()
+    return report
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--network", type=Path, default=REPO / "networks" / "raycast_head.json")
@@ -93,13 +125,17 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=REPO / "docs" / "images")
     parser.add_argument("--sizes", nargs="+", default=["1280x800", "1920x1080"])
     parser.add_argument("--perspective", choices=["editing", "views"], default="editing")
+    parser.add_argument("--welcome", action="store_true", help="the window without a network: the welcome page")
     args = parser.parse_args(argv)
     if not os.environ.get("DISPLAY") and "QT_QPA_PLATFORM" not in os.environ:
         os.environ["QT_QPA_PLATFORM"] = "offscreen"
     args.out.mkdir(parents=True, exist_ok=True)
     for text in args.sizes:
         width, height = (int(v) for v in text.lower().split("x"))
-        report = shoot(args.network.resolve(), args.select, (width, height), args.out, args.perspective)
+        if args.welcome:
+            report = shoot_welcome((width, height), args.out)
+        else:
+            report = shoot(args.network.resolve(), args.select, (width, height), args.out, args.perspective)
         print(f"{width}x{height}: " + ", ".join(f"{k}: {v}" for k, v in report.items()))
     return 0
 
