@@ -23,7 +23,9 @@ bricks it needs from the store itself, as on a cluster with a shared file system
                     + per_tile * tasks of the busiest worker + composite * parts composited
    and its predictions for 4, 8, 16, 32 and 64 workers (tiles: the smallest counted grid with a
    tile per worker, bricks per worker from step 1; leaves: the bricks divided evenly). ``--refit``
-   does step 3 again on the saved measurements.
+   does step 3 again on the saved measurements. The fit is unstable (its 64-worker prediction
+   moved 7x between fits, issue #31): bench/distributed_costs.py composes the model from costs
+   measured one by one instead (docs/reports/cluster-scaling.md).
 
 Writes bench/results/distributed_scaling.md (tables, constants, predictions),
 distributed_scaling.json and distributed_scaling.png.

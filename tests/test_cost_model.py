@@ -150,6 +150,8 @@ def test_the_bench_composes_its_constants_and_tables_from_the_rounds_samples():
     predicted = distributed_costs.predictions(costs, plans, (16, 16))
     assert [p["workers"] for p in predicted] == [4, 8, 16, 32, 64]
     assert all(p["tiles"]["low"] <= p["tiles"]["mid"] <= p["tiles"]["high"] for p in predicted)
+    # every grid with a tile per worker (what bench_distributed --scheduler measures on the GPU machine)
+    assert list(predicted[1]["tiles_by_grid"]) == ["4x2", "4x4", "8x4", "8x8"] and predicted[1]["grid"] == "4x2"
     rows = [{"split": s, "grid": g, "workers": w, "seconds": 1.0, "bricks_read": [8] * w}
             for s, g in distributed_costs.CHECKS for w in (1, 2)]
     checks = distributed_costs.checked(rows, costs, costs, plans, (16, 16))
