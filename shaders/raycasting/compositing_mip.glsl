@@ -8,13 +8,15 @@
 // (torus 256^3: 108 of 165 samples per pixel taken). So the ray's stretches (its samples in one
 // block, in the order of the walk over the blocks below) are taken in three passes:
 //   1. the blocks only, one texelFetch each: the largest bound on the ray, `top`, and the first
-//      stretch with it;
-//   2. that stretch's samples: a maximum `best` usually close to the ray's;
+//      stretch with it, and the stretch with the next largest bound (`second`);
+//   2. those two stretches' samples: a maximum `best` usually close to the ray's (the second
+//      stretch took the bonsai from 23.8 to 21.2 samples per pixel and 7-12 % less CPU per frame:
+//      a block next to the top one often holds the same voxel in its margin);
 //   3. front to back, the stretches that can still change the result: before the depth sample
 //      one whose bound reaches `best` (an equal sample there becomes the first one holding the
 //      maximum), after it one whose bound exceeds `best`; inside a stretch, the rest of it is
 //      dropped once `best` reaches its bound, and the ray ends once `best` reaches `top` after
-//      the depth sample.
+//      the depth sample. The two stretches of pass 2 are not taken again.
 // Every sample left out is bounded by a value that cannot change the maximum or its first sample,
 // so image and depth are exactly those of the plain march (tests/test_mip_skipping.py); the torus
 // takes 40 samples per pixel. In pass 3 the walk is a loop of its own with no sampling inside,
@@ -71,6 +73,9 @@ Result march(Ray ray) {
     float top = -1e30;
     int top_start = 0;
     int top_end = 0;
+    float second = -1e30;
+    int second_start = -1;
+    int second_end = -1;
     Cells cells = first_cell(walk);
     for (int i = 0; i < ray.samples;) {
         ivec3 block;
@@ -80,9 +85,16 @@ Result march(Ray ray) {
         }
         float bound = block_value(block);
         if (bound > top) {
+            second = top;
+            second_start = top_start;
+            second_end = top_end;
             top = bound;
             top_start = i;
             top_end = next;
+        } else if (bound > second) {
+            second = bound;
+            second_start = i;
+            second_end = next;
         }
         i = next;
     }
@@ -96,6 +108,18 @@ Result march(Ray ray) {
         if (value > best) {
             best = value;
             best_sample = i;
+        }
+    }
+    float second_bound = min(second, 1.0);
+    for (int j = second_start; j < second_end; ++j) {
+        if (j > best_sample && best >= second_bound) {
+            break;
+        }
+        float value = min(intensity(sample_point(ray, float(j))), 1.0);
+        result.taken++;
+        if (value > best || (value == best && j < best_sample)) {
+            best = value;
+            best_sample = j;
         }
     }
     // 3. The rest, front to back: the walk to the next stretch that can change the result, then
@@ -112,7 +136,7 @@ Result march(Ray ray) {
                 continue;
             }
             float bound = block_value(block);
-            if ((i < best_sample ? bound + tie_slack >= best : bound > best) && i != top_start) {
+            if ((i < best_sample ? bound + tie_slack >= best : bound > best) && i != top_start && i != second_start) {
                 stretch_end = next;
                 stretch_bound = min(bound, 1.0);
                 break;
