@@ -4,6 +4,8 @@ evicted, reused), the image at level 0 with every brick resident against the in-
 (dvr, mip, iso, shaded; a brick size that does not divide the volume), missing bricks drawn from a
 coarser resident level, and budgets the atlas cannot honour refused by name."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -15,8 +17,12 @@ from vgraph.bricks.page_table import EMPTY, REFINE, RESIDENT, PageTable, childre
 from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.sampling import BrickSampling
+from vgraph.bricks.cells import coarseness
 from vgraph.bricks.selection import BrickGeometry
+from vgraph.bricks.volume import BrickedVolume
+from vgraph.camera import Camera
 from vgraph.frame_context import FrameContext
+from vgraph.numerics.reference_raycast import volume_box
 from vgraph.testing import ray_caster_network
 from vgraph.volume import Volume
 
@@ -156,6 +162,30 @@ def test_bonsai_at_level_0_equals_the_in_core_raycaster(bonsai, mode):
     got, _, rc = single_pass(bonsai, camera, brick_size=16, lod_bias=FINEST, **properties)
     assert rc.last_frame["levels"] == [0] and rc.last_frame["complete"]
     assert np.abs(got - want).max() <= ONE_STEP and got[..., :3].std() > 0.01
+
+
+def test_an_ome_zarr_py_store_kept_in_z_renders_each_level_as_the_pass_per_brick(tmp_path):
+    """Cells that are not each level's bricks (ome-zarr-py keeps z, halves y and x: vgraph.bricks.cells):
+    level 0 equals the array in memory, each coarser level the pass per brick's picture of it."""
+    foreign = pytest.importorskip("test_foreign_ome_zarr")  # (skips without ome-zarr-py)
+    data = (field((24, 96, 80)) * 60000).astype(np.uint16)
+    path = foreign.ome_zarr_py_image(tmp_path / "image.zarr", data, scale_factors=[2, 4, 8],
+                                     scale={"z": 2.0, "y": 0.5, "x": 0.5}, storage_options={"chunks": (8, 32, 32)})
+    store = foreign.opened(path)
+    volume = BrickedVolume(store)
+    memory = Volume(data, spacing=volume.spacing, origin=volume.origin, declared_range=volume.value_range)
+    camera = Camera.looking_at_box(*volume_box(memory), direction=(-0.5, -0.3, -1.0), projection="orthographic")
+    ramp = {"transfer_function": foreign.RAMP, "compositing": "mip"}
+    want, _, _ = render(memory, camera, "RayCaster", **ramp)
+    pixels = max(volume.spacing) * SIZE[1] / (2 * camera.parallel_scale)
+    steps = coarseness(store)
+    for level in range(len(store.levels)):  # a bias between two levels' coarseness: one level for all
+        above = steps[level + 1] if level + 1 < len(steps) else steps[level] + 2
+        bias = -16.0 if level == 0 else (steps[level] + above) / 2 + math.log2(pixels)
+        got, _, rc = single_pass(volume, camera, lod_bias=bias, **ramp)
+        passes, _, _ = render(volume, camera, lod_bias=bias, **ramp)
+        assert rc.last_frame["levels"] == [level]
+        assert np.abs(got - (want if level == 0 else passes)).max() <= ONE_STEP, level
 
 
 def sparse_ball() -> Volume:
