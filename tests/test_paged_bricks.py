@@ -21,6 +21,7 @@ from vgraph.bricks.cells import coarseness
 from vgraph.bricks.selection import BrickGeometry
 from vgraph.bricks.volume import BrickedVolume
 from vgraph.camera import Camera
+from vgraph.clipping import ClipPlane
 from vgraph.frame_context import FrameContext
 from vgraph.numerics.reference_raycast import volume_box
 from vgraph.testing import ray_caster_network
@@ -186,6 +187,23 @@ def test_an_ome_zarr_py_store_kept_in_z_renders_each_level_as_the_pass_per_brick
         passes, _, _ = render(volume, camera, lod_bias=bias, **ramp)
         assert rc.last_frame["levels"] == [level]
         assert np.abs(got - (want if level == 0 else passes)).max() <= ONE_STEP, level
+
+
+@pytest.mark.parametrize("mode", ["dvr", "mip"])
+def test_clip_planes_cut_the_single_pass_as_the_raycaster(mode):
+    volume = odd_volume()
+    low, high = volume_box(volume)
+    plane = ClipPlane(normal=(1.0, 0.2, 0.1), point=tuple((np.asarray(low) + np.asarray(high)) / 2))
+    images = {}
+    for processor, extra in (("RayCaster", {}), ("BrickedRayCaster", {"method": "single_pass", "brick_size": 16,
+                                                                      "lod_bias": FINEST})):
+        network = ray_caster_network(volume, oblique(volume), processor, compositing=mode, early_termination=1.0,
+                                     **UNSHADED_RAMP, **extra)
+        uncut = np.asarray(network.evaluate("rc.image", size=SIZE))
+        network.set("eep.clip_planes", (plane,))
+        images[processor] = np.asarray(network.evaluate("rc.image", size=SIZE))
+    assert np.abs(images["BrickedRayCaster"] - images["RayCaster"]).max() <= ONE_STEP
+    assert np.abs(images["BrickedRayCaster"] - uncut).max() > 0.1  # the plane removed something seen
 
 
 def sparse_ball() -> Volume:
