@@ -97,11 +97,12 @@ void main() {
 #ifdef DEPTH_OUTPUT
     depth = vec4(0.0);
 #endif
-    if (c_out > c_in) {  // corner, central, corner (either corner piece may be empty)
-        add_piece(t_in, c_in);
-        add_piece(c_in, c_out);
-        add_piece(c_out, t_out);
-    } else {             // inside one corner tetrahedron all the way
-        add_piece(t_in, t_out);
-    }
+    // Corner, central, corner (either corner piece may be empty); inside one corner tetrahedron
+    // all the way, the first piece is the whole [t_in, t_out] and the other two are empty. Three
+    // calls either way, not an if with one call and an else with three: a SIMD rasteriser (llvmpipe)
+    // runs both branches for a block of pixels that disagree, four pieces' work for three.
+    bool central = c_out > c_in;
+    add_piece(t_in, central ? c_in : t_out);
+    add_piece(c_in, central ? c_out : c_in);
+    add_piece(central ? c_out : t_out, t_out);
 }
