@@ -1,7 +1,7 @@
 """Where a ProjectedTetrahedra frame's time goes (issue #31, item 2): each stage timed by itself.
 
     .venv/bin/python bench/tetra_frame_cost.py [--sizes 64 128x128x58 256x128x64] [--size 512]
-        [--repeat 5] [--variants "cells averaged" ...] [--baseline COMMIT]
+        [--repeat 5] [--variants "cells averaged" ...] [--with-depth] [--baseline COMMIT ...]
 
 The meshes, transfer function, cameras and variants are bench_tetra.py's (the culled bonsai
 meshes: 111 k, 354 k and 820 k tetrahedra at the default sizes; "cells averaged", "cells
@@ -23,16 +23,20 @@ without the wrapping). Stages:
 Variants alternate frame by frame (bench/interleave.py: a warm-up frame each, then one frame per
 variant per round, each round a new camera); min / median over the rounds per stage.
 
---baseline COMMIT adds, per variant, the same frames drawn by vgraph as it was at COMMIT (``git
-archive`` of src/vgraph into a temporary folder, run in a spawned worker process driven frame by
-frame, so the two codes alternate in the same rounds): before / after of a change, measured as
-every comparison in the benches is. The worker times whole frames only (with the read-back).
+--with-depth adds, per variant, the same processor's frames with its depth output read as well
+(the on-demand depth drawn: a second render target). --baseline COMMIT ... adds, per variant and
+commit, the same frames drawn by vgraph as it was at COMMIT (``git archive`` of src/vgraph into a
+temporary folder, run in a spawned worker process driven frame by frame, so the codes alternate
+in the same rounds): before / after of a change, measured as every comparison in the benches is.
+A worker times whole frames only (with the read-back). The last column is, for those rows, their
+frame over the plain variant's in the same round: median (min-max).
 """
 
 from __future__ import annotations
 
 import argparse
 import multiprocessing
+import os
 import subprocess
 import sys
 import tempfile
@@ -96,15 +100,17 @@ class StageClock:
                 self.process_seconds = time.perf_counter() - start
         pt.ProjectedTetrahedra.process = timed_process
 
-    def frame(self, network, pid: str, size: int):
+    def frame(self, network, pid: str, size: int, with_depth: bool = False):
         """A frame of processor ``pid`` with its stages: camera -> (seconds, stage seconds)."""
+        targets = [f"{pid}.image", f"{pid}.depth"] if with_depth else [f"{pid}.image"]
+
         def frame(camera):
             self.seconds = dict.fromkeys(STAGES, 0.0)
             network.set(f"{pid}.camera", camera)
             network.invalidate_downstream(pid)
             self.ctx.finish()
             start = time.perf_counter()
-            network.update(f"{pid}.image", size=(size, size))
+            network.update(*targets, size=(size, size))
             self.ctx.finish()
             updated = time.perf_counter()
             network.output(f"{pid}.image").to_numpy()
@@ -119,7 +125,7 @@ class StageClock:
 
 
 # --- the code as it was at a commit, in a worker process --------------------------------------------
-def baseline_worker(connection, source: str, dims, size: int, variants):
+def baseline_worker(connection, source: str, dims, size: int):
     """Worker: vgraph from ``source`` (a src folder); answers a camera tuple and a variant with the
     seconds of a whole frame (update, glFinish, read-back); None ends it."""
     sys.path.insert(0, source)
@@ -147,7 +153,7 @@ def baseline_worker(connection, source: str, dims, size: int, variants):
 class Baseline:
     """vgraph at ``commit`` drawing the same frames in a spawned process."""
 
-    def __init__(self, commit: str, dims, size: int, variants):
+    def __init__(self, commit: str, dims, size: int):
         self.folder = tempfile.TemporaryDirectory(prefix="vgraph-baseline-")
         archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "src/vgraph"],
                                  check=True, capture_output=True).stdout
@@ -155,7 +161,7 @@ class Baseline:
         context = multiprocessing.get_context("spawn")
         self.connection, theirs = context.Pipe()
         self.process = context.Process(target=baseline_worker, daemon=True, args=(
-            theirs, str(Path(self.folder.name) / "src"), dims, size, tuple(variants)))
+            theirs, str(Path(self.folder.name) / "src"), dims, size))
         self.process.start()
         if not self.connection.poll(600) or self.connection.recv() != "ready":
             raise RuntimeError("the baseline's worker did not start")
@@ -180,19 +186,32 @@ def measure(clock: StageClock, dims, args) -> tuple[int, dict]:
     mesh = network.output("tets.mesh")
     cams = bt.cameras(mesh, args.repeat)
     frames, records = {}, {}
+    baselines = [Baseline(commit, dims, args.size) for commit in args.baseline or ()]
     for variant in args.variants:
         frames[variant] = clock.frame(network, variant.replace(" ", "_"), args.size)
-    baseline = Baseline(args.baseline, dims, args.size, args.variants) if args.baseline else None
-    if baseline is not None:
-        frames.update({f"{v} @ {args.baseline}": baseline.frame(v) for v in args.variants})
+        if args.with_depth:  # its own processor: switching one would reallocate its targets each frame
+            pid = with_depth_copy(network, variant.replace(" ", "_"))
+            frames[f"{variant} + depth"] = clock.frame(network, pid, args.size, True)
+        for commit, baseline in zip(args.baseline or (), baselines):
+            frames[f"{variant} @ {commit}"] = baseline.frame(variant)
     try:
         recorded = {name: (lambda f, n: lambda camera: _record(records, n, f(camera)))(f, name)
                     for name, f in frames.items()}
         interleaved(recorded, cams, cams[0].rotate(1.0, 0.0))
     finally:
-        if baseline is not None:
+        for baseline in baselines:
             baseline.close()
     return len(mesh.tets), {name: rows[1:] for name, rows in records.items()}  # without the warm-up
+
+
+def with_depth_copy(network, pid: str) -> str:
+    """A second ProjectedTetrahedra with the settings of ``pid`` on the same mesh; its id."""
+    copy = f"{pid}_depth"
+    original = network.processors[pid]
+    network.add("ProjectedTetrahedra", id=copy, **{name: getattr(original, name) for name in
+                                                   ("transfer_function", "integration", "grid_cells")})
+    network.connect("tets.mesh", f"{copy}.mesh")
+    return copy
 
 
 def _record(records: dict, name: str, result) -> float:
@@ -201,14 +220,17 @@ def _record(records: dict, name: str, result) -> float:
 
 
 def table(results) -> list[str]:
-    lines = ["| mesh | tetrahedra | variant | frame (s) | " + " | ".join(STAGES) + " |",
-             "|---|---|---|---|" + "---|" * len(STAGES)]
+    lines = ["| mesh | tetrahedra | variant | frame (ms) | " + " | ".join(STAGES) + " | frame / plain variant's |",
+             "|---|---|---|---|" + "---|" * len(STAGES) + "---|"]
     for dims, tets, records in results:
         for name, rows in records.items():
             seconds = np.array([r[0] for r in rows])
             cells = [_pair(np.array([r[1].get(s, np.nan) for r in rows])) for s in STAGES]
+            plain = name.split(" @ ")[0].removesuffix(" + depth")
+            ratios = seconds / np.array([r[0] for r in records[plain]])
+            ratio = "" if plain == name else f"{np.median(ratios):.2f} ({ratios.min():.2f}-{ratios.max():.2f})"
             lines.append(f"| {'x'.join(map(str, dims))} | {tets:,} | {name} | {_pair(seconds)} | "
-                         + " | ".join(cells) + " |")
+                         + " | ".join(cells) + f" | {ratio} |")
     return lines
 
 
@@ -226,7 +248,8 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--variants", nargs="+", default=list(bt.OURS), choices=list(bt.OURS))
-    parser.add_argument("--baseline", help="a commit whose vgraph draws the same frames, alternating")
+    parser.add_argument("--with-depth", action="store_true", help="also each variant with its depth output read")
+    parser.add_argument("--baseline", nargs="+", help="commits whose vgraph draws the same frames, alternating")
     args = parser.parse_args()
     from vgraph.gl_context import get_context
     clock = StageClock(get_context())
@@ -237,7 +260,8 @@ def main() -> None:
         tets, records = measure(clock, dims, args)
         results.append((dims, tets, records))
     print(f"# ProjectedTetrahedra frame cost ({' '.join(sys.argv[1:]) or 'defaults'}), {args.size}^2, "
-          f"{args.repeat} rounds; min / median ms; stages timed alone (glFinish around each)\n")
+          f"{args.repeat} rounds; min / median ms; stages timed alone (glFinish around each); "
+          f"load average before: {os.getloadavg()[0]:.1f}\n")
     print("\n".join(table(results)))
 
 
