@@ -2,7 +2,7 @@
 
     QT_QPA_PLATFORM=offscreen .venv/bin/python bench/bench_interaction.py
         [--networks head bonsai tets_bonsai] [--drags camera property tf] [--seconds 2]
-        [--coarse-tetrahedra N] [--out bench/results] [--xvfb]
+        [--coarse-tetrahedra N [N ...]] [--out bench/results] [--xvfb]
 
 Opens each network in a MainWindow with its own render process (as ``vgraph gui`` does), the
 Canvas at 512 x 512, and drives three drags with input events every 16 ms (a 60 Hz mouse):
@@ -15,9 +15,10 @@ Canvas at 512 x 512, and drives three drags with input events every 16 ms (a 60 
 Networks: ``head`` is networks/raycast_head.json; ``bonsai`` is the same network on
 shared/data/ct_bonsai (256^3 uint8), with a camera that fits the data and a leaves-and-pot TF;
 ``tets_bonsai`` is networks/tets_bonsai.json (the culled bonsai as 6.2 M tetrahedra, projected),
-dragged with the camera only (its other drags would cut the mesh again each frame), its
-ProjectedTetrahedra's ``coarse_tetrahedra`` set to ``--coarse-tetrahedra`` when given (0: the
-whole mesh while dragging, as before vgraph.mesh_lod; default: the processor's).
+dragged with the camera only (its other drags would cut the mesh again each frame), with its
+ProjectedTetrahedra's ``coarse_tetrahedra`` at each value of ``--coarse-tetrahedra`` in turn, drag
+by drag in the same window (0: the whole mesh while dragging, as before vgraph.mesh_lod; default:
+the processor's own), so that the machine's load falls on every setting alike.
 
 Per drag it records, at the window, every frame given to the canvas (``LiveEvaluation.frames``:
 when, its size, final or not) and when it was first painted (an event filter on the canvas) and, in the render process, every job (``RenderResult``'s timestamps: submitted,
@@ -253,7 +254,7 @@ def measure(window, recorder: Recorder, network: str, drag: str, seconds: float)
                round(refined_window[-1][3] - end, 2) if refined_window else float("nan"))
 
 
-def open_window(path: Path, settings_dir: Path, properties: dict | None = None):
+def open_window(path: Path, settings_dir: Path):
     from PySide6.QtCore import QSettings
     from PySide6.QtWidgets import QApplication
     from vgraph.gui.app import MainWindow
@@ -266,8 +267,6 @@ def open_window(path: Path, settings_dir: Path, properties: dict | None = None):
     if not window.open_network(path):
         raise SystemExit(f"cannot open {path}")
     window.workspace.network.set(f"{CANVAS}.size", [512, 512])
-    for address, value in (properties or {}).items():
-        window.workspace.network.set(address, value)
     window.evaluation.run(wait=True)
     settle(window)
     return window
@@ -358,8 +357,9 @@ def parse_args(argv=None):
     parser.add_argument("--drags", nargs="+", choices=list(DRAGS), default=list(DRAGS))
     parser.add_argument("--seconds", type=float, default=2.0, help="length of each drag")
     parser.add_argument("--repeat", type=int, default=1, help="drags of each kind per network")
-    parser.add_argument("--coarse-tetrahedra", type=int, default=None,
-                        help="tets_bonsai: the ProjectedTetrahedra's coarse_tetrahedra (0: the whole mesh while dragging)")
+    parser.add_argument("--coarse-tetrahedra", type=int, nargs="+", default=None,
+                        help="tets_bonsai: the ProjectedTetrahedra's coarse_tetrahedra, each in turn "
+                             "(0: the whole mesh while dragging)")
     parser.add_argument("--out", type=Path, default=REPO / "bench" / "results")
     parser.add_argument("--xvfb", action="store_true", help="run under Xvfb (a real X server)")
     parser.add_argument("--overhead", action="store_true",
@@ -404,17 +404,20 @@ def main(argv=None) -> int:
         folder = Path(folder)
         paths = {"head": HEAD, "bonsai": bonsai_network(folder), "tets_bonsai": TETS_BONSAI}
         for name in args.networks:
-            properties = {} if name != "tets_bonsai" or args.coarse_tetrahedra is None else \
-                {"pt.coarse_tetrahedra": args.coarse_tetrahedra}
-            window = open_window(paths[name], folder, properties)
+            window = open_window(paths[name], folder)
             recorder = Recorder(window)
-            label = name + "".join(f" {a.split('.')[-1]}={v}" for a, v in properties.items())
+            settings = [None] if name != "tets_bonsai" or not args.coarse_tetrahedra else args.coarse_tetrahedra
             try:
                 for drag in [d for d in args.drags if d in NETWORK_DRAGS.get(name, DRAGS)]:
                     for _ in range(args.repeat):
-                        row = measure(window, recorder, label, drag, args.seconds)
-                        rows.append(row)
-                        print_row(row)
+                        for setting in settings:  # in turn: the load drifts over every setting alike
+                            label = name
+                            if setting is not None:
+                                window.workspace.set_property("pt.coarse_tetrahedra", setting)
+                                label = f"{name} coarse={setting}"
+                            row = measure(window, recorder, label, drag, args.seconds)
+                            rows.append(row)
+                            print_row(row)
             finally:
                 window.workspace.undo_stack.setClean()
                 window.close()

@@ -39,10 +39,10 @@ from vgraph import derived
 from vgraph.mesh import RegularGrid, TetMesh
 from vgraph.tetrahedralize import cell_ranges, orient, volume_tetrahedra
 
-# What llvmpipe draws in a drag's 128 x 128 frame in about 40 ms on two shared cores, which
-# leaves time for the GUI and the transfer in a tenth of a second (tets_bonsai: clustered 4^3,
-# 150 k of its 6.2 M tetrahedra; 3^3, 315 k, took 60 ms; docs/reports/gui-performance.md).
-COARSE_TETRAHEDRA = 100_000
+# What llvmpipe draws in a drag's 128 x 128 frame within a tenth of a second, the GUI and the
+# transfer included, on two cores that other jobs share (tets_bonsai clustered 5^3: 86 k of its
+# 6.2 M tetrahedra; docs/reports/gui-performance.md, "Meshes while dragging").
+COARSE_TETRAHEDRA = 50_000
 
 
 def coarse_mesh(mesh: TetMesh, budget: int = COARSE_TETRAHEDRA) -> TetMesh:
