@@ -206,6 +206,19 @@ def test_clip_planes_cut_the_single_pass_as_the_raycaster(mode):
     assert np.abs(images["BrickedRayCaster"] - uncut).max() > 0.1  # the plane removed something seen
 
 
+@pytest.mark.parametrize("mode", ["dvr", "iso"])
+def test_skipping_empty_blocks_inside_the_atlas_bricks_leaves_the_image_and_saves_samples(bonsai, mode):
+    """The bonsai's bricks of 32 all hold something; their blocks of 8^3 often do not."""
+    properties = {**UNSHADED_RAMP, "compositing": mode, "brick_size": 32, "lod_bias": FINEST,
+                  **({"transfer_function": WINDOW, "shading": "blinn_phong"} if mode == "dvr" else {"iso_level": 0.3})}
+    camera = oblique(bonsai)
+    every, every_depth, _ = single_pass(bonsai, camera, empty_space_skipping=False, **properties)
+    got, got_depth, rc = single_pass(bonsai, camera, **properties)
+    assert "PAGED_BLOCKS" in rc.passes[-1].defines
+    assert np.abs(got - every).max() <= 1e-6 and got[..., :3].std() > 0.01
+    assert got_depth[..., 2].sum() < 0.7 * every_depth[..., 2].sum()  # depth's b: the samples evaluated
+
+
 def sparse_ball() -> Volume:
     """A small ball in the middle of 41 x 29 x 37 voxels, zero around it: most bricks of 8 (and
     their neighbours, which a brick's samples may filter) are empty."""

@@ -28,10 +28,6 @@ uniform vec3 cell_scale[PAGE_LEVELS];        // t -> cell coordinates: level-0 v
 uniform vec3 level_scale[PAGE_LEVELS];       // t -> the level's voxel coordinate u = t * scale + offset
 uniform vec3 level_offset[PAGE_LEVELS];
 
-ivec3 cell_of(vec3 t, int level) {
-    return clamp(ivec3(floor(t * cell_scale[level])), ivec3(0), page_grid[level] - 1);
-}
-
 vec4 leaf_entry(vec3 t) {
     return texelFetch(page_table, clamp(ivec3(floor(t * leaf_scale)), ivec3(0), leaf_grid - 1), 0);
 }
@@ -48,20 +44,65 @@ float intensity(vec3 t) {
     return raw_sample(t) * intensity_scale + intensity_offset;
 }
 
-// Where sample i lies in a cell that is not drawn, move i to the first sample past the cell where
-// the walk stopped and return true (march.glsl's PAGED_SKIPPING hook jumps until this returns
-// false).
+// The box (in t, half-open) of the cell of t in a grid of `grid` cells, `scale` cells per unit of t;
+// the volume's outer faces pushed to PAGE_FAR.
+void cell_box(vec3 t, vec3 scale, ivec3 grid, out vec3 lo, out vec3 hi) {
+    ivec3 cell = clamp(ivec3(floor(t * scale)), ivec3(0), grid - 1);
+    lo = mix(vec3(cell) / scale, vec3(-PAGE_FAR), equal(cell, ivec3(0)));
+    hi = mix(vec3(cell + 1) / scale, vec3(PAGE_FAR), equal(cell, grid - 1));
+}
+
+#ifdef PAGED_BLOCKS
+// Skipping inside the atlas's bricks (vgraph.bricks.atlas_blocks): 1 where a block of BLOCK^3 core
+// voxels of a slot adds nothing this frame; slot s's blocks start at texel slot * blocks_per_slot.
+#define PAGE_BLOCK 8.0
+#define PAGE_APRON 2.0
+uniform sampler3D block_flags;
+uniform vec3 slot_texels;        // the atlas's slot shape (x, y, z)
+uniform ivec3 blocks_per_slot;
+
+// Whether the drawn sample at t (leaf entry `entry`) lies in a block that adds nothing; if so its
+// box in t, within the level-0 cell of t (a block may reach past the cells its brick draws).
+bool in_empty_block(vec3 t, vec4 entry, inout vec3 lo, inout vec3 hi) {
+    int level = max(int(entry.a + 0.5) - 1, 0);
+    vec3 p = t * level_scale[level] + level_offset[level] + entry.rgb;  // atlas texels
+    vec3 slot = floor(p / slot_texels);
+    vec3 k = clamp(floor((p - slot * slot_texels - PAGE_APRON) / PAGE_BLOCK), vec3(0.0),
+                   vec3(blocks_per_slot - 1));
+    bool empty = texelFetch(block_flags, ivec3(slot) * blocks_per_slot + ivec3(k), 0).r > 0.5;
+    vec3 block_lo = (slot * slot_texels + PAGE_APRON + k * PAGE_BLOCK - level_offset[level] - entry.rgb)
+                    / level_scale[level];
+    lo = max(lo, block_lo);
+    hi = min(hi, block_lo + PAGE_BLOCK / level_scale[level]);
+    return empty;
+}
+#endif
+
+// Where sample i lies in a cell that is not drawn (or, with PAGED_BLOCKS, in a block that adds
+// nothing), move i to the first sample past that box and return true (march.glsl's
+// PAGED_SKIPPING hook jumps until this returns false). Samples skipped add nothing, so the image
+// is the same; a sample a rounding past the box's face still lies within half a voxel of it,
+// whose range covers it.
 bool paged_skipped(inout int i, Ray ray) {
     vec3 t = sample_point(ray, float(i));
     vec4 entry = leaf_entry(t);
+    vec3 lo, hi;
+    bool skip;
     if (entry.a > 0.0) {
+#ifdef PAGED_BLOCKS
+        cell_box(t, leaf_scale, leaf_grid, lo, hi);
+        skip = in_empty_block(t, entry, lo, hi);
+#else
+        skip = false;
+#endif
+    } else {
+        int level = int(-entry.a + 0.5) - 1;  // the cell where the walk stopped
+        cell_box(t, cell_scale[level], page_grid[level], lo, hi);
+        skip = true;
+    }
+    if (!skip) {
         return false;
     }
-    int level = int(-entry.a + 0.5) - 1;
-    ivec3 cell = cell_of(t, level);
-    ivec3 last = page_grid[level] - 1;
-    vec3 lo = mix(vec3(cell) / cell_scale[level], vec3(-PAGE_FAR), equal(cell, ivec3(0)));
-    vec3 hi = mix(vec3(cell + 1) / cell_scale[level], vec3(PAGE_FAR), equal(cell, last));
     // Per axis, the sample index where the ray leaves the box (the face ahead of it).
     vec3 face = mix(lo, hi, step(vec3(0.0), ray.step));
     vec3 ahead = vec3(ray.step.x != 0.0 ? (face.x - ray.start.x) / ray.step.x : 1e30,

@@ -17,7 +17,8 @@ Conventions:
   names the processor's property).
 - Slots are reused least recently used first, never a pinned one (the frame's bricks): ``place``
   returns the slot of a brick, uploading it into a free or evicted slot on a miss, or None when
-  every slot is pinned. ``stats`` counts uploads and evictions.
+  every slot is pinned. ``stats`` counts uploads and evictions. With each brick go the ranges of
+  its blocks (``blocks``, vgraph.bricks.atlas_blocks), for skipping inside it.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from collections import OrderedDict
 
 import numpy as np
 
+from vgraph.bricks.atlas_blocks import AtlasBlocks
 from vgraph.bricks.cache import HALO, TextureFormat
 from vgraph.bricks.cells import table_of
 from vgraph.gl_context import release_quietly
@@ -109,6 +111,7 @@ class BrickAtlas:
         self.key, self.source = key, source  # (the source by identity: another one's bricks are not these)
         self.slot_shape, self.slot_grid, self.capacity = slot_shape, grid, slots
         self.size = size
+        self.blocks = AtlasBlocks(slot_shape, grid, fmt, self.gl)  # the slots' block ranges (skipping)
         self.slots.clear()
         self.free = list(range(slots))
         return self
@@ -149,6 +152,7 @@ class BrickAtlas:
         nz, ny, nx = block.shape
         x, y, z = self.slot_origin(slot)
         self.texture.write(block.tobytes(), viewport=(x, y, z, nx, ny, nz), alignment=1)
+        self.blocks.record(slot, block)
         self.slots[key] = slot
         self.stats["uploads"] += 1
         return slot

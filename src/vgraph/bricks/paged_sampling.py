@@ -44,6 +44,7 @@ from vgraph.errors import VGraphError
 from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, IsoSurface, Sampling,
                                              TransferFunctionLut, ray_main_missed)
+from vgraph.gl.raycasting.empty_space import occupied_blocks
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.light import Gradients, Light
 from vgraph.gl.raycasting.raycaster_base import Binding, Component, Frame
@@ -101,8 +102,12 @@ class PagedSampling(Component):
         resolved = PageTable.resolve(geometry, table)
         leaf = self.page_table.upload(frame.ctx, resolved)
         self.frame_binding = self.binding_of(frame, geometry, source, leaf)
-        # march.glsl's jumps only where some cell is not drawn: on llvmpipe they cost every sample
-        self.frame_binding.defines["PAGED_SKIPPING"] = bool((resolved[..., 3] < 0.0).any())
+        blocks = self.block_flags(frame, atlas)
+        if blocks is not None:
+            self.frame_binding = self.frame_binding.merge(blocks)
+        # march.glsl's jumps only where some cell is not drawn or some block is skipped: on
+        # llvmpipe the jumps' look-ups cost every sample
+        self.frame_binding.defines["PAGED_SKIPPING"] = blocks is not None or bool((resolved[..., 3] < 0.0).any())
         self.draw(frame, target, own)
         missing = [key for key in plan.keys() if key not in offsets]
         complete = not missing
@@ -117,6 +122,29 @@ class PagedSampling(Component):
                            "error_bound": None if errors is None else errors.frame_bound(drawn.bricks, frame.size),
                            "bricks_read": cache.stats["bricks_read"] - read_before,
                            "atlas_slots": atlas.capacity, "seconds": time.perf_counter() - started}
+
+    def block_flags(self, frame: Frame, atlas: BrickAtlas) -> Binding | None:
+        """With ``empty_space_skipping``, the flags of the atlas's blocks that add nothing this frame
+        (vgraph.bricks.atlas_blocks; dvr: no opacity over the block's range, iso: below the level,
+        mip: nothing above 0); None when no block is skipped."""
+        processor = self.processor
+        if not processor.empty_space_skipping:
+            return None
+        mode = processor.compositing
+        if mode == "dvr":
+            lut = processor.parts[TransferFunctionLut].lut
+            lut.update(frame.ctx, processor.transfer_function, frame.volume)
+            alpha = lut.alpha
+            flags = atlas.blocks.flags(lambda low, high: ~occupied_blocks(low, high, alpha))
+        elif mode == "iso":
+            flags = atlas.blocks.flags(lambda low, high: high < processor.iso_level)
+        else:
+            flags = atlas.blocks.flags(lambda low, high: high <= 0.0)
+        if not flags.any():
+            return None
+        return Binding({"PAGED_BLOCKS": True}, textures={"block_flags": atlas.blocks.upload(frame.ctx, flags)},
+                       uniforms={"slot_texels": vec(np.asarray(atlas.slot_shape, dtype=np.float64)),
+                                 "blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
 
     def ensure_atlas(self, ctx, source, fmt) -> BrickAtlas:
         processor = self.processor

@@ -1,0 +1,64 @@
+"""Empty-space skipping inside the brick atlas's bricks (the single-pass bricked ray caster, issue
+#33): the ranges of every slot's blocks of BLOCK^3 core voxels and, per frame, which of them a ray
+may jump over under the frame's transfer function or iso level.
+
+Conventions:
+- A slot's blocks are those of the brick cache's skipping (vgraph.bricks.cache.block_ranges_of):
+  block k of a brick holds the samples at core coordinates [BLOCK k - 1/2, BLOCK (k + 1) - 1/2) and
+  its range (normalised min and max) covers every voxel those samples filter. Every slot has
+  ``per_slot`` blocks per axis (those of the largest brick); a smaller brick's blocks past its
+  core, and every free slot, are unknown: never skipped.
+- ``flags(skippable)`` lays the flags out as the atlas lays out its slots: slot s's blocks start
+  at texel ``slot_index(s) * per_slot`` of one R32F 3D texture (1: skip, 0: sample), so the shader
+  finds a sample's block from its atlas texel alone (bricks/paged_sampling.glsl).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vgraph.bricks.cache import BLOCK, HALO, TextureFormat, block_ranges_of
+from vgraph.gl_context import release_quietly
+
+
+class AtlasBlocks:
+    """The block ranges of an atlas's slots and their flag texture (module docstring)."""
+
+    def __init__(self, slot_shape, slot_grid, fmt: TextureFormat, gl: dict):
+        self.per_slot = tuple(-(-(n - 2 * HALO) // BLOCK) for n in slot_shape)  # (x, y, z)
+        self.slot_grid = tuple(slot_grid)
+        self.format = fmt
+        gx, gy, gz = self.slot_grid
+        bx, by, bz = self.per_slot
+        # [slot, bz, by, bx, (min, max)]; NaN: unknown (never skipped)
+        self.ranges = np.full((gx * gy * gz, bz, by, bx, 2), np.nan, dtype=np.float32)
+        self.gl = gl  # the atlas's GL objects: the flags go with them ("block_flags")
+
+    def record(self, slot: int, data: np.ndarray) -> None:
+        """The ranges of the brick now in ``slot`` (``data``: its voxels with the apron, in texture values)."""
+        ranges = block_ranges_of(data, self.format)
+        self.ranges[slot] = np.nan
+        nz, ny, nx = ranges.shape[:3]
+        self.ranges[slot, :nz, :ny, :nx] = ranges
+
+    def flags(self, skippable) -> np.ndarray:
+        """float32 [z, y, x] over all slots' blocks: 1 where ``skippable(low, high)`` (bool arrays of
+        the blocks' normalised ranges) says no sample in the block adds anything."""
+        low, high = self.ranges[..., 0], self.ranges[..., 1]
+        known = np.isfinite(low) & np.isfinite(high)
+        skip = np.zeros(low.shape, dtype=bool)
+        skip[known] = skippable(low[known], high[known])
+        gx, gy, gz = self.slot_grid
+        bx, by, bz = self.per_slot
+        grid = skip.reshape(gz, gy, gx, bz, by, bx).transpose(0, 3, 1, 4, 2, 5)
+        return np.ascontiguousarray(grid.reshape(gz * bz, gy * by, gx * bx), dtype=np.float32)
+
+    def upload(self, ctx, flags: np.ndarray):
+        """The flags as an R32F 3D texture (kept while its size and context stay)."""
+        size = flags.shape[2], flags.shape[1], flags.shape[0]
+        texture = self.gl.get("block_flags")
+        if texture is None or texture.ctx is not ctx or texture.size != size:
+            release_quietly({"block_flags": self.gl.pop("block_flags", None) or {}})
+            texture = self.gl["block_flags"] = ctx.texture3d(size, 1, dtype="f4")
+        texture.write(flags.tobytes())
+        return texture
