@@ -17,6 +17,8 @@ Conventions (docs/explanations/bricked-ray-casting.md, "One pass, a page table")
   out (EMPTY), and its leaf table (PageTable.resolve) is what the shader reads. A planned brick
   the atlas does not hold is drawn from its finest resident ancestor; under a ``load_limit`` the
   missing ones are read ahead for the next frame (``last_frame["complete"]`` False until then).
+- ``empty_space_skipping``: the blocks of 8^3 voxels inside the atlas's bricks that add nothing
+  this frame (vgraph.bricks.atlas_blocks) are jumped over too (define PAGED_BLOCKS).
 - The atlas holds ``gl_budget`` MB of slots at most (no more than the pyramid's bricks); a budget
   that needs a texture past GL_MAX_3D_TEXTURE_SIZE, or holds not one brick, is a VGraphError
   naming ``<processor>.gl_budget``.
