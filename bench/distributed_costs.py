@@ -119,7 +119,7 @@ def _setup_costs(document, base_dir, target, size, plans) -> dict:
     cache.use_source(caster.brick_source(volume), volume.value_range)
     whole = plans["1x1"][0]["bricks"]
     # Every planned brick, in the frame's order, into one cache: a brick's read includes the cache's
-    # bookkeeping, which grows with the bricks it holds (a sample of 16 read 2x faster per brick).
+    # bookkeeping, which grows with the bricks it holds (BrickCache._evict sums them all per insert).
     keys = [tuple(key) for key, _ in whole]
     start = time.perf_counter()
     for key in keys:
@@ -299,7 +299,9 @@ def checked(rows: list[dict], costs1: Costs, costs2: Costs, plans: dict, size) -
             table.append({"split": split, "grid": grid, "workers": workers, "measured": measured.__dict__,
                           "model": model.__dict__, "error": measured.mid / model.mid - 1,
                           "inside": model.low <= measured.mid <= model.high,
-                          "bricks_read": runs[0]["bricks_read"], "bricks_modelled": bricks,
+                          # every split the rounds saw (the scheduler deals 2x2 on 2 workers either way)
+                          "bricks_read": [list(b) for b in sorted({tuple(r["bricks_read"]) for r in runs})],
+                          "bricks_modelled": bricks,
                           # the busiest worker's reading: in the frames (its cache's clock), in the model
                           "read_measured": Spread.of(max(r.get("read_seconds") or [0.0]) for r in runs).__dict__,
                           "read_modelled": bricks[0] * costs.pick("mid").read})

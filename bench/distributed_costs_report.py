@@ -24,6 +24,12 @@ def _text(s: dict, scale: float = 1.0, digits: int = 2) -> str:
     return f"{s['low'] * scale:.{digits}f} / {s['mid'] * scale:.{digits}f} / {s['high'] * scale:.{digits}f}"
 
 
+def _splits(read) -> str:
+    """Bricks read per worker: one split ('320 / 320') or those the rounds saw ('320 / 320 or 368 / 368')."""
+    splits = read if read and isinstance(read[0], list) else [read]
+    return " or ".join(" / ".join(map(str, split)) for split in splits)
+
+
 def markdown(result: dict) -> str:
     size, costs = result["size"], result["costs"]
     lines = [f"Bonsai, {size[0]}x{size[1]}, BrickedRayCaster, OME-Zarr bricks of {result['brick']}^3, "
@@ -47,7 +53,7 @@ def markdown(result: dict) -> str:
     for c in result["checks"]:
         lines.append(f"| {c['split']} | {c['grid']} | {c['workers']} | {_text(c['measured'])} | {_text(c['model'])} | "
                      f"{c['error']:+.0%} | {'yes' if c['inside'] else 'NO'} | "
-                     f"{' / '.join(map(str, c['bricks_read']))}; {' / '.join(map(str, c['bricks_modelled']))} | "
+                     f"{_splits(c['bricks_read'])}; {' / '.join(map(str, c['bricks_modelled']))} | "
                      f"{_text(c['read_measured']) if 'read_measured' in c else '-'}; {c.get('read_modelled', 0):.2f} |")
     lines += ["", "Predictions, one worker per machine (contention 1; the other constants as measured here):",
               "", "| workers | tiles grid | bricks of the busiest worker (tiles) | tiles s (low / mid / high) | "

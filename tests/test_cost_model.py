@@ -152,8 +152,8 @@ def test_the_bench_composes_its_constants_and_tables_from_the_rounds_samples():
     assert all(p["tiles"]["low"] <= p["tiles"]["mid"] <= p["tiles"]["high"] for p in predicted)
     # every grid with a tile per worker (what bench_distributed --scheduler measures on the GPU machine)
     assert list(predicted[1]["tiles_by_grid"]) == ["4x2", "4x4", "8x4", "8x8"] and predicted[1]["grid"] == "4x2"
-    rows = [{"split": s, "grid": g, "workers": w, "seconds": 1.0, "bricks_read": [8] * w}
-            for s, g in distributed_costs.CHECKS for w in (1, 2)]
+    rows = [{"split": s, "grid": g, "workers": w, "seconds": 1.0, "bricks_read": [8 + r] * w}
+            for s, g in distributed_costs.CHECKS for w in (1, 2) for r in (0, 0, 1)]
     checks = distributed_costs.checked(rows, costs, costs, plans, (16, 16))
     result = {"size": [16, 16], "brick": 32, "rounds": 3, "plans": {"weights": [1] * 8, "tiles": {
         g: [8] * tiles_for(g) for g in distributed_costs.GRIDS}}, "checks": checks,
@@ -162,3 +162,4 @@ def test_the_bench_composes_its_constants_and_tables_from_the_rounds_samples():
     table = markdown(result)
     assert "| read: read one brick from the store (per brick) | 10.00 / 12.00 / 20.00 | ms |" in table
     assert "| 64 | 8x8 |" in table and "| tiles | 2x2 | 2 |" in table
+    assert "| 8 / 8 or 9 / 9; 8 / 0 |" in table  # both splits the rounds saw; the model's (in turn)
