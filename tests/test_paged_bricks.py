@@ -280,13 +280,21 @@ def test_frames_under_a_load_limit_refine_to_the_level_0_image():
     assert np.abs(image - want).max() <= 2 * ONE_STEP  # (the sampling rate moved by 1e-5)
 
 
+def test_a_frame_with_more_bricks_than_atlas_slots_is_drawn_coarser_and_said_so():
+    volume = odd_volume()  # 18 bricks of 16 at level 0, smaller at the far faces: ~0.45 MB in all
+    slot = 20 ** 3 * 4     # the largest brick with its apron, float32
+    budget = 16 * slot / 2**20  # 16 slots: the bytes of level 0 fit, its bricks not
+    with pytest.warns(VGraphWarning, match=r"atlas \(16 slots .* cannot hold the frame's 18 bricks; rendering at level 1"):
+        image, _, rc = single_pass(volume, oblique(volume), brick_size=16, lod_bias=FINEST, gl_budget=budget)
+    assert rc.last_frame["levels"] == [1] and rc.last_frame["complete"] and image[..., :3].max() > 0.2
+
+
 # --- refusals ---------------------------------------------------------------------------------------
 def test_a_gl_budget_below_one_brick_names_the_processor_and_property():
     volume = odd_volume()
-    # the coarsest level (11 x 8 x 10 voxels, 10 KB with its apron) fits, a 20^3 slot (32 KB) does not
+    # the coarsest level (11 x 8 x 10 voxels, 10 KB with its apron) would fit, a 20^3 slot (32 KB) does not
     with pytest.raises(ProcessorError, match=r"rc\.gl_budget: BrickedRayCaster 'rc' .*does not hold one brick"):
-        with pytest.warns(VGraphWarning, match="rendering at level 2"):  # the plan: the coarsest level fits
-            single_pass(volume, oblique(volume), brick_size=16, gl_budget=0.02)
+        single_pass(volume, oblique(volume), brick_size=16, gl_budget=0.02)
 
 
 def test_an_atlas_past_the_gl_texture_limit_names_the_processor_and_property(monkeypatch):

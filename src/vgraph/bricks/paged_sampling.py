@@ -40,7 +40,7 @@ from vgraph.bricks.atlas import BrickAtlas
 from vgraph.bricks.cache import MB
 from vgraph.bricks.page_table import PageTable, texel_offset
 from vgraph.bricks.sampling import BrickSampling
-from vgraph.bricks.selection import BrickGeometry, normalised_ranges
+from vgraph.bricks.selection import BrickGeometry, FramePlan, normalised_ranges
 from vgraph.bricks.targets import level_voxel
 from vgraph.errors import VGraphError
 from vgraph.frame_context import FrameContext
@@ -69,6 +69,7 @@ class PagedSampling(Component):
         weakref.finalize(self.processor, release_quietly, self.page_table.gl)
         self.frame_binding = Binding()
         self.last_frame: dict = {}
+        self.warned_level = None  # the level the atlas's slots last raised the frame to
 
     def bind(self, frame: Frame) -> Binding:
         return self.frame_binding  # made by draw_frame, which draws the pass
@@ -89,11 +90,11 @@ class PagedSampling(Component):
         cache.set_budgets(processor.ram_budget, processor.gl_budget)
         geometry = BrickGeometry(source)
         errors = bricks.lod_errors(source, geometry, frame)
-        plan = bricks.plan(source, frame, errors)
-        read_before, seconds_before = cache.stats["bricks_read"], cache.stats["read_seconds"]
         resident_before = set(self.atlas.slots) if self.atlas.key is not None else set()
-        drawn = bricks.limited(source, plan, frame.ctx, context.load_limit)
         atlas = self.ensure_atlas(frame.ctx, source, cache.format)
+        plan = self.fitted(bricks.plan(source, frame, errors), source, atlas.capacity)
+        read_before, seconds_before = cache.stats["bricks_read"], cache.stats["read_seconds"]
+        drawn = bricks.limited(source, plan, frame.ctx, context.load_limit)
         # The bricks to draw, and the planned ones already in memory (read ahead by earlier frames):
         # their upload costs no reading, and the page table draws each cell at the finest it holds.
         wanted = list(dict.fromkeys(drawn.keys() + [key for key in plan.keys() if key in cache.ram]))
@@ -124,6 +125,22 @@ class PagedSampling(Component):
                            "error_bound": None if errors is None else errors.frame_bound(drawn.bricks, frame.size),
                            "bricks_read": cache.stats["bricks_read"] - read_before,
                            "atlas_slots": atlas.capacity, "seconds": time.perf_counter() - started}
+
+    def fitted(self, plan: FramePlan, source, slots: int) -> FramePlan:
+        """``plan``, or the finest coarser one whose bricks fit the atlas's ``slots`` (a slot has the
+        shape of the largest brick, so bricks that fit the budget in bytes may not fit in slots);
+        said once per level, as BrickSampling says a level the budget raised."""
+        fitted = plan
+        while len(fitted.bricks) > slots and fitted.floor_level < len(source.levels) - 1:
+            fitted = fitted.at_floor(fitted.floor_level + 1, source)
+        if fitted is not plan and fitted.floor_level != self.warned_level:
+            processor = self.processor
+            processor.parts[BrickSampling].warn(
+                f"{processor.type_name} '{processor.id}': the brick atlas ({slots} slots of gl_budget "
+                f"{processor.gl_budget:g} MB) cannot hold the frame's {len(plan.bricks)} bricks; rendering at "
+                f"level {fitted.floor_level} or coarser ({len(fitted.bricks)} bricks)")
+        self.warned_level = fitted.floor_level if fitted is not plan else None
+        return fitted
 
     def block_flags(self, frame: Frame, atlas: BrickAtlas) -> Binding | None:
         """With ``empty_space_skipping``, the flags of the atlas's blocks that add nothing this frame
