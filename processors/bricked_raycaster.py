@@ -11,7 +11,10 @@ Conventions (docs/explanations/bricked-ray-casting.md explains each with the num
   (below 1, dvr: each brick reads the accumulation, two passes a brick), the shading normals
   Gradients' (forward, backward, central or sobel, each reading at most one voxel away: the halo).
 - Its own part: the compositing mode (dvr, mip, iso; the define COMPOSITING_* of the brick and
-  resolve shaders) and ``empty_space_skipping`` inside a brick.
+  resolve shaders), ``empty_space_skipping`` inside a brick and ``method``: ``passes`` (the
+  default) draws through BrickSampling, ``single_pass`` through PagedSampling
+  (vgraph.bricks.paged_sampling, issue #33): the same plan, the bricks in an atlas read through a
+  page table in one pass of the RayCaster's shader, early termination across bricks.
 - The frame context (vgraph.frame_context; not properties) gives BrickSampling the ``load_limit``
   (coarse first in the GUI) and the ``leaf`` (the leaves split's run of bricks,
   vgraph.distributed.leaves).
