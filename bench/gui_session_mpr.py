@@ -115,7 +115,7 @@ def _page(window, user, axial, waits):
     yield from user.wheel(axial, axial.image_rect().center(), WHEEL_NOTCHES)
     mark = time.monotonic()
     yield lambda: network.get(f"{AXIAL}.cursor") != before
-    yield 0.4   # the wheel burst ends (canvas_view.WHEEL_IDLE_MS) before the refined frame counts
+    yield 0.4   # the wheel burst ends (canvas_mouse.WHEEL_IDLE_MS) before the refined frame counts
     after = network.get(f"{AXIAL}.cursor")
     moved = [round(b - a, 2) for a, b in zip(before, after)]
     if network.get(f"{LINKED}.cursor") != after:

@@ -11,7 +11,7 @@ from PySide6.QtGui import QImage, QWheelEvent
 from PySide6.QtWidgets import QApplication
 
 from vgraph.camera import Camera
-from vgraph.gui import canvas_view
+from vgraph.gui import canvas_mouse, canvas_view
 from vgraph.gui.canvas_view import CanvasView, camera_property_for
 from vgraph.network import Network
 
@@ -148,7 +148,7 @@ def test_right_drag_and_wheel_zoom(ws, qtbot):
     count = ws.undo_stack.count()
 
     drag(view, (100, 100), (100, 50), button=Qt.RightButton)   # up 50 px: zoom in
-    expected = original.zoom(math.exp(canvas_view.ZOOM_PER_PIXEL * 50))
+    expected = original.zoom(math.exp(canvas_mouse.ZOOM_PER_PIXEL * 50))
     assert_camera(ws.network.get("rc.camera"), expected)
     assert ws.network.get("rc.camera").distance < original.distance
     assert ws.undo_stack.count() == count + 1
@@ -201,7 +201,7 @@ def test_a_camera_fitting_the_data_rotates_fitting_and_zooms_from_the_last_frame
     drag(view, (100, 80), (100, 40), button=Qt.RightButton)
     zoomed = ws.network.get("rc.camera")
     assert not zoomed.fit_to_data and zoomed.near is None      # stored now, planes still automatic
-    assert zoomed.distance == pytest.approx(shown.distance / math.exp(canvas_view.ZOOM_PER_PIXEL * 40))
+    assert zoomed.distance == pytest.approx(shown.distance / math.exp(canvas_mouse.ZOOM_PER_PIXEL * 40))
     view.set_view("top")
     assert ws.network.get("rc.camera") == zoomed.viewed_from("top")
     view.fit_to_data()
@@ -216,7 +216,7 @@ def test_a_canvas_without_camera_only_says_so(ws, qtbot):
     count = ws.undo_stack.count()
     drag(view, (50, 50), (80, 80))
     wheel(view, 120)
-    assert view.message() == canvas_view.NO_CAMERA
+    assert view.message() == canvas_mouse.NO_CAMERA
     assert states == [] and ws.undo_stack.count() == count
 
 
@@ -233,7 +233,7 @@ def test_a_refused_camera_edit_is_shown_not_raised(ws, qtbot):
     assert view.message().startswith("rc.camera: no processor with id 'rc'")
     assert ws.undo_stack.count() == count and states == [True, False]
     drag(view, (50, 50), (60, 60))   # nothing upstream any more
-    assert view.message() == canvas_view.NO_CAMERA and ws.undo_stack.count() == count
+    assert view.message() == canvas_mouse.NO_CAMERA and ws.undo_stack.count() == count
     ws.undo_stack.undo()             # rc and its connections are back
     before = ws.network.get("rc.camera")
     drag(view, (50, 50), (60, 50))   # a good edit clears the complaint

@@ -5,7 +5,7 @@ breadth-first over predecessors in connection order, as canvas_view finds the ca
 follows the cursor: the drag, in world units at the plane's depth (the camera of that processor,
 as the last frame showed it), is projected on the normal's direction on the screen. A plane that
 faces the viewer (its normal nearly along the view) moves by the vertical drag instead: up pushes
-it away from the viewer. Like the camera gestures (canvas_view.py) each move is computed from the
+it away from the viewer. Like the camera gestures (canvas_mouse.py) each move is computed from the
 planes at drag start plus the total offset, and a drag is one undo step (one merge key).
 """
 

@@ -22,7 +22,7 @@
   slice says so); a right click without movement still opens the context menu.
 
 Linked viewers follow through the network's property links (the cursor and window of
-networks/mpr_mri_head.json are linked). Like the camera gestures (canvas_view.py), each value is
+networks/mpr_mri_head.json are linked). Like the camera gestures (canvas_mouse.py), each value is
 computed from the one at the gesture's start plus the total offset, and a wheel burst or a drag is
 one undo step (one merge key, CanvasView._apply). The GUI holds no volume: the render process
 reports each viewer's plane and SliceVolume with the view cameras (slice_clicks.py).
