@@ -13,8 +13,10 @@ Conventions:
 - Dialogs go through ``ask_*``/``report_error`` so tests can answer them.
 - File handling (New, Open with crash recovery and write-path consent, Save) is the
   ``FileActions`` mixin; ``Autosave`` keeps unsaved changes aside while the window is open.
-- The render process is watched (``LiveEvaluation``): an overdue frame shows a "Cancel rendering"
-  button in the status bar (and Network > Cancel Rendering); restarts and deaths go to the log.
+- The actions and menus are the ``WindowMenus`` mixin (menus.py).
+- The render process is watched (``LiveEvaluation``); what the window says about it (outcomes in
+  the log, an overdue frame's "Cancel rendering" button, the cluster) is the ``RenderStatus``
+  mixin (render_status.py); restarts and deaths go to the log.
 - No OpenGL here: evaluation happens in the render process (``LiveEvaluation``), frames come back
   as images.
 """
@@ -27,32 +29,32 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from PySide6.QtCore import QSettings, Qt
-from PySide6.QtGui import QAction, QCursor, QKeySequence
-from PySide6.QtWidgets import QApplication, QDockWidget, QMainWindow, QMessageBox, QPushButton
+from PySide6.QtGui import QCursor
+from PySide6.QtWidgets import QApplication, QDockWidget, QMainWindow, QMessageBox
 
 from vgraph.atomic import atomic_path
 from vgraph.errors import VGraphError
+from vgraph.gui import layout
 from vgraph.gui.autosave import Autosave
 from vgraph.gui.canvases import CanvasDocks
-from vgraph.gui.cluster_dialog import ClusterDialog, load_setting, save_setting
-from vgraph.live.evaluator import EvaluationOutcome, format_seconds
+from vgraph.gui.cluster_dialog import load_setting
 from vgraph.gui.file_actions import FileActions
-from vgraph.gui.help import build_help_menu, redo_keys
-from vgraph.gui import layout
-from vgraph.gui import canvas_grid
 from vgraph.gui.inspector import PropertyInspector
 from vgraph.gui.links import LinkDialog
 from vgraph.gui.live_evaluation import LiveEvaluation
-from vgraph.live.render_process import RenderProcess
 from vgraph.gui.log import LogPanel
+from vgraph.gui.menus import WindowMenus
 from vgraph.gui.palette import ProcessorPalette
 from vgraph.gui.perspectives import Perspectives
 from vgraph.gui.progress_view import EvaluationProgress
+from vgraph.gui.render_status import RenderStatus
 from vgraph.gui.scene import NetworkScene, NetworkView
 from vgraph.gui.welcome import WelcomeSwitch
 from vgraph.gui.workspace import Workspace
+from vgraph.live.render_process import RenderProcess
 
-class MainWindow(FileActions, QMainWindow):
+
+class MainWindow(FileActions, WindowMenus, RenderStatus, QMainWindow):
     def __init__(self, settings: QSettings | None = None, renderer: RenderProcess | None = None):
         super().__init__()
         self.workspace = Workspace(settings, self)
@@ -76,6 +78,7 @@ class MainWindow(FileActions, QMainWindow):
         self.blank_warnings: dict[str, str] = {}  # display id -> the empty-image warning logged
         self.perspectives = Perspectives(self)  # editing and views layouts (perspectives.py)
         self._build_actions()
+        self._add_cancel_button()
         self._build_menus()
         self._wire()
         if not layout.restore_layout(self, self.workspace.settings):
@@ -93,95 +96,12 @@ class MainWindow(FileActions, QMainWindow):
         return {self.palette_dock: Qt.LeftDockWidgetArea, self.properties_dock: Qt.RightDockWidgetArea,
                 self.log_dock: Qt.BottomDockWidgetArea}
 
-    def refresh_dock_menu(self) -> None:
-        layout.fill_dock_menu(self.view_menu, self, before=self.reset_layout_action)
-
     def _dock(self, title: str, widget, area) -> QDockWidget:
         dock = QDockWidget(title, self)
         dock.setObjectName(title)
         dock.setWidget(widget)
         self.addDockWidget(area, dock)
         return dock
-
-    def _action(self, text: str, slot, shortcut=None, checkable=False, checked=False) -> QAction:
-        action = QAction(text, self)
-        if shortcut is not None:
-            action.setShortcut(QKeySequence(shortcut))
-        action.setCheckable(checkable)
-        if checkable:
-            action.setChecked(checked)
-            action.toggled.connect(slot)
-        else:
-            action.triggered.connect(lambda *_: slot())
-        return action
-
-    def _build_actions(self) -> None:
-        stack = self.workspace.undo_stack
-        self.new_action = self._action("&New", self.new_network, QKeySequence.New)
-        self.open_action = self._action("&Open...", self.open_network, QKeySequence.Open)
-        self.save_action = self._action("&Save", self.save_network, QKeySequence.Save)
-        self.save_as_action = self._action("Save &As...", self.save_network_as, QKeySequence.SaveAs)
-        self.export_image_action = self._action("&Export Image...", self.export_image, "Ctrl+E")
-        self.quit_action = self._action("&Quit", self.close, QKeySequence.Quit)
-        self.undo_action = stack.createUndoAction(self, "&Undo")
-        self.undo_action.setShortcut(QKeySequence.Undo)
-        self.redo_action = stack.createRedoAction(self, "&Redo")
-        self.redo_action.setShortcuts(redo_keys(QKeySequence.keyBindings(QKeySequence.Redo)))
-        self.delete_action = self._action("&Delete", self.scene.delete_selected, QKeySequence.Delete)
-        self.select_all_action = self._action("Select &All", self._select_all, QKeySequence.SelectAll)
-        self.links_action = self._action("Property &Links...", self.edit_links, "Ctrl+L")
-        self.find_action = self._action("&Find Processor...", self.find_processor, QKeySequence.Find)
-        self.auto_link_action = self._action("Auto-link &Cameras", self._set_auto_link, checkable=True,
-                                             checked=self.workspace.auto_link_cameras)
-        self.zoom_in_action = self._action("Zoom &In", lambda: self.view.zoom(1.25), QKeySequence.ZoomIn)
-        self.zoom_out_action = self._action("Zoom &Out", lambda: self.view.zoom(0.8), QKeySequence.ZoomOut)
-        self.fit_action = self._action("&Fit Network", self.view.fit_network, "Ctrl+0")
-        self.show_links_action = self._action("Show Property Links", self.scene.set_links_visible,
-                                              checkable=True, checked=True)
-        self.evaluate_action = self._action("&Evaluate Now", self.evaluation.run, "F5")
-        self.writers_action = self._action("Run &Writers", lambda: self.evaluation.run(include_writers=True),
-                                           "Ctrl+R")
-        self.cancel_action = self._action("&Cancel Rendering", self.cancel_rendering)
-        self.reset_layout_action = self._action("&Reset Layout", lambda: self.perspectives.reset())
-        self.tile_canvases_action = self._action(  # side by side, e.g. a multi-planar layout
-            "&Tile Canvases", lambda: canvas_grid.tile_canvases(self, list(self.canvases.docks.values())))
-        self.cancel_action.setEnabled(False)
-        self.cluster_action = self._action("Render on C&luster...", self.edit_cluster)
-        self.cancel_button = QPushButton("Cancel rendering")
-        self.cancel_button.setToolTip("stop the render process and start a new one")
-        self.cancel_button.clicked.connect(self.cancel_rendering)
-        self.cancel_button.hide()
-        self.statusBar().addPermanentWidget(self.cancel_button)
-
-    def _build_menus(self) -> None:
-        bar = self.menuBar()
-        file_menu = bar.addMenu("&File")
-        file_menu.addActions([self.new_action, self.open_action])
-        self.recent_menu = file_menu.addMenu("Open &Recent")
-        file_menu.addActions([self.save_action, self.save_as_action, self.export_image_action])
-        file_menu.addSeparator()
-        file_menu.addAction(self.quit_action)
-        edit_menu = bar.addMenu("&Edit")
-        edit_menu.addActions([self.undo_action, self.redo_action])
-        edit_menu.addSeparator()
-        edit_menu.addActions([self.delete_action, self.select_all_action, self.find_action])
-        edit_menu.addSeparator()
-        edit_menu.addActions([self.links_action, self.auto_link_action])
-        self.view_menu = view_menu = bar.addMenu("&View")
-        view_menu.addActions([self.zoom_in_action, self.zoom_out_action, self.fit_action,
-                              self.show_links_action])
-        view_menu.addSeparator()
-        view_menu.addSeparator()  # the docks go between the separators: canvas docks come and go
-        view_menu.addActions([self.tile_canvases_action, self.reset_layout_action])
-        view_menu.addSeparator()
-        view_menu.addActions(self.perspectives.menu_actions())
-        view_menu.aboutToShow.connect(self.refresh_dock_menu)
-        self.refresh_dock_menu()
-        network_menu = bar.addMenu("&Network")
-        network_menu.addActions([self.evaluate_action, self.writers_action, self.cancel_action,
-                                 self.cluster_action])
-        build_help_menu(self)
-        self._fill_recent_menu(self.workspace.recent_files())
 
     def _wire(self) -> None:
         workspace = self.workspace
@@ -258,12 +178,6 @@ class MainWindow(FileActions, QMainWindow):
         for node in self.scene.nodes.values():
             node.setSelected(True)
 
-    def _fill_recent_menu(self, files: list[str]) -> None:
-        self.recent_menu.clear()
-        for path in files:
-            self.recent_menu.addAction(path).triggered.connect(lambda *_, p=path: self.open_network(p))
-        self.recent_menu.setEnabled(bool(files))
-
     def _selection_changed(self) -> None:
         processors, _, _ = self.scene.selection()
         self.inspector.show_processor(processors[0] if len(processors) == 1 else None)
@@ -274,61 +188,6 @@ class MainWindow(FileActions, QMainWindow):
         self.insert_at = None
         self.failures.clear()
         self.inspector.show_processor(None)
-
-    def _busy_changed(self, busy: bool) -> None:
-        self.cancel_action.setEnabled(busy)
-        if busy:
-            self.show_message("rendering...")
-        else:
-            self.cancel_button.hide()
-
-    def _stalled(self, seconds: float) -> None:
-        self.show_message(f"rendering for {seconds:.0f} s...")
-        self.cancel_button.show()
-
-    def edit_cluster(self) -> None:
-        dialog = ClusterDialog(self.evaluation.cluster, self)
-        if dialog.exec():
-            self.set_cluster(dialog.setting())
-
-    def set_cluster(self, setting, save: bool = True) -> None:
-        """Render final frames on ``setting``'s cluster (None: here); stored with the preferences."""
-        if save:
-            save_setting(self.workspace.settings, setting)
-            self.log.info(f"final frames render on cluster {setting.describe()}" if setting
-                          else "final frames render here (no cluster)")
-        self.evaluation.set_cluster(setting)
-
-    def _cluster_progress(self, done: int, total: int) -> None:
-        self.show_message(f"rendering on the cluster: {done}/{total} tiles")
-
-    def cancel_rendering(self) -> None:
-        if self.evaluation.cancel():
-            self.show_message("rendering cancelled: the next change renders again")
-
-    def report_outcome(self, outcome: EvaluationOutcome) -> None:
-        """Log new failures and recoveries (not every evaluation: that would drown the log)."""
-        self.scene.refresh_states()
-        self.inspector.refresh_status()
-        network = self.workspace.network
-        for pid, reason in outcome.failed.items():
-            if self.failures.get(pid) != reason and pid in network:
-                self.log.error(f"processor '{pid}' ({network[pid].type_name}): {reason}")
-        for pid in set(self.failures) - set(outcome.failed):
-            if pid in outcome.ran:
-                self.log.info(f"processor '{pid}' evaluates again")
-        self.failures = {pid: r for pid, r in self.failures.items() if pid not in outcome.ran}
-        self.failures.update(outcome.failed)
-        for warning in outcome.warnings:
-            self.log.warning(warning)
-        for display, warning in outcome.blank.items():
-            if self.blank_warnings.get(display) != warning:
-                self.log.warning(warning)
-        self.blank_warnings = dict(outcome.blank)
-        failed = f", {len(outcome.failed)} failed" if outcome.failed else ""
-        seconds = self.evaluation.last_result.seconds if self.evaluation.last_result else 0.0
-        self.show_message(f"evaluated {len(outcome.ran)} processor{'s' * (len(outcome.ran) != 1)}"
-                          f"{failed} in {format_seconds(seconds)}")
 
     def closeEvent(self, event) -> None:
         if not self.confirm_discard():
