@@ -5,7 +5,8 @@ import time
 
 from PySide6.QtCore import QSettings
 
-from vgraph.gui.live_evaluation import STALL_FIRST_SECONDS, LiveEvaluation
+from vgraph.gui.live_evaluation import LiveEvaluation
+from vgraph.gui.render_watchdog import STALL_FIRST_SECONDS
 from vgraph.gui.workspace import Workspace
 from vgraph.live.render_messages import RenderJob, RenderResult
 from vgraph.live.render_process import RenderProcess
