@@ -40,9 +40,10 @@ from vgraph.mesh import RegularGrid, TetMesh
 from vgraph.tetrahedralize import cell_ranges, orient, volume_tetrahedra
 
 # What llvmpipe draws in a drag's 128 x 128 frame within a tenth of a second, the GUI and the
-# transfer included, on two cores that other jobs share (tets_bonsai clustered 5^3: 86 k of its
-# 6.2 M tetrahedra; docs/reports/gui-performance.md, "Meshes while dragging").
-COARSE_TETRAHEDRA = 50_000
+# transfer included, on two cores that other jobs share: tets_bonsai clustered 6^3, 55 k of its
+# 6.2 M tetrahedra, drew in 45 ms there, 5^3 (86 k) in 78 ms and 4^3 (150 k) in 120 ms
+# (docs/reports/gui-performance.md, "Meshes while dragging").
+COARSE_TETRAHEDRA = 30_000
 
 
 def coarse_mesh(mesh: TetMesh, budget: int = COARSE_TETRAHEDRA) -> TetMesh:
