@@ -13,7 +13,7 @@ from vgraph import ProcessorError, VGraphWarning
 from vgraph.bricks import atlas as atlas_module
 from vgraph.bricks.atlas import BrickAtlas, slot_grid_of, slot_shape_of
 from vgraph.bricks.cache import HALO, LoadLimit, read_with_halo, texture_format, to_texture_values
-from vgraph.bricks.page_table import EMPTY, REFINE, RESIDENT, PageTable, children_of, parent_of, texel_offset
+from vgraph.bricks.page_table import EMPTY, REFINE, RESIDENT, PageTable, texel_offsets
 from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.sampling import BrickSampling
@@ -41,14 +41,6 @@ def single_pass(volume, camera, **properties):
 # --- the page table ---------------------------------------------------------------------------------
 def small_pyramid() -> ArrayPyramid:
     return ArrayPyramid(field((20, 24, 28)), brick=(8, 8, 8))  # levels: 28x24x20, 14x12x10, 7x6x5
-
-
-def test_parents_and_children_follow_the_octree():
-    geometry = BrickGeometry(small_pyramid())
-    assert [g.tolist() for g in geometry.grids] == [[4, 3, 3], [2, 2, 2], [1, 1, 1]]  # (x, y, z)
-    assert parent_of(geometry, (0, 2, 1, 3)) == (1, 1, 0, 1)
-    assert parent_of(geometry, (2, 0, 0, 0)) is None
-    assert children_of(geometry, (1, 1, 0, 1)) == [(0, 2, y, x) for y in (0, 1) for x in (2, 3)]  # z = 2 only
 
 
 def test_page_table_marks_resident_refined_missing_and_empty_cells():
@@ -83,12 +75,14 @@ def test_page_table_marks_resident_refined_missing_and_empty_cells():
     assert leaf[2, 2, 3].tolist() == [30.5, 0.5, 0.5, 3.0]      # the missing level-1 cell, from level 2
 
 
-def test_texel_offset_takes_level_voxels_to_the_slot():
+def test_texel_offsets_take_level_voxels_to_the_slot():
     source = small_pyramid()
-    # brick (1, 0, 0, 1) of level 1 starts at voxel (8, 0, 0); its voxel u = (8, 0, 0) sits at texel
-    # HALO + 1/2 (the texel's centre) from the slot's corner
-    offset = texel_offset(source, (1, 0, 0, 1), (40, 20, 0))
-    np.testing.assert_allclose(np.array([8.0, 0.0, 0.0]) + offset, np.array([40, 20, 0]) + HALO + 0.5)
+    # brick (1, 0, 0, 1) of level 1 starts at voxel (8, 0, 0), brick (0, 2, 1, 3) of level 0 at
+    # (24, 8, 16): their first voxel sits at texel HALO + 1/2 (its centre) from the slot's corner
+    keys = np.array([(1, 0, 0, 1), (0, 2, 1, 3)])
+    origins = np.array([(40, 20, 0), (0, 12, 24)])
+    offsets = texel_offsets(source, keys, origins)
+    np.testing.assert_allclose(np.array([(8, 0, 0), (24, 8, 16)]) + offsets, origins + HALO + 0.5)
 
 
 # --- the atlas --------------------------------------------------------------------------------------

@@ -122,6 +122,14 @@ class BrickAtlas:
         index = (slot % gx, slot // gx % gy, slot // (gx * gy))
         return tuple(i * n for i, n in zip(index, self.slot_shape))
 
+    def resident(self) -> tuple[np.ndarray, np.ndarray]:
+        """The resident bricks' keys [n, 4] and their slots' origins [n, 3] (x, y, z)."""
+        keys = np.asarray(list(self.slots), dtype=np.int64).reshape(-1, 4)
+        slots = np.fromiter(self.slots.values(), dtype=np.int64, count=len(self.slots))
+        gx, gy, _ = self.slot_grid
+        index = np.stack([slots % gx, slots // gx % gy, slots // (gx * gy)], axis=-1)
+        return keys, index * np.asarray(self.slot_shape, dtype=np.int64)
+
     def begin_frame(self, keys) -> None:
         """Pin the bricks of this frame: placing others never evicts them."""
         self.pinned = frozenset(keys)

@@ -33,35 +33,40 @@ from __future__ import annotations
 
 import numpy as np
 
-from vgraph.bricks.cache import HALO, brick_extent
+from vgraph.bricks.cache import HALO
+from vgraph.bricks.cells import table_of
 from vgraph.bricks.selection import BrickGeometry
 from vgraph.gl_context import release_quietly
 
 RESIDENT, REFINE, EMPTY = 1, 2, 4
 
 
-def parent_of(geometry: BrickGeometry, key) -> tuple | None:
-    """The cell of the next coarser level that holds ``key`` (None at the top level)."""
-    level = key[0]
-    if level + 1 >= len(geometry.grids):
-        return None
-    ratio = geometry.ratios[level + 1][::-1]  # children per axis, [z, y, x]
-    return (level + 1, *(int(i) // int(r) for i, r in zip(key[1:], ratio)))
+def _masks(geometry: BrickGeometry, keys: np.ndarray) -> list[np.ndarray]:
+    """Per level, a bool [z, y, x] array: True at the cells of ``keys`` ([n, 4]: level, z, y, x)."""
+    masks = [np.zeros(tuple(int(n) for n in grid[::-1]), dtype=bool) for grid in geometry.grids]
+    for level, mask in enumerate(masks):
+        mask[tuple(keys[keys[:, 0] == level, 1:].T)] = True
+    return masks
 
 
-def children_of(geometry: BrickGeometry, key) -> list[tuple]:
-    """The cells of the next finer level inside ``key``."""
-    level = key[0]
-    ratio = geometry.ratios[level][::-1]
-    grid = geometry.grids[level - 1][::-1]  # [z, y, x]
-    ranges = [range(int(i) * int(r), min((int(i) + 1) * int(r), int(n))) for i, r, n in zip(key[1:], ratio, grid)]
-    return [(level - 1, z, y, x) for z in ranges[0] for y in ranges[1] for x in ranges[2]]
+def _children(geometry: BrickGeometry, parents: np.ndarray, level: int) -> np.ndarray:
+    """A bool per cell of ``level``: whether its parent (at level + 1) is True in ``parents``."""
+    ratio = geometry.ratios[level + 1][::-1]
+    shape = tuple(int(n) for n in geometry.grids[level][::-1])
+    return parents[np.ix_(*[np.arange(n) // int(r) for n, r in zip(shape, ratio)])]
 
 
-def texel_offset(source, key, slot_origin) -> np.ndarray:
-    """(x, y, z) texels: the atlas texel coordinate of level voxel coordinate u is u + this."""
-    start, _ = brick_extent(source, key)
-    return np.asarray(slot_origin, dtype=np.float64) - start[::-1] + HALO + 0.5
+def texel_offsets(source, keys: np.ndarray, origins: np.ndarray) -> np.ndarray:
+    """(x, y, z) texels per brick, ``keys`` [n, 4] in slots at ``origins`` [n, 3] (x, y, z): the atlas
+    texel coordinate of the brick level's voxel coordinate u is u + this (slot origin - core start
+    + apron + 1/2)."""
+    spans = table_of(source).spans  # per level, per axis [z, y, x]: (starts, stops)
+    start = np.zeros((len(keys), 3), dtype=np.float64)  # [z, y, x]
+    for level in np.unique(keys[:, 0]):
+        mine = keys[:, 0] == level
+        for axis in range(3):
+            start[mine, axis] = spans[int(level)][axis][0][keys[mine, 1 + axis]]
+    return np.asarray(origins, dtype=np.float64) - start[:, ::-1] + HALO + 0.5
 
 
 class PageTable:
@@ -78,41 +83,41 @@ class PageTable:
         return (max(int(g[0]) for g in grids), max(int(g[1]) for g in grids), offsets[-1]), offsets[:-1]
 
     @staticmethod
-    def entries(geometry: BrickGeometry, planned, offsets: dict, lows) -> np.ndarray:
+    def entries(geometry: BrickGeometry, planned, offsets, lows) -> np.ndarray:
         """The float32 [z, y, x, 4] entries: ``planned`` the keys the frame's plan draws, ``offsets``
-        the texel offsets (texel_offset) of the resident bricks, ``lows(level)`` the cells' smallest
-        normalised intensities [z, y, x] (the value of an EMPTY cell)."""
+        the texel offsets (texel_offsets) of the resident bricks, a dict key -> (x, y, z) or a pair
+        of arrays (keys [n, 4], offsets [n, 3]), ``lows(level)`` the cells' smallest normalised
+        intensities [z, y, x] (the value of an EMPTY cell). Whole levels at a time (numpy): a
+        1024^3 volume in bricks of 32 has 32768 cells at level 0."""
         (size_x, size_y, size_z), z_offsets = PageTable.layout(geometry)
         table = np.zeros((size_z, size_y, size_x, 4), dtype=np.float32)
-        planned = set(planned)
-        refined: set = set()
-        for key in planned:
-            parent = parent_of(geometry, key)
-            while parent is not None and parent not in refined:
-                refined.add(parent)
-                parent = parent_of(geometry, parent)
-        reached = planned | refined
         top = len(geometry.grids) - 1
-        tops = [(top, z, y, x) for z, y, x in np.ndindex(*geometry.grids[top][::-1])]
-        unreached = [key for key in tops if key not in reached]
-        unreached += [child for key in refined for child in children_of(geometry, key) if child not in reached]
-        low_tables: dict = {}
-
-        def entry(key):
-            level, z, y, x = key
-            return table[z_offsets[level] + z, y, x]
-
-        for key in unreached:
-            if key[0] not in low_tables:
-                low_tables[key[0]] = lows(key[0])
-            entry(key)[:] = (float(low_tables[key[0]][key[1:]]), 0.0, 0.0, EMPTY)
-        for key in refined:
-            entry(key)[3] = REFINE
-        for key in reached:
-            if key in offsets:
-                cell = entry(key)
-                cell[:3] = offsets[key]
-                cell[3] += RESIDENT
+        planned = _masks(geometry, np.asarray(list(planned), dtype=np.int64).reshape(-1, 4))
+        refined = [np.zeros_like(mask) for mask in planned]
+        for level in range(top):  # a cell that holds planned or refined cells is refined
+            below = np.nonzero(planned[level] | refined[level])
+            ratio = geometry.ratios[level + 1][::-1]  # children per axis, [z, y, x]
+            refined[level + 1][tuple(index // int(r) for index, r in zip(below, ratio))] = True
+        if isinstance(offsets, dict):
+            offsets = (np.asarray(list(offsets), dtype=np.int64).reshape(-1, 4),
+                       np.asarray(list(offsets.values()), dtype=np.float64).reshape(-1, 3))
+        keys, values = offsets
+        for level in range(top + 1):
+            cells = table[z_offsets[level]:z_offsets[level] + planned[level].shape[0],
+                          :planned[level].shape[1], :planned[level].shape[2]]
+            reached = planned[level] | refined[level]
+            # Not reached, in reach of the walk: at the top, or a child of a refined cell.
+            empty = ~reached if level == top else ~reached & _children(geometry, refined[level + 1], level)
+            if empty.any():
+                cells[empty, 0] = lows(level)[empty]
+                cells[empty, 3] = EMPTY
+            cells[refined[level], 3] = REFINE
+            mine = keys[:, 0] == level
+            index = tuple(keys[mine, 1:].T)
+            hit = reached[index]
+            resident = tuple(axis[hit] for axis in index)
+            cells[resident + (slice(0, 3),)] = values[mine][hit]
+            cells[resident + (3,)] += RESIDENT
         return table
 
     @staticmethod

@@ -38,7 +38,7 @@ import numpy as np
 
 from vgraph.bricks.atlas import BrickAtlas
 from vgraph.bricks.cache import MB
-from vgraph.bricks.page_table import PageTable, texel_offset
+from vgraph.bricks.page_table import PageTable, texel_offsets
 from vgraph.bricks.sampling import BrickSampling
 from vgraph.bricks.selection import BrickGeometry, FramePlan, normalised_ranges
 from vgraph.bricks.targets import level_voxel
@@ -70,6 +70,7 @@ class PagedSampling(Component):
         self.frame_binding = Binding()
         self.last_frame: dict = {}
         self.warned_level = None  # the level the atlas's slots last raised the frame to
+        self.table_key = None     # what the leaf table was built from (leaf_table)
 
     def bind(self, frame: Frame) -> Binding:
         return self.frame_binding  # made by draw_frame, which draws the pass
@@ -100,10 +101,7 @@ class PagedSampling(Component):
         wanted = list(dict.fromkeys(drawn.keys() + [key for key in plan.keys() if key in cache.ram]))
         atlas.begin_frame(set(wanted) | (set(plan.keys()) & resident_before))
         placed = [key for key in wanted if atlas.place(key, lambda key=key: cache.brick(key)) is not None]
-        offsets = {key: texel_offset(source, key, atlas.slot_origin(slot)) for key, slot in atlas.slots.items()}
-        table = PageTable.entries(geometry, plan.keys(), offsets, self.lows(source, geometry, frame))
-        resolved = PageTable.resolve(geometry, table)
-        leaf = self.page_table.upload(frame.ctx, resolved)
+        resolved, leaf = self.leaf_table(frame, source, geometry, plan, atlas)
         self.frame_binding = self.binding_of(frame, geometry, source, leaf)
         blocks = self.block_flags(frame, atlas)
         if blocks is not None:
@@ -112,7 +110,7 @@ class PagedSampling(Component):
         # llvmpipe the jumps' look-ups cost every sample
         self.frame_binding.defines["PAGED_SKIPPING"] = blocks is not None or bool((resolved[..., 3] < 0.0).any())
         self.draw(frame, target, own)
-        missing = [key for key in plan.keys() if key not in offsets]
+        missing = [key for key in plan.keys() if key not in atlas.slots]
         complete = not missing
         if missing and context.load_limit is not None:  # the next frame refines (the GUI asks again)
             cache.begin_frame(plan.keys())
@@ -125,6 +123,22 @@ class PagedSampling(Component):
                            "error_bound": None if errors is None else errors.frame_bound(drawn.bricks, frame.size),
                            "bricks_read": cache.stats["bricks_read"] - read_before,
                            "atlas_slots": atlas.capacity, "seconds": time.perf_counter() - started}
+
+    def leaf_table(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas):
+        """The frame's leaf table (numpy) and its texture: the page table of the plan and the
+        atlas's bricks, resolved (vgraph.bricks.page_table); the last frame's while neither the
+        plan nor the atlas's bricks changed (a still camera: no table to build)."""
+        key = (id(source), frame.volume.value_range, tuple(plan.keys()), atlas.key, atlas.stats["uploads"],
+               atlas.stats["evictions"], id(atlas.gl.get("texture")))
+        if self.table_key != key or self.page_table.gl.get("texture") is None \
+                or self.page_table.gl["texture"].ctx is not frame.ctx:
+            keys, origins = atlas.resident()
+            table = PageTable.entries(geometry, plan.keys(), (keys, texel_offsets(source, keys, origins)),
+                                      self.lows(source, geometry, frame))
+            self.resolved = PageTable.resolve(geometry, table)
+            self.page_table.upload(frame.ctx, self.resolved)
+            self.table_key = key
+        return self.resolved, self.page_table.gl["texture"]
 
     def fitted(self, plan: FramePlan, source, slots: int) -> FramePlan:
         """``plan``, or the finest coarser one whose bricks fit the atlas's ``slots`` (a slot has the
