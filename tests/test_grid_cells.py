@@ -238,3 +238,35 @@ def test_the_depth_is_drawn_only_when_read_and_the_image_is_the_same(gl, grid_ce
     assert alone[..., 3].max() > 0.2 and np.array_equal(alone, with_depth)
     expected, expected_depth, _ = render(cut(blob()), cameras(cut(blob()))[0], integration, grid_cells)
     assert np.array_equal(depth, expected_depth)
+
+
+def test_the_sweep_is_kept_while_the_eye_stays_between_the_same_cell_planes(gl):
+    """sweep_key holds all the sweep order depends on: cameras with the same key have the same
+    order (random eyes around and inside the grid, both projections); the renderer keeps its order
+    and index buffer while the key stays, and draws what a fresh renderer draws at that camera."""
+    from vgraph.gl.tetrahedra.cells import sweep_key
+    mesh = cut(blob())
+    low, high = mesh.box
+    rng = np.random.default_rng(7)
+    orders: dict = {}
+    for _ in range(300):
+        eye = low + (high - low) * rng.uniform(-1.5, 2.5, 3)
+        focus = low + (high - low) * rng.uniform(0.2, 0.8, 3)
+        camera = Camera(position=tuple(eye), focus=tuple(focus), up=(0.3, 1.0, 0.2),
+                        projection=str(rng.choice(["perspective", "orthographic"])))
+        order = sweep_order(mesh.grid, camera)
+        previous = orders.setdefault(sweep_key(mesh.grid, camera), order)
+        assert np.array_equal(previous, order)
+    assert len(orders) > 20  # the draws did reach many keys
+    first = cameras(mesh)[0]
+    turned = first.rotate(0.01, 0.0).resolved(low, high, 72 / 64)
+    assert sweep_key(mesh.grid, turned) == sweep_key(mesh.grid, first)
+    kept = ProjectedTetrahedra(camera=first, transfer_function=TransferFunctionLut.DEFAULT)
+    kept.render_size = (72, 64)
+    kept.process(mesh)
+    kept.camera = turned
+    image = kept.process(mesh)["image"].to_numpy()
+    assert kept._order.sorts == 1
+    fresh = ProjectedTetrahedra(camera=turned, transfer_function=TransferFunctionLut.DEFAULT)
+    fresh.render_size = (72, 64)
+    assert image[..., 3].max() > 0.2 and np.array_equal(image, fresh.process(mesh)["image"].to_numpy())

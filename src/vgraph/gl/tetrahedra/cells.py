@@ -30,27 +30,47 @@ CORNER_SLOTS = np.array([[int(np.flatnonzero(CELL_TETS[parity].ravel() == c)[0])
                          for parity in range(2)])
 
 
+def axis_runs(count: int, eye: float | None, towards: float) -> tuple:
+    """All that axis_order(count, eye, towards) depends on: the sign of the view direction's
+    component (orthographic, ``eye`` None), or the cells below and above the eye's coordinate
+    (perspective). A camera moving outside the grid's slab along the axis keeps it."""
+    if eye is None:
+        return (bool(towards > 0),)
+    below = int(np.clip(np.floor(eye), 0, count))   # cells 0..below-1 end at or below the eye
+    above = int(np.clip(np.ceil(eye), 0, count))    # cells above..count-1 start at or above it
+    return below, above
+
+
 def axis_order(count: int, eye: float | None, towards: float) -> np.ndarray:
     """The cells 0..count-1 of one axis, farthest from the eye first. ``eye``: the eye's
     coordinate in cell units (perspective), or None with ``towards`` the view direction's
     component (orthographic)."""
+    runs = axis_runs(count, eye, towards)
     if eye is None:
-        return np.arange(count - 1, -1, -1) if towards > 0 else np.arange(count)
-    below = int(np.clip(np.floor(eye), 0, count))   # cells 0..below-1 end at or below the eye
-    above = int(np.clip(np.ceil(eye), 0, count))    # cells above..count-1 start at or above it
+        return np.arange(count - 1, -1, -1) if runs[0] else np.arange(count)
+    below, above = runs
     middle = [below] if below < above else []       # the cell the eye's coordinate passes through
     return np.concatenate([np.arange(below), np.arange(count - 1, above - 1, -1), middle]).astype(np.int64)
 
 
-def sweep_order(grid: RegularGrid, camera: Camera) -> np.ndarray:
-    """Positions in ``grid.cells`` (int32), back to front."""
-    nx, ny, nz = grid.cell_dims
+def _axis_arguments(grid: RegularGrid, camera: Camera) -> list[tuple]:
+    """axis_order's (count, eye, towards) for the x, y and z axes of ``grid`` seen by ``camera``."""
     origin, spacing = np.asarray(grid.origin), np.asarray(grid.spacing)
     perspective = camera.projection == "perspective"
     eye = (np.asarray(camera.position, dtype=np.float64) - origin) / spacing
     forward = camera.basis()[2]
-    x, y, z = (axis_order(n, eye[a] if perspective else None, forward[a])
-               for a, n in enumerate((nx, ny, nz)))
+    return [(n, eye[a] if perspective else None, forward[a]) for a, n in enumerate(grid.cell_dims)]
+
+
+def sweep_key(grid: RegularGrid, camera: Camera) -> tuple:
+    """What sweep_order(grid, camera) depends on (each axis's axis_runs): the same key, the same
+    order, so a camera turning about a grid it sees from outside need not sweep it again."""
+    return camera.projection, tuple(axis_runs(*arguments) for arguments in _axis_arguments(grid, camera))
+
+
+def sweep_order(grid: RegularGrid, camera: Camera) -> np.ndarray:
+    """Positions in ``grid.cells`` (int32), back to front."""
+    x, y, z = (axis_order(*arguments) for arguments in _axis_arguments(grid, camera))
     swept = grid.positions[np.ix_(z, y, x)].reshape(-1)
     return swept[swept >= 0]
 

@@ -14,7 +14,9 @@ ch. 4; the approximate order of VTK's and Inviwo's projected-tetrahedra renderer
   Meshes cut from a regular grid are drawn cell by cell in the grid's sweep order instead
   (vgraph.gl.tetrahedra.cells), which needs no sort.
 - The order is recomputed only when the mesh, the concrete camera or the set of tetrahedra to draw
-  changes (``VisibilityOrder``). Tetrahedra whose scalars all have zero opacity under the TF can be
+  changes (``VisibilityOrder``); a grid's sweep only when the eye crosses one of its cell planes
+  or the view direction's signs change (``cells.sweep_key``), so a camera turning about a grid
+  from outside keeps its order and its uploaded index buffer. Tetrahedra whose scalars all have zero opacity under the TF can be
   left out first (``transparent_tetrahedra``): they add nothing, and are neither sorted nor drawn.
 """
 
@@ -23,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from vgraph.camera import Camera
-from vgraph.gl.tetrahedra.cells import sweep_order
+from vgraph.gl.tetrahedra.cells import sweep_key, sweep_order
 from vgraph.gl.tetrahedra.nonconvex import BoundaryFaces, gap_edges
 from vgraph.tetrahedralize import visible_cells
 
@@ -79,10 +81,12 @@ class VisibilityOrder:
         mesh and then take the selection in that order, so hidden tetrahedra or cells still order
         their neighbours; the face adjacency MPVO needs is built once per mesh. "mpvonc" also
         needs the image ``size`` (width, height): its rays are the pixels'."""
-        eye = tuple(camera.position)
-        key = (id(mesh), camera.projection, eye,
-               tuple(camera.basis()[2]) if camera.projection != "perspective" else None,
-               None if selection is None else selection[0], method,
+        if method == "sweep":  # the grid's order changes only when the eye crosses a cell plane
+            view = sweep_key(mesh.grid, camera)
+        else:
+            view = (camera.projection, tuple(camera.position),
+                    tuple(camera.basis()[2]) if camera.projection != "perspective" else None)
+        key = (id(mesh), view, None if selection is None else selection[0], method,
                tuple(size) if method == "mpvonc" else None)
         if key == self.key and self.indices is not None:
             return self.indices, False
