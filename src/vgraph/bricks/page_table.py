@@ -3,11 +3,12 @@ of every level, whether the shader refines it, draws it from an atlas slot, skip
 finds it missing (docs/explanations/bricked-ray-casting.md, "One pass, a page table").
 
 Conventions:
-- One RGBA32F 3D texture holds the cells of all levels: level L's grid (x, y, z cells, the octree
-  of vgraph.bricks.cells) starts at z = ``z_offsets[L]``; x and y span the largest grid.
+- ``entries`` lays the cells of all levels out in one float32 array (RGBA, as a 3D texture would
+  hold them): level L's grid (x, y, z cells, the octree of vgraph.bricks.cells) starts at z =
+  ``z_offsets[L]``; x and y span the largest grid. The GPU gets its resolved form (below).
 - An entry's alpha is a sum of flags: RESIDENT (its brick is in the atlas; rgb = the texel offset
   that takes the level's voxel coordinate u of a sample into the atlas, slot origin - core start +
-  apron + 1/2), REFINE (the frame's plan draws finer cells inside it: the shader descends to the
+  apron + 1/2), REFINE (the frame's plan draws finer cells inside it: the walk descends to the
   child holding the sample) and EMPTY (the plan draws nothing here: its cells are empty under the
   transfer function, or off screen; r = a normalised intensity every sample there may take, the
   cell's smallest, which adds nothing in any mode). No flag: MISSING, a cell the plan draws but
