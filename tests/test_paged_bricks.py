@@ -18,7 +18,7 @@ from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.sampling import BrickSampling
 from vgraph.bricks.cells import coarseness
-from vgraph.bricks.selection import BrickGeometry
+from vgraph.bricks.selection import BrickGeometry, LeafPass
 from vgraph.bricks.volume import BrickedVolume
 from vgraph.camera import Camera
 from vgraph.clipping import ClipPlane
@@ -289,6 +289,13 @@ def test_a_gl_budget_below_one_brick_names_the_processor_and_property():
     # the coarsest level (11 x 8 x 10 voxels, 10 KB with its apron) would fit, a 20^3 slot (32 KB) does not
     with pytest.raises(ProcessorError, match=r"rc\.gl_budget: BrickedRayCaster 'rc' .*does not hold one brick"):
         single_pass(volume, oblique(volume), brick_size=16, gl_budget=0.02)
+
+
+def test_the_leaves_split_is_refused_by_name():
+    volume = odd_volume()
+    network = ray_caster_network(volume, oblique(volume), "BrickedRayCaster", method="single_pass", brick_size=16)
+    with pytest.raises(ProcessorError, match=r"rc\.method: single_pass does not draw the leaves split"):
+        network.evaluate("rc.image", size=SIZE, context=FrameContext(leaf=LeafPass(bricks=[])))
 
 
 def test_an_atlas_past_the_gl_texture_limit_names_the_processor_and_property(monkeypatch):
