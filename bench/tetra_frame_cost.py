@@ -30,6 +30,12 @@ temporary folder, run in a spawned worker process driven frame by frame, so the 
 in the same rounds): before / after of a change, measured as every comparison in the benches is.
 A worker times whole frames only (with the read-back). The last column is, for those rows, their
 frame over the plain variant's in the same round: median (min-max).
+
+--draw-parts splits the cells path's draw (the one GL pass, image only) by drawing the same cells
+with cut-down fragment shaders, alternating with the real one: "geometry + raster" (the fragment
+stage writes a constant: vertex and geometry stages, rasterising the cells' rectangles, blending),
+"+ ray set-up" (the pixel's ray against the cell and its central tetrahedron, then a constant), and
+the full shader (+ the pieces' integration).
 """
 
 from __future__ import annotations
@@ -58,6 +64,7 @@ class StageClock:
         self.ctx = ctx
         self.seconds = dict.fromkeys(STAGES, 0.0)
         self._depth = 0
+        self.made = {}  # id(program) -> (vertex, fragment, geometry, defines) it was composed from
 
     def timed(self, stage: str, function):
         clock = self
@@ -90,6 +97,14 @@ class StageClock:
                    (pt.TransferFunctionTexture, "update", "tables")]
         for owner, name, stage in patches:
             setattr(owner, name, self.timed(stage, getattr(owner, name)))
+        from vgraph.gl.shaders import programs
+        program = programs.program
+
+        def remembered(ctx, vertex, fragment, defines=None, processor=None, geometry=None, includes=()):
+            made = program(ctx, vertex, fragment, defines, processor, geometry, includes)
+            self.made[id(made)] = (vertex, fragment, geometry, dict(defines or {}))
+            return made
+        programs.program = remembered
         process = pt.ProjectedTetrahedra.process
 
         def timed_process(processor, *args, **kwargs):
@@ -201,7 +216,65 @@ def measure(clock: StageClock, dims, args) -> tuple[int, dict]:
     finally:
         for baseline in baselines:
             baseline.close()
+    if args.draw_parts:
+        for variant in (v for v in args.variants if v.startswith("cells")):
+            for part, seconds in draw_parts(clock, network, variant, args.size, args.repeat).items():
+                records[f"{variant}: {part}"] = [(0.0, {})] + [(t, {}) for t in seconds]
     return len(mesh.tets), {name: rows[1:] for name, rows in records.items()}  # without the warm-up
+
+
+DRAW_PARTS = {"geometry + raster": ("void main() {", "void main() {\n    color = vec4(1e-3); return;"),
+              "+ ray set-up": ("    color = vec4(0.0);\n", "    color = vec4(1e-3); return;\n"),
+              "full draw": ("", "")}
+
+
+def draw_parts(clock: StageClock, network, variant: str, size: int, rounds: int) -> dict:
+    """Seconds of the cells draw of ``variant`` (after a frame) with each of DRAW_PARTS' fragment
+    shaders, alternating: part -> list of seconds."""
+    import moderngl
+
+    from vgraph.gl.passes import bind_textures, set_uniform
+    from vgraph.gl.shaders import compose
+    ctx = clock.ctx
+    processor = network.processors[variant.replace(" ", "_")]
+    (program, vertex_array), = processor._draw_state["arrays"].items()
+    vertex, fragment, geometry, defines = clock.made[id(program)]
+    texts = {"vertex": compose(vertex, defines).text, "fragment": compose(fragment, defines).text,
+             "geometry": compose(geometry, defines).text}
+    mesh = network.output("tets.mesh")
+    textures = processor._table.textures if processor.integration == "preintegrated" else \
+        {"transfer_function": processor._lut.update(ctx, processor.transfer_function, mesh)}
+    draws = {}
+    for part, (old, new) in DRAW_PARTS.items():
+        fragment = texts["fragment"]
+        assert old in fragment, (part, old)
+        cut = ctx.program(vertex_shader=texts["vertex"], geometry_shader=texts["geometry"],
+                          fragment_shader=fragment.replace(old, new, 1) if old else fragment)
+        for name in program:
+            if isinstance(program[name], moderngl.Uniform) and name in cut and program[name].array_length == 1 \
+                    and program[name].dimension > 0 and name not in ("transfer_function", "preintegrated",
+                                                                    "mean_extinction"):
+                set_uniform(cut, name, program[name].value)
+        draws[part] = (cut, ctx.vertex_array(cut, vertex_array._content, index_buffer=vertex_array._index_buffer,
+                                             index_element_size=4, skip_errors=True))
+    framebuffer = processor._targets[False].framebuffer
+    seconds = {part: [] for part in draws}
+    for _ in range(rounds + 1):
+        for part, (cut, array) in draws.items():
+            bind_textures(cut, textures)
+            framebuffer.use()
+            framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+            ctx.viewport = (0, 0, size, size)
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
+            ctx.finish()
+            start = time.perf_counter()
+            array.render(moderngl.POINTS)
+            ctx.finish()
+            seconds[part].append(time.perf_counter() - start)
+            ctx.blend_func = moderngl.DEFAULT_BLENDING
+            ctx.disable(moderngl.BLEND)
+    return {part: values[1:] for part, values in seconds.items()}  # without the warm-up round
 
 
 def with_depth_copy(network, pid: str) -> str:
@@ -226,7 +299,7 @@ def table(results) -> list[str]:
         for name, rows in records.items():
             seconds = np.array([r[0] for r in rows])
             cells = [_pair(np.array([r[1].get(s, np.nan) for r in rows])) for s in STAGES]
-            plain = name.split(" @ ")[0].removesuffix(" + depth")
+            plain = name.split(" @ ")[0].split(": ")[0].removesuffix(" + depth")
             ratios = seconds / np.array([r[0] for r in records[plain]])
             ratio = "" if plain == name else f"{np.median(ratios):.2f} ({ratios.min():.2f}-{ratios.max():.2f})"
             lines.append(f"| {'x'.join(map(str, dims))} | {tets:,} | {name} | {_pair(seconds)} | "
@@ -248,6 +321,7 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--variants", nargs="+", default=list(bt.OURS), choices=list(bt.OURS))
+    parser.add_argument("--draw-parts", action="store_true", help="split the cells draw by cut-down shaders")
     parser.add_argument("--with-depth", action="store_true", help="also each variant with its depth output read")
     parser.add_argument("--baseline", nargs="+", help="commits whose vgraph draws the same frames, alternating")
     args = parser.parse_args()
