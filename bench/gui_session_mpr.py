@@ -57,10 +57,10 @@ def mpr_steps(window, user, network: Path, waits: list[Wait], shots: dict, quick
     yield from user.keys(view.viewport(), "F9")
     axial = window.canvases.views["axial_canvas"]
     yield lambda: window.perspectives.current == "views" and axial.isVisible() and _all_final(window)
+    seconds = round(time.monotonic() - mark, 3)
+    yield 0.3   # the re-tiled docks settle (an X server resizes them later) before the mouse goes to them
     share = sum(v.width() * v.height() for v in window.canvases.views.values()) / (window.width() * window.height())
-    waits.append(Wait("F9", "views perspective (MPR)", round(time.monotonic() - mark, 3),
-                      f"the four canvases take {share:.0%} of the window"))
-    yield 0.3   # the re-tiled docks settle before the mouse goes to them
+    waits.append(Wait("F9", "views perspective (MPR)", seconds, f"the four canvases take {share:.0%} of the window"))
 
     yield from _cursor_drag(window, user, axial, waits, quick)
     yield from _window_drag(window, user, axial, waits, quick)
