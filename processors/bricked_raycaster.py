@@ -86,7 +86,7 @@ class BrickedRayCaster(RaycasterBase):
         return self.parts[PagedSampling].last_frame if self.method == "single_pass" else self.bricks.last_frame
 
     def frame_summary(self) -> str:
-        return self.bricks.summary()
+        return self.parts[PagedSampling].summary() if self.method == "single_pass" else self.bricks.summary()
 
     def brick_source(self, volume: Volume):
         """The volume's pyramid of bricks as this processor draws it (BrickSampling.brick_source)."""

@@ -246,6 +246,7 @@ def test_missing_bricks_are_drawn_from_a_coarser_resident_level():
     frame = rc.last_frame
     assert frame["planned_floor_level"] == 0 and frame["levels"] == [1]
     assert not frame["complete"] and frame["missing"] > 0
+    assert rc.frame_summary().startswith("single pass: level 1, 4 bricks") and rc.frame_summary().endswith("refining")
     assert image[..., :3].max() > 0.2  # not black
     assert np.abs(image - level_1).max() <= ONE_STEP  # the level-1 bricks, drawn under the level-0 cells
     full = np.asarray(network.evaluate("rc.image", size=SIZE))  # no limit: level 0 read and drawn

@@ -124,6 +124,19 @@ class PagedSampling(Component):
                            "bricks_read": cache.stats["bricks_read"] - read_before,
                            "atlas_slots": atlas.capacity, "seconds": time.perf_counter() - started}
 
+    def summary(self) -> str:
+        """The last frame in a line (the inspector's, Processor.frame_summary), as BrickSampling's:
+        its levels and bricks, the atlas, and whether it is still refining."""
+        frame = self.last_frame
+        if not frame:
+            return ""
+        levels = frame["levels"]
+        span = "-" if not levels else str(levels[0]) if len(levels) == 1 else f"{levels[0]}-{levels[-1]}"
+        line = f"single pass: level {span}, {frame['bricks']} bricks in an atlas of {frame['atlas_slots']} slots"
+        if frame["missing"]:
+            line += f", {frame['missing']} planned bricks missing (drawn coarser)"
+        return line + ("" if frame["complete"] else "; refining")
+
     def leaf_table(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas):
         """The frame's leaf table (numpy) and its texture: the page table of the plan and the
         atlas's bricks, resolved (vgraph.bricks.page_table); the last frame's while neither the
