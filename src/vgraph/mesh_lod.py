@@ -9,10 +9,11 @@ groups (collapsed) or that repeat another's four groups are dropped.
 
 - A mesh cut from a regular grid (``TetMesh.grid``: VolumeToTetMesh) is clustered on its own grid,
   ``factor`` voxels a side: each block of factor^3 voxels becomes one point at the block's centre
-  with the mean of the block's voxels the mesh has (a block it has none of takes its nearest
-  block's mean), and the coarse grid is cut again into five tetrahedra a cell, keeping the coarse
-  cells that overlap a kept fine cell. The coarse mesh is a grid mesh too, so the renderer keeps
-  drawing it cell by cell in sweep order (no sort).
+  with the mean of the block's voxels the mesh has (``np.bincount`` over the points; a block it
+  has none of takes its nearest block's mean, ``scipy.ndimage.distance_transform_edt``), and the
+  coarse grid is cut again into five tetrahedra a cell, keeping the coarse cells that overlap a
+  kept fine cell. The coarse mesh is a grid mesh too, so the renderer keeps drawing it cell by
+  cell in sweep order (no sort).
 - Any other mesh is clustered on a grid ``factor`` point spacings a side (the point spacing: the
   cube root of the mesh's volume per point, as a grid's spacing is); a tetrahedron left flat
   is dropped and one turned inside out is turned back (vgraph.tetrahedralize.orient); cell scalars
@@ -33,7 +34,6 @@ import math
 
 import numpy as np
 from scipy import ndimage
-from skimage.measure import block_reduce
 
 from vgraph import derived
 from vgraph.mesh import RegularGrid, TetMesh
@@ -73,45 +73,47 @@ def clustered(mesh: TetMesh, factor: int) -> TetMesh:
 # --- meshes cut from a grid -----------------------------------------------------------------------
 def _clustered_grid(mesh: TetMesh, factor: int) -> TetMesh:
     grid = mesh.grid
-    blocks = (factor,) * 3
-    values, known = _voxels(mesh)
-    sums = block_reduce(np.where(known, values, 0.0), blocks, np.sum, cval=0.0)
-    counts = block_reduce(known, blocks, np.sum, cval=0)
-    means = sums / np.maximum(counts, 1)
+    shape = tuple(-(-n // factor) for n in grid.dims)  # coarse points (blocks) along x, y, z
+    means, counts = _block_means(_block_of(_voxel_indices(mesh), factor, shape), mesh.scalars, shape)
     if not counts.all():  # blocks without any of the mesh's voxels: their nearest block's mean
         nearest = ndimage.distance_transform_edt(counts == 0, return_distances=False, return_indices=True)
         means = means[tuple(nearest)]
     spacing = np.asarray(grid.spacing) * factor
     origin = np.asarray(grid.origin) + (factor - 1) / 2.0 * np.asarray(grid.spacing)
-    cells = _coarse_cells(grid, factor, means.shape)
+    cells = _coarse_cells(grid, factor, shape)
     points, tets, voxels = volume_tetrahedra(means, spacing, origin, cells, where="coarse mesh")
-    coarse_grid = RegularGrid(tuple(means.shape[::-1]), tuple(map(float, origin)), tuple(map(float, spacing)),
+    coarse_grid = RegularGrid(shape, tuple(map(float, origin)), tuple(map(float, spacing)),
                               np.flatnonzero(cells.reshape(-1)))
     return _like(mesh, points, tets, means.reshape(-1)[voxels], factor, grid=coarse_grid)
 
 
-def _voxels(mesh: TetMesh) -> tuple[np.ndarray, np.ndarray]:
-    """([z, y, x] float64 scalars of the grid's voxels, [z, y, x] bool: the voxels the mesh has)."""
+def _voxel_indices(mesh: TetMesh) -> np.ndarray:
+    """(N, 3) int64: the (i, j, k) of the grid voxel each point of the mesh is."""
     grid = mesh.grid
-    nx, ny, nz = grid.dims
-    ijk = np.rint((mesh.points - np.asarray(grid.origin)) / np.asarray(grid.spacing)).astype(np.int64)
-    flat = ijk[:, 0] + nx * (ijk[:, 1] + ny * ijk[:, 2])
-    values = np.zeros(nx * ny * nz)
-    known = np.zeros(nx * ny * nz, dtype=bool)
-    values[flat], known[flat] = mesh.scalars, True
-    return values.reshape(nz, ny, nx), known.reshape(nz, ny, nx)
+    return np.rint((mesh.points - np.asarray(grid.origin)) / np.asarray(grid.spacing)).astype(np.int64)
 
 
-def _coarse_cells(grid: RegularGrid, factor: int, coarse_points: tuple[int, int, int]) -> np.ndarray:
+def _block_of(ijk: np.ndarray, factor: int, shape) -> np.ndarray:
+    """The linear index (x fastest) of the block of ``factor``^3 grid points or cells holding each
+    of ``ijk``, on a grid of ``shape`` (x, y, z) blocks."""
+    block = ijk // factor
+    return block[:, 0] + shape[0] * (block[:, 1] + shape[1] * block[:, 2])
+
+
+def _block_means(blocks: np.ndarray, scalars: np.ndarray, shape) -> tuple[np.ndarray, np.ndarray]:
+    """([z, y, x] float64 mean scalar of each block's points, [z, y, x] how many it has)."""
+    size = int(np.prod(shape))
+    counts = np.bincount(blocks, minlength=size)
+    sums = np.bincount(blocks, weights=scalars.astype(np.float64), minlength=size)
+    return (sums / np.maximum(counts, 1)).reshape(shape[::-1]), counts.reshape(shape[::-1])
+
+
+def _coarse_cells(grid: RegularGrid, factor: int, shape) -> np.ndarray:
     """[z, y, x] bool over the coarse cells: those overlapping a kept fine cell. Coarse cell I
     spans the centres of blocks I and I + 1, so it overlaps fine cells of both blocks."""
-    nx, ny, nz = grid.cell_dims
-    fine = np.zeros(nx * ny * nz, dtype=np.uint8)
-    fine[grid.cells] = 1
-    occupied = block_reduce(fine.reshape(nz, ny, nx), (factor,) * 3, np.max, cval=0)
-    padded = np.zeros(coarse_points, dtype=np.uint8)  # a block per coarse point; the last may have no cell
-    padded[tuple(slice(0, n) for n in occupied.shape)] = occupied
-    return cell_ranges(padded, 0, 1)[1] > 0  # the highest of a coarse cell's eight blocks
+    occupied = np.zeros(int(np.prod(shape)), dtype=np.uint8)  # blocks holding a kept fine cell
+    occupied[_block_of(grid.cell_indices(), factor, shape)] = 1
+    return cell_ranges(occupied.reshape(shape[::-1]), 0, 1)[1] > 0  # the highest of its eight blocks
 
 
 # --- any mesh -------------------------------------------------------------------------------------
