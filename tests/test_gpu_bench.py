@@ -62,3 +62,40 @@ def test_distributed_rows_set_each_cluster_against_the_model_fitted_on_one_and_t
                               "seconds": 300, "budget_s": 390, "repeat": 5, "renders": [],
                               "distributed": [one, four, broken]})
     assert "| 4 | ok | 5.0 | bonsai | 2x2 | 1.000 | 0.800 | 1.250 |" in table
+
+
+def test_larger_clusters_carry_the_measured_costs_models_interval_and_its_tables():
+    """bench/distributed_costs.py's result (in the shape it writes): each bonsai case of a larger
+    cluster gets the interval that model gives for its grid and worker count, the engine's none
+    (the costs bench draws the bonsai only), and the table shows it and the costs bench's own tables."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("gpu_measure", ROOT / "bench" / "gpu" / "measure.py")
+    measure = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(measure)
+    interval = {"low": 0.5, "mid": 0.75, "high": 1.25}
+    costs = {"status": "ok", "size": [64, 64], "brick": 32, "rounds": 2, "seconds": 100.0,
+             "plans": {"weights": [1] * 4, "tiles": {"1x1": [4]}}, "contention": [1.2, 1.3],
+             "costs": {name: {"low": 0.001, "mid": 0.002, "high": 0.003} for name in
+                       ("read", "upload", "build", "cold", "plan", "resolve", "roundtrip", "task", "mb",
+                        "composite", "contention")} | {"slope": {}, "fixed": {}, "assemble": {}},
+             "checks": [], "predictions": [{"workers": 4, "grid": "2x2", "tiles": interval,
+                                            "tiles_by_grid": {"2x2": interval, "4x4": interval},
+                                            "leaves": interval, "tiles_bricks": 3, "leaves_bricks": 1}]}
+    row = {"workers": 4, "status": "ok", "phase_s": 5.0,
+           "cases": [{"data": "bonsai", "grid": "2x2", "cold_s": 1.0, "model_s": 0.8},
+                     {"data": "engine", "grid": "2x2", "cold_s": 0.5, "model_s": 0.4}]}
+    measure._add_costs_model(row, costs)
+    assert row["cases"][0]["costs_model"] == interval and "costs_model" not in row["cases"][1]
+    eight = {"workers": 8, "cases": [{"data": "bonsai", "grid": "4x4"}]}
+    measure._add_costs_model(eight, costs)
+    assert "costs_model" not in eight["cases"][0]  # no prediction for 8 workers in this result
+    table = measure.markdown({"device": "d", "cpus": 16, "python": "3.12", "dry_run": False, "travelling_mib": 50.0,
+                              "seconds": 300, "budget_s": 390, "repeat": 5, "renders": [],
+                              "distributed": [row], "costs": costs})
+    assert "| 4 | ok | 5.0 | bonsai | 2x2 | 1.000 | 0.800 | 1.250 | 0.500 / 0.750 / 1.250 |" in table
+    assert "| 4 | ok | 5.0 | engine | 2x2 | 0.500 | 0.400 | 1.250 |  |" in table
+    assert "| 4 | 2x2 | 3 | 0.50 / 0.75 / 1.25 | 1 | 0.50 / 0.75 / 1.25 |" in table  # the costs bench's predictions
+    skipped = measure.markdown({"device": "d", "cpus": 2, "python": "3.11", "dry_run": True, "travelling_mib": 1.0,
+                                "seconds": 1, "budget_s": 1, "repeat": 1, "renders": [], "distributed": [],
+                                "costs": {"status": "skipped: 5 s left, it needs 60 s"}})
+    assert "(the model composed from measured costs): skipped: 5 s left" in skipped

@@ -16,8 +16,10 @@ says so; the whole run, installation included, stays under 8 minutes):
    image back (so the frame is finished). The bonsai is resampled to 512^3 and 1024^3 (trilinear,
    bench/resample_bonsai.py) on the machine: nothing that large travels.
 3. bench/bench_distributed.py: LocalClusters of 1 and 2 single-threaded CPU workers (its cost model is
-   fitted to them and predicts 4-64), then clusters of 4, 8 and 16 workers measured with --scheduler,
-   each compared with the prediction for its tile grid.
+   fitted to them and predicts 4-64); then, if it fits, bench/distributed_costs.py (the model
+   composed from measured costs, checked on 1 and 2 workers, two rounds); then clusters of 4, 8 and
+   16 workers measured with --scheduler, each compared with both models' prediction for its tile
+   grid (a bonsai frame outside the measured-costs interval falsifies that model on this machine).
 
 Writes gpu_bench.md and gpu_bench.json to --out (default $OUT, else bench/results/gpu)."""
 
@@ -51,6 +53,7 @@ FULL = {"sizes": [512, 1024], "bonsai": [256, 512, 1024], "repeat": 5, "workers"
         "dist_size": 512, "budget": 390.0, "render_share": 0.5}
 DRY = {"sizes": [64, 96], "bonsai": [256, 32], "repeat": 1, "workers": [1, 2, 4], "dist_size": 64,
        "budget": 40.0, "render_share": 0.85}
+COSTS_SHARE, COSTS_MIN_S = 0.4, 60  # distributed_costs.py: its part of the time left, the least worth starting
 COLUMNS = ["case", "volume", "size", "first_s", "best_s", "median_s", "check", "psnr_db", "note"]
 
 sys.path.insert(0, str(ROOT / "bench"))
@@ -164,9 +167,10 @@ def render_phase(settings: dict, deadline: float, write_refs: bool, work: Path) 
     return rows
 
 
-def distributed_phase(settings: dict, deadline: float, out: Path) -> tuple[list[dict], dict | None]:
-    """bench_distributed on 1+2 workers (its model), then on clusters of the larger counts: the rows,
-    and the 1+2-worker result (model and predictions; None if it did not finish). ``out`` is a work
+def distributed_phase(settings: dict, deadline: float, out: Path) -> tuple[list[dict], dict | None, dict]:
+    """bench_distributed on 1+2 workers (its model), distributed_costs (costs_phase), then
+    bench_distributed on clusters of the larger counts: the rows, the 1+2-worker result (model and
+    predictions; None if it did not finish) and distributed_costs' result. ``out`` is a work
     folder: the run tool brings back at most 8 files, so its tables and plots stay there."""
     env = os.environ | {"VGRAPH_BENCH_DATA": str(data_folder())}
     source = ROOT / "bench" / "bench_distributed.py"
@@ -179,6 +183,7 @@ def distributed_phase(settings: dict, deadline: float, out: Path) -> tuple[list[
     result = json.loads((base / "distributed_scaling.json").read_text()) if status == "ok" else None
     for n in small:
         rows.append(_readable(_measured_row, result, n, status, seconds))
+    costs = costs_phase(settings, env, deadline, out / "costs")
     for n in (n for n in settings["workers"] if n > 2):
         if result is None or time.monotonic() + seconds * 1.5 > deadline:
             rows.append({"workers": n, "status": "skipped: " + ("no model (1+2 workers did not finish)"
@@ -186,7 +191,32 @@ def distributed_phase(settings: dict, deadline: float, out: Path) -> tuple[list[
             continue
         status, seconds_n = _on_cluster(script, env, deadline, n, out / f"distributed_{n}")
         rows.append(_readable(_predicted_row, result, n, status, seconds_n, out / f"distributed_{n}"))
-    return rows, result
+        _add_costs_model(rows[-1], costs)
+    return rows, result, costs
+
+
+def costs_phase(settings: dict, env: dict, deadline: float, out: Path) -> dict:
+    """bench/distributed_costs.py (the model composed from measured costs, checked on 1 and 2
+    workers, its intervals for more) at the distributed size, two rounds, in at most
+    COSTS_SHARE of the time left; its JSON, or {"status": why not}."""
+    left = deadline - time.monotonic()
+    if left < COSTS_MIN_S:
+        return {"status": f"skipped: {left:.0f} s left, it needs {COSTS_MIN_S} s"}
+    script = [sys.executable, str(ROOT / "bench" / "distributed_costs.py"), "--size", str(settings["dist_size"]),
+              "--rounds", "2", "--out", str(out)]
+    status, seconds = _run(script, env, time.monotonic() + COSTS_SHARE * left)
+    if status != "ok":
+        return {"status": status, "phase_s": round(seconds, 1)}
+    return json.loads((out / "distributed_costs.json").read_text()) | {"status": "ok", "phase_s": round(seconds, 1)}
+
+
+def _add_costs_model(row: dict, costs: dict) -> None:
+    """The measured-costs model's interval beside each bonsai case of a larger cluster (contention 1)."""
+    predicted = {p["workers"]: p for p in costs.get("predictions", [])}.get(row["workers"], {})
+    for case in row.get("cases", []):
+        interval = predicted.get("tiles_by_grid", {}).get(case["grid"]) if case["data"] == "bonsai" else None
+        if interval:
+            case["costs_model"] = interval
 
 
 def _readable(make_row, result, workers: int, *args) -> dict:
@@ -276,16 +306,26 @@ def markdown(result: dict) -> str:
     lines += ["", f"bench_distributed --size {result.get('distributed_size')} (tiles split, cold frames, one round, "
               "single-threaded CPU workers): measured against the cost model fitted to 1 and 2 workers "
               "(for 4+ workers: its prediction for that grid).", "",
-              "| workers | status | phase s | data | grid | measured cold s | model s | measured / model |",
-              "|---|---|---|---|---|---|---|---|"]
+              "| workers | status | phase s | data | grid | measured cold s | model s | measured / model | "
+              "measured-costs model s (low / mid / high) |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for row in result["distributed"]:
         cases = row.get("cases") or [{}]
         for case in cases:
             ratio = case["cold_s"] / case["model_s"] if case.get("cold_s") and case.get("model_s") else None
             lines.append(f"| {row['workers']} | {row['status']} | {row.get('phase_s', '')} | {case.get('data', '')} | "
                          f"{case.get('grid', '')} | {_num(case.get('cold_s'))} | {_num(case.get('model_s'))} | "
-                         f"{_num(ratio)} |")
+                         f"{_num(ratio)} | {_interval(case.get('costs_model'))} |")
+    lines += ["", "bench/distributed_costs.py (the model composed from measured costs): "
+              + result.get("costs", {}).get("status", "not run"), ""]
+    if result.get("costs", {}).get("status") == "ok":
+        from distributed_costs_report import markdown as costs_markdown
+        lines.append(costs_markdown(result["costs"]))
     return "\n".join(lines) + "\n"
+
+
+def _interval(spread) -> str:
+    return "" if not spread else f"{spread['low']:.3f} / {spread['mid']:.3f} / {spread['high']:.3f}"
 
 
 def _num(value) -> str:
@@ -312,7 +352,7 @@ def main(argv=None) -> int:
         # clusters, each a fresh conversion and fit).
         deadline = start + settings["render_share"] * budget
         result["renders"] = render_phase(settings, deadline, args.write_refs, Path(work))
-        result["distributed"], fitted = distributed_phase(settings, start + budget, Path(work))
+        result["distributed"], fitted, result["costs"] = distributed_phase(settings, start + budget, Path(work))
     if fitted:
         result["distributed_model"] = {key: fitted.get(key) for key in ("model", "predictions", "size", "cluster")}
     result["seconds"] = time.monotonic() - start
