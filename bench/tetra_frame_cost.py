@@ -25,8 +25,8 @@ variant per round, each round a new camera); min / median over the rounds per st
 
 --with-depth adds, per variant, the same processor's frames with its depth output read as well
 (the on-demand depth drawn: a second render target). --baseline COMMIT ... adds, per variant and
-commit, the same frames drawn by vgraph as it was at COMMIT (``git archive`` of src/vgraph into a
-temporary folder, run in a spawned worker process driven frame by frame, so the codes alternate
+commit, the same frames drawn by vgraph as it was at COMMIT (``git archive`` of src/vgraph,
+processors and shaders into a temporary folder, run in a spawned worker process driven frame by frame, so the codes alternate
 in the same rounds): before / after of a change, measured as every comparison in the benches is.
 A worker times whole frames only (with the read-back). The last column is, for those rows, their
 frame over the plain variant's in the same round: median (min-max).
@@ -145,7 +145,10 @@ def baseline_worker(connection, source: str, dims, size: int):
     seconds of a whole frame (update, glFinish, read-back); None ends it."""
     sys.path.insert(0, source)
     import vgraph
-    assert vgraph.__file__.startswith(source), vgraph.__file__
+    import vgraph.processors.projected_tetrahedra as drawn
+    from vgraph.gl.shaders import find_shader
+    for path in (vgraph.__file__, drawn.__file__, find_shader("tetrahedra/cells.frag.glsl")):
+        assert str(Path(path).resolve()).startswith(str(Path(source).parent)), path
     import bench_tetra as bt
     from vgraph.camera import Camera
     from vgraph.gl_context import get_context
@@ -170,7 +173,9 @@ class Baseline:
 
     def __init__(self, commit: str, dims, size: int):
         self.folder = tempfile.TemporaryDirectory(prefix="vgraph-baseline-")
-        archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "src/vgraph"],
+        # src/vgraph/processors and src/vgraph/shaders are links to the top-level folders: without
+        # them the links dangle and vgraph's editable install finds the working tree's instead
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "src/vgraph", "processors", "shaders"],
                                  check=True, capture_output=True).stdout
         subprocess.run(["tar", "-x", "-C", self.folder.name], input=archive, check=True)
         context = multiprocessing.get_context("spawn")
