@@ -41,7 +41,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from bench_distributed import BRICK, DATA_SETS, forget_networks, network_for, open_client, timed_render, worker_stats  # noqa: E402
+from bench_distributed import (BRICK, DATA_SETS, forget_networks, network_for, open_client,  # noqa: E402
+                               timed_render, worker_stats)
 from cost_model import (Costs, Spread, TileWork, grid_for, in_turn, leaves_frame, predict, predict_tiles,  # noqa: E402
                         tiles_for)
 
