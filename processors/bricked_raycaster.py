@@ -25,6 +25,7 @@ from __future__ import annotations
 from vgraph import BoolProperty, FloatProperty, Inport, OptionProperty, Outport
 from vgraph.bricks.cache import BrickCache
 from vgraph.bricks.paged_sampling import PagedSampling
+from vgraph.bricks.ray_requests import RayRequests
 from vgraph.bricks.sampling import COMPOSITING, BrickSampling
 from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, IsoSurface, Sampling,
@@ -50,7 +51,8 @@ class BrickedRayCaster(RaycasterBase):
     components = (EntryExit(), CameraRays(), Sampling(), TransferFunctionLut(),
                   FrontToBack(mode="compositing", corrected=("dvr",), early_termination=1.0), IsoSurface(),
                   BrickSampling(mode="compositing"), Gradients(DERIVATIVES),
-                  Light(mode="compositing", shaded_modes=SHADED_MODES), Background(), PagedSampling())
+                  Light(mode="compositing", shaded_modes=SHADED_MODES), Background(), PagedSampling(),
+                  RayRequests())
     uses_context = ("load_limit", "leaf")  # BrickSampling's (vgraph.bricks.sampling)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING), doc="dvr, mip, iso (surface at iso_level)")

@@ -78,13 +78,17 @@ bool in_empty_block(vec3 t, vec4 entry, inout vec3 lo, inout vec3 hi) {
 }
 #endif
 
+#include "bricks/ray_requests.glsl"
+
 // Where sample i lies in a cell that is not drawn (or, with PAGED_BLOCKS, in a block that adds
 // nothing), move i to the first sample past that box and return true (march.glsl's
 // PAGED_SKIPPING hook jumps until this returns false). Samples skipped add nothing, so the image
 // is the same; a sample a rounding past the box's face still lies within half a voxel of it,
-// whose range covers it.
+// whose range covers it. Every sample a mode evaluates passes here first, so it is where a ray
+// asks for the missing cells it reaches (ray_requests.glsl).
 bool paged_skipped(inout int i, Ray ray) {
     vec3 t = sample_point(ray, float(i));
+    request_missing(t);  // (PAGED_REQUESTS: a cell of the plan the atlas misses, reached here)
     vec4 entry = leaf_entry(t);
     vec3 lo, hi;
     bool skip;

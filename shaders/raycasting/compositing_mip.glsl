@@ -168,6 +168,9 @@ Result march(Ray ray) {
     int best_sample = 0;
     March cursor = start_march(ray);
     while (cursor.i < ray.samples && best < 1.0) {  // nothing exceeds 1 after clamping
+        // (a literal true, compiled away, but for the single-pass bricked ray caster's jumps over
+        // cells that are not drawn and its requests: bricks/paged_sampling.glsl)
+        if (!next_occupied_sample(cursor, ray)) break;
         float value = intensity(sample_point(ray, float(cursor.i)));
         result.taken++;
         if (value > best) {

@@ -39,6 +39,7 @@ import numpy as np
 from vgraph.bricks.atlas import BrickAtlas
 from vgraph.bricks.cache import MB
 from vgraph.bricks.page_table import PageTable, texel_offsets
+from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
 from vgraph.bricks.sampling import BrickSampling
 from vgraph.bricks.selection import BrickGeometry, FramePlan, normalised_ranges
 from vgraph.bricks.targets import level_voxel
@@ -102,27 +103,51 @@ class PagedSampling(Component):
         atlas.begin_frame(set(wanted) | (set(plan.keys()) & resident_before))
         placed = [key for key in wanted if atlas.place(key, lambda key=key: cache.brick(key)) is not None]
         resolved, leaf = self.leaf_table(frame, source, geometry, plan, atlas)
+        missing = [key for key in plan.keys() if key not in atlas.slots]
+        requests = processor.parts[RayRequests]
+        requests.prepare(frame.ctx, geometry, missing)  # the rays ask for what they reach of these
         self.frame_binding = self.binding_of(frame, geometry, source, leaf)
         blocks = self.block_flags(frame, atlas)
         if blocks is not None:
             self.frame_binding = self.frame_binding.merge(blocks)
-        # march.glsl's jumps only where some cell is not drawn or some block is skipped: on
-        # llvmpipe the jumps' look-ups cost every sample
-        self.frame_binding.defines["PAGED_SKIPPING"] = blocks is not None or bool((resolved[..., 3] < 0.0).any())
+        # march.glsl's jumps (and the requests, asked there) only where some cell is not drawn or
+        # missing, or some block is skipped: on llvmpipe the jumps' look-ups cost every sample
+        self.frame_binding.defines["PAGED_SKIPPING"] = (blocks is not None or requests.asked
+                                                        or bool((resolved[..., 3] < 0.0).any()))
         self.draw(frame, target, own)
-        missing = [key for key in plan.keys() if key not in atlas.slots]
-        complete = not missing
-        if missing and context.load_limit is not None:  # the next frame refines (the GUI asks again)
+        requested = requests.read(frame.ctx, geometry)  # (key, pixels) of the missing cells rays reached
+        if requested and context.load_limit is not None:  # the next frame refines (the GUI asks again)
             cache.begin_frame(plan.keys())
-            cache.read_ahead([key for key in missing if key not in cache.ram], context.load_limit,
+            cache.read_ahead([key for key, _ in by_priority(requested) if key not in cache.ram], context.load_limit,
                              cache.stats["bricks_read"] - read_before,
                              cache.stats["read_seconds"] - seconds_before)
         self.last_frame = {"bricks": len(placed), "floor_level": drawn.floor_level, "bytes": drawn.bytes,
-                           "levels": sorted({key[0] for key in placed}), "complete": complete,
-                           "planned_floor_level": plan.floor_level, "missing": len(missing),
-                           "error_bound": None if errors is None else errors.frame_bound(drawn.bricks, frame.size),
+                           **self.drawn_report(frame, geometry, plan, atlas, requested, errors),
+                           "planned_floor_level": plan.floor_level, "missing": len(requested),
+                           "unreached": len(missing) - len(requested), "requests": by_priority(requested),
                            "bricks_read": cache.stats["bricks_read"] - read_before,
                            "atlas_slots": atlas.capacity, "seconds": time.perf_counter() - started}
+
+    @staticmethod
+    def drawn_report(frame: Frame, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas, requested,
+                     errors) -> dict:
+        """What the frame drew of its plan: the planned cells rays could see (resident, or missing
+        and reached) each from itself or its finest resident ancestor; ``complete`` when no ray
+        reached a missing cell (the image is the planned frame's: cells no ray reached change no
+        pixel), the levels drawn, the coarsest, and (dvr) the error bound of lod_error over those
+        bricks (1 where a ray reached a cell with nothing resident above it)."""
+        resident, reached = set(atlas.slots), {key for key, _ in requested}
+        sources = [(drawn_from(geometry, key, resident), rect) for key, rect in plan.bricks
+                   if key in resident or key in reached]
+        levels = sorted({key[0] for key, _ in sources if key is not None})
+        if errors is None:
+            bound = None
+        elif any(key is None for key, _ in sources):
+            bound = 1.0
+        else:
+            bound = errors.frame_bound(sources, frame.size)
+        return {"complete": not requested, "levels": levels, "coarsest_level": levels[-1] if levels else None,
+                "error_bound": bound}
 
     def summary(self) -> str:
         """The last frame in a line (the inspector's, Processor.frame_summary), as BrickSampling's:
@@ -134,8 +159,12 @@ class PagedSampling(Component):
         span = "-" if not levels else str(levels[0]) if len(levels) == 1 else f"{levels[0]}-{levels[-1]}"
         line = f"single pass: level {span}, {frame['bricks']} bricks in an atlas of {frame['atlas_slots']} slots"
         if frame["missing"]:
-            line += f", {frame['missing']} planned bricks missing (drawn coarser)"
-        return line + ("" if frame["complete"] else "; refining")
+            line += f", {frame['missing']} missing bricks reached (drawn coarser)"
+        if frame["error_bound"] is not None:
+            line += f"; error bound {frame['error_bound']:.3g} against the level-0 frame"
+        if frame["complete"]:
+            return line + "; complete"
+        return line + f"; coarsest level {frame['coarsest_level']}; refining"
 
     def leaf_table(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas):
         """The frame's leaf table (numpy) and its texture: the page table of the plan and the
@@ -250,8 +279,9 @@ class PagedSampling(Component):
                        missed=ray_main_missed(processor.background, True))
 
 
-# The one pass: the GLSL and bindings of these parts, in this order, ahead of the RayCaster's shader.
+# The one pass: the GLSL and bindings of these parts, in this order, ahead of the RayCaster's shader
+# (RayRequests first: its GLSL is an #extension line).
 # Not Gradients: its GLSL comes with PagedSampling's (after raw_sample) and its binding is
 # PagedSampling's (the bricks' format and level 0's step; precomputed drawn as central).
-PAGED_PARTS = (EntryExit, CameraRays, PagedSampling, Sampling, TransferFunctionLut, FrontToBack, IsoSurface,
+PAGED_PARTS = (RayRequests, EntryExit, CameraRays, PagedSampling, Sampling, TransferFunctionLut, FrontToBack, IsoSurface,
                Light, Background)

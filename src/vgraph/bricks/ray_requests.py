@@ -1,0 +1,127 @@
+"""RayRequests: the single-pass bricked ray caster's ray-guided requests (issue #33, item 2;
+docs/explanations/bricked-ray-casting.md, "Ray-guided requests"): the shader counts the cells of
+the frame's plan that the atlas does not hold and that its rays reached, the CPU reads the counts
+back after the frame and loads those bricks by priority, and the next frame refines. The contract
+of components: vgraph.gl.raycasting.raycaster_base.
+
+Conventions:
+- Only a frame whose plan misses cells in the atlas asks (define PAGED_REQUESTS; a complete frame
+  pays nothing). Its ``wanted`` table holds, per level-0 cell, 1 + the level of the planned cell
+  there that the atlas misses (0: none); the shader (bricks/ray_requests.glsl) adds one per ray to
+  that cell's counter in an R32UI image laid out as the page table (vgraph.bricks.page_table) with
+  image atomics (GL_ARB_shader_image_load_store, in Mesa's llvmpipe; the extension line is this
+  part's GLSL, included ahead of every other part).
+- A ray asks where it evaluates a sample or starts a jump over a cell not drawn, so a cell no ray
+  reaches (hidden behind opaque bricks once rays stop early, outside every ray, behind mip's
+  maximum of 1) is never asked for, and never read. What a ray reads only through the shading's
+  differences across a cell face is not asked for (a limit: such a pixel refines once a ray enters
+  the cell).
+- ``by_priority``: the most pixels first (screen coverage), then the coarser level, then the key.
+- ``drawn_bricks``: what each planned brick was drawn from, itself or its finest resident
+  ancestor (the page table's walk), for the frame's report and error bound.
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+
+from vgraph.bricks.page_table import PageTable
+from vgraph.bricks.selection import BrickGeometry
+from vgraph.gl.raycasting.raycaster_base import Binding, Component
+from vgraph.gl_context import release_quietly
+
+IMAGE_UNIT = 0  # the image unit of the requests (image units are apart from texture units)
+
+
+def wanted_levels(geometry: BrickGeometry, missing) -> np.ndarray:
+    """float32 [z, y, x] per level-0 cell: 1 + the level of the cell of ``missing`` (keys) holding
+    it, 0 where none does. The planned cells tile the volume, so at most one holds a cell."""
+    shape = tuple(int(n) for n in geometry.grids[0][::-1])
+    wanted = np.zeros(shape, dtype=np.float32)
+    keys = np.asarray(list(missing), dtype=np.int64).reshape(-1, 4)
+    for level in np.unique(keys[:, 0]):
+        level = int(level)
+        mask = np.zeros(tuple(int(n) for n in geometry.grids[level][::-1]), dtype=bool)
+        mask[tuple(keys[keys[:, 0] == level, 1:].T)] = True
+        per_cell = (geometry.spans[level] / geometry.spans[0]).astype(np.int64)[::-1]  # level-0 cells, [z, y, x]
+        index = np.ix_(*[np.arange(n) // int(r) for n, r in zip(shape, per_cell)])
+        wanted[mask[index]] = level + 1.0
+    return wanted
+
+
+def by_priority(requests: list) -> list:
+    """``requests`` ((key, pixels)) in the order to load them: most pixels, then coarser, first."""
+    return sorted(requests, key=lambda request: (-request[1], -request[0][0], request[0]))
+
+
+def parent_of(geometry: BrickGeometry, key) -> tuple | None:
+    """The cell of the next coarser level holding ``key``; None at the top."""
+    level = key[0]
+    if level + 1 >= len(geometry.grids):
+        return None
+    ratio = geometry.ratios[level + 1][::-1]  # children per axis, [z, y, x]
+    return (level + 1,) + tuple(int(i) // int(r) for i, r in zip(key[1:], ratio))
+
+
+def drawn_from(geometry: BrickGeometry, key, resident) -> tuple | None:
+    """The brick a planned cell is drawn from: itself if ``resident``, else its finest resident
+    ancestor; None when there is none (nothing is drawn there)."""
+    while key is not None and key not in resident:
+        key = parent_of(geometry, key)
+    return key
+
+
+class RayRequests(Component):
+    """The request image and the wanted table of one ray caster (module docstring)."""
+
+    glsl = ("bricks/ray_requests_extension.glsl",)
+
+    def start(self) -> None:
+        self.gl: dict = {}  # "requests" (R32UI, the page table's layout), "wanted" (R32F, level 0's cells)
+        weakref.finalize(self.processor, release_quietly, self.gl)
+        self.frame_binding = Binding()
+        self.asked = False  # whether the frame being drawn asks
+
+    def bind(self, frame) -> Binding:
+        return self.frame_binding  # made by prepare, before the pass
+
+    def prepare(self, ctx, geometry: BrickGeometry, missing) -> Binding:
+        """The pass's binding for a frame whose plan the atlas misses ``missing`` of: the zeroed
+        request image bound to its image unit and the wanted table; nothing when none is missing."""
+        self.asked = bool(missing)
+        if not self.asked:
+            self.frame_binding = Binding()
+            return self.frame_binding
+        (size_x, size_y, size_z), z_offsets = PageTable.layout(geometry)
+        requests = self._texture(ctx, "requests", (size_x, size_y, size_z), "u4")
+        requests.write(np.zeros(size_x * size_y * size_z, dtype=np.uint32).tobytes())
+        requests.bind_to_image(IMAGE_UNIT, read=True, write=True)
+        wanted = wanted_levels(geometry, missing)
+        table = self._texture(ctx, "wanted", wanted.shape[::-1], "f4")
+        table.write(wanted.tobytes())
+        self.frame_binding = Binding({"PAGED_REQUESTS": True}, textures={"wanted_table": table},
+                                     uniforms={"requests": IMAGE_UNIT,
+                                               "page_z_offset": np.asarray(z_offsets, dtype=np.int32)})
+        return self.frame_binding
+
+    def read(self, ctx, geometry: BrickGeometry) -> list:
+        """(key, pixels) of the missing cells the last frame's rays reached; [] when it did not ask."""
+        if not self.asked:
+            return []
+        (size_x, size_y, size_z), z_offsets = PageTable.layout(geometry)
+        ctx.memory_barrier()  # the shader's image stores, before reading the texture
+        counts = np.frombuffer(self.gl["requests"].read(), dtype=np.uint32).reshape(size_z, size_y, size_x)
+        z, y, x = np.nonzero(counts)
+        levels = np.searchsorted(np.asarray(z_offsets), z, side="right") - 1
+        return [((int(level), int(k - z_offsets[level]), int(j), int(i)), int(counts[k, j, i]))
+                for level, k, j, i in zip(levels, z, y, x)]
+
+    def _texture(self, ctx, name: str, size, dtype: str):
+        texture = self.gl.get(name)
+        if texture is None or texture.ctx is not ctx or texture.size != tuple(size):
+            release_quietly({name: texture} if texture is not None else {})
+            texture = self.gl[name] = ctx.texture3d(tuple(int(n) for n in size), 1, dtype=dtype)
+            texture.filter = (0x2600, 0x2600)  # GL_NEAREST: read by texelFetch
+        return texture

@@ -1,0 +1,144 @@
+"""Ray-guided requests of the single-pass bricked ray caster (issue #33, item 2; vgraph.bricks.ray_requests):
+the shader counts the planned cells the atlas misses that its rays reach; the CPU loads them by
+priority under the load limit and the next frame refines. Asserted: the requests name exactly the
+missing cells rays reached with the pixels that reached them, their order, frames that refine to
+the in-core RayCaster's image while the report says incomplete (coarsest level, error bound), and
+bricks hidden behind an opaque slab never read, where the plan's read-ahead reads them all."""
+
+import numpy as np
+
+from vgraph.bricks.cache import LoadLimit
+from vgraph.bricks.paged_sampling import PagedSampling
+from vgraph.bricks.pyramid import ArrayPyramid
+from vgraph.bricks.ray_requests import by_priority, drawn_from, wanted_levels
+from vgraph.bricks.sampling import BrickSampling
+from vgraph.bricks.selection import BrickGeometry
+from vgraph.camera import Camera
+from vgraph.frame_context import FrameContext
+from vgraph.numerics.reference_raycast import volume_box
+from vgraph.testing import ray_caster_network
+from vgraph.transfer_function import TransferFunction
+from vgraph.volume import Volume
+
+from helpers.networks import UNSHADED_RAMP
+from test_bricked_raycaster import FINEST, SIZE, field, oblique, odd_volume, render
+
+ONE_STEP = 1.0 / 255.0
+# Opaque at 1 (the slab), translucent around 0.5 (the rest): rays stop in the slab.
+SLAB_TF = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.3, 0.1, 0.3, 0.8, 0.1), (0.7, 0.8, 0.6, 0.3, 0.3),
+                                   (0.9, 1, 1, 1, 1.0), (1.0, 1, 1, 1, 1.0)])
+SLAB = {"transfer_function": SLAB_TF, "shading": "none", "early_termination": 0.99}
+
+
+def slab_volume() -> Volume:
+    """48 x 32 x 32 voxels (z, y, x), bricks of 16: three layers of 2 x 2 level-0 cells along z; the
+    front one (z >= 32, the eye's side) is an opaque slab, the two behind it translucent ripples."""
+    z, y, x = np.meshgrid(*[np.linspace(-1, 1, n) for n in (48, 32, 32)], indexing="ij")
+    values = 0.5 + 0.12 * np.sin(7 * x) * np.cos(5 * y + 3 * z)
+    values[32:] = 1.0
+    return Volume(values.astype(np.float32))
+
+
+def slab_network(method: str):
+    volume = slab_volume()
+    camera = Camera.looking_at_box(*volume_box(volume), direction=(0.0, 0.0, -1.0), projection="orthographic")
+    network = ray_caster_network(volume, camera, "BrickedRayCaster", method=method, brick_size=16,
+                                 lod_bias=FINEST, **SLAB)
+    return volume, camera, network
+
+
+def refine(network, limit: LoadLimit, frames: int = 30):
+    """Frames under ``limit`` until one is complete: (images, last_frame of each)."""
+    images, reports = [], []
+    for number in range(frames):
+        network.set("rc.sampling_rate", 1.0 + 1e-6 * (number + 1))  # (a new frame each time)
+        images.append(np.asarray(network.evaluate("rc.image", size=SIZE, context=FrameContext(load_limit=limit))))
+        reports.append(dict(network["rc"].last_frame))
+        if reports[-1]["complete"]:
+            break
+    return images, reports
+
+
+def test_requests_go_by_pixels_then_coarser_levels_first():
+    requests = [((0, 1, 0, 0), 10), ((1, 0, 0, 0), 10), ((0, 0, 0, 0), 30), ((0, 0, 0, 1), 10), ((2, 0, 0, 0), 5)]
+    assert by_priority(requests) == [((0, 0, 0, 0), 30), ((1, 0, 0, 0), 10), ((0, 0, 0, 1), 10),
+                                     ((0, 1, 0, 0), 10), ((2, 0, 0, 0), 5)]
+
+
+def test_the_wanted_table_marks_the_level_0_cells_of_missing_cells_and_the_walk_finds_ancestors():
+    geometry = BrickGeometry(ArrayPyramid(field((20, 16, 28)), brick=(8, 8, 8)))  # level 0: 4 x 2 x 3 cells
+    wanted = wanted_levels(geometry, [(1, 0, 0, 0), (0, 2, 1, 3)])
+    assert wanted.shape == (3, 2, 4)
+    assert (wanted[:2, :2, :2] == 2.0).all() and wanted[2, 1, 3] == 1.0
+    assert np.count_nonzero(wanted) == 9
+    resident = {(2, 0, 0, 0), (1, 0, 0, 1)}
+    assert drawn_from(geometry, (0, 1, 1, 3), resident) == (1, 0, 0, 1)
+    assert drawn_from(geometry, (0, 2, 1, 3), resident) == (2, 0, 0, 0)
+    assert drawn_from(geometry, (0, 2, 1, 3), set()) is None
+
+
+def test_requests_name_exactly_the_missing_cells_rays_reached_with_their_pixels():
+    volume, camera, network = slab_network("single_pass")
+    images, reports = refine(network, LoadLimit(bricks=2))
+    assert reports[-1]["complete"]
+    rc = network["rc"]
+    front = (0, 2, 1, 0)  # a cell of the slab, in every ray's way at x < 16, y >= 16
+    rc.parts[PagedSampling].atlas.evict(front)
+    rc.parts[BrickSampling].cache.ram.pop(front)
+    network.set("rc.sampling_rate", 1.0)
+    image = np.asarray(network.evaluate("rc.image", size=SIZE, context=FrameContext(load_limit=LoadLimit(bricks=0))))
+    frame = rc.last_frame
+    # The pixels whose rays enter the cell: orthographic along -z, those entering the box with
+    # x < 1/2 and y >= 1/2 in texture coordinates (the cell owns [0, 1/2) x [1/2, 1)).
+    entry = np.asarray(network.evaluate("eep.entry", size=SIZE))
+    hit = entry[..., 3] > 0
+    inside = hit & (entry[..., 0] < 0.5) & (entry[..., 1] >= 0.5)
+    assert [key for key, _ in frame["requests"]] == [front]  # none of the hidden cells behind it
+    assert frame["requests"][0][1] == int(inside.sum()) > 0
+    assert frame["bricks_read"] == 1 and not frame["complete"] and frame["coarsest_level"] == 1
+    assert rc.frame_summary().endswith("coarsest level 1; refining")
+    assert np.abs(image - images[-1]).max() <= ONE_STEP  # (the slab is flat: level 1 draws it alike)
+    network.set("rc.sampling_rate", 1.0 + 1e-7)
+    again = np.asarray(network.evaluate("rc.image", size=SIZE, context=FrameContext(load_limit=LoadLimit(bricks=0))))
+    assert rc.last_frame["complete"] and rc.last_frame["bricks_read"] == 0 and rc.last_frame["requests"] == []
+    assert np.abs(again - images[-1]).max() <= ONE_STEP
+
+
+def test_bricks_hidden_behind_an_opaque_slab_are_never_read_where_the_read_ahead_reads_them_all():
+    volume, camera, network = slab_network("single_pass")
+    images, reports = refine(network, LoadLimit(bricks=2))
+    assert reports[-1]["complete"] and reports[-1]["levels"] == [0] and len(reports) > 2
+    read = sum(report["bricks_read"] for report in reports)
+    cache = network["rc"].parts[BrickSampling].cache
+    hidden = [(0, z, y, x) for z in (0, 1) for y in (0, 1) for x in (0, 1)]
+    assert not set(hidden) & set(cache.ram) and cache.stats["bricks_read"] == read
+    assert reports[-1]["unreached"] == len(hidden)
+    want, _, _ = render(volume, camera, "RayCaster", **SLAB)
+    assert np.abs(images[-1] - want).max() <= ONE_STEP and want[..., :3].max() > 0.5
+
+    _, _, passes = slab_network("passes")  # the pass per brick reads the plan's bricks ahead
+    _, passes_reports = refine(passes, LoadLimit(bricks=2))
+    assert passes_reports[-1]["complete"]
+    passes_read = sum(report["bricks_read"] for report in passes_reports)
+    assert set(hidden) <= set(passes["rc"].parts[BrickSampling].cache.ram)
+    assert read <= passes_read - len(hidden)
+
+
+def test_frames_refine_to_the_in_core_image_and_say_how_far_they_are_until_complete():
+    volume = odd_volume()
+    camera = oblique(volume)
+    want, _, _ = render(volume, camera, "RayCaster", **UNSHADED_RAMP, early_termination=1.0)
+    network = ray_caster_network(volume, camera, "BrickedRayCaster", method="single_pass", brick_size=16,
+                                 lod_bias=FINEST, **UNSHADED_RAMP)
+    images, reports = refine(network, LoadLimit(bricks=3))
+    assert len(reports) > 2 and reports[-1]["complete"]
+    for report in reports[:-1]:
+        assert not report["complete"] and report["missing"] > 0
+        assert report["coarsest_level"] > 0 and report["error_bound"] > 0.0
+        assert report["requests"] == by_priority(report["requests"])
+    assert all(later["missing"] < earlier["missing"] for earlier, later in zip(reports, reports[1:-1]))
+    last = reports[-1]
+    assert last["levels"] == [0] and last["coarsest_level"] == 0 and last["error_bound"] == 0.0
+    assert network["rc"].frame_summary().endswith("; complete")
+    assert np.abs(images[-1] - want).max() <= 2 * ONE_STEP  # (the sampling rate moved by 3e-5)
+    assert np.abs(images[0] - want).max() > 5 * ONE_STEP   # the first frame was coarse
