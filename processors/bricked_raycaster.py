@@ -22,9 +22,12 @@ Conventions (docs/explanations/bricked-ray-casting.md explains each with the num
 
 from __future__ import annotations
 
+import math
+
 from vgraph import BoolProperty, FloatProperty, Inport, OptionProperty, Outport
-from vgraph.bricks.cache import BrickCache
+from vgraph.bricks.cache import MB, BrickCache
 from vgraph.bricks.paged_sampling import PagedSampling
+from vgraph.bricks.pyramid import brick_grid
 from vgraph.bricks.ray_requests import RayRequests
 from vgraph.bricks.sampling import COMPOSITING, BrickSampling
 from vgraph.frame_context import FrameContext
@@ -33,13 +36,19 @@ from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, 
 from vgraph.gl.raycasting.light import Gradients, Light
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.targets import RenderTargets
+from vgraph.errors import VGraphError
 from vgraph.image import Image
+from vgraph.memory import format_bytes
 from vgraph.shown_content import voxels_by_compositing
 from vgraph.volume import Volume
 
 SHADED_MODES = ("dvr", "iso")
 DERIVATIVES = ("central", "forward", "backward", "sobel")  # each reads at most one voxel away
 METHODS = ("passes", "single_pass")  # BrickSampling's, PagedSampling's (vgraph.bricks.paged_sampling)
+# single_pass's page table resolves to a leaf table of one RGBA32F texel per level-0 brick, held
+# about this many times while a frame builds it (entries, leaf, fallback, the texture): 128 MiB at
+# 8192^3 in 64^3 bricks, 1 GiB at 16384^3, which is refused rather than allocated
+LEAF_TABLE_BYTES, LEAF_TABLE_COPIES = 16, 4
 
 
 class BrickedRayCaster(RaycasterBase):
@@ -105,7 +114,21 @@ class BrickedRayCaster(RaycasterBase):
         own = Binding(defines={f"COMPOSITING_{self.compositing.upper()}": True})
         image, depth = self._targets.ensure(frame.ctx, frame.size)
         if self.method == "single_pass":
+            self._check_leaf_table(volume)
             self.parts[PagedSampling].draw_frame(frame, context, self._targets, own)
         else:
             self.bricks.draw_frame(frame, context, self._targets, own)
         return {"image": image, "depth": depth}
+
+    def _check_leaf_table(self, volume: Volume) -> None:
+        """single_pass's leaf table must fit min(ram_budget, gl_budget) (LEAF_TABLE_COPIES)."""
+        source = self.brick_source(volume)
+        cells = math.prod(brick_grid(source.levels[0].shape, source.brick))
+        need = cells * LEAF_TABLE_BYTES * LEAF_TABLE_COPIES
+        budget = min(self.ram_budget, self.gl_budget) * MB
+        if need > budget:
+            raise VGraphError(f"{self.id}.method: single_pass keeps a leaf table of one RGBA32F texel per "
+                              f"level-0 brick ({cells} bricks of {volume.source or 'the volume'}), about "
+                              f"{format_bytes(need)} while a frame builds it, more than min(ram_budget, "
+                              f"gl_budget) = {format_bytes(budget)}: use method 'passes' (its memory follows "
+                              f"the budgets) or larger bricks")

@@ -7,7 +7,9 @@ a sliver of [0, 1]); a range the file declares; the data's own min..max.
 
 An OME-Zarr store (a folder ending in .zarr, or its zarr.json) opens as a BrickedVolume: its grid
 and range come from the store's metadata and no voxel is read until a consumer needs them; the
-whole array loads only within ``memory_budget`` (docs/guide/large-data.md).
+whole array loads only within ``memory_budget`` (docs/guide/large-data.md). So does a virtual
+store named by an ``implicit:`` URL (vgraph.bricks.implicit_url: an implicit function whose chunks
+are computed when read), which is not a file and is never resolved against the network's folder.
 """
 
 import warnings
@@ -15,6 +17,7 @@ from pathlib import Path
 
 from vgraph import (FilePathProperty, FloatProperty, IntProperty, OptionProperty, Outport, Processor,
                     PropertyError, VectorProperty, VGraphError, VGraphWarning)
+from vgraph.bricks.implicit_url import is_implicit_url, open_implicit
 from vgraph.bricks.volume import DEFAULT_MEMORY_BUDGET_MB, BrickedVolume
 from vgraph.camera import MAX_COORDINATE
 from vgraph.errors import VolumeFileError
@@ -77,6 +80,8 @@ class VolumeSource(Processor):
     def inapplicable(self) -> set[str]:
         if not self.path:
             return set()
+        if is_implicit_url(self.path):
+            return set(RAW_FIELDS)
         path = Path(self.resolve_path(self.path))
         hidden = set() if zarr_store(path) is not None else {"memory_budget"}
         return hidden | (RAW_FIELDS if describes_itself(path) else set())
@@ -89,7 +94,7 @@ class VolumeSource(Processor):
         if not self.path:
             raise VGraphError(f"{self.id}.path: no volume file chosen")
         try:
-            volume = self._read(self.resolve_path(self.path))
+            volume = self._read(self.path if is_implicit_url(self.path) else self.resolve_path(self.path))
         except TimeStepError as error:
             count = error.time_steps
             held = "1 time point (0)" if count == 1 else f"{count} time points (0 .. {count - 1})"
@@ -103,6 +108,8 @@ class VolumeSource(Processor):
         return self._with_overrides(volume)
 
     def _read(self, path) -> Volume:
+        if is_implicit_url(path):
+            return BrickedVolume(open_implicit(path), memory_budget_mb=self.memory_budget)
         store = zarr_store(Path(path))
         if store is not None:
             return BrickedVolume.open(store, time_step=self.time_step, channel=self.channel,

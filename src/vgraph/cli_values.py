@@ -9,6 +9,7 @@ import os
 import warnings
 from pathlib import Path
 
+from vgraph.bricks.implicit_url import is_implicit_url
 from vgraph.errors import PropertyError, VGraphError, VGraphWarning
 from vgraph.file_names import expanded, file_name_problem, shown
 from vgraph.json_limits import MAX_NESTING, nesting_depth
@@ -74,6 +75,8 @@ def set_from_command_line(network, text: str) -> None:
 
 
 def _from_cwd(value: str) -> str:
+    if is_implicit_url(value):  # a virtual store's name, not a file (vgraph.bricks.implicit_url)
+        return value
     path = expanded(value)
     return value if path.is_absolute() else str(Path.cwd() / path)
 

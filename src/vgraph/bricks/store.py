@@ -61,12 +61,13 @@ SCAN_BRICKS = 2**12    # ... in up to 4096 bricks
 
 class BrickStore:
     """A BrickSource over the OME-Zarr image at ``path`` (time point ``time``, channel
-    ``channel``)."""
+    ``channel``). ``files``: the zarr store to read instead of the folder at ``path`` (a virtual
+    store, implicit_store.py; ``path`` then only names it)."""
 
-    def __init__(self, path, time: int = 0, channel: int = 0):
+    def __init__(self, path, time: int = 0, channel: int = 0, *, files=None):
         self.path = Path(path)
         self.source = str(path)
-        self._files = CheckedStore(self.path) if self.path.is_dir() else None
+        self._files = files if files is not None else CheckedStore(self.path) if self.path.is_dir() else None
         group = _open_group(self.path, self._files)
         attributes = dict(group.attrs)
         if foreign.bioformats2raw_layout(attributes):
@@ -344,7 +345,7 @@ class BrickStore:
 
 
 def _open_group(path: Path, files: CheckedStore | None):
-    if not path.exists():
+    if files is None and not path.exists():
         raise VolumeFileError(path, "store does not exist")
     if files is None:
         raise VolumeFileError(path, "is not a folder: an OME-Zarr store is a folder holding "
