@@ -98,10 +98,11 @@ def _in_kept_cell(point, inverse, dims, kept_cells):
 
 
 @numba.njit(cache=True)
-def sweep(values, positions, depths, kept_vertices, kept_cells, dims, origins, directions, cosines,
-          t_far, near, view_projection, width, height, lut, tau_scale, threshold_on, inverse,
+def sweep(values, positions, pixel_x, pixel_y, depths, kept_vertices, kept_cells, dims, origins,
+          directions, cosines, t_far, near, width, height, lut, tau_scale, threshold_on, inverse,
           early_termination, capacity, colour, log_transparency, first_t, segments):
-    """Render into the per-pixel arrays (module docstring). Returns (vertices swept, faces
+    """Render into the per-pixel arrays (module docstring); ``pixel_x``, ``pixel_y`` are the
+    vertices' projections in pixel coordinates (pixel centres at whole numbers). Returns (vertices swept, faces
     projected, largest pool use) or (OVERFLOW, 0, 0) when ``capacity`` entries were too few."""
     nx, ny, nz = dims[0], dims[1], dims[2]
     n = nx * ny * nz
@@ -145,7 +146,8 @@ def sweep(values, positions, depths, kept_vertices, kept_cells, dims, origins, d
     corner = np.empty(4, dtype=np.int64)
     px = np.empty(4)
     py = np.empty(4)
-    clip = np.empty(4)
+    base, edge_u, edge_w, normal = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    cell = np.empty(3, dtype=np.int64)
     while size > 0 or target < np.inf:
         if size > 0:
             plane = heap_d[0]
@@ -219,27 +221,25 @@ def sweep(values, positions, depths, kept_vertices, kept_cells, dims, origins, d
                     corner[3] = corner[1] + sc * strides[c]
                     if swept[corner[1]] or swept[corner[2]] or swept[corner[3]]:
                         continue  # projected already, from a vertex swept before
-                    if not _face_kept(index, axis, b, c, min(index[b], ib), min(index[c], ic),
-                                      dims, kept_cells):
+                    if threshold_on and not _face_kept(index, axis, b, c, min(index[b], ib),
+                                                       min(index[c], ic), dims, kept_cells, cell):
                         continue
                     face_count += 1
                     for q in range(4):
-                        for r in range(4):
-                            clip[r] = view_projection[r, 3]
-                            for m in range(3):
-                                clip[r] += view_projection[r, m] * positions[corner[q], m]
-                        w = clip[3]
-                        px[q] = (clip[0] / w + 1.0) * 0.5 * width - 0.5
-                        py[q] = (1.0 - clip[1] / w) * 0.5 * height - 0.5
+                        px[q], py[q] = pixel_x[corner[q]], pixel_y[corner[q]]
                     x0 = max(0, int(math.ceil(px.min() - PIXEL_SLACK)))
                     x1 = min(width - 1, int(math.floor(px.max() + PIXEL_SLACK)))
                     y0 = max(0, int(math.ceil(py.min() - PIXEL_SLACK)))
                     y1 = min(height - 1, int(math.floor(py.max() + PIXEL_SLACK)))
-                    base = positions[corner[0]]
-                    edge_u = positions[corner[1]] - base
-                    edge_w = positions[corner[2]] - base
-                    normal = np.cross(edge_u, edge_w)
-                    uu, ww = edge_u @ edge_u, edge_w @ edge_w
+                    for m in range(3):
+                        base[m] = positions[corner[0], m]
+                        edge_u[m] = positions[corner[1], m] - base[m]
+                        edge_w[m] = positions[corner[2], m] - base[m]
+                    normal[0] = edge_u[1] * edge_w[2] - edge_u[2] * edge_w[1]
+                    normal[1] = edge_u[2] * edge_w[0] - edge_u[0] * edge_w[2]
+                    normal[2] = edge_u[0] * edge_w[1] - edge_u[1] * edge_w[0]
+                    uu = edge_u[0] * edge_u[0] + edge_u[1] * edge_u[1] + edge_u[2] * edge_u[2]
+                    ww = edge_w[0] * edge_w[0] + edge_w[1] * edge_w[1] + edge_w[2] * edge_w[2]
                     s00, s10 = values[corner[0]], values[corner[1]]
                     s01, s11 = values[corner[2]], values[corner[3]]
                     for y in range(y0, y1 + 1):
@@ -286,9 +286,9 @@ def sweep(values, positions, depths, kept_vertices, kept_cells, dims, origins, d
 
 
 @numba.njit(cache=True)
-def _face_kept(index, axis, b, c, low_b, low_c, dims, kept_cells):
-    """Whether a kept cell has this face: the cells on either side of it along ``axis``."""
-    cell = np.empty(3, dtype=np.int64)
+def _face_kept(index, axis, b, c, low_b, low_c, dims, kept_cells, cell):
+    """Whether a kept cell has this face: the cells on either side of it along ``axis`` (``cell``
+    is scratch space)."""
     cell[b], cell[c] = min(low_b, dims[b] - 2), min(low_c, dims[c] - 2)
     for side in (-1, 0):
         a = index[axis] + side

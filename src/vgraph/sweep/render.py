@@ -52,12 +52,14 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
     view_projection = np.ascontiguousarray(camera.view_projection(width / height))
     lut = transfer_function.for_volume(volume).lut().astype(np.float64)
     pixels = width * height
+    pixel_x, pixel_y = _pixel_coordinates(grid.positions.reshape(-1, 3), view_projection, width, height)
     arrays = dict(values=grid.values.ravel(), positions=grid.positions.reshape(-1, 3),
+                  pixel_x=pixel_x, pixel_y=pixel_y,
                   depths=grid.depths.ravel(), kept_vertices=grid.kept_vertices.ravel(),
                   kept_cells=grid.kept_cells.ravel(), dims=np.array(volume.dims, dtype=np.int64),
                   origins=np.ascontiguousarray(origins), directions=np.ascontiguousarray(directions),
                   cosines=directions @ forward, t_far=camera.far_distance(directions),
-                  near=float(near), view_projection=view_projection, width=width, height=height,
+                  near=float(near), width=width, height=height,
                   lut=lut, tau_scale=1.0 / min(volume.spacing), threshold_on=threshold is not None,
                   inverse=grid.inverse, early_termination=float(early_termination))
     capacity = FIRST_POOL * pixels + 1024
@@ -73,6 +75,15 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
     depth = _depth_image(first_t, segments, origins, directions, view_projection)
     return SweepResult(image.reshape(height, width, 4), depth.reshape(height, width, 4),
                        int(swept), int(faces), int(peak), camera)
+
+
+def _pixel_coordinates(points, view_projection, width, height) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y) of world points in the image, pixel centres at whole numbers, row 0 at the top (the
+    rays of Camera.rays go through the centres)."""
+    clip = points @ view_projection[:, :3].T + view_projection[:, 3]
+    x = (clip[:, 0] / clip[:, 3] + 1.0) * 0.5 * width - 0.5
+    y = (1.0 - clip[:, 1] / clip[:, 3]) * 0.5 * height - 0.5
+    return np.ascontiguousarray(x), np.ascontiguousarray(y)
 
 
 def _over_background(colour, log_transparency, background) -> np.ndarray:
