@@ -15,8 +15,14 @@ Conventions (docs/explanations/bricked-ray-casting.md, "One pass, a page table")
   its bricks, and the planned ones already in memory, are placed in the atlas (read through the
   brick cache), the page table marks them, their ancestors (REFINE) and the cells the plan leaves
   out (EMPTY), and its leaf table (PageTable.resolve) is what the shader reads. A planned brick
-  the atlas does not hold is drawn from its finest resident ancestor; under a ``load_limit`` the
-  missing ones are read ahead for the next frame (``last_frame["complete"]`` False until then).
+  the atlas does not hold is drawn from its finest resident ancestor. Under a ``load_limit`` a
+  frame with missing bricks reads only a coarser plan within the limit (``fallback``, for those
+  ancestors); the planned bricks that rays reached missing are counted by the shader
+  (vgraph.bricks.ray_requests) and read after the frame by priority within what is left of the
+  limit, never a brick no ray reached. ``last_frame``: ``complete`` (no ray reached a missing
+  brick), ``levels`` drawn and ``coarsest_level``, ``error_bound`` (dvr, lod_error), ``missing``
+  (bricks rays reached missing), ``unreached`` (planned, missing, reached by no ray) and
+  ``requests`` ((key, pixels), in the order read).
 - ``empty_space_skipping``: the blocks of 8^3 voxels inside the atlas's bricks that add nothing
   this frame (vgraph.bricks.atlas_blocks) are jumped over too (define PAGED_BLOCKS).
 - The atlas holds ``gl_budget`` MB of slots at most (no more than the pyramid's bricks); a budget
@@ -25,8 +31,8 @@ Conventions (docs/explanations/bricked-ray-casting.md, "One pass, a page table")
 - Shading normals: the Gradients component's differences one voxel of level 0 apart (exact at
   level 0; a coarser brick is differenced at level 0's step, which its slot's apron covers);
   ``precomputed`` is drawn as ``central``, as brick by brick.
-- Not done yet (issue #33): the shader does not request the bricks it missed (item 2), nor does
-  ``leaf`` (the leaves split) apply: a frame with a leaf is refused by name.
+- Not done yet (issue #33): ``leaf`` (the leaves split) does not apply: a frame with a leaf is
+  refused by name.
 """
 
 from __future__ import annotations
@@ -37,11 +43,11 @@ import weakref
 import numpy as np
 
 from vgraph.bricks.atlas import BrickAtlas
-from vgraph.bricks.cache import MB
+from vgraph.bricks.cache import MB, brick_bytes
 from vgraph.bricks.page_table import PageTable, texel_offsets
 from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
 from vgraph.bricks.sampling import BrickSampling
-from vgraph.bricks.selection import BrickGeometry, FramePlan, normalised_ranges
+from vgraph.bricks.selection import BrickGeometry, FramePlan, coarse_first, normalised_ranges
 from vgraph.bricks.targets import level_voxel
 from vgraph.errors import VGraphError
 from vgraph.frame_context import FrameContext
@@ -96,7 +102,7 @@ class PagedSampling(Component):
         atlas = self.ensure_atlas(frame.ctx, source, cache.format)
         plan = self.fitted(bricks.plan(source, frame, errors), source, atlas.capacity)
         read_before, seconds_before = cache.stats["bricks_read"], cache.stats["read_seconds"]
-        drawn = bricks.limited(source, plan, frame.ctx, context.load_limit)
+        drawn = self.fallback(source, plan, frame.ctx, context.load_limit)
         # The bricks to draw, and the planned ones already in memory (read ahead by earlier frames):
         # their upload costs no reading, and the page table draws each cell at the finest it holds.
         wanted = list(dict.fromkeys(drawn.keys() + [key for key in plan.keys() if key in cache.ram]))
@@ -127,6 +133,29 @@ class PagedSampling(Component):
                            "unreached": len(missing) - len(requested), "requests": by_priority(requested),
                            "bricks_read": cache.stats["bricks_read"] - read_before,
                            "atlas_slots": atlas.capacity, "seconds": time.perf_counter() - started}
+
+    def fallback(self, source, plan: FramePlan, ctx, load_limit) -> FramePlan:
+        """The bricks read for this frame, pinned in the cache with the plan's resident ones:
+        without a load limit the plan; under one, where planned bricks are missing, the finest
+        plan coarser than the plan's floor whose missing bricks the limit can read (coarse_first),
+        the level the page table draws missing cells from. The plan's own missing bricks are read
+        only once rays ask for them (vgraph.bricks.ray_requests), never ahead: a brick no ray
+        reaches is never read. The coarsest plan, or one whose pins overflow the budget, as
+        BrickSampling.limited."""
+        bricks: BrickSampling = self.processor.parts[BrickSampling]
+        cache = bricks.cache
+        if load_limit is None or plan.floor_level >= len(source.levels) - 1:
+            return bricks.limited(source, plan, ctx, load_limit)
+        resident = cache.resident(ctx)
+        if all(key in resident for key in plan.keys()):
+            return bricks.limited(source, plan, ctx, load_limit)
+        drawn = coarse_first(source, plan.at_floor(plan.floor_level + 1, source), resident, load_limit,
+                             cache.seconds_per_byte(), bricks.budget())
+        pinned = set(drawn.keys()) | (set(plan.keys()) & resident)
+        if sum(brick_bytes(source, key) for key in pinned) > bricks.budget():
+            return bricks.limited(source, plan, ctx, load_limit)
+        cache.begin_frame(pinned)
+        return drawn
 
     @staticmethod
     def drawn_report(frame: Frame, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas, requested,
