@@ -198,3 +198,19 @@ def test_the_threshold_keeps_a_cell_its_values_cross_with_no_vertex_inside():
     values[1] = 1.0  # the one cell runs from 0 to 1
     assert classified_cells(values, (0.4, 0.6)).all()
     assert not classified_cells(values, (1.5, 2.0)).any()
+
+
+def test_a_transparent_transfer_function_is_named_by_the_blank_image_warning():
+    from vgraph.scheduler import BlankImageWarning
+    transparent = TransferFunction(points=[(0.0, 1, 1, 1, 0.0), (1.0, 1, 1, 1, 0.0)])
+    network = sweep_network(smooth_volume(), camera=camera("perspective"), transfer_function=transparent)
+    with pytest.warns(BlankImageWarning, match="sweep.transfer_function is transparent at every intensity"):
+        image = network.evaluate("sweep.image", size=SIZE)
+    assert np.all(image == [0.0, 0.0, 0.0, 1.0])
+
+
+def test_a_camera_looking_away_draws_the_background():
+    away = Camera(position=(0.0, 0.0, 5.0), focus=(0.0, 0.0, 10.0))  # the volume is behind it
+    result = render(smooth_volume(), away, TF, SIZE, background=(0.2, 0.1, 0.0, 1.0))
+    assert result.vertices_swept == 0
+    assert np.all(result.image == np.float32([0.2, 0.1, 0.0, 1.0]))

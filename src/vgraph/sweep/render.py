@@ -44,9 +44,12 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
     camera = camera.resolved(*volume_box(volume), width / height)  # as the reference and GL do
     grid = swept_grid(volume, camera, threshold, owner)
     near, _ = camera.planes()
-    if grid.depths[grid.kept_vertices].min(initial=np.inf) < near:
+    depths = grid.depths[grid.kept_vertices]
+    if depths.size and depths.min() < near <= depths.max():
         raise VGraphError(f"{owner}: the camera's near plane cuts the volume's box; the sweep needs "
                           "the whole box in front of it (move the camera out of the volume)")
+    if depths.size and depths.max() < near:  # all behind the near plane: nothing to sweep
+        grid = swept_grid(volume, camera, (np.inf, np.inf), owner)  # keeps no cell
     origins, directions = (a.reshape(-1, 3) for a in camera.rays(width, height))
     forward = camera.basis()[2]
     view_projection = np.ascontiguousarray(camera.view_projection(width / height))
