@@ -127,21 +127,24 @@ def test_bricks_hidden_behind_an_opaque_slab_are_never_read_where_the_read_ahead
     assert read < passes_read
 
 
-def test_frames_refine_to_the_in_core_image_and_say_how_far_they_are_until_complete():
+@pytest.mark.parametrize("mode", ["dvr", "mip", "iso"])
+def test_frames_refine_to_the_in_core_image_and_say_how_far_they_are_until_complete(mode):
     volume = odd_volume()
     camera = oblique(volume)
-    want, _, _ = render(volume, camera, "RayCaster", **UNSHADED_RAMP, early_termination=1.0)
+    properties = {**UNSHADED_RAMP, "compositing": mode, "early_termination": 1.0}
+    want, _, _ = render(volume, camera, "RayCaster", **properties)
     network = ray_caster_network(volume, camera, "BrickedRayCaster", method="single_pass", brick_size=16,
-                                 lod_bias=FINEST, **UNSHADED_RAMP)
+                                 lod_bias=FINEST, **properties)
     images, reports = refine(network, LoadLimit(bricks=3))
     assert len(reports) > 2 and reports[-1]["complete"]
     for report in reports[:-1]:
-        assert not report["complete"] and report["missing"] > 0
-        assert report["coarsest_level"] > 0 and report["error_bound"] > 0.0
+        assert not report["complete"] and report["missing"] > 0 and report["coarsest_level"] > 0
+        assert report["error_bound"] > 0.0 if mode == "dvr" else report["error_bound"] is None  # (dvr's alone)
         assert report["requests"] == by_priority(report["requests"])
     assert all(later["missing"] < earlier["missing"] for earlier, later in zip(reports, reports[1:-1]))
     last = reports[-1]
-    assert last["levels"] == [0] and last["coarsest_level"] == 0 and last["error_bound"] == 0.0
+    assert last["levels"] == [0] and last["coarsest_level"] == 0
+    assert last["error_bound"] == (0.0 if mode == "dvr" else None)
     assert network["rc"].frame_summary().endswith("; complete")
     assert np.abs(images[-1] - want).max() <= 2 * ONE_STEP  # (the sampling rate moved by 3e-5)
     assert np.abs(images[0] - want).max() > 5 * ONE_STEP   # the first frame was coarse
