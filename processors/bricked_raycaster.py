@@ -14,7 +14,9 @@ Conventions (docs/explanations/bricked-ray-casting.md explains each with the num
   resolve shaders), ``empty_space_skipping`` inside a brick and ``method``: ``passes`` (the
   default) draws through BrickSampling, ``single_pass`` through PagedSampling
   (vgraph.bricks.paged_sampling, issue #33): the same plan, the bricks in an atlas read through a
-  page table in one pass of the RayCaster's shader, early termination across bricks.
+  page table in one pass of the RayCaster's shader, early termination across bricks; under a
+  load limit its rays ask for the missing bricks they reach (RayRequests,
+  vgraph.bricks.ray_requests), which are read after the frame.
 - The frame context (vgraph.frame_context; not properties) gives BrickSampling the ``load_limit``
   (coarse first in the GUI) and the ``leaf`` (the leaves split's run of bricks,
   vgraph.distributed.leaves).

@@ -76,7 +76,8 @@ bool next_occupied_sample(inout March cursor, Ray ray) {
 }
 #elif defined(PAGED_SKIPPING)
 // The single-pass bricked ray caster's hook (bricks/paged_sampling.glsl, included ahead): jump
-// over the cells of the page table that are not drawn (empty under the TF, or missing).
+// over the cells of the page table that are not drawn (empty under the TF, or missing); with
+// PAGED_REQUESTS a ray also asks there for the missing cells it reaches (bricks/ray_requests.glsl).
 bool skip_empty_space(inout March cursor, Ray ray) {
     int before = cursor.i;
     while (cursor.i < ray.samples && paged_skipped(cursor.i, ray)) {}
