@@ -103,9 +103,12 @@ class PagedSampling(Component):
         plan = self.fitted(bricks.plan(source, frame, errors), source, atlas.capacity)
         read_before, seconds_before = cache.stats["bricks_read"], cache.stats["read_seconds"]
         drawn = self.fallback(source, plan, frame.ctx, context.load_limit)
-        # The bricks to draw, and the planned ones already in memory (read ahead by earlier frames):
-        # their upload costs no reading, and the page table draws each cell at the finest it holds.
-        wanted = list(dict.fromkeys(drawn.keys() + [key for key in plan.keys() if key in cache.ram]))
+        # The planned bricks already in memory (read for earlier frames' requests: their upload costs
+        # no reading, and the page table draws each cell at the finest it holds), then the bricks
+        # read for this frame. Planned ones first: the plan fits the atlas, so where the fallback
+        # and they do not fit together, every brick rays asked for still gets a slot and refining
+        # ends (a fallback brick left out leaves its missing cells undrawn until their own come).
+        wanted = list(dict.fromkeys([key for key in plan.keys() if key in cache.ram] + drawn.keys()))
         atlas.begin_frame(set(wanted) | (set(plan.keys()) & resident_before))
         placed = [key for key in wanted if atlas.place(key, lambda key=key: cache.brick(key)) is not None]
         resolved, leaf = self.leaf_table(frame, source, geometry, plan, atlas)
