@@ -148,3 +148,27 @@ def test_frames_refine_to_the_in_core_image_and_say_how_far_they_are_until_compl
     assert network["rc"].frame_summary().endswith("; complete")
     assert np.abs(images[-1] - want).max() <= 2 * ONE_STEP  # (the sampling rate moved by 3e-5)
     assert np.abs(images[0] - want).max() > 5 * ONE_STEP   # the first frame was coarse
+
+
+def test_without_room_for_a_fallback_the_frame_still_reads_only_what_rays_ask_for():
+    """32 level-0 bricks of 16 under a budget of 32 of them; an opaque block hides one, so the plan
+    is never all in memory and the coarser fallback (4 bricks of level 1) does not fit beside the
+    31 the rays asked for: it is dropped (not the whole plan read, as the pass per brick does), and
+    frames still refine to the complete image without the hidden brick."""
+    z, y, x = np.meshgrid(*[np.linspace(-1, 1, n) for n in (32, 64, 64)], indexing="ij")
+    values = 0.5 + 0.12 * np.sin(7 * x) * np.cos(5 * y + 3 * z)
+    values[16:, :20, :20] = 1.0  # in front of the cell (0, 0, 0, 0), seen from +z, and a little wider
+    volume = Volume(values.astype(np.float32))
+    clear = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.3, 0.1, 0.3, 0.8, 0.02), (0.7, 0.8, 0.6, 0.3, 0.05),
+                                     (0.9, 1, 1, 1, 1.0), (1.0, 1, 1, 1, 1.0)])
+    properties = {"transfer_function": clear, "shading": "none", "early_termination": 0.99}
+    camera = Camera.looking_at_box(*volume_box(volume), direction=(0.0, 0.0, -1.0), projection="orthographic")
+    slot = 20 ** 3 * 4  # a brick of 16 with its apron, float32
+    network = ray_caster_network(volume, camera, "BrickedRayCaster", method="single_pass", brick_size=16,
+                                 lod_bias=FINEST, gl_budget=32 * slot / 2**20, **properties)
+    images, reports = refine(network, LoadLimit(bricks=4))
+    assert network["rc"].last_frame["atlas_slots"] == 32
+    assert reports[-1]["complete"] and reports[-1]["unreached"] == 1 and reports[-1]["levels"] == [0]
+    assert (0, 0, 0, 0) not in network["rc"].parts[BrickSampling].cache.ram
+    want, _, _ = render(volume, camera, "RayCaster", **properties)
+    assert np.abs(images[-1] - want).max() <= ONE_STEP and want[..., :3].max() > 0.5

@@ -143,7 +143,9 @@ class PagedSampling(Component):
         plan coarser than the plan's floor whose missing bricks the limit can read (coarse_first),
         the level the page table draws missing cells from. The plan's own missing bricks are read
         only once rays ask for them (vgraph.bricks.ray_requests), never ahead: a brick no ray
-        reaches is never read. The coarsest plan, or one whose pins overflow the budget, as
+        reaches is never read. Where the fallback does not fit the budget beside the plan's bricks
+        in memory, none is read: missing cells are drawn from the coarser bricks the atlas still
+        holds, else not at all, until the bricks rays ask for come. The coarsest plan as
         BrickSampling.limited."""
         bricks: BrickSampling = self.processor.parts[BrickSampling]
         cache = bricks.cache
@@ -156,7 +158,7 @@ class PagedSampling(Component):
                              cache.seconds_per_byte(), bricks.budget())
         pinned = set(drawn.keys()) | (set(plan.keys()) & resident)
         if sum(brick_bytes(source, key) for key in pinned) > bricks.budget():
-            return bricks.limited(source, plan, ctx, load_limit)
+            drawn, pinned = FramePlan([], plan.floor_level, 0), set(plan.keys()) & resident
         cache.begin_frame(pinned)
         return drawn
 
