@@ -1,0 +1,46 @@
+"""Make docs/images/image_filters.png: the image filters on the ray-cast CT head of
+networks/depth_cues_head.json (over white), side by side: the ray caster's image, ImageBlur
+(sigma 3), EdgeDetect (contours over the image) and DepthDarkening (the network's own settings).
+
+    python bench/make_image_filter_images.py [--out PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+import vgraph
+from vgraph.imagefile import write_png
+
+REPO = Path(__file__).resolve().parents[1]
+OUT = REPO / "docs" / "images" / "image_filters.png"
+SIZE = (256, 256)
+
+
+def panels() -> list[np.ndarray]:
+    network = vgraph.load(REPO / "networks" / "depth_cues_head.json")
+    network.add("ImageBlur", id="blur", sigma=3.0)
+    network.add("EdgeDetect", id="edges", scale=0.5)
+    network.connect("rc.image", "blur.image")
+    network.connect("rc.image", "edges.image")
+    ports = ("rc.image", "blur.image", "edges.image", "darken.image")
+    network.update(*ports, size=SIZE)
+    return [network.output(port).to_numpy() for port in ports]
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=OUT)
+    args = parser.parse_args(argv)
+    gap = np.ones((SIZE[1], 8, 4), np.float32)
+    row = [item for panel in panels() for item in (panel, gap)][:-1]
+    write_png(args.out, np.concatenate(row, axis=1))
+    print(args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
