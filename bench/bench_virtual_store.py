@@ -48,6 +48,7 @@ try:
         frame = net["rc"].last_frame
         if frame.get("complete", True):
             break
+        net.invalidate_downstream("rc")  # as the GUI's render server does: the same state drawn again is finer
     result = {"first": first, "frames": frames, "complete_at": time.perf_counter() - started,
               "complete": bool(frame.get("complete", True)), "levels": sorted(set(frame["levels"])),
               "bricks_read": net["rc"].cache.stats["bricks_read"],

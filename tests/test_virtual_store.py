@@ -5,10 +5,12 @@ the same image as the function sampled into memory, a 8192^3 store drawn within 
 single_pass refusing a leaf table it cannot hold, and bad URLs refused by name (exit 2 in the CLI)."""
 
 import json
+import pickle
 import resource
 import subprocess
 import sys
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
@@ -85,6 +87,17 @@ def test_coarser_levels_average_the_function_over_each_voxels_children():
         shape = virtual.levels[level].shape
         difference = virtual.read(level, (0, 0, 0), shape).astype(int) - real.read(level, (0, 0, 0), shape)
         assert np.abs(difference).max() <= bound and np.abs(difference).mean() < 1.0, level
+
+
+def test_reads_from_many_threads_and_processes_give_the_same_bytes():
+    store = ImplicitStore(make_function("torus"), 256, 32)
+    keys = [f"{k}/c/{z}/{y}/{x}" for k in (0, 1) for z in range(2) for y in range(3) for x in (1, 2)]
+    serial = {key: ImplicitStore(make_function("torus"), 256, 32).get_bytes(key) for key in keys}
+    with ThreadPoolExecutor(8) as pool:
+        threaded = dict(zip(keys * 3, pool.map(store.get_bytes, keys * 3)))
+    assert threaded == serial
+    copy = pickle.loads(pickle.dumps(store))  # as a dask worker receives it
+    assert copy == store and copy.get_bytes(keys[-1]) == serial[keys[-1]]
 
 
 def test_edge_chunks_hold_the_fill_value_beyond_the_level():

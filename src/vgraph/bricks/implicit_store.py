@@ -163,6 +163,9 @@ class ImplicitStore(Store):
 
     __hash__ = None
 
+    def __reduce__(self):  # what a worker process needs to compute the same chunks (no lock, no kept bytes)
+        return (type(self), (self.function, self.size, self.brick, self.name))
+
     def with_read_only(self, read_only: bool = False) -> ImplicitStore:
         return self  # never writable; immutable, so the same store serves both
 
