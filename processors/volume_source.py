@@ -36,8 +36,9 @@ class VolumeSource(Processor):
     category = "Volume"
     outports = [Outport("volume", Volume)]
     path = FilePathProperty("", filters=tuple(f"*{e}" for e in SUPPORTED_EXTENSIONS) + ("zarr.json",),
-                            doc="the volume file, a folder holding one DICOM series, or an "
-                                "OME-Zarr store (.zarr folder)")
+                            doc="the volume file, a folder holding one DICOM series, an "
+                                "OME-Zarr store (.zarr folder), or a virtual store of an implicit "
+                                "function: implicit:torus?size=8192&brick=64 (docs/guide/large-data.md)")
     time_step = IntProperty(0, min=0, doc="of a file with a time axis (4D NIfTI, ...): the time "
                                           "point to read, 0 = the first")
     channel = IntProperty(0, min=0, doc="of an OME-Zarr store with a channel axis (c): the channel "
