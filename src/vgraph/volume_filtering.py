@@ -1,0 +1,54 @@
+"""What the volume filters (processors VolumeCrop, VolumeResample, VolumeSmooth, VolumeThreshold)
+share: how they take a volume in and how they hand one on.
+
+- They work on volumes in memory. A BrickedVolume is read whole when it fits its memory budget
+  and otherwise refused by its own MemoryBudgetError; chunked filtering of stores is not done yet.
+- A filter that keeps the values' units keeps the input's value range (as the output's
+  ``declared_range``): a transfer function or iso level placed on the input shows the same
+  values on the output, however much the filter narrowed the values.
+- Filters that mix voxels (smoothing, linear and cubic interpolation) replace NaN and infinite
+  voxels by the ends of the value range first (NaN and -Inf by the low end, +Inf by the high end),
+  with a warning naming the processor and the count, as the CubicSplineProcessor does: a NaN
+  would otherwise spread over the whole kernel. Filters that only pick voxels (crop, nearest
+  resampling, a median of finite values) carry them as they are.
+- Mixed values are float32 (float64 input stays float64): an integer volume smoothed or
+  interpolated in its own type would be rounded.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from vgraph.errors import VGraphError, VGraphWarning
+from vgraph.volume import Volume
+
+
+def samples_in_memory(volume: Volume, who: str) -> Volume:
+    """The volume, checked to hold samples (not B-spline coefficients)."""
+    if volume.is_spline_coefficients:
+        raise VGraphError(f"{who} needs voxel samples but received B-spline coefficients: put it "
+                          f"before the CubicSplineProcessor, or disable that")
+    return volume
+
+
+def mixed_type(dtype) -> np.dtype:
+    """The type of values a filter mixes from voxels of ``dtype``."""
+    return np.dtype(np.float64) if np.dtype(dtype) == np.float64 else np.dtype(np.float32)
+
+
+def finite_values(volume: Volume, who: str) -> np.ndarray:
+    """The voxels in mixed_type, NaN/Inf replaced by the value range's ends (module docstring)."""
+    data = volume.data.astype(mixed_type(volume.data.dtype), copy=False)
+    if volume.nonfinite_count:
+        lo, hi = volume.value_range
+        warnings.warn(f"{who}: {volume.nonfinite_count} NaN/Inf voxels replaced by the value "
+                      f"range's ends ({lo:g}, {hi:g}) before filtering", VGraphWarning, stacklevel=3)
+        data = np.nan_to_num(data, nan=lo, posinf=hi, neginf=lo)
+    return data
+
+
+def filtered(volume: Volume, data: np.ndarray, **changes) -> Volume:
+    """A volume of ``data`` with the input's grid, flags and value range (module docstring)."""
+    return volume.with_data(data, **({"declared_range": volume.value_range} | changes))
