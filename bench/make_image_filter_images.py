@@ -1,6 +1,7 @@
 """Make docs/images/image_filters.png: the image filters on the ray-cast CT head of
 networks/depth_cues_head.json (over white), side by side: the ray caster's image, ImageBlur
-(sigma 3), EdgeDetect (contours over the image) and DepthDarkening (the network's own settings).
+(sigma 3), EdgeDetect (contours of the luminance over the image), DepthDarkening and the
+network's picture (DepthDarkening, then EdgeDetect's contours of the depth over it).
 
     python bench/make_image_filter_images.py [--out PATH]
 """
@@ -26,7 +27,7 @@ def panels() -> list[np.ndarray]:
     network.add("EdgeDetect", id="edges", scale=0.5)
     network.connect("rc.image", "blur.image")
     network.connect("rc.image", "edges.image")
-    ports = ("rc.image", "blur.image", "edges.image", "darken.image")
+    ports = ("rc.image", "blur.image", "edges.image", "darken.image", "contours.image")
     network.update(*ports, size=SIZE)
     return [network.output(port).to_numpy() for port in ports]
 

@@ -60,8 +60,9 @@ def head():
     """The shipped networks/depth_cues_head.json at 96 x 80 pixels: the ray-cast CT head over white
     (raycast_head.json's ray caster), its depth, and what the network's DepthDarkening made of them."""
     network = vgraph.load(REPO / "networks" / "depth_cues_head.json")
-    network.update("rc.image", "rc.depth", "darken.image", size=(96, 80))
-    return tuple(network.output(port).to_numpy() for port in ("rc.image", "rc.depth", "darken.image"))
+    ports = ("rc.image", "rc.depth", "darken.image", "contours.image")
+    network.update(*ports, size=(96, 80))
+    return tuple(network.output(port).to_numpy() for port in ports)
 
 
 @pytest.mark.parametrize("sigma", [0.0, 0.6, 2.0, 7.5, 30.0])  # 30: the kernel is wider than the image
@@ -72,7 +73,7 @@ def test_image_blur_equals_scipy_gaussian_filter(gl, noise, sigma):
 
 
 def test_image_blur_of_the_ray_cast_head(gl, head, data_dir):
-    image, _, _ = head
+    image, *_ = head
     result = run("ImageBlur", gl, image=image, sigma=3.0)
     assert result.shape == image.shape == (80, 96, 4)
     np.testing.assert_allclose(result, blurred(image, 3.0), atol=TOLERANCE)
@@ -109,7 +110,7 @@ def test_a_unit_step_gives_an_edge_of_one_at_the_default_scale(gl):
 
 
 def test_edges_over_the_ray_cast_head(gl, head, data_dir):
-    image, _, _ = head
+    image, *_ = head
     colour = np.array([0.0, 0.2, 1.0, 0.8])
     result = run("EdgeDetect", gl, image=image, scale=0.5, edge_color=tuple(colour))
     coverage = np.clip(0.5 * sobel_magnitude(image[..., :3] @ LUMINANCE), 0.0, 1.0)[..., None] * colour[3]
@@ -117,6 +118,25 @@ def test_edges_over_the_ray_cast_head(gl, head, data_dir):
     assert result.shape == image.shape
     np.testing.assert_allclose(result, expected, atol=TOLERANCE)
     assert coverage.max() > 0.5  # the head has contours to draw
+
+
+def test_contours_of_the_depth_over_the_colour_image(gl, head, data_dir):
+    image, depth, darkened, shipped = head
+    result = run("EdgeDetect", gl, image=image, edges_of=depth, channel="red", scale=20.0)
+    coverage = np.clip(20.0 * sobel_magnitude(depth[..., 0]), 0.0, 1.0)[..., None]
+    expected = np.concatenate([0.0 * image[..., :3], coverage], axis=-1) + (1.0 - coverage) * image
+    np.testing.assert_allclose(result, expected, atol=TOLERANCE)
+    assert (coverage[..., 0] == 1.0).any() and (coverage[..., 0] == 0.0).mean() > 0.5  # the outline, not all
+    # the shipped network's picture: its contours (scale 3, dark brown) over the darkened image
+    colour = np.array([0.1, 0.05, 0.0])
+    coverage = np.clip(3.0 * sobel_magnitude(depth[..., 0]), 0.0, 1.0)[..., None]
+    expected = np.concatenate([colour * coverage, coverage], axis=-1) + (1.0 - coverage) * darkened
+    np.testing.assert_allclose(shipped, expected, atol=TOLERANCE)
+
+
+def test_edges_of_an_image_of_another_size_are_refused(gl, noise):
+    with pytest.raises(vgraph.VGraphError, match=r"edgeDetect: image \(53x37\) and edges_of \(20x10\) must have one size"):
+        run("EdgeDetect", gl, image=noise, edges_of=np.ones((10, 20), np.float32))
 
 
 def test_depth_darkening_equals_the_unsharp_masked_depth(gl, noise):
@@ -130,7 +150,7 @@ def test_depth_darkening_equals_the_unsharp_masked_depth(gl, noise):
 
 
 def test_depth_darkening_of_the_ray_cast_head(gl, head, data_dir):
-    image, depth, shipped = head
+    image, depth, shipped, _ = head
     result = run("DepthDarkening", gl, image=image, depth=depth, sigma=4.0, strength=1.5)
     np.testing.assert_allclose(result, depth_darkened(image, depth[..., 0], 4.0, 1.5), atol=TOLERANCE)
     assert (result <= image + TOLERANCE).all() and (result[..., :3] < image[..., :3] - 0.05).any()

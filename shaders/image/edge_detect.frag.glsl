@@ -5,7 +5,8 @@
 // CHANNEL_ALPHA / CHANNEL_RED pick alpha or red (a depth image's window depth), else luminance.
 #include "image/edge_texel.glsl"
 #include "image/luminance.glsl"
-uniform sampler2D image;
+uniform sampler2D image;     // what the contours are drawn over
+uniform sampler2D edges_of;  // what the edges are of (the image itself when nothing else is given)
 uniform float scale;
 uniform vec4 edge_color;
 out vec4 color;
@@ -24,7 +25,7 @@ float edge_value(vec4 texel) {
 
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
-    float edge = sobel_magnitude(image, pixel) * scale;
+    float edge = sobel_magnitude(edges_of, pixel) * scale;
 #ifdef EDGES_ONLY
     color = vec4(vec3(edge), 1.0);
 #else

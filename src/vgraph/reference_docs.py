@@ -59,7 +59,7 @@ PICTURES: dict[str, tuple[str, str]] = {
     **dict.fromkeys(("IsoSurfaceExtractor", "GeometryRenderer", "GeometryEntryExit", "ImageCompositor"),
                     ("exploring_surfaces.png", "CT head: skin as a mesh, bone as volume rendering")),
     **dict.fromkeys(("ImageBlur", "EdgeDetect", "DepthDarkening"),
-                    ("image_filters.png", "The ray-cast head, ImageBlur, EdgeDetect and DepthDarkening")),
+                    ("image_filters.png", "The ray-cast head, ImageBlur, EdgeDetect, DepthDarkening and both")),
     "ProjectedTetrahedra": ("tetra_modes.png",
                             "Averaged and pre-integrated projection against the exact reference"),
     "VolumeToTetMesh": ("tetra_culling.png", "The culled bonsai as tetrahedra beside the RayCaster"),
