@@ -5,8 +5,8 @@ Conventions:
   index axis sigma / spacing voxels (scipy.ndimage.gaussian_filter, cut at 4 sigma), so an
   anisotropic volume is smoothed alike in every world direction. 0 leaves an axis as it is.
 - ``size`` (x, y, z) is the width of the median's box in world units per axis: along each index
-  axis 2 round(size / (2 spacing)) + 1 voxels (rounded half up; odd, so the box is centred; at least 1;
-  scipy.ndimage.median_filter).
+  axis the odd number of voxels nearest size / spacing (a tie goes up; odd, so that the box is
+  centred; at least 1; scipy.ndimage.median_filter).
 - Beyond the volume's faces both mirror the voxels (scipy's 'reflect': half-sample symmetric).
 - A kernel wider than the volume along an axis (4 sigma or half the median box beyond the number
   of voxels) is an error naming the property: it would mostly average mirrored copies.
@@ -38,7 +38,7 @@ class VolumeSmooth(Processor):
     sigma = VectorProperty((1.0, 1.0, 1.0), min=0.0,
                            doc="Gaussian standard deviation (x, y, z) in world units; 0: that axis unfiltered")
     size = VectorProperty((3.0, 3.0, 3.0), min=0.0,
-                          doc="median box width (x, y, z) in world units: 2 round(size / (2 spacing)) + 1 voxels")
+                          doc="median box width (x, y, z) in world units: the odd voxel count nearest size / spacing")
 
     def inapplicable(self) -> set[str]:
         return {"size"} if self.filter == "gaussian" else {"sigma"}
@@ -71,6 +71,6 @@ class VolumeSmooth(Processor):
 
 
 def median_radius(size, spacing) -> np.ndarray:
-    """Half-width in voxels (x, y, z) of the median box ``size`` world units wide."""
-    # half up, not numpy's half to even: a box 3 voxels wide at spacing 1 is 3 voxels, not 1
-    return np.floor(np.asarray(size, dtype=np.float64) / (2 * np.asarray(spacing)) + 0.5).astype(int)
+    """Half-width in voxels (x, y, z) of the median box ``size`` world units wide: the odd number
+    of voxels nearest size / spacing is 2 floor(size / (2 spacing)) + 1 (a tie goes up)."""
+    return np.floor(np.asarray(size, dtype=np.float64) / (2 * np.asarray(spacing)) + 1e-9).astype(int)

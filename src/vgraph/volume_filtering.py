@@ -6,11 +6,11 @@ share: how they take a volume in and how they hand one on.
 - A filter that keeps the values' units keeps the input's value range (as the output's
   ``declared_range``): a transfer function or iso level placed on the input shows the same
   values on the output, however much the filter narrowed the values.
-- Filters that mix voxels (smoothing, linear and cubic interpolation) replace NaN and infinite
-  voxels by the ends of the value range first (NaN and -Inf by the low end, +Inf by the high end),
-  with a warning naming the processor and the count, as the CubicSplineProcessor does: a NaN
-  would otherwise spread over the whole kernel. Filters that only pick voxels (crop, nearest
-  resampling, a median of finite values) carry them as they are.
+- Filters that mix or order voxels (Gaussian, median, linear and cubic interpolation) replace NaN
+  and infinite voxels by the ends of the value range first (NaN and -Inf by the low end, +Inf by
+  the high end), with a warning naming the processor and the count, as the CubicSplineProcessor
+  does: a NaN would otherwise spread over the whole kernel (or, in a median, sort anywhere).
+  Filters that only pick voxels (crop, nearest resampling) carry them as they are.
 - Mixed values are float32 (float64 input stays float64): an integer volume smoothed or
   interpolated in its own type would be rounded.
 """
