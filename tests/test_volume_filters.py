@@ -4,6 +4,8 @@ int16, spacing 3.2 x 3.2 x 1.5 mm, anisotropic), with sizes in world units, worl
 and bad values named. Tolerance for mixed (float32) values: 1e-6 of the largest |value| (float32
 keeps 6e-8; the filters compute in float64 or float32 and round once)."""
 
+import json
+
 import numpy as np
 import pytest
 from scipy import ndimage
@@ -238,3 +240,27 @@ def test_coefficients_are_refused_by_name(head):
     for name in ("VolumeCrop", "VolumeResample", "VolumeSmooth", "VolumeThreshold"):
         with pytest.raises(VGraphError, match=rf"{name} 'f' needs voxel samples"):
             run(name, coefficients)
+
+
+def test_vgraph_run_crops_and_smooths_a_file_and_names_a_bad_value_in_one_line(head, tmp_path, capsys):
+    from helpers.paths import DATA
+    from vgraph.cli import main
+    network = {"format": "vgraph-network", "version": 3, "processors": [
+        {"id": "source", "type": "VolumeSource", "properties": {"path": str(DATA / "ct_head_headsq/quarter.nhdr")}},
+        {"id": "crop", "type": "VolumeCrop", "properties": {"units": "voxels", "voxel_box": [8, 0, 10, 55, 63, 80]}},
+        {"id": "smooth", "type": "VolumeSmooth", "properties": {"sigma": [3.2, 3.2, 3.0]}}],
+        "connections": [{"from": "source.volume", "to": "crop.volume"}, {"from": "crop.volume", "to": "smooth.volume"}],
+        "links": []}
+    (tmp_path / "smooth.json").write_text(json.dumps(network))
+    args = ["run", str(tmp_path / "smooth.json"), "--port", "smooth.volume"]
+    assert main([*args, "--data", str(tmp_path / "s.npy"), "--data", str(tmp_path / "s.nii.gz")]) == 0
+    reference = ndimage.gaussian_filter(head.data[10:81, :, 8:56].astype(np.float64), (2.0, 1.0, 1.0))
+    assert_close(np.load(tmp_path / "s.npy"), reference)
+    written = read_volume(tmp_path / "s.nii.gz")  # the grid goes into the file: world positions kept
+    assert np.allclose(written.affine @ [0, 0, 0, 1], head.affine @ [8, 0, 10, 1])
+    assert np.allclose(written.spacing, head.spacing)
+    capsys.readouterr()
+    assert main([*args, "--data", str(tmp_path / "bad.npy"), "--set", "smooth.sigma=[-1, 1, 1]"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "vgraph: error: smooth.sigma: invalid value [-1, 1, 1]: 0: Input should be greater than or equal to 0"
+    assert not (tmp_path / "bad.npy").exists()
