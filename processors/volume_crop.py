@@ -9,6 +9,8 @@ Conventions:
   along x, y, z, both ends kept.
 - Either box is clipped to the volume; a box that holds no voxel is an error naming the property.
   Empty (None): the whole volume.
+- Of a store (a BrickedVolume) only the box's voxels are read, if they fit its memory budget
+  (else MemoryBudgetError): a region of a store larger than memory can be cut out and filtered.
 - The voxels keep their world positions: the output's origin is the world position of the first
   kept voxel; spacing, direction, type, value range and label flag are the input's
   (vgraph.volume_filtering).
@@ -19,7 +21,9 @@ from __future__ import annotations
 import numpy as np
 
 from vgraph import Inport, OptionProperty, Outport, Processor, PropertyError, VectorProperty
+from vgraph.bricks.volume import MemoryBudgetError
 from vgraph.clipping import CropBoxProperty
+from vgraph.memory import format_bytes
 from vgraph.volume import Volume
 from vgraph.volume_filtering import filtered, samples_in_memory
 
@@ -52,10 +56,23 @@ class VolumeCrop(Processor):
         samples_in_memory(volume, f"VolumeCrop '{self.id}'")
         self.check()
         low, high = self._index_box(volume)
-        data = volume.data[low[2]:high[2] + 1, low[1]:high[1] + 1, low[0]:high[0] + 1]
         origin = tuple(float(v) for v in volume.voxel_to_world(low))
-        # a copy: a view would keep the whole input alive for a small crop of it
-        return filtered(volume, np.ascontiguousarray(data).copy(), origin=origin)
+        return filtered(volume, self._voxels(volume, low, high), origin=origin)
+
+    def _voxels(self, volume: Volume, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+        """The voxels low .. high (i, j, k, both ends) as a new array: of a store (BrickedVolume)
+        only these are read, within its memory budget, so a region of a store larger than memory
+        can be cut out and filtered in memory."""
+        if volume.bricks is None:
+            # a copy: a view would keep the whole input alive for a small crop of it
+            return volume.data[low[2]:high[2] + 1, low[1]:high[1] + 1, low[0]:high[0] + 1].copy()
+        size = int(np.prod(high - low + 1)) * np.dtype(volume.dtype).itemsize
+        if size > volume.memory_budget_mb * 2**20:
+            raise MemoryBudgetError(f"{self.id}: the crop box holds {' x '.join(map(str, high - low + 1))} "
+                                    f"voxels ({format_bytes(size)}) of {volume.source or 'the store'}, more "
+                                    f"than its memory budget of {volume.memory_budget_mb:g} MiB: crop less "
+                                    f"or raise the budget (VolumeSource.memory_budget)")
+        return np.ascontiguousarray(volume.bricks.read(0, low[::-1], (high + 1)[::-1]))
 
     def _index_box(self, volume: Volume) -> tuple[np.ndarray, np.ndarray]:
         """First and last kept voxel index (i, j, k), clipped to the volume."""

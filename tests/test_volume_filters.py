@@ -79,6 +79,19 @@ def test_crop_in_voxels_is_numpy_slicing_with_the_origin_moved(head):
     assert np.allclose(cropped.affine[:3, :3], head.affine[:3, :3])
 
 
+def test_crop_of_a_store_reads_only_the_box_within_its_budget(head):
+    from vgraph.bricks.pyramid import ArrayPyramid
+    from vgraph.bricks.volume import BrickedVolume, MemoryBudgetError
+    store = BrickedVolume(ArrayPyramid(head.data, spacing=head.spacing, brick=(16, 16, 16)), memory_budget_mb=0.1)
+    with pytest.raises(MemoryBudgetError):  # the whole 0.73 MiB array is over the budget ...
+        store.data
+    cropped = run("VolumeCrop", store, units="voxels", voxel_box=(10, 20, 30, 41, 51, 61))  # ... 64 KiB is not
+    assert type(cropped) is Volume and np.array_equal(cropped.data, head.data[30:62, 20:52, 10:42])
+    assert np.allclose(cropped.affine @ [0, 0, 0, 1], head.affine @ [10, 20, 30, 1])
+    with pytest.raises(MemoryBudgetError, match=r"^f: the crop box holds 64 x 64 x 62 voxels .* memory budget of 0.1 MiB"):
+        run("VolumeCrop", store, units="voxels", voxel_box=(0, 0, 0, 63, 63, 61))
+
+
 @pytest.mark.parametrize("properties, name", [
     ({"crop_box": (-100, -100, -100, -50, -50, -50)}, "crop_box"),
     ({"crop_box": (10.0, 10.0, 10.0, 10.5, 10.5, 10.5)}, "crop_box"),  # between voxel centres

@@ -2,7 +2,8 @@
 share: how they take a volume in and how they hand one on.
 
 - They work on volumes in memory. A BrickedVolume is read whole when it fits its memory budget
-  and otherwise refused by its own MemoryBudgetError; chunked filtering of stores is not done yet.
+  and otherwise refused by its own MemoryBudgetError (VolumeCrop reads only its box); chunked
+  filtering of stores is not done yet (docs/guide/volume-filters.md).
 - A filter that keeps the values' units keeps the input's value range (as the output's
   ``declared_range``): a transfer function or iso level placed on the input shows the same
   values on the output, however much the filter narrowed the values.
