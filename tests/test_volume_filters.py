@@ -140,14 +140,18 @@ def test_resample_to_a_spacing_samples_the_input_at_each_voxels_world_position(h
     assert np.allclose(centre(resampled), centre(volume))
 
 
-def test_resample_refuses_zero_sizes_and_mixing_labels(head):
+def test_zero_sizes_huge_grids_and_mixing_labels_are_named(head):
     with pytest.raises(PropertyError, match=r"^f\.size: each of x, y, z must be above 0"):
         run("VolumeResample", head, mode="size", size=(0, 10, 10))
     with pytest.raises(PropertyError, match=r"^f\.spacing: each of x, y, z must be above 0"):
         run("VolumeResample", head, spacing=(0.0, 1.0, 1.0))
     with pytest.raises(PropertyError, match=r"^f\.spacing: invalid value"):
         run("VolumeResample", head, spacing=(-1.0, 1.0, 1.0))
+    with pytest.raises(PropertyError, match=r"^f\.spacing: the new grid would hold 204800 x 204800 x 139500 voxels"):
+        run("VolumeResample", head, spacing=(0.001, 0.001, 0.001))
     labels = head.with_data((head.data > 500).astype(np.uint8), holds_labels=True)
+    with pytest.raises(PropertyError, match=r"^f\.filter: median filtering mixes label values"):
+        run("VolumeSmooth", labels, filter="median")
     with pytest.raises(PropertyError, match=r"^f\.interpolation: linear interpolation mixes label values"):
         run("VolumeResample", labels, spacing=(2.0, 2.0, 2.0))
     assert run("VolumeResample", labels, spacing=(2.0, 2.0, 2.0), interpolation="nearest").holds_labels
