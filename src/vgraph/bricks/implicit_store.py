@@ -44,11 +44,12 @@ import threading
 from collections import OrderedDict
 
 import numpy as np
-from zarr.abc.store import ByteRequest, OffsetByteRequest, RangeByteRequest, Store, SuffixByteRequest
+from zarr.abc.store import ByteRequest, Store
 from zarr.core.buffer import Buffer, BufferPrototype, default_buffer_prototype
 
 from vgraph.bricks.pyramid import Level, level_count, next_level
 from vgraph.bricks.store import BrickStore
+from vgraph.bricks.store_files import byte_span
 from vgraph.implicit.functions import ImplicitFunction
 from vgraph.implicit.sampling import value_to_level
 
@@ -178,7 +179,7 @@ class ImplicitStore(Store):
         data = await asyncio.to_thread(self.get_bytes, key)
         if data is None:
             return None
-        start, stop = _span(byte_range, len(data))
+        start, stop = byte_span(byte_range, len(data))
         return (prototype or default_buffer_prototype()).buffer.from_bytes(data[start:stop])
 
     def get_bytes(self, key: str) -> bytes | None:
@@ -253,15 +254,3 @@ def _slabs(function: ImplicitFunction, x: np.ndarray, y: np.ndarray, z: np.ndarr
     step = max(1, SLAB_POINTS // max(1, x.size * y.size))
     for k in range(0, z.size, step):
         yield np.asarray(function.value_on_grid(x, y, z[k:k + step]), dtype=np.float64)
-
-
-def _span(byte_range, size: int) -> tuple[int, int]:
-    if byte_range is None:
-        return 0, size
-    if isinstance(byte_range, RangeByteRequest):
-        return min(byte_range.start, size), min(max(byte_range.end, byte_range.start), size)
-    if isinstance(byte_range, OffsetByteRequest):
-        return min(byte_range.offset, size), size
-    if isinstance(byte_range, SuffixByteRequest):
-        return max(0, size - byte_range.suffix), size
-    raise TypeError(f"unexpected byte range {byte_range!r}")

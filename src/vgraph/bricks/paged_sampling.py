@@ -46,7 +46,7 @@ from vgraph.bricks.atlas import BrickAtlas
 from vgraph.bricks.cache import MB, brick_bytes
 from vgraph.bricks.page_table import PageTable, texel_offsets
 from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
-from vgraph.bricks.sampling import BrickSampling
+from vgraph.bricks.sampling import BrickSampling, level_span
 from vgraph.bricks.selection import BrickGeometry, FramePlan, coarse_first, normalised_ranges
 from vgraph.bricks.targets import level_voxel
 from vgraph.errors import VGraphError
@@ -189,9 +189,7 @@ class PagedSampling(Component):
         frame = self.last_frame
         if not frame:
             return ""
-        levels = frame["levels"]
-        span = "-" if not levels else str(levels[0]) if len(levels) == 1 else f"{levels[0]}-{levels[-1]}"
-        line = f"single pass: level {span}, {frame['bricks']} bricks in an atlas of {frame['atlas_slots']} slots"
+        line = f"single pass: level {level_span(frame['levels'])}, {frame['bricks']} bricks in an atlas of {frame['atlas_slots']} slots"
         if frame["missing"]:
             line += f", {frame['missing']} missing bricks reached (drawn coarser)"
         if frame["error_bound"] is not None:

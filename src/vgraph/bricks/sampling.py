@@ -91,6 +91,11 @@ BRICK_DERIVATIVES = {"precomputed": "central"}
 log = logging.getLogger(__name__)
 
 
+def level_span(levels: list[int]) -> str:
+    """The levels a frame drew, for its summary line: "2", "0-3", or "-" for none."""
+    return "-" if not levels else str(levels[0]) if len(levels) == 1 else f"{levels[0]}-{levels[-1]}"
+
+
 def _power_of_two(value: int) -> int:
     if value & (value - 1):
         raise ValueError(f"must be a power of two (8, 16, 32, ...), got {value}")
@@ -288,9 +293,7 @@ class BrickSampling(Component):
         frame = self.last_frame
         if not frame:
             return ""
-        levels = frame["levels"]
-        span = "-" if not levels else str(levels[0]) if len(levels) == 1 else f"{levels[0]}-{levels[-1]}"
-        line = f"bricks: level {span}, {frame['bricks']} bricks ({frame['bytes'] / MB:.1f} MB)"
+        line = f"bricks: level {level_span(frame['levels'])}, {frame['bricks']} bricks ({frame['bytes'] / MB:.1f} MB)"
         if frame.get("error_bound") is not None:
             line += (f"; error bound {frame['error_bound']:.3g} against the level-0 frame "
                      f"(max_error {self.processor.max_error:g})")

@@ -139,7 +139,7 @@ def _read_regular_file(path: Path, store: CheckedStore, key: str, byte_range, li
         if not stat.S_ISREG(info.st_mode):
             kind = next((name for test, name in _KINDS if test(info.st_mode)), "not a file")
             raise StoreFileError(store.root, key, f"is not a regular file ({kind})")
-        start, stop = _byte_span(byte_range, info.st_size)
+        start, stop = byte_span(byte_range, info.st_size)
         if info.st_size > limit:
             what = "metadata document" if key.rpartition("/")[2] in METADATA_NAMES else "chunk"
             raise StoreFileError(store.root, key, f"is {format_bytes(info.st_size)}, more than a {what} "
@@ -156,7 +156,8 @@ def _read_regular_file(path: Path, store: CheckedStore, key: str, byte_range, li
         os.close(fd)
 
 
-def _byte_span(byte_range, size: int) -> tuple[int, int]:
+def byte_span(byte_range, size: int) -> tuple[int, int]:
+    """The [start, stop) of a zarr byte request (None: all) within ``size`` bytes."""
     if byte_range is None:
         return 0, size
     if isinstance(byte_range, RangeByteRequest):
