@@ -78,3 +78,156 @@ def test_images_stay_on_the_gpu_between_processors():
     network = gray_network()
     network.update()
     assert isinstance(network.output("gray.image"), vgraph.image.Image)
+
+
+# --- ImageGamma, ImageThreshold, Background, ImageMix, TextOverlay (issue 35) ------------------------
+# Each GL pass against the same formula in float64 numpy on premultiplied RGBA noise of an odd,
+# non-square size (a swapped axis or a flipped row shows): float32 arithmetic on values in [0, 1],
+# so the GL image lies within TOLERANCE of the reference.
+TOLERANCE = 1e-5
+LUMINANCE = np.array([0.30, 0.59, 0.11])
+
+
+@pytest.fixture
+def noise():
+    """Premultiplied RGBA noise, 37 rows by 53 columns, with some fully transparent pixels."""
+    rng = np.random.default_rng(35)
+    rgba = rng.random((37, 53, 4)).astype(np.float32)
+    rgba[::5, ::7, 3] = 0.0
+    rgba[..., :3] *= rgba[..., 3:]
+    return rgba
+
+
+def run(processor_type, gl, **images_and_values):
+    """The processor alone, on numpy images uploaded; its output read back."""
+    from vgraph.image import Image
+    images = {k: Image.from_numpy(gl, v) for k, v in images_and_values.items() if isinstance(v, np.ndarray)}
+    values = {k: v for k, v in images_and_values.items() if k not in images}
+    return vgraph.registry.get(processor_type)(**values).process(**images).to_numpy()
+
+
+def straight(rgba):
+    alpha = rgba[..., 3:].astype(np.float64)
+    return np.where(alpha > 0, rgba[..., :3] / np.where(alpha > 0, alpha, 1.0), rgba[..., :3])
+
+
+def gamma_reference(rgba, gamma, tone_mapping, exposure):
+    x = exposure * np.maximum(straight(rgba), 0.0)
+    mapped = {"none": x, "reinhard": x / (1 + x), "exposure": 1 - np.exp(-x)}[tone_mapping] ** (1 / gamma)
+    alpha = rgba[..., 3:].astype(np.float64)
+    return np.concatenate([np.where(alpha > 0, mapped * alpha, mapped), alpha], axis=-1)
+
+
+@pytest.mark.parametrize("gamma, tone_mapping, exposure", [
+    (1.0, "none", 1.0), (2.2, "none", 1.0), (0.5, "none", 3.0),
+    (1.0, "reinhard", 4.0), (2.2, "reinhard", 1.0), (1.0, "exposure", 2.0), (1.8, "exposure", 0.5)])
+def test_image_gamma_equals_the_formula(gl, noise, gamma, tone_mapping, exposure):
+    result = run("ImageGamma", gl, image=noise, gamma=gamma, tone_mapping=tone_mapping, exposure=exposure)
+    assert result.shape == noise.shape
+    np.testing.assert_allclose(result, gamma_reference(noise, gamma, tone_mapping, exposure), atol=TOLERANCE)
+    np.testing.assert_array_equal(result[..., 3], noise[..., 3])  # alpha passes through bit for bit
+
+
+def test_image_gamma_one_leaves_the_image_as_it_is(gl, noise):
+    np.testing.assert_allclose(run("ImageGamma", gl, image=noise), noise, atol=TOLERANCE)
+
+
+@pytest.mark.parametrize("channel, threshold", [("luminance", 0.3), ("red", 0.25), ("green", 0.5),
+                                                ("blue", 0.1), ("alpha", 0.6)])
+def test_image_threshold_equals_the_formula(gl, noise, channel, threshold):
+    above, below = (1.0, 0.5, 0.0, 0.8), (0.0, 0.0, 1.0, 1.0)
+    result = run("ImageThreshold", gl, image=noise, channel=channel, threshold=threshold, above=above, below=below)
+    value = {"luminance": noise[..., :3] @ LUMINANCE, "red": noise[..., 0], "green": noise[..., 1],
+             "blue": noise[..., 2], "alpha": noise[..., 3]}[channel]
+    premultiplied = {True: (0.8, 0.4, 0.0, 0.8), False: below}
+    expected = np.where((value >= threshold)[..., None], premultiplied[True], premultiplied[False])
+    np.testing.assert_allclose(result, expected, atol=TOLERANCE)
+    assert 0.05 < (value >= threshold).mean() < 0.95  # both sides present: a swapped test would show
+
+
+def background_reference(pattern, height, width, first, second, cell):
+    first, second = (np.array(c[:3] + (1.0,)) * c[3] for c in (first, second))  # premultiplied
+    rows, cols = np.indices((height, width))
+    if pattern == "solid":
+        t = np.zeros((height, width))
+    elif pattern == "gradient":
+        t = (rows + 0.5) / height
+    else:
+        t = ((cols // cell + rows // cell) % 2).astype(float)
+    return (1 - t[..., None]) * first + t[..., None] * second
+
+
+@pytest.mark.parametrize("pattern", ["solid", "gradient", "checkerboard"])
+def test_background_under_an_image_equals_over_of_the_pattern(gl, noise, pattern):
+    first, second = (0.9, 0.8, 0.7, 1.0), (0.1, 0.2, 0.3, 0.5)
+    result = run("Background", gl, image=noise, pattern=pattern, first=first, second=second, cell=5)
+    back = background_reference(pattern, 37, 53, first, second, 5)
+    expected = noise + (1 - noise[..., 3:]) * back
+    assert result.shape == noise.shape
+    np.testing.assert_allclose(result, expected, atol=TOLERANCE)
+
+
+def test_background_alone_has_the_requested_size():
+    network = Network()
+    network.add("Background", id="back", pattern="checkerboard", cell=4,
+                first=(1.0, 1.0, 1.0, 1.0), second=(0.0, 0.0, 0.0, 1.0))
+    network.add("Canvas", id="canvas")
+    network.connect("back.image", "canvas.image")
+    result = network.evaluate("canvas", size=(30, 18))
+    assert result.shape == (18, 30, 4)
+    np.testing.assert_allclose(result, background_reference("checkerboard", 18, 30, (1.0, 1.0, 1.0, 1.0),
+                                                            (0.0, 0.0, 0.0, 1.0), 4), atol=TOLERANCE)
+    assert (result[0, 0, :3] == 1.0).all() and (result[0, 4, :3] == 0.0).all()  # white at the top left
+
+
+@pytest.fixture
+def other_noise():
+    rng = np.random.default_rng(36)
+    rgba = rng.random((37, 53, 4)).astype(np.float32)
+    rgba[..., :3] *= rgba[..., 3:]
+    return rgba
+
+
+@pytest.mark.parametrize("mode, factor", [("mix", 0.0), ("mix", 0.3), ("mix", 1.0), ("add", 0.7),
+                                          ("multiply", 1.0), ("multiply", 0.4)])
+def test_image_mix_equals_the_formula(gl, noise, other_noise, mode, factor):
+    a, b, f = noise.astype(np.float64), other_noise.astype(np.float64), factor
+    expected = {"mix": (1 - f) * a + f * b, "add": a + f * b, "multiply": a * ((1 - f) + f * b)}[mode]
+    result = run("ImageMix", gl, a=noise, b=other_noise, mode=mode, factor=factor)
+    np.testing.assert_allclose(result, expected, atol=TOLERANCE)
+
+
+def test_image_mix_nearer_keeps_the_pixel_of_smaller_depth(gl, noise, other_noise):
+    rng = np.random.default_rng(7)
+    depth_a, depth_b = rng.random((37, 53)).astype(np.float32), rng.random((37, 53)).astype(np.float32)
+    depth_b[:5] = depth_a[:5]  # a tie keeps a
+    result = run("ImageMix", gl, a=noise, b=other_noise, depth_a=depth_a, depth_b=depth_b, mode="nearer")
+    np.testing.assert_array_equal(result, np.where((depth_b < depth_a)[..., None], other_noise, noise))
+
+
+def test_image_mix_refuses_images_of_another_size(gl, noise):
+    with pytest.raises(vgraph.VGraphError, match=r"^imageMix: a \(53x37\) and b \(20x10\) must have one size"):
+        run("ImageMix", gl, a=noise, b=np.ones((10, 20), np.float32))
+
+
+def test_image_mix_nearer_without_depths_is_refused_by_name(gl, noise):
+    with pytest.raises(vgraph.VGraphError, match=r"^imageMix: mode 'nearer' needs both depth images; connect depth_b"):
+        run("ImageMix", gl, a=noise, b=noise, depth_a=noise[..., 0], mode="nearer")
+
+
+@pytest.mark.parametrize("processor_type, name, value, reason", [
+    ("ImageGamma", "gamma", 0.0, "greater than or equal to 0.05"),
+    ("ImageGamma", "tone_mapping", "filmic", "none.*reinhard.*exposure"),
+    ("ImageGamma", "exposure", float("nan"), "finite number"),
+    ("ImageThreshold", "channel", "hue", "luminance.*red.*green.*blue.*alpha"),
+    ("ImageThreshold", "above", (1.0, 2.0, 0.0), "less than or equal to 1"),
+    ("Background", "pattern", "stripes", "solid.*gradient.*checkerboard"),
+    ("Background", "cell", 0, "greater than or equal to 1"),
+    ("ImageMix", "factor", 1.5, "less than or equal to 1"),
+    ("ImageMix", "mode", "screen", "mix.*add.*multiply.*nearer"),
+])
+def test_bad_values_are_refused_naming_processor_and_property(processor_type, name, value, reason):
+    network = Network()
+    network.add(processor_type, id="filter")
+    with pytest.raises(vgraph.PropertyError, match=rf"^filter\.{name}: .*{reason}"):
+        network.set(f"filter.{name}", value)

@@ -1,5 +1,6 @@
 """Shared parts of the image filter processors (ImageBlur, EdgeDetect, DepthDarkening): the
-separable Gaussian as two fullscreen passes.
+separable Gaussian as two fullscreen passes; and a colour property's value as the premultiplied
+RGBA that images hold (ImageThreshold, Background, TextOverlay).
 
 Conventions: the Gaussian is scipy.ndimage.gaussian_filter's with ``truncate`` 4 and border mode
 'nearest' (the edge pixel repeats, as the Image's clamped sampling): weights exp(-x^2 / 2 sigma^2)
@@ -29,3 +30,9 @@ def gaussian_blur(ctx, image: Image, across: Image, result: Image, sigma: float,
     uniforms = {"sigma": float(sigma) if sigma > 0 else 1.0, "radius": gaussian_radius(sigma)}
     fullscreen_pass(ctx, program, across, textures={"image": image}, uniforms={**uniforms, "axis_step": (1, 0)})
     fullscreen_pass(ctx, program, result, textures={"image": across}, uniforms={**uniforms, "axis_step": (0, 1)})
+
+
+def premultiplied(color) -> tuple[float, float, float, float]:
+    """A ColorProperty's straight RGBA (r, g, b, a) as premultiplied RGBA (r a, g a, b a, a)."""
+    r, g, b, a = (float(v) for v in color)
+    return (r * a, g * a, b * a, a)
