@@ -78,6 +78,7 @@ class NetworkServices(Protocol):
     def output(self, network: Network, target: str): ...
     def evaluate(self, network: Network, target: str | None, size, context=None): ...
     def picture(self, network: Network) -> bytes | None: ...
+    def pick(self, network: Network, canvas: str, x: float, y: float): ...
     def save(self, network: Network, path: str | Path) -> None: ...
 
 
@@ -387,6 +388,11 @@ class Network:
         """Evaluate one target and return its data as numpy: an image as float32 (H, W, 4) with
         row 0 at the top, a volume as its [z, y, x] array (``context`` as for ``update``)."""
         return _bound().evaluate(self, target, size, context)
+
+    def pick(self, canvas: str, x: float, y: float):
+        """What lies under pixel (x, y) of ``canvas`` (row 0 at the top): world point, voxel, the
+        values of the volumes upstream, the iso-surface point (``vgraph.picking.PickResult``)."""
+        return _bound().pick(self, canvas, x, y)
 
     def _repr_png_(self) -> bytes | None:
         """Jupyter shows a network as its picture (see ``vgraph.services.picture``)."""

@@ -51,5 +51,10 @@ def picture(network: Network) -> bytes | None:
     return image._repr_png_() if isinstance(image, Image) else None
 
 
+def pick(network: Network, canvas: str, x: float, y: float):
+    from vgraph.picking import pick as pick_pixel  # numerics behind it load on the first pick
+    return pick_pixel(network, canvas, x, y)
+
+
 def save(network: Network, path: str | Path) -> None:
     save_network(network, path)

@@ -1,0 +1,251 @@
+"""Picking: what lies under a pixel of a canvas (``Network.pick(canvas, x, y)``; issue 36).
+
+Coordinates: ``x, y`` are the canvas image's pixel column and row (its ``size``; row 0 at the
+top), fractions allowed, an integer being the pixel's centre (as ``SlicePlane.pixel_to_world``):
+the image covers -0.5 <= x < width - 0.5 and likewise y. Anything else, or a canvas id that is not
+a Canvas, or a canvas with no renderer that says where its pixels lie, is a ``PickError``.
+
+Where the point comes from, by the renderer nearest upstream of the canvas:
+- A SliceViewer: the exact point of its plane under (x, y) (``SlicePlane.pixel_to_world``).
+- A renderer with a ``depth`` output (RayCaster, MultiVolumeRayCaster, ProjectedTetrahedra,
+  GeometryRenderer ...): its depth image (the ray casters' convention: g = distance in world units
+  from the ray's start on the near plane, a = 1 where something was drawn), read at the pixel and
+  put on that pixel's ray of the renderer's camera of the frame (``view_camera``; the ray through
+  the pixel centre, ``Camera.tile(...).rays``). The depth output is drawn on demand: the first
+  pick of a frame draws it (once), later picks of the same frame read it.
+- In iso mode (``compositing == "iso"``) the point is refined on the tricubic B-spline surface
+  (vgraph.picking_surface): ``surface`` has it, with normal and curvatures.
+A pixel where nothing was drawn is a result with ``hit`` False and ``reason`` saying so.
+
+At the point: the voxel index (i, j, k) of the renderer's (first) volume, nearest voxel centre,
+and the value of every volume upstream of the renderer (``samples``): trilinear for volumes of
+samples (as the ray casters' default interpolation), the nearest voxel for label volumes (with the
+label's name from a label table that draws it, else "label N"), the tricubic spline for B-spline
+coefficients. A point outside a volume's box gives that volume no value (``value`` None).
+Volumes drawn brick by brick (OME-Zarr stores) are not sampled (``value`` None, ``note`` says so).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import networkx as nx
+import numpy as np
+from scipy.ndimage import map_coordinates
+
+from vgraph.errors import VGraphError
+from vgraph.image import Image
+from vgraph.labels import LabelTable
+from vgraph.picking_surface import SurfacePoint, refine_on_surface, spline_value
+from vgraph.volume import Volume
+
+
+class PickError(VGraphError):
+    """A pick that cannot be answered: not a canvas, a pixel outside it, no renderer upstream."""
+
+
+@dataclass(frozen=True)
+class VolumeSample:
+    """One upstream volume's value at the picked point."""
+    source: str                      # 'processor.outport' of the volume
+    value: float | None              # None outside its box (or not sampled: ``note``)
+    voxel: tuple[int, int, int] | None  # nearest voxel (i, j, k), None outside
+    label: str | None = None         # label volumes: the label's name
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class PickResult:
+    """What lies under one pixel of a canvas."""
+    canvas: str
+    x: float
+    y: float
+    kind: str                        # "slice" or "3d"
+    renderer: str                    # the processor whose pixels were picked
+    hit: bool                        # False: nothing drawn there (``reason``)
+    point: tuple[float, float, float] | None = None   # world (patient) coordinates
+    voxel: tuple[int, int, int] | None = None         # of the renderer's (first) volume
+    samples: tuple[VolumeSample, ...] = ()
+    surface: SurfacePoint | None = None               # iso mode: the tricubic surface point
+    reason: str = ""
+
+    @property
+    def value(self) -> float | None:
+        """The first volume's value (the renderer's own), or None."""
+        return self.samples[0].value if self.samples else None
+
+
+def pick(network, canvas_id: str, x: float, y: float) -> PickResult:
+    """What lies under pixel (x, y) of canvas ``canvas_id`` (module docstring)."""
+    size = _canvas_size(network, canvas_id)
+    _check_pixel(canvas_id, x, y, size)
+    network.update(canvas_id, size=size)
+    renderer_id = _renderer(network, canvas_id)
+    renderer = network[renderer_id]
+    if hasattr(renderer, "last_plane"):
+        return _pick_slice(network, canvas_id, renderer_id, float(x), float(y), size)
+    return _pick_3d(network, canvas_id, renderer_id, float(x), float(y), size)
+
+
+def _canvas_size(network, canvas_id: str) -> tuple[int, int]:
+    if canvas_id not in network.processors:
+        raise PickError(f"pick: no processor '{canvas_id}' in the network")
+    if not _is_canvas(network[canvas_id]):
+        raise PickError(f"pick: '{canvas_id}' is a {type(network[canvas_id]).__name__}, not a canvas")
+    width, height = network[canvas_id].property_values["size"]
+    return int(width), int(height)
+
+
+def _is_canvas(processor) -> bool:
+    """A sink that shows an image at its ``size`` (the Canvas; vgraph.live.evaluator.is_display)."""
+    return (not processor.outports and "size" in processor.properties
+            and any(issubclass(port.data_type, Image) for port in processor.inports))
+
+
+def _check_pixel(canvas_id: str, x, y, size) -> None:
+    width, height = size
+    try:
+        fx, fy = float(x), float(y)
+    except (TypeError, ValueError):
+        raise PickError(f"pick: canvas '{canvas_id}': the pixel must be two numbers, got {x!r}, {y!r}") from None
+    if not (math.isfinite(fx) and math.isfinite(fy) and -0.5 <= fx < width - 0.5 and -0.5 <= fy < height - 0.5):
+        raise PickError(f"pick: canvas '{canvas_id}': pixel ({x}, {y}) is outside its "
+                        f"{width}x{height} image")
+
+
+def _renderer(network, canvas_id: str) -> str:
+    """The nearest processor upstream of the canvas that places its pixels in the world."""
+    for _, processor_id in nx.bfs_edges(network.graph, canvas_id, reverse=True):  # nearest first
+        processor = network[processor_id]
+        if hasattr(processor, "last_plane") or any(port.name == "depth" for port in processor.outports):
+            return processor_id
+    raise PickError(f"pick: canvas '{canvas_id}': no renderer upstream writes depth or a slice "
+                    f"plane, so its pixels have no place in the world")
+
+
+# --- slices ---------------------------------------------------------------------------------------
+def _pick_slice(network, canvas_id, viewer_id, x, y, size) -> PickResult:
+    plane = network[viewer_id].last_plane
+    point = plane.pixel_to_world(x, y, size)
+    return _result_at(network, canvas_id, viewer_id, x, y, "slice", point)
+
+
+# --- 3D views -------------------------------------------------------------------------------------
+def _pick_3d(network, canvas_id, renderer_id, x, y, size) -> PickResult:
+    network.update(f"{renderer_id}.depth", size=size)
+    renderer = network[renderer_id]
+    depth = network.output(f"{renderer_id}.depth")
+    width, height = depth.size
+    column = min(width - 1, max(0, int(math.floor((x + 0.5) * width / size[0]))))
+    row = min(height - 1, max(0, int(math.floor((y + 0.5) * height / size[1]))))
+    distance, covered = _depth_at(depth, column, row)
+    if not covered:
+        return PickResult(canvas_id, x, y, "3d", renderer_id, hit=False,
+                          reason=f"nothing drawn at pixel ({column}, {row}) of {renderer_id}")
+    camera = getattr(renderer, "view_camera", None)
+    if camera is None:
+        raise PickError(f"pick: canvas '{canvas_id}': {renderer_id} reported no camera for its frame")
+    origins, directions = camera.tile(column, row, 1, 1, width, height).rays(1, 1)
+    origin, direction = origins[0, 0], directions[0, 0]
+    point = origin + distance * direction
+    surface = _iso_surface(network, renderer, origin, direction, distance)
+    return _result_at(network, canvas_id, renderer_id, x, y, "3d", point, surface)
+
+
+def _depth_at(depth, column: int, row: int) -> tuple[float, bool]:
+    """(distance g, drawn) of one pixel of a depth image, read alone (not the whole image)."""
+    width, height = depth.size
+    raw = depth.framebuffer.read(viewport=(column, height - 1 - row, 1, 1), components=4, dtype="f4")
+    _, distance, _, alpha = np.frombuffer(raw, dtype=np.float32)
+    return float(distance), bool(alpha > 0.0)
+
+
+def _iso_surface(network, renderer, origin, direction, distance) -> SurfacePoint | None:
+    if renderer.property_values.get("compositing") != "iso":
+        return None
+    volume = _own_volumes(network, renderer.id)
+    if not volume:
+        return None
+    volume = volume[0]
+    low, high = volume.value_range
+    level = low + float(renderer.property_values["iso_level"]) * (high - low)
+    return refine_on_surface(volume, level, origin, direction, distance)
+
+
+# --- values at the point --------------------------------------------------------------------------
+def _result_at(network, canvas_id, renderer_id, x, y, kind, point, surface=None) -> PickResult:
+    where = np.asarray(surface.point if surface is not None else point, dtype=float)
+    samples = tuple(_sample(network, source, volume, where) for source, volume in _upstream_volumes(network, renderer_id))
+    own = _own_volumes(network, renderer_id)
+    voxel = _nearest_voxel(own[0], where) if own else None
+    return PickResult(canvas_id, x, y, kind, renderer_id, hit=True,
+                      point=tuple(float(v) for v in np.asarray(point, float)), voxel=voxel,
+                      samples=samples, surface=surface)
+
+
+def _own_volumes(network, processor_id: str) -> list[Volume]:
+    """The volumes the processor received, in inport order."""
+    return [data for data in network[processor_id].inputs.values() if isinstance(data, Volume)]
+
+
+def _upstream_volumes(network, renderer_id: str) -> list[tuple[str, Volume]]:
+    """('id.outport', volume) of every volume upstream of the renderer: its own inputs' first,
+    then the others nearest first; each volume once."""
+    ordered = [renderer_id] + [pid for pid in reversed(list(nx.topological_sort(network.graph)))
+                               if pid in nx.ancestors(network.graph, renderer_id)]
+    found, seen = [], set()
+    own = {id(v) for v in _own_volumes(network, renderer_id)}
+    for pid in ordered[1:]:
+        for outport, data in network[pid].outputs.items():
+            if isinstance(data, Volume) and id(data) not in seen:
+                seen.add(id(data))
+                found.append((f"{pid}.{outport}", data))
+    found.sort(key=lambda item: id(item[1]) not in own)  # stable: the renderer's own first
+    return found
+
+
+def _nearest_voxel(volume: Volume, point) -> tuple[int, int, int] | None:
+    index = np.rint(volume.world_to_voxel(point)).astype(np.int64)
+    if np.any(index < 0) or np.any(index >= np.array(volume.dims)):
+        return None
+    return tuple(int(v) for v in index)
+
+
+def _sample(network, source: str, volume: Volume, point) -> VolumeSample:
+    voxel = _nearest_voxel(volume, point)
+    if volume.bricks is not None:
+        return VolumeSample(source, None, voxel, note="drawn brick by brick: not sampled")
+    if voxel is None:
+        return VolumeSample(source, None, None, note="outside the volume")
+    table = _label_table(network, source.split(".")[0], volume)
+    if table is not None or volume.holds_labels:
+        value = float(volume.data[voxel[2], voxel[1], voxel[0]])
+        return VolumeSample(source, value, voxel, label=_label_name(table, int(value)))
+    if volume.is_spline_coefficients:
+        return VolumeSample(source, float(spline_value(volume, point)), voxel, note="cubic B-spline")
+    index = np.clip(volume.world_to_voxel(point), 0, np.array(volume.dims) - 1)
+    value = map_coordinates(volume.data, index[::-1].reshape(3, 1), order=1, mode="nearest")[0]
+    return VolumeSample(source, float(value), voxel)
+
+
+def _label_table(network, source_id: str, volume: Volume) -> LabelTable | None:
+    """The label table of a processor fed with this volume (a LabelRaycaster's), or None."""
+    for connection in network.connections:
+        if connection.source != source_id:
+            continue
+        target = network[connection.target]
+        if target.inputs.get(connection.inport) is not volume:
+            continue
+        for value in target.property_values.values():
+            if isinstance(value, LabelTable):
+                return value
+    return None
+
+
+def _label_name(table: LabelTable | None, value: int) -> str:
+    if table is not None:
+        for entry in table.labels:
+            if entry.value == value and entry.name:
+                return entry.name
+    return f"label {value}"
