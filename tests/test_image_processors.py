@@ -225,9 +225,122 @@ def test_image_mix_nearer_without_depths_is_refused_by_name(gl, noise):
     ("Background", "cell", 0, "greater than or equal to 1"),
     ("ImageMix", "factor", 1.5, "less than or equal to 1"),
     ("ImageMix", "mode", "screen", "mix.*add.*multiply.*nearer"),
+    ("TextOverlay", "caption_position", "middle", "top_left.*bottom_right"),
+    ("TextOverlay", "font_size", 0.0, "greater than or equal to 0.01"),
+    ("TextOverlay", "scale_bar_length", -1.0, "greater than or equal to 0"),
 ])
 def test_bad_values_are_refused_naming_processor_and_property(processor_type, name, value, reason):
     network = Network()
     network.add(processor_type, id="filter")
     with pytest.raises(vgraph.PropertyError, match=rf"^filter\.{name}: .*{reason}"):
         network.set(f"filter.{name}", value)
+
+
+def orthographic(**changes):
+    from vgraph.camera import Camera
+    return Camera(**{"projection": "orthographic", "position": (0.0, 0.0, 100.0), "focus": (0.0, 0.0, 0.0),
+                     "parallel_scale": 50.0, **changes})
+
+
+def text_overlay(gl, image, volume=None, **values):
+    """The TextOverlay's output and its layout."""
+    from vgraph.image import Image
+    overlay = vgraph.registry.get("TextOverlay")(**values)
+    result = overlay.process(image=Image.from_numpy(gl, image), volume=volume).to_numpy()
+    return result, overlay.last_layout
+
+
+def coverage_of(gl, shape, **values):
+    """What the overlay covers: its white ink over opaque black is the coverage in each channel."""
+    black = np.zeros(shape, np.float32)
+    black[..., 3] = 1.0
+    result, layout = text_overlay(gl, black, text_color=(1.0, 1.0, 1.0, 1.0), **values)
+    return result[..., 0], layout
+
+
+@pytest.mark.parametrize("position", ["top_left", "top_center", "bottom_right"])
+def test_a_caption_is_pillows_text_composited_over_the_image(gl, noise, position):
+    import PIL.ImageDraw
+    import PIL.ImageFont
+    text = "CT head\n0.5 mm"
+    shape = (90, 160, 4)
+    coverage, layout = coverage_of(gl, shape, text=text, caption_position=position, font_size=0.15)
+    # the reference: Pillow's default font at 0.15 x 90 pixels, anchored 3 % of 90 from the corner
+    mask = PIL.Image.new("L", (160, 90))
+    x = {"left": 3, "center": 80, "right": 157}[position.split("_")[1]]
+    anchor = {"left": "l", "center": "m", "right": "r"}[position.split("_")[1]] + ("a" if position.startswith("top") else "d")
+    PIL.ImageDraw.Draw(mask).multiline_text((x, 3 if position.startswith("top") else 87), text, fill=255,
+                                            font=PIL.ImageFont.load_default(size=14), anchor=anchor,
+                                            align=position.split("_")[1])
+    np.testing.assert_allclose(coverage, np.asarray(mask) / 255.0, atol=TOLERANCE)
+    left, top, right, bottom = layout.caption
+    assert (coverage[top:bottom, left:right] > 0.5).any() and coverage[:top].max() == coverage[bottom:].max() == 0
+    # coloured ink over the noise: "over" with that coverage, every other pixel the input's, bit for bit
+    image = np.resize(noise, shape).astype(np.float32)
+    ink = np.array([1.0, 0.5, 0.0, 0.8])
+    result, _ = text_overlay(gl, image, text=text, caption_position=position, font_size=0.15, text_color=tuple(ink))
+    front = np.concatenate([ink[:3] * ink[3], ink[3:]])[None, None, :] * coverage[..., None]
+    np.testing.assert_allclose(result, front + (1 - front[..., 3:]) * image, atol=TOLERANCE)
+    np.testing.assert_array_equal(result[coverage == 0], image[coverage == 0])
+
+
+def bar_pixels(coverage, layout):
+    """The bar's covered length in pixels, measured along its middle row."""
+    left, top, right, bottom = layout.bar
+    row = coverage[(top + bottom) // 2]
+    return int(np.count_nonzero(row == 1.0)), np.flatnonzero(row == 1.0)
+
+
+@pytest.mark.parametrize("length, scale, height", [(30.0, 50.0, 240), (7.5, 20.0, 111), (1.0, 2.5, 200)])
+def test_the_scale_bar_spans_its_length_of_an_orthographic_view(gl, length, scale, height):
+    coverage, layout = coverage_of(gl, (height, 400, 4), scale_bar=True, scale_bar_length=length, units="mm",
+                                   camera=orthographic(parallel_scale=scale))
+    pixels, columns = bar_pixels(coverage, layout)
+    assert pixels == round(length * height / (2 * scale))  # the view is 2 parallel_scale high
+    assert columns[-1] == 400 - 1 - max(2, round(0.03 * min(height, 400)))  # bottom right, at the margin
+    assert layout.bar_label == f"{length:g} mm" and layout.bar_world_length == length
+
+
+def test_an_automatic_scale_bar_is_one_two_or_five_times_a_power_of_ten(gl):
+    coverage, layout = coverage_of(gl, (240, 400, 4), scale_bar=True, camera=orthographic(parallel_scale=50.0))
+    world_per_pixel = 100.0 / 240
+    assert layout.bar_world_length == 20.0  # a quarter of the width is 41.7 world units: 20, not 50
+    assert bar_pixels(coverage, layout)[0] == round(20.0 / world_per_pixel)
+
+
+def test_the_scale_bar_of_a_camera_that_fits_the_data_matches_the_rendered_box(gl):
+    """The volume's box, 100 world units wide, seen from the front by an orthographic camera that
+    fits the data: the entry points cover as many columns as a 100-unit scale bar is long."""
+    from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA
+    from vgraph.volume import Volume
+    volume = Volume(np.zeros((11, 31, 51), np.float32), spacing=(2.0, 2.0, 2.0))  # box 100 x 60 x 20
+    camera = DEFAULT_CAMERA.model_copy(update={"projection": "orthographic", "position": (0.0, 0.0, 5.0),
+                                               "focus": (0.0, 0.0, 0.0), "up": (0.0, 1.0, 0.0)})
+    entry_exit = vgraph.registry.get("EntryExitPoints")(camera=camera)
+    entry_exit.render_size = (160, 120)
+    entry = entry_exit.process(volume=volume)["entry"]
+    box_columns = int(np.count_nonzero(entry.to_numpy()[60, :, 3] > 0))
+    coverage, layout = coverage_of(gl, (120, 160, 4), scale_bar=True, scale_bar_length=100.0, camera=camera,
+                                   volume=volume)
+    assert abs(bar_pixels(coverage, layout)[0] - box_columns) <= 1
+    assert bar_pixels(coverage, layout)[0] == round(100.0 * 120 / (2 * entry_exit.view_camera.parallel_scale))
+
+
+def test_a_scale_bar_under_perspective_is_refused_by_name(gl, noise):
+    with pytest.raises(vgraph.PropertyError, match=r"^textOverlay\.camera: a scale bar in world units is exact only "
+                                                   r"for an orthographic camera"):
+        text_overlay(gl, noise, scale_bar=True, camera=orthographic(projection="perspective"))
+
+
+def test_a_scale_bar_of_a_fitting_camera_without_the_volume_is_refused(gl, noise):
+    from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA
+    camera = DEFAULT_CAMERA.model_copy(update={"projection": "orthographic"})
+    with pytest.raises(vgraph.VGraphError, match=r"^textOverlay\.camera: it fits the data .*connect the rendered "
+                                                 r"volume to textOverlay\.volume"):
+        text_overlay(gl, noise, scale_bar=True, camera=camera)
+
+
+def test_a_scale_bar_longer_than_the_image_is_refused_naming_its_length(gl, noise):
+    with pytest.raises(vgraph.PropertyError, match=r"^textOverlay\.scale_bar_length: a bar of 500 world units is "
+                                                   r"500 pixels long .* between 1 and 49 pixels"):
+        text_overlay(gl, noise, scale_bar=True, scale_bar_length=500.0, camera=orthographic(parallel_scale=18.5))
