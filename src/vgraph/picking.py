@@ -218,7 +218,7 @@ def _sample(network, source: str, volume: Volume, point) -> VolumeSample:
         return VolumeSample(source, None, voxel, note="drawn brick by brick: not sampled")
     if voxel is None:
         return VolumeSample(source, None, None, note="outside the volume")
-    table = _label_table(network, source.split(".")[0], volume)
+    table = _label_table(network, source)
     if table is not None or volume.holds_labels:
         value = float(volume.data[voxel[2], voxel[1], voxel[0]])
         return VolumeSample(source, value, voxel, label=_label_name(table, int(value)))
@@ -229,15 +229,12 @@ def _sample(network, source: str, volume: Volume, point) -> VolumeSample:
     return VolumeSample(source, float(value), voxel)
 
 
-def _label_table(network, source_id: str, volume: Volume) -> LabelTable | None:
-    """The label table of a processor fed with this volume (a LabelRaycaster's), or None."""
+def _label_table(network, source: str) -> LabelTable | None:
+    """The label table of a processor fed from ``source`` ('id.outport'; a LabelRayCaster's), or None."""
     for connection in network.connections:
-        if connection.source != source_id:
+        if f"{connection.source}.{connection.outport}" != source:
             continue
-        target = network[connection.target]
-        if target.inputs.get(connection.inport) is not volume:
-            continue
-        for value in target.property_values.values():
+        for value in network[connection.target].property_values.values():
             if isinstance(value, LabelTable):
                 return value
     return None

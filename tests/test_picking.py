@@ -1,0 +1,139 @@
+"""Network.pick (issue 36): the world point, voxel and values under a canvas pixel, for 3D views
+from the ray caster's depth (refined on the tricubic iso-surface in iso mode) and for slice views
+from the SliceViewer's plane; nothing drawn is a result, a bad canvas or pixel a PickError.
+
+The accuracy numbers are an analytic sphere's (bench/picking_sphere.py): its tricubic picks lie on
+the exact sphere to a few thousandths of a voxel, a ruler between two antipodal picks measures the
+diameter within 0.05 voxel, and the GL's depth alone (linear) is within a tenth of a voxel."""
+
+import numpy as np
+import pytest
+from scipy.ndimage import map_coordinates
+
+import vgraph
+from vgraph.camera import Camera
+from vgraph.labels import LabelEntry, LabelTable
+from vgraph.network import Network
+from vgraph.picking import PickError
+from vgraph.testing import GivenVolume
+
+from picking_sphere import CANVAS, CENTRE, RADIUS, diameter, radius_error, ring_pixels, sphere_network
+
+MIDDLE = CANVAS // 2
+
+
+@pytest.fixture(scope="module")
+def sphere():
+    return sphere_network(1.0)
+
+
+def test_the_middle_pixel_picks_the_sphere_s_front_pole(sphere):
+    result = sphere.pick("canvas", MIDDLE, MIDDLE)
+    assert result.hit and result.kind == "3d" and result.renderer == "rc"
+    pole = np.add(CENTRE, (0.0, 0.0, RADIUS))
+    np.testing.assert_allclose(result.point, pole, atol=0.1)          # the GL depth: within 0.1 voxel
+    np.testing.assert_allclose(result.surface.point, pole, atol=0.01)  # on the tricubic surface
+    np.testing.assert_allclose(result.surface.normal, (0.0, 0.0, 1.0), atol=1e-3)
+    volume = sphere["src"].volume
+    assert result.voxel == tuple(int(v) for v in np.rint(volume.world_to_voxel(result.surface.point)))
+
+
+def test_tricubic_picks_lie_on_the_sphere_with_its_curvature(sphere):
+    for x, y in ring_pixels(12):
+        result = sphere.pick("canvas", x, y)
+        surface = result.surface
+        assert abs(radius_error(surface.point)) < 0.01, (x, y)
+        assert abs(radius_error(result.point)) < 0.1, (x, y)
+        outward = np.subtract(surface.point, CENTRE) / np.linalg.norm(np.subtract(surface.point, CENTRE))
+        np.testing.assert_allclose(surface.normal, outward, atol=2e-3)
+        # Kindlmann's sign convention: a sphere seen from outside has k1 = k2 = +1/R
+        assert surface.k1 == pytest.approx(1 / RADIUS, rel=0.02)
+        assert surface.k2 == pytest.approx(1 / RADIUS, rel=0.02)
+        assert surface.gaussian == pytest.approx(1 / RADIUS ** 2, rel=0.04)
+
+
+@pytest.mark.parametrize("voxel", [2.0, 0.5])
+def test_a_ruler_between_antipodal_tricubic_picks_measures_the_diameter_within_0_05_voxel(voxel):
+    assert abs(diameter(voxel, "tricubic") - 2 * RADIUS) < 0.05 * voxel
+    # the GL depth alone (trilinear) is within a tenth of a voxel, nearest within a voxel
+    assert abs(diameter(voxel, "linear") - 2 * RADIUS) < 0.1 * voxel
+    assert abs(diameter(voxel, "nearest") - 2 * RADIUS) < 1.0 * voxel
+
+
+def test_the_value_is_the_volume_sampled_trilinearly_at_the_point():
+    sphere = sphere_network(1.0)
+    sphere.set("rc.compositing", "dvr")  # no iso refinement: the value at the GL's depth point
+    result = sphere.pick("canvas", MIDDLE + 5, MIDDLE - 3)
+    volume = sphere["src"].volume
+    index = volume.world_to_voxel(result.point)
+    expected = map_coordinates(volume.data, index[::-1].reshape(3, 1), order=1)[0]
+    assert result.hit and result.surface is None
+    assert result.value == pytest.approx(float(expected), abs=1e-5)
+    assert result.samples[0].source == "src.volume"
+
+
+def test_a_pixel_beside_the_sphere_is_a_miss_not_an_error(sphere):
+    result = sphere.pick("canvas", 0, 0)
+    assert not result.hit and result.point is None and "nothing drawn" in result.reason
+
+
+def test_bad_canvases_and_pixels_are_named_errors(sphere):
+    with pytest.raises(PickError, match="outside its 65x65 image"):
+        sphere.pick("canvas", CANVAS, 3)
+    with pytest.raises(PickError, match="outside"):
+        sphere.pick("canvas", 3, float("nan"))
+    with pytest.raises(PickError, match="'rc' is a RayCaster, not a canvas"):
+        sphere.pick("rc", 3, 3)
+    with pytest.raises(PickError, match="no processor 'nowhere'"):
+        sphere.pick("nowhere", 3, 3)
+
+
+def labelled_slice_network() -> Network:
+    """A label volume (0 outside, 2 in the left half, 5 in the right) sliced axially, and the same
+    volume drawn by a LabelRayCaster whose table names label 2."""
+    data = np.zeros((8, 16, 16), np.uint8)
+    data[2:6, 4:12, 2:8], data[2:6, 4:12, 8:14] = 2, 5
+    volume = vgraph.Volume(data, spacing=(0.5, 0.5, 2.0), origin=(10.0, 20.0, 30.0), holds_labels=True)
+    network = Network()
+    network.add(GivenVolume(id="src", volume=volume))
+    network.add("SliceViewer", id="slice", orientation="axial", cursor=(14.0, 23.0, 36.0))
+    network.add("Canvas", id="canvas", size=(64, 64))
+    table = LabelTable.default().with_entry(LabelEntry(value=2, name="tumour"))
+    network.add("LabelRayCaster", id="labels", label_table=table)
+    network.connect("src.volume", "slice.volume")
+    network.connect("slice.image", "canvas.image")
+    network.connect("src.volume", "labels.labels")
+    return network
+
+
+def test_a_slice_pick_is_the_exact_point_on_the_plane_with_the_label_s_name():
+    network = labelled_slice_network()
+    result = network.pick("canvas", 20.25, 31.5)
+    plane = network["slice"].last_plane
+    assert result.kind == "slice" and result.renderer == "slice" and result.hit
+    np.testing.assert_allclose(result.point, plane.pixel_to_world(20.25, 31.5, (64, 64)), atol=1e-12)
+    assert result.point[2] == pytest.approx(36.0)  # on the cursor's axial plane
+    volume = network["src"].volume
+    expected_voxel = tuple(int(v) for v in np.rint(volume.world_to_voxel(result.point)))
+    assert result.voxel == expected_voxel
+    label = int(volume.data[expected_voxel[2], expected_voxel[1], expected_voxel[0]])
+    assert result.samples[0].value == label
+    assert result.samples[0].label == {0: "label 0", 2: "tumour", 5: "label 5"}[label]
+
+
+def test_slice_picks_name_both_labels():
+    network = labelled_slice_network()
+    plane_labels = set()
+    for x in range(0, 64, 4):
+        sample = network.pick("canvas", x, 32).samples[0]
+        if sample.value is not None:
+            plane_labels.add(sample.label)
+    assert {"tumour", "label 5"} <= plane_labels
+
+
+def test_a_camera_that_looks_away_misses():
+    sphere = sphere_network(1.0)
+    camera = Camera(projection="orthographic", position=(100.0, 100.0, 100.0), focus=(200.0, 200.0, 200.0),
+                    up=(0.0, 0.0, 1.0), parallel_scale=5.0, fit_to_data=False)
+    sphere.set("eep.camera", camera)
+    assert not sphere.pick("canvas", MIDDLE, MIDDLE).hit
