@@ -91,7 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="write the data; the extension chooses the format: .npy, .npz (image: "
                           "float32 H x W x 4; volume: .npz keeps the grid), .nrrd, .nii, .nii.gz, "
                           ".mha, .vti (volumes, with their affine; run on a data file without "
-                          "--port they write the volume read); repeatable")
+                          "--port they write the volume read), .csv (tables); repeatable")
     run.add_argument("--npy", type=user_path, metavar="OUT.npy", help="deprecated: --data OUT.npy")
     run.add_argument("--port", help="the port to evaluate, ID.PORT (default: the Canvas)")
     run.add_argument("--size", type=parse_size, metavar="WxH",

@@ -8,6 +8,7 @@ refused before the network is evaluated. Every file is written atomically.
     Volume           refused      values [z, y, x] only  data, spacing, origin,       values, spacing, origin
                                                           value_range (if declared)    (io.write_volume)
     arrays, numbers  refused      the array              key "data"                   refused
+    Table            refused      refused (--data OUT.csv: a header of names [units], a row per row)
 """
 
 from __future__ import annotations
@@ -26,11 +27,13 @@ from vgraph.imagefile import write_png
 from vgraph.io import WRITABLE_EXTENSIONS, write_volume
 from vgraph.io.writers import writable_extension
 from vgraph.scheduler import BlankImageWarning, to_numpy
+from vgraph.table import Table
 from vgraph.volume import Volume
 
 IMAGE_FORMATS = (".npy", ".npz")
 VOLUME_FORMATS = WRITABLE_EXTENSIONS  # .npy .npz .nrrd .nii .nii.gz
-DATA_FORMATS_TEXT = ".npy or .npz (images, volumes), .nrrd, .nii, .nii.gz, .mha or .vti (volumes)"
+DATA_FORMATS_TEXT = ".npy or .npz (images, volumes), .nrrd, .nii, .nii.gz, .mha or .vti (volumes), .csv (tables)"
+TABLE_FORMAT = ".csv"
 SOURCE_VOLUME = "source.volume"  # what the network made for a data file reads (volume_network)
 
 
@@ -38,7 +41,7 @@ SOURCE_VOLUME = "source.volume"  # what the network made for a data file reads (
 class Output:
     option: str  # "-o", "--data" or "--npy", for messages
     path: Path
-    format: str  # ".png", ".npy", ".npz", ".nrrd", ".nii" or ".nii.gz"
+    format: str  # ".png", ".npy", ".npz", ".nrrd", ".nii", ".nii.gz" ... or ".csv"
 
     def __str__(self) -> str:
         return f"{self.option} {self.path}"
@@ -51,7 +54,7 @@ def requested_outputs(args) -> list[Output]:
     if args.output is not None:
         outputs.append(Output("-o", args.output, ".png"))
     for path in args.data:
-        extension = writable_extension(Path(path))
+        extension = TABLE_FORMAT if Path(path).name.lower().endswith(TABLE_FORMAT) else writable_extension(Path(path))
         if extension is None:
             raise VGraphError(f"--data {path}: the extension chooses the format: {DATA_FORMATS_TEXT}")
         outputs.append(Output("--data", path, extension))
@@ -89,6 +92,10 @@ def check_formats(outputs: list[Output], target: str, data_type: type | None) ->
 def _format_problem(output: Output, data_type: type | None) -> str | None:
     if data_type is None:
         return None  # not known before evaluating: write_outputs checks the data itself
+    if issubclass(data_type, Table) or output.format == TABLE_FORMAT:
+        return None if issubclass(data_type, Table) and output.format == TABLE_FORMAT else \
+            ("a table is written as CSV: use --data OUT.csv" if issubclass(data_type, Table)
+             else ".csv holds tables only")
     if output.format == ".png":
         return None if issubclass(data_type, Image) else \
             f"-o writes images only: use --data OUT.npz ({DATA_FORMATS_TEXT})"
@@ -114,6 +121,8 @@ def write_outputs(outputs: list[Output], target: str, data, blank_warning) -> No
     for output in outputs:
         if isinstance(data, Image):
             _write_image(output, pixels)
+        elif isinstance(data, Table):
+            data.to_csv(output.path)  # atomic
         elif isinstance(data, Volume) and output.option == "--data":
             write_volume(data, output.path)  # atomic; the format follows the extension
             if output.format == ".npy":
@@ -159,4 +168,5 @@ def _as_array(data, target: str) -> np.ndarray:
 def _type_name(data_type: type | None) -> str:
     return "data of unknown type" if data_type is None else \
         ("an image" if issubclass(data_type, Image) else
-         "a volume" if issubclass(data_type, Volume) else data_type.__name__)
+         "a volume" if issubclass(data_type, Volume) else
+         "a table" if issubclass(data_type, Table) else data_type.__name__)

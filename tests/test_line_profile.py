@@ -1,0 +1,166 @@
+"""LineProfile: a line between two world points through the shared CT head (headsq, 64 x 64 x 93
+int16, spacing 3.2 x 3.2 x 1.5 mm: anisotropic), as read and turned (a non-identity direction with a
+moved origin), equals scipy.ndimage.map_coordinates at the same points (voxel coordinates from the
+inverse of the affine, computed here); distances and points along the line; NaN with a warning
+outside; bad values named; the table as CSV from the command line; the plot image."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from vgraph import Network, PropertyError, VGraphError, VGraphWarning
+from vgraph.cli import main
+from vgraph.io import read_volume
+from vgraph.registry import registry
+from vgraph.table import Table
+from vgraph.testing import GivenVolume
+
+ORDERS = {"nearest": 0, "linear": 1, "cubic": 3}
+TILT = ((0.0, -1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, -1.0))  # a turned, mirrored grid
+# voxel coordinates (i, j, k) of the ends of a line well inside the head, off every grid plane
+INNER_ENDS = ((3.3, 5.7, 10.2), (55.1, 40.4, 80.9))
+
+
+@pytest.fixture(scope="module", params=["as_read", "turned"])
+def head(request):
+    from helpers.paths import DATA
+    path = DATA / "ct_head_headsq" / "quarter.nhdr"
+    if not path.is_file():
+        pytest.skip(f"shared data set {path} not found")
+    volume = read_volume(path)
+    assert volume.spacing == (3.2, 3.2, 1.5) and volume.data.dtype == np.int16
+    if request.param == "turned":
+        volume = volume.with_overrides(direction=TILT, origin=(-40.0, 25.0, 17.5))
+    return volume
+
+
+def world(volume, ijk):
+    """World point of voxel coordinates through the affine (not the code under test)."""
+    return (volume.affine @ np.append(ijk, 1.0))[:3]
+
+
+def reference(volume, points, order):
+    """map_coordinates at world points (n, 3): scipy's own prefilter for the cubic B-spline."""
+    ijk = (np.c_[points, np.ones(len(points))] @ np.linalg.inv(volume.affine).T)[:, :3]
+    data = volume.data if order == 0 else volume.data.astype(np.float64)
+    return ndimage.map_coordinates(data, ijk[:, ::-1].T, order=order, mode="mirror")
+
+
+def profile(volume, **properties) -> Table:
+    return registry.get("LineProfile")("p", **properties).process(volume=volume)["table"]
+
+
+@pytest.mark.parametrize("interpolation", list(ORDERS))
+def test_the_profile_equals_map_coordinates_on_the_same_line(head, interpolation):
+    start, end = (world(head, ijk) for ijk in INNER_ENDS)
+    table = profile(head, start=tuple(start), end=tuple(end), samples=173, interpolation=interpolation)
+    points = np.stack([table["x"], table["y"], table["z"]], axis=1)
+    expected = reference(head, points, ORDERS[interpolation])
+    if interpolation == "nearest":
+        assert np.array_equal(table["value"], expected)
+    else:  # cubic: float32 coefficients (vgraph.numerics.bspline.prefilter) against scipy's float64
+        assert np.abs(table["value"] - expected).max() <= 1e-6 * np.abs(expected).max()
+    assert np.ptp(table["value"]) > 500  # the line crosses skin and bone: the test can tell
+
+
+def test_samples_are_evenly_spaced_on_the_line_with_both_ends(head):
+    start, end = (world(head, ijk) for ijk in INNER_ENDS)
+    table = profile(head, start=tuple(start), end=tuple(end), samples=11)
+    length = np.linalg.norm(end - start)
+    assert table.names == ["distance", "x", "y", "z", "value"]
+    assert [c.unit for c in table.columns] == ["world"] * 4 + [""]
+    assert np.allclose(table["distance"], np.linspace(0.0, length, 11), rtol=0, atol=1e-12)
+    points = np.stack([table["x"], table["y"], table["z"]], axis=1)
+    assert np.allclose(points, start + np.linspace(0, 1, 11)[:, None] * (end - start), rtol=0, atol=1e-9)
+
+
+def test_a_step_in_world_units_reaches_the_end_only_on_a_whole_step(head):
+    start = world(head, INNER_ENDS[0])
+    end = world(head, np.add(INNER_ENDS[0], (0.0, 0.0, 20.0 / 1.5)))  # 20 world units along k
+    assert np.allclose(profile(head, start=tuple(start), end=tuple(end), spacing_mode="step",
+                               step=2.5)["distance"], np.arange(9) * 2.5)
+    assert np.allclose(profile(head, start=tuple(start), end=tuple(end), spacing_mode="step",
+                               step=3.0)["distance"], np.arange(7) * 3.0)  # 18, not 20
+
+
+def test_points_outside_the_volume_are_nan_with_a_warning_naming_the_processor(head):
+    start, end = world(head, (-10.0, 20.3, 30.2)), world(head, (40.0, 20.3, 30.2))  # 160 world units
+    with pytest.warns(VGraphWarning, match=r"^LineProfile 'p': 20 of 101 samples \(distance 0 to 30\.4\) "
+                                           r"lie outside the volume's box of voxel centres: their values are NaN"):
+        table = profile(head, start=tuple(start), end=tuple(end), samples=101)
+    outside = np.isnan(table["value"])
+    assert outside.sum() == 20 and outside[:20].all()
+    points = np.stack([table["x"], table["y"], table["z"]], axis=1)[~outside]
+    assert np.abs(table["value"][~outside] - reference(head, points, 1)).max() < 1e-9
+    with pytest.warns(VGraphWarning, match=r"^LineProfile 'p': the whole line lies outside"):
+        assert np.isnan(profile(head, start=(1e4, 0.0, 0.0), end=(1e4, 10.0, 0.0))["value"]).all()
+
+
+def test_cubic_on_spline_coefficients_equals_cubic_on_the_samples(head):
+    coefficients = registry.get("CubicSplineProcessor")("s").process(volume=head)
+    start, end = (tuple(world(head, ijk)) for ijk in INNER_ENDS)
+    on_samples = profile(head, start=start, end=end, interpolation="cubic")["value"]
+    assert np.array_equal(profile(coefficients, start=start, end=end, interpolation="cubic")["value"], on_samples)
+    with pytest.raises(VGraphError, match=r"^LineProfile 'p': the volume holds B-spline coefficients"):
+        profile(coefficients, start=start, end=end, interpolation="linear")
+
+
+def test_bad_lines_are_refused_by_name(head):
+    with pytest.raises(PropertyError, match=r"^p\.end: the line has zero length: end equals start \[1\.0, 2\.0, 3\.0\]"):
+        profile(head, start=(1.0, 2.0, 3.0), end=(1.0, 2.0, 3.0))
+    with pytest.raises(PropertyError, match=r"^p\.samples: invalid value 1"):
+        profile(head, samples=1)
+    with pytest.raises(PropertyError, match=r"^p\.start: invalid value"):
+        profile(head, start=(float("nan"), 0.0, 0.0))
+    with pytest.raises(PropertyError, match=r"^p\.step: must be above 0, got 0\.0"):
+        profile(head, spacing_mode="step", step=0.0)
+    with pytest.raises(PropertyError, match=r"^p\.step: step 20 is longer than the line \(10 world units\)"):
+        profile(head, spacing_mode="step", step=20.0)
+    with pytest.raises(PropertyError, match=r"^p\.step: step 1e-09 gives 10000000001 samples"):
+        profile(head, spacing_mode="step", step=1e-9)
+    labels = head.with_data((head.data > 500).astype(np.uint8), holds_labels=True)
+    with pytest.raises(PropertyError, match=r"^p\.interpolation: linear interpolation mixes label values"):
+        profile(labels)
+    start, end = (tuple(world(head, ijk)) for ijk in INNER_ENDS)
+    assert set(np.unique(profile(labels, start=start, end=end, interpolation="nearest")["value"])) == {0.0, 1.0}
+
+
+def test_the_plot_draws_the_profile_at_the_canvas_size(gl, head):
+    network = Network()
+    network.add(GivenVolume(id="src", volume=head))
+    network.add("LineProfile", id="p", start=tuple(world(head, INNER_ENDS[0])), end=tuple(world(head, INNER_ENDS[1])))
+    network.add("Canvas", id="canvas", size=(320, 200))
+    network.connect("src.volume", "p.volume")
+    network.connect("p.plot", "canvas.image")
+    network.evaluate()
+    pixels = network.output("p.plot").to_numpy()
+    assert pixels.shape == (200, 320, 4) and np.all(pixels[..., 3] == 1.0)
+    blue = (pixels[..., 2] > 0.6) & (pixels[..., 0] < 0.3)  # the line's colour on white
+    assert blue.sum() > 200
+    assert (pixels[..., :3].min(axis=-1) > 0.95).mean() > 0.5  # mostly white paper
+
+
+def test_vgraph_run_writes_the_table_as_csv(tmp_path, capsys):
+    from helpers.paths import DATA
+    start, end = (read_volume(DATA / "ct_head_headsq" / "quarter.nhdr").voxel_to_world(ijk) for ijk in INNER_ENDS)
+    network = {"format": "vgraph-network", "version": 3, "processors": [
+        {"id": "source", "type": "VolumeSource", "properties": {"path": str(DATA / "ct_head_headsq" / "quarter.nhdr")}},
+        {"id": "profile", "type": "LineProfile",
+         "properties": {"start": list(start), "end": list(end), "samples": 25, "interpolation": "cubic"}}],
+        "connections": [{"from": "source.volume", "to": "profile.volume"}], "links": []}
+    path = tmp_path / "profile.json"
+    path.write_text(json.dumps(network))
+    out = tmp_path / "profile.csv"
+    assert main(["run", str(path), "--port", "profile.table", "--data", str(out)]) == 0
+    rows = list(csv.reader(out.open()))
+    assert rows[0] == ["distance [world]", "x [world]", "y [world]", "z [world]", "value"]
+    values = np.array(rows[1:], dtype=np.float64)
+    assert values.shape == (25, 5)
+    as_read = read_volume(DATA / "ct_head_headsq" / "quarter.nhdr")
+    assert np.abs(values[:, 4] - reference(as_read, values[:, 1:4], 3)).max() <= 1e-6 * np.abs(values[:, 4]).max()
+    capsys.readouterr()
+    assert main(["run", str(path), "--port", "profile.table", "-o", str(tmp_path / "t.png")]) == 2
+    assert "profile.table carries a table; a table is written as CSV: use --data OUT.csv" in capsys.readouterr().err
