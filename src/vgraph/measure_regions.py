@@ -14,8 +14,10 @@ Conventions:
   region's 0/1 mask at level 0.5 with the grid's spacing (Lorensen and Cline 1987), summed by
   mesh_surface_area, in world units squared. The mask is padded by one background voxel, so a
   region touching the volume's edge is closed there, half a voxel beyond the edge voxels'
-  centres. Marching cubes cuts the corners of the voxels' blocks: a sphere's area comes out a few
-  percent above 4 pi r^2 at a few voxels per radius and closes in as the voxels shrink.
+  centres. The mask's surface follows the voxels' staircase, so it is larger than the smooth
+  surface the voxels sample, and finer voxels do not close the gap: a ball of voxels measures
+  +7 % at a radius of 5 voxels and +9 % at 10, 20 and 40 voxels against 4 pi r^2 (its volume
+  is within 1.5 % at 5 voxels and 0.01 % at 40). The count and volume are exact.
 - Labels must be whole numbers: an integer volume, or a float volume whose values are.
 """
 

@@ -1,0 +1,69 @@
+"""RegionStatistics: per label (or per mask) of a label volume, its voxel count, volume, surface
+area and the statistics of an intensity volume's values inside it, as a table: 3D Slicer's Segment
+Statistics.
+
+Conventions (vgraph.measure_regions holds the rules; docs/guide/measuring.md shows them):
+- ``labels``: a volume of whole numbers, 0 the background. ``regions = labels``: one row per label
+  value present, ascending; ``mask``: one row (label 1) for all non-zero voxels.
+- ``volume`` (optional): the intensities, on the same grid as the labels (same voxel counts and
+  affine, else a named error). Without it the table has no value columns.
+- Columns: label, count, volume (world units cubed), then with intensities mean, std (population),
+  min, max and one ``p<percent>`` per entry of ``percentiles`` (p2_5 for 2.5), then surface_area
+  (world units squared, marching cubes) when ``surface_area`` is on.
+- ``vgraph run --port stats.table --data stats.csv`` writes the table as CSV.
+- Refused by name: labels that are not whole numbers, labels all 0 ("no labels present"), an
+  intensity volume on another grid, percentiles that are not numbers in [0, 100] or repeat.
+"""
+
+from __future__ import annotations
+
+from vgraph import BoolProperty, Inport, OptionProperty, Outport, Processor, PropertyError, StringProperty
+from vgraph.measure_regions import REGION_RULES, check_same_grid, percentile_name, region_codes, region_table
+from vgraph.table import Table
+from vgraph.volume import Volume
+from vgraph.volume_filtering import samples_in_memory
+
+
+class RegionStatistics(Processor):
+    """Count, volume, surface area and value statistics per label of a label volume, as a table."""
+
+    category = "Measuring"
+    inports = [Inport("labels", Volume, description="label values, 0 the background"),
+               Inport("volume", Volume, optional=True, description="intensities on the labels' grid")]
+    outports = [Outport("table", Table, description="one row per region")]
+
+    regions = OptionProperty("labels", choices=list(REGION_RULES),
+                             doc="labels: one region per label value; mask: all non-zero voxels as one")
+    percentiles = StringProperty("5, 25, 50, 75, 95",
+                                 doc="percentiles of the values per region, in [0, 100], comma-separated (may be empty)")
+    surface_area = BoolProperty(True, doc="the area of each region's boundary (marching cubes)")
+
+    def check(self) -> None:
+        self.percent_values()
+
+    def percent_values(self) -> list[float]:
+        """The ``percentiles`` property as numbers; PropertyError naming it otherwise."""
+        where = f"{self.id}.percentiles"
+        try:
+            percents = [float(p) for p in self.percentiles.replace(",", " ").split()]
+        except ValueError:
+            raise PropertyError(where, f"expected numbers in [0, 100] separated by commas, got "
+                                f"{self.percentiles!r}") from None
+        bad = [p for p in percents if not 0.0 <= p <= 100.0]
+        if bad:
+            raise PropertyError(where, f"percentiles must lie in [0, 100], got {bad[0]:g}")
+        names = [percentile_name(p) for p in percents]
+        if len(set(names)) != len(names):
+            raise PropertyError(where, f"a percentile is given twice: {self.percentiles!r}")
+        return percents
+
+    def process(self, labels: Volume, volume: Volume | None = None) -> Table:
+        who = f"RegionStatistics '{self.id}'"
+        percents = self.percent_values()
+        for each in (labels, volume):
+            if each is not None:
+                samples_in_memory(each, who)
+        codes = region_codes(labels, self.regions, who)
+        if volume is not None:
+            check_same_grid(labels, volume, who)
+        return region_table(codes, labels, volume, percents, self.surface_area, who)
