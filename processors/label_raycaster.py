@@ -133,9 +133,9 @@ class LabelRayCaster(RaycasterBase):
 
 
 def label_textures(volume: Volume, ctx: moderngl.Context, consumer: str) -> tuple[LabelCodes, moderngl.Texture]:
-    """The volume's label codes and their integer 3D texture on ``ctx``, made once and kept with the
-    volume (its ``__dict__``, as its other derived data): another frame, table or ray caster of the
-    same volume reuses them; they go when the volume (the texture: or the context) goes."""
+    """The volume's label codes and their integer 3D texture on ``ctx``, made once and kept in the
+    cache for derived data (vgraph.derived): another frame, table or ray caster of the same volume
+    reuses them; they go when the volume (the texture: or the context) goes."""
     codes = derived.value(volume, CODES, lambda: label_codes(volume.data, consumer))
     return codes, derived.value(volume, CODES_TEXTURE, lambda: _codes_texture(volume, codes, ctx, consumer),
                                 ctx=ctx)

@@ -15,6 +15,9 @@ from vgraph.gl_context import collect_garbage, get_context
 from vgraph.gl.raycasting.framed_view import volume_in_frame
 from vgraph.implicit import sample
 from vgraph.leaks import live_gl_textures
+from vgraph.shown_content import voxels_under
+from vgraph.transfer_function import TransferFunction
+from vgraph.volume import Volume
 
 from helpers.networks import rendering_network
 from helpers.paths import REPO
@@ -162,3 +165,20 @@ def test_no_module_level_cache_dictionaries_and_no_private_moderngl_api_remain()
             for pattern in (r"WeakKeyDictionary", r"\._members\b", r"\._vgraph_\w+"):
                 offenders += [f"{path.relative_to(REPO)}: {m.group(0)}" for m in re.finditer(pattern, text)]
     assert offenders == []
+
+
+def test_what_a_renderer_shows_is_kept_in_the_cache_not_on_the_volume():
+    """The blank-image diagnosis asks each frame what a renderer's input shows (vgraph.shown_content):
+    worked out once per rule and planes, kept by vgraph.derived, nothing stashed in the volume."""
+    volume = Volume(np.linspace(0.0, 1.0, 64, dtype=np.float32).reshape(4, 4, 4))
+    high_only = TransferFunction(points=[[0.0, 1, 1, 1, 0.0], [0.6, 1, 1, 1, 0.0], [1.0, 1, 1, 1, 1.0]])
+    derived.reset_stats()
+    shown = voxels_under("volume", volume, high_only)
+    # opacity above 0 from 0.6 up: the voxels 38 / 63 .. 63 / 63
+    assert shown.share() == voxels_under("volume", volume, high_only).share() == 26 / 64
+    shown.presence()
+    shown.presence()
+    stats = derived.stats()
+    assert [(stats[kind].hits, stats[kind].misses) for kind in ("shown share: transfer_function",
+                                                                "shown presence: transfer_function")] == [(1, 1), (1, 1)]
+    assert [key for key in vars(volume) if "shown" in str(key)] == []

@@ -13,8 +13,8 @@ tetrahedra a transfer function shows (``tetrahedra_under``). Each knows
   centres in world units with the volume's direction; the four corners of each tetrahedron) that
   says how many show, the world box around them, how far each clip plane's kept side reaches into
   them, whether the crop box holds any, and the box around those every plane and the crop box
-  keep. Worked out once per input, rule, planes and crop box (kept with the data, as histograms
-  are): a GUI drag with the camera looking away asks every frame.
+  keep. Kept in the one cache for derived data (vgraph.derived), by the data, the rule and the
+  planes and crop box: a GUI drag with the camera looking away asks every frame.
 
 A BrickedVolume larger than its memory budget is not read whole: ``share()`` is judged from its
 summary level (as its histogram is) and its whole box stands in for where the shown voxels lie, so
@@ -27,6 +27,8 @@ import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from vgraph import derived
 
 SLAB_VOXELS = 2**19  # voxels per walk step: bounds the memory of the indices and points
 
@@ -91,19 +93,14 @@ class Shown:
         self._key = (rule, key)
 
     def share(self) -> float:
-        return self._cached(("shown share", self._key), self._share)
+        # A kind per rule: a ray caster's TF and a slice's window on one volume keep one each.
+        return derived.value(self.data, f"shown share: {self.rule}", self._share, params=self._key)
 
     def presence(self, planes=(), crop_box=None) -> Presence:
         planes = tuple(planes)
         crop = None if crop_box is None else tuple(float(v) for v in crop_box)
-        return self._cached(("shown presence", self._key, planes, crop),
-                            lambda: self._presence(planes, crop))
-
-    def _cached(self, key, compute):
-        store = self.data.__dict__
-        if key not in store:
-            store[key] = compute()
-        return store[key]
+        return derived.value(self.data, f"shown presence: {self.rule}", lambda: self._presence(planes, crop),
+                             params=(self._key, planes, crop))
 
     def _share(self) -> float:
         raise NotImplementedError
@@ -245,10 +242,11 @@ def tetrahedra_under(port: str, mesh, transfer_function, mask, control: str = "t
 
 def held_labels(volume) -> np.ndarray:
     """The distinct finite whole values of a label volume (int64), once per volume."""
-    store = volume.__dict__
-    if "shown held labels" not in store:
-        values = np.unique(volume.data)
-        if values.dtype.kind == "f":
-            values = values[np.isfinite(values)]
-        store["shown held labels"] = values.astype(np.int64)
-    return store["shown held labels"]
+    return derived.value(volume, "held labels", lambda: _distinct_whole_values(volume.data))
+
+
+def _distinct_whole_values(data) -> np.ndarray:
+    values = np.unique(data)
+    if values.dtype.kind == "f":
+        values = values[np.isfinite(values)]
+    return values.astype(np.int64)
