@@ -154,3 +154,25 @@ def test_vgraph_run_writes_the_statistics_as_csv(tmp_path):
     inside = data[data != 0].astype(np.float64)
     assert int(rows[1][1]) == inside.size and float(rows[1][3]) == inside.mean()
     assert float(rows[1][2]) == inside.size * 3.2 * 3.2 * 1.5
+
+
+def test_the_shared_engine_labels_equal_regionprops_and_marching_cubes():
+    """networks/data/engine_labels.nrrd (bench/make_label_volume.py: casing 1, dense parts 2) over
+    the engine CT it was made from (shared/data/ct_engine), on the same grid."""
+    from helpers.paths import DATA, REPO
+    if not (DATA / "ct_engine" / "engine.nii.gz").is_file():
+        pytest.skip("shared data set ct_engine not found")
+    labels = read_volume(REPO / "networks" / "data" / "engine_labels.nrrd")
+    engine = read_volume(DATA / "ct_engine" / "engine.nii.gz")
+    table = statistics(labels, engine, percentiles="10, 50, 90")
+    props = regionprops(labels.data, engine.data, spacing=labels.spacing[::-1])
+    assert table["label"].tolist() == [1, 2] and table["count"].tolist() == [p.num_pixels for p in props]
+    for ours, theirs in (("mean", "intensity_mean"), ("std", "intensity_std"), ("min", "intensity_min"),
+                         ("max", "intensity_max")):
+        assert np.allclose(table[ours], [getattr(p, theirs) for p in props], rtol=1e-12, atol=0), ours
+    for row, label in enumerate((1, 2)):
+        inside = engine.data[labels.data == label]
+        assert np.array_equal([table["p10"][row], table["p50"][row], table["p90"][row]],
+                              np.percentile(inside, [10, 50, 90]))
+        vertices, faces, _, _ = marching_cubes(np.pad((labels.data == label).astype(np.float32), 1), 0.5)
+        assert np.isclose(table["surface_area"][row], mesh_surface_area(vertices, faces), rtol=1e-9)
