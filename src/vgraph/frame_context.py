@@ -3,8 +3,8 @@
 A property is part of the network (saved, linked, edited, undone). Some things a frame needs are
 not: how much the GUI's render process lets a frame read (``load_limit``), which of a frame's
 bricks a cluster task draws (``leaf``), whether the frame is one of a drag's (``interactive``: a
-ProjectedTetrahedra then draws its mesh's coarse level of detail, vgraph.mesh_lod). They belong to the one evaluation that asks for them, so
-they travel as its explicit argument::
+ProjectedTetrahedra then draws its mesh's coarse level of detail, vgraph.mesh_lod). They belong
+to the one evaluation that asks for them, so they travel as its explicit argument::
 
     evaluate(network, ["rc.image"], size, context=FrameContext(load_limit=LoadLimit(bricks=8)))
     network.evaluate("rc.image", context=FrameContext(load_limit=LoadLimit(bricks=8)))
@@ -49,9 +49,12 @@ class FrameContext:
     """One evaluation's context. A new field is a new line here (with a default that means "not
     given"); processors opt into it by name in ``uses_context``."""
 
-    load_limit: LoadLimit | None = None  # reading per frame of progressive processors (the GUI's); None: no limit
-    leaf: LeafPass | None = None  # the leaves split's part of a BrickedRayCaster frame; None: the whole frame
-    interactive: bool = False  # a frame drawn while the user drags (the GUI's coarse frames): a coarser level of detail will do
+    # reading per frame of progressive processors (the GUI's); None: no limit
+    load_limit: LoadLimit | None = None
+    # the leaves split's part of a BrickedRayCaster frame; None: the whole frame
+    leaf: LeafPass | None = None
+    # a frame drawn while the user drags (the GUI's coarse frames): a coarser level of detail does
+    interactive: bool = False
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:
@@ -87,8 +90,8 @@ def checked_uses(type_name: str, uses: tuple[str, ...], inport_names: list[str])
         raise ValueError(f"{type_name}.uses_context must be a tuple of field names, got {uses!r}")
     unknown = [name for name in uses if name not in FrameContext.field_names()]
     if unknown:
-        raise ValueError(f"{type_name}.uses_context: {', '.join(map(repr, unknown))} is not a FrameContext "
-                         f"field (fields: {', '.join(FrameContext.field_names())})")
+        raise ValueError(f"{type_name}.uses_context: {', '.join(map(repr, unknown))} is not a "
+                         f"FrameContext field (fields: {', '.join(FrameContext.field_names())})")
     if uses and "context" in inport_names:
         raise ValueError(f"{type_name}: an inport named 'context' clashes with the frame context "
                          f"process() receives (uses_context)")
