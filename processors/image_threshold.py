@@ -18,7 +18,7 @@ CHANNELS = ("luminance", "red", "green", "blue", "alpha")
 
 
 class ImageThreshold(Processor):
-    """Binary image: ``above`` where luminance (or a channel) >= threshold, else ``below``."""
+    """Binary image: the `above` colour where luminance (or a channel) >= threshold, else `below`."""
 
     category = "Image"
     inports = [Inport("image", Image)]

@@ -67,6 +67,7 @@ PICTURES: dict[str, tuple[str, str]] = {
 
 # The sections of the guide and explanation pages (relative to docs/) that explain the processor.
 EXPLAINED_IN: dict[str, tuple[str, ...]] = {
+    "Background": ("guide/image-filters.md#background",),
     "BrickedRayCaster": ("explanations/bricked-ray-casting.md", "guide/large-data.md#rendering"),
     "ColorBar": ("guide/outputs.md#colorbar", "guide/own-data.md#a-colour-bar"),
     "CubicSplineProcessor": ("explanations/curvature.md#which-volume-goes-in", "explanations/tricubic.md"),
@@ -79,9 +80,13 @@ EXPLAINED_IN: dict[str, tuple[str, ...]] = {
     "GeometryEntryExit": ("guide/surfaces.md#geometryentryexit-and-imagecompositor",),
     "GeometryRenderer": ("guide/surfaces.md#geometryrenderer",),
     "Grayscale": ("guide/scripting.md",),
+    "Histogram": ("guide/statistics.md#histogram",),
     "ImageCompositor": ("guide/surfaces.md#geometryentryexit-and-imagecompositor",),
     "ImageBlur": ("guide/image-filters.md#imageblur",),
+    "ImageGamma": ("guide/image-filters.md#imagegamma",),
+    "ImageMix": ("guide/image-filters.md#imagemix",),
     "ImageSource": ("guide/scripting.md", "guide/own-data.md#a-single-slice"),
+    "ImageThreshold": ("guide/image-filters.md#imagethreshold",),
     "ImageWriter": ("reports/reliability.md",),
     "IsoSurfaceExtractor": ("guide/surfaces.md#isosurfaceextractor",),
     "LabelRayCaster": ("guide/labels.md#label-volumes", "guide/own-data.md#label-volumes"),
@@ -91,6 +96,8 @@ EXPLAINED_IN: dict[str, tuple[str, ...]] = {
     "RayCaster": ("explanations/ray-casting.md#raycaster", "explanations/bricked-ray-casting.md#what-differs-from-the-raycaster"),
     "SliceViewer": ("guide/slices.md#slices-and-the-multi-planar-layout", "guide/own-data.md#a-single-slice"),
     "SurfaceSource": ("guide/surfaces.md#surfacesource",),
+    "TextOverlay": ("guide/image-filters.md#textoverlay",),
+    "VolumeInfo": ("guide/statistics.md#volumeinfo",),
     "VolumeSource": ("guide/volumes.md#reading-volumes", "guide/volumes.md#volume-processors", "guide/own-data.md"),
     "VolumeToTetMesh": ("explanations/tetrahedra.md#volumetotetmesh",),
     "VolumeWriter": ("guide/volumes.md#writing-volumes",),
