@@ -12,12 +12,14 @@ import numpy as np
 
 DPI = 100.0
 MIN_SIZE = (64, 48)  # pixels: smaller plots leave no room for the axes
+SMALL = 200  # pixels: a plot narrower or lower than this (a thumbnail) shows the curve and ticks only
 
 
 def line_plot(x: np.ndarray, y: np.ndarray, size: tuple[int, int], *, title: str, x_label: str,
               y_label: str) -> np.ndarray:
     """(height, width, 4) float32 RGBA in [0, 1], row 0 at the top, of y against x on white; NaN
-    values leave gaps in the line. ``size`` is (width, height), at least MIN_SIZE."""
+    values leave gaps in the line. ``size`` is (width, height), at least MIN_SIZE; below SMALL
+    pixels the title and axis labels are left out, which would cover the curve."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -26,9 +28,12 @@ def line_plot(x: np.ndarray, y: np.ndarray, size: tuple[int, int], *, title: str
     canvas = FigureCanvasAgg(figure)
     axes = figure.add_subplot()
     axes.plot(x, y, color="#1f77b4", linewidth=1.5)
-    axes.set_title(title, fontsize="medium")
-    axes.set_xlabel(x_label)
-    axes.set_ylabel(y_label)
+    if min(width, height) >= SMALL:
+        axes.set_title(title, fontsize="medium")
+        axes.set_xlabel(x_label)
+        axes.set_ylabel(y_label)
+    else:
+        axes.tick_params(labelsize=6)
     axes.grid(True, alpha=0.3)
     if len(x):
         axes.set_xlim(float(x[0]), float(x[-1]))

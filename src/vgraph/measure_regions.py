@@ -115,7 +115,7 @@ def _surface_area(codes: np.ndarray, label: int, group: np.ndarray, spacing) -> 
     box = tuple(slice(axis.min(), axis.max() + 1) for axis in where)
     mask = np.pad((codes[box] == label).astype(np.float32), 1)
     vertices, faces, _, _ = marching_cubes(mask, level=0.5, spacing=tuple(float(s) for s in spacing[::-1]))
-    return float(mesh_surface_area(vertices, faces))
+    return float(mesh_surface_area(vertices.astype(np.float64), faces))  # float32 sums lose digits
 
 
 def _from(volume: Volume) -> str:
