@@ -344,3 +344,20 @@ def test_a_scale_bar_longer_than_the_image_is_refused_naming_its_length(gl, nois
     with pytest.raises(vgraph.PropertyError, match=r"^textOverlay\.scale_bar_length: a bar of 500 world units is "
                                                    r"500 pixels long .* between 1 and 49 pixels"):
         text_overlay(gl, noise, scale_bar=True, scale_bar_length=500.0, camera=orthographic(parallel_scale=18.5))
+
+
+def test_the_image_processors_hold_their_textures_over_repeated_evaluation():
+    """Background -> ImageGamma -> ImageThreshold -> ImageMix (with the background) -> TextOverlay -> Canvas."""
+    from vgraph.leaks import repeated_evaluations
+    network = Network()
+    for type_name, id in (("Background", "back"), ("ImageGamma", "gamma"), ("ImageThreshold", "threshold"),
+                          ("ImageMix", "mix"), ("TextOverlay", "text"), ("Canvas", "canvas")):
+        network.add(type_name, id=id)
+    network.set("text.text", "caption")
+    for source, target in (("back.image", "gamma.image"), ("gamma.image", "threshold.image"),
+                           ("threshold.image", "mix.a"), ("back.image", "mix.b"), ("mix.image", "text.image"),
+                           ("text.image", "canvas.image")):
+        network.connect(source, target)
+    samples = repeated_evaluations(network, 120, size=(32, 32), every=20)
+    after_warm_up = [s.textures for s in samples if s.evaluation >= 40]
+    assert max(after_warm_up) <= after_warm_up[0], samples
