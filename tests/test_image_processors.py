@@ -361,3 +361,23 @@ def test_the_image_processors_hold_their_textures_over_repeated_evaluation():
     samples = repeated_evaluations(network, 120, size=(32, 32), every=20)
     after_warm_up = [s.textures for s in samples if s.evaluation >= 40]
     assert max(after_warm_up) <= after_warm_up[0], samples
+
+
+@pytest.mark.parametrize("type_name, values, reason", [
+    ("TextOverlay", {"text": "caption"}, "TextOverlay 'overlay' places its caption and scale bar in the whole image"),
+    ("Background", {"pattern": "gradient"}, "Background 'overlay': its gradient runs over the whole image "
+                                            "(a solid background can be tiled)"),
+    ("Background", {"pattern": "solid"}, None),
+])
+def test_overlays_placed_in_the_whole_image_are_not_rendered_tile_by_tile(type_name, values, reason):
+    """vgraph run --cluster renders tiles of the picture: a caption or a gradient in each tile would be
+    a wrong picture, so such a network is refused by name (a solid background tiles fine)."""
+    from vgraph.distributed.tiles import untileable
+    network = vgraph.load(REPO / "networks" / "raycast_sphere.json")
+    network.add(type_name, id="overlay", **values)
+    canvas = next(p.id for p in network.processors.values() if p.type_name == "Canvas")
+    (upstream,) = network.inputs_of(canvas, "image")
+    network.disconnect(upstream)
+    network.connect(f"{upstream.source}.{upstream.outport}", "overlay.image")
+    network.connect("overlay.image", f"{canvas}.image")
+    assert untileable(network, canvas) == ([reason] if reason else [])

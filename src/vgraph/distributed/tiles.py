@@ -103,6 +103,11 @@ def untileable(network, target: str) -> list[str]:
         kind = processor.type_name
         if kind == "ColorBar":
             reasons.append(f"ColorBar '{pid}' places its bar in the whole image")
+        elif kind == "TextOverlay":
+            reasons.append(f"TextOverlay '{pid}' places its caption and scale bar in the whole image")
+        elif kind == "Background" and processor.property_values.get("pattern") != "solid":
+            reasons.append(f"Background '{pid}': its {processor.property_values.get('pattern')} runs over "
+                           "the whole image (a solid background can be tiled)")
         elif kind == "ImageSource":
             reasons.append(f"ImageSource '{pid}' reads a whole image file, not a view through a camera")
         elif kind in ("CurvatureRaycaster", "CurvatureVolumeRaycaster") and \
