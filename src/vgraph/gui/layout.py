@@ -24,6 +24,9 @@ from PySide6.QtCore import QPoint, QRect, QSettings, Qt
 from PySide6.QtGui import QGuiApplication
 from PySide6.QtWidgets import QDockWidget, QFormLayout, QLabel, QMainWindow, QMenu, QScrollArea, QWidget
 
+from vgraph.gui.editors import editor_for
+from vgraph.registry import registry
+
 FIRST_RUN_FRACTION = 0.85
 SMALL_SCREEN = (1280, 800)   # the first run takes at least this much of the screen (all, if smaller)
 GEOMETRY_KEY = "window/geometry"
@@ -49,9 +52,6 @@ def first_run_size(window: QMainWindow) -> tuple[int, int]:
 def widest_editor_width() -> int:
     """The width of an inspector form holding every built-in processor's editors (labels
     included): the width at which no processor needs a horizontal scroll bar."""
-    from vgraph.gui.editors import editor_for
-    from vgraph.registry import registry
-
     host = QWidget()
     form = QFormLayout(host)
     for cls in registry.all():

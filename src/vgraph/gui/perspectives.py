@@ -32,7 +32,8 @@ from PySide6.QtGui import QAction, QActionGroup, QKeySequence
 from PySide6.QtWidgets import QApplication, QMainWindow, QToolBar
 
 from vgraph.gui import canvas_grid
-from vgraph.gui.layout import INSPECTOR_CHROME, STATE_VERSION
+from vgraph.gui.canvas_mouse import camera_property_for
+from vgraph.gui.layout import INSPECTOR_CHROME, STATE_VERSION, reset_layout
 
 EDITING, VIEWS = "editing", "views"
 TITLES = {EDITING: "&Edit Network", VIEWS: "&Views"}
@@ -136,8 +137,7 @@ class Perspectives(QObject):
     def _default(self, name: str) -> None:
         window = self.window
         if name == EDITING:
-            from vgraph.gui import layout
-            layout.reset_layout(window)
+            reset_layout(window)
             return
         for dock in (window.palette_dock, window.log_dock):
             dock.hide()
@@ -165,7 +165,6 @@ class Perspectives(QObject):
 
     def _main_and_slices(self, docks: list) -> tuple:
         """(the 3D view's dock, the slice views' docks) for "3D + slices", else (None, [])."""
-        from vgraph.gui.canvas_view import camera_property_for
         network, ids = self.window.workspace.network, {id(d): pid for pid, d in self.window.canvases.docks.items()}
         with_camera = [d for d in docks if camera_property_for(network, ids[id(d)]) is not None]
         slices = [d for d in docks if d not in with_camera]
@@ -225,14 +224,13 @@ class Perspectives(QObject):
     def reset(self) -> None:
         """View > Reset Layout: the editing perspective's first-run layout; both perspectives'
         stored states are forgotten."""
-        from vgraph.gui import layout
         self.current = EDITING
         self.actions[EDITING].setChecked(True)
         self._show_central()
         for name in (EDITING, VIEWS):
             self.settings.remove(state_key(name))
         self.settings.setValue(CURRENT_KEY, EDITING)
-        layout.reset_layout(self.window)
+        reset_layout(self.window)
 
     def _selection_changed(self) -> None:
         if self.current == VIEWS:

@@ -23,11 +23,18 @@ what ``vgraph run`` writes in one process).
 from __future__ import annotations
 
 import contextlib
+import multiprocessing
 import threading
 import time
 from dataclasses import dataclass
 
+import networkx as nx
 import numpy as np
+
+from vgraph.distributed import connect as connect_cluster, render
+from vgraph.errors import ProcessorError
+from vgraph.image import Image
+from vgraph.live.evaluator import ProcessorStatus, format_seconds
 
 RETRY_SECONDS = 30.0     # an unreachable cluster is not asked again sooner (each try waits CONNECT_TIMEOUT)
 PROGRESS_SECONDS = 0.1   # how often tiles done / total is reported while a frame renders
@@ -49,10 +56,6 @@ def image_producers(network, target: str) -> set[str]:
     """The processors ``target`` needs whose outputs are all images (the renderers): what the
     cluster draws. The others (sources, filters: volumes, meshes, numbers) run in the render
     process, so the inspector and the transfer-function editors still get histograms and statuses."""
-    import networkx as nx
-
-    from vgraph.image import Image
-
     needed = {target, *nx.ancestors(network.graph, target)}
     return {pid for pid in needed
             if all(issubclass(port.data_type, Image) for port in network[pid].outports)}
@@ -83,13 +86,11 @@ class ClusterRenderer:
         if self._failed and self._failed[0] == setting.address and \
                 time.monotonic() - self._failed[1] < RETRY_SECONDS:
             return None
-        from vgraph.distributed import connect
-
         if setting.address.startswith("local:"):
             _allow_worker_processes()
         stack = contextlib.ExitStack()
         try:
-            self.client = stack.enter_context(connect(setting.address))
+            self.client = stack.enter_context(connect_cluster(setting.address))
         except Exception as error:  # ClusterError, or anything Dask raises while starting a LocalCluster
             stack.close()
             self._failed = (setting.address, time.monotonic())
@@ -101,8 +102,6 @@ class ClusterRenderer:
     def draw(self, network, target: str, size: tuple[int, int], progress=None) -> np.ndarray:
         """The picture of ``target`` at ``size`` drawn by the cluster, float32 (H, W, 4) as
         Network.evaluate gives it; ``progress(done, total)`` is called while the tiles come in."""
-        from vgraph.distributed import render
-
         setting, client = self.setting, self.client
         outcome: dict = {}
 
@@ -154,8 +153,6 @@ def _allow_worker_processes() -> None:
     would not wait for them; here ``close()`` (on a cleared setting and when the render process
     stops) closes the cluster and its workers, and a worker whose nanny's process was killed
     stops by itself (Dask's workers watch their parent)."""
-    import multiprocessing
-
     process = multiprocessing.current_process()
     if process.daemon:
         process._config["daemon"] = False  # what multiprocessing checks before starting a child
@@ -174,8 +171,6 @@ class ClusterView:
     def draw(self, target: str, size: tuple[int, int]) -> np.ndarray | None:
         """The display's picture from the cluster, or None: draw it locally (no cluster, or the
         cluster could not; the reason is in ``messages``)."""
-        from vgraph.errors import ProcessorError
-
         if self.renderer.client is None:
             return None
         producers = image_producers(self.network, target)
@@ -205,8 +200,6 @@ class ClusterView:
 
     def statuses(self, statuses: dict) -> dict:
         """The render process's statuses with the processors the cluster drew marked as such."""
-        from vgraph.live.evaluator import ProcessorStatus, format_seconds
-
         setting, workers = self.renderer.setting, self.renderer.workers
         for producers, seconds in self.drawn.values():
             for pid in producers:

@@ -25,7 +25,9 @@ import numpy as np
 
 from vgraph.errors import VGraphError
 from vgraph.live.upstream import NO_CAMERA, nearest_upstream
+from vgraph.processors.slice_viewer import SliceViewer
 from vgraph.slicing import SlicePlane
+from vgraph.volume import Volume
 
 PLANE_SUFFIX = ".slice_plane"
 VOLUME_SUFFIX = ".slice_volume"
@@ -55,7 +57,6 @@ def slice_planes(network) -> dict:
 
 
 def _sliced_volume(network, processor_id: str):
-    from vgraph.volume import Volume
     for connection in network.inputs_of(processor_id, "volume"):
         data = network[connection.source].outputs.get(connection.outport)
         if isinstance(data, Volume):
@@ -82,7 +83,6 @@ def slice_overlays(network, view_cameras: dict) -> list[tuple[str, np.ndarray]]:
 def slice_viewer_for(network, canvas_id: str) -> str | None:
     """The id of the SliceViewer whose image the canvas shows: the nearest upstream processor
     with a slice plane (image processors in between keep the image's geometry), or None."""
-    from vgraph.processors.slice_viewer import SliceViewer
     def pick(processor, processor_id):
         return processor_id if isinstance(processor, SliceViewer) else None
     return nearest_upstream(network, canvas_id, pick, include_start=True)
