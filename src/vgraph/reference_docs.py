@@ -60,6 +60,11 @@ PICTURES: dict[str, tuple[str, str]] = {
                     ("exploring_surfaces.png", "CT head: skin as a mesh, bone as volume rendering")),
     **dict.fromkeys(("ImageBlur", "EdgeDetect", "DepthDarkening"),
                     ("image_filters.png", "The ray-cast head, ImageBlur, EdgeDetect, DepthDarkening and both")),
+    # bench/make_image_processor_images.py: the issue-35 image processors and the Histogram together
+    **dict.fromkeys(("ImageGamma", "Background", "TextOverlay", "ImageThreshold", "ImageMix", "Histogram"),
+                    ("image_processors.png", "Background, ImageGamma and TextOverlay; ImageThreshold; ImageMix; "
+                                             "the Histogram")),
+    "LineProfile": ("measuring_profile.png", "A line through the engine CT and its profile"),  # bench/make_measuring_images.py
     "ProjectedTetrahedra": ("tetra_modes.png",
                             "Averaged and pre-integrated projection against the exact reference"),
     "VolumeToTetMesh": ("tetra_culling.png", "The culled bonsai as tetrahedra beside the RayCaster"),
@@ -90,9 +95,11 @@ EXPLAINED_IN: dict[str, tuple[str, ...]] = {
     "ImageWriter": ("reports/reliability.md",),
     "IsoSurfaceExtractor": ("guide/surfaces.md#isosurfaceextractor",),
     "LabelRayCaster": ("guide/labels.md#label-volumes", "guide/own-data.md#label-volumes"),
+    "LineProfile": ("guide/measuring.md#lineprofile", "guide/measuring.md#tables"),
     "MeshSource": ("explanations/tetrahedra.md#meshes-and-meshsource", "guide/own-data.md#meshes"),
     "MultiVolumeRayCaster": ("guide/several-volumes.md#several-volumes-in-one-picture",),
     "ProjectedTetrahedra": ("explanations/tetrahedra-renderer.md", "explanations/tetrahedra.md#projectedtetrahedra"),
+    "RegionStatistics": ("guide/measuring.md#regionstatistics", "guide/measuring.md#tables"),
     "RayCaster": ("explanations/ray-casting.md#raycaster", "explanations/bricked-ray-casting.md#what-differs-from-the-raycaster"),
     "SliceViewer": ("guide/slices.md#slices-and-the-multi-planar-layout", "guide/own-data.md#a-single-slice"),
     "SurfaceSource": ("guide/surfaces.md#surfacesource",),
