@@ -58,6 +58,25 @@ int leave_cell(inout Cells c, int samples, out ivec3 block) {
     return min(int(floor(clamp(t, -1.0, float(samples)))) + 1, samples);
 }
 
+// A stretch's samples [start, end) front to back, into the ray's maximum `best` and the first sample
+// holding it, `best_sample`. `bound` (at most 1) bounds every sample of the stretch: past the depth
+// sample the rest of the stretch is dropped once `best` reaches it; before it a sample equal to
+// `best` still moves the depth sample forward. The three passes take every stretch through here.
+void take_stretch(Ray ray, int start, int end, float bound, inout float best, inout int best_sample,
+                  inout Result result) {
+    for (int j = start; j < end; ++j) {
+        if (j > best_sample && best >= bound) {
+            break;
+        }
+        float value = min(intensity(sample_point(ray, float(j))), 1.0);
+        result.taken++;
+        if (value > best || (value == best && j < best_sample)) {
+            best = value;
+            best_sample = j;
+        }
+    }
+}
+
 Result march(Ray ray) {
     Result result = empty_result();
     BlockWalk walk = block_walk(ray);
@@ -98,30 +117,15 @@ Result march(Ray ray) {
         }
         i = next;
     }
-    // 2. That stretch. Intensities count clamped to [0, 1]; 0 (at sample 0) is neutral.
+    // 2. That stretch, then the second one. Intensities count clamped to [0, 1]; 0 (at sample 0) is
+    // neutral, so a top stretch bounded by 0 or less is not sampled.
     float best = 0.0;
     int best_sample = 0;
     float ceiling = min(top, 1.0);  // no sample can count above this
-    for (int i = top_start; i < top_end && best < ceiling; ++i) {
-        float value = min(intensity(sample_point(ray, float(i))), 1.0);
-        result.taken++;
-        if (value > best) {
-            best = value;
-            best_sample = i;
-        }
+    if (ceiling > 0.0) {
+        take_stretch(ray, top_start, top_end, ceiling, best, best_sample, result);
     }
-    float second_bound = min(second, 1.0);
-    for (int j = second_start; j < second_end; ++j) {
-        if (j > best_sample && best >= second_bound) {
-            break;
-        }
-        float value = min(intensity(sample_point(ray, float(j))), 1.0);
-        result.taken++;
-        if (value > best || (value == best && j < best_sample)) {
-            best = value;
-            best_sample = j;
-        }
-    }
+    take_stretch(ray, second_start, second_end, min(second, 1.0), best, best_sample, result);
     // 3. The rest, front to back: the walk to the next stretch that can change the result, then
     // its samples (until best reaches its bound).
     int i = 0;
@@ -143,17 +147,7 @@ Result march(Ray ray) {
             }
             i = next;
         }
-        for (int j = i; j < stretch_end; ++j) {
-            if (j > best_sample && best >= stretch_bound) {
-                break;
-            }
-            float value = min(intensity(sample_point(ray, float(j))), 1.0);
-            result.taken++;
-            if (value > best || (value == best && j < best_sample)) {
-                best = value;
-                best_sample = j;
-            }
-        }
+        take_stretch(ray, i, stretch_end, stretch_bound, best, best_sample, result);
         i = max(i, stretch_end);
     }
     vec4 color = classify(best);
