@@ -57,6 +57,10 @@ class LineProfile(Processor):
     def __init__(self, id=None, **values):
         super().__init__(id, **values)
         self._spline: tuple[Volume, np.ndarray] | None = None  # the last volume's coefficients
+        self.summary = ""  # the last run's, for the inspector
+
+    def frame_summary(self) -> str:
+        return self.summary
 
     def inapplicable(self) -> set[str]:
         return {"step"} if self.spacing_mode == "samples" else {"samples"}
@@ -81,6 +85,7 @@ class LineProfile(Processor):
         return float(np.linalg.norm(np.subtract(self.end, self.start)))
 
     def process(self, volume: Volume) -> dict:
+        self.summary = ""
         self.check()
         self._check_interpolation(volume)
         distances = sample_distances(self.length, **({"samples": self.samples} if self.spacing_mode == "samples"
@@ -91,6 +96,7 @@ class LineProfile(Processor):
         table = Table((Column("distance", line.distance, "world"),
                        *(Column(axis, line.points[:, n], "world") for n, axis in enumerate("xyz")),
                        Column("value", line.values)), source=f"LineProfile '{self.id}'")
+        self.summary = _summary(line.distance, line.values)
         outputs = {"table": table}
         if self.wants("plot"):
             pixels = line_plot(line.distance, line.values, self.render_size,
@@ -124,3 +130,14 @@ class LineProfile(Processor):
             f"{count} of {len(outside)} samples (distance {span}) lie"
         warnings.warn(f"LineProfile '{self.id}': {where} outside the volume's box of voxel centres: "
                       f"their values are NaN", VGraphWarning, stacklevel=2)
+
+
+def _summary(distance: np.ndarray, values: np.ndarray) -> str:
+    """A line for the GUI's inspector: how many samples over how long, and the values' span."""
+    text = f"{len(distance)} samples over {distance[-1]:g} world units"
+    finite = values[np.isfinite(values)]
+    if len(finite):
+        text += f"; values {finite.min():.6g} to {finite.max():.6g}"
+    if len(finite) < len(values):
+        text += f"; {len(values) - len(finite)} outside the volume (NaN)"
+    return text

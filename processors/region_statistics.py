@@ -57,7 +57,16 @@ class RegionStatistics(Processor):
             raise PropertyError(where, f"a percentile is given twice: {self.percentiles!r}")
         return percents
 
+    def __init__(self, id=None, **values):
+        super().__init__(id, **values)
+        self.table: Table | None = None  # the last run's, for the inspector
+
+    def frame_summary(self) -> str:
+        """The table's rows, for the GUI's inspector (the first 12; the CSV holds all)."""
+        return "\n".join(self.table.lines()) if self.table is not None else ""
+
     def process(self, labels: Volume, volume: Volume | None = None) -> Table:
+        self.table = None
         who = f"RegionStatistics '{self.id}'"
         percents = self.percent_values()
         for each in (labels, volume):
@@ -66,4 +75,5 @@ class RegionStatistics(Processor):
         codes = region_codes(labels, self.regions, who)
         if volume is not None:
             check_same_grid(labels, volume, who)
-        return region_table(codes, labels, volume, percents, self.surface_area, who)
+        self.table = region_table(codes, labels, volume, percents, self.surface_area, who)
+        return self.table

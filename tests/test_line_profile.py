@@ -164,3 +164,23 @@ def test_vgraph_run_writes_the_table_as_csv(tmp_path, capsys):
     capsys.readouterr()
     assert main(["run", str(path), "--port", "profile.table", "-o", str(tmp_path / "t.png")]) == 2
     assert "profile.table carries a table; a table is written as CSV: use --data OUT.csv" in capsys.readouterr().err
+
+
+def test_the_table_type_round_trips_through_csv_and_refuses_ragged_columns(tmp_path):
+    from vgraph.table import Column
+    values = np.array([0.1, 1 / 3, np.nan, 2e-300])
+    table = Table((Column("label", np.arange(1, 5)), Column("length", values, "world")), source="test")
+    table.to_csv(tmp_path / "t.csv")
+    rows = list(csv.reader((tmp_path / "t.csv").open()))
+    assert rows[0] == ["label", "length [world]"] and [r[0] for r in rows[1:]] == ["1", "2", "3", "4"]
+    back = np.array([float(r[1]) for r in rows[1:]])
+    assert np.array_equal(back, values, equal_nan=True)  # every digit kept
+    array = table.to_numpy()
+    assert array.dtype.names == ("label", "length") and array["label"].tolist() == [1, 2, 3, 4]
+    assert table.lines(max_rows=2)[-1] == "... 2 more rows" and table.lines()[2].split() == ["2", "0.333333"]
+    with pytest.raises(VGraphError, match=r"^table from test: columns of different lengths"):
+        Table((Column("a", np.arange(3)), Column("b", np.arange(4))), source="test")
+    with pytest.raises(VGraphError, match=r"^table column 'Bad name': names must be snake_case"):
+        Column("Bad name", np.arange(3))
+    with pytest.raises(VGraphError, match=r"^table from test has no column 'c' \(its columns: label, length\)"):
+        table["c"]

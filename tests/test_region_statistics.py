@@ -176,3 +176,19 @@ def test_the_shared_engine_labels_equal_regionprops_and_marching_cubes():
                               np.percentile(inside, [10, 50, 90]))
         vertices, faces, _, _ = marching_cubes(np.pad((labels.data == label).astype(np.float32), 1), 0.5)
         assert np.isclose(table["surface_area"][row], mesh_surface_area(vertices, faces), rtol=1e-6)  # theirs summed in float32
+
+
+def test_the_gui_shows_the_rows_and_the_profile_in_the_nodes_status(data_dir):
+    """What a node shows once it ran (vgraph.live.evaluator.processor_status: its data, from
+    Processor.frame_summary): the statistics' rows; the profile's samples, length and values."""
+    import vgraph
+    from helpers.paths import REPO
+    from vgraph.live.evaluator import processor_status
+    network = vgraph.load(REPO / "networks" / "measure_engine.json")
+    network.update("stats.table", "profile.table")
+    rows = processor_status(network, network["stats"]).data.splitlines()
+    assert rows[0].split() == ["label", "count", "volume", "[world^3]", "mean", "std", "min", "max", "p5", "p50",
+                               "p95", "surface_area", "[world^2]"]
+    assert rows[1].split()[:2] == ["1", "1062973"] and rows[2].split()[:2] == ["2", "68326"]
+    assert processor_status(network, network["profile"]).data == \
+        "400 samples over 226.274 world units; values -0.861919 to 259.06"

@@ -9,6 +9,11 @@ Conventions:
 - CSV (``to_csv``): a header row of the names, the unit in brackets where there is one
   ("distance [world]"), then one row per table row; numbers as Python's repr writes them (every
   float64 digit kept, so a read-back is exact), NaN as "nan". Written atomically (vgraph.atomic).
+- ``lines()`` is the table as text for people (the GUI's inspector shows a measuring processor's
+  table this way): the headings, then the rows with numbers to 6 significant digits, at most
+  ``max_rows`` of them and a line saying how many more.
+- ``to_numpy()`` is a numpy structured array with one field per column (what
+  ``Network.evaluate`` returns for a table port): ``array["value"]``, ``array[0]``.
 - A table is small (measurements, not voxels): it lives in memory and is copied freely.
 """
 
@@ -89,6 +94,23 @@ class Table:
         """The rows as tuples of Python values, in column order."""
         return list(zip(*(c.values.tolist() for c in self.columns)))
 
+    def to_numpy(self) -> np.ndarray:
+        """A structured array, one field per column, one element per row."""
+        array = np.empty(self.row_count, dtype=[(c.name, c.values.dtype) for c in self.columns])
+        for column in self.columns:
+            array[column.name] = column.values
+        return array
+
+    def lines(self, max_rows: int = 12) -> list[str]:
+        """The headings and up to ``max_rows`` rows as aligned text (module docstring)."""
+        cells = [[c.heading for c in self.columns]]
+        cells += [[_cell(value) for value in row] for row in self.rows()[:max_rows]]
+        widths = [max(len(row[i]) for row in cells) for i in range(len(self.columns))]
+        lines = ["  ".join(cell.rjust(width) for cell, width in zip(row, widths)).rstrip() for row in cells]
+        if self.row_count > max_rows:
+            lines.append(f"... {self.row_count - max_rows} more rows")
+        return lines
+
     def csv_text(self) -> str:
         buffer = io.StringIO()
         writer = csv.writer(buffer, lineterminator="\n")
@@ -102,3 +124,7 @@ class Table:
 
     def __repr__(self) -> str:
         return f"<Table{self._from}: {self.row_count} rows x {', '.join(c.heading for c in self.columns)}>"
+
+
+def _cell(value) -> str:
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
