@@ -179,13 +179,15 @@ def test_the_shared_engine_labels_equal_regionprops_and_marching_cubes():
 
 
 def test_the_gui_shows_the_rows_and_the_profile_in_the_nodes_status(data_dir):
-    """What a node shows once it ran (vgraph.live.evaluator.processor_status: its data, from
+    """What a node shows after the GUI's render side drew the view (vgraph.live.evaluator: the
+    canvas with the profile's plot, and the statistics as a leaf of the graph; the node's data from
     Processor.frame_summary): the statistics' rows; the profile's samples, length and values."""
     import vgraph
     from helpers.paths import REPO
-    from vgraph.live.evaluator import processor_status
+    from vgraph.live.evaluator import evaluate_view, processor_status
     network = vgraph.load(REPO / "networks" / "measure_engine.json")
-    network.update("stats.table", "profile.table")
+    outcome = evaluate_view(network)
+    assert {"stats", "profile", "canvas"} <= set(outcome.ran)
     rows = processor_status(network, network["stats"]).data.splitlines()
     assert rows[0].split() == ["label", "count", "volume", "[world^3]", "mean", "std", "min", "max", "p5", "p50",
                                "p95", "surface_area", "[world^2]"]
