@@ -11,7 +11,8 @@ sampling):
   Cabral 2010 ch. 3): the values scipy.ndimage.map_coordinates gives at the points' voxel
   coordinates (order 0, 1, or 3 on the coefficients of vgraph.numerics.bspline.prefilter with
   mode='mirror'). A label volume takes nearest only; a volume of B-spline coefficients
-  (CubicSplineProcessor) cubic only.
+  (CubicSplineProcessor) cubic only. Before the prefilter NaN/Inf voxels are replaced by the
+  value range's ends, with a warning naming the processor and the count.
 - Points outside the box of voxel centres get NaN, and a VGraphWarning names the processor, how
   many points and where along the line: a profile still shows the part inside.
 - Outports: ``table`` (vgraph.table.Table: distance, x, y, z in world units, value; ``vgraph run
@@ -117,6 +118,9 @@ class LineProfile(Processor):
         """The volume's B-spline coefficients, kept while the same volume comes in (moving a
         point must not prefilter the whole volume again)."""
         if self._spline is None or self._spline[0] is not volume:
+            if volume.nonfinite_count and not volume.is_spline_coefficients:
+                warnings.warn(f"LineProfile '{self.id}': {volume.nonfinite_count} NaN/Inf voxels replaced by "
+                              f"the value range's ends before the B-spline prefilter", VGraphWarning, stacklevel=3)
             self._spline = (volume, spline_coefficients(volume))
         return self._spline[1]
 

@@ -184,3 +184,15 @@ def test_the_table_type_round_trips_through_csv_and_refuses_ragged_columns(tmp_p
         Column("Bad name", np.arange(3))
     with pytest.raises(VGraphError, match=r"^table from test has no column 'c' \(its columns: label, length\)"):
         table["c"]
+
+
+def test_nan_voxels_are_named_before_the_prefilter_and_stay_nan_in_nearest(head):
+    data = head.data.astype(np.float32)
+    data[40, 30, 20] = np.nan
+    volume = head.with_data(data)
+    start, end = (tuple(world(head, ijk)) for ijk in ((20.0, 30.0, 30.0), (20.0, 30.0, 50.0)))  # through the NaN
+    with pytest.warns(VGraphWarning, match=r"^LineProfile 'p': 1 NaN/Inf voxels replaced by the value range's ends"):
+        cubic = profile(volume, start=start, end=end, samples=21, interpolation="cubic")["value"]
+    assert np.isfinite(cubic).all()
+    nearest = profile(volume, start=start, end=end, samples=21, interpolation="nearest")["value"]
+    assert np.isnan(nearest).sum() == 1 and np.isnan(nearest[10])  # k = 40 is the middle sample
