@@ -31,13 +31,13 @@ from vgraph import FloatProperty, Inport, OptionProperty, Outport
 from vgraph.gl.curvature import CurvatureColoring, CurvatureField, RangeReduction, measure_defines, measure_uniforms
 from vgraph.gl.raycasting.components import (Background, CameraRays, EmptySpace, EntryExit, RawIsoSurface, Sampling,
                                              VolumeSampling)
-from vgraph.gl.raycasting.empty_space import crossed_by, level_occupancy, radii_if_worthwhile
+from vgraph.gl.raycasting.empty_space import level_occupancy, radii_if_worthwhile
 from vgraph.gl.raycasting.light import Light
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
+from vgraph.gl.raycasting.shown_volume import ShowsVolume
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
-from vgraph.shown_content import voxels_reaching
 from vgraph.volume import Volume
 
 SURFACE_SHADER = "curvature/curvature_raycaster.frag.glsl"
@@ -55,7 +55,7 @@ SURFACE_PARTS = (EntryExit(), CameraRays(), VolumeSampling(), Sampling(), RawIso
 COLOR_PARTS = (CurvatureColoring(), Light(), Background())
 
 
-class CurvatureRaycaster(RaycasterBase):
+class CurvatureRaycaster(ShowsVolume, RaycasterBase):
     """Iso-surface ray casting coloured by curvature (k1, k2, Gaussian, mean, ...)."""
 
     category = "Volume rendering"
@@ -78,14 +78,9 @@ class CurvatureRaycaster(RaycasterBase):
         self._image = RenderTargets(1)
         self._reduction = RangeReduction()
 
-    def visible_content(self) -> str | None:
-        volume = self.inputs.get("volume")
-        return crossed_by(volume, self.iso_level) if volume is not None else None
-
-    def shown_content(self) -> list:
-        """The voxels inside its iso surface (vgraph.blank_causes)."""
-        volume = self.inputs.get("volume")
-        return [voxels_reaching("volume", volume, self.iso_level)] if volume is not None else []
+    def shows_iso_surface(self) -> bool:
+        """It shows the voxels inside its iso surface (ShowsVolume)."""
+        return True
 
     # --- evaluation -----------------------------------------------------------------------------
     def process(self, volume: Volume, entry: Image, exit: Image) -> dict:

@@ -23,12 +23,12 @@ from vgraph.gl.curvature import (CURVATURES, CurvatureColoring, CurvatureField, 
                                  measure_uniforms)
 from vgraph.gl.raycasting.components import (Background, CameraRays, EmptySpace, EntryExit, FrontToBack, Sampling,
                                              TransferFunctionLut, VolumeSampling)
-from vgraph.gl.raycasting.empty_space import occupied_blocks, radii_if_worthwhile, visible_under
+from vgraph.gl.raycasting.empty_space import occupied_blocks, radii_if_worthwhile
 from vgraph.gl.raycasting.light import Light
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
+from vgraph.gl.raycasting.shown_volume import ShowsVolume
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
-from vgraph.shown_content import voxels_under
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
@@ -54,7 +54,7 @@ DEFAULT_TRANSFER_FUNCTION = TransferFunction(points=[
     (0.58, 1.0, 1.0, 1.0, 0.0), (1.0, 1.0, 1.0, 1.0, 0.0)])
 
 
-class CurvatureVolumeRaycaster(RaycasterBase):
+class CurvatureVolumeRaycaster(ShowsVolume, RaycasterBase):
     """Direct volume rendering: opacity from the transfer function, colour from curvature."""
 
     category = "Volume rendering"
@@ -73,15 +73,6 @@ class CurvatureVolumeRaycaster(RaycasterBase):
         super().__init__(id, **values)
         self._targets = RenderTargets(2)  # image (or the range in the first pass), depth
         self._reduction = RangeReduction()
-
-    def visible_content(self) -> str | None:
-        volume = self.inputs.get("volume")
-        return visible_under(volume, self.transfer_function) if volume is not None else None
-
-    def shown_content(self) -> list:
-        """The voxels its transfer function shows (vgraph.blank_causes)."""
-        volume = self.inputs.get("volume")
-        return [voxels_under("volume", volume, self.transfer_function)] if volume is not None else []
 
     def process(self, volume: Volume, entry: Image, exit: Image) -> dict:
         frame = self.frame(volume, entry, exit)

@@ -40,13 +40,13 @@ from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, CameraRays, EmptySpace, EntryExit, FrontToBack,
                                              IsoSurface, Sampling, TransferFunctionLut, VolumeSampling,
                                              palette_shading, palette_transfer_function, ray_main_missed)
-from vgraph.gl.raycasting.empty_space import crossed_by, occupied_blocks, radii_if_worthwhile, visible_under
+from vgraph.gl.raycasting.empty_space import occupied_blocks, radii_if_worthwhile
 from vgraph.gl.raycasting.light import Gradients, Light
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
+from vgraph.gl.raycasting.shown_volume import ShowsVolume
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import needs_bricks
 from vgraph.image import Image
-from vgraph.shown_content import voxels_by_compositing
 from vgraph.volume import Volume
 
 SHADER = "raycasting/raycaster.frag.glsl"
@@ -72,7 +72,7 @@ def skip_values(raycaster: "RayCaster", frame):
     return None
 
 
-class RayCaster(RaycasterBase):
+class RayCaster(ShowsVolume, RaycasterBase):
     """Ray casting of a volume between entry and exit points: DVR, MIP, iso-surface and more."""
 
     category = "Volume rendering"
@@ -115,18 +115,9 @@ class RayCaster(RaycasterBase):
         return {f"COMPOSITING_{self.compositing.upper()}": True,
                 "INTERPOLATION_NEAREST": self.interpolation == "nearest"}
 
-    def visible_content(self) -> str | None:
-        volume = self.inputs.get("volume")
-        if volume is None:
-            return None
-        if self.compositing == "iso":
-            return crossed_by(volume, self.iso_level)
-        return visible_under(volume, self.transfer_function)
-
-    def shown_content(self) -> list:
-        """The voxels its transfer function (or, for iso, its iso level) shows (vgraph.blank_causes)."""
-        volume = self.inputs.get("volume")
-        return [voxels_by_compositing("volume", volume, self)] if volume is not None else []
+    def shows_iso_surface(self) -> bool:
+        """iso shows the voxels reaching its iso level, the other modes those its TF shows (ShowsVolume)."""
+        return self.compositing == "iso"
 
     # --- evaluation -----------------------------------------------------------------------------
     def process(self, volume: Volume, entry: Image, exit: Image, context: FrameContext) -> dict:

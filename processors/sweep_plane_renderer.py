@@ -25,15 +25,14 @@ from __future__ import annotations
 from vgraph import (CameraProperty, ColorProperty, FloatProperty, Inport, Outport, Processor, PropertyError,
                     VectorProperty)
 from vgraph.gl.raycasting.components import palette_transfer_function
-from vgraph.gl.raycasting.empty_space import visible_under
 from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA
+from vgraph.gl.raycasting.shown_volume import ShowsVolume
 from vgraph.image import Image
-from vgraph.shown_content import voxels_under
 from vgraph.sweep.render import render
 from vgraph.volume import Volume
 
 
-class SweepPlaneRenderer(Processor):
+class SweepPlaneRenderer(ShowsVolume, Processor):
     """Direct volume rendering by RZSweep: a sweep plane over the grid's vertices, cells projected
     face by face, composited lazily per pixel (CPU, numba)."""
 
@@ -56,16 +55,6 @@ class SweepPlaneRenderer(Processor):
         super().__init__(id, **values)
         self.last_sweep: dict = {}
         self.view_camera = None
-
-    def visible_content(self) -> str | None:
-        """What the TF shows of the volume, in words, for the blank-image warning (as the RayCaster's)."""
-        volume = self.inputs.get("volume")
-        return visible_under(volume, self.transfer_function) if volume is not None else None
-
-    def shown_content(self) -> list:
-        """The voxels its transfer function shows (vgraph.blank_causes)."""
-        volume = self.inputs.get("volume")
-        return [voxels_under("volume", volume, self.transfer_function)] if volume is not None else []
 
     def process(self, volume: Volume) -> dict:
         volume.require_samples(f"SweepPlaneRenderer '{self.id}'")

@@ -17,6 +17,7 @@ from vgraph.camera import Camera
 from vgraph.cli import main
 from vgraph.clipping import ClipPlane
 from vgraph.network import Network
+from vgraph.registry import registry
 from vgraph.scheduler import BlankImageWarning
 from vgraph.shown_content import voxels_under
 from vgraph.testing import GivenVolume, ray_caster_network
@@ -359,3 +360,25 @@ def test_the_gui_status_of_the_source_names_the_time_point(tmp_path):
     assert "t = 2 of 5 time points; choose with source.time_step (0 .. 4)" in data_summary(network["source"])
     assert time_series_notes(network, skip="source.time_step") == []  # an animation over it says nothing
     assert issubclass(TimeSeriesWarning, vgraph.VGraphWarning)
+
+
+# --- what each volume renderer says it shows (vgraph.gl.raycasting.shown_volume) -----------------
+@pytest.mark.parametrize("type_name, properties, rule", [
+    ("RayCaster", {"compositing": "dvr"}, "transfer_function"),
+    ("RayCaster", {"compositing": "iso", "iso_level": 0.3}, "iso_level"),
+    ("CurvatureRaycaster", {"iso_level": 0.3}, "iso_level"),
+    ("CurvatureVolumeRaycaster", {}, "transfer_function"),
+    ("SweepPlaneRenderer", {}, "transfer_function"),
+])
+def test_each_volume_renderer_says_what_its_volume_shows(type_name, properties, rule):
+    processor = registry.get(type_name)(id="r", **properties)
+    assert processor.visible_content() is None and processor.shown_content() == []  # no input yet
+    if rule == "transfer_function":
+        processor.transfer_function = TransferFunction(**HIGH_ONLY)
+    processor.inputs = {"volume": Volume(ball())}  # as the scheduler hands them over
+    (shown,) = processor.shown_content()
+    assert (shown.port, shown.rule, shown.control) == ("volume", rule, rule)
+    said = processor.visible_content()
+    assert said == ("the volume's values cross the iso level 0.3" if rule == "iso_level"
+                    else f"{shown.share():.0%} of the voxels are visible under the transfer function")
+    assert 0.0 < shown.share() < 1.0
