@@ -76,15 +76,21 @@ class PickResult:
         return self.samples[0].value if self.samples else None
 
 
-def pick(network, canvas_id: str, x: float, y: float) -> PickResult:
-    """What lies under pixel (x, y) of canvas ``canvas_id`` (module docstring)."""
-    size = _canvas_size(network, canvas_id)
+def pick(network, canvas_id: str, x: float, y: float, size: tuple[int, int] | None = None,
+         context=None) -> PickResult:
+    """What lies under pixel (x, y) of canvas ``canvas_id`` (module docstring). ``size``: the
+    frame (width, height) the pixel refers to, when it is not the canvas's ``size`` (the GUI's
+    frames drawn at a resolution scale); the network is evaluated at it, with ``context`` (the
+    FrameContext the frame was drawn with: another one would draw the frame again)."""
+    own_size = _canvas_size(network, canvas_id)
+    size = own_size if size is None else (int(size[0]), int(size[1]))
     _check_pixel(canvas_id, x, y, size)
-    network.update(canvas_id, size=size)
+    network.update(canvas_id, size=size, context=context)
     renderer_id = _renderer(network, canvas_id)
     renderer = network[renderer_id]
     if hasattr(renderer, "last_plane"):
         return _pick_slice(network, canvas_id, renderer_id, float(x), float(y), size)
+    network.update(f"{renderer_id}.depth", size=size, context=context)
     return _pick_3d(network, canvas_id, renderer_id, float(x), float(y), size)
 
 
@@ -124,6 +130,17 @@ def _renderer(network, canvas_id: str) -> str:
                     f"plane, so its pixels have no place in the world")
 
 
+def depth_target(network, canvas_id: str) -> str | None:
+    """'renderer.depth' of the 3D renderer whose pixels a pick of the canvas reads, or None (a
+    slice view, or nothing upstream that places pixels): drawn with the frame, later picks of that
+    frame only read it."""
+    try:
+        renderer_id = _renderer(network, canvas_id)
+    except PickError:
+        return None
+    return None if hasattr(network[renderer_id], "last_plane") else f"{renderer_id}.depth"
+
+
 # --- slices ---------------------------------------------------------------------------------------
 def _pick_slice(network, canvas_id, viewer_id, x, y, size) -> PickResult:
     plane = network[viewer_id].last_plane
@@ -133,7 +150,6 @@ def _pick_slice(network, canvas_id, viewer_id, x, y, size) -> PickResult:
 
 # --- 3D views -------------------------------------------------------------------------------------
 def _pick_3d(network, canvas_id, renderer_id, x, y, size) -> PickResult:
-    network.update(f"{renderer_id}.depth", size=size)
     renderer = network[renderer_id]
     depth = network.output(f"{renderer_id}.depth")
     width, height = depth.size

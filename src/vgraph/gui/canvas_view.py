@@ -8,6 +8,8 @@ row 0 at the TOP, and are drawn scaled to fit the widget, aspect kept, centred o
   Qt over the frame with the camera and box the frame was rendered with (``set_view_geometry``;
   the planes from the last ``view_cameras``), never into the frame, so Save Image writes what
   ``vgraph run`` writes (image_export.py).
+- the hover readout (hover.py): the mouse moving with no button pressed emits ``hovered``; the
+  readout's corner annotation is drawn top left (``set_annotation``).
 - the context menu (a right click without movement): Save Image... and the View entries (as the
   toolbar's, canvas_toolbar.py): a named view or fit to the data, each one undo step.
 """
@@ -38,6 +40,8 @@ class CanvasView(CanvasMouse, QWidget):
     interacting = Signal(bool)
     problem = Signal(str)
     activated = Signal(str)  # the canvas id, when the view gets the focus (File > Export Image's canvas)
+    hovered = Signal(object)  # the mouse moved with no button pressed: its position (hover.py)
+    hover_left = Signal()
 
     def __init__(self, workspace, canvas_id: str, parent: QWidget | None = None, view_cameras=dict):
         super().__init__(parent)
@@ -51,7 +55,9 @@ class CanvasView(CanvasMouse, QWidget):
         self._geometry: ViewGeometry | None = None  # the shown frame's camera and box
         self._overlays = {"axes": False, "box": False}
         self._slices = False  # the SliceViewers' planes (kept apart: overlays() is axes and box)
+        self._annotation: tuple[str, ...] = ()  # the hover readout's corner lines (hover.py)
         self._init_mouse()
+        self.setMouseTracking(True)  # moves without a button: the hover readout
         self.setMinimumSize(64, 64)
         self.setFocusPolicy(Qt.ClickFocus)  # the toolbar's keys work once the canvas is clicked
 
@@ -104,6 +110,25 @@ class CanvasView(CanvasMouse, QWidget):
     def message(self) -> str:
         return self._message
 
+    def set_annotation(self, lines) -> None:
+        """The corner annotation's lines (top left; empty: none)."""
+        lines = tuple(lines)
+        if lines != self._annotation:
+            self._annotation = lines
+            self.update()
+
+    def annotation(self) -> tuple[str, ...]:
+        return self._annotation
+
+    def mouseMoveEvent(self, event) -> None:
+        if self._drag is None and event.buttons() == Qt.NoButton:
+            self.hovered.emit(event.position())
+        super().mouseMoveEvent(event)
+
+    def leaveEvent(self, event) -> None:
+        self.hover_left.emit()
+        super().leaveEvent(event)
+
     def image_rect(self) -> QRectF:
         """Where the frame is drawn: scaled to fit, aspect kept, centred (the widget if no frame)."""
         if self._frame is None:
@@ -126,6 +151,8 @@ class CanvasView(CanvasMouse, QWidget):
             if self._slices and viewer_id is not None:
                 draw_slice_overlay(painter, viewer_id, self.workspace.network, self.view_cameras(),
                                    self.image_rect())
+        if self._annotation:
+            self._draw_annotation(painter)
         if self._message:
             box = painter.fontMetrics().boundingRect(self._message).adjusted(-4, -2, 4, 2)
             box.moveBottomLeft(self.rect().bottomLeft() + QPointF(4, -4).toPoint())
@@ -133,6 +160,14 @@ class CanvasView(CanvasMouse, QWidget):
             painter.setPen(QColor(230, 230, 230))
             painter.drawText(box, Qt.AlignCenter, self._message)
         painter.end()
+
+    def _draw_annotation(self, painter: QPainter) -> None:
+        metrics = painter.fontMetrics()
+        width = max(metrics.horizontalAdvance(line) for line in self._annotation) + 8
+        box = QRectF(4, 4, width, metrics.height() * len(self._annotation) + 4)
+        painter.fillRect(box, QColor(0, 0, 0, 140))
+        painter.setPen(QColor(235, 235, 160))
+        painter.drawText(box.adjusted(4, 2, -4, -2), Qt.AlignLeft | Qt.AlignTop, "\n".join(self._annotation))
 
     def focusInEvent(self, event) -> None:
         super().focusInEvent(event)

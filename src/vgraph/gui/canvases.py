@@ -22,6 +22,7 @@ from PySide6.QtWidgets import QDockWidget, QMainWindow
 from vgraph.gui import layout
 from vgraph.gui.canvas_toolbar import CanvasPane
 from vgraph.gui.canvas_view import CanvasView, camera_property_for
+from vgraph.gui.hover import HoverReadout
 from vgraph.live.evaluator import EvaluationOutcome, is_display
 from vgraph.gui.live_evaluation import LiveEvaluation
 from vgraph.gui.overlays import ViewGeometry
@@ -43,6 +44,7 @@ class CanvasDocks(QObject):
         self.views: dict[str, CanvasView] = {}
         self.current_id: str | None = None
         self._result = None   # the render result whose frames arrive next (view cameras and boxes)
+        self.hover = HoverReadout(window, evaluation)  # what lies under the mouse (hover.py)
         evaluation.received.connect(self._received)
         evaluation.frames.connect(self.show_frames)
         evaluation.finished.connect(self.show_problems)
@@ -77,6 +79,7 @@ class CanvasDocks(QObject):
         view.interacting.connect(self.evaluation.interactive)
         view.problem.connect(self.problem)
         view.activated.connect(self._make_current)
+        self.hover.watch(view)
         view.set_message("waiting for the render process")
         dock = QDockWidget(f"Canvas: {processor_id}", self.window)
         dock.setObjectName(f"canvas:{processor_id}")

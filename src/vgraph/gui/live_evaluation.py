@@ -106,6 +106,7 @@ class LiveEvaluation(RenderWatchdog, QObject):
         self.scale = 1.0
         self.load_limit = GUI_LOAD_LIMIT  # reading per frame in the render process (None: complete frames)
         self.cluster = None         # ClusterSetting: final frames drawn on a cluster (None: here)
+        self.hovered: tuple[str, ...] = ()  # the canvas under the mouse: its depth is drawn with its frames (hover.py)
         self._progress = None       # the last RenderProgress reported
         self._running = None        # the last Progress reported through ``running``
         self._include_writers = False
@@ -256,7 +257,8 @@ class LiveEvaluation(RenderWatchdog, QObject):
                          plugins, self.scale, self._include_writers, self._fresh,
                          changes=() if whole else tuple(self._changes), stamp=(self._sender, self.version),
                          since=self._last_job.stamp if self._last_job else None, load_limit=self.load_limit,
-                         cluster=self.cluster, write_confinement=self.network.write_confinement)
+                         cluster=self.cluster, write_confinement=self.network.write_confinement,
+                         hovered=self.hovered)
 
     def _poll(self) -> None:
         results = []

@@ -89,7 +89,8 @@ class WindowMenus:
                               self.show_links_action])
         view_menu.addSeparator()
         view_menu.addSeparator()  # the docks go between the separators: canvas docks come and go
-        view_menu.addActions([self.tile_canvases_action, self.reset_layout_action])
+        view_menu.addActions([self.tile_canvases_action, self.canvases.hover.corner_action,
+                              self.reset_layout_action])
         view_menu.addSeparator()
         view_menu.addActions(self.perspectives.menu_actions())
         view_menu.aboutToShow.connect(self.refresh_dock_menu)

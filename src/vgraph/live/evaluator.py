@@ -38,6 +38,7 @@ from vgraph.image import Image
 from vgraph.imagefile import to_uint8
 from vgraph.mesh import TetMesh
 from vgraph.network import Network
+from vgraph.picking import depth_target
 from vgraph.processor import Processor
 from vgraph.properties import FilePathProperty, Invalidation, TransferFunctionProperty
 from vgraph.scheduler import blank_image_warning, evaluate
@@ -70,10 +71,12 @@ class EvaluationOutcome:
 
 
 def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = False,
-                  draw=None, context: FrameContext | None = None) -> EvaluationOutcome:
+                  draw=None, context: FrameContext | None = None, hovered=()) -> EvaluationOutcome:
     """``draw(display, size)``, if given, may return a display's picture drawn elsewhere (a
     cluster: ``vgraph.live.cluster``) instead of evaluating it here; None draws it here.
-    ``context``: the frame context of every evaluation (the job's load limit)."""
+    ``context``: the frame context of every evaluation (the job's load limit). ``hovered``: the
+    displays under the mouse, whose renderer's depth is drawn with the frame (in the same pass)
+    for the hover readout's picks (vgraph.live.probes)."""
     outcome = EvaluationOutcome()
     not_ready, writers, targets = network.graph_query(("view", include_writers),
                                                       lambda: _view_plan(network, include_writers))
@@ -87,7 +90,9 @@ def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = 
             with _collected_warnings(outcome.warnings):
                 pixels = draw(target, size) if display and draw is not None else None
                 if pixels is None:
-                    report = evaluate(network, (target,), size, finish_each=True, context=context)
+                    also = (depth_target(network, target),) if display and target in hovered else ()
+                    report = evaluate(network, (target, *filter(None, also)), size, finish_each=True,
+                                      context=context)
                     outcome.ran.extend(report.ids)
         except ProcessorError as error:
             outcome.ran.extend(network.last_evaluation.ids)

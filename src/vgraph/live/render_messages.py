@@ -68,6 +68,7 @@ class RenderJob:
     write_confinement: object | None = None  # the window's network's (vgraph.write_paths.Confinement)
     sent: float = 0.0          # time.monotonic() when the window sent it (RenderResult.submitted)
     history: int = 0           # which network's frame times it counts in (RenderProcess.history)
+    hovered: tuple[str, ...] = ()  # canvases under the mouse: their depth is drawn with the frame (live.probes)
 
 
 @dataclass

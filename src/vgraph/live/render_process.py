@@ -20,6 +20,7 @@ from collections import deque
 
 from vgraph import progress as progress_api
 from vgraph.errors import VGraphError
+from vgraph.live.probes import Probe, ProbeAnswer
 from vgraph.live.progress_messages import ProcessorProgress
 from vgraph.live.render_messages import RenderJob, RenderProgress, RenderResult
 from vgraph.live.render_server import serve
@@ -52,6 +53,8 @@ class RenderProcess:
     def __init__(self):
         self._process = None
         self._connection = None
+        self._probes = None      # the probe pipe (send_probe)
+        self._probes_out = 0
         self.jobs: deque[RenderJob] = deque()  # in flight, oldest first
         self.job_started = 0.0              # time.monotonic() when the oldest job began, as seen from here
         self.recent_seconds: deque[float] = deque(maxlen=RECENT_JOBS)   # of the current network's jobs
@@ -156,9 +159,13 @@ class RenderProcess:
         self._discard()
         context = multiprocessing.get_context("spawn")
         self._connection, child = context.Pipe()
-        self._process = context.Process(target=serve, args=(child,), name="vgraph-render", daemon=True)
+        self._probes, child_probes = context.Pipe()  # the hover readout's (vgraph.live.probes)
+        self._probes_out = 0
+        self._process = context.Process(target=serve, args=(child, child_probes), name="vgraph-render",
+                                        daemon=True)
         self._process.start()
         child.close()
+        child_probes.close()
         self.starts += 1
 
     def cancel(self) -> None:
@@ -166,14 +173,47 @@ class RenderProcess:
         self._discard()
         self.jobs.clear()
 
+    # --- the hover readout's probes (vgraph.live.probes) ---------------------------------------
+    def send_probe(self, probe: Probe) -> bool:
+        """Ask what lies under a pixel; False (nothing sent) while no render process runs. The
+        answer comes with ``probe_answer`` after the job in flight, if any, is done."""
+        if self._process is None or not self._process.is_alive():
+            return False
+        try:
+            self._probes.send(probe)
+        except (OSError, ValueError):
+            return False
+        self._probes_out += 1
+        return True
+
+    @property
+    def probes_out(self) -> int:
+        """Probes sent and not answered yet (0 after a new process started)."""
+        return self._probes_out if self._process is not None else 0
+
+    def probe_answer(self, timeout: float = 0.0) -> ProbeAnswer | None:
+        """The next answer to a probe, waiting at most ``timeout`` seconds; None if none came."""
+        if self._process is None or not self._probes_out:
+            return None
+        try:
+            if not self._probes.poll(timeout):
+                return None
+            answer = self._probes.recv()
+        except (EOFError, OSError):
+            self._probes_out = 0  # the process died: poll() reports it
+            return None
+        self._probes_out -= 1
+        return answer
+
     def _discard(self) -> None:
         if self._connection is not None:
             self._connection.close()
+            self._probes.close()
         if self._process is not None:
             if self._process.is_alive():
                 self._process.kill()   # SIGKILL: a stopped (SIGSTOP) process ignores SIGTERM
             self._process.join(timeout=5)  # reaped, so no zombie is left behind
-        self._process = self._connection = None
+        self._process = self._connection = self._probes = None
 
     def stop(self) -> None:
         if self._process is not None and self._process.is_alive():

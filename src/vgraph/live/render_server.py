@@ -13,6 +13,7 @@ import gc
 import threading
 import time
 import traceback
+from multiprocessing.connection import wait
 
 from tqdm import tqdm
 
@@ -24,6 +25,7 @@ from vgraph.live.changes import apply_changes
 from vgraph.live.cluster import ClusterRenderer, ClusterView
 from vgraph.live.evaluator import evaluate_view, histograms, processor_status, value_scales, view_cameras
 from vgraph.live.mirror import mirror
+from vgraph.live.probes import Probe, ProbeAnswer, answer as probe_answer
 from vgraph.live.progress_messages import ProgressForwarder
 from vgraph.live.render_messages import RenderJob, RenderProgress, RenderResult
 from vgraph.live.view_boxes import view_boxes
@@ -55,6 +57,7 @@ class RenderServer:
         self.cluster = ClusterRenderer()  # the Client, kept between jobs
         self.progress = None              # progress(RenderProgress) while a frame is drawn on a cluster
         self.running = None               # running(ProcessorProgress) while a job is evaluated
+        self.context = None               # the FrameContext of the last frame (probes pick with it)
 
     def close(self) -> None:
         self.cluster.close()
@@ -67,8 +70,10 @@ class RenderServer:
         try:
             view = self._cluster_view(job)
             with progress_api.listening(ProgressForwarder(self.running or _ignore, job.version)):
+                self.context = frame_context(job)
                 result.outcome = evaluate_view(self.network, job.scale, job.include_writers,
-                                               draw=view.draw if view else None, context=frame_context(job))
+                                               draw=view.draw if view else None, context=self.context,
+                                               hovered=job.hovered)
                 with progress_api.running("", ""):  # the window's own share, no processor's
                     progress_api.report(0, 0, "histograms and statuses for the window")
                     result.statuses = {pid: processor_status(self.network, p)
@@ -205,8 +210,9 @@ def _ignore(message) -> None:
     """Where progress goes when nobody asked for it (a RenderServer used without a pipe)."""
 
 
-def serve(connection) -> None:
-    """The render process's main loop."""
+def serve(connection, probes=None) -> None:
+    """The render process's main loop. ``probes``: the pipe of the hover readout's probes
+    (vgraph.live.probes), answered between jobs on that pipe."""
     # Progress bars here need no inter-process lock; tqdm's default one is a semaphore that Python
     # reports as leaked whenever a render process is killed.
     tqdm.set_lock(threading.RLock())
@@ -215,6 +221,8 @@ def serve(connection) -> None:
     try:
         while True:
             try:
+                if probes is not None:
+                    _answer_probes(server, connection, probes)
                 job = connection.recv()
             except (EOFError, OSError):
                 return
@@ -227,3 +235,19 @@ def serve(connection) -> None:
             connection.send(server.handle(job))
     finally:
         server.close()  # the cluster's client (and a LocalCluster it started)
+
+
+def _answer_probes(server: RenderServer, connection, probes) -> None:
+    """Answer the hover readout's probes until a job (or the end) arrives on ``connection``."""
+    while True:
+        ready = wait([connection, probes])
+        if probes in ready:
+            probe: Probe = probes.recv()
+            try:
+                answer = probe_answer(server.network, probe, server.context)
+            except Exception:  # a bug below the pick: report it, keep serving
+                answer = ProbeAnswer(probe.serial, probe.canvas, None,
+                                     "internal error in the pick (please report it):\n" + traceback.format_exc())
+            probes.send(answer)
+        if connection in ready:
+            return
