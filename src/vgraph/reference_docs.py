@@ -65,7 +65,6 @@ PICTURES: dict[str, tuple[str, str]] = {
                     ("image_processors.png", "Background, ImageGamma and TextOverlay; ImageThreshold; ImageMix; "
                                              "the Histogram")),
     "LineProfile": ("measuring_profile.png", "A line through the engine CT and its profile"),  # bench/make_measuring_images.py
-    "LineProfile": ("measuring_profile.png", "A line through the engine CT and its profile"),  # bench/make_measuring_images.py
     "ProjectedTetrahedra": ("tetra_modes.png",
                             "Averaged and pre-integrated projection against the exact reference"),
     "VolumeToTetMesh": ("tetra_culling.png", "The culled bonsai as tetrahedra beside the RayCaster"),
@@ -97,11 +96,9 @@ EXPLAINED_IN: dict[str, tuple[str, ...]] = {
     "IsoSurfaceExtractor": ("guide/surfaces.md#isosurfaceextractor",),
     "LabelRayCaster": ("guide/labels.md#label-volumes", "guide/own-data.md#label-volumes"),
     "LineProfile": ("guide/measuring.md#lineprofile", "guide/measuring.md#tables"),
-    "LineProfile": ("guide/measuring.md#lineprofile", "guide/measuring.md#tables"),
     "MeshSource": ("explanations/tetrahedra.md#meshes-and-meshsource", "guide/own-data.md#meshes"),
     "MultiVolumeRayCaster": ("guide/several-volumes.md#several-volumes-in-one-picture",),
     "ProjectedTetrahedra": ("explanations/tetrahedra-renderer.md", "explanations/tetrahedra.md#projectedtetrahedra"),
-    "RegionStatistics": ("guide/measuring.md#regionstatistics", "guide/measuring.md#tables"),
     "RegionStatistics": ("guide/measuring.md#regionstatistics", "guide/measuring.md#tables"),
     "RayCaster": ("explanations/ray-casting.md#raycaster", "explanations/bricked-ray-casting.md#what-differs-from-the-raycaster"),
     "SliceViewer": ("guide/slices.md#slices-and-the-multi-planar-layout", "guide/own-data.md#a-single-slice"),
