@@ -154,7 +154,8 @@ def test_a_volume_without_cells_is_refused_by_name():
     flat = Volume(np.ones((1, 8, 8), dtype=np.float32), source="slice.png")
     with pytest.raises(VGraphError, match=r"slice.png has no cells.*\(8, 8, 1\)"):
         render(flat, camera("orthographic"), TF, SIZE)
-    with pytest.raises(VGraphError, match="size"):
+    with pytest.raises(VGraphError, match=r"SweepPlaneRenderer: size must be two positive integers "
+                                          r"\(width, height\), got \(0, 4\)"):
         render(smooth_volume(), camera("orthographic"), TF, (0, 4))
 
 

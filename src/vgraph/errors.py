@@ -112,3 +112,15 @@ class ProcessorError(VGraphError):
         self.reason = reason
         self.internal = internal
         super().__init__(f"processor '{processor_id}' ({type_name}): {reason}")
+
+
+def positive_pair(value, name: str, parts: str, error: type[VGraphError] = VGraphError) -> tuple[int, int]:
+    """``value`` as two positive integers (an image's size, a grid of tiles), each taken by int();
+    otherwise ``error`` naming it: "{name} must be two positive integers {parts}, got ..."."""
+    try:
+        first, second = (int(v) for v in value)
+    except (TypeError, ValueError):
+        first = second = 0
+    if first < 1 or second < 1:
+        raise error(f"{name} must be two positive integers {parts}, got {value!r}")
+    return first, second

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from vgraph.errors import VGraphError
+from vgraph.errors import VGraphError, positive_pair
 from vgraph.image import Image
 
 HALO = 1  # pixels: the widest neighbourhood an image pass of a renderer reads (contour.glsl: 1)
@@ -53,13 +53,7 @@ def parse_grid(text: str) -> tuple[int, int]:
 
 
 def check_grid(grid) -> tuple[int, int]:
-    try:
-        columns, rows = (int(v) for v in grid)
-    except (TypeError, ValueError):
-        raise TileError(f"tiles must be two positive integers (columns, rows), got {grid!r}") from None
-    if columns < 1 or rows < 1:
-        raise TileError(f"tiles must be two positive integers (columns, rows), got {columns}x{rows}")
-    return columns, rows
+    return positive_pair(grid, "tiles", "(columns, rows)", TileError)
 
 
 def cut(size: tuple[int, int], grid: tuple[int, int], halo: int = HALO) -> list[Tile]:

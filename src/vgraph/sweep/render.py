@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vgraph.camera import Camera
-from vgraph.errors import VGraphError
+from vgraph.errors import VGraphError, positive_pair
 from vgraph.numerics.reference_boxes import volume_box
 from vgraph.sweep import kernel
 from vgraph.sweep.grid import swept_grid
@@ -40,7 +40,7 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
            owner: str = "SweepPlaneRenderer") -> SweepResult:
     """Render ``volume`` by RZSweep. ``threshold``: (low, high) normalised intensities or None
     (vgraph.sweep.grid); ``owner`` names the caller in errors."""
-    width, height = _checked_size(size, owner)
+    width, height = positive_pair(size, f"{owner}: size", "(width, height)")
     camera = camera.resolved(*volume_box(volume), width / height)  # as the reference and GL do
     grid = swept_grid(volume, camera, threshold, owner)
     near, _ = camera.planes()
@@ -108,13 +108,3 @@ def _depth_image(first_t, segments, origins, directions, view_projection) -> np.
     depth[hit, 1] = first_t[hit]
     depth[hit, 3] = 1.0
     return depth.astype(np.float32)
-
-
-def _checked_size(size, owner: str) -> tuple[int, int]:
-    try:
-        width, height = (int(v) for v in size)
-    except (TypeError, ValueError):
-        raise VGraphError(f"{owner}: size must be (width, height), got {size!r}") from None
-    if width < 1 or height < 1:
-        raise VGraphError(f"{owner}: size must be positive, got {size!r}")
-    return width, height
