@@ -185,3 +185,30 @@ def test_bad_values_are_refused_naming_processor_and_property(processor_type, na
     network.add(processor_type, id="stats")
     with pytest.raises(vgraph.PropertyError, match=rf"^stats\.{name}: .*{reason}"):
         network.set(f"stats.{name}", value)
+
+
+# --- from the command line ------------------------------------------------------------------------
+def test_vgraph_run_writes_volume_info_as_json_and_refuses_it_as_a_picture(mri, tmp_path, capsys):
+    from vgraph.cli import main
+    header, voxels = mri
+    network = info_network(path=header)
+    network.save(tmp_path / "info.json")
+    assert main(["run", str(tmp_path / "info.json"), "--port", "info.info", "--data", str(tmp_path / "out.json")]) == 0
+    written = json.loads((tmp_path / "out.json").read_text())
+    assert written["dims"] == [48, 62, 42] and written["dtype"] == "uint8"
+    assert written["percentiles"] == {f"{p:g}": float(np.percentile(voxels, p)) for p in PERCENTS}
+    capsys.readouterr()
+    assert main(["run", str(tmp_path / "info.json"), "--port", "info.info", "-o", str(tmp_path / "info.png")]) == 2
+    assert "info.info carries volume statistics; volume statistics are written as JSON: use --data OUT.json" \
+        in capsys.readouterr().err
+    assert main(["run", str(tmp_path / "info.json"), "--port", "source.volume", "--data", str(tmp_path / "v.json")]) == 2
+    assert ".json holds volume statistics only" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["info.json", "out.json"]  # nothing else written
+
+
+def test_an_image_into_the_volume_port_is_refused_by_port_and_type():
+    network = Network()
+    network.add("Background", id="back")
+    network.add("VolumeInfo", id="info")
+    with pytest.raises(vgraph.PortError, match=r"back\.image carries Image but info\.volume takes Volume"):
+        network.connect("back.image", "info.volume")

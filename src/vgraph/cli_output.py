@@ -9,10 +9,12 @@ refused before the network is evaluated. Every file is written atomically.
                                                           value_range (if declared)    (io.write_volume)
     arrays, numbers  refused      the array              key "data"                   refused
     Table            refused      refused (--data OUT.csv: a header of names [units], a row per row)
+    VolumeStatistics refused      refused (--data OUT.json: VolumeStatistics.as_dict(), VolumeInfo's)
 """
 
 from __future__ import annotations
 
+import json
 import sys
 import warnings
 from dataclasses import dataclass
@@ -20,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vgraph.atomic import atomic_path, check_output_path
+from vgraph.atomic import atomic_path, check_output_path, write_text_atomic
 from vgraph.errors import VGraphError
 from vgraph.image import Image
 from vgraph.imagefile import write_png
@@ -29,11 +31,14 @@ from vgraph.io.writers import writable_extension
 from vgraph.scheduler import BlankImageWarning, to_numpy
 from vgraph.table import Table
 from vgraph.volume import Volume
+from vgraph.volume_statistics import VolumeStatistics
 
 IMAGE_FORMATS = (".npy", ".npz")
 VOLUME_FORMATS = WRITABLE_EXTENSIONS  # .npy .npz .nrrd .nii .nii.gz
-DATA_FORMATS_TEXT = ".npy or .npz (images, volumes), .nrrd, .nii, .nii.gz, .mha or .vti (volumes), .csv (tables)"
+DATA_FORMATS_TEXT = (".npy or .npz (images, volumes), .nrrd, .nii, .nii.gz, .mha or .vti (volumes), .csv (tables), "
+                     ".json (volume statistics)")
 TABLE_FORMAT = ".csv"
+STATISTICS_FORMAT = ".json"  # what VolumeInfo's info is written as
 SOURCE_VOLUME = "source.volume"  # what the network made for a data file reads (volume_network)
 
 
@@ -54,7 +59,9 @@ def requested_outputs(args) -> list[Output]:
     if args.output is not None:
         outputs.append(Output("-o", args.output, ".png"))
     for path in args.data:
-        extension = TABLE_FORMAT if Path(path).name.lower().endswith(TABLE_FORMAT) else writable_extension(Path(path))
+        name = Path(path).name.lower()
+        extension = next((f for f in (TABLE_FORMAT, STATISTICS_FORMAT) if name.endswith(f)), None) \
+            or writable_extension(Path(path))
         if extension is None:
             raise VGraphError(f"--data {path}: the extension chooses the format: {DATA_FORMATS_TEXT}")
         outputs.append(Output("--data", path, extension))
@@ -92,6 +99,10 @@ def check_formats(outputs: list[Output], target: str, data_type: type | None) ->
 def _format_problem(output: Output, data_type: type | None) -> str | None:
     if data_type is None:
         return None  # not known before evaluating: write_outputs checks the data itself
+    if issubclass(data_type, VolumeStatistics) or output.format == STATISTICS_FORMAT:
+        return None if issubclass(data_type, VolumeStatistics) and output.format == STATISTICS_FORMAT else \
+            ("volume statistics are written as JSON: use --data OUT.json" if issubclass(data_type, VolumeStatistics)
+             else ".json holds volume statistics only (VolumeInfo's info)")
     if issubclass(data_type, Table) or output.format == TABLE_FORMAT:
         return None if issubclass(data_type, Table) and output.format == TABLE_FORMAT else \
             ("a table is written as CSV: use --data OUT.csv" if issubclass(data_type, Table)
@@ -123,6 +134,8 @@ def write_outputs(outputs: list[Output], target: str, data, blank_warning) -> No
             _write_image(output, pixels)
         elif isinstance(data, Table):
             data.to_csv(output.path)  # atomic
+        elif isinstance(data, VolumeStatistics):
+            write_text_atomic(output.path, json.dumps(data.as_dict(), indent=2) + "\n")
         elif isinstance(data, Volume) and output.option == "--data":
             write_volume(data, output.path)  # atomic; the format follows the extension
             if output.format == ".npy":
@@ -169,4 +182,5 @@ def _type_name(data_type: type | None) -> str:
     return "data of unknown type" if data_type is None else \
         ("an image" if issubclass(data_type, Image) else
          "a volume" if issubclass(data_type, Volume) else
-         "a table" if issubclass(data_type, Table) else data_type.__name__)
+         "a table" if issubclass(data_type, Table) else
+         "volume statistics" if issubclass(data_type, VolumeStatistics) else data_type.__name__)
