@@ -36,6 +36,12 @@ def max_error(mesh, tf, integration, camera=DEFAULT_CAMERA) -> float:
     return float(np.abs(image - reference).max())
 
 
+def reported(case: str, integration: str, error: float) -> float:
+    """``error``, printed for the report's table: ``pytest -s -q tests/test_tetra_stiff.py | grep measured``."""
+    print(f"measured {case}, {integration}: {error:.2g}")
+    return error
+
+
 def grid(n=4, reference_length=1.0, scale=1.0) -> TetMesh:
     from vgraph.tetrahedralize import volume_tetrahedra
     z, y, x = np.mgrid[0:n, 0:n, 0:n] / (n - 1)
@@ -76,7 +82,7 @@ BOUNDS = {
 @pytest.mark.parametrize("integration", INTEGRATIONS)
 def test_a_sliver_of_quality_1e9_changes_nothing(gl, integration):
     tf = TransferFunctionLut.DEFAULT
-    error = max_error(with_sliver(1e-9), tf, integration, SLANTED)
+    error = reported("sliver", integration, max_error(with_sliver(1e-9), tf, integration, SLANTED))
     assert error <= BOUNDS["sliver"][INTEGRATIONS.index(integration)]
 
 
@@ -87,8 +93,9 @@ def test_inverted_tetrahedra_render_as_the_oriented_ones(gl, integration):
                        reference_length=1.0)
     tf = TransferFunctionLut.DEFAULT
     difference = np.abs(drawn(oriented, tf, integration) - drawn(inverted, tf, integration)).max()
+    reported("inverted against oriented", integration, difference)
     assert difference < 1e-5  # measured 2.2e-6 .. 2.6e-6: float32 rounding in another vertex order
-    error = max_error(inverted, tf, integration)
+    error = reported("inverted", integration, max_error(inverted, tf, integration))
     assert error <= BOUNDS["inverted"][INTEGRATIONS.index(integration)]
 
 
@@ -96,7 +103,7 @@ def test_inverted_tetrahedra_render_as_the_oriented_ones(gl, integration):
 def test_a_spike_one_data_unit_wide(gl, integration):
     tf = TransferFunction(space="data", points=[(49.5, 1.0, 0.5, 0.2, 0.0), (50.0, 1.0, 0.9, 0.3, 0.9),
                                                 (50.5, 0.2, 0.5, 1.0, 0.0)])
-    error = max_error(grid(5, scale=100.0), tf, integration)
+    error = reported("spike", integration, max_error(grid(5, scale=100.0), tf, integration))
     assert error <= BOUNDS["spike"][INTEGRATIONS.index(integration)]
 
 
@@ -104,7 +111,8 @@ def test_a_spike_one_data_unit_wide(gl, integration):
 @pytest.mark.parametrize("case, reference_length", [("thin", 1e8), ("opaque", 1e-8)])
 def test_optical_depths_1e8_and_1e_minus_8(gl, integration, case, reference_length):
     """Cells 1 unit across, opacity length 1e8 or 1e-8: optical depths about 1e-8 and 1e8."""
-    error = max_error(grid(4, reference_length=reference_length), TransferFunctionLut.DEFAULT, integration)
+    error = reported(case, integration, max_error(grid(4, reference_length=reference_length),
+                                                  TransferFunctionLut.DEFAULT, integration))
     assert error <= BOUNDS[case][INTEGRATIONS.index(integration)]
 
 
@@ -122,9 +130,10 @@ def test_opacities_near_0_and_1(gl, integration, opacity):
     if opacity < 0.5:
         covered = reference[..., 3] > 1e-9
         relative = np.abs(image[..., 3] - reference[..., 3])[covered] / reference[..., 3][covered]
-        assert relative.max() < 1e-3  # measured 2.1e-4 for all three
+        assert reported("opacity 1e-9 (relative)", integration, relative.max()) < 1e-3  # measured 2.1e-4 for all three
     else:
-        assert np.abs(image - reference).max() <= BOUNDS["near_one"][INTEGRATIONS.index(integration)]
+        error = reported("near_one", integration, np.abs(image - reference).max())
+        assert error <= BOUNDS["near_one"][INTEGRATIONS.index(integration)]
 
 
 @pytest.mark.parametrize("integration", ["preintegrated", "partial"])
@@ -150,4 +159,4 @@ def test_tiles_of_a_non_convex_mesh_match_the_whole_image(gl, integration):
     for x, y, w, h in ((0, 0, 48, 40), (48, 0, 48, 40), (0, 40, 48, 56), (48, 40, 48, 56)):
         stitched[y:y + h, x:x + w] = image(camera.tile(x, y, w, h, width, height), (w, h))
     assert whole[..., :3].max() > 0.1  # the C shows
-    assert np.abs(whole - stitched).max() < 2e-5
+    assert reported("C in four tiles against whole", integration, np.abs(whole - stitched).max()) < 2e-5
