@@ -33,6 +33,8 @@ from vgraph.distributed.tiles import Tile, cameras, set_tile_cameras
 from vgraph.fileformat import build_network, network_document, parse_document
 
 GL_LOCK = threading.Lock()
+# The networks this worker process built, by document (worker_network): the process's own state,
+# as its GL context is, not data derived from a source object, so not kept by vgraph.derived.
 _NETWORKS: OrderedDict[str, tuple] = OrderedDict()  # key -> (network, full cameras)
 _KEPT = 2  # networks kept per worker (each may hold a volume on the GPU)
 _PREPARED = False  # load_plugins has set this process up
