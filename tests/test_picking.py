@@ -17,6 +17,7 @@ from vgraph.network import Network
 from vgraph.picking import PickError
 from vgraph.testing import GivenVolume
 
+from helpers.paths import REPO
 from picking_sphere import CANVAS, CENTRE, RADIUS, diameter, radius_error, ring_pixels, sphere_network
 
 MIDDLE = CANVAS // 2
@@ -137,3 +138,20 @@ def test_a_camera_that_looks_away_misses():
                     up=(0.0, 0.0, 1.0), parallel_scale=5.0, fit_to_data=False)
     sphere.set("eep.camera", camera)
     assert not sphere.pick("canvas", MIDDLE, MIDDLE).hit
+
+
+def test_depth_picks_land_on_the_curvature_raycaster_s_own_hit_positions_and_curvatures():
+    """An independent check of the unprojection: the CurvatureRaycaster writes each hit's world
+    position and curvature as images; the pick from its depth output finds the same point, and
+    the tricubic refinement the same curvatures."""
+    network = vgraph.load(REPO / "networks" / "curvature_torus.json")
+    network.set("canvas.size", (64, 64))
+    for x in (12, 44):
+        result = network.pick("canvas", x, 32)
+        assert result.hit and result.surface is not None
+        renderer = result.renderer
+        position = network.output(f"{renderer}.position").to_numpy()[32, x]
+        k1, k2 = network.output(f"{renderer}.curvature").to_numpy()[32, x, :2]
+        np.testing.assert_allclose(result.point, position[:3], atol=1e-5)
+        np.testing.assert_allclose(result.surface.point, position[:3], atol=1e-4)
+        assert (result.surface.k1, result.surface.k2) == pytest.approx((k1, k2), rel=2e-3, abs=2e-3)

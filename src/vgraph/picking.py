@@ -13,7 +13,8 @@ Where the point comes from, by the renderer nearest upstream of the canvas:
   put on that pixel's ray of the renderer's camera of the frame (``view_camera``; the ray through
   the pixel centre, ``Camera.tile(...).rays``). The depth output is drawn on demand: the first
   pick of a frame draws it (once), later picks of the same frame read it.
-- In iso mode (``compositing == "iso"``) the point is refined on the tricubic B-spline surface
+- In iso mode (``compositing == "iso"``, or a surface renderer with an ``iso_level`` and no
+  compositing: the CurvatureRaycaster) the point is refined on the tricubic B-spline surface
   (vgraph.picking_surface): ``surface`` has it, with normal and curvatures.
 A pixel where nothing was drawn is a result with ``hit`` False and ``reason`` saying so.
 
@@ -178,14 +179,16 @@ def _depth_at(depth, column: int, row: int) -> tuple[float, bool]:
 
 
 def _iso_surface(network, renderer, origin, direction, distance) -> SurfacePoint | None:
-    if renderer.property_values.get("compositing") != "iso":
+    values = renderer.property_values
+    surface_mode = values.get("compositing", "iso") == "iso"  # no compositing: a surface renderer
+    if "iso_level" not in values or not surface_mode:
         return None
     volume = _own_volumes(network, renderer.id)
     if not volume:
         return None
     volume = volume[0]
     low, high = volume.value_range
-    level = low + float(renderer.property_values["iso_level"]) * (high - low)
+    level = low + float(values["iso_level"]) * (high - low)
     return refine_on_surface(volume, level, origin, direction, distance)
 
 
