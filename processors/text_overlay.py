@@ -79,6 +79,7 @@ class TextOverlay(Processor):
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
         self._target = RenderTargets(1)
+        self._coverage = None  # an 8-bit one-channel texture: a sixteenth of an RGBA32F upload
         self.last_layout: TextLayout | None = None
 
     def process(self, image: Image, volume: Volume | None = None) -> Image:
@@ -88,16 +89,24 @@ class TextOverlay(Processor):
         caption = self._draw_caption(draw, width, height) if self.text else None
         bar = self._draw_scale_bar(draw, width, height, volume) if self.scale_bar else (None, None, None)
         self.last_layout = TextLayout(caption, *bar)
-        coverage = Image.from_numpy(self.gl, np.asarray(mask, dtype=np.float32) / 255.0)
-        try:
-            program = programs.program(self.gl, FULLSCREEN_VERTEX_SHADER, "image/coverage_over.frag.glsl",
-                                       processor=self.id)
-            (result,) = self._target.ensure(self.gl, image.size)
-            fullscreen_pass(self.gl, program, result, textures={"image": image, "coverage": coverage},
-                            uniforms={"ink": premultiplied(self.text_color)})
-        finally:
-            coverage.release()
+        coverage = self._coverage_texture(mask)
+        program = programs.program(self.gl, FULLSCREEN_VERTEX_SHADER, "image/coverage_over.frag.glsl",
+                                   processor=self.id)
+        (result,) = self._target.ensure(self.gl, image.size)
+        fullscreen_pass(self.gl, program, result, textures={"image": image, "coverage": coverage},
+                        uniforms={"ink": premultiplied(self.text_color)})
         return result
+
+    def _coverage_texture(self, mask: PILImage.Image):
+        """The mask as an 8-bit normalised texture (a texel reads as value / 255), rows flipped to
+        GL's bottom-up order; one texture kept per size."""
+        texture = self._coverage
+        if texture is None or texture.size != mask.size or texture.ctx is not self.gl:
+            if texture is not None and texture.ctx is self.gl:
+                texture.release()
+            texture = self._coverage = self.gl.texture(mask.size, 1, dtype="f1", alignment=1)
+        texture.write(np.ascontiguousarray(np.asarray(mask, dtype=np.uint8)[::-1]).tobytes())
+        return texture
 
     # --- caption --------------------------------------------------------------------------------
     def _font(self, height_px: int) -> ImageFont.FreeTypeFont:
