@@ -86,6 +86,12 @@ def test_volume_info_of_an_oriented_float_volume_with_nans_and_time_points():
     assert json.loads(json.dumps(info.as_dict()))["percentiles"]["50"] == info.percentiles[50.0]
 
 
+def test_a_volume_without_finite_values_has_no_percentiles():
+    info = info_of(info_network(Volume(np.full((3, 4, 5), np.nan, np.float32))))
+    assert info.minimum is None and info.nonfinite_count == 60 and info.percentiles == {}
+    assert "no finite values" in info.lines() and not any(line.startswith("percentiles") for line in info.lines())
+
+
 def test_volume_info_of_a_store_over_its_memory_budget_reads_it_from_its_summary(tmp_path):
     from vgraph.bricks.volume import BrickedVolume
     from vgraph.io.convert import convert

@@ -41,7 +41,7 @@ class VolumeStatistics:
     maximum: float | None
     value_range: tuple[float, float]      # what normalised intensity 0 and 1 are (TF positions)
     nonfinite_count: int
-    percentiles: dict[float, float]       # percent -> data value
+    percentiles: dict[float, float]       # percent -> data value; empty when no voxel is finite
     time_steps: int
     holds_labels: bool
     from_summary: bool                    # percentiles of a store's summary level, not every voxel
@@ -50,7 +50,8 @@ class VolumeStatistics:
     def of(cls, volume, percents) -> "VolumeStatistics":
         extremes = volume.finite_extremes
         percents = tuple(float(p) for p in percents)
-        values = volume.percentiles(percents) if percents else ()
+        # without a finite voxel Volume.percentiles maps percents onto the value range: no statistic
+        values = volume.percentiles(percents) if percents and extremes is not None else ()
         return cls(source=volume.source, dims=tuple(int(v) for v in volume.dims),
                    spacing=tuple(float(v) for v in volume.spacing), origin=tuple(float(v) for v in volume.origin),
                    affine=tuple(tuple(float(v) for v in row) for row in volume.affine),
