@@ -8,7 +8,6 @@ panels disable the CubicSplineProcessor, since those modes need voxel samples.""
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -16,7 +15,7 @@ from vgraph import Network
 from vgraph.camera import Camera
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from make_rendering_images import REPO, panel, strip  # noqa: E402
+from make_rendering_images import panel, strip, strip_arguments  # noqa: E402
 
 CAMERA = Camera.looking_at_box((-0.8, -0.8, -0.25), (0.8, 0.8, 0.25), direction=(-0.3, -0.5, -1.0))
 BACKGROUND = (0.08, 0.08, 0.1, 1.0)
@@ -39,11 +38,7 @@ def network(function="torus", resolution=64, data_type="float32", processor="Cur
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=REPO / "docs" / "images")
-    parser.add_argument("--size", type=int, default=192)
-    args = parser.parse_args()
-    out, size = args.out, args.size
+    out, size = strip_arguments(__doc__.splitlines()[0])
 
     net = network()
     strip([(measure, panel(net, size, "cr.image", cr__curvature=measure))

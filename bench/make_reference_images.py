@@ -8,10 +8,7 @@ on llvmpipe; a strip of panels per picture, a caption under each."""
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
-
-from make_rendering_images import BACKGROUND, CAMERA, REPO, SHELL, panel, strip
+from make_rendering_images import BACKGROUND, CAMERA, SHELL, panel, strip, strip_arguments
 
 from vgraph import Network
 
@@ -35,11 +32,7 @@ def network(renderer: str, fed_entry_exit: bool = True, **properties) -> Network
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=REPO / "docs" / "images")
-    parser.add_argument("--size", type=int, default=192)
-    args = parser.parse_args()
-    out, size = args.out, args.size
+    out, size = strip_arguments(__doc__.splitlines()[0])
 
     # lod_bias -16 asks every brick for level 0, finest_level then draws level L everywhere.
     net = network("BrickedRayCaster", brick_size=BRICK, lod_bias=-16.0)

@@ -69,12 +69,17 @@ def strip(panels: list[tuple[str, np.ndarray]], path: Path) -> None:
     print(f"wrote {path.relative_to(REPO) if path.is_relative_to(REPO) else path}")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def strip_arguments(description: str) -> tuple[Path, int]:
+    """(--out, --size) of a script that draws strips of panels into docs/images."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--out", type=Path, default=REPO / "docs" / "images")
     parser.add_argument("--size", type=int, default=192)
     args = parser.parse_args()
-    out, size = args.out, args.size
+    return args.out, args.size
+
+
+def main() -> None:
+    out, size = strip_arguments(__doc__.splitlines()[0])
 
     net = network()
     strip([("entry points", panel(net, size, "eep.entry")),
