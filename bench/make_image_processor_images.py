@@ -2,8 +2,8 @@
 head of networks/raycast_head.json (orthographic, over a transparent background), side by side:
 Background (gradient) under the ray-cast head with ImageGamma (Reinhard, gamma 1.4) and a
 TextOverlay caption and 50 mm scale bar; ImageThreshold of the ray caster's luminance at 0.7 (the
-bright bone); ImageMix adding 0.4 of that threshold to the picture; the Histogram (log) of the head with the
-ray caster's transfer function over it.
+bright bone); ImageMix adding 0.4 of that threshold to the picture; the Histogram (log, its value range
+labelled) of the head with the ray caster's transfer function over it.
 
     python bench/make_image_processor_images.py [--out PATH]
 """
@@ -34,7 +34,7 @@ def network() -> vgraph.Network:
     net.add("ImageThreshold", id="threshold", threshold=0.7, above=(1.0, 0.6, 0.1, 1.0), below=(0.0, 0.0, 0.0, 1.0))
     net.add("ImageMix", id="mix", mode="add", factor=0.4)
     net.add("Histogram", id="histogram", bins=128, log=True, background=(0.1, 0.1, 0.12, 1.0),
-            bar_color=(0.45, 0.5, 0.6, 1.0))
+            bar_color=(0.45, 0.5, 0.6, 1.0), labels=True, label_color=(1.0, 1.0, 1.0, 1.0))
     for source, target in (("rc.image", "gamma.image"), ("gamma.image", "back.image"), ("back.image", "text.image"),
                            ("source.volume", "text.volume"), ("rc.image", "threshold.image"),
                            ("back.image", "mix.a"), ("threshold.image", "mix.b"),

@@ -218,3 +218,23 @@ def test_an_image_into_the_volume_port_is_refused_by_port_and_type():
     network.add("VolumeInfo", id="info")
     with pytest.raises(vgraph.PortError, match=r"back\.image carries Image but info\.volume takes Volume"):
         network.connect("back.image", "info.volume")
+
+
+def test_histogram_labels_write_the_value_range_in_the_bottom_corners(mri):
+    import PIL.Image
+    import PIL.ImageDraw
+    import PIL.ImageFont
+    header, _ = mri
+    volume = vgraph.io.read_volume(header)
+    plain, _ = histogram_image(volume, (200, 100), bins=32)
+    labelled, _ = histogram_image(volume, (200, 100), bins=32, labels=True, label_color=(1.0, 0.0, 0.0, 1.0))
+    # the reference: "0" and "255" in Pillow's default font, 10 pixels (6 % of 100, at least 10), 2 from the corners
+    mask = PIL.Image.new("L", (200, 100))
+    draw = PIL.ImageDraw.Draw(mask)
+    font = PIL.ImageFont.load_default(size=10)
+    draw.text((2, 98), "0", fill=255, font=font, anchor="ld")
+    draw.text((198, 98), "255", fill=255, font=font, anchor="rd")
+    coverage = (np.asarray(mask) / 255.0)[..., None]
+    expected = coverage * np.array([1.0, 0.0, 0.0, 1.0]) + (1 - coverage) * plain
+    np.testing.assert_allclose(labelled, expected, atol=1e-6)
+    assert (coverage[:, :100] > 0).any() and (coverage[:, 100:] > 0).any() and (coverage[:80] == 0).all()
