@@ -23,7 +23,7 @@ from vgraph.volume_segmentation import checked_fill, label_values, require_same_
 
 
 class VolumeMask(Processor):
-    """Keeps a volume's voxels inside chosen labels; ``outside`` elsewhere."""
+    """Keeps a volume's voxels inside chosen labels, a fixed value elsewhere."""
 
     category = "Volume filters"
     inports = [Inport("volume", Volume), Inport("labels", Volume)]
