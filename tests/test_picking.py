@@ -155,3 +155,34 @@ def test_depth_picks_land_on_the_curvature_raycaster_s_own_hit_positions_and_cur
         np.testing.assert_allclose(result.point, position[:3], atol=1e-5)
         np.testing.assert_allclose(result.surface.point, position[:3], atol=1e-4)
         assert (result.surface.k1, result.surface.k2) == pytest.approx((k1, k2), rel=2e-3, abs=2e-3)
+
+
+def test_behind_a_compositor_the_nearer_renderer_s_surface_is_picked():
+    """Two ray casters composited: the sphere (radius 10) and a wider sphere 30 units further
+    back. Where both are drawn the near one is picked; beside it, the far one."""
+    network = sphere_network(1.0)
+    near_volume = network["src"].volume
+    far_volume = vgraph.Volume(near_volume.data * 1.6, spacing=(1.6,) * 3,  # radius 16, centre 30 back
+                               origin=tuple(np.multiply(near_volume.origin, 1.6) + (0.0, 0.0, -30.0)),
+                               declared_range=(-16.0, 16.0))
+    network.add(GivenVolume(id="far_src", volume=far_volume))
+    network.add("EntryExitPoints", id="far_eep", camera=network.get("eep.camera"))
+    network.add("RayCaster", id="far_rc", compositing="iso", iso_level=0.5, sampling_rate=4.0)
+    network.link("eep.camera", "far_eep.camera")
+    network.link("eep.camera", "far_rc.camera")
+    for source, target in (("far_src.volume", "far_eep.volume"), ("far_src.volume", "far_rc.volume"),
+                           ("far_eep.entry", "far_rc.entry"), ("far_eep.exit", "far_rc.exit")):
+        network.connect(source, target)
+    network.add("ImageCompositor", id="mix")
+    network.disconnect("rc.image", "canvas.image")
+    network.connect("rc.image", "mix.front")
+    network.connect("far_rc.image", "mix.back")
+    network.connect("mix.image", "canvas.image")
+
+    both = network.pick("canvas", MIDDLE, MIDDLE)
+    assert both.renderer == "rc" and abs(radius_error(both.surface.point)) < 0.01
+    beside = network.pick("canvas", MIDDLE + 26, MIDDLE)  # outside the near sphere, inside the far one
+    assert beside.renderer == "far_rc" and beside.hit
+    network.set("rc.iso_level", 1.0)  # the near sphere shrinks to its centre: the far one shows there
+    behind = network.pick("canvas", MIDDLE, MIDDLE)
+    assert behind.renderer == "far_rc" and behind.eye_distance > both.eye_distance + 10

@@ -8,7 +8,8 @@ a Canvas, or a canvas with no renderer that says where its pixels lie, is a ``Pi
 Where the point comes from, by the renderer nearest upstream of the canvas:
 - A SliceViewer: the exact point of its plane under (x, y) (``SlicePlane.pixel_to_world``).
 - A renderer with a ``depth`` output (RayCaster, MultiVolumeRayCaster, ProjectedTetrahedra,
-  GeometryRenderer ...): its depth image (the ray casters' convention: g = distance in world units
+  GeometryRenderer ...; several behind an ImageCompositor: each is picked and the nearest hit
+  along the view wins): its depth image (the ray casters' convention: g = distance in world units
   from the ray's start on the near plane, a = 1 where something was drawn), read at the pixel and
   put on that pixel's ray of the renderer's camera of the frame (``view_camera``; the ray through
   the pixel centre, ``Camera.tile(...).rays``). The depth output is drawn on demand: the first
@@ -29,7 +30,7 @@ Volumes drawn brick by brick (OME-Zarr stores) are not sampled (``value`` None, 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import networkx as nx
 import numpy as np
@@ -70,6 +71,7 @@ class PickResult:
     samples: tuple[VolumeSample, ...] = ()
     surface: SurfacePoint | None = None               # iso mode: the tricubic surface point
     reason: str = ""
+    eye_distance: float = math.inf   # 3D: the point's depth in front of the camera (the nearest renderer wins)
 
     @property
     def value(self) -> float | None:
@@ -87,12 +89,14 @@ def pick(network, canvas_id: str, x: float, y: float, size: tuple[int, int] | No
     size = own_size if size is None else (int(size[0]), int(size[1]))
     _check_pixel(canvas_id, x, y, size)
     network.update(canvas_id, size=size, context=context)
-    renderer_id = _renderer(network, canvas_id)
-    renderer = network[renderer_id]
-    if hasattr(renderer, "last_plane"):
-        return _pick_slice(network, canvas_id, renderer_id, float(x), float(y), size)
-    network.update(f"{renderer_id}.depth", size=size, context=context)
-    return _pick_3d(network, canvas_id, renderer_id, float(x), float(y), size)
+    renderers = _renderers(network, canvas_id)
+    if hasattr(network[renderers[0]], "last_plane"):
+        return _pick_slice(network, canvas_id, renderers[0], float(x), float(y), size)
+    renderers = [r for r in renderers if not hasattr(network[r], "last_plane")]
+    network.update(*(f"{r}.depth" for r in renderers), size=size, context=context)
+    results = [_pick_3d(network, canvas_id, r, float(x), float(y), size) for r in renderers]
+    hits = [result for result in results if result.hit]
+    return min(hits, key=lambda result: result.eye_distance) if hits else results[0]
 
 
 def _canvas_size(network, canvas_id: str) -> tuple[int, int]:
@@ -121,25 +125,39 @@ def _check_pixel(canvas_id: str, x, y, size) -> None:
                         f"{width}x{height} image")
 
 
-def _renderer(network, canvas_id: str) -> str:
-    """The nearest processor upstream of the canvas that places its pixels in the world."""
-    for _, processor_id in nx.bfs_edges(network.graph, canvas_id, reverse=True):  # nearest first
-        processor = network[processor_id]
-        if hasattr(processor, "last_plane") or any(port.name == "depth" for port in processor.outports):
-            return processor_id
-    raise PickError(f"pick: canvas '{canvas_id}': no renderer upstream writes depth or a slice "
-                    f"plane, so its pixels have no place in the world")
+def _places_pixels(processor) -> bool:
+    return hasattr(processor, "last_plane") or any(port.name == "depth" for port in processor.outports)
 
 
-def depth_target(network, canvas_id: str) -> str | None:
-    """'renderer.depth' of the 3D renderer whose pixels a pick of the canvas reads, or None (a
-    slice view, or nothing upstream that places pixels): drawn with the frame, later picks of that
-    frame only read it."""
+def _renderers(network, canvas_id: str) -> list[str]:
+    """The processors upstream of the canvas that place its pixels in the world, nearest first:
+    on each path from the canvas the first such one (several behind an ImageCompositor; a
+    GeometryRenderer that only feeds a ray caster's entry points is not one)."""
+    found, seen, frontier = [], {canvas_id}, [canvas_id]
+    while frontier:
+        following = []
+        for processor_id in frontier:
+            for source in network.graph.predecessors(processor_id):
+                if source in seen:
+                    continue
+                seen.add(source)
+                (found if _places_pixels(network[source]) else following).append(source)
+        frontier = following
+    if not found:
+        raise PickError(f"pick: canvas '{canvas_id}': no renderer upstream writes depth or a slice "
+                        f"plane, so its pixels have no place in the world")
+    return found
+
+
+def depth_targets(network, canvas_id: str) -> tuple[str, ...]:
+    """'renderer.depth' of the 3D renderers whose pixels a pick of the canvas reads (none for a
+    slice view, or when nothing upstream places pixels): drawn with the frame, later picks of that
+    frame only read them."""
     try:
-        renderer_id = _renderer(network, canvas_id)
+        renderers = _renderers(network, canvas_id)
     except PickError:
-        return None
-    return None if hasattr(network[renderer_id], "last_plane") else f"{renderer_id}.depth"
+        return ()
+    return tuple(f"{r}.depth" for r in renderers if not hasattr(network[r], "last_plane"))
 
 
 # --- slices ---------------------------------------------------------------------------------------
@@ -167,7 +185,9 @@ def _pick_3d(network, canvas_id, renderer_id, x, y, size) -> PickResult:
     origin, direction = origins[0, 0], directions[0, 0]
     point = origin + distance * direction
     surface = _iso_surface(network, renderer, origin, direction, distance)
-    return _result_at(network, canvas_id, renderer_id, x, y, "3d", point, surface)
+    result = _result_at(network, canvas_id, renderer_id, x, y, "3d", point, surface)
+    depth = (point - np.asarray(camera.position)) @ camera.basis()[2]  # each renderer has its own near plane
+    return replace(result, eye_distance=float(depth))
 
 
 def _depth_at(depth, column: int, row: int) -> tuple[float, bool]:

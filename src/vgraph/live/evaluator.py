@@ -38,7 +38,7 @@ from vgraph.image import Image
 from vgraph.imagefile import to_uint8
 from vgraph.mesh import TetMesh
 from vgraph.network import Network
-from vgraph.picking import depth_target
+from vgraph.picking import depth_targets
 from vgraph.processor import Processor
 from vgraph.properties import FilePathProperty, Invalidation, TransferFunctionProperty
 from vgraph.scheduler import blank_image_warning, evaluate
@@ -90,9 +90,8 @@ def evaluate_view(network: Network, scale: float = 1.0, include_writers: bool = 
             with _collected_warnings(outcome.warnings):
                 pixels = draw(target, size) if display and draw is not None else None
                 if pixels is None:
-                    also = (depth_target(network, target),) if display and target in hovered else ()
-                    report = evaluate(network, (target, *filter(None, also)), size, finish_each=True,
-                                      context=context)
+                    also = depth_targets(network, target) if display and target in hovered else ()
+                    report = evaluate(network, (target, *also), size, finish_each=True, context=context)
                     outcome.ran.extend(report.ids)
         except ProcessorError as error:
             outcome.ran.extend(network.last_evaluation.ids)
