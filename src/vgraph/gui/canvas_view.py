@@ -164,7 +164,8 @@ class CanvasView(CanvasMouse, QWidget):
     def _draw_annotation(self, painter: QPainter) -> None:
         metrics = painter.fontMetrics()
         width = max(metrics.horizontalAdvance(line) for line in self._annotation) + 8
-        box = QRectF(4, 4, width, metrics.height() * len(self._annotation) + 4)
+        corner = self.image_rect().topLeft() + QPointF(4, 4)  # the frame's corner, as Slicer's
+        box = QRectF(corner.x(), corner.y(), width, metrics.height() * len(self._annotation) + 4)
         painter.fillRect(box, QColor(0, 0, 0, 140))
         painter.setPen(QColor(235, 235, 160))
         painter.drawText(box.adjusted(4, 2, -4, -2), Qt.AlignLeft | Qt.AlignTop, "\n".join(self._annotation))
