@@ -65,10 +65,12 @@ class GradientMagnitude(Processor):
 
 def central_magnitude(data: np.ndarray, spacing: np.ndarray) -> np.ndarray:
     """|grad| by central differences in world units; ``spacing`` (x, y, z), ``data`` [z, y, x]."""
+    # Python floats: a numpy float64 spacing would make numpy compute float32 data in float64 (3x slower)
+    steps = [float(s) for s in spacing[::-1]]
     if min(data.shape) < 2:  # numpy.gradient needs two voxels along each axis
-        squares = [np.gradient(data, s, axis=a) ** 2 for a, s in enumerate(spacing[::-1]) if data.shape[a] > 1]
+        squares = [np.gradient(data, s, axis=a) ** 2 for a, s in enumerate(steps) if data.shape[a] > 1]
         return np.sqrt(sum(squares)) if squares else np.zeros_like(data)
-    return np.sqrt(sum(g * g for g in np.gradient(data, *spacing[::-1])))
+    return np.sqrt(sum(g * g for g in np.gradient(data, *steps)))
 
 
 def gaussian_magnitude(data: np.ndarray, spacing: np.ndarray, sigma: np.ndarray) -> np.ndarray:

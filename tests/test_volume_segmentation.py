@@ -12,7 +12,7 @@ import pytest
 from scipy import ndimage
 from skimage.measure import label as skimage_label
 
-from vgraph import Network, PropertyError, VGraphError
+from vgraph import Network, ProcessorError, PropertyError, VGraphError
 from vgraph.io import read_volume
 from vgraph.registry import registry
 from vgraph.volume import Volume
@@ -302,6 +302,31 @@ def test_the_segmentation_processors_are_volume_filters_with_documented_properti
         cls = registry.get(name)
         assert cls.category == "Volume filters" and cls.__doc__
         assert all(p.doc for p in cls.properties.values()), name
+
+
+def test_the_processors_chain_in_a_network_and_errors_name_the_processor():
+    network = Network()
+    network.add("FunctionSelector", id="src", function="sphere", resolution=32)
+    network.add("VolumeThreshold", id="threshold", lower=0.5)
+    network.add("VolumeMorphology", id="open", operation="open", radius=0.1)
+    network.add("ConnectedComponents", id="parts")
+    network.add("VolumeMask", id="mask", keep="1")
+    network.add("GradientMagnitude", id="gradient")
+    network.add("VolumeMath", id="math", operation="multiply")
+    for a, b in [("src", "threshold"), ("threshold", "open"), ("open", "parts"), ("src", "mask"),
+                 ("mask", "gradient"), ("gradient", "math.first")]:
+        network.connect(f"{a}.volume", b if "." in b else f"{b}.volume")
+    network.connect("parts.volume", "mask.labels")
+    network.connect("src.volume", "math.second")
+    result = network.evaluate("math.volume")
+    assert result.shape == (32, 32, 32) and result.max() > 0
+    assert network.output("parts.volume").component_count == 1
+    network.add("ImageSource", id="picture")
+    with pytest.raises(VGraphError, match=r"Image.*Volume|Volume.*Image"):  # a 2D image into a volume port
+        network.connect("picture.image", "math.second")
+    network.set("open.radius", 5.0)
+    with pytest.raises(ProcessorError, match=r"'open' \(VolumeMorphology\): open\.radius: the ball reaches"):
+        network.evaluate("math.volume")
 
 
 # --- networks/segment_engine.json ---------------------------------------------------------------
