@@ -186,3 +186,28 @@ def test_behind_a_compositor_the_nearer_renderer_s_surface_is_picked():
     network.set("rc.iso_level", 1.0)  # the near sphere shrinks to its centre: the far one shows there
     behind = network.pick("canvas", MIDDLE, MIDDLE)
     assert behind.renderer == "far_rc" and behind.eye_distance > both.eye_distance + 10
+
+
+def test_a_projected_tetrahedra_pick_interpolates_the_mesh_in_its_tetrahedron():
+    """A linear field cut into tetrahedra (VolumeToTetMesh): the barycentric value at the picked
+    point is the field there, exactly (a linear field is what barycentric interpolation keeps)."""
+    axis = np.arange(12, dtype=np.float32)
+    z, y, x = np.meshgrid(axis, axis, axis, indexing="ij")
+    spacing, origin = (0.5, 0.75, 1.0), (-2.0, 1.0, 3.0)
+    world = [origin[i] + spacing[i] * c for i, c in enumerate((x, y, z))]
+    field = (1.0 * world[0] + 2.0 * world[1] - 0.5 * world[2]).astype(np.float32)
+    network = Network()
+    network.add(GivenVolume(id="src", volume=vgraph.Volume(field, spacing=spacing, origin=origin)))
+    network.add("VolumeToTetMesh", id="tets")
+    network.add("ProjectedTetrahedra", id="pt")
+    network.add("Canvas", id="canvas", size=(48, 48))
+    for source, target in (("src.volume", "tets.volume"), ("tets.mesh", "pt.mesh"), ("pt.image", "canvas.image")):
+        network.connect(source, target)
+    for x_pixel, y_pixel in ((24, 24), (20, 30), (30, 18)):
+        result = network.pick("canvas", x_pixel, y_pixel)
+        assert result.hit and result.renderer == "pt"
+        mesh, volume = result.samples[0], result.samples[1]
+        assert mesh.source == "tets.mesh" and mesh.note.startswith("in tetrahedron")
+        expected = 1.0 * result.point[0] + 2.0 * result.point[1] - 0.5 * result.point[2]
+        assert mesh.value == pytest.approx(expected, abs=1e-3)
+        assert volume.source == "src.volume" and volume.value == pytest.approx(expected, abs=1e-3)

@@ -20,7 +20,8 @@ Where the point comes from, by the renderer nearest upstream of the canvas:
 A pixel where nothing was drawn is a result with ``hit`` False and ``reason`` saying so.
 
 At the point: the voxel index (i, j, k) of the renderer's (first) volume, nearest voxel centre,
-and the value of every volume upstream of the renderer (``samples``): trilinear for volumes of
+the value of a tetrahedral mesh the renderer draws, interpolated in the tetrahedron holding the
+point (vgraph.picking_mesh), and the value of every volume upstream of the renderer (``samples``): trilinear for volumes of
 samples (as the ray casters' default interpolation), the nearest voxel for label volumes (with the
 label's name from a label table that draws it, else "label N"), the tricubic spline for B-spline
 coefficients. A point outside a volume's box gives that volume no value (``value`` None).
@@ -39,6 +40,8 @@ from scipy.ndimage import map_coordinates
 from vgraph.errors import VGraphError
 from vgraph.image import Image
 from vgraph.labels import LabelTable
+from vgraph.mesh import TetMesh
+from vgraph.picking_mesh import mesh_value
 from vgraph.picking_surface import SurfacePoint, refine_on_surface, spline_value
 from vgraph.volume import Volume
 
@@ -215,12 +218,27 @@ def _iso_surface(network, renderer, origin, direction, distance) -> SurfacePoint
 # --- values at the point --------------------------------------------------------------------------
 def _result_at(network, canvas_id, renderer_id, x, y, kind, point, surface=None) -> PickResult:
     where = np.asarray(surface.point if surface is not None else point, dtype=float)
-    samples = tuple(_sample(network, source, volume, where) for source, volume in _upstream_volumes(network, renderer_id))
+    samples = _mesh_samples(network, renderer_id, where) + tuple(
+        _sample(network, source, volume, where) for source, volume in _upstream_volumes(network, renderer_id))
     own = _own_volumes(network, renderer_id)
     voxel = _nearest_voxel(own[0], where) if own else None
     return PickResult(canvas_id, x, y, kind, renderer_id, hit=True,
                       point=tuple(float(v) for v in np.asarray(point, float)), voxel=voxel,
                       samples=samples, surface=surface)
+
+
+def _mesh_samples(network, renderer_id: str, point) -> tuple[VolumeSample, ...]:
+    """The renderer's tetrahedral meshes at the point, interpolated in the tetrahedron holding it."""
+    samples = []
+    for inport, data in network[renderer_id].inputs.items():
+        if not isinstance(data, TetMesh):
+            continue
+        connection = network.inputs_of(renderer_id, inport)[0]
+        source = f"{connection.source}.{connection.outport}"
+        found = mesh_value(data, point)
+        samples.append(VolumeSample(source, None, None, note="outside the mesh") if found is None else
+                       VolumeSample(source, found.value, None, note=f"in tetrahedron {found.cell}"))
+    return tuple(samples)
 
 
 def _own_volumes(network, processor_id: str) -> list[Volume]:
