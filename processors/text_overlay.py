@@ -24,19 +24,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
 from PIL import Image as PILImage
 from PIL import ImageDraw, ImageFont
 
 from vgraph import (BoolProperty, CameraProperty, ColorProperty, FloatProperty, Inport, OptionProperty, Outport,
                     Processor, PropertyError, StringProperty, VGraphError)
 from vgraph.camera import Camera
-from vgraph.gl.image_filters import premultiplied
-from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
+from vgraph.gl.coverage import CoverageOverlay, overlay_font
 from vgraph.gl.raycasting.framed_view import framed_view
 from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA
-from vgraph.gl.raycasting.targets import RenderTargets
-from vgraph.gl.shaders import programs
 from vgraph.image import Image
 from vgraph.volume import Volume
 
@@ -78,8 +74,7 @@ class TextOverlay(Processor):
 
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
-        self._target = RenderTargets(1)
-        self._coverage = None  # an 8-bit one-channel texture: a sixteenth of an RGBA32F upload
+        self._overlay = CoverageOverlay()  # the mask's texture and the result's target (vgraph.gl.coverage)
         self.last_layout: TextLayout | None = None
 
     def process(self, image: Image, volume: Volume | None = None) -> Image:
@@ -89,28 +84,11 @@ class TextOverlay(Processor):
         caption = self._draw_caption(draw, width, height) if self.text else None
         bar = self._draw_scale_bar(draw, width, height, volume) if self.scale_bar else (None, None, None)
         self.last_layout = TextLayout(caption, *bar)
-        coverage = self._coverage_texture(mask)
-        program = programs.program(self.gl, FULLSCREEN_VERTEX_SHADER, "image/coverage_over.frag.glsl",
-                                   processor=self.id)
-        (result,) = self._target.ensure(self.gl, image.size)
-        fullscreen_pass(self.gl, program, result, textures={"image": image, "coverage": coverage},
-                        uniforms={"ink": premultiplied(self.text_color)})
-        return result
-
-    def _coverage_texture(self, mask: PILImage.Image):
-        """The mask as an 8-bit normalised texture (a texel reads as value / 255), rows flipped to
-        GL's bottom-up order; one texture kept per size."""
-        texture = self._coverage
-        if texture is None or texture.size != mask.size or texture.ctx is not self.gl:
-            if texture is not None and texture.ctx is self.gl:
-                texture.release()
-            texture = self._coverage = self.gl.texture(mask.size, 1, dtype="f1", alignment=1)
-        texture.write(np.ascontiguousarray(np.asarray(mask, dtype=np.uint8)[::-1]).tobytes())
-        return texture
+        return self._overlay.composite(self.gl, image, mask, self.text_color, self.id)
 
     # --- caption --------------------------------------------------------------------------------
     def _font(self, height_px: int) -> ImageFont.FreeTypeFont:
-        return ImageFont.load_default(size=height_px)
+        return overlay_font(height_px)
 
     def _font_px(self, width: int, height: int) -> int:
         return max(10, round(self.font_size * min(width, height)))  # smaller is unreadable

@@ -17,8 +17,8 @@ from vgraph.network import bind_services as _bind_services
 from vgraph.ports import Inport, Outport
 from vgraph.processor import Processor
 from vgraph.properties import (BoolProperty, CameraProperty, ColorProperty, DictProperty, FilePathProperty,
-                               FloatProperty, IntProperty, Invalidation, LabelTableProperty, OptionProperty,
-                               StringProperty, TransferFunctionProperty, VectorProperty)
+                               FloatProperty, IntProperty, Invalidation, LabelTableProperty, MarkupsProperty,
+                               OptionProperty, StringProperty, TransferFunctionProperty, VectorProperty)
 from vgraph.registry import registry
 from vgraph.volume import Volume
 
@@ -55,7 +55,7 @@ def register(processor_class):
 __all__ = [
     "load", "register", "registry", "Network", "Processor", "FrameContext", "Inport", "Outport", "Volume",
     "Invalidation", "BoolProperty", "CameraProperty", "ColorProperty", "DictProperty", "FilePathProperty",
-    "FloatProperty", "IntProperty", "LabelTableProperty", "OptionProperty", "StringProperty",
+    "FloatProperty", "IntProperty", "LabelTableProperty", "MarkupsProperty", "OptionProperty", "StringProperty",
     "TransferFunctionProperty", "VectorProperty", "VGraphError", "NetworkFileError", "PortError", "CycleError",
     "ProcessorError", "OutputFileError", "PropertyError", "ShaderError", "VGraphWarning", "VolumeFileError",
     "WritePathError",

@@ -22,6 +22,7 @@ from vgraph.camera import Camera
 from vgraph.errors import PropertyError
 from vgraph.file_names import check_file_name, shown
 from vgraph.labels import LabelTable
+from vgraph.markups import Markups
 from vgraph.ports import SNAKE_CASE
 from vgraph.transfer_function import TransferFunction, preset_or_file
 
@@ -251,6 +252,20 @@ class LabelTableProperty(Property):
         return LabelTable
 
 
+class MarkupsProperty(Property):
+    """Markups (vgraph.markups): named point lists, rulers, angles and closed curves in world
+    coordinates; a list of markups is taken for ``{"markups": [...]}``."""
+
+    kind = "markups"
+
+    def _value_type(self):
+        return Annotated[Markups, BeforeValidator(_markups_from_list)]
+
+
+def _markups_from_list(value):
+    return {"markups": value} if isinstance(value, (list, tuple)) else value
+
+
 def _add_alpha(value):
     if isinstance(value, (list, tuple)) and len(value) == 3:
         return (*value, 1.0)
@@ -261,5 +276,5 @@ def _add_alpha(value):
 PROPERTY_KINDS: dict[str, type[Property]] = {
     cls.kind: cls for cls in (FloatProperty, IntProperty, BoolProperty, OptionProperty,
                               StringProperty, FilePathProperty, VectorProperty, DictProperty, ColorProperty,
-                              TransferFunctionProperty, CameraProperty, LabelTableProperty)
+                              TransferFunctionProperty, CameraProperty, LabelTableProperty, MarkupsProperty)
 }
