@@ -9,7 +9,7 @@ row 0 at the TOP, and are drawn scaled to fit the widget, aspect kept, centred o
   the planes from the last ``view_cameras``), never into the frame, so Save Image writes what
   ``vgraph run`` writes (image_export.py).
 - the hover readout (hover.py): the mouse moving with no button pressed emits ``hovered``; the
-  readout's corner annotation is drawn top left (``set_annotation``).
+  readout's corner annotation is drawn in the frame's top-right corner (``set_annotation``).
 - the context menu (a right click without movement): Save Image... and the View entries (as the
   toolbar's, canvas_toolbar.py): a named view or fit to the data, each one undo step.
 """
@@ -111,7 +111,7 @@ class CanvasView(CanvasMouse, QWidget):
         return self._message
 
     def set_annotation(self, lines) -> None:
-        """The corner annotation's lines (top left; empty: none)."""
+        """The corner annotation's lines (top right of the frame; empty: none)."""
         lines = tuple(lines)
         if lines != self._annotation:
             self._annotation = lines
@@ -164,7 +164,9 @@ class CanvasView(CanvasMouse, QWidget):
     def _draw_annotation(self, painter: QPainter) -> None:
         metrics = painter.fontMetrics()
         width = max(metrics.horizontalAdvance(line) for line in self._annotation) + 8
-        corner = self.image_rect().topLeft() + QPointF(4, 4)  # the frame's corner, as Slicer's
+        # the frame's top-right corner: a slice canvas's top left holds its slice position
+        # (slice_overlay.py), the bottom right the axes, the bottom left the messages
+        corner = self.image_rect().topRight() + QPointF(-4 - width, 4)
         box = QRectF(corner.x(), corner.y(), width, metrics.height() * len(self._annotation) + 4)
         painter.fillRect(box, QColor(0, 0, 0, 140))
         painter.setPen(QColor(235, 235, 160))

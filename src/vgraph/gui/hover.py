@@ -1,5 +1,5 @@
 """The hover readout: what lies under the mouse in a canvas, in the status bar and (View > Corner
-Annotation) in the canvas's top-left corner, as 3D Slicer's data probe (issue 36).
+Annotation) in the top-right corner of the canvas's frame, as 3D Slicer's data probe (issue 36).
 
 The mouse moving over a canvas's frame (no button pressed) becomes a ``Probe`` (vgraph.live.probes)
 to the render process, which picks the pixel in the frame it drew (``Network.pick``: world
