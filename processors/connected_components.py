@@ -24,13 +24,13 @@ import math
 import numpy as np
 from scipy import ndimage
 
-from vgraph import FloatProperty, Inport, OptionProperty, Outport, Processor, PropertyError
+from vgraph import FloatProperty, Inport, IntProperty, Outport, Processor, PropertyError
 from vgraph.volume import Volume
 from vgraph.volume_filtering import samples_in_memory
 from vgraph.volume_segmentation import ComponentLabels, components_by_size, label_values
 from vgraph import volume_segmentation
 
-CONNECTIVITY = {"6": 1, "18": 2, "26": 3}  # neighbours -> generate_binary_structure's rank
+CONNECTIVITY = {6: 1, 18: 2, 26: 3}  # neighbours -> generate_binary_structure's rank
 
 
 class ConnectedComponents(Processor):
@@ -39,13 +39,18 @@ class ConnectedComponents(Processor):
     category = "Volume filters"
     inports = [Inport("volume", Volume)]
     outports = [Outport("volume", Volume)]
-    connectivity = OptionProperty("26", choices=list(CONNECTIVITY),
-                                  doc="neighbours that connect: 6 (faces), 18 (and edges), 26 (and corners)")
+    connectivity = IntProperty(26, min=6, max=26,
+                               doc="neighbours that connect: 6 (faces), 18 (and edges) or 26 (and corners)")
     min_size = FloatProperty(0.0, min=0.0, doc="smaller components (cubic world units) become background")
+
+    def check(self) -> None:
+        if self.connectivity not in CONNECTIVITY:
+            raise PropertyError(f"{self.id}.connectivity", f"must be 6, 18 or 26, got {self.connectivity}")
 
     def process(self, volume: Volume) -> ComponentLabels:
         who = f"ConnectedComponents '{self.id}'"
         samples_in_memory(volume, who)
+        self.check()
         foreground = label_values(volume, who) != 0
         structure = ndimage.generate_binary_structure(3, CONNECTIVITY[self.connectivity])
         labels, count = ndimage.label(foreground, structure=structure)

@@ -129,7 +129,7 @@ def test_bad_morphology_radii_are_named(head):
 
 
 # --- ConnectedComponents ------------------------------------------------------------------------
-@pytest.mark.parametrize("connectivity, rank", [("6", 1), ("18", 2), ("26", 3)])
+@pytest.mark.parametrize("connectivity, rank", [(6, 1), (18, 2), (26, 3)])
 def test_components_equal_scipy_and_scikit_image_largest_first(bone, connectivity, rank):
     result = run("ConnectedComponents", bone, connectivity=connectivity)
     reference, count = ndimage.label(bone.data, structure=ndimage.generate_binary_structure(3, rank))
@@ -145,7 +145,7 @@ def test_components_equal_scipy_and_scikit_image_largest_first(bone, connectivit
 
 
 def test_connectivity_changes_the_count_and_min_size_drops_small_parts(bone):
-    counts = [run("ConnectedComponents", bone, connectivity=c).component_count for c in ("6", "18", "26")]
+    counts = [run("ConnectedComponents", bone, connectivity=c).component_count for c in (6, 18, 26)]
     assert counts[0] > counts[1] > counts[2] > 1
     all_parts = run("ConnectedComponents", bone)
     kept = run("ConnectedComponents", bone, min_size=200.0)  # 200 mm^3: 14 voxels of 15.36 mm^3
@@ -157,16 +157,18 @@ def test_connectivity_changes_the_count_and_min_size_drops_small_parts(bone):
 
 def test_many_components_take_a_wider_type_and_too_many_for_the_label_ray_caster_are_named(monkeypatch):
     checkers = (np.indices((16, 16, 16)).sum(axis=0) % 2).astype(np.uint8)  # touching by corners only
-    many = run("ConnectedComponents", Volume(checkers, holds_labels=True), connectivity="6")
+    many = run("ConnectedComponents", Volume(checkers, holds_labels=True), connectivity=6)
     assert many.component_count == 2048 and many.data.dtype == np.uint16 and np.all(many.voxel_counts == 1)
-    assert run("ConnectedComponents", Volume(checkers), connectivity="18").component_count == 1
+    assert run("ConnectedComponents", Volume(checkers), connectivity=18).component_count == 1
     from vgraph import volume_segmentation
     from vgraph.processors.label_raycaster import LABEL_ROW
     assert volume_segmentation.MAX_SHOWN_LABELS == LABEL_ROW * 16384  # GL 4.5's least GL_MAX_TEXTURE_SIZE
     monkeypatch.setattr(volume_segmentation, "MAX_SHOWN_LABELS", 1000)
     with pytest.raises(PropertyError, match=r"^f\.min_size: 2048 components of the volume \(of 2048 found\) are "
                                             r"more labels than the LabelRayCaster can show \(1000\): raise min_size"):
-        run("ConnectedComponents", Volume(checkers), connectivity="6")
+        run("ConnectedComponents", Volume(checkers), connectivity=6)
+    with pytest.raises(PropertyError, match=r"^f\.connectivity: must be 6, 18 or 26, got 8"):
+        run("ConnectedComponents", Volume(checkers), connectivity=8)
 
 
 def test_components_of_intensities_are_refused(head):
