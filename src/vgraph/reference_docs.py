@@ -68,6 +68,9 @@ PICTURES: dict[str, tuple[str, str]] = {
     "ProjectedTetrahedra": ("tetra_modes.png",
                             "Averaged and pre-integrated projection against the exact reference"),
     "VolumeToTetMesh": ("tetra_culling.png", "The culled bonsai as tetrahedra beside the RayCaster"),
+    # bench/make_reference_images.py
+    "BrickedRayCaster": ("bricked_levels.png", "The torus drawn at levels of detail 0, 1 and 2"),
+    "SweepPlaneRenderer": ("sweep_plane.png", "The torus by RZSweep beside the RayCaster"),
 }
 
 # The sections of the guide and explanation pages (relative to docs/) that explain the processor.
