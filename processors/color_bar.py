@@ -135,13 +135,10 @@ def resolved_transfer_function(tf: TransferFunction, volume: Volume | None, valu
     """The TF over normalised intensity, as the ray caster evaluates it for this volume: a TF in
     data units is placed on the volume's value range (or the value_range property without a
     volume); one in percentiles needs the volume's values."""
-    if tf.space == "normalized":
-        return tf
     if volume is not None:
         return tf.for_volume(volume)
-    if tf.space == "data":
-        low, high = value_range
-        return tf.normalized_at([(p[0] - low) / (high - low) for p in tf.points])
+    if tf.space != "percentile":  # data units (or a shift in them) land on the value_range property
+        return tf.over_range(*value_range)
     raise PropertyError(where, f"its positions are {tf.space} values: connect the volume so the "
                                "colour bar knows them")
 

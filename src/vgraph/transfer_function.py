@@ -13,6 +13,18 @@ ParaView's data-range presets):
 - ``percentile``: a percentage in [0, 100] of the volume's finite voxels (Volume.percentiles),
   for data without absolute units such as MRI.
 
+``tf_shift`` and ``tf_scale`` (data units; defaults 0 and 1, written to JSON only when set) move
+the points without editing them, as 3D Slicer's preset Shift slider: a point whose position is the
+data value x sits at ``x * tf_scale + tf_shift``. The pivot of the scale is the data value 0, not the
+TF's centre, so the pair is exactly a linear change of units: a preset in Hounsfield units fits
+data stored as ``HU * slope + intercept`` with ``tf_scale=slope, tf_shift=intercept``, and 0 (water
+in CT, no signal in MRI) stays where it is; the TF's centre would differ from preset to preset.
+Normalised and percentile positions are turned into data values first (through the volume's value
+range or percentiles), so the shift means the same in every space.
+
+The short form ``{"preset": NAME_OR_FILE, "tf_shift": 150}`` is that preset (or TF file) moved;
+it is stored, and saved, as the TF itself with its shift.
+
 Below the first point and above the last the end values hold. Renderers work on
 ``for_volume(volume)``: the same TF with normalised positions for that volume's value range,
 clipped to [0, 1], sampled into a 4096-entry float LUT (Inácio 2009). ``PRESETS`` are named starting
@@ -30,7 +42,8 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator,
+                      model_serializer, model_validator)
 
 from vgraph.atomic import write_text_atomic
 from vgraph.errors import VGraphError
@@ -38,6 +51,8 @@ from vgraph.file_names import expanded, file_name_problem, shown
 from vgraph.json_limits import MAX_NESTING, nesting_depth
 
 LUT_SIZE = 4096
+MAX_MOVE = 1e30     # |tf_shift| and tf_scale: a data position (at most 1e30) moved stays finite
+MOVE_DEFAULTS = {"tf_shift": 0.0, "tf_scale": 1.0}
 MAX_FILE_BYTES = 16 * 2**20  # 300 000 points; the shipped presets are a few hundred bytes
 
 Point = tuple[float, float, float, float, float]
@@ -52,6 +67,46 @@ class TransferFunction(BaseModel):
 
     space: Space = "normalized"
     points: list[Point] = Field(min_length=1)
+    # Bounded so that a data position (at most 1e30) moved stays a finite float64.
+    tf_shift: float = Field(0.0, ge=-MAX_MOVE, le=MAX_MOVE, allow_inf_nan=False)
+    tf_scale: float = Field(1.0, gt=0.0, le=MAX_MOVE, allow_inf_nan=False)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _preset_moved(cls, data, info: ValidationInfo):
+        # {"preset": ..., "tf_shift": ...}: the short form a network file or --set may give.
+        if isinstance(data, dict) and "preset" in data:
+            return moved_preset(data, (info.context or {}).get("base_dir"))
+        return data
+
+    @field_validator("tf_shift", "tf_scale", mode="before")
+    @classmethod
+    def _not_bool(cls, value):
+        if isinstance(value, bool):
+            raise ValueError("expected a number, not a boolean")
+        return value
+
+    @model_serializer(mode="wrap")
+    def _without_default_moves(self, handler):
+        # Files saved before the shift existed, and TFs that do not use it, keep their exact form.
+        data = handler(self)
+        for name, default in MOVE_DEFAULTS.items():
+            if data.get(name) == default:
+                del data[name]
+        return data
+
+    @property
+    def is_moved(self) -> bool:
+        """Whether tf_shift or tf_scale differs from its default."""
+        return self.tf_shift != 0.0 or self.tf_scale != 1.0
+
+    def moved(self, values) -> np.ndarray:
+        """Data values of the points -> where they sit: ``x * tf_scale + tf_shift``."""
+        return np.asarray(values, dtype=np.float64) * self.tf_scale + self.tf_shift
+
+    def unmoved(self, values) -> np.ndarray:
+        """The inverse of ``moved``: where a point must be written to sit at these data values."""
+        return (np.asarray(values, dtype=np.float64) - self.tf_shift) / self.tf_scale
 
     @field_validator("points", mode="before")
     @classmethod
@@ -82,13 +137,31 @@ class TransferFunction(BaseModel):
         """This TF with normalised positions for ``volume``'s value range (itself if normalised):
         data values and percentiles are mapped through the range, and the part outside [0, 1] is
         cut off with the TF's values at 0 and 1 as new end points."""
-        if self.space == "normalized":
-            return self
-        positions = np.array([p[0] for p in self.points])
         if self.space == "percentile":
-            positions = np.asarray(volume.percentiles(positions), dtype=np.float64)
-        low, high = volume.value_range
-        return self.normalized_at((positions - low) / (high - low))
+            positions = np.array([p[0] for p in self.points])
+            return self._placed(np.asarray(volume.percentiles(positions), dtype=np.float64),
+                                volume.value_range)
+        return self.over_range(*volume.value_range)
+
+    def over_range(self, low: float, high: float) -> "TransferFunction":
+        """This TF with normalised positions for the value range [low, high] (itself if normalised
+        and not moved); ValueError for percentiles, which need the volume's values."""
+        if self.space == "normalized" and not self.is_moved:
+            return self
+        if self.space == "percentile":
+            raise ValueError("a transfer function in percentiles needs the volume's values: "
+                             "use tf.for_volume(volume)")
+        positions = np.array([p[0] for p in self.points])
+        if self.space == "normalized":
+            positions = low + positions * (high - low)
+        return self._placed(positions, (low, high))
+
+    def _placed(self, values: np.ndarray, value_range) -> "TransferFunction":
+        """The normalised TF with our points at these data values, moved by tf_shift/tf_scale."""
+        low, high = value_range
+        if self.is_moved:  # unmoved TFs skip the arithmetic: their LUTs stay the same bit for bit
+            values = self.moved(values)
+        return self.normalized_at((values - low) / (high - low))
 
     def normalized_at(self, positions) -> "TransferFunction":
         """A normalised TF with our points' colours at these normalised positions (one per point,
@@ -133,7 +206,10 @@ class TransferFunction(BaseModel):
         """Write the JSON form atomically (a failed write leaves an existing file as it was)."""
         points = [[float(v) for v in point] for point in self.points]  # repr floats: exact round trip
         space = "" if self.space == "normalized" else f'"space": "{self.space}", '
-        text = "{" + space + '"points": [\n' + ",\n".join("  " + json.dumps(p) for p in points) + "\n]}\n"
+        moves = "".join(f', "{name}": {float(getattr(self, name))!r}' for name, default in MOVE_DEFAULTS.items()
+                        if getattr(self, name) != default)
+        text = ("{" + space + '"points": [\n' + ",\n".join("  " + json.dumps(p) for p in points) + "\n]"
+                + moves + "}\n")
         write_text_atomic(path, text)
 
     def lut(self, size: int = LUT_SIZE) -> np.ndarray:
@@ -150,6 +226,14 @@ class TransferFunction(BaseModel):
         if self.space != "normalized":
             raise ValueError(f"this transfer function's positions are {self.space} values: "
                              f"use tf.for_volume(volume) to evaluate it for a volume")
+        if self.is_moved:
+            raise ValueError("this transfer function is shifted or scaled in data units: "
+                             "use tf.for_volume(volume) to evaluate it for a volume")
+
+    @property
+    def needs_volume(self) -> bool:
+        """Whether evaluating this TF needs a volume's value range (``for_volume``)."""
+        return self.space != "normalized" or self.is_moved
 
 
 @dataclass(frozen=True)
@@ -183,6 +267,26 @@ class ValueScale:
         if space == "data":
             return values
         return np.interp(values, self.percentiles, np.arange(101.0))
+
+    def to_data(self, positions, space: Space) -> np.ndarray:
+        """Positions in ``space`` -> data values (where tf_shift and tf_scale act)."""
+        positions = np.asarray(positions, dtype=np.float64)
+        if space == "data":
+            return positions
+        if space == "percentile":
+            return np.interp(positions, np.arange(101.0), self.percentiles)
+        low, high = self.value_range
+        return low + positions * (high - low)
+
+    def from_data(self, values, space: Space) -> np.ndarray:
+        """Data values -> positions in ``space``, the inverse of ``to_data``."""
+        values = np.asarray(values, dtype=np.float64)
+        if space == "data":
+            return values
+        if space == "percentile":
+            return np.interp(values, self.percentiles, np.arange(101.0))
+        low, high = self.value_range
+        return (values - low) / (high - low)
 
 
 def _interpolate(table: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -268,3 +372,18 @@ def preset_or_file(text: str, base_dir: str | Path | None = None) -> TransferFun
         return TransferFunction.load(path)
     except VGraphError as error:
         raise ValueError(str(error)) from None
+
+
+def moved_preset(value: dict, base_dir: str | Path | None = None) -> dict:
+    """``{"preset": NAME_OR_FILE, "tf_shift": s, "tf_scale": k}`` (the short form a network file or
+    ``--set`` may give) as the JSON form of that TF moved, for the caller to validate (so a bad
+    shift is reported under its own name); ValueError for another key or an unknown preset."""
+    unknown = sorted(set(value) - {"preset", *MOVE_DEFAULTS})
+    if unknown:
+        raise ValueError(f"a preset with a shift has the keys preset, tf_shift and tf_scale, "
+                         f"not {', '.join(map(repr, unknown))}")
+    if not isinstance(value["preset"], str):
+        raise ValueError(f"'preset' must be a preset's name or a file's path, got {value['preset']!r}")
+    base = preset_or_file(value["preset"], base_dir)
+    return {"space": base.space, "points": base.points,
+            **{name: value.get(name, getattr(base, name)) for name in MOVE_DEFAULTS}}

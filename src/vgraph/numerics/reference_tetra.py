@@ -100,7 +100,7 @@ class _Pieces:
 
     @classmethod
     def of(cls, tf: TransferFunction) -> "_Pieces":
-        if tf.space != "normalized":
+        if tf.needs_volume:  # data units, percentiles or a shift in data units
             raise VGraphError("tetrahedra reference: the transfer function must be normalised "
                               "(use tf.for_volume(mesh))")
         table = np.asarray(tf.points, dtype=np.float64)
