@@ -71,7 +71,8 @@ class Markup(BaseModel):
         count = len(self.points)
         if not low <= count <= high:
             wanted = f"exactly {low}" if low == high else f"at least {low}"
-            raise ValueError(f"a {self.kind} has {wanted} points, got {count}")
+            article = "an" if self.kind == "angle" else "a"
+            raise ValueError(f"{article} {self.kind.replace('_', ' ')} has {wanted} points, got {count}")
         if self.kind == "angle":
             vertex = np.asarray(self.points[1])
             for end in (0, 2):

@@ -123,7 +123,8 @@ def _draw_label(draw, view: MarkupView, markup: Markup, style: Style) -> None:
     anchor = label_anchor(markup)
     if not view.visible(anchor)[0]:
         return
-    (x, y), _ = view.project(anchor)
+    pixels, _ = view.project(anchor)
+    x, y = pixels[0]
     draw.text((x + style.point_radius + 2, y - style.point_radius - 2), label_text(markup, style.units),
               fill=255, font=style.font, anchor="ld")
 
