@@ -14,6 +14,8 @@ Conventions:
   (``set_value_scale``) and edited in its own space: a moved or added point gets the data value
   or percentile under the mouse, the other points keep theirs exactly. Points beyond the value
   range sit on the plot's edge. Until a scale arrives such a TF is shown but not editable.
+- A TF with tf_shift/tf_scale (data units) is drawn where the renderers see it: each point at its
+  data value times tf_scale plus tf_shift; a dragged point is written back without the move.
 - Mouse: left-drag moves a point (x clamped between its neighbours, both in [0, 1]); a
   double-click on empty space adds a point (colour of the TF there, opacity = mouse y); a
   double-click on a point asks for its colour (``color_requested``); right-click or Delete
@@ -35,7 +37,7 @@ from PySide6.QtCore import QEvent, QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QBrush, QColor, QImage, QPainter, QPen, QPixmap, QPolygonF
 from PySide6.QtWidgets import QWidget
 
-from vgraph.transfer_function import TransferFunction, ValueScale
+from vgraph.transfer_function import POSITION_LIMITS, TransferFunction, ValueScale
 
 MARGIN = 7          # px around the curve area: room for the circles of points at the edges
 STRIP_HEIGHT = 12   # px of the colour gradient strip
@@ -97,22 +99,29 @@ class TransferFunctionPlot(QWidget):
 
     @property
     def editable(self) -> bool:
-        return self.transfer_function.space == "normalized" or self.scale is not None
+        return not self.transfer_function.needs_volume or self.scale is not None
 
     def display_positions(self) -> np.ndarray:
-        """The points' positions on the normalised axis (not clamped); needs ``editable``."""
+        """The points' positions on the normalised axis (not clamped), where tf_shift and tf_scale
+        put them; needs ``editable``."""
+        tf = self.transfer_function
         positions = np.array([p[0] for p in self.points])
-        space = self.transfer_function.space
-        return positions if space == "normalized" else self.scale.to_normalized(positions, space)
+        if tf.is_moved:
+            return self.scale.to_normalized(tf.moved(self.scale.to_data(positions, tf.space)), "data")
+        return positions if tf.space == "normalized" else self.scale.to_normalized(positions, tf.space)
 
     def display_function(self) -> TransferFunction:
         """The TF over the normalised axis, as the renderers see it."""
         return self.transfer_function.normalized_at(self.display_positions())
 
     def _position_at(self, x: float) -> float:
-        """The TF-space position at normalised x."""
-        return float(self.scale.from_normalized(x, self.transfer_function.space)) \
-            if self.transfer_function.space != "normalized" else x
+        """The TF-space position of a point that sits at normalised x (after the TF's move)."""
+        tf = self.transfer_function
+        if not tf.is_moved:
+            return float(self.scale.from_normalized(x, tf.space)) if tf.space != "normalized" else x
+        position = float(self.scale.from_data(tf.unmoved(self.scale.from_normalized(x, "data")), tf.space))
+        low, high = POSITION_LIMITS[tf.space]  # a shifted edge may lie beyond the stored range
+        return min(max(position, low), high)
 
     def set_log_scale(self, on: bool) -> None:
         self.log_scale = bool(on)
@@ -120,8 +129,9 @@ class TransferFunctionPlot(QWidget):
 
     def _commit(self, points: list, merge=None) -> None:
         """Show the edited points at once and report them."""
-        self.transfer_function = TransferFunction(space=self.transfer_function.space,
-                                                  points=[_rounded(p) for p in points])
+        old = self.transfer_function
+        self.transfer_function = TransferFunction(space=old.space, points=[_rounded(p) for p in points],
+                                                  tf_shift=old.tf_shift, tf_scale=old.tf_scale)
         self.update()
         self.changed.emit(self.transfer_function, merge)
 

@@ -3,7 +3,8 @@ actions around them.
 
 The plot (``tf_plot.TransferFunctionPlot``: histogram, curve, colour strip, mouse editing; its
 conventions are there) sits above a row of actions: Point... (or Return on the selected point)
-types in its position, colour and opacity (``tf_point_dialog``) in the TF's own space; Presets;
+types in its position, colour and opacity (``tf_point_dialog``) in the TF's own space; the
+shift and scale row (``tf_shift_controls``: tf_shift, tf_scale and where the points sit); Presets;
 Load.../Save... of TF files (.json, opened in the network's folder); the histogram's log scale.
 
 Conventions:
@@ -25,6 +26,7 @@ from vgraph.errors import VGraphError
 from vgraph.gui.editors import PropertyEditor, list_popup, register_editor
 from vgraph.gui.tf_plot import TransferFunctionPlot
 from vgraph.gui.tf_point_dialog import PointDialog
+from vgraph.gui.tf_shift_controls import ShiftControls
 from vgraph.transfer_function import PRESETS, TransferFunction, ValueScale
 
 JSON_FILTER = "Transfer functions (*.json);;All files (*)"
@@ -55,16 +57,29 @@ class TransferFunctionEditor(PropertyEditor):
         self.log_scale = QCheckBox("log")
         self.log_scale.setToolTip("histogram on a logarithmic scale")
         self.log_scale.toggled.connect(self.plot.set_log_scale)
+        self.shift = ShiftControls()
+        self.shift.moved.connect(self._moved)
+        self.plot.interacting.connect(lambda _: self._show_shift())   # a pressed point: its readout
         row = QHBoxLayout()
         for widget in (self.point_button, self.presets, self.load_button, self.save_button, self.log_scale):
             row.addWidget(widget)
         column = QVBoxLayout()
         column.addWidget(self.plot, 1)
+        column.addWidget(self.shift)
         column.addLayout(row)
         self.layout_.addLayout(column)
 
     def _show(self, value: TransferFunction):
         self.plot.set_transfer_function(value)
+        self._show_shift()
+
+    def _show_shift(self) -> None:
+        self.shift.show_value(self.plot.transfer_function, self.plot.scale, self.plot.selected)
+
+    def _moved(self, shift: float, scale: float, merge) -> None:
+        """The shift row's edit: the same points, moved (see vgraph.transfer_function)."""
+        tf = self.plot.transfer_function
+        self.emit(TransferFunction(space=tf.space, points=tf.points, tf_shift=shift, tf_scale=scale), merge)
 
     def set_histogram(self, counts) -> None:
         """Counts per equal bin over normalised intensity (``Volume.histogram()[0]``), or None."""
@@ -73,6 +88,7 @@ class TransferFunctionEditor(PropertyEditor):
     def set_value_scale(self, scale: ValueScale | None) -> None:
         """The volume's ValueScale (for TFs in data units or percentiles), or None."""
         self.plot.set_value_scale(scale)
+        self._show_shift()
 
     def _preset_chosen(self, index: int) -> None:
         if index > 0:
