@@ -157,6 +157,8 @@ def test_a_volume_without_cells_is_refused_by_name():
     with pytest.raises(VGraphError, match=r"SweepPlaneRenderer: size must be two positive integers "
                                           r"\(width, height\), got \(0, 4\)"):
         render(smooth_volume(), camera("orthographic"), TF, (0, 4))
+    with pytest.raises(VGraphError, match=r"got \(2.5, 4\)"):  # not cut down to 2 pixels
+        render(smooth_volume(), camera("orthographic"), TF, (2.5, 4))
 
 
 def test_a_camera_inside_the_volume_is_refused_by_name():

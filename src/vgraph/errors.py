@@ -115,12 +115,13 @@ class ProcessorError(VGraphError):
 
 
 def positive_pair(value, name: str, parts: str, error: type[VGraphError] = VGraphError) -> tuple[int, int]:
-    """``value`` as two positive integers (an image's size, a grid of tiles), each taken by int();
-    otherwise ``error`` naming it: "{name} must be two positive integers {parts}, got ..."."""
+    """``value`` as two positive integers (an image's size, a grid of tiles; 2.0 is 2, 2.5 is
+    refused); otherwise ``error`` naming it: "{name} must be two positive integers {parts}, got ..."."""
     try:
-        first, second = (int(v) for v in value)
-    except (TypeError, ValueError):
+        items = tuple(value)
+        first, second = (int(v) for v in items)
+    except (TypeError, ValueError, OverflowError):
         first = second = 0
-    if first < 1 or second < 1:
+    if first < 1 or second < 1 or (first, second) != items:
         raise error(f"{name} must be two positive integers {parts}, got {value!r}")
     return first, second

@@ -78,7 +78,7 @@ import numpy as np
 
 from vgraph.camera import Camera
 from vgraph.clipping import clip_intervals
-from vgraph.errors import VGraphError
+from vgraph.errors import VGraphError, positive_pair
 from vgraph.numerics.reference_boxes import RayBox, volume_box
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -372,12 +372,7 @@ def _check_arguments(volume, size, mode, sampling_rate, early_termination, backg
     if volume.is_spline_coefficients:
         raise VGraphError(f"reference ray caster: volume{_where(volume)} holds B-spline "
                           "coefficients, not samples")
-    try:
-        width, height = (int(v) for v in size)
-    except (TypeError, ValueError):
-        raise VGraphError(f"reference ray caster: size must be (width, height), got {size!r}")
-    if width < 1 or height < 1 or (width, height) != tuple(size):
-        raise VGraphError(f"reference ray caster: size must be positive integers, got {size!r}")
+    width, height = positive_pair(size, "reference ray caster: size", "(width, height)")
     if mode not in MODES:
         raise VGraphError(f"reference ray caster: mode must be one of {MODES}, got {mode!r}")
     if not (math.isfinite(sampling_rate) and sampling_rate > 0.0):

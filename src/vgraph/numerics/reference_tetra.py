@@ -66,7 +66,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vgraph.camera import Camera
-from vgraph.errors import VGraphError
+from vgraph.errors import VGraphError, positive_pair
 from vgraph.mesh import TetMesh
 from vgraph.transfer_function import TransferFunction
 
@@ -563,10 +563,4 @@ def _depth_values(camera, width, height, origins, directions, ray, segments, fir
 
 
 def _check_size(size) -> tuple[int, int]:
-    try:
-        width, height = (int(v) for v in size)
-    except (TypeError, ValueError):
-        raise VGraphError(f"tetrahedra reference: size must be (width, height), got {size!r}")
-    if width < 1 or height < 1 or (width, height) != tuple(size):
-        raise VGraphError(f"tetrahedra reference: size must be positive integers, got {size!r}")
-    return width, height
+    return positive_pair(size, "tetrahedra reference: size", "(width, height)")
