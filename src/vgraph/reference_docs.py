@@ -101,6 +101,7 @@ EXPLAINED_IN: dict[str, tuple[str, ...]] = {
     "IsoSurfaceExtractor": ("guide/surfaces.md#isosurfaceextractor",),
     "LabelRayCaster": ("guide/labels.md#label-volumes", "guide/own-data.md#label-volumes"),
     "LineProfile": ("guide/measuring.md#lineprofile", "guide/measuring.md#tables"),
+    "Markups": ("guide/measuring.md#markups", "guide/measuring.md#tables"),
     "MeshSource": ("explanations/tetrahedra.md#meshes-and-meshsource", "guide/own-data.md#meshes"),
     "MultiVolumeRayCaster": ("guide/several-volumes.md#several-volumes-in-one-picture",),
     "ProjectedTetrahedra": ("explanations/tetrahedra-renderer.md", "explanations/tetrahedra.md#projectedtetrahedra"),
@@ -216,9 +217,9 @@ def _properties_section(cls: type[Processor]) -> list[str]:
 
 
 def _default(prop) -> str:
-    """As ``vgraph list`` says it, except a transfer function and a label table: in full, as JSON
+    """As ``vgraph list`` says it, except a transfer function, a label table and markups: in full, as JSON
     (the page has room for them, where the terminal cuts them short or refers to ``--json``)."""
-    if prop.kind in ("transfer_function", "label_table"):
+    if prop.kind in ("transfer_function", "label_table", "markups"):
         return json.dumps(prop.to_json(prop.default))
     return default_text(prop)
 
