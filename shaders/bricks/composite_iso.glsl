@@ -21,12 +21,7 @@ void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {  
                 float before = intensity(sample_point(ray, float(i - 1)));
                 hit = refine_crossing(ray, float(i - 1), before - iso_level, hit, value - iso_level);
             }
-            vec3 rgb = classify(iso_level).rgb;
-#ifdef SHADING_BLINN_PHONG
-            vec3 p = sample_point(ray, hit);
-            rgb = shade(rgb, gradient(p, raw_sample(p)), -ray.direction);
-#endif
-            sum = vec4(rgb, 1.0);
+            sum = vec4(iso_surface_colour(ray, hit), 1.0);
             depth_sample = hit;
             return;
         }

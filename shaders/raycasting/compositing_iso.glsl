@@ -28,12 +28,7 @@ Result march(Ray ray) {
                                              : intensity(sample_point(ray, float(i - 1)));
                 hit = refine_crossing(ray, float(i - 1), before - iso_level, hit, value - iso_level);
             }
-            vec3 rgb = classify(iso_level).rgb;
-#ifdef SHADING_BLINN_PHONG
-            vec3 t = sample_point(ray, hit);
-            rgb = shade(rgb, gradient(t, raw_sample(t)), -ray.direction);
-#endif
-            result.color = vec4(rgb, 1.0);
+            result.color = vec4(iso_surface_colour(ray, hit), 1.0);
             result.depth_sample = hit;
             return result;
         }

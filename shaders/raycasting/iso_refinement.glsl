@@ -1,6 +1,7 @@
 // The crossing of the iso level between two samples (COMPOSITING_ISO of the RayCaster and of the
 // BrickedRayCaster): ISO_REFINEMENT regula-falsi steps, one volume sample each, then a final linear
-// interpolation. Needs ray.glsl's Ray and sample_point() and an intensity().
+// interpolation; and the surface's colour there. Needs ray.glsl's Ray and sample_point(), an
+// intensity(), classify() and, with SHADING_BLINN_PHONG, shade(), gradient() and raw_sample().
 #define ISO_REFINEMENT 3
 uniform float iso_level;
 
@@ -18,4 +19,15 @@ float refine_crossing(Ray ray, float a, float fa, float b, float fb) {
         }
     }
     return a + (b - a) * fa / (fa - fb);
+}
+
+// The iso-surface's colour at fractional sample `hit`: TF(iso_level).rgb, lit there with
+// SHADING_BLINN_PHONG.
+vec3 iso_surface_colour(Ray ray, float hit) {
+    vec3 rgb = classify(iso_level).rgb;
+#ifdef SHADING_BLINN_PHONG
+    vec3 p = sample_point(ray, hit);
+    rgb = shade(rgb, gradient(p, raw_sample(p)), -ray.direction);
+#endif
+    return rgb;
 }
