@@ -25,6 +25,9 @@ Conventions (docs/guide/exploring.md has pictures):
 - Samples as the RayCaster's: every min(spacing) / sampling_rate world units from the entry point
   (raycasting/ray.glsl), so clipping planes in EntryExitPoints apply here too.
   ``vgraph.numerics.reference_labels`` is the CPU reference of the picture.
+- ``depth`` (on demand, drawn only when something reads it: the picking of vgraph.picking): the
+  RayCaster's depth output convention (raycasting/depth_output.glsl) at the first sample whose
+  label is shown (first_hit: at the refined hit), a = 0 where no shown label is met.
 """
 
 from __future__ import annotations
@@ -70,7 +73,7 @@ class LabelRayCaster(RaycasterBase):
 
     category = "Volume rendering"
     inports = [Inport("labels", Volume)]
-    outports = [Outport("image", Image)]
+    outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
     components = (EntryExit(), CameraRays(), Sampling(), FrontToBack(), Light(), EmptySpace(skip=skip_values),
                   Background())
 
@@ -83,16 +86,20 @@ class LabelRayCaster(RaycasterBase):
 
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
-        self._targets = RenderTargets(1)
+        self._targets = {True: RenderTargets(2), False: RenderTargets(1)}  # by: depth output wanted
         self._colors = ColorTable()
         self.frame_codes: LabelCodes | None = None  # of the frame being drawn (skip_values reads them)
 
-    def process(self, labels: Volume, entry: Image, exit: Image) -> Image:
+    def process(self, labels: Volume, entry: Image, exit: Image) -> dict:
         consumer = self._checked(labels)
         frame = self.frame(labels, entry, exit)
-        (image,) = self._targets.ensure(frame.ctx, entry.size)
-        self.draw(frame, SHADER, self._targets, own=self._label_binding(frame, labels, consumer))
-        return image
+        with_depth = self.wants("depth")
+        targets = self._targets[with_depth]
+        self._targets[not with_depth].release()  # a scene keeps the images of one kind only
+        outputs = dict(zip(("image", "depth"), targets.ensure(frame.ctx, entry.size)))
+        own = self._label_binding(frame, labels, consumer).merge(Binding({"DEPTH_OUTPUT": with_depth}))
+        self.draw(frame, SHADER, targets, own=own)
+        return outputs
 
     def _checked(self, labels: Volume) -> str:
         """``labels`` as the error messages name it, once refused if it cannot be drawn. The

@@ -211,3 +211,27 @@ def test_a_projected_tetrahedra_pick_interpolates_the_mesh_in_its_tetrahedron():
         expected = 1.0 * result.point[0] + 2.0 * result.point[1] - 0.5 * result.point[2]
         assert mesh.value == pytest.approx(expected, abs=1e-3)
         assert volume.source == "src.volume" and volume.value == pytest.approx(expected, abs=1e-3)
+
+
+def test_a_label_ray_caster_pick_names_the_label_on_its_surface():
+    """The LabelRayCaster's depth output (first_hit: the refined hit): the point lies on the top
+    face of the labelled block, half-way between the last labelled voxel centre (z = 40) and the
+    next (z = 42), and the label there is named from its table."""
+    network = labelled_slice_network()
+    volume = network["src"].volume
+    camera = Camera(projection="orthographic", position=(13.75, 23.75, 100.0), focus=(13.75, 23.75, 37.0),
+                    up=(0.0, 1.0, 0.0), parallel_scale=5.0, fit_to_data=False)
+    network.add("EntryExitPoints", id="eep", camera=camera)
+    network.link("eep.camera", "labels.camera")
+    network.set("labels.compositing", "first_hit")
+    network.add("Canvas", id="view", size=(64, 64))
+    for source, target in (("src.volume", "eep.volume"), ("eep.entry", "labels.entry"),
+                           ("eep.exit", "labels.exit"), ("labels.image", "view.image")):
+        network.connect(source, target)
+    left, right = network.pick("view", 21, 32), network.pick("view", 43, 32)
+    assert left.renderer == right.renderer == "labels"
+    assert (left.samples[0].label, right.samples[0].label) == ("tumour", "label 5")
+    for result in (left, right):
+        assert result.point[2] == pytest.approx(41.0, abs=0.05)
+        assert result.voxel == tuple(int(v) for v in np.rint(volume.world_to_voxel(result.point)))
+    assert not network.pick("view", 1, 1).hit

@@ -16,6 +16,9 @@ vec4 march(Ray ray) {
         if (!next_occupied_sample(cursor, ray)) break;  // march.glsl
         Label label = majority_label(sample_point(ray, float(cursor.i)));
         if (label.code != BACKGROUND) {
+            if (depth_sample < 0.0) {
+                depth_sample = float(cursor.i);  // the depth output's sample: the first shown label
+            }
             vec4 color = code_color(label.code);
             float alpha = color.a >= SMALL_OPACITY ? 1.0 - pow(1.0 - color.a, opacity_exponent)
                           : opacity_of_depth(opacity_exponent * depth_of_opacity(color.a));

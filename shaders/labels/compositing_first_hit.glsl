@@ -4,7 +4,8 @@
 // the majority rule turns to a shown label: its colour and surface normal there (a sample one step
 // inside would often lie where all 8 voxels agree, with no slope to shade by). A ray that starts
 // inside a label (a face of the volume or a cut) shows the label unrefined. With SKIP_EMPTY_SPACE,
-// blocks without shown labels are jumped over (samples before a skip are background).
+// blocks without shown labels are jumped over (samples before a skip are background). The depth
+// output's sample is the refined hit.
 #ifdef COMPOSITING_FIRST_HIT
 const int HIT_REFINEMENT = 6;  // the hit within 1/64 of a step
 
@@ -19,6 +20,7 @@ Label refined_hit(Ray ray, float outside, float inside, Label label) {
             outside = middle;
         }
     }
+    depth_sample = inside;  // the depth output's sample (label_raycaster.frag.glsl)
     return label;
 }
 
@@ -28,6 +30,7 @@ vec4 march(Ray ray) {
         if (!next_occupied_sample(cursor, ray)) break;  // march.glsl
         Label label = majority_label(sample_point(ray, float(cursor.i)));
         if (label.code != BACKGROUND) {
+            depth_sample = float(cursor.i);
             if (cursor.i > 0) {
                 label = refined_hit(ray, float(cursor.i - 1), float(cursor.i), label);
             }

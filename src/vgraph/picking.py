@@ -22,8 +22,9 @@ A pixel where nothing was drawn is a result with ``hit`` False and ``reason`` sa
 At the point: the voxel index (i, j, k) of the renderer's (first) volume, nearest voxel centre,
 the value of a tetrahedral mesh the renderer draws, interpolated in the tetrahedron holding the
 point (vgraph.picking_mesh), and the value of every volume upstream of the renderer (``samples``): trilinear for volumes of
-samples (as the ray casters' default interpolation), the nearest voxel for label volumes (with the
-label's name from a label table that draws it, else "label N"), the tricubic spline for B-spline
+samples (as the ray casters' default interpolation), for label volumes the LabelRayCaster's
+majority rule over the 8 voxels around it (with the label's name from a label table that draws
+it, else "label N"), the tricubic spline for B-spline
 coefficients. A point outside a volume's box gives that volume no value (``value`` None).
 Volumes drawn brick by brick (OME-Zarr stores) are not sampled (``value`` None, ``note`` says so).
 """
@@ -39,7 +40,7 @@ from scipy.ndimage import map_coordinates
 
 from vgraph.errors import VGraphError
 from vgraph.image import Image
-from vgraph.labels import LabelTable
+from vgraph.labels import BACKGROUND, LabelTable, majority
 from vgraph.mesh import TetMesh
 from vgraph.picking_mesh import mesh_value
 from vgraph.picking_surface import SurfacePoint, refine_on_surface, spline_value
@@ -277,13 +278,29 @@ def _sample(network, source: str, volume: Volume, point) -> VolumeSample:
         return VolumeSample(source, None, None, note="outside the volume")
     table = _label_table(network, source)
     if table is not None or volume.holds_labels:
-        value = float(volume.data[voxel[2], voxel[1], voxel[0]])
-        return VolumeSample(source, value, voxel, label=_label_name(table, int(value)))
+        value = _label_at(volume, table or LabelTable.default(), point, voxel)
+        return VolumeSample(source, float(value), voxel, label=_label_name(table, value))
     if volume.is_spline_coefficients:
         return VolumeSample(source, float(spline_value(volume, point)), voxel, note="cubic B-spline")
     index = np.clip(volume.world_to_voxel(point), 0, np.array(volume.dims) - 1)
     value = map_coordinates(volume.data, index[::-1].reshape(3, 1), order=1, mode="nearest")[0]
     return VolumeSample(source, float(value), voxel)
+
+
+def _label_at(volume: Volume, table: LabelTable, point, voxel) -> int:
+    """The label at the point by the LabelRayCaster's majority rule (vgraph.labels.majority) over
+    the 8 voxels around it, so a pick on a label's surface names that label even where the nearest
+    voxel is outside it; where no shown label wins, the nearest voxel's label."""
+    dims = np.array(volume.dims)
+    index = np.clip(volume.world_to_voxel(point), 0, dims - 1)
+    low = np.clip(np.floor(index), 0, np.maximum(dims - 2, 0)).astype(np.int64)
+    high = np.minimum(low + 2, dims)
+    block = np.asarray(volume.data[low[2]:high[2], low[1]:high[1], low[0]:high[0]]).astype(np.int64)
+    shown = table.colors(block.ravel())[:, 3].reshape(block.shape) > 0.0
+    classes = np.where(shown, block, BACKGROUND)
+    texture = (index - low + 0.5) / np.array(block.shape[::-1])  # the point in the block's [0, 1]^3
+    winner = int(majority(classes, texture[None, :])[0][0])
+    return winner if winner != BACKGROUND else int(volume.data[voxel[2], voxel[1], voxel[0]])
 
 
 def _label_table(network, source: str) -> LabelTable | None:
