@@ -244,3 +244,18 @@ def test_the_value_scale_maps_data_values_both_ways():
     for space in ("normalized", "data", "percentile"):
         positions = {"normalized": [0.1, 0.7], "data": [0.3, 0.8], "percentile": [20.0, 95.0]}[space]
         np.testing.assert_allclose(scale.from_data(scale.to_data(positions, space), space), positions, atol=1e-9)
+
+
+def test_the_command_line_moves_a_preset_and_names_a_bad_scale(tmp_path, capsys):
+    from vgraph.cli import main
+    from helpers.paths import REPO
+    sphere = str(REPO / "networks" / "raycast_sphere.json")
+    images = []
+    for value in ('{"preset": "hot-metal", "tf_shift": 0.3}', "hot-metal"):
+        out = tmp_path / f"{len(images)}.npy"
+        assert main(["run", sphere, "--set", f"rc.transfer_function={value}", "--size", "40x32",
+                     "--npy", str(out)]) == 0
+        images.append(np.load(out))
+    assert np.abs(images[0] - images[1]).max() > 0.02
+    assert main(["run", sphere, "--set", 'rc.transfer_function={"preset": "hot-metal", "tf_scale": 0}']) == 2
+    assert "rc.transfer_function: invalid value" in capsys.readouterr().err
