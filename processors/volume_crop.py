@@ -9,8 +9,9 @@ Conventions:
   along x, y, z, both ends kept.
 - Either box is clipped to the volume; a box that holds no voxel is an error naming the property.
   Empty (None): the whole volume.
-- Of a store (a BrickedVolume) only the box's voxels are read, if they fit its memory budget
-  (else MemoryBudgetError): a region of a store larger than memory can be cut out and filtered.
+- Of a store (a BrickedVolume) only the box's voxels are read, if they fit its memory budget: a
+  region of a store larger than memory can be cut out and filtered in memory. A box larger than
+  the budget is copied slab by slab into a new store (vgraph.chunked_filtering).
 - The voxels keep their world positions: the output's origin is the world position of the first
   kept voxel; spacing, direction, type, value range and label flag are the input's
   (vgraph.volume_filtering).
@@ -21,9 +22,8 @@ from __future__ import annotations
 import numpy as np
 
 from vgraph import Inport, OptionProperty, Outport, Processor, PropertyError, VectorProperty
-from vgraph.bricks.volume import MemoryBudgetError
+from vgraph.chunked_filtering import filtered_store, voxel_plan
 from vgraph.clipping import CropBoxProperty
-from vgraph.memory import format_bytes
 from vgraph.volume import Volume
 from vgraph.volume_filtering import filtered, samples_in_memory
 
@@ -57,22 +57,23 @@ class VolumeCrop(Processor):
         self.check()
         low, high = self._index_box(volume)
         origin = tuple(float(v) for v in volume.voxel_to_world(low))
-        return filtered(volume, self._voxels(volume, low, high), origin=origin)
-
-    def _voxels(self, volume: Volume, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-        """The voxels low .. high (i, j, k, both ends) as a new array: of a store (BrickedVolume)
-        only these are read, within its memory budget, so a region of a store larger than memory
-        can be cut out and filtered in memory."""
         if volume.bricks is None:
             # a copy: a view would keep the whole input alive for a small crop of it
-            return volume.data[low[2]:high[2] + 1, low[1]:high[1] + 1, low[0]:high[0] + 1].copy()
+            return filtered(volume, volume.data[low[2]:high[2] + 1, low[1]:high[1] + 1,
+                                                low[0]:high[0] + 1].copy(), origin=origin)
         size = int(np.prod(high - low + 1)) * np.dtype(volume.dtype).itemsize
-        if size > volume.memory_budget_mb * 2**20:
-            raise MemoryBudgetError(f"{self.id}: the crop box holds {' x '.join(map(str, high - low + 1))} "
-                                    f"voxels ({format_bytes(size)}) of {volume.source or 'the store'}, more "
-                                    f"than its memory budget of {volume.memory_budget_mb:g} MiB: crop less "
-                                    f"or raise the budget (VolumeSource.memory_budget)")
-        return np.ascontiguousarray(volume.bricks.read(0, low[::-1], (high + 1)[::-1]))
+        if size > volume.memory_budget_mb * 2**20:  # a box of a store larger than its budget
+            return self._stored(volume, low, high, origin)
+        # of a store only the box's voxels are read
+        return filtered(volume, np.ascontiguousarray(volume.bricks.read(0, low[::-1], (high + 1)[::-1])),
+                        origin=origin)
+
+    def _stored(self, volume: Volume, low: np.ndarray, high: np.ndarray, origin) -> Volume:
+        """The box copied slab by slab into a new store (vgraph.chunked_filtering)."""
+        plan = voxel_plan(volume, low, high, volume.dtype, lambda voxels: voxels, volume.value_range,
+                          origin=origin, holds_labels=volume.holds_labels)
+        settings = {"type": "VolumeCrop", "low": low.tolist(), "high": high.tolist()}
+        return filtered_store(volume, plan, f"VolumeCrop '{self.id}'", settings)
 
     def _index_box(self, volume: Volume) -> tuple[np.ndarray, np.ndarray]:
         """First and last kept voxel index (i, j, k), clipped to the volume."""

@@ -16,6 +16,9 @@ Conventions:
 - nearest keeps the type and the label flag; linear and cubic give float32 (float64 stays), NaN
   and Inf replaced first (vgraph.volume_filtering), and refuse label volumes (mixing labels
   makes new, wrong ones). The value range is the input's.
+- A store larger than its memory budget is resampled slab by slab into a new store
+  (vgraph.chunked_filtering), each slab from the input slices its samples reach: the same values,
+  nearest and linear only (the cubic B-spline's prefilter runs along whole axes: a named error).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import numpy as np
 from scipy import ndimage
 
 from vgraph import Inport, OptionProperty, Outport, Processor, PropertyError, VectorProperty
+from vgraph.chunked_filtering import filtered_store, is_chunked, resample_plan
 from vgraph.numerics.bspline import prefilter
 from vgraph.volume import Volume
 from vgraph.volume_filtering import filtered, finite_values, mixed_type, samples_in_memory
@@ -62,9 +66,32 @@ class VolumeResample(Processor):
         # along each index axis: input index = start + output index * step
         step = spacing / old_spacing
         start = ((old_dims - 1) * old_spacing - (dims - 1) * spacing) / 2 / old_spacing
-        data = self._sample(volume, who, tuple(int(n) for n in dims[::-1]), step[::-1], start[::-1])
         origin = tuple(float(v) for v in volume.voxel_to_world(start))
-        return filtered(volume, data, spacing=tuple(float(s) for s in spacing), origin=origin)
+        spacing = tuple(float(s) for s in spacing)
+        shape = tuple(int(n) for n in dims[::-1])
+        if is_chunked(volume):
+            return self._stored(volume, who, shape, step[::-1], start[::-1], spacing, origin)
+        data = self._sample(volume, who, shape, step[::-1], start[::-1])
+        return filtered(volume, data, spacing=spacing, origin=origin)
+
+    def _stored(self, volume: Volume, who: str, shape, step, start, spacing, origin) -> Volume:
+        """A store larger than its budget, resampled slab by slab into a new store."""
+        order = ORDERS[self.interpolation]
+        if order == 3:
+            raise PropertyError(f"{self.id}.interpolation", f"cubic interpolation of a store larger than "
+                                f"its memory budget ({volume.source or 'the store'}) is not done: its "
+                                f"B-spline prefilter runs along whole axes; use linear, or crop the store "
+                                f"to fit its budget first")
+        if order and volume.holds_labels:
+            self._refuse_labels()
+        plan = resample_plan(volume, who, shape, step, start, order, spacing, origin)
+        settings = {"type": "VolumeResample", "shape": list(shape), "spacing": list(spacing),
+                    "interpolation": self.interpolation}
+        return filtered_store(volume, plan, who, settings)
+
+    def _refuse_labels(self) -> None:
+        raise PropertyError(f"{self.id}.interpolation", f"{self.interpolation} interpolation mixes "
+                            f"label values into labels that are not there: use nearest for a label volume")
 
     def _grid(self, old_dims: np.ndarray, old_spacing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The new voxel counts and spacing (x, y, z)."""
@@ -85,8 +112,7 @@ class VolumeResample(Processor):
         if order == 0:
             return ndimage.affine_transform(volume.data, step, start, output_shape=shape, order=0, mode="nearest")
         if volume.holds_labels:
-            raise PropertyError(f"{self.id}.interpolation", f"{self.interpolation} interpolation mixes "
-                                f"label values into labels that are not there: use nearest for a label volume")
+            self._refuse_labels()
         data = finite_values(volume, who)
         if order == 1:
             return ndimage.affine_transform(data, step, start, output_shape=shape, order=1, mode="nearest")

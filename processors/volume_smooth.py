@@ -13,6 +13,8 @@ Conventions:
 - The Gaussian gives float32 (float64 stays), NaN/Inf replaced first; the median keeps the type
   and ignores no voxel, so NaN/Inf are replaced first too (its order of NaN is undefined). The
   value range and label flag are the input's; a label volume is refused (vgraph.volume_filtering).
+- A store larger than its memory budget is filtered chunk by chunk with dask-image (each brick
+  with a halo of the kernel's reach) into a new store (vgraph.chunked_filtering): the same values.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import numpy as np
 from scipy import ndimage
 
 from vgraph import Inport, OptionProperty, Outport, Processor, PropertyError, VectorProperty
+from vgraph.chunked_filtering import filtered_store, gaussian_plan, is_chunked, median_plan
 from vgraph.volume import Volume
 from vgraph.volume_filtering import filtered, finite_values, samples_in_memory
 
@@ -53,12 +56,21 @@ class VolumeSmooth(Processor):
         if self.filter == "gaussian":
             sigma = np.array(self.sigma) / spacing
             self._check_width("sigma", np.ceil(TRUNCATE * sigma - 1e-9), volume)
+            if is_chunked(volume):
+                return self._stored(volume, gaussian_plan(volume, who, tuple(sigma[::-1]), TRUNCATE))
             data = finite_values(volume, who)
             return filtered(volume, ndimage.gaussian_filter(data, sigma[::-1], truncate=TRUNCATE, mode="reflect"))
         radius = median_radius(self.size, spacing)
         self._check_width("size", radius, volume)
+        if is_chunked(volume):
+            return self._stored(volume, median_plan(volume, who, tuple(2 * radius[::-1] + 1)))
         data = finite_values(volume, who) if volume.nonfinite_count else volume.data
         return filtered(volume, ndimage.median_filter(data, size=tuple(2 * radius[::-1] + 1), mode="reflect"))
+
+    def _stored(self, volume, plan):
+        settings = {"type": "VolumeSmooth", "filter": self.filter,
+                    "size": list(self.sigma if self.filter == "gaussian" else self.size)}
+        return filtered_store(volume, plan, f"VolumeSmooth '{self.id}'", settings)
 
     def _check_width(self, name: str, radius: np.ndarray, volume: Volume) -> None:
         """Refuse a kernel reaching beyond the volume (module docstring); ``radius`` in voxels (x, y, z)."""

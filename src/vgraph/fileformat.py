@@ -248,7 +248,10 @@ def _read_text(path: Path) -> str:
             raise NetworkFileError(str(path), [("", f"{info.st_size} bytes is larger than a network "
                                                     f"file can be ({MAX_FILE_BYTES} bytes)")])
         with open(path, "rb") as file:  # the size may have grown since stat()
-            data = file.read(MAX_FILE_BYTES + 1)
+            # the size found, then the rest: read(MAX_FILE_BYTES + 1) would allocate that first
+            data = file.read(info.st_size + 1)
+            if len(data) > info.st_size:
+                data += file.read(MAX_FILE_BYTES + 1 - len(data))
         if len(data) > MAX_FILE_BYTES:
             raise NetworkFileError(str(path), [("", f"larger than a network file can be "
                                                     f"({MAX_FILE_BYTES} bytes)")])

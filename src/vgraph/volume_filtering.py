@@ -1,9 +1,9 @@
 """What the volume filters (processors VolumeCrop, VolumeResample, VolumeSmooth, VolumeThreshold)
 share: how they take a volume in and how they hand one on.
 
-- They work on volumes in memory. A BrickedVolume is read whole when it fits its memory budget
-  and otherwise refused by its own MemoryBudgetError (VolumeCrop reads only its box); chunked
-  filtering of stores is not done yet (docs/guide/volume-filters.md).
+- They work on volumes in memory. A BrickedVolume (a store) is read whole when it fits its
+  memory budget; a larger one is filtered chunk by chunk into a new store
+  (vgraph.chunked_filtering; VolumeCrop reads only its box when that fits).
 - A filter that keeps the values' units keeps the input's value range (as the output's
   ``declared_range``): a transfer function or iso level placed on the input shows the same
   values on the output, however much the filter narrowed the values.
@@ -41,13 +41,26 @@ def mixed_type(dtype) -> np.dtype:
 
 def finite_values(volume: Volume, who: str) -> np.ndarray:
     """The voxels in mixed_type, NaN/Inf replaced by the value range's ends (module docstring)."""
-    data = volume.data.astype(mixed_type(volume.data.dtype), copy=False)
     if volume.nonfinite_count:
-        lo, hi = volume.value_range
-        warnings.warn(f"{who}: {volume.nonfinite_count} NaN/Inf voxels replaced by the value "
-                      f"range's ends ({lo:g}, {hi:g}) before filtering", VGraphWarning, stacklevel=3)
-        data = np.nan_to_num(data, nan=lo, posinf=hi, neginf=lo)
-    return data
+        warn_nonfinite(volume, who)
+        return finite_array(volume.data, volume)
+    return volume.data.astype(mixed_type(volume.data.dtype), copy=False)
+
+
+def warn_nonfinite(volume: Volume, who: str) -> None:
+    lo, hi = volume.value_range
+    warnings.warn(f"{who}: {volume.nonfinite_count} NaN/Inf voxels replaced by the value "
+                  f"range's ends ({lo:g}, {hi:g}) before filtering", VGraphWarning, stacklevel=4)
+
+
+def finite_array(data: np.ndarray, volume: Volume) -> np.ndarray:
+    """``data`` (voxels of ``volume``, all or a part) in mixed_type, NaN/Inf replaced by the
+    ends of the volume's value range (module docstring)."""
+    mixed = data.astype(mixed_type(data.dtype), copy=False)
+    if data.dtype.kind != "f":  # integers are all finite
+        return mixed
+    lo, hi = volume.value_range
+    return np.nan_to_num(mixed, nan=lo, posinf=hi, neginf=lo)
 
 
 def filtered(volume: Volume, data: np.ndarray, **changes) -> Volume:

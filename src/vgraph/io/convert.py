@@ -51,7 +51,7 @@ from vgraph.volume_grid import checked_direction, is_identity
 
 DEFAULT_BRICK = 64
 MAX_BRICK = 1024
-_PIECE_VOXELS = 2**18  # voxels halved at once: a 2 MiB float64 temporary
+HALVING_PIECE_VOXELS = 2**18  # voxels halved at once: a 2 MiB float64 temporary
 
 
 @dataclass
@@ -102,7 +102,7 @@ def convert(source, output, *, brick=DEFAULT_BRICK, levels: int | None = None, r
         pyramid = _levels(data, brick, levels)
         with atomic_folder(output) as folder:
             writer = StoreWriter(folder, pyramid, data.dtype, brick)
-            stats = _write_levels(data, writer, brick, progress, mirrored)
+            stats = write_levels(data, writer, brick, progress, mirrored)
             value_range = data.declared_range or range_of(stats.data_range)
             writer.finish(value_range, data.declared_range, stats.data_range, stats.nonfinite,
                           name=Path(str(source)).name, direction=data.direction)
@@ -178,13 +178,16 @@ class _Stats:
         return (self.low, self.high) if self.low <= self.high else None
 
 
-def _write_levels(data: SlabInput, writer: StoreWriter, brick, progress: bool, mirrored: bool) -> _Stats:
+def write_levels(data: SlabInput, writer: StoreWriter, brick, progress: bool, mirrored: bool,
+                 doing: str = "converting") -> _Stats:
     """Stream level 0 slab by slab, feeding the coarser levels as halves come in; ``mirrored``:
-    each x row reversed (as_rotation)."""
+    each x row reversed (as_rotation). ``data`` is anything with ``shape``, ``source`` and
+    ``slab(z0, z1)`` (the chunked volume filters pass their filtered slabs);
+    ``doing`` names the work in the progress bar."""
     stats, bz = _Stats(), brick[2]
     cascade = _Cascade(writer, bz)
     depth = data.shape[0]
-    with tqdm(total=depth, unit="slice", desc=f"converting {Path(data.source).name}", file=sys.stderr,
+    with tqdm(total=depth, unit="slice", desc=f"{doing} {Path(data.source).name}", file=sys.stderr,
               leave=False, disable=None if progress else True) as bar:
         for z0 in range(0, depth, bz):
             slab = data.slab(z0, min(z0 + bz, depth))
@@ -245,7 +248,7 @@ def halve_slab(slab: np.ndarray) -> np.ndarray:
     """pyramid.halve of a slab computed in pieces of an even number of y rows (each output voxel
     is computed exactly as halve computes it, so the result is identical)."""
     depth, rows, width = slab.shape
-    step = max(2, (_PIECE_VOXELS // max(1, depth * width)) // 2 * 2)
+    step = max(2, (HALVING_PIECE_VOXELS // max(1, depth * width)) // 2 * 2)
     if step >= rows:
         return halve(slab)
     out = np.empty(((depth + 1) // 2, (rows + 1) // 2, (width + 1) // 2), dtype=slab.dtype)
