@@ -13,7 +13,8 @@ Conventions (docs/guide/measuring.md, "Markups", shows them with examples):
   renderer's pixels; without a volume such a camera is refused by name (``<id>.volume``).
 - ``depth`` (optional): the renderer's depth outport. Where it is connected and ``depth_test`` is
   on, the parts of the markups behind what the renderer drew are hidden (vgraph.markups_drawing:
-  the test and its ``depth_tolerance``); without it everything is drawn on top.
+  the test and its ``depth_tolerance``) or drawn at ``hidden_opacity`` (0.3 by default, as Slicer
+  shows occluded markups faintly; 0 hides them); without it everything is drawn fully on top.
 - Drawing: lines ``line_width`` pixels wide, points as discs, an arc in each angle, labels with the
   name and the length (world units, followed by ``units``) or the angle (degrees), all in
   ``color``, composited over the image through a coverage mask (vgraph.gl.coverage, as
@@ -37,7 +38,7 @@ from vgraph.gl.raycasting.framed_view import framed_view
 from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA
 from vgraph.image import Image
 from vgraph.markups import Markups as MarkupList
-from vgraph.markups_drawing import MarkupView, Style, draw_markup, scene_eye_depth
+from vgraph.markups_drawing import MarkupView, Style, draw_markups, scene_eye_depth
 from vgraph.table import Column, Table
 from vgraph.volume import Volume
 
@@ -65,6 +66,7 @@ class Markups(Processor):
     depth_test = BoolProperty(True, doc="hide what lies behind the renderer's depth (needs the depth inport)")
     depth_tolerance = FloatProperty(0.5, min=0.0, max=1e15, doc="world units a markup may lie behind the "
                                                                 "scene's depth and still show")
+    hidden_opacity = FloatProperty(0.3, min=0.0, max=1.0, doc="opacity of the parts behind the scene (0: not drawn)")
 
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
@@ -96,12 +98,10 @@ class Markups(Processor):
             view = MarkupView(view.camera, size, scene_eye_depth(view.camera, depth.to_numpy()), self.depth_tolerance)
         shorter = min(width, height)
         font = overlay_font(max(10, round(self.font_size * shorter))) if self.labels else None
-        style = Style(self.line_width, max(1.0, self.point_size * shorter / 2.0), font, self.units)
+        style = Style(self.line_width, max(1.0, self.point_size * shorter / 2.0), font, self.units,
+                      self.hidden_opacity)
         mask = PILImage.new("L", (width, height), 0)
-        draw = ImageDraw.Draw(mask)
-        for markup in self.markups.markups:
-            if markup.visible:
-                draw_markup(draw, view, markup, style)
+        draw_markups(ImageDraw.Draw(mask), view, [m for m in self.markups.markups if m.visible], style)
         return mask
 
     def _view_camera(self, size: tuple[int, int], volume: Volume | None) -> Camera:

@@ -197,11 +197,11 @@ def test_bad_csv_and_json_files_are_refused_by_name(tmp_path):
 
 
 # --- the overlay --------------------------------------------------------------------------------
-def overlay_network(markups, with_depth=True):
+def overlay_network(markups, with_depth=True, hidden_opacity=0.0):
     """The analytic sphere (radius 10, seen along -z, orthographic) with the Markups over it in red."""
     network = sphere_network(1.0)
     network.add("Markups", id="mk", color=(1.0, 0.0, 0.0, 1.0), labels=False, line_width=1, point_size=0.0,
-                markups=markups)
+                markups=markups, hidden_opacity=hidden_opacity)
     network.link("eep.camera", "mk.camera")
     for source, target in (("rc.image", "mk.image"), ("src.volume", "mk.volume")) + \
             ((("rc.depth", "mk.depth"),) if with_depth else ()):
@@ -245,6 +245,13 @@ def test_a_ruler_through_the_sphere_is_hidden_behind_it_and_drawn_without_depth(
     assert hidden[round(column_of(cx + RADIUS)) + 2:round(column_of(cx + 13))].all()
     shown = red_pixels(overlay_network([ruler], with_depth=False))[row]
     assert shown[inside].all()
+    # hidden parts drawn faintly: red at 0.4 over the sphere's pixels, which stay theirs elsewhere
+    faint = overlay_network([ruler], hidden_opacity=0.4)
+    pixels = faint.evaluate("mk.image", size=(SIZE, SIZE))
+    sphere = faint.evaluate("rc.image", size=(SIZE, SIZE))
+    expected = 0.6 * sphere[row, inside, :3] + 0.4 * np.array([1.0, 0.0, 0.0])
+    np.testing.assert_allclose(pixels[row, inside, :3], expected, atol=2 / 255)
+    np.testing.assert_array_equal(pixels[row - 3], sphere[row - 3])
 
 
 def test_angles_points_curves_and_labels_draw_and_invisible_markups_do_not():

@@ -10,7 +10,8 @@ Conventions:
   the same) becomes the scene's eye depth per pixel, near + g (ray . forward). A sample of a
   markup is visible where it lies in front of the near plane, inside the image, and no farther
   than the scene's eye depth plus ``tolerance`` world units there (a point picked on a surface
-  lies on it, within the renderer's sampling error; the tolerance keeps it visible).
+  lies on it, within the renderer's sampling error; the tolerance keeps it visible). Parts behind
+  the scene are drawn at ``hidden_opacity`` (0: not at all), as Slicer's occluded markups.
 - Lines (ruler, angle arms and arc, closed curves) are sampled along their 3D segments at about
   two samples per pixel and only the visible runs are drawn, so a line that passes behind a
   surface is cut where it does. Points are discs; labels (name and measurement) are drawn where
@@ -54,17 +55,22 @@ class MarkupView:
 
     def visible(self, points) -> np.ndarray:
         """Per world point: in front of the near plane, inside the image and not behind the scene."""
+        return self.visibility(points)[1]
+
+    def visibility(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """Per world point: (in the view: in front of the near plane and inside the image; and
+        shown: in the view and not behind the scene)."""
         pixels, depth = self.project(points)
         width, height = self.size
         column, row = np.floor(pixels[:, 0] + 0.5), np.floor(pixels[:, 1] + 0.5)
         inside = (depth >= self.camera.planes()[0]) & (column >= 0) & (column < width) & (row >= 0) & (row < height)
         if self.scene_depth is None:
-            return inside
+            return inside, inside
         shown = inside.copy()
         at = np.flatnonzero(inside)
         scene = self.scene_depth[row[at].astype(int), column[at].astype(int)]
         shown[at] = depth[at] <= scene + self.tolerance
-        return shown
+        return inside, shown
 
 
 def scene_eye_depth(camera: Camera, depth_pixels: np.ndarray) -> np.ndarray:
@@ -76,18 +82,27 @@ def scene_eye_depth(camera: Camera, depth_pixels: np.ndarray) -> np.ndarray:
     return np.where(depth_pixels[..., 3] > 0.0, eye, np.inf)
 
 
-def draw_markup(draw: ImageDraw.ImageDraw, view: MarkupView, markup: Markup, style: "Style") -> None:
-    """One markup's lines, points and label into the coverage mask ``draw``."""
+def draw_markups(draw: ImageDraw.ImageDraw, view: MarkupView, markups, style: "Style") -> None:
+    """The markups' lines, points and labels into the coverage mask ``draw``: first the parts
+    behind the scene at ``style.hidden_opacity`` (nothing at 0), then the visible parts, fully."""
+    hidden = round(255 * style.hidden_opacity)
+    for fill, shown in ((hidden, False), (255, True)):
+        if fill == 0:
+            continue
+        for markup in markups:
+            _draw_markup(draw, view, markup, style, fill, shown)
+
+
+def _draw_markup(draw, view: MarkupView, markup: Markup, style: "Style", fill: int, shown: bool) -> None:
     points = markup.array
-    if markup.kind in ("ruler", "angle"):
-        _draw_polyline(draw, view, points, style.line_width)
-    elif markup.kind == "closed_curve":
-        _draw_polyline(draw, view, np.vstack([points, points[:1]]), style.line_width)
+    lines = {"ruler": points, "angle": points, "closed_curve": np.vstack([points, points[:1]])}.get(markup.kind)
+    if lines is not None:
+        _draw_polyline(draw, view, lines, style.line_width, fill, shown)
     if markup.kind == "angle":
-        _draw_polyline(draw, view, _arc(points), style.line_width)
-    _draw_points(draw, view, points, style.point_radius)
+        _draw_polyline(draw, view, _arc(points), style.line_width, fill, shown)
+    _draw_points(draw, view, points, style.point_radius, fill, shown)
     if style.font is not None:
-        _draw_label(draw, view, markup, style)
+        _draw_label(draw, view, markup, style, fill, shown)
 
 
 @dataclass(frozen=True)
@@ -96,6 +111,7 @@ class Style:
     point_radius: float
     font: object | None      # a Pillow font, or None: no labels
     units: str = ""
+    hidden_opacity: float = 0.0  # of the parts behind the scene
 
 
 def label_text(markup: Markup, units: str = "") -> str:
@@ -119,30 +135,36 @@ def label_anchor(markup: Markup) -> np.ndarray:
     return points[0]
 
 
-def _draw_label(draw, view: MarkupView, markup: Markup, style: Style) -> None:
+def _draw_label(draw, view: MarkupView, markup: Markup, style: Style, fill: int, shown: bool) -> None:
     anchor = label_anchor(markup)
-    if not view.visible(anchor)[0]:
+    if not _selected(view, anchor[None, :], shown)[0]:
         return
     pixels, _ = view.project(anchor)
     x, y = pixels[0]
     draw.text((x + style.point_radius + 2, y - style.point_radius - 2), label_text(markup, style.units),
-              fill=255, font=style.font, anchor="ld")
+              fill=fill, font=style.font, anchor="ld")
 
 
-def _draw_points(draw, view: MarkupView, points: np.ndarray, radius: float) -> None:
+def _draw_points(draw, view: MarkupView, points: np.ndarray, radius: float, fill: int, shown: bool) -> None:
     pixels, _ = view.project(points)
-    for (x, y), shown in zip(pixels, view.visible(points)):
-        if shown:
-            draw.ellipse((x - radius, y - radius, x + radius, y + radius), fill=255)
+    for (x, y), selected in zip(pixels, _selected(view, points, shown)):
+        if selected:
+            draw.ellipse((x - radius, y - radius, x + radius, y + radius), fill=fill)
 
 
-def _draw_polyline(draw, view: MarkupView, points: np.ndarray, width: int) -> None:
+def _draw_polyline(draw, view: MarkupView, points: np.ndarray, width: int, fill: int, shown: bool) -> None:
     for start, end in zip(points[:-1], points[1:]):
         samples = _segment_samples(view, start, end)
         pixels, _ = view.project(samples)
-        for run in _runs(view.visible(samples)):
+        for run in _runs(_selected(view, samples, shown)):
             if len(run) > 1:
-                draw.line([tuple(p) for p in pixels[run]], fill=255, width=width, joint="curve")
+                draw.line([tuple(p) for p in pixels[run]], fill=fill, width=width, joint="curve")
+
+
+def _selected(view: MarkupView, points: np.ndarray, shown: bool) -> np.ndarray:
+    """The points shown (``shown``) or those in the view but behind the scene (not ``shown``)."""
+    inside, visible = view.visibility(points)
+    return visible if shown else inside & ~visible
 
 
 def _segment_samples(view: MarkupView, start: np.ndarray, end: np.ndarray) -> np.ndarray:

@@ -65,6 +65,7 @@ PICTURES: dict[str, tuple[str, str]] = {
                     ("image_processors.png", "Background, ImageGamma and TextOverlay; ImageThreshold; ImageMix; "
                                              "the Histogram")),
     "LineProfile": ("measuring_profile.png", "A line through the engine CT and its profile"),  # bench/make_measuring_images.py
+    "Markups": ("markups_head.png", "A ruler, an angle and a closed curve over the CT head"),  # bench/make_markups_image.py
     "ProjectedTetrahedra": ("tetra_modes.png",
                             "Averaged and pre-integrated projection against the exact reference"),
     "VolumeToTetMesh": ("tetra_culling.png", "The culled bonsai as tetrahedra beside the RayCaster"),
