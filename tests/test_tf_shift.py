@@ -259,3 +259,21 @@ def test_the_command_line_moves_a_preset_and_names_a_bad_scale(tmp_path, capsys)
     assert np.abs(images[0] - images[1]).max() > 0.02
     assert main(["run", sphere, "--set", 'rc.transfer_function={"preset": "hot-metal", "tf_scale": 0}']) == 2
     assert "rc.transfer_function: invalid value" in capsys.readouterr().err
+
+
+def test_the_shipped_networks_keep_their_transfer_functions_exactly():
+    """Files saved before tf_shift existed load as before and save the same TF values back."""
+    from helpers.paths import REPO
+    from vgraph.fileformat import network_document
+    checked = 0
+    for path in sorted((REPO / "networks").glob("*.json")):
+        document = json.loads(path.read_text())
+        saved = {p["id"]: p["properties"] for p in network_document(vgraph.load(path))["processors"]}
+        for processor in document["processors"]:
+            for name, value in processor.get("properties", {}).items():
+                if isinstance(value, dict) and "points" in value:
+                    again = saved[processor["id"]][name]
+                    assert "tf_shift" not in again and "tf_scale" not in again
+                    assert TransferFunction.model_validate(again) == TransferFunction.model_validate(value)
+                    checked += 1
+    assert checked > 0
