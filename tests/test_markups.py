@@ -294,3 +294,21 @@ def test_the_image_output_needs_an_image_and_a_camera_it_can_resolve():
     network.add("Markups", id="mk", markups=[RULER])
     with pytest.raises(Exception, match="connect the renderer's image"):
         network.evaluate("mk.image", size=(32, 32))
+
+
+def test_under_perspective_a_point_placed_at_a_pick_is_drawn_on_the_picked_pixel():
+    """Picking and drawing agree: the world point picked under a pixel (perspective, the camera
+    resolved on the volume) is drawn as a disc centred on that pixel, in front of the depth."""
+    network = overlay_network([])
+    camera = network.get("eep.camera")
+    network.set("eep.camera", camera.model_copy(update={"projection": "perspective", "fov": 40.0}))
+    network.set("mk.point_size", 5 / SIZE)  # a disc 5 pixels across
+    network.set("canvas.size", (SIZE, SIZE))
+    network.update("mk.image", size=(SIZE, SIZE))
+    pixel = (120, 83)
+    result = network.pick("canvas", *pixel)
+    assert result.hit
+    network.set("mk.markups", [{"name": "p", "kind": "points", "points": [list(result.point)]}])
+    rows, columns = np.nonzero(red_pixels(network))
+    assert len(rows) >= 9
+    assert abs(columns.mean() - pixel[0]) <= 0.5 and abs(rows.mean() - pixel[1]) <= 0.5
