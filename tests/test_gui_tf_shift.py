@@ -81,3 +81,13 @@ def test_a_point_dragged_on_a_shifted_tf_is_stored_without_the_shift(window, edi
     assert tf(window).points[2][0] == pytest.approx(sits - 200.0, abs=1e-4)
     assert tf(window).tf_shift == 200.0
     assert plot.display_positions()[2] == pytest.approx(plot.from_pixel(end)[0], abs=1e-6)
+
+
+def test_a_shifted_normalised_tf_waits_for_the_volume_and_says_so(qtbot):
+    plot = tfe.TransferFunctionPlot()
+    qtbot.addWidget(plot)
+    plot.set_transfer_function(TransferFunction(points=PRESETS["grayscale"].points, tf_shift=100.0))
+    assert not plot.editable   # a shift in data units needs the volume's range
+    plot.set_value_scale(SCALE)
+    assert plot.editable
+    np.testing.assert_allclose(plot.display_positions(), [0.05, 1.05])   # 100 of the range's 2000

@@ -276,9 +276,10 @@ class TransferFunctionPlot(QWidget):
             self._paint_curve(painter, area)
         else:
             painter.setPen(QColor(90, 90, 90))
+            space = self.transfer_function.space
+            what = f"positions in {space} values" if space != "normalized" else "shifted in data units"
             painter.drawText(area, Qt.AlignCenter | Qt.TextWordWrap,
-                             f"positions in {self.transfer_function.space} values:\n"
-                             "shown once the volume has been evaluated")
+                             f"{what}:\nshown once the volume has been evaluated")
         painter.setPen(QPen(QColor(120, 120, 120)))
         painter.setBrush(Qt.NoBrush)
         painter.drawRect(area)
