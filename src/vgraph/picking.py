@@ -250,11 +250,11 @@ def _own_volumes(network, processor_id: str) -> list[Volume]:
 def _upstream_volumes(network, renderer_id: str) -> list[tuple[str, Volume]]:
     """('id.outport', volume) of every volume upstream of the renderer: its own inputs' first,
     then the others nearest first; each volume once."""
-    ordered = [renderer_id] + [pid for pid in reversed(list(nx.topological_sort(network.graph)))
-                               if pid in nx.ancestors(network.graph, renderer_id)]
+    ancestors = nx.ancestors(network.graph, renderer_id)
+    nearest_first = [pid for pid in reversed(list(nx.topological_sort(network.graph))) if pid in ancestors]
     found, seen = [], set()
     own = {id(v) for v in _own_volumes(network, renderer_id)}
-    for pid in ordered[1:]:
+    for pid in nearest_first:
         for outport, data in network[pid].outputs.items():
             if isinstance(data, Volume) and id(data) not in seen:
                 seen.add(id(data))
