@@ -235,3 +235,24 @@ def test_a_label_ray_caster_pick_names_the_label_on_its_surface():
         assert result.point[2] == pytest.approx(41.0, abs=0.05)
         assert result.voxel == tuple(int(v) for v in np.rint(volume.world_to_voxel(result.point)))
     assert not network.pick("view", 1, 1).hit
+
+
+def test_a_volume_drawn_brick_by_brick_is_sampled_at_full_resolution():
+    from vgraph.bricks.pyramid import ArrayPyramid
+    from vgraph.bricks.volume import BrickedVolume
+    plain = sphere_network(1.0)["src"].volume
+    pyramid = ArrayPyramid(plain.data, plain.spacing, plain.origin, brick=(8, 8, 8), value_range=(-RADIUS, RADIUS))
+    network = sphere_network(1.0)
+    network["src"].volume = BrickedVolume(pyramid)
+    network.disconnect("rc.image", "canvas.image")
+    network.add("BrickedRayCaster", id="brc", compositing="iso", iso_level=0.5)
+    network.link("eep.camera", "brc.camera")
+    for source, target in (("src.volume", "brc.volume"), ("eep.entry", "brc.entry"), ("eep.exit", "brc.exit"),
+                           ("brc.image", "canvas.image")):
+        network.connect(source, target)
+    result = network.pick("canvas", MIDDLE + 4, MIDDLE - 6)
+    assert result.hit and result.renderer == "brc"
+    assert abs(radius_error(result.point)) < 0.2 and abs(radius_error(result.surface.point)) < 0.01
+    index = plain.world_to_voxel(result.surface.point)  # where the values are sampled
+    expected = map_coordinates(plain.data, index[::-1].reshape(3, 1), order=1)[0]
+    assert result.value == pytest.approx(float(expected), abs=1e-5)

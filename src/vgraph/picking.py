@@ -26,7 +26,8 @@ samples (as the ray casters' default interpolation), for label volumes the Label
 majority rule over the 8 voxels around it (with the label's name from a label table that draws
 it, else "label N"), the tricubic spline for B-spline
 coefficients. A point outside a volume's box gives that volume no value (``value`` None).
-Volumes drawn brick by brick (OME-Zarr stores) are not sampled (``value`` None, ``note`` says so).
+Volumes drawn brick by brick (OME-Zarr stores) are sampled at their full-resolution level, the
+8 voxels around the point read alone.
 """
 
 from __future__ import annotations
@@ -211,6 +212,8 @@ def _iso_surface(network, renderer, origin, direction, distance) -> SurfacePoint
     if not volume:
         return None
     volume = volume[0]
+    if volume.bricks is not None and not volume.fits_budget:
+        return None  # the spline needs the whole array; a store beyond its memory budget has none
     low, high = volume.value_range
     level = low + float(values["iso_level"]) * (high - low)
     return refine_on_surface(volume, level, origin, direction, distance)
@@ -272,35 +275,47 @@ def _nearest_voxel(volume: Volume, point) -> tuple[int, int, int] | None:
 
 def _sample(network, source: str, volume: Volume, point) -> VolumeSample:
     voxel = _nearest_voxel(volume, point)
-    if volume.bricks is not None:
-        return VolumeSample(source, None, voxel, note="drawn brick by brick: not sampled")
     if voxel is None:
         return VolumeSample(source, None, None, note="outside the volume")
+    block, offset = _block_around(volume, point)
     table = _label_table(network, source)
     if table is not None or volume.holds_labels:
-        value = _label_at(volume, table or LabelTable.default(), point, voxel)
+        value = _label_at(block, offset, table or LabelTable.default())
         return VolumeSample(source, float(value), voxel, label=_label_name(table, value))
     if volume.is_spline_coefficients:
         return VolumeSample(source, float(spline_value(volume, point)), voxel, note="cubic B-spline")
-    index = np.clip(volume.world_to_voxel(point), 0, np.array(volume.dims) - 1)
-    value = map_coordinates(volume.data, index[::-1].reshape(3, 1), order=1, mode="nearest")[0]
+    value = map_coordinates(block, offset[::-1].reshape(3, 1), order=1, mode="nearest")[0]
     return VolumeSample(source, float(value), voxel)
 
 
-def _label_at(volume: Volume, table: LabelTable, point, voxel) -> int:
-    """The label at the point by the LabelRayCaster's majority rule (vgraph.labels.majority) over
-    the 8 voxels around it, so a pick on a label's surface names that label even where the nearest
-    voxel is outside it; where no shown label wins, the nearest voxel's label."""
+def _block_around(volume: Volume, point) -> tuple[np.ndarray, np.ndarray]:
+    """The (up to) 2 x 2 x 2 voxels [z, y, x] around the point (clamped onto the voxel centres'
+    box, as clamp-to-edge filtering) and the point's index offset (x, y, z) in them. A volume
+    drawn brick by brick gives them from its full-resolution level (only those voxels are read)."""
     dims = np.array(volume.dims)
     index = np.clip(volume.world_to_voxel(point), 0, dims - 1)
     low = np.clip(np.floor(index), 0, np.maximum(dims - 2, 0)).astype(np.int64)
     high = np.minimum(low + 2, dims)
-    block = np.asarray(volume.data[low[2]:high[2], low[1]:high[1], low[0]:high[0]]).astype(np.int64)
-    shown = table.colors(block.ravel())[:, 3].reshape(block.shape) > 0.0
-    classes = np.where(shown, block, BACKGROUND)
-    texture = (index - low + 0.5) / np.array(block.shape[::-1])  # the point in the block's [0, 1]^3
+    if volume.bricks is not None:
+        block = volume.bricks.read(0, tuple(int(v) for v in low[::-1]), tuple(int(v) for v in high[::-1]))
+    else:
+        block = volume.data[low[2]:high[2], low[1]:high[1], low[0]:high[0]]
+    return np.asarray(block), index - low
+
+
+def _label_at(block: np.ndarray, offset, table: LabelTable) -> int:
+    """The label at the point by the LabelRayCaster's majority rule (vgraph.labels.majority) over
+    the voxels around it (``_block_around``), so a pick on a label's surface names that label even
+    where the nearest voxel is outside it; where no shown label wins, the nearest voxel's label."""
+    labels = block.astype(np.int64)
+    shown = table.colors(labels.ravel())[:, 3].reshape(labels.shape) > 0.0
+    classes = np.where(shown, labels, BACKGROUND)
+    texture = (np.asarray(offset) + 0.5) / np.array(labels.shape[::-1])  # the point in the block's [0, 1]^3
     winner = int(majority(classes, texture[None, :])[0][0])
-    return winner if winner != BACKGROUND else int(volume.data[voxel[2], voxel[1], voxel[0]])
+    if winner != BACKGROUND:
+        return winner
+    nearest = np.clip(np.rint(offset).astype(np.int64), 0, np.array(labels.shape[::-1]) - 1)
+    return int(labels[nearest[2], nearest[1], nearest[0]])
 
 
 def _label_table(network, source: str) -> LabelTable | None:
