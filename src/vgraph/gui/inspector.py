@@ -30,6 +30,7 @@ from vgraph.errors import VGraphError
 from vgraph.gui import transfer_function_editor  # noqa: F401  (registers the TF editor)
 from vgraph.gui import clip_planes_editor  # noqa: F401  (registers the clip-planes editor)
 from vgraph.gui import label_table_editor  # noqa: F401  (registers the label-table editor)
+from vgraph.gui import markups_editor  # noqa: F401  (registers the markups editor)
 from vgraph.gui import camera_editor  # noqa: F401  (registers the camera editor)
 from vgraph.gui.editors import PropertyEditor, editor_for
 from vgraph.live.evaluator import ProcessorStatus, format_seconds, processor_status
