@@ -8,8 +8,9 @@ Conventions (docs/guide/measuring.md, "Markups", shows them with examples):
   SetProperty in the GUI, which makes the edit undoable). vgraph.markups_files reads and writes
   CSV, JSON and 3D Slicer's markups JSON.
 - ``camera``: link it to the renderer's camera. One that fits the data (fit_to_data) or has
-  automatic near and far planes is resolved on the connected ``volume`` as a ray caster with that
-  one volume resolves it (vgraph.gl.raycasting.framed_view), so the markups land on the
+  automatic near and far planes is resolved on the volumes connected to ``volume`` (several
+  allowed: connect every volume a MultiVolumeRayCaster draws) as the ray casters resolve it, on
+  the union of their boxes (vgraph.gl.raycasting.framed_view), so the markups land on the
   renderer's pixels; without a volume such a camera is refused by name (``<id>.volume``).
 - ``depth`` (optional): the renderer's depth outport. Where it is connected and ``depth_test`` is
   on, the parts of the markups behind what the renderer drew are hidden (vgraph.markups_drawing:
@@ -50,7 +51,8 @@ class Markups(Processor):
     inports = [Inport("image", Image, "the rendered image the markups are drawn over", optional=True),
                Inport("depth", Image, "the renderer's depth output: markups behind the scene are hidden",
                       optional=True),
-               Inport("volume", Volume, "the rendered volume: resolves a camera that fits the data", optional=True)]
+               Inport("volume", Volume, "the rendered volumes (every one the renderer draws): resolve a camera "
+                                        "that fits the data", optional=True, multiple=True)]
     outports = [Outport("image", Image, on_demand=True, description="the image with the markups drawn over it"),
                 Outport("table", Table, description="name, kind, points, length, angle, area per markup")]
 
@@ -59,7 +61,8 @@ class Markups(Processor):
     camera = CameraProperty(DEFAULT_CAMERA, doc="link it to the renderer's camera")
     color = ColorProperty((1.0, 0.85, 0.0, 1.0), doc="colour of lines, points and labels")
     line_width = IntProperty(2, min=1, max=64, doc="line width in pixels")
-    point_size = FloatProperty(0.012, min=0.0, max=0.2, doc="point disc diameter as a fraction of the image's shorter side")
+    point_size = FloatProperty(0.012, min=0.0, max=0.2,
+                               doc="point disc diameter as a fraction of the image's shorter side")
     labels = BoolProperty(True, doc="write each markup's name and length or angle beside it")
     font_size = FloatProperty(0.04, min=0.01, max=0.5, doc="label height as a fraction of the image's shorter side")
     units = StringProperty("", doc="written after lengths, e.g. mm")
@@ -76,7 +79,8 @@ class Markups(Processor):
     def frame_summary(self) -> str:
         return self.summary
 
-    def process(self, image: Image | None = None, depth: Image | None = None, volume: Volume | None = None) -> dict:
+    def process(self, image: Image | None = None, depth: Image | None = None,
+                volume: list[Volume] | None = None) -> dict:
         items = self.markups.markups
         self.summary = f"{len(items)} markups" if len(items) != 1 else "1 markup"
         outputs = {"table": measurements(self.markups, f"Markups '{self.id}'")}
@@ -88,9 +92,9 @@ class Markups(Processor):
                                                        self.color, self.id)
         return outputs
 
-    def _mask(self, size: tuple[int, int], depth: Image | None, volume: Volume | None) -> PILImage.Image:
+    def _mask(self, size: tuple[int, int], depth: Image | None, volumes: list[Volume] | None) -> PILImage.Image:
         width, height = size
-        view = MarkupView(self._view_camera(size, volume), size)
+        view = MarkupView(self._view_camera(size, volumes or []), size)
         if depth is not None and self.depth_test:
             if depth.size != size:
                 raise VGraphError(f"Markups '{self.id}': the depth image is {depth.size[0]}x{depth.size[1]} but "
@@ -104,11 +108,11 @@ class Markups(Processor):
         draw_markups(ImageDraw.Draw(mask), view, [m for m in self.markups.markups if m.visible], style)
         return mask
 
-    def _view_camera(self, size: tuple[int, int], volume: Volume | None) -> Camera:
+    def _view_camera(self, size: tuple[int, int], volumes: list[Volume]) -> Camera:
         """The camera the renderer drew with at this size, in world units, near and far set."""
         camera = self.camera
-        if volume is not None:
-            camera = framed_view(camera, (volume,), size, self.id).world_camera
+        if volumes:
+            camera = framed_view(camera, volumes, size, self.id).world_camera
             if camera is None:
                 raise VGraphError(f"{self.id}.camera: the view of this volume cannot be held in world units "
                                   f"(a box near 1e15); markups cannot be placed in it")

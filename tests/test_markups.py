@@ -189,7 +189,8 @@ def test_bad_csv_and_json_files_are_refused_by_name(tmp_path):
     (tmp_path / "nan.csv").write_text("name,kind,point,x,y,z\nr,ruler,0,1,2,nan\nr,ruler,1,1,2,3\n")
     with pytest.raises(MarkupsFileError, match=r"nan.csv: line 2: z must be a finite number"):
         read_markups(tmp_path / "nan.csv")
-    (tmp_path / "nan.json").write_text('{"markups": [{"name": "r", "kind": "ruler", "points": [[0, 0, NaN], [1, 1, 1]]}]}')
+    (tmp_path / "nan.json").write_text('{"markups": [{"name": "r", "kind": "ruler", '
+                                       '"points": [[0, 0, NaN], [1, 1, 1]]}]}')
     with pytest.raises(MarkupsFileError, match=r"nan.json: NaN is not a number a markups file may hold"):
         read_markups(tmp_path / "nan.json")
     with pytest.raises(MarkupsFileError, match=r"must end in .csv, .json or .mrk.json"):
