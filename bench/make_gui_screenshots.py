@@ -24,8 +24,9 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import tempfile
 from pathlib import Path
+
+from gui_window import fresh_window
 
 REPO = Path(__file__).resolve().parent.parent
 WELCOME_RECENT = ("networks/mpr_mri_head.json", "networks/raycast_head.json")   # most recent first
@@ -39,25 +40,15 @@ def canvas_share(window) -> float:
 
 
 def shoot(network: Path, select: str, size: tuple[int, int], out: Path, perspective: str = "editing") -> dict:
-    from PySide6.QtCore import QSettings
-    from PySide6.QtWidgets import QApplication, QScrollArea
+    from PySide6.QtWidgets import QScrollArea
 
-    from vgraph.gui.app import MainWindow, save_screenshot
+    from vgraph.gui.app import save_screenshot
     from vgraph.gui.layout import shown_whole
     from vgraph.gui.canvas_toolbar import overlay_setting
     from vgraph.gui.transfer_function_editor import TransferFunctionEditor
 
-    app = QApplication.instance() or QApplication([sys.argv[0]])
-    app.setApplicationName("vgraph")
-    with tempfile.TemporaryDirectory() as folder:
-        settings = QSettings(str(Path(folder) / "settings.ini"), QSettings.IniFormat)
-        settings.setValue(overlay_setting("canvas", "box"), True)   # show both overlays
-        window = MainWindow(settings)
-        window.remember_layout = False
-        window.arrange(*size)
-        window.show()
-        window.workspace.open(network)
-        window.view.fit_network()
+    both_overlays = {overlay_setting("canvas", "box"): True}
+    with fresh_window(size, network, settings_values=both_overlays) as (app, window):
         window.scene.select_processor(select)
         if perspective != "editing":
             window.perspectives.switch(perspective)
@@ -91,21 +82,9 @@ def shoot(network: Path, select: str, size: tuple[int, int], out: Path, perspect
 
 def shoot_welcome(size: tuple[int, int], out: Path) -> dict:
     """The window as it opens without a network: the welcome page in the middle (module docstring)."""
-    from PySide6.QtCore import QSettings
-    from PySide6.QtWidgets import QApplication
+    from vgraph.gui.app import save_screenshot
 
-    from vgraph.gui.app import MainWindow, save_screenshot
-
-    app = QApplication.instance() or QApplication([sys.argv[0]])
-    app.setApplicationName("vgraph")
-    with tempfile.TemporaryDirectory() as folder:
-        settings = QSettings(str(Path(folder) / "settings.ini"), QSettings.IniFormat)
-        window = MainWindow(settings)
-        window.remember_layout = False
-        for name in reversed(WELCOME_RECENT):
-            window.workspace.add_recent_file(REPO / name)
-        window.arrange(*size)
-        window.show()
+    with fresh_window(size, recent=tuple(REPO / name for name in WELCOME_RECENT)) as (app, window):
         for _ in range(5):
             app.processEvents()
         page = window.welcome.page

@@ -13,29 +13,21 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 from pathlib import Path
+
+from gui_window import fresh_window
 
 REPO = Path(__file__).resolve().parent.parent
 
 
 def shoot(out: Path, size: tuple[int, int], click: tuple[float, float]) -> None:
-    from PySide6.QtCore import QPointF, QSettings, Qt
-    from PySide6.QtWidgets import QApplication
+    from PySide6.QtCore import QPointF, Qt
 
     from vgraph.live import slice_clicks
-    from vgraph.gui.app import MainWindow, save_screenshot
+    from vgraph.gui.app import save_screenshot
     from vgraph.gui.canvas_grid import tile_canvases
 
-    app = QApplication.instance() or QApplication([sys.argv[0]])
-    app.setApplicationName("vgraph")
-    with tempfile.TemporaryDirectory() as folder:
-        window = MainWindow(QSettings(str(Path(folder) / "settings.ini"), QSettings.IniFormat))
-        window.remember_layout = False
-        window.arrange(*size)
-        window.show()
-        window.workspace.open(REPO / "networks" / "mpr_mri_head.json")
-        window.view.fit_network()
+    with fresh_window(size, REPO / "networks" / "mpr_mri_head.json") as (app, window):
         docks = [window.canvases.docks[i] for i in ("axial_canvas", "coronal_canvas",
                                                       "sagittal_canvas", "canvas")]
         tile_canvases(window, docks)

@@ -13,30 +13,21 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 import time
 from pathlib import Path
+
+from gui_window import fresh_window
 
 REPO = Path(__file__).resolve().parent.parent
 
 
 def shoot(out: Path, size: tuple[int, int], at: tuple[float, float]) -> None:
-    from PySide6.QtCore import QEvent, QPointF, QSettings, Qt
+    from PySide6.QtCore import QEvent, QPointF, Qt
     from PySide6.QtGui import QColor, QMouseEvent, QPainter, QPen
     from PySide6.QtWidgets import QApplication
 
-    from vgraph.gui.app import MainWindow
-
-    app = QApplication.instance() or QApplication([sys.argv[0]])
-    app.setApplicationName("vgraph")
-    with tempfile.TemporaryDirectory() as folder:
-        window = MainWindow(QSettings(str(Path(folder) / "settings.ini"), QSettings.IniFormat))
-        window.remember_layout = False
-        window.arrange(*size)
-        window.show()
-        window.workspace.open(REPO / "networks" / "raycast_head.json")
+    with fresh_window(size, REPO / "networks" / "raycast_head.json") as (app, window):
         window.workspace.set_property("rc.compositing", "iso")
-        window.view.fit_network()
         window.perspectives.switch("views")  # the canvas large, beside the properties
         window.canvases.hover.corner_action.setChecked(True)
         window.evaluation.run(wait=True)
