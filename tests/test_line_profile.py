@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from helpers.headsq import read_head, turned
 from vgraph import Network, PropertyError, VGraphError, VGraphWarning
 from vgraph.cli import main
 from vgraph.io import read_volume
@@ -19,22 +20,14 @@ from vgraph.table import Table
 from vgraph.testing import GivenVolume
 
 ORDERS = {"nearest": 0, "linear": 1, "cubic": 3}
-TILT = ((0.0, -1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, -1.0))  # a turned, mirrored grid
 # voxel coordinates (i, j, k) of the ends of a line well inside the head, off every grid plane
 INNER_ENDS = ((3.3, 5.7, 10.2), (55.1, 40.4, 80.9))
 
 
 @pytest.fixture(scope="module", params=["as_read", "turned"])
 def head(request):
-    from helpers.paths import DATA
-    path = DATA / "ct_head_headsq" / "quarter.nhdr"
-    if not path.is_file():
-        pytest.skip(f"shared data set {path} not found")
-    volume = read_volume(path)
-    assert volume.spacing == (3.2, 3.2, 1.5) and volume.data.dtype == np.int16
-    if request.param == "turned":
-        volume = volume.with_overrides(direction=TILT, origin=(-40.0, 25.0, 17.5))
-    return volume
+    volume = read_head()
+    return turned(volume) if request.param == "turned" else volume
 
 
 def world(volume, ijk):

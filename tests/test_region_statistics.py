@@ -13,26 +13,19 @@ import pytest
 from scipy import ndimage
 from skimage.measure import marching_cubes, mesh_surface_area, regionprops
 
+from helpers.headsq import read_head, turned
 from vgraph import PropertyError, VGraphError, VGraphWarning
 from vgraph.cli import main
 from vgraph.io import read_volume
 from vgraph.registry import registry
 
-TILT = ((0.0, -1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, -1.0))  # a turned, mirrored grid
 BONE, SKIN = 1150, 500  # the VTK Medical example's levels for headsq
 
 
 @pytest.fixture(scope="module", params=["as_read", "turned"])
 def head(request):
-    from helpers.paths import DATA
-    path = DATA / "ct_head_headsq" / "quarter.nhdr"
-    if not path.is_file():
-        pytest.skip(f"shared data set {path} not found")
-    volume = read_volume(path)
-    assert volume.spacing == (3.2, 3.2, 1.5) and volume.data.dtype == np.int16
-    if request.param == "turned":
-        volume = volume.with_overrides(direction=TILT, origin=(-40.0, 25.0, 17.5))
-    return volume
+    volume = read_head()
+    return turned(volume) if request.param == "turned" else volume
 
 
 @pytest.fixture(scope="module")

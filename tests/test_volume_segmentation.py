@@ -12,24 +12,17 @@ import pytest
 from scipy import ndimage
 from skimage.measure import label as skimage_label
 
+from helpers.headsq import TILT, read_head
 from vgraph import Network, ProcessorError, PropertyError, VGraphError
-from vgraph.io import read_volume
 from vgraph.registry import registry
 from vgraph.volume import Volume
 from vgraph.volume_segmentation import GridMismatchError
 
-TILT = ((0.0, -1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, -1.0))  # a turned, mirrored grid (det 1)
 
 
 @pytest.fixture(scope="module")
 def head():
-    from helpers.paths import DATA
-    path = DATA / "ct_head_headsq" / "quarter.nhdr"
-    if not path.is_file():
-        pytest.skip(f"shared data set {path} not found")
-    volume = read_volume(path)
-    assert volume.spacing == (3.2, 3.2, 1.5) and volume.data.dtype == np.int16
-    return volume
+    return read_head()
 
 
 @pytest.fixture(scope="module")
