@@ -4,7 +4,7 @@ BrickedRayCaster can draw (its pyramid), within the budget in `vgraph run`, bad 
 
 The store: the shared CT head (headsq, 64 x 64 x 93 int16, spacing 3.2 x 3.2 x 1.5 mm) stacked
 eight times along z (744 slices: a store much taller than a row of bricks with its halo), in 16^3
-bricks (so slabs of 16 slices and tiles of 16 x 16 voxels: halos along every axis), opened with a
+bricks (so slabs of 16 slices, and tiles of 32 x 32 voxels here: halos along every axis), opened with a
 budget below its 5.8 MiB. Tolerance for mixed (float32) values: 1e-6 of the largest |value|, as
 tests/test_volume_filters.py."""
 
@@ -45,6 +45,8 @@ def store_path(tall, tmp_path_factory):
 @pytest.fixture(autouse=True)
 def cache(tmp_path, monkeypatch):
     monkeypatch.setenv("VGRAPH_CACHE", str(tmp_path / "cache"))
+    # tiles of 32 x 32 voxels (2 x 2 in a plane of the head): halos along y and x as well as z
+    monkeypatch.setattr("vgraph.chunked_filtering.TILE", 32)
     return tmp_path / "cache"
 
 

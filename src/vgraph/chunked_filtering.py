@@ -53,7 +53,7 @@ from vgraph.volume_filtering import finite_array, mixed_type, warn_nonfinite
 
 CACHE_VARIABLE = "VGRAPH_CACHE"
 KEY_VERSION = 1  # part of the cache key: bump when a filter's results change
-TILE = 32  # voxels: the least rows and columns of a tile (tile_size)
+TILE = 128  # voxels: the least rows and columns of a tile (tile_size); halos of 8 add 27 %
 
 
 def is_chunked(volume: Volume) -> bool:
