@@ -197,3 +197,15 @@ def test_vgraph_run_of_a_filter_network_on_a_store_larger_than_its_budget_stays_
     assert smoothed.dims == labels.dims == (96, 96, 512) and labels.dtype == np.uint8
     level = (labels.data[::37] == 1).mean()
     assert 0.05 < level < 0.95  # both sides of the level in the store, not an empty mask
+
+
+def test_a_filtered_store_goes_where_python_asks_and_a_bad_name_is_named(tall, store_path, tmp_path):
+    from vgraph.chunked_filtering import filtered_store, voxel_plan
+    from vgraph.errors import OutputFileError
+    volume = store(store_path)
+    plan = voxel_plan(volume, (0, 0, 0), (63, 63, 99), volume.dtype, lambda voxels: voxels, volume.value_range)
+    out = filtered_store(volume, plan, "test", {}, output=tmp_path / "mine.zarr", progress=False)
+    assert out.source == str(tmp_path / "mine.zarr") and np.array_equal(whole(out), tall.data[:100])
+    with pytest.raises(OutputFileError, match=r"mine\.npy.*must end in \.zarr"):
+        filtered_store(volume, plan, "test", {}, output=tmp_path / "mine.npy", progress=False)
+    assert not (tmp_path / "mine.npy").exists()

@@ -10,21 +10,23 @@ Conventions:
   handed on as a BrickedVolume of it with the input's memory budget, so the BrickedRayCaster draws
   it and the next filter takes it in chunks again. Its bricks are the input's (vgraph convert's
   default, 64, where the input's are not even sizes).
-- Filters with a kernel (VolumeSmooth) run dask-image over a dask array of the store's level 0,
-  one chunk per brick: dask-image's map_overlap gives each chunk a halo of the kernel's reach
+- Filters with a kernel (VolumeSmooth) read each slab's slices and the kernel's reach more on
+  each side (along z), cut them into tiles of whole bricks (at least TILE voxels along y and x)
+  and run dask-image over them: its map_overlap gives each tile a halo of the kernel's reach
   (scipy's radius, ceil(truncate sigma) or half the median box), and the filter's own boundary
-  mode (reflect) applies at the volume's faces only, where the chunk's face is the volume's. So
-  the result equals the in-memory filter everywhere (tests/test_chunked_filters.py). Filters
-  without a kernel (threshold, crop, resample) read each slab's voxels (and, resampling, the rows
-  its interpolation reaches) straight from the store.
+  mode (reflect) applies only where a tile's face is the volume's; the extra slices are cut away
+  after. So the result equals the in-memory filter everywhere (tests/test_chunked_filters.py).
+  Filters without a kernel (threshold, crop, resample) read each slab's voxels (and, resampling,
+  the slices its interpolation reaches) straight from the store.
 - Where: ``output`` when given (a folder ending in .zarr); otherwise the cache folder,
   $VGRAPH_CACHE, else $XDG_CACHE_HOME/vgraph, else ~/.cache/vgraph, as
   filtered/<input name>.<key>.zarr, the key a hash of the input (its path, its metadata's
   modification time, the grid and range it is given) and the filter's settings: the same filter
   on the same store opens the finished store instead of filtering again. Nothing cleans the cache.
-- Memory: what a slab needs at once (``SlabPlan.working_bytes``: its input rows with halos, their
-  mixed-type copies, the output slab and the pyramid's pending slabs) is checked against the
-  input's budget before anything is read; above it is a MemoryBudgetError saying what to do.
+- Memory: what a slab needs at once (``working_bytes``: its input slices with halos, their
+  mixed-type copies, the tiles with halos, the output slab, the pyramid's pending slabs and
+  halving) is checked against the input's budget before anything is read; above it is a
+  MemoryBudgetError saying what to do.
 """
 
 from __future__ import annotations
