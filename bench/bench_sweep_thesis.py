@@ -1,0 +1,255 @@
+"""Retondaro 2008's results (ch. 5: fig. 5.1-5.5, table 5.1) redone with the SweepPlaneRenderer
+(RZSweep), and RZSweep beside the BrickedRayCaster and the RayCaster on the same data
+(docs/reports/performance.md, "RZSweep" section, records the numbers).
+
+    .venv/bin/python bench/bench_sweep_thesis.py [--image 800] [--repeat 2] [--sets mriHead ctSkull]
+        [--levels 1 2] [--workers 1 2] [--compare-sizes 256] [--compare-image 256]
+        [--psnr-image 128] [--reference-rate 16] [--quick]
+
+Thesis set-up: threshold 40-80 (8-bit scalar values), 800 x 800 pixels, octree levels 1 and 2,
+each frame after a rotation of the data (here: of the camera, a new angle each frame). Its data
+sets are rebuilt from the shared volumes: each is mapped to 8-bit codes over its value range (the
+thesis's Volvis data are 8-bit) and resampled (scipy.ndimage.zoom, linear) to the thesis's size,
+keeping the physical extent. The TF is zero outside 40-80, so the threshold leaves the image as
+it is and only removes work.
+
+Tiles against leaves (frame time and bytes read per worker, 1 and 2 workers, levels 1 and 2)
+need the SweepPlaneRenderer on the `--split` route (issue 34 item 3): the bench asks
+vgraph.distributed at run time and prints "not available" with the reason where it refuses.
+
+Timing: every variant draws one untimed warm-up frame (numba cache load, shader compile), then
+the variants take turns frame by frame (bench/interleave.py). Peak memory: ru_maxrss of a child
+process drawing one frame, above what it held after building the volume (GL driver included).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy import ndimage
+from tqdm import tqdm
+
+from interleave import interleaved, spread
+from vgraph.camera import Camera
+from vgraph.io import read_volume
+from vgraph.network import Network
+from vgraph.numerics import reference_raycast
+from vgraph.numerics.reference_boxes import volume_box
+from vgraph.testing import GivenVolume, ray_caster_network
+from vgraph.transfer_function import TransferFunction
+from vgraph.volume import Volume
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+LOW, HIGH = 40, 80  # the thesis's threshold, 8-bit codes
+# Retondaro 2008 table 5.1: name -> (shared volume standing in for it, thesis size x y z, thesis
+# vertices in millions). mriHead <- the T1 MRI head, ctSkull <- the CT head (headsq),
+# ctBonsai+ <- the bonsai (the thesis doubled it along x, as here).
+THESIS_SETS = {"mriHead": ("mri_head_t1/MR.nii.gz", (256, 256, 111), 6.94),
+               "ctSkull": ("ct_head_headsq/quarter.nhdr", (256, 256, 256), 16.0),
+               "ctBonsai+": ("ct_bonsai/bonsai.nii.gz", (512, 256, 256), 32.0)}
+THESIS_TILES = {1: (1, 1), 2: (2, 1), 4: (2, 2), 8: (4, 2)}  # its table 5.2
+TF = TransferFunction(points=[(0.0, 0, 0, 0, 0), (LOW / 255, 0.2, 0.6, 0.2, 0.0),
+                              (HIGH / 255, 0.9, 0.8, 0.3, 0.4), ((HIGH + 0.5) / 255, 0, 0, 0, 0),
+                              (1.0, 0, 0, 0, 0)])
+THRESHOLD = [LOW / 255, HIGH / 255]
+RENDERERS = ("SweepPlaneRenderer", "BrickedRayCaster", "RayCaster")
+
+
+def thesis_volume(path: Path, dims_xyz) -> Volume:
+    """``path`` as 8-bit codes over its value range, resampled to ``dims_xyz`` (x, y, z) over the
+    same physical extent; value range declared 0-255 so that 40-80 means the thesis's codes."""
+    source = read_volume(path)
+    codes = np.clip(np.rint(source.normalized(source.data) * 255.0), 0, 255)
+    shape = tuple(reversed(dims_xyz))  # the array is (z, y, x)
+    zoomed = ndimage.zoom(codes, [n / m for n, m in zip(shape, codes.shape)], order=1) \
+        if shape != codes.shape else codes
+    extent = [s * (m - 1) for s, m in zip(source.spacing, reversed(codes.shape))]
+    spacing = tuple(e / (n - 1) for e, n in zip(extent, dims_xyz))
+    return Volume(np.clip(np.rint(zoomed), 0, 255).astype(np.uint8), spacing=spacing,
+                  origin=source.origin, declared_range=(0.0, 255.0), source=str(path))
+
+
+def cube(n: int) -> Volume:
+    """The bonsai (256^3) resampled to n^3."""
+    return thesis_volume(DATA / "ct_bonsai" / "bonsai.nii.gz", (n, n, n))
+
+
+def network_of(renderer: str, volume: Volume, camera: Camera) -> Network:
+    if renderer == "SweepPlaneRenderer":
+        network = Network()
+        network.add(GivenVolume(id="src", volume=volume))
+        network.add(renderer, id="rc", camera=camera, transfer_function=TF, threshold=THRESHOLD)
+        network.connect("src.volume", "rc.volume")
+        return network
+    extra = {"lod_bias": -16.0} if renderer == "BrickedRayCaster" else {"shading": "none"}  # finest level
+    return ray_caster_network(volume, camera, renderer, transfer_function=TF, **extra)
+
+
+def camera_owner(network: Network):
+    return network.processors["eep" if "eep" in network.processors else "rc"]
+
+
+def frame(network: Network, size):
+    """frame(camera) -> seconds: one frame at a new camera (None: the warm-up's)."""
+    def draw(camera):
+        if camera is not None:
+            camera_owner(network).camera = camera
+        start = time.perf_counter()
+        network.evaluate("rc.image", size=size)
+        return time.perf_counter() - start
+    return draw
+
+
+def cameras(base: Camera, repeat: int) -> list[Camera]:
+    return [base.rotate(0.4 * (k + 1), 0.1 * (k + 1)) for k in range(repeat)]
+
+
+def bytes_read(renderer: str, network: Network, volume: Volume) -> str:
+    """What the renderer read of the volume's data in its last frame."""
+    if renderer == "SweepPlaneRenderer":
+        return f"{volume.data.nbytes / 2**20:.0f} MiB (every voxel, classified each frame)"
+    if renderer == "BrickedRayCaster":
+        return f"{network.processors['rc'].last_frame.get('bytes', 0) / 2**20:.0f} MiB (bricks drawn)"
+    return f"0 (texture resident; {volume.data.nbytes / 2**20:.0f} MiB uploaded once)"
+
+
+def peak_memory_mib(renderer: str, n: int, image: int) -> str:
+    """Peak resident memory a child process adds drawing one frame (run with --peak)."""
+    done = subprocess.run([sys.executable, __file__, "--peak", renderer, str(n), str(image)],
+                          capture_output=True, text=True, cwd=Path(__file__).parent)
+    if done.returncode != 0:
+        return f"failed ({done.stderr.strip().splitlines()[-1] if done.stderr.strip() else done.returncode})"
+    return f"{json.loads(done.stdout.strip().splitlines()[-1])['peak_mib']:.0f}"
+
+
+def peak_child(renderer: str, n: int, image: int) -> None:
+    volume = cube(n)
+    network = network_of(renderer, volume, Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0)))
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    network.evaluate("rc.image", size=(image, image))
+    after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    print(json.dumps({"peak_mib": (after - before) / 1024.0}))
+
+
+def psnr(a, b) -> float:
+    mse = float(np.mean((np.asarray(a, np.float64)[..., :3] - np.asarray(b, np.float64)[..., :3]) ** 2))
+    return float("inf") if mse == 0.0 else 10.0 * np.log10(1.0 / mse)
+
+
+def split_columns(network: Network, size, level: int, workers: int) -> dict:
+    """Tiles and leaves on ``workers`` local Dask workers at octree ``level`` (8^level leaves),
+    or why not (the route refuses, or item 3 is not built)."""
+    from vgraph.distributed.render import prepare, render
+    columns = {}
+    for split in ("tiles", "leaves"):
+        try:
+            prepare(network, split, THESIS_TILES[workers], size, "rc.image")
+        except Exception as error:  # the route's own refusal is the answer here
+            columns[split] = f"not available ({str(error).splitlines()[0][:90]})"
+    if len(columns) == 2:
+        return columns
+    from dask.distributed import Client, LocalCluster
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True) as cluster, Client(cluster) as client:
+        for split in [s for s in ("tiles", "leaves") if s not in columns]:
+            try:
+                start = time.perf_counter()
+                render(network, client, split=split, tiles=THESIS_TILES[workers], size=size, target="rc.image",
+                       runs=8 ** level if split == "leaves" else None)
+                columns[split] = f"{time.perf_counter() - start:.2f} s (bytes per worker: not reported by render())"
+            except Exception as error:
+                columns[split] = f"not available ({str(error).splitlines()[0][:90]})"
+    return columns
+
+
+def thesis_rows(args) -> None:
+    size = (args.image, args.image)
+    print(f"\n## Thesis set-up: threshold {LOW}-{HIGH}, {args.image} x {args.image}, {args.repeat} frames "
+          f"(new rotation each) after a warm-up, frames interleaved across data sets")
+    volumes, networks = {}, {}
+    for name in tqdm(args.sets, desc="volumes", file=sys.stderr):
+        path, dims, _ = THESIS_SETS[name]
+        dims = tuple(max(8, d // args.shrink) for d in dims)
+        volumes[name] = thesis_volume(DATA / path, dims)
+        base = Camera.looking_at_box(*volume_box(volumes[name]), direction=(-0.5, -0.3, -1.0))
+        networks[name] = (network_of("SweepPlaneRenderer", volumes[name], base), base)
+    base_cameras = {name: cameras(base, args.repeat) for name, (_, base) in networks.items()}
+    variants = {name: frame(network, size) for name, (network, _) in networks.items()}
+    # interleaved() hands every variant the same argument; each data set turns its own camera.
+    rounds = list(range(args.repeat))
+    seconds, _ = interleaved({name: (lambda k, name=name: variants[name](None if k is None else base_cameras[name][k]))
+                              for name in variants}, rounds, None)
+    print("\n| data (thesis size) | here: dims | vertices M (thesis) | swept M | faces M | frame s, 1 process "
+          "(min / median / max) | thesis |")
+    print("|---|---|---|---|---|---|---|")
+    for name, volume in volumes.items():
+        counts = networks[name][0].processors["rc"].last_sweep
+        print(f"| {name} ({' x '.join(map(str, THESIS_SETS[name][1]))}) | {' x '.join(map(str, volume.dims))} | "
+              f"{np.prod(volume.dims) / 1e6:.2f} ({THESIS_SETS[name][2]}) | {counts['vertices_swept'] / 1e6:.2f} | "
+              f"{counts['faces_projected'] / 1e6:.2f} | {spread(seconds[name], 2)} | fig. 5.1-5.5: plotted only |")
+    print("\n| data | octree level | workers | tiles | leaves |")
+    print("|---|---|---|---|---|")
+    for name in args.sets:
+        for level in args.levels:
+            for workers in args.workers:
+                columns = split_columns(networks[name][0], size, level, workers)
+                print(f"| {name} | {level} | {workers} | {columns['tiles']} | {columns['leaves']} |", flush=True)
+
+
+def comparison_rows(args) -> None:
+    size, psnr_size = (args.compare_image, args.compare_image), (args.psnr_image, args.psnr_image)
+    print(f"\n## RZSweep vs BrickedRayCaster vs RayCaster: bonsai resampled to n^3, TF and threshold "
+          f"{LOW}-{HIGH} as above, {args.compare_image}^2, {args.repeat} interleaved frames after a warm-up; "
+          f"PSNR (RGB) at {args.psnr_image}^2 against the CPU reference at rate {args.reference_rate}; "
+          "early termination 0.99, no shading, BrickedRayCaster at its finest level")
+    print("\n| n^3 | renderer | frame s (min / median / max) | bytes read per frame | peak memory MiB | PSNR dB |")
+    print("|---|---|---|---|---|---|")
+    for n in args.compare_sizes:
+        volume = cube(n)
+        base = Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
+        networks = {renderer: network_of(renderer, volume, base) for renderer in RENDERERS}
+        seconds, _ = interleaved({r: frame(net, size) for r, net in networks.items()}, cameras(base, args.repeat), None)
+        read = {r: bytes_read(r, net, volume) for r, net in networks.items()}
+        exact = reference_raycast.render(volume, base, TF, psnr_size, sampling_rate=args.reference_rate)
+        for renderer, network in tqdm(networks.items(), desc=f"{n}^3 psnr/peak", file=sys.stderr):
+            camera_owner(network).camera = base
+            image = network.evaluate("rc.image", size=psnr_size)
+            peak = "not measured (--quick)" if args.quick else peak_memory_mib(renderer, n, args.compare_image)
+            print(f"| {n}^3 | {renderer} | {spread(seconds[renderer], 2)} | {read[renderer]} | {peak} | "
+                  f"{psnr(image, exact):.1f} |", flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--image", type=int, default=800, help="thesis rows: image side (the thesis: 800)")
+    parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--sets", nargs="+", default=["mriHead", "ctSkull"], choices=list(THESIS_SETS))
+    parser.add_argument("--shrink", type=int, default=1, help="divide the thesis sizes by this (quick runs)")
+    parser.add_argument("--levels", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--workers", type=int, nargs="+", default=[1, 2], choices=list(THESIS_TILES))
+    parser.add_argument("--compare-sizes", type=int, nargs="+", default=[256])
+    parser.add_argument("--compare-image", type=int, default=256)
+    parser.add_argument("--psnr-image", type=int, default=128)
+    parser.add_argument("--reference-rate", type=float, default=16.0)
+    parser.add_argument("--quick", action="store_true", help="tiny sizes, for the test: seconds")
+    parser.add_argument("--peak", nargs=3, metavar=("RENDERER", "N", "IMAGE"), help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.peak:
+        return peak_child(args.peak[0], int(args.peak[1]), int(args.peak[2]))
+    if args.quick:
+        args.image, args.repeat, args.sets, args.shrink = 32, 1, ["mriHead"], 16
+        args.levels, args.workers, args.compare_sizes = [1], [1], [16]
+        args.compare_image, args.psnr_image, args.reference_rate = 32, 16, 2.0
+    print(f"settings: {vars(args)}; numba threads 1 (the sweep is serial)")
+    thesis_rows(args)
+    comparison_rows(args)
+
+
+if __name__ == "__main__":
+    main()
