@@ -153,6 +153,12 @@ class Markups(BaseModel):
         return Markups(markups=tuple(m for m in self.markups if m.name != name))
 
 
+def free_name(markups: Markups, kind: str) -> str:
+    """The first name "<kind> <n>" (n = 1, 2, ...; "closed curve 1") not taken in ``markups``."""
+    taken, stem = set(markups.names), kind.replace("_", " ")
+    return next(f"{stem} {n}" for n in range(1, len(taken) + 2) if f"{stem} {n}" not in taken)
+
+
 def angle_between(a: np.ndarray, b: np.ndarray) -> float:
     """The angle between two vectors in degrees, by atan2 of |a x b| and a . b (accurate near 0
     and 180 degrees, where acos of the cosine loses half the digits)."""

@@ -10,6 +10,8 @@ Interaction (on the camera returned by ``camera_property_for``, i.e. the nearest
 - middle drag or shift + left drag: pan, ``Camera.pan(dx / h, -dy / h)``, so the scene follows the
   cursor.
 - ctrl + left drag: moves the first clip plane upstream along its normal (clip_drag.py).
+- markups (markup_placing.py, ``placer``): a left press near a drawn markup point drags it; while
+  placing (``set_placing``, the toolbar's Place) a left click places a point.
 - a canvas that shows a slice and has no camera (slice_gestures.py): a left click or drag moves
   the shared cursor (slice_clicks.py; the cursor follows the mouse), the wheel pages through the
   volume, a right drag sets window/level, a middle (Shift + left) drag pans and Ctrl + wheel zooms.
@@ -75,6 +77,12 @@ class CanvasMouse:
         self._wheel_timer.timeout.connect(self._end_wheel)
         # Right drags zoom, so the menu opens on a right click without movement (mouseReleaseEvent).
         self.setContextMenuPolicy(Qt.PreventContextMenu)
+        self.placer = None    # the window's MarkupPlacer (markup_placing.py), set by canvases.py
+        self.placing = False  # left clicks place markup points
+
+    def set_placing(self, on: bool) -> None:
+        self.placing = bool(on)
+        self.setCursor(Qt.CrossCursor if self.placing else Qt.ArrowCursor)
 
     # --- camera edits ---------------------------------------------------------------------------
     def _begin_gesture(self) -> tuple[str, object] | None:
@@ -116,6 +124,11 @@ class CanvasMouse:
     def mousePressEvent(self, event) -> None:
         if self._drag is not None:
             return  # a second button during a drag does not change the gesture
+        if self.placer is not None:
+            self._drag = self.placer.begin(self, event)
+            if self._drag is not None:
+                event.accept()
+                return
         if clip_drag.wanted(event):  # Ctrl + left drag moves a clip plane (clip_drag.py)
             self._drag = clip_drag.begin(self, event, ("canvas", next(self._keys)))
             event.accept()
@@ -156,6 +169,10 @@ class CanvasMouse:
             clip_drag.move(self, drag, event)
             event.accept()
             return
+        if drag["mode"].startswith("markup"):
+            self.placer.move(self, drag, event)
+            event.accept()
+            return
         offset = event.position() - drag["start"]
         dx, dy = offset.x(), offset.y()
         if drag["mode"] == "window":
@@ -191,7 +208,9 @@ class CanvasMouse:
         if drag is None or event.button() != drag["button"]:
             return
         self._drag = None
-        if drag["active"]:
+        if drag["mode"].startswith("markup"):
+            self.placer.end(self, drag, event)
+        elif drag["active"]:
             self.interacting.emit(False)
         elif drag["mode"] in ("zoom", "window") and (event.position() - drag["start"]).manhattanLength() < CLICK_SLOP:
             self.context_menu().exec(event.globalPosition().toPoint())

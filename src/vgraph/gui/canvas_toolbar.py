@@ -8,7 +8,8 @@ Conventions:
 - Shortcuts work while the canvas (or its toolbar) has the keyboard focus (click into the canvas),
   so two canvases do not fight over a key: F fits, the digits turn to named views as on a
   numeric keypad (1 front, 3 right, 7 top; with Ctrl the opposite side), 5 iso; A, B and S switch
-  the axes, the box and the slices. Tooltips name them; Help > Keyboard Shortcuts lists them.
+  the axes, the box and the slices, M places markups (markup_placing.py; a mode, not
+  remembered). Tooltips name them; Help > Keyboard Shortcuts lists them.
 - Save Image (and File > Export Image) saves only a complete frame: a coarse one (drawn while a
   drag lasts, or while a bricked volume still reads, "refining...") is not what ``vgraph run``
   writes, so the user is told to wait instead (``save_complete_frame``).
@@ -37,7 +38,7 @@ VIEW_ACTIONS = {
     "bottom": ("Bottom (inferior)", "Ctrl+7"),
     "iso": ("Iso", "5"),
 }
-FIT_KEY, AXES_KEY, BOX_KEY, SLICES_KEY = "F", "A", "B", "S"
+FIT_KEY, AXES_KEY, BOX_KEY, SLICES_KEY, PLACE_KEY = "F", "A", "B", "S", "M"
 OVERLAY_DEFAULTS = {"axes": True, "box": False, "slices": True}
 STILL_REFINING = "the frame is still refining: save it when 'refining...' is gone"
 
@@ -77,6 +78,11 @@ class CanvasToolbar(QToolBar):
                                        "view, crosshairs and readouts in a slice view (axial red, "
                                        "sagittal yellow, coronal green)", SLICES_KEY, view.set_slices_visible,
                                        checkable=True)
+        self.addSeparator()
+        self.place_action = self._add("Place", "Place markups: a left click adds a point of the kind chosen in "
+                                      "the Markups processor's editor, on the picked surface (in a slice, on "
+                                      "its plane); a drawn point is dragged in any mode", PLACE_KEY,
+                                      view.set_placing, checkable=True)
         self.addSeparator()
         self.save_action = self._add("Save Image...", "Save the frame as a PNG, as `vgraph run` writes "
                                      "it (no overlays); File > Export Image (Ctrl+E) does the same",
@@ -121,7 +127,8 @@ class CanvasToolbar(QToolBar):
 
     def keyboard_actions(self) -> list[QAction]:
         """The actions with shortcuts, to be added to the pane so the keys work in the view too."""
-        return [self.fit_action, *self.view_actions.values(), *self._overlay_actions().values()]
+        return [self.fit_action, *self.view_actions.values(), *self._overlay_actions().values(),
+                self.place_action]
 
     # --- overlays remembered --------------------------------------------------------------------
     def _overlay_actions(self) -> dict[str, QAction]:

@@ -23,6 +23,7 @@ from vgraph.gui import layout
 from vgraph.gui.canvas_toolbar import CanvasPane
 from vgraph.gui.canvas_view import CanvasView, camera_property_for
 from vgraph.gui.hover import HoverReadout
+from vgraph.gui.markup_placing import MarkupPlacer
 from vgraph.live.evaluator import EvaluationOutcome, is_display
 from vgraph.gui.live_evaluation import LiveEvaluation
 from vgraph.gui.overlays import ViewGeometry
@@ -45,6 +46,7 @@ class CanvasDocks(QObject):
         self.current_id: str | None = None
         self._result = None   # the render result whose frames arrive next (view cameras and boxes)
         self.hover = HoverReadout(window, evaluation)  # what lies under the mouse (hover.py)
+        self.placer = MarkupPlacer(window, workspace, self.hover)  # markups by mouse (markup_placing.py)
         evaluation.received.connect(self._received)
         evaluation.frames.connect(self.show_frames)
         evaluation.finished.connect(self.show_problems)
@@ -80,6 +82,7 @@ class CanvasDocks(QObject):
         view.problem.connect(self.problem)
         view.activated.connect(self._make_current)
         self.hover.watch(view)
+        view.placer = self.placer
         view.set_message("waiting for the render process")
         dock = QDockWidget(f"Canvas: {processor_id}", self.window)
         dock.setObjectName(f"canvas:{processor_id}")

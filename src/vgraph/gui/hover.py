@@ -8,6 +8,11 @@ curvatures). One probe is in flight at a time; moves meanwhile keep only the lat
 when the answer arrives, so a slow answer never queues stale probes. The canvas under the mouse
 is ``LiveEvaluation.hovered``: its renderer draws its depth with each frame (in the same pass), so
 probes read the frame already drawn and never draw one (bench/bench_hover.py measures the rate).
+
+The same channel answers requested picks (``request``: the mouse placing and dragging markups,
+markup_placing.py): they go before the hover's position, in order, and their answers go to their
+callback instead of the status bar; a request with a ``key`` replaces the one of that key still
+waiting (a drag sends only its latest position).
 """
 
 from __future__ import annotations
@@ -36,6 +41,8 @@ class HoverReadout(QObject):
         self.last: ProbeAnswer | None = None  # the last answer shown
         self.answers = 0                      # answers shown (the tests and the bench count them)
         self._serial = 0
+        self.requests: list[tuple[Probe, object, object]] = []  # (probe, callback, key) not sent yet
+        self._callbacks: dict[int, object] = {}  # serial -> the callback of a requested probe
         self.timer = QTimer(self)
         self.timer.setInterval(POLL_MS)
         self.timer.timeout.connect(self._poll)
@@ -80,6 +87,22 @@ class HoverReadout(QObject):
             # first probe draws it (once).
             self.evaluation.hovered = (view.canvas_id,)
 
+    def request(self, view, position, callback, key=None) -> bool:
+        """Pick widget ``position`` of ``view`` for ``callback(answer)``; False (nothing sent)
+        outside its frame. ``key``: replaces the request of that key still waiting."""
+        pixel = frame_pixel(view, position)
+        if pixel is None:
+            return False
+        self._enter(view)
+        if key is not None:
+            self.requests = [r for r in self.requests if r[2] != key]
+        self._serial += 1
+        height, width = view.frame().shape[:2]
+        probe = Probe(view.canvas_id, pixel[0], pixel[1], (width, height), self._serial)
+        self.requests.append((probe, callback, key))
+        self._send_pending()
+        return True
+
     # --- probes ---------------------------------------------------------------------------------
     def _send_pending(self) -> None:
         renderer = self.evaluation.renderer
@@ -87,6 +110,14 @@ class HoverReadout(QObject):
             if renderer.probes_out and time.monotonic() - self.sent_at < GIVE_UP_SECONDS:
                 return  # one in flight: this position goes when it is answered
             self.sent_at = None
+        if self.requests:
+            probe, callback, _ = self.requests[0]
+            if renderer.send_probe(probe):
+                self.requests.pop(0)
+                self._callbacks[probe.serial] = callback
+                self.sent_at = time.monotonic()
+                self.timer.start()
+            return
         if self.pending is None:
             return
         if renderer.send_probe(self.pending):
@@ -101,8 +132,12 @@ class HoverReadout(QObject):
                 self.timer.stop()
             return
         self.sent_at = None
-        self._show(answer)
-        if self.pending is not None:
+        callback = self._callbacks.pop(answer.serial, None)
+        if callback is not None:
+            callback(answer)
+        else:
+            self._show(answer)
+        if self.pending is not None or self.requests:
             self._send_pending()
         else:
             self.timer.stop()

@@ -16,13 +16,15 @@ Conventions (as every editor, see editors.py):
 
 from __future__ import annotations
 
+import weakref
+
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QFileDialog, QHBoxLayout, QHeaderView, QPushButton,
                                QSizePolicy, QTableWidget, QTableWidgetItem, QVBoxLayout)
 
 from vgraph.errors import VGraphError
 from vgraph.gui.editors import PropertyEditor, list_popup, register_editor
-from vgraph.markups import KINDS, Markup, Markups
+from vgraph.markups import KINDS, Markup, Markups, free_name
 from vgraph.markups_files import read_markups, write_markups
 
 COLUMNS = ("name", "kind", "measured", "points", "visible")
@@ -31,6 +33,12 @@ NEW_POINTS = {"points": [[0.0, 0.0, 0.0]], "ruler": [[0.0, 0.0, 0.0], [10.0, 0.0
               "angle": [[10.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 10.0, 0.0]],
               "closed_curve": [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [10.0, 10.0, 0.0], [0.0, 10.0, 0.0]]}
 FILES = "Markups (*.csv *.json *.mrk.json)"
+_CHOSEN: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()  # processor -> the kind chosen last
+
+
+def chosen_kind(processor) -> str:
+    """The kind chosen last in the editor of this Markups processor (Add's, and the mouse's)."""
+    return _CHOSEN.get(processor, "ruler")
 
 
 def measured_text(markup: Markup) -> str:
@@ -71,7 +79,10 @@ class MarkupsEditor(PropertyEditor):
         buttons = QHBoxLayout()
         self.kind = list_popup(QComboBox())
         self.kind.addItems(list(KINDS))
-        self.kind.setCurrentText("ruler")
+        # The kind is kept per processor across editors (the inspector builds one per selection
+        # and edit): it is also the kind the mouse places (markup_placing.py).
+        self.kind.setCurrentText(chosen_kind(self.processor))
+        self.kind.currentTextChanged.connect(lambda kind: _CHOSEN.__setitem__(self.processor, kind))
         buttons.addWidget(self.kind)
         for label, tip, action in (("Add", "add a markup of the chosen kind", self.add_markup),
                                    ("Remove", "remove the selected markups", self.remove_selected),
@@ -124,9 +135,7 @@ class MarkupsEditor(PropertyEditor):
 
     def add_markup(self) -> None:
         kind = self.kind.currentText()
-        taken = set(self.current.names)
-        name = next(f"{kind.replace('_', ' ')} {n}" for n in range(1, len(taken) + 2)
-                    if f"{kind.replace('_', ' ')} {n}" not in taken)
+        name = free_name(self.current, kind)
         self.emit(self.rows() + [{"name": name, "kind": kind, "points": NEW_POINTS[kind], "visible": True}])
 
     def remove_selected(self) -> None:
