@@ -35,31 +35,38 @@ class SweptGrid:
 def swept_grid(volume: Volume, camera: Camera, threshold, owner: str) -> SweptGrid:
     """The grid of ``volume`` seen by the resolved ``camera``; ``threshold`` (low, high) in
     normalised intensity or None. ``owner`` names the processor in errors."""
-    _check_volume(volume, owner)
+    check_volume(volume, owner)
     values = volume.normalized(np.asarray(volume.data, dtype=np.float64))
-    positions = vertex_positions(volume)
+    return grid_of(values, volume, camera, threshold)
+
+
+def grid_of(values: np.ndarray, where, camera: Camera, threshold) -> SweptGrid:
+    """The grid of normalised ``values`` [z, y, x] placed by ``where``'s spacing, origin (of
+    values[0, 0, 0]) and direction (a Volume, or a leaf of a store: vgraph.sweep.leaves)."""
+    positions = vertex_positions(values.shape, where)
     right, up, forward = camera.basis()
     depths = (positions - np.asarray(camera.position, dtype=np.float64)) @ forward
     kept_cells = classified_cells(values, threshold)
     return SweptGrid(values, positions, depths, kept_cells, cell_vertices(kept_cells),
-                     index_transform(volume))
+                     index_transform(where))
 
 
-def vertex_positions(volume: Volume) -> np.ndarray:
-    """World position of every voxel centre, origin + D @ (index * spacing), (nz, ny, nx, 3)."""
-    nx, ny, nz = volume.dims
+def vertex_positions(shape, where) -> np.ndarray:
+    """World position of every vertex of a [z, y, x] ``shape``, origin + D @ (index * spacing),
+    (nz, ny, nx, 3)."""
+    nz, ny, nx = shape
     k, j, i = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
-    index = np.stack([i, j, k], axis=-1).astype(np.float64) * np.asarray(volume.spacing)
-    return index @ np.asarray(volume.direction, dtype=np.float64).T + np.asarray(volume.origin)
+    index = np.stack([i, j, k], axis=-1).astype(np.float64) * np.asarray(where.spacing, dtype=np.float64)
+    return index @ np.asarray(where.direction, dtype=np.float64).T + np.asarray(where.origin, dtype=np.float64)
 
 
-def index_transform(volume: Volume) -> np.ndarray:
-    """(3, 4) affine from world points to continuous (x, y, z) indices: the inverse of the volume's
-    (its direction is orthonormal)."""
-    direction = np.asarray(volume.direction, dtype=np.float64)
-    spacing = np.asarray(volume.spacing, dtype=np.float64)
+def index_transform(where) -> np.ndarray:
+    """(3, 4) affine from world points to continuous (x, y, z) indices: the inverse of the grid's
+    placement (its direction is orthonormal)."""
+    direction = np.asarray(where.direction, dtype=np.float64)
+    spacing = np.asarray(where.spacing, dtype=np.float64)
     linear = direction.T / spacing[:, None]
-    return np.concatenate([linear, -(linear @ np.asarray(volume.origin))[:, None]], axis=1)
+    return np.concatenate([linear, -(linear @ np.asarray(where.origin, dtype=np.float64))[:, None]], axis=1)
 
 
 def classified_cells(values: np.ndarray, threshold) -> np.ndarray:
@@ -84,7 +91,8 @@ def cell_vertices(kept_cells: np.ndarray) -> np.ndarray:
     return kept
 
 
-def _check_volume(volume: Volume, owner: str) -> None:
+def check_volume(volume: Volume, owner: str) -> None:
+    """Refuse what the sweep cannot render, by name (metadata only for a store)."""
     where = f" from {volume.source}" if volume.source else ""
     if volume.is_spline_coefficients:
         raise VGraphError(f"{owner}: the volume{where} holds B-spline coefficients, not samples")

@@ -20,6 +20,8 @@ cell ``(k * (ny - 1) + j) * (nx - 1) + i`` for the cell whose lowest vertex is (
    alpha = 1 - exp(-(tau(s_c) + tau(s_n)) / 2 * l), tau(s) = -ln(1 - a(s)) / min(spacing) (the TF's
    alpha is per sample at rate 1, as in the ray casters); in log space as the reference is. A pixel
    stops at A >= early_termination (checked before each segment, as the reference's samples).
+   The per-pixel arrays come in holding what grids in front composited already (zero for one
+   grid): this grid's segments go behind them.
 """
 
 from __future__ import annotations
@@ -117,6 +119,8 @@ def sweep(values, positions, pixel_x, pixel_y, depths, kept_vertices, kept_cells
     last_t = np.full(pixels, np.nan)
     last_s = np.zeros(pixels)
     done = np.zeros(pixels, dtype=np.bool_)
+    for p in range(pixels):  # a grid behind others continues their compositing (vgraph.sweep.leaves)
+        done[p] = -math.expm1(log_transparency[p]) >= early_termination
     front, back, point = np.empty(4), np.empty(4), np.empty(3)
 
     sent = np.zeros(n, dtype=np.bool_)

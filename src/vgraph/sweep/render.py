@@ -18,7 +18,7 @@ from vgraph.camera import Camera
 from vgraph.errors import VGraphError, positive_pair
 from vgraph.numerics.reference_boxes import volume_box
 from vgraph.sweep import kernel
-from vgraph.sweep.grid import swept_grid
+from vgraph.sweep.grid import SweptGrid, swept_grid
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
@@ -40,47 +40,99 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
            owner: str = "SweepPlaneRenderer") -> SweepResult:
     """Render ``volume`` by RZSweep. ``threshold``: (low, high) normalised intensities or None
     (vgraph.sweep.grid); ``owner`` names the caller in errors."""
+    frame = begin(volume, camera, transfer_function, size, threshold=threshold,
+                  early_termination=early_termination, owner=owner)
+    grid = swept_grid(volume, frame.camera, threshold, owner)
+    sweep_into(frame, grid, volume.dims)
+    return finish(frame, background)
+
+
+@dataclass
+class Frame:
+    """What every grid swept into one picture shares (the camera's rays, the LUT, the optical
+    constants) and the per-pixel state the sweeps accumulate, front to back: premultiplied
+    ``colour``, ``log_transparency``, ``first_t`` (NaN: no opacity yet) and ``segments``. Grids
+    swept one after another in visibility order (the leaves of a store, vgraph.sweep.leaves)
+    continue the same per-pixel compositing, early termination included."""
+
+    camera: Camera
+    width: int
+    height: int
+    rays: dict  # origins, directions, cosines, t_far, near, width, height: the kernel's arguments
+    view_projection: np.ndarray
+    lut: np.ndarray
+    tau_scale: float
+    threshold: tuple | None
+    early_termination: float
+    owner: str
+    colour: np.ndarray
+    log_transparency: np.ndarray
+    first_t: np.ndarray
+    segments: np.ndarray
+    counts: list  # vertices swept, faces projected, largest list use (the most of any grid)
+
+
+def begin(volume: Volume, camera: Camera, transfer_function: TransferFunction, size, *,
+          threshold=None, early_termination: float = 0.99, owner: str = "SweepPlaneRenderer") -> Frame:
+    """An empty picture of ``volume`` (its box, value range and spacing; no voxel is read)."""
     width, height = positive_pair(size, f"{owner}: size", "(width, height)")
     camera = camera.resolved(*volume_box(volume), width / height)  # as the reference and GL do
-    grid = swept_grid(volume, camera, threshold, owner)
     near, _ = camera.planes()
+    origins, directions = (np.ascontiguousarray(a.reshape(-1, 3)) for a in camera.rays(width, height))
+    forward = camera.basis()[2]
+    rays = dict(origins=origins, directions=directions, cosines=directions @ forward,
+                t_far=camera.far_distance(directions), near=float(near), width=width, height=height)
+    pixels = width * height
+    return Frame(camera, width, height, rays, np.ascontiguousarray(camera.view_projection(width / height)),
+                 transfer_function.for_volume(volume).lut().astype(np.float64), 1.0 / min(volume.spacing),
+                 None if threshold is None else tuple(threshold), float(early_termination), owner,
+                 np.zeros((pixels, 3)), np.zeros(pixels), np.full(pixels, np.nan),
+                 np.zeros(pixels, dtype=np.int64), [0, 0, 0])
+
+
+def sweep_into(frame: Frame, grid: SweptGrid, dims) -> None:
+    """Sweep ``grid`` (of a volume with ``dims`` (x, y, z)) into ``frame``'s pixels, behind what
+    is there already."""
+    near = frame.rays["near"]
     depths = grid.depths[grid.kept_vertices]
     if depths.size and depths.min() < near <= depths.max():
-        raise VGraphError(f"{owner}: the camera's near plane cuts the volume's box; the sweep needs "
+        raise VGraphError(f"{frame.owner}: the camera's near plane cuts the volume's box; the sweep needs "
                           "the whole box in front of it (move the camera out of the volume)")
-    if depths.size and depths.max() < near:  # all behind the near plane: nothing to sweep
-        grid = swept_grid(volume, camera, (np.inf, np.inf), owner)  # keeps no cell
-    origins, directions = (a.reshape(-1, 3) for a in camera.rays(width, height))
-    forward = camera.basis()[2]
-    view_projection = np.ascontiguousarray(camera.view_projection(width / height))
-    lut = transfer_function.for_volume(volume).lut().astype(np.float64)
-    pixels = width * height
-    pixel_x, pixel_y = _pixel_coordinates(grid.positions.reshape(-1, 3), view_projection, width, height)
+    if not depths.size or depths.max() < near:  # nothing, or all behind the near plane
+        return
+    pixel_x, pixel_y = pixel_coordinates(grid.positions.reshape(-1, 3), frame.view_projection,
+                                          frame.width, frame.height)
     arrays = dict(values=grid.values.ravel(), positions=grid.positions.reshape(-1, 3),
                   pixel_x=pixel_x, pixel_y=pixel_y,
                   depths=grid.depths.ravel(), kept_vertices=grid.kept_vertices.ravel(),
-                  kept_cells=grid.kept_cells.ravel(), dims=np.array(volume.dims, dtype=np.int64),
-                  origins=np.ascontiguousarray(origins), directions=np.ascontiguousarray(directions),
-                  cosines=directions @ forward, t_far=camera.far_distance(directions),
-                  near=float(near), width=width, height=height,
-                  lut=lut, tau_scale=1.0 / min(volume.spacing), threshold_on=threshold is not None,
-                  inverse=grid.inverse, early_termination=float(early_termination))
-    capacity = FIRST_POOL * pixels + 1024
+                  kept_cells=grid.kept_cells.ravel(), dims=np.array(dims, dtype=np.int64), **frame.rays,
+                  lut=frame.lut, tau_scale=frame.tau_scale, threshold_on=frame.threshold is not None,
+                  inverse=grid.inverse, early_termination=frame.early_termination)
+    capacity = FIRST_POOL * frame.width * frame.height + 1024
     while True:
-        colour, log_t = np.zeros((pixels, 3)), np.zeros(pixels)
-        first_t, segments = np.full(pixels, np.nan), np.zeros(pixels, dtype=np.int64)
-        swept, faces, peak = kernel.sweep(**arrays, capacity=capacity, colour=colour,
-                                          log_transparency=log_t, first_t=first_t, segments=segments)
+        # a sweep that runs out of list entries has composited part of its grid: retry on copies
+        state = [a.copy() for a in (frame.colour, frame.log_transparency, frame.first_t, frame.segments)]
+        swept, faces, peak = kernel.sweep(**arrays, capacity=capacity, colour=state[0],
+                                          log_transparency=state[1], first_t=state[2], segments=state[3])
         if swept != kernel.OVERFLOW:
             break
         capacity *= 2
-    image = _over_background(colour, log_t, np.asarray(background, dtype=np.float64))
-    depth = _depth_image(first_t, segments, origins, directions, view_projection)
-    return SweepResult(image.reshape(height, width, 4), depth.reshape(height, width, 4),
-                       int(swept), int(faces), int(peak), camera)
+    frame.colour, frame.log_transparency, frame.first_t, frame.segments = state
+    frame.counts[0] += int(swept)
+    frame.counts[1] += int(faces)
+    frame.counts[2] = max(frame.counts[2], int(peak))
 
 
-def _pixel_coordinates(points, view_projection, width, height) -> tuple[np.ndarray, np.ndarray]:
+def finish(frame: Frame, background=(0.0, 0.0, 0.0, 1.0)) -> SweepResult:
+    """The picture over ``background`` and its depth image."""
+    image = _over_background(frame.colour, frame.log_transparency, np.asarray(background, dtype=np.float64))
+    depth = _depth_image(frame.first_t, frame.segments, frame.rays["origins"], frame.rays["directions"],
+                         frame.view_projection)
+    shape = (frame.height, frame.width, 4)
+    return SweepResult(image.reshape(shape), depth.reshape(shape), *frame.counts, frame.camera)
+
+
+def pixel_coordinates(points, view_projection, width, height) -> tuple[np.ndarray, np.ndarray]:
     """(x, y) of world points in the image, pixel centres at whole numbers, row 0 at the top (the
     rays of Camera.rays go through the centres)."""
     clip = points @ view_projection[:, :3].T + view_projection[:, 3]
