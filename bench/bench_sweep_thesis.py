@@ -29,6 +29,7 @@ import json
 import resource
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -143,28 +144,48 @@ def psnr(a, b) -> float:
     return float("inf") if mse == 0.0 else 10.0 * np.log10(1.0 / mse)
 
 
-def split_columns(network: Network, size, level: int, workers: int) -> dict:
-    """Tiles and leaves on ``workers`` local Dask workers at octree ``level`` (8^level leaves),
-    or why not (the route refuses, or item 3 is not built)."""
+def file_network(volume: Volume, camera: Camera, folder: Path) -> Network:
+    """VolumeSource (the volume saved as .npy in ``folder``) -> SweepPlaneRenderer: a network the
+    split route can ship to its workers (a GivenVolume cannot be)."""
+    path = folder / f"volume_{'x'.join(map(str, volume.dims))}.npy"
+    np.save(path, volume.data)
+    network = Network()
+    network.add("VolumeSource", id="src", path=str(path), spacing=list(volume.spacing),
+                origin=list(volume.origin), value_range=[0.0, 255.0])
+    network.add("SweepPlaneRenderer", id="rc", camera=camera, transfer_function=TF, threshold=THRESHOLD)
+    network.connect("src.volume", "rc.volume")
+    return network
+
+
+def split_columns(network: Network, size, level: int, workers: int, file_bytes: int,
+                  skip_tiles: bool = False) -> dict:
+    """Tiles and leaves on ``workers`` local Dask workers at octree ``level`` (leaves: 8^level runs),
+    or why not (the route refuses, or issue 34 item 3 is not built). One frame each after a warm-up."""
     from vgraph.distributed.render import prepare, render
-    columns = {}
+    columns, skipped = {}, {"tiles"} if skip_tiles else set()
     for split in ("tiles", "leaves"):
+        if split in skipped:
+            continue
         try:
             prepare(network, split, THESIS_TILES[workers], size, "rc.image")
         except Exception as error:  # the route's own refusal is the answer here
-            columns[split] = f"not available ({str(error).splitlines()[0][:90]})"
-    if len(columns) == 2:
+            columns[split] = f"not available ({str(error).splitlines()[0][:100]})"
+    if len(columns) + len(skipped) == 2:
         return columns
     from dask.distributed import Client, LocalCluster
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True) as cluster, Client(cluster) as client:
-        for split in [s for s in ("tiles", "leaves") if s not in columns]:
+        for split in [s for s in ("tiles", "leaves") if s not in columns and s not in skipped]:
             try:
+                options = dict(split=split, tiles=THESIS_TILES[workers], size=size, target="rc.image",
+                               runs=8 ** level if split == "leaves" else None)
+                render(network, client, **options)  # warm-up: numba cache load on every worker
                 start = time.perf_counter()
-                render(network, client, split=split, tiles=THESIS_TILES[workers], size=size, target="rc.image",
-                       runs=8 ** level if split == "leaves" else None)
-                columns[split] = f"{time.perf_counter() - start:.2f} s (bytes per worker: not reported by render())"
+                render(network, client, **options)
+                read = (f"{file_bytes / 2**20:.1f} MiB per tile (each tile reads the whole file: in-memory source)"
+                        if split == "tiles" else "not reported by render()")
+                columns[split] = f"{time.perf_counter() - start:.2f} s; bytes per worker: {read}"
             except Exception as error:
-                columns[split] = f"not available ({str(error).splitlines()[0][:90]})"
+                columns[split] = f"not available ({str(error).splitlines()[0][:100]})"
     return columns
 
 
@@ -179,6 +200,13 @@ def thesis_rows(args) -> None:
         volumes[name] = thesis_volume(DATA / path, dims)
         base = Camera.looking_at_box(*volume_box(volumes[name]), direction=(-0.5, -0.3, -1.0))
         networks[name] = (network_of("SweepPlaneRenderer", volumes[name], base), base)
+    if "times" in args.parts:
+        single_process_rows(args, volumes, networks, size)
+    if "splits" in args.parts:
+        split_rows(args, volumes, {name: base for name, (_, base) in networks.items()}, size)
+
+
+def single_process_rows(args, volumes, networks, size) -> None:
     base_cameras = {name: cameras(base, args.repeat) for name, (_, base) in networks.items()}
     variants = {name: frame(network, size) for name, (network, _) in networks.items()}
     # interleaved() hands every variant the same argument; each data set turns its own camera.
@@ -193,13 +221,22 @@ def thesis_rows(args) -> None:
         print(f"| {name} ({' x '.join(map(str, THESIS_SETS[name][1]))}) | {' x '.join(map(str, volume.dims))} | "
               f"{np.prod(volume.dims) / 1e6:.2f} ({THESIS_SETS[name][2]}) | {counts['vertices_swept'] / 1e6:.2f} | "
               f"{counts['faces_projected'] / 1e6:.2f} | {spread(seconds[name], 2)} | fig. 5.1-5.5: plotted only |")
+
+
+def split_rows(args, volumes, bases, size) -> None:
     print("\n| data | octree level | workers | tiles | leaves |")
     print("|---|---|---|---|---|")
-    for name in args.sets:
-        for level in args.levels:
-            for workers in args.workers:
-                columns = split_columns(networks[name][0], size, level, workers)
-                print(f"| {name} | {level} | {workers} | {columns['tiles']} | {columns['leaves']} |", flush=True)
+    with tempfile.TemporaryDirectory() as folder:
+        for name, volume in volumes.items():
+            network = file_network(volume, bases[name], Path(folder))
+            tiles_seen = {}  # the in-memory source has no octree: tiles do not depend on the level
+            for level in args.levels:
+                for workers in args.workers:
+                    columns = split_columns(network, size, level, workers, volume.data.nbytes,
+                                            skip_tiles=workers in tiles_seen)
+                    columns["tiles"] = tiles_seen.setdefault(workers, columns["tiles"]) if "tiles" in columns \
+                        else f"as level {args.levels[0]} (in-memory source: no leaves)"
+                    print(f"| {name} | {level} | {workers} | {columns['tiles']} | {columns['leaves']} |", flush=True)
 
 
 def comparison_rows(args) -> None:
@@ -237,6 +274,8 @@ def main() -> None:
     parser.add_argument("--compare-image", type=int, default=256)
     parser.add_argument("--psnr-image", type=int, default=128)
     parser.add_argument("--reference-rate", type=float, default=16.0)
+    parser.add_argument("--parts", nargs="+", default=["times", "splits", "compare"],
+                        choices=["times", "splits", "compare"])
     parser.add_argument("--quick", action="store_true", help="tiny sizes, for the test: seconds")
     parser.add_argument("--peak", nargs=3, metavar=("RENDERER", "N", "IMAGE"), help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -247,8 +286,10 @@ def main() -> None:
         args.levels, args.workers, args.compare_sizes = [1], [1], [16]
         args.compare_image, args.psnr_image, args.reference_rate = 32, 16, 2.0
     print(f"settings: {vars(args)}; numba threads 1 (the sweep is serial)")
-    thesis_rows(args)
-    comparison_rows(args)
+    if {"times", "splits"} & set(args.parts):
+        thesis_rows(args)
+    if "compare" in args.parts:
+        comparison_rows(args)
 
 
 if __name__ == "__main__":
