@@ -3,6 +3,7 @@ against the scipy.ndimage / scikit-image call each one equals, on the 256^3 bons
 
 Usage:  python bench/bench_volume_filters.py [--rounds N] [--data FOLDER] [--out FILE.md]
         python bench/bench_volume_filters.py --chunked 512 [--budget MIB] [--brick 64] [--folder DIR]
+                                             [--only Gaussian threshold ...]
 
 Ours runs the processor's process() on a fresh Volume each time (so the value range and histogram
 it works out are in its time, as in a first run); the reference is the library call on the bare
@@ -12,8 +13,8 @@ warm-up (bench/interleave.py); min / median / max seconds over the rounds go in 
 --chunked N: the filters on a store larger than its memory budget (vgraph.chunked_filtering), on
 an N^3 float32 store generated slab by slab (a smooth field with noise; converted with vgraph
 convert, bricks --brick), each filter in a fresh process with the budget --budget: seconds, voxels
-per second, and the process's peak resident memory (ru_maxrss) above what it held after its
-imports and before the filter (what the filter used; the store's size for comparison). Once per
+per second, and the process's peak resident memory during the filter (VmHWM, reset before it)
+above what it held after its imports (what the filter used; the store's size for comparison). Once per
 filter: a run takes minutes.
 """
 
@@ -23,7 +24,6 @@ import argparse
 import json
 import os
 import platform
-import resource
 import subprocess
 import sys
 import tempfile
@@ -89,7 +89,7 @@ CHUNKED = {
     "median, 3^3 voxels": ("VolumeSmooth", {"filter": "median", "size": (3.0, 3.0, 3.0)}),
     "threshold to a mask": ("VolumeThreshold", {"lower": 0.3, "upper": 0.7}),
     "Otsu to a mask": ("VolumeThreshold", {"method": "otsu"}),
-    "crop to the middle half": ("VolumeCrop", {"units": "voxels"}),
+    "crop 1/32 off each x, y side": ("VolumeCrop", {"units": "voxels"}),
     "resample, linear, spacing 1.5": ("VolumeResample", {"spacing": (1.5, 1.5, 1.5)}),
 }
 
@@ -123,15 +123,28 @@ def run_one(store: str, type_name: str, properties: str, budget: float) -> None:
     properties = json.loads(properties)
     if type_name == "VolumeCrop":
         n = volume.dims[0]
-        properties["voxel_box"] = [n // 4] * 3 + [3 * n // 4 - 1] * 3
+        properties["voxel_box"] = [n // 32, n // 32, 0, n - n // 32 - 1, n - n // 32 - 1, n - 1]
     processor = registry.get(type_name)("bench", **properties)
-    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    before = resident("VmRSS")
+    reset_peak_resident()
     seconds = timed(lambda: processor.process(volume=volume))
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    peak = resident("VmHWM")
     print(json.dumps({"seconds": seconds, "before": before, "peak": peak, "voxels": int(np.prod(volume.dims))}))
 
 
-def bench_chunked(size: int, budget: float, brick: int, folder: Path) -> list[str]:
+def resident(field: str) -> int:
+    """Bytes of VmRSS (resident now) or VmHWM (its peak since reset_peak_resident) of this process
+    (ru_maxrss would carry the parent's peak across exec on Linux)."""
+    with open("/proc/self/status") as status:
+        return next(int(line.split()[1]) * 1024 for line in status if line.startswith(field + ":"))
+
+
+def reset_peak_resident() -> None:
+    with open("/proc/self/clear_refs", "w") as refs:
+        refs.write("5")  # resets VmHWM to the current VmRSS (Linux proc(5))
+
+
+def bench_chunked(size: int, budget: float, brick: int, folder: Path, cases: dict) -> list[str]:
     store = make_store(size, brick, folder)
     stored = sum(f.stat().st_size for f in store.rglob("*") if f.is_file())
     rows = [f"{size}^3 float32 store ({4 * size**3 / 2**20:.0f} MiB of voxels, {stored / 2**20:.0f} MiB on disk), "
@@ -139,7 +152,7 @@ def bench_chunked(size: int, budget: float, brick: int, folder: Path) -> list[st
             "| filter | processor | s | M voxels / s | peak RSS above the baseline | baseline after imports |",
             "|---|---|---|---|---|---|"]
     print("\n".join(rows), flush=True)
-    for name, (type_name, properties) in CHUNKED.items():
+    for name, (type_name, properties) in cases.items():
         env = dict(os.environ, VGRAPH_CACHE=str(folder / "cache"))
         done = subprocess.run([sys.executable, __file__, "--run-one", str(store), type_name, json.dumps(properties),
                                str(budget)], env=env, capture_output=True, text=True)
@@ -163,6 +176,7 @@ def main() -> None:
     parser.add_argument("--chunked", type=int, help="N: the filters on a generated N^3 store, chunk by chunk")
     parser.add_argument("--budget", type=float, default=256.0, help="the store's memory budget, MiB")
     parser.add_argument("--brick", type=int, default=64)
+    parser.add_argument("--only", nargs="+", help="--chunked: only the filters whose names contain one of these words")
     parser.add_argument("--folder", type=Path, help="where the store and the filtered stores go (default: a temporary folder)")
     parser.add_argument("--run-one", nargs=4, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -172,7 +186,9 @@ def main() -> None:
         return
     if args.chunked:
         with tempfile.TemporaryDirectory(dir=args.folder) as folder:
-            rows = bench_chunked(args.chunked, args.budget, args.brick, Path(folder))
+            cases = {name: case for name, case in CHUNKED.items()
+                     if not args.only or any(word in name for word in args.only)}
+            rows = bench_chunked(args.chunked, args.budget, args.brick, Path(folder), cases)
         if args.out:
             args.out.write_text("\n".join(rows) + "\n")
         return
