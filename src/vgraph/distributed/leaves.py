@@ -20,6 +20,10 @@ composited in visibility order on the workers before the frame is resolved once.
 - Resolve: a last task puts the composited accumulation into the processor and evaluates the
   target: the resolve pass (background, mip's classification, depth) and everything downstream
   run once, as in one process.
+- A SweepPlaneRenderer (RZSweep) over a store is split alike: its plan is the store's leaves front
+  to back, a run task sweeps its run of leaves into a partial (colour, log transparency, first t,
+  segments), partials composite front over back (vgraph.sweep.leaves.composite) and the resolve
+  task finishes the picture over the background.
 """
 
 from __future__ import annotations
@@ -35,25 +39,29 @@ from vgraph.distributed.tiles import TileError
 from vgraph.distributed.watch import results, watch
 from vgraph.distributed.worker import GL_LOCK, load_plugins, shipped, worker_network
 from vgraph.frame_context import FrameContext
+from vgraph.sweep import leaves as sweep_leaves
 
 KIND = "BrickedRayCaster"
+SWEEP = "SweepPlaneRenderer"  # RZSweep: runs of a store's leaves, partials composited alike
+KINDS = (KIND, SWEEP)
 DEPTH_STEPS = 2 ** 24 - 1  # the accumulation's depth texture (mip's test on 1 - maximum): 24-bit
 
 
 # --- the client's side ---------------------------------------------------------------------------
 def bricked_caster(network, target: str) -> str:
-    """The id of the one BrickedRayCaster the target needs, refused (TileError) when there is none,
-    several, or one whose bricks cannot be composited independently."""
+    """The id of the one BrickedRayCaster (or SweepPlaneRenderer, whose bricks are a store's
+    leaves) the target needs, refused (TileError) when there is none, several, or one whose bricks
+    cannot be composited independently."""
     processor_id = target.partition(".")[0]
     needed = sorted({processor_id, *nx.ancestors(network.graph, processor_id)})
-    casters = [pid for pid in needed if network[pid].type_name == KIND]
+    casters = [pid for pid in needed if network[pid].type_name in KINDS]
     if len(casters) != 1:
         found = "none" if not casters else ", ".join(f"'{pid}'" for pid in casters)
-        raise TileError(f"the leaves split divides the bricks of one BrickedRayCaster among the "
-                        f"workers; {target} needs {found} (use split='tiles')")
+        raise TileError(f"the leaves split divides the bricks of one BrickedRayCaster (or the leaves of "
+                        f"one SweepPlaneRenderer) among the workers; {target} needs {found} (use split='tiles')")
     caster = network[casters[0]]
     values = caster.property_values
-    if values.get("compositing") == "dvr" and values.get("early_termination", 1.0) < 1.0:
+    if compositing(caster) in ("dvr", "sweep") and values.get("early_termination", 1.0) < 1.0:
         # A run cannot know how opaque the runs in front of it are, so it cannot stop its rays
         # where one process would: the image would differ by up to 1 - early_termination.
         raise TileError(f"{casters[0]}.early_termination: {values['early_termination']:g} stops rays "
@@ -93,7 +101,7 @@ def render_leaves(plan, client, runs: int | None = None, plugins=(), timeout=Non
     # Unique per call (a changed file with the same name is new work); a retried task keeps its
     # key and recomputes the same value from its arguments alone.
     token = uuid.uuid4().hex[:12]
-    mode = plan.network[caster].compositing
+    mode = compositing(plan.network[caster])
     planned = client.submit(plan_task, *common, pure=False, key=f"vgraph-leaves-{token}-plan")
     planning = {planned: "the plan of the frame's bricks"}
     watch(client, planning, timeout, cluster)
@@ -126,9 +134,16 @@ def render_leaves(plan, client, runs: int | None = None, plugins=(), timeout=Non
 
 
 # --- compositing (pure numpy; on the workers) --------------------------------------------------------
+def compositing(processor) -> str:
+    """How the caster's partials composite: its compositing mode, or "sweep" for RZSweep's."""
+    return "sweep" if processor.type_name == SWEEP else processor.compositing
+
+
 def composite(front: tuple, back: tuple, mode: str) -> tuple:
     """Two partial accumulations (sum, first) of adjacent runs -> the accumulation of both, as the
-    single process's brick passes leave it."""
+    single process's brick passes leave it ("sweep": RZSweep's partials, vgraph.sweep.leaves)."""
+    if mode == "sweep":
+        return sweep_leaves.composite(front, back)
     front_sum, front_first = front
     back_sum, back_first = back
     if mode == "mip":
