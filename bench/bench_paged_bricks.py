@@ -1,7 +1,8 @@
 """Benchmark (issue #33, item 1): the BrickedRayCaster's single pass through a page table against
 its pass per brick and the in-core RayCaster, everything resident at level 0.
 
-Usage:  python bench/bench_paged_bricks.py [--volume FILE] [--size 256] [--rounds 3] [--bricks 32 64] [--cpu]
+Usage:  python bench/bench_paged_bricks.py [--volume FILE | --implicit FUNCTION:N] [--size 256] [--rounds 3]
+                                          [--bricks 32 64] [--cpu]
 
 Per compositing mode, the variants draw one untimed frame, then take turns frame by frame
 (bench/interleave.py), each frame re-planned (the sampling rate is nudged so the processor
@@ -9,7 +10,8 @@ evaluates again); min / median / max per variant. Beside each bricked variant: i
 difference from the RayCaster's image (in 8-bit steps) and its PSNR. The RayCaster and the single
 pass share ``early_termination`` (the pass per brick has none at 1.0). ``--cpu`` times the process's
 CPU seconds (all of llvmpipe's threads) instead of the wall clock: steady on a machine that other
-jobs share, and on llvmpipe the same work. Numbers go to
+jobs share, and on llvmpipe the same work. ``--implicit torus:512`` draws a function of vgraph.implicit
+sampled into memory (uint8, N^3) instead of a file: a volume larger than the bonsai without a file. Numbers go to
 docs/explanations/bricked-ray-casting.md ("One pass, a page table").
 """
 
@@ -23,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from vgraph.camera import Camera
+from vgraph.implicit import sample
 from vgraph.io import read_volume
 from vgraph.numerics.reference_raycast import volume_box
 from vgraph.testing import ray_caster_network
@@ -65,13 +68,18 @@ def frame_of(network, size, images: dict, name: str, clock=time.perf_counter):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--volume", default=str(DATA / "ct_bonsai" / "bonsai.nii.gz"))
+    parser.add_argument("--implicit", help="FUNCTION:N, a vgraph.implicit function sampled N^3 (uint8)")
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--bricks", type=int, nargs="+", default=[32, 64])
     parser.add_argument("--cpu", action="store_true", help="CPU seconds of the process, not wall seconds")
     args = parser.parse_args()
     clock = cpu_seconds if args.cpu else time.perf_counter
-    volume = read_volume(args.volume)
+    if args.implicit:
+        function, count = args.implicit.split(":")
+        volume, args.volume = sample(function, int(count), "uint8"), f"implicit {args.implicit}"
+    else:
+        volume = read_volume(args.volume)
     camera = Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
     size = (args.size, args.size)
     print(f"{args.volume}: {volume.dims}, {size[0]} x {size[1]}, {args.rounds} rounds (min / median / max ms, "

@@ -67,12 +67,16 @@ def bricked_network(folder: Path, shape=(37, 29, 41), **properties) -> Network:
 
 def bricked_network_of(path: Path, **properties) -> Network:
     """VolumeSource of ``path`` -> EntryExitPoints -> BrickedRayCaster 'rc' (16^3 bricks, all at
-    level 0, unless ``properties`` say otherwise) -> Canvas, an oblique view."""
+    level 0, unless ``properties`` say otherwise) -> Canvas, an oblique view. ``method`` passes
+    unless told: its tiles are the single-process picture bit for bit and its leaves are what the
+    leaves split draws (``auto`` draws dvr and iso in one pass, whose tiles agree within float
+    rounding: docs/explanations/bricked-ray-casting.md, "Which method draws")."""
     network = Network(base_dir=Path(path).parent)
     network.add("VolumeSource", id="source", path=str(path))
     camera = Camera(position=(0.7, -0.5, 1.0), focus=(0, 0, 0), near=None, far=None, fit_to_data=True)
     network.add("EntryExitPoints", id="eep", camera=camera)
-    network.add("BrickedRayCaster", id="rc", **{"brick_size": 16, "lod_bias": -16.0, **properties})
+    network.add("BrickedRayCaster", id="rc", **{"brick_size": 16, "lod_bias": -16.0, "method": "passes",
+                                                    **properties})
     network.add("Canvas", id="canvas")
     network.link("eep.camera", "rc.camera")
     for source, target in (("source.volume", "eep.volume"), ("source.volume", "rc.volume"),

@@ -11,12 +11,13 @@ Conventions (docs/explanations/bricked-ray-casting.md explains each with the num
   (below 1, dvr: each brick reads the accumulation, two passes a brick), the shading normals
   Gradients' (forward, backward, central or sobel, each reading at most one voxel away: the halo).
 - Its own part: the compositing mode (dvr, mip, iso; the define COMPOSITING_* of the brick and
-  resolve shaders), ``empty_space_skipping`` inside a brick and ``method``: ``passes`` (the
-  default) draws through BrickSampling, ``single_pass`` through PagedSampling
-  (vgraph.bricks.paged_sampling, issue #33): the same plan, the bricks in an atlas read through a
-  page table in one pass of the RayCaster's shader, early termination across bricks; under a
-  load limit its rays ask for the missing bricks they reach (RayRequests,
-  vgraph.bricks.ray_requests), which are read after the frame.
+  resolve shaders), ``empty_space_skipping`` inside a brick and ``method``: ``passes`` draws
+  through BrickSampling, ``single_pass`` through PagedSampling (vgraph.bricks.paged_sampling,
+  issue #33): the same plan, the bricks in an atlas read through a page table in one pass of the
+  RayCaster's shader, early termination across bricks; under a load limit its rays ask for the
+  missing bricks they reach (RayRequests, vgraph.bricks.ray_requests), which are read after the
+  frame. ``auto`` (the default) takes per frame the one vgraph.bricks.methods chooses: the single
+  pass for dvr and iso, where it measured faster, passes for mip and for the leaves split.
 - The frame context (vgraph.frame_context; not properties) gives BrickSampling the ``load_limit``
   (coarse first in the GUI) and the ``leaf`` (the leaves split's run of bricks,
   vgraph.distributed.leaves).
@@ -24,12 +25,10 @@ Conventions (docs/explanations/bricked-ray-casting.md explains each with the num
 
 from __future__ import annotations
 
-import math
-
 from vgraph import BoolProperty, FloatProperty, Inport, OptionProperty, Outport
-from vgraph.bricks.cache import MB, BrickCache
+from vgraph.bricks.cache import BrickCache
+from vgraph.bricks.methods import METHODS, chosen_method
 from vgraph.bricks.paged_sampling import PagedSampling
-from vgraph.bricks.pyramid import brick_grid
 from vgraph.bricks.ray_requests import RayRequests
 from vgraph.bricks.sampling import COMPOSITING, BrickSampling
 from vgraph.frame_context import FrameContext
@@ -38,19 +37,12 @@ from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, 
 from vgraph.gl.raycasting.light import Gradients, Light
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.targets import RenderTargets
-from vgraph.errors import VGraphError
 from vgraph.image import Image
-from vgraph.memory import format_bytes
 from vgraph.shown_content import voxels_by_compositing
 from vgraph.volume import Volume
 
 SHADED_MODES = ("dvr", "iso")
 DERIVATIVES = ("central", "forward", "backward", "sobel")  # each reads at most one voxel away
-METHODS = ("passes", "single_pass")  # BrickSampling's, PagedSampling's (vgraph.bricks.paged_sampling)
-# single_pass's page table resolves to a leaf table of one RGBA32F texel per level-0 brick, held
-# about this many times while a frame builds it (entries, leaf, fallback, the texture): 128 MiB at
-# 8192^3 in 64^3 bricks, 1 GiB at 16384^3, which is refused rather than allocated
-LEAF_TABLE_BYTES, LEAF_TABLE_COPIES = 16, 4
 
 
 class BrickedRayCaster(RaycasterBase):
@@ -72,16 +64,18 @@ class BrickedRayCaster(RaycasterBase):
     early_termination = FloatProperty(1.0, min=0.01, max=1.0,  # FrontToBack's, with what it costs here
                                       doc="dvr: stop a ray once its opacity reaches this (as the RayCaster's); "
                                           "below 1 each brick reads the accumulation: two passes a brick")
-    method = OptionProperty("passes", choices=list(METHODS),
+    method = OptionProperty("auto", choices=list(METHODS),
                             doc="passes: a fullscreen pass per brick, blended; single_pass: one pass whose "
                                 "rays walk a page table of the bricks in an atlas (gl_budget MB), with early "
-                                "termination across bricks (issue #33)")
+                                "termination across bricks (issue #33); auto: single_pass for dvr and iso "
+                                "(faster there), passes for mip and the leaves split")
     empty_space_skipping = BoolProperty(True, doc="inside a brick, skip blocks of 8^3 voxels that cannot "
                                                   "contribute (same image, faster); empty bricks are always skipped")
 
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
         self._targets = RenderTargets(2)
+        self.drawn_method = "passes"  # the method of the last frame (``method`` auto chooses per frame)
 
     @property
     def bricks(self) -> BrickSampling:
@@ -96,10 +90,10 @@ class BrickedRayCaster(RaycasterBase):
     def last_frame(self) -> dict:
         """What the last frame drew (BrickSampling.draw_frame, or PagedSampling's with
         ``method`` single_pass): bricks, levels, whether complete."""
-        return self.parts[PagedSampling].last_frame if self.method == "single_pass" else self.bricks.last_frame
+        return self.parts[PagedSampling].last_frame if self.drawn_method == "single_pass" else self.bricks.last_frame
 
     def frame_summary(self) -> str:
-        return self.parts[PagedSampling].summary() if self.method == "single_pass" else self.bricks.summary()
+        return self.parts[PagedSampling].summary() if self.drawn_method == "single_pass" else self.bricks.summary()
 
     def brick_source(self, volume: Volume):
         """The volume's pyramid of bricks as this processor draws it (BrickSampling.brick_source)."""
@@ -115,22 +109,10 @@ class BrickedRayCaster(RaycasterBase):
         frame = self.frame(volume, entry, exit)
         own = Binding(defines={f"COMPOSITING_{self.compositing.upper()}": True})
         image, depth = self._targets.ensure(frame.ctx, frame.size)
-        if self.method == "single_pass":
-            self._check_leaf_table(volume)
+        self.drawn_method = chosen_method(self, self.brick_source(volume), context.leaf,
+                                          volume.source or "the volume")
+        if self.drawn_method == "single_pass":
             self.parts[PagedSampling].draw_frame(frame, context, self._targets, own)
         else:
             self.bricks.draw_frame(frame, context, self._targets, own)
         return {"image": image, "depth": depth}
-
-    def _check_leaf_table(self, volume: Volume) -> None:
-        """single_pass's leaf table must fit min(ram_budget, gl_budget) (LEAF_TABLE_COPIES)."""
-        source = self.brick_source(volume)
-        cells = math.prod(brick_grid(source.levels[0].shape, source.brick))
-        need = cells * LEAF_TABLE_BYTES * LEAF_TABLE_COPIES
-        budget = min(self.ram_budget, self.gl_budget) * MB
-        if need > budget:
-            raise VGraphError(f"{self.id}.method: single_pass keeps a leaf table of one RGBA32F texel per "
-                              f"level-0 brick ({cells} bricks of {volume.source or 'the volume'}), about "
-                              f"{format_bytes(need)} while a frame builds it, more than min(ram_budget, "
-                              f"gl_budget) = {format_bytes(budget)}: use method 'passes' (its memory follows "
-                              f"the budgets) or larger bricks")

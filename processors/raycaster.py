@@ -21,20 +21,25 @@ Conventions (docs/explanations/ray-casting.md explains each property with pictur
   The depth output is on demand: drawn only when a target or a connected processor reads it.
 - The camera must equal the EntryExitPoints camera (link them): it gives depth and view direction.
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
-  than its memory budget, is drawn brick by brick through the BrickSampling component instead of
-  VolumeSampling (vgraph.bricks.sampling; docs/explanations/bricked-ray-casting.md), as the
-  BrickedRayCaster draws: its properties ``brick_size``, ``lod_bias``, ``max_error``,
+  than its memory budget, is drawn from bricks instead of VolumeSampling, by the method the
+  BrickedRayCaster's ``method`` auto chooses (vgraph.bricks.methods): through the PagedSampling
+  component in one pass (dvr, iso) or the BrickSampling component, a pass per brick (mip)
+  (vgraph.bricks.paged_sampling, vgraph.bricks.sampling; docs/explanations/bricked-ray-casting.md),
+  as the BrickedRayCaster draws: its properties ``brick_size``, ``lod_bias``, ``max_error``,
   ``ram_budget`` and ``gl_budget`` are this processor's and apply only then. dvr, mip and iso only; ``precomputed``
   derivatives become ``central`` there (a gradient volume of a volume that large is what bricking
   avoids; inside the box both give the same gradient up to 16-bit steps); ``volume_precision``
   and ``interpolation`` do not apply (the bricks keep their own texture format, sampled
   trilinearly), nor ``ray_bounds``. The frame context's ``load_limit`` (the GUI's: coarse first;
-  vgraph.frame_context) goes to BrickSampling, and ``last_frame`` says what such a frame drew.
+  vgraph.frame_context) goes to them, and ``last_frame`` says what such a frame drew.
 """
 
 from __future__ import annotations
 
 from vgraph import Inport, OptionProperty, Outport, VGraphError
+from vgraph.bricks.methods import chosen_method
+from vgraph.bricks.paged_sampling import PagedSampling
+from vgraph.bricks.ray_requests import RayRequests
 from vgraph.bricks.sampling import COMPOSITING as BRICKED_MODES, BrickSampling
 from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, CameraRays, EmptySpace, EntryExit, FrontToBack,
@@ -53,6 +58,7 @@ SHADER = "raycasting/raycaster.frag.glsl"
 COMPOSITING = ("dvr", "mip", "iso", "first_hit", "xray")
 SHADED_MODES = ("dvr", "iso")
 SKIPPING = {"dvr": "opacity", "first_hit": "opacity", "iso": "level", "mip": "maximum"}
+BRICK_PARTS = (BrickSampling, PagedSampling, RayRequests)  # a frame draws through these or the others
 DERIVATIVES = ("none", "forward", "backward", "central", "sobel", "precomputed")
 
 
@@ -85,7 +91,8 @@ class RayCaster(ShowsVolume, RaycasterBase):
                                              "(8 bytes a voxel), one fetch a shaded sample (central when "
                                              "drawn brick by brick)"),
                   Light(mode="compositing", shaded_modes=SHADED_MODES), EmptySpace(skip=skip_values),
-                  Background(), BrickSampling(mode="compositing", when="only for a volume drawn brick by brick"))
+                  Background(), BrickSampling(mode="compositing", when="only for a volume drawn brick by brick"),
+                  PagedSampling(), RayRequests())  # PagedSampling's properties are BrickSampling's
     uses_context = ("load_limit",)  # for the frames drawn brick by brick (module docstring)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING),
@@ -98,17 +105,20 @@ class RayCaster(ShowsVolume, RaycasterBase):
     def __init__(self, id: str | None = None, **values):
         super().__init__(id, **values)
         self._targets = {True: RenderTargets(2), False: RenderTargets(1)}  # by: depth output wanted
-        self._drew_bricks = False
+        self._drew_bricks = None  # the bricked method of the last frame (vgraph.bricks.methods), None: none
 
     @property
     def last_frame(self) -> dict:
-        """BrickSampling's ``last_frame`` when the last frame was drawn brick by brick (the render
-        process asks whether it was complete), else empty."""
-        return self.parts[BrickSampling].last_frame if self._drew_bricks else {}
+        """BrickSampling's or PagedSampling's ``last_frame`` when the last frame was drawn from bricks
+        (the render process asks whether it was complete), else empty."""
+        return self._bricked_part().last_frame if self._drew_bricks else {}
 
     def frame_summary(self) -> str:
-        """A frame drawn brick by brick in a line (BrickSampling.summary); else nothing."""
-        return self.parts[BrickSampling].summary() if self._drew_bricks else ""
+        """A frame drawn from bricks in a line (BrickSampling's or PagedSampling's summary); else nothing."""
+        return self._bricked_part().summary() if self._drew_bricks else ""
+
+    def _bricked_part(self):
+        return self.parts[PagedSampling if self._drew_bricks == "single_pass" else BrickSampling]
 
     def shader_defines(self) -> dict[str, bool]:
         """The RayCaster's own defines (docs/explanations/ray-casting.md lists them with the components')."""
@@ -123,12 +133,12 @@ class RayCaster(ShowsVolume, RaycasterBase):
     def process(self, volume: Volume, entry: Image, exit: Image, context: FrameContext) -> dict:
         volume.require_samples(f"RayCaster '{self.id}'")
         self.parts[Gradients].check()
-        self._drew_bricks = False
+        self._drew_bricks = None
         bricks = needs_bricks(volume, self.gl)
         if bricks:
             self._check_bricked_mode(volume)
-        # A frame samples one texture (every part but BrickSampling) or the bricks (module docstring).
-        one_texture = [part for part in self.parts if part is not BrickSampling]
+        # A frame samples one texture (every part but the bricks') or the bricks (module docstring).
+        one_texture = [part for part in self.parts if part not in BRICK_PARTS]
         frame = self.frame(volume, entry, exit, parts=[BrickSampling] if bricks else one_texture)
         with_depth = self.wants("depth")
         targets = self._targets[with_depth]
@@ -136,8 +146,11 @@ class RayCaster(ShowsVolume, RaycasterBase):
         outputs = dict(zip(("image", "depth"), targets.ensure(frame.ctx, entry.size)))
         if bricks:
             own = Binding({f"COMPOSITING_{self.compositing.upper()}": True})
-            self.parts[BrickSampling].draw_frame(frame, context, targets, own)
-            self._drew_bricks = True
+            method = chosen_method(self, self.parts[BrickSampling].brick_source(volume), None,
+                                   volume.source or "the volume")
+            self.parts[PagedSampling if method == "single_pass" else BrickSampling].draw_frame(frame, context,
+                                                                                                targets, own)
+            self._drew_bricks = method
             return outputs
         own = Binding({**self.shader_defines(), "DEPTH_OUTPUT": with_depth})
         self.draw(frame, SHADER, targets, parts=one_texture, own=own,

@@ -55,7 +55,11 @@ def oblique(volume, **changes) -> Camera:
 
 def render(volume, camera, processor="BrickedRayCaster", size=SIZE, **properties):
     # Both ray casters unshaded with the normalised ramp unless told (the palette's RayCaster starts
-    # shaded with the auto transfer function): the comparisons are of one configuration.
+    # shaded with the auto transfer function): the comparisons are of one configuration. These are the
+    # pass per brick's tests: ``method`` passes unless told (auto draws dvr and iso in one pass,
+    # tests/test_paged_bricks.py and tests/test_bricked_method.py).
+    if processor == "BrickedRayCaster":
+        properties = {"method": "passes", **properties}
     network = ray_caster_network(volume, camera, processor, **{**UNSHADED_RAMP, **properties})
     image = np.asarray(network.evaluate("rc.image", size=size))
     depth = np.asarray(network.evaluate("rc.depth", size=size))
@@ -414,7 +418,7 @@ def test_a_load_limit_draws_coarse_first_and_refines_to_the_planned_frame():
     from vgraph.bricks.cache import LoadLimit
     volume = big_volume()
     make = lambda: ray_caster_network(volume, oblique(volume), "BrickedRayCaster", transfer_function=WINDOW,
-                                      brick_size=16, lod_bias=FINEST)
+                                      brick_size=16, lod_bias=FINEST, method="passes")
     planned = np.asarray(make().evaluate("rc.image", size=(48, 40)))
     network = make()
     seen = refine(network, (48, 40), LoadLimit(seconds=0.005))

@@ -57,7 +57,7 @@ def test_projected_tetrahedra_read_only_the_tables_of_their_integration(gl, tmp_
                                                   ("iso", "none"), ("iso", "blinn_phong")])
 def test_brick_passes_compile_shading_and_classification_only_where_used(gl, tmp_path, compiled,
                                                                           compositing, shading):
-    network = bricked_network(tmp_path, compositing=compositing, shading=shading, iso_level=0.45)
+    network = bricked_network(tmp_path, compositing=compositing, shading=shading, iso_level=0.45, method="passes")
     network.evaluate("rc.image", size=(24, 16))
     brick_pass = compiled["bricks/brick.frag.glsl"]
     assert "volume" in brick_pass and "entry_points" in brick_pass
