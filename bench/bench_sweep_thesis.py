@@ -121,17 +121,24 @@ def bytes_read(renderer: str, network: Network, volume: Volume) -> str:
     return f"0 (texture resident; {volume.data.nbytes / 2**20:.0f} MiB uploaded once)"
 
 
-def peak_memory_mib(renderer: str, n: int, image: int) -> str:
-    """Peak resident memory a child process adds drawing one frame (run with --peak)."""
-    done = subprocess.run([sys.executable, __file__, "--peak", renderer, str(n), str(image)],
-                          capture_output=True, text=True, cwd=Path(__file__).parent)
+def peak_memory_mib(renderer: str, volume: Volume, image: int) -> str:
+    """Peak resident memory a child process adds drawing one frame (run with --peak): the volume
+    goes to it as a .npy, so that building it (resampling's float copies) sets no high-water mark."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "volume.npy"
+        np.save(path, volume.data)
+        (Path(folder) / "grid.json").write_text(json.dumps({"spacing": volume.spacing, "origin": volume.origin}))
+        done = subprocess.run([sys.executable, __file__, "--peak", renderer, str(path), str(image)],
+                              capture_output=True, text=True, cwd=Path(__file__).parent)
     if done.returncode != 0:
         return f"failed ({done.stderr.strip().splitlines()[-1] if done.stderr.strip() else done.returncode})"
     return f"{json.loads(done.stdout.strip().splitlines()[-1])['peak_mib']:.0f}"
 
 
-def peak_child(renderer: str, n: int, image: int) -> None:
-    volume = cube(n)
+def peak_child(renderer: str, path: str, image: int) -> None:
+    grid = json.loads((Path(path).parent / "grid.json").read_text())
+    volume = Volume(np.load(path), spacing=tuple(grid["spacing"]), origin=tuple(grid["origin"]),
+                    declared_range=(0.0, 255.0))
     network = network_of(renderer, volume, Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0)))
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     network.evaluate("rc.image", size=(image, image))
@@ -146,13 +153,16 @@ def psnr(a, b) -> float:
 
 def file_network(volume: Volume, camera: Camera, folder: Path) -> Network:
     """VolumeSource (the volume saved as .npy in ``folder``) -> SweepPlaneRenderer: a network the
-    split route can ship to its workers (a GivenVolume cannot be)."""
+    split route can ship to its workers (a GivenVolume cannot be). No early termination: the
+    leaves split refuses it (a leaf cannot know what the leaves in front left), and tiles and
+    leaves are compared on the same work."""
     path = folder / f"volume_{'x'.join(map(str, volume.dims))}.npy"
     np.save(path, volume.data)
     network = Network()
     network.add("VolumeSource", id="src", path=str(path), spacing=list(volume.spacing),
                 origin=list(volume.origin), value_range=[0.0, 255.0])
-    network.add("SweepPlaneRenderer", id="rc", camera=camera, transfer_function=TF, threshold=THRESHOLD)
+    network.add("SweepPlaneRenderer", id="rc", camera=camera, transfer_function=TF, threshold=THRESHOLD,
+                early_termination=1.0)
     network.connect("src.volume", "rc.volume")
     return network
 
@@ -160,7 +170,8 @@ def file_network(volume: Volume, camera: Camera, folder: Path) -> Network:
 def split_columns(network: Network, size, level: int, workers: int, file_bytes: int,
                   skip_tiles: bool = False) -> dict:
     """Tiles and leaves on ``workers`` local Dask workers at octree ``level`` (leaves: 8^level runs),
-    or why not (the route refuses, or issue 34 item 3 is not built). One frame each after a warm-up."""
+    or why not (the route refuses, or issue 34 item 3 is not built). One frame each after a 64 x 64
+    warm-up (worker imports, numba cache load)."""
     from vgraph.distributed.render import prepare, render
     columns, skipped = {}, {"tiles"} if skip_tiles else set()
     for split in ("tiles", "leaves"):
@@ -178,7 +189,7 @@ def split_columns(network: Network, size, level: int, workers: int, file_bytes: 
             try:
                 options = dict(split=split, tiles=THESIS_TILES[workers], size=size, target="rc.image",
                                runs=8 ** level if split == "leaves" else None)
-                render(network, client, **options)  # warm-up: numba cache load on every worker
+                render(network, client, **{**options, "size": (64, 64)})  # warm-up: imports, numba cache load
                 start = time.perf_counter()
                 render(network, client, **options)
                 read = (f"{file_bytes / 2**20:.1f} MiB per tile (each tile reads the whole file: in-memory source)"
@@ -203,7 +214,8 @@ def thesis_rows(args) -> None:
     if "times" in args.parts:
         single_process_rows(args, volumes, networks, size)
     if "splits" in args.parts:
-        split_rows(args, volumes, {name: base for name, (_, base) in networks.items()}, size)
+        side = args.split_image or args.image
+        split_rows(args, volumes, {name: base for name, (_, base) in networks.items()}, (side, side))
 
 
 def single_process_rows(args, volumes, networks, size) -> None:
@@ -224,6 +236,8 @@ def single_process_rows(args, volumes, networks, size) -> None:
 
 
 def split_rows(args, volumes, bases, size) -> None:
+    print(f"\nSplits on a Dask LocalCluster (one thread a worker), {size[0]} x {size[1]}, tiles as the thesis's "
+          "table 5.2, no early termination, one frame after a 64 x 64 warm-up")
     print("\n| data | octree level | workers | tiles | leaves |")
     print("|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as folder:
@@ -257,7 +271,7 @@ def comparison_rows(args) -> None:
         for renderer, network in tqdm(networks.items(), desc=f"{n}^3 psnr/peak", file=sys.stderr):
             camera_owner(network).camera = base
             image = network.evaluate("rc.image", size=psnr_size)
-            peak = "not measured (--quick)" if args.quick else peak_memory_mib(renderer, n, args.compare_image)
+            peak = "not measured (--quick)" if args.quick else peak_memory_mib(renderer, volume, args.compare_image)
             print(f"| {n}^3 | {renderer} | {spread(seconds[renderer], 2)} | {read[renderer]} | {peak} | "
                   f"{psnr(image, exact):.1f} |", flush=True)
 
@@ -265,6 +279,7 @@ def comparison_rows(args) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--image", type=int, default=800, help="thesis rows: image side (the thesis: 800)")
+    parser.add_argument("--split-image", type=int, default=None, help="split rows: image side (default --image)")
     parser.add_argument("--repeat", type=int, default=2)
     parser.add_argument("--sets", nargs="+", default=["mriHead", "ctSkull"], choices=list(THESIS_SETS))
     parser.add_argument("--shrink", type=int, default=1, help="divide the thesis sizes by this (quick runs)")
@@ -277,10 +292,10 @@ def main() -> None:
     parser.add_argument("--parts", nargs="+", default=["times", "splits", "compare"],
                         choices=["times", "splits", "compare"])
     parser.add_argument("--quick", action="store_true", help="tiny sizes, for the test: seconds")
-    parser.add_argument("--peak", nargs=3, metavar=("RENDERER", "N", "IMAGE"), help=argparse.SUPPRESS)
+    parser.add_argument("--peak", nargs=3, metavar=("RENDERER", "NPY", "IMAGE"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.peak:
-        return peak_child(args.peak[0], int(args.peak[1]), int(args.peak[2]))
+        return peak_child(args.peak[0], args.peak[1], int(args.peak[2]))
     if args.quick:
         args.image, args.repeat, args.sets, args.shrink = 32, 1, ["mriHead"], 16
         args.levels, args.workers, args.compare_sizes = [1], [1], [16]
