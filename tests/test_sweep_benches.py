@@ -27,7 +27,7 @@ def run_bench(name: str, *extra: str) -> str:
 def test_thesis_bench_prints_every_row():
     out = run_bench("bench_sweep_thesis.py")
     assert "| mriHead (256 x 256 x 111) | 16 x 16 x 8 |" in out
-    split_row = next(line for line in out.splitlines() if line.startswith("| mriHead | 1 | 1 |"))
+    split_row = next(line for line in out.splitlines() if line.startswith("| mriHead | 1 (8) | 1 |"))
     for cell in split_row.strip("|").split("|")[3:]:  # measured seconds, or not available with why
         assert re.search(r"\d+\.\d+ s|not available \(.+\)", cell), split_row
     for renderer in ("SweepPlaneRenderer", "BrickedRayCaster", "RayCaster"):
