@@ -117,8 +117,11 @@ def test_a_point_list_grows_by_one_undo_step_per_click(head, qtbot):
     place_at(head, qtbot, view, second)
     assert [len(m.points) for m in network.get("mk.markups").markups] == [2]
     undo.undo()
-    assert network.get("mk.markups")["points 1"].points == network.get("mk.markups")["points 1"].points[:1]
     assert len(network.get("mk.markups")["points 1"].points) == 1
+    view.set_placing(False)   # placing again starts a new point list
+    view.set_placing(True)
+    place_at(head, qtbot, view, second)
+    assert [(m.name, len(m.points)) for m in network.get("mk.markups").markups] == [("points 1", 1), ("points 2", 1)]
 
 
 def test_dragging_a_point_moves_it_to_the_picked_surface_in_one_undo_step(head, qtbot):

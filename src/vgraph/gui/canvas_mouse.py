@@ -82,6 +82,8 @@ class CanvasMouse:
 
     def set_placing(self, on: bool) -> None:
         self.placing = bool(on)
+        if self.placer is not None:
+            self.placer.restart()  # a new placing starts a new markup
         self.setCursor(Qt.CrossCursor if self.placing else Qt.ArrowCursor)
 
     # --- camera edits ---------------------------------------------------------------------------

@@ -12,7 +12,8 @@ Conventions:
   surface; in a slice view the exact point on the plane. The model holds only complete markups
   (a ruler has two points), so the clicks before a kind's least count are held here and said in
   the status bar; the click that completes it adds the markup ("<kind> <n>"), and later clicks
-  add points to it while its kind takes more (a point list, a closed curve), each one undo step.
+  add points to it while its kind takes more (a point list, a closed curve), each one undo step,
+  until Place is switched off (or another kind is chosen): the next placing starts a new markup.
   A click where nothing is drawn adds nothing and says so in the status bar.
 - Dragging (placing or not): a left press within ``GRAB_RADIUS`` widget pixels of a point of a
   visible markup as the frame draws it (projected by vgraph.markups_drawing with the frame's
@@ -124,6 +125,10 @@ class MarkupPlacer(QObject):
         self.current: str | None = None    # the markup being placed (its name)
         self.held: tuple = ()              # points clicked for a markup not complete yet
         self._for: tuple | None = None     # (markups address, kind) the held points are for
+
+    def restart(self) -> None:
+        """Forget the markup being placed and the points held: the next click starts a new one."""
+        self.current, self.held, self._for = None, (), None
 
     def say(self, text: str) -> None:
         self.window.statusBar().showMessage(text)
