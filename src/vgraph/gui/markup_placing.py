@@ -16,7 +16,7 @@ Conventions:
   until Place is switched off (or another kind is chosen): the next placing starts a new markup.
   A click where nothing is drawn adds nothing and says so in the status bar.
 - Dragging (placing or not): a left press within ``GRAB_RADIUS`` widget pixels of a point of a
-  visible markup as the frame draws it (projected by vgraph.markups_drawing with the frame's
+  visible markup of the Markups upstream of the canvas (the one drawn in it) as the frame draws it (projected by vgraph.markups_drawing with the frame's
   camera) drags that point: each move is picked and the point goes to the picked surface point;
   the whole drag is one undo step (one merge key). A move over nothing leaves the point where it
   was and says so. Slice views draw no markups, so points are dragged in 3D views.
@@ -147,9 +147,10 @@ class MarkupPlacer(QObject):
         address = markups_address(network, view.canvas_id, self.selected())
         base = {"button": event.button(), "start": event.position(), "active": False, "address": address,
                 "key": ("markups", next(self._keys))}
-        grabbed = self._grab(view, address, event.position()) if address is not None else None
+        drawn = nearest_upstream(network, view.canvas_id, property_of_type(MarkupsProperty))  # drawn here
+        grabbed = self._grab(view, drawn, event.position()) if drawn is not None else None
         if grabbed is not None:
-            return {**base, "mode": "markup_point", "name": grabbed[0], "index": grabbed[1]}
+            return {**base, "mode": "markup_point", "address": drawn, "name": grabbed[0], "index": grabbed[1]}
         if not view.placing:
             return None
         return {**base, "mode": "markup_place"}
