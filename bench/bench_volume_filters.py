@@ -23,18 +23,16 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
 from skimage.filters import threshold_otsu
 
-from interleave import interleaved, spread
+from filter_timing import ours_against_reference, table_header, timed
 from vgraph.io import read_volume
 from vgraph.registry import registry
 from vgraph.volume import Volume
@@ -63,23 +61,13 @@ CASES = {
 }
 
 
-def timed(run) -> float:
-    start = time.perf_counter()
-    run()
-    return time.perf_counter() - start
-
-
 def bench(volume: Volume, rounds: int) -> list[str]:
     rows = []
     for name, (type_name, properties, reference) in CASES.items():
         processor = registry.get(type_name)("bench", **properties)
         fresh = lambda: Volume(volume.data, spacing=volume.spacing, origin=volume.origin)  # noqa: E731
-        variants = {"ours": lambda _: timed(lambda: processor.process(volume=fresh())),
-                    "scipy": lambda _: timed(lambda: reference(volume.data))}
-        seconds, _ = interleaved(variants, [None] * rounds, None)
-        ratio = np.median(seconds["ours"]) / np.median(seconds["scipy"])
-        rows.append(f"| {name} | {type_name} | {spread(seconds['ours'])} | {spread(seconds['scipy'])} | {ratio:.2f} |")
-        print(rows[-1], flush=True)
+        rows.append(ours_against_reference(name, type_name, lambda: processor.process(volume=fresh()),
+                                           lambda: reference(volume.data), rounds))
     return rows
 
 
@@ -193,11 +181,7 @@ def main() -> None:
             args.out.write_text("\n".join(rows) + "\n")
         return
     volume = read_volume(args.data / "ct_bonsai" / "bonsai.nii.gz")
-    header = [f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-              f"{volume.dims} {volume.data.dtype}, {args.rounds} rounds", "",
-              "| filter | processor | ours s (min / median / max) | reference s | ours / reference |",
-              "|---|---|---|---|---|"]
-    print("\n".join(header), flush=True)
+    header = table_header(volume, args.rounds)
     rows = bench(volume, args.rounds)
     if args.out:
         args.out.write_text("\n".join(header + rows) + "\n")

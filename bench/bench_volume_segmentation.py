@@ -13,16 +13,13 @@ max seconds over the rounds go in the table. Numbers from a shared machine are l
 from __future__ import annotations
 
 import argparse
-import os
-import platform
-import time
 from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
 from skimage.measure import label as skimage_label
 
-from interleave import interleaved, spread
+from filter_timing import ours_against_reference, table_header
 from vgraph.io import read_volume
 from vgraph.registry import registry
 from vgraph.volume import Volume
@@ -60,12 +57,6 @@ CASES = {
 }
 
 
-def timed(run) -> float:
-    start = time.perf_counter()
-    run()
-    return time.perf_counter() - start
-
-
 def bench(volume: Volume, rounds: int) -> list[str]:
     mask_data = (volume.data >= LEAVES).astype(np.uint8)
     rows = []
@@ -73,12 +64,8 @@ def bench(volume: Volume, rounds: int) -> list[str]:
         processor = registry.get(type_name)("bench", **properties)
         fresh = lambda: (Volume(volume.data, spacing=volume.spacing),  # noqa: E731
                          Volume(mask_data, spacing=volume.spacing, holds_labels=True))
-        variants = {"ours": lambda _: timed(lambda: processor.process(**inputs(*fresh()))),
-                    "reference": lambda _: timed(lambda: reference(volume.data, mask_data))}
-        seconds, _ = interleaved(variants, [None] * rounds, None)
-        ratio = np.median(seconds["ours"]) / np.median(seconds["reference"])
-        rows.append(f"| {name} | {type_name} | {spread(seconds['ours'])} | {spread(seconds['reference'])} | {ratio:.2f} |")
-        print(rows[-1], flush=True)
+        rows.append(ours_against_reference(name, type_name, lambda: processor.process(**inputs(*fresh())),
+                                           lambda: reference(volume.data, mask_data), rounds))
     return rows
 
 
@@ -89,11 +76,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
     volume = read_volume(args.data / "ct_bonsai" / "bonsai.nii.gz")
-    header = [f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-              f"{volume.dims} {volume.data.dtype}, {args.rounds} rounds", "",
-              "| filter | processor | ours s (min / median / max) | reference s | ours / reference |",
-              "|---|---|---|---|---|"]
-    print("\n".join(header), flush=True)
+    header = table_header(volume, args.rounds)
     rows = bench(volume, args.rounds)
     if args.out:
         args.out.write_text("\n".join(header + rows) + "\n")
