@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 import vgraph
-from vgraph.imagefile import write_png
+from panel_row import write_panel_row
 
 REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "docs" / "images" / "image_filters.png"
@@ -36,9 +36,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args(argv)
-    gap = np.ones((SIZE[1], 8, 4), np.float32)
-    row = [item for panel in panels() for item in (panel, gap)][:-1]
-    write_png(args.out, np.concatenate(row, axis=1))
+    write_panel_row(args.out, panels())
     print(args.out)
     return 0
 

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from panel_row import write_panel_row
 from vgraph.camera import Camera
-from vgraph.imagefile import write_png
 from vgraph.labels import LabelEntry, LabelTable
 from vgraph.numerics.reference_raycast import volume_box
 from vgraph.network import Network
@@ -61,8 +61,7 @@ def main(argv=None) -> None:
     labels = label_network(volume, camera, label_table=table, compositing="first_hit", **common)
     left = interpolated.evaluate("rc.image", size=SIZE)
     right = labels.evaluate("lrc.image", size=SIZE)
-    gap = np.ones((SIZE[1], 8, 4), dtype=np.float32)
-    write_png(args.out, np.concatenate([left, gap, right], axis=1))
+    write_panel_row(args.out, [left, right])
     print(f"wrote {args.out}")
 
 
