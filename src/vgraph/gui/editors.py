@@ -20,15 +20,27 @@ from pathlib import Path
 
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtGui import QColor
-from PySide6.QtWidgets import (QCheckBox, QColorDialog, QComboBox, QDoubleSpinBox, QFileDialog,
-                               QHBoxLayout, QLineEdit, QPushButton, QSizePolicy,
-                               QSlider, QSpinBox, QToolButton, QWidget)
+from PySide6.QtWidgets import (QAbstractItemView, QCheckBox, QColorDialog, QComboBox, QDoubleSpinBox,
+                               QFileDialog, QHBoxLayout, QHeaderView, QLineEdit, QPushButton,
+                               QSizePolicy, QSlider, QSpinBox, QTableWidget, QToolButton, QWidget)
 
 from vgraph.processor import Processor
 from vgraph.properties import Property
 
 SLIDER_STEPS = 1000
 UNBOUNDED = 1e9
+
+
+def row_table(columns: tuple[str, ...], stretch: int) -> QTableWidget:
+    """The table of a list-valued property's editor (label tables, markups): one row per entry,
+    selected by whole rows, columns as wide as their contents but ``stretch``, which takes the rest."""
+    table = QTableWidget(0, len(columns))
+    table.setHorizontalHeaderLabels(list(columns))
+    table.verticalHeader().setVisible(False)
+    table.setSelectionBehavior(QAbstractItemView.SelectRows)
+    table.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeToContents)
+    table.horizontalHeader().setSectionResizeMode(stretch, QHeaderView.Stretch)
+    return table
 
 
 class PropertyEditor(QWidget):

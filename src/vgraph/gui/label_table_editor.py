@@ -15,11 +15,10 @@ Conventions (as every editor, see editors.py):
 from __future__ import annotations
 
 from PySide6.QtGui import QColor
-from PySide6.QtWidgets import (QAbstractItemView, QCheckBox, QColorDialog, QComboBox, QDoubleSpinBox,
-                               QHBoxLayout, QHeaderView, QLabel, QPushButton, QSizePolicy, QTableWidget,
-                               QTableWidgetItem, QVBoxLayout)
+from PySide6.QtWidgets import (QCheckBox, QColorDialog, QComboBox, QDoubleSpinBox, QHBoxLayout, QLabel,
+                               QPushButton, QSizePolicy, QTableWidgetItem, QVBoxLayout)
 
-from vgraph.gui.editors import PropertyEditor, list_popup, register_editor, spin_value
+from vgraph.gui.editors import PropertyEditor, list_popup, register_editor, row_table, spin_value
 from vgraph.labels import LabelTable, palette_color
 
 COLUMNS = ("label", "name", "colour", "opacity", "visible")
@@ -37,12 +36,7 @@ class LabelTableEditor(PropertyEditor):
 
     def build(self):
         column = QVBoxLayout()
-        self.table = QTableWidget(0, len(COLUMNS))
-        self.table.setHorizontalHeaderLabels(list(COLUMNS))
-        self.table.verticalHeader().setVisible(False)
-        self.table.setSelectionBehavior(QAbstractItemView.SelectRows)
-        self.table.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeToContents)
-        self.table.horizontalHeader().setSectionResizeMode(NAME, QHeaderView.Stretch)
+        self.table = row_table(COLUMNS, NAME)
         self.table.itemChanged.connect(self._item_changed)
         column.addWidget(self.table)
         buttons = QHBoxLayout()

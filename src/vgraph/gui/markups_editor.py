@@ -19,11 +19,11 @@ from __future__ import annotations
 import weakref
 
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import (QAbstractItemView, QComboBox, QFileDialog, QHBoxLayout, QHeaderView, QPushButton,
-                               QSizePolicy, QTableWidget, QTableWidgetItem, QVBoxLayout)
+from PySide6.QtWidgets import (QComboBox, QFileDialog, QHBoxLayout, QPushButton, QSizePolicy, QTableWidgetItem,
+                               QVBoxLayout)
 
 from vgraph.errors import VGraphError
-from vgraph.gui.editors import PropertyEditor, list_popup, register_editor
+from vgraph.gui.editors import PropertyEditor, list_popup, register_editor, row_table
 from vgraph.markups import KINDS, Markup, Markups, free_name
 from vgraph.markups_files import read_markups, write_markups
 
@@ -68,12 +68,7 @@ class MarkupsEditor(PropertyEditor):
 
     def build(self):
         column = QVBoxLayout()
-        self.table = QTableWidget(0, len(COLUMNS))
-        self.table.setHorizontalHeaderLabels(list(COLUMNS))
-        self.table.verticalHeader().setVisible(False)
-        self.table.setSelectionBehavior(QAbstractItemView.SelectRows)
-        self.table.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeToContents)
-        self.table.horizontalHeader().setSectionResizeMode(POINTS, QHeaderView.Stretch)
+        self.table = row_table(COLUMNS, POINTS)
         self.table.itemChanged.connect(lambda _item: self.emit(self.rows()))
         column.addWidget(self.table)
         buttons = QHBoxLayout()
