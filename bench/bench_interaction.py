@@ -1,7 +1,7 @@
 """GUI interaction: frames per second while the user drags, and the time to the refined frame.
 
     QT_QPA_PLATFORM=offscreen .venv/bin/python bench/bench_interaction.py
-        [--networks head bonsai tets_bonsai] [--drags camera property tf] [--seconds 2]
+        [--networks head bonsai tets_bonsai store] [--store URL] [--canvas 512] [--drags camera property tf] [--seconds 2]
         [--coarse-tetrahedra N [N ...]] [--out bench/results] [--xvfb]
 
 Opens each network in a MainWindow with its own render process (as ``vgraph gui`` does), the
@@ -18,7 +18,12 @@ shared/data/ct_bonsai (256^3 uint8), with a camera that fits the data and a leav
 dragged with the camera only (its other drags would cut the mesh again each frame), with its
 ProjectedTetrahedra's ``coarse_tetrahedra`` at each value of ``--coarse-tetrahedra`` in turn, drag
 by drag in the same window (0: the whole mesh while dragging, as before vgraph.mesh_lod; default:
-the processor's own), so that the machine's load falls on every setting alike.
+the processor's own), so that the machine's load falls on every setting alike. ``store`` is the
+same network on the store ``--store`` names (default the virtual 1024^3 store
+``implicit:torus?size=1024&brick=64``, computed on read: no disk; or a path to an OME-Zarr store such
+as the bonsai resampled to 1024^3, docs/guide/large-data.md) drawn by a BrickedRayCaster (its
+``method`` auto: dvr in one pass through the page table), camera drags only; the GUI draws coarse
+frames under its load limit while the mouse moves, then refines (vgraph.frame_context).
 
 Per drag it records, at the window, every frame given to the canvas (``LiveEvaluation.frames``:
 when, its size, final or not) and when it was first painted (an event filter on the canvas) and, in the render process, every job (``RenderResult``'s timestamps: submitted,
@@ -105,6 +110,29 @@ def bonsai_network(folder: Path) -> Path:
             properties["sampling_rate"] = 1.0
     document["description"] = "CT bonsai (256^3) ray cast as raycast_head.json (bench_interaction)"
     path = folder / "raycast_bonsai.json"
+    path.write_text(json.dumps(document, indent=1))
+    return path
+
+
+STORE = "implicit:torus?size=1024&brick=64"
+STORE_TF = [[0.0, 0, 0, 0, 0], [0.3, 0.9, 0.6, 0.4, 0.0], [0.6, 1.0, 0.8, 0.6, 0.5], [1.0, 1.0, 1.0, 1.0, 0.9]]
+
+
+def store_network(folder: Path, url: str) -> Path:
+    """networks/raycast_head.json on the store ``url`` with a BrickedRayCaster in the RayCaster's
+    place (its properties that the BrickedRayCaster has), a camera that fits the data, a ramp TF."""
+    from vgraph.processors.bricked_raycaster import BrickedRayCaster
+    document = json.loads(bonsai_network(folder).read_text())
+    for processor in document["processors"]:
+        if processor["id"] == "source":
+            processor["properties"] = {"path": url}
+        if processor["id"] == RAY_CASTER:
+            processor["type"] = "BrickedRayCaster"
+            kept = {name: value for name, value in processor["properties"].items()
+                    if hasattr(BrickedRayCaster, name)}
+            processor["properties"] = {**kept, "transfer_function": {"points": STORE_TF}}
+    document["description"] = f"{url} ray cast by a BrickedRayCaster (bench_interaction)"
+    path = folder / "bricked_store.json"
     path.write_text(json.dumps(document, indent=1))
     return path
 
@@ -226,7 +254,7 @@ def tf_drag(window, seconds: float):
 
 
 DRAGS = {"camera": camera_drag, "property": property_drag, "tf": tf_drag}
-NETWORK_DRAGS = {"tets_bonsai": ("camera",)}  # the drags a network is measured with, if not all
+NETWORK_DRAGS = {"tets_bonsai": ("camera",), "store": ("camera",)}  # the drags a network is measured with, if not all
 
 
 def measure(window, recorder: Recorder, network: str, drag: str, seconds: float) -> Row:
@@ -254,7 +282,7 @@ def measure(window, recorder: Recorder, network: str, drag: str, seconds: float)
                round(refined_window[-1][3] - end, 2) if refined_window else float("nan"))
 
 
-def open_window(path: Path, settings_dir: Path):
+def open_window(path: Path, settings_dir: Path, canvas: int = 512):
     from PySide6.QtCore import QSettings
     from PySide6.QtWidgets import QApplication
     from vgraph.gui.app import MainWindow
@@ -266,7 +294,7 @@ def open_window(path: Path, settings_dir: Path):
     window.show()
     if not window.open_network(path):
         raise SystemExit(f"cannot open {path}")
-    window.workspace.network.set(f"{CANVAS}.size", [512, 512])
+    window.workspace.network.set(f"{CANVAS}.size", [canvas, canvas])
     window.evaluation.run(wait=True)
     settle(window)
     return window
@@ -353,7 +381,9 @@ def python_overhead(path: Path, frames: int = 300) -> tuple[float, float, float,
 
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--networks", nargs="+", choices=["head", "bonsai", "tets_bonsai"], default=["head", "bonsai"])
+    parser.add_argument("--networks", nargs="+", choices=["head", "bonsai", "tets_bonsai", "store"], default=["head", "bonsai"])
+    parser.add_argument("--canvas", type=int, default=512, help="the canvas's width and height in pixels")
+    parser.add_argument("--store", default=STORE, help="the store of network 'store' (a path or implicit: URL)")
     parser.add_argument("--drags", nargs="+", choices=list(DRAGS), default=list(DRAGS))
     parser.add_argument("--seconds", type=float, default=2.0, help="length of each drag")
     parser.add_argument("--repeat", type=int, default=1, help="drags of each kind per network")
@@ -402,9 +432,10 @@ def main(argv=None) -> int:
     print("  ".join(f"{h:>{max(len(h), 6)}}" for h in HEADER), flush=True)
     with tempfile.TemporaryDirectory() as folder:
         folder = Path(folder)
-        paths = {"head": HEAD, "bonsai": bonsai_network(folder), "tets_bonsai": TETS_BONSAI}
+        paths = {"head": HEAD, "bonsai": bonsai_network(folder), "tets_bonsai": TETS_BONSAI,
+                 "store": store_network(folder, args.store)}
         for name in args.networks:
-            window = open_window(paths[name], folder)
+            window = open_window(paths[name], folder, args.canvas)
             recorder = Recorder(window)
             settings = [None] if name != "tets_bonsai" or not args.coarse_tetrahedra else args.coarse_tetrahedra
             try:
