@@ -43,14 +43,15 @@ def volumes(tmp_path_factory):
     return BrickedVolume.open(folder / "v.zarr", memory_budget_mb=BUDGET_MB), read_volume(folder / "v.npy")
 
 
-def camera(projection: str) -> Camera:
-    return Camera.looking_at_box((0, 0, 0), (32, 26, 29), direction=(-0.45, -0.35, -1.0), projection=projection)
+def camera(projection: str, direction=(-0.45, -0.35, -1.0)) -> Camera:
+    return Camera.looking_at_box((0, 0, 0), (32, 26, 29), direction=direction, projection=projection)
 
 
-def sweep(volume, projection="perspective", **values):
+def sweep(volume, projection="perspective", direction=(-0.45, -0.35, -1.0), **values):
     net = Network()
     net.add(GivenVolume(id="src", volume=volume))
-    net.add("SweepPlaneRenderer", id="sweep", camera=camera(projection), transfer_function=TF, **values)
+    net.add("SweepPlaneRenderer", id="sweep", camera=camera(projection, direction), transfer_function=TF,
+            background=[0, 0, 0, 0], **values)  # transparent: the alpha is the sweep's coverage
     net.connect("src.volume", "sweep.volume")
     image = net.evaluate("sweep.image", size=SIZE)
     depth = net.evaluate("sweep.depth", size=SIZE)
@@ -69,6 +70,17 @@ def test_a_store_over_its_budget_is_swept_leaf_by_leaf_as_the_whole_volume(volum
     assert np.abs(got_depth - want_depth).max() <= TOLERANCE
     assert counts["faces_projected"] >= whole["faces_projected"]  # seam faces twice, no cell lost
     assert 0 < counts["peak_cache_bytes"] <= BUDGET_MB * MB
+
+
+@pytest.mark.parametrize("direction", [(0.6, 0.3, 0.9), (-0.2, 1.0, 0.3)])
+def test_the_leaves_are_composited_front_to_back_from_any_side(volumes, direction):
+    """Early termination (0.99, the default) stops a pixel where the leaves in front left it: a
+    leaf swept out of visibility order would change the picture."""
+    store, memory = volumes
+    got, _, _ = sweep(store, direction=direction, early_termination=0.9)
+    want, _, _ = sweep(memory, direction=direction, early_termination=0.9)
+    assert (want[..., 3] >= 0.9).any()  # early termination stops pixels
+    assert np.abs(got - want).max() <= TOLERANCE
 
 
 def test_leaves_the_threshold_empties_are_never_read(volumes):
