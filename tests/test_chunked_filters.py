@@ -14,9 +14,10 @@ import tracemalloc
 import numpy as np
 import pytest
 
+from helpers.headsq import read_head
 from vgraph.bricks.pyramid import halve
 from vgraph.bricks.volume import BrickedVolume, MemoryBudgetError
-from vgraph.io import read_volume, write_volume
+from vgraph.io import write_volume
 from vgraph.io.convert import convert
 from vgraph.registry import registry
 from vgraph import PropertyError
@@ -26,11 +27,7 @@ BUDGET_MB = 4.5  # below the store's 5.8 MiB, above a slab's working set
 
 @pytest.fixture(scope="module")
 def tall():
-    from helpers.paths import DATA
-    path = DATA / "ct_head_headsq" / "quarter.nhdr"
-    if not path.is_file():
-        pytest.skip(f"shared data set {path} not found")
-    head = read_volume(path)
+    head = read_head()
     return head.with_data(np.concatenate([head.data] * 8))
 
 

@@ -11,24 +11,18 @@ import pytest
 from scipy import ndimage
 from skimage.filters import threshold_multiotsu, threshold_otsu
 
+from helpers.headsq import TILT, read_head
 from vgraph import Network, ProcessorError, PropertyError, VGraphError, VGraphWarning
 from vgraph.io import read_volume
 from vgraph.registry import registry
 from vgraph.volume import Volume
 
 ORDERS = {"nearest": 0, "linear": 1, "cubic": 3}
-TILT = ((0.0, -1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, -1.0))  # a turned, mirrored grid (det 1)
 
 
 @pytest.fixture(scope="module")
 def head():
-    from helpers.paths import DATA
-    path = DATA / "ct_head_headsq" / "quarter.nhdr"
-    if not path.is_file():
-        pytest.skip(f"shared data set {path} not found")
-    volume = read_volume(path)
-    assert volume.spacing == (3.2, 3.2, 1.5) and volume.data.dtype == np.int16
-    return volume
+    return read_head()
 
 
 def run(type_name, volume, **properties):
