@@ -1,6 +1,6 @@
 """How the SweepPlaneRenderer's (RZSweep's) frame time grows with the number of vertices and with
 the image size, measured, with a least-squares model and its residuals
-(docs/reports/performance.md, "RZSweep" section, records the numbers; the plot goes to
+(docs/explanations/sweep-plane.md, section "Measured", records the numbers; the plot goes to
 docs/images/sweep_growth.png).
 
     .venv/bin/python bench/bench_sweep_growth.py [--sizes 32 48 64 96 128 192 256] [--size-image 128]

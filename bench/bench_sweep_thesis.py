@@ -1,6 +1,6 @@
 """Retondaro 2008's results (ch. 5: fig. 5.1-5.5, table 5.1) redone with the SweepPlaneRenderer
 (RZSweep), and RZSweep beside the BrickedRayCaster and the RayCaster on the same data
-(docs/reports/performance.md, "RZSweep" section, records the numbers).
+(docs/explanations/sweep-plane.md, section "Measured", records the numbers).
 
     .venv/bin/python bench/bench_sweep_thesis.py [--image 800] [--repeat 2] [--sets mriHead ctSkull]
         [--levels 1 2] [--workers 1 2] [--compare-sizes 256] [--compare-image 256]

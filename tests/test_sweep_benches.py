@@ -1,7 +1,7 @@
 """The RZSweep benches (bench/bench_sweep_thesis.py, bench/bench_sweep_growth.py) run in --quick
-mode and print the tables docs/reports/performance.md quotes: every renderer row with a PSNR, the
-split columns either measured or "not available" with a reason, the fitted models, the plot.
-No timed assertions."""
+mode and print the tables docs/explanations/sweep-plane.md ("Measured") quotes: every renderer
+row with a PSNR, the split columns either measured or "not available" with a reason, the fitted
+models, the plot. No timed assertions."""
 
 from __future__ import annotations
 
