@@ -1,6 +1,6 @@
 """Benchmark: the issue-35 image processors (GL passes) and statistics processors against the
-numpy computation each one equals (the formulas of tests/test_image_processors.py and
-tests/test_statistics_processors.py).
+numpy / scipy.ndimage computation each one equals (the formulas of tests/test_image_filters.py,
+tests/test_image_processors.py and tests/test_statistics_processors.py).
 
 Usage:  python bench/bench_image_processors.py [--rounds N] [--size N] [--data FOLDER] [--out FILE.md]
 
@@ -20,7 +20,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+from scipy import ndimage
 
+from filter_timing import timed
 from interleave import interleaved, spread
 from vgraph.gl_context import get_context
 from vgraph.image import Image
@@ -51,14 +53,33 @@ def background_reference(rgba):
     return rgba + (1 - rgba[..., 3:]) * back
 
 
+def blur_reference(rgba):
+    return ndimage.gaussian_filter(rgba, (3.0, 3.0, 0.0), mode="nearest", truncate=4.0)
+
+
+def edges_reference(rgba):
+    values = rgba[..., :3] @ LUMINANCE
+    magnitude = np.hypot(ndimage.sobel(values, 0, mode="nearest"), ndimage.sobel(values, 1, mode="nearest"))
+    return np.concatenate([np.repeat(0.25 * magnitude[..., None], 3, -1), np.ones_like(rgba[..., 3:])], axis=-1)
+
+
+def depth_darkening_reference(rgba, depth):
+    red = depth[..., 0]
+    normalised = (red - red.min()) / (red.max() - red.min())
+    delta = ndimage.gaussian_filter(normalised, 8.0, mode="nearest", truncate=4.0) - normalised
+    return np.concatenate([np.maximum(rgba[..., :3] + np.minimum(delta, 0.0)[..., None], 0.0), rgba[..., 3:]], axis=-1)
+
+
 def mix_reference(rgba, other):
     return 0.7 * rgba + 0.3 * other
 
 
 def text_reference(rgba):
     from PIL import Image as PILImage, ImageDraw, ImageFont
+    side = min(rgba.shape[:2])  # TextOverlay's defaults: text 0.05 of the shorter side, 3 % from the corner
     mask = PILImage.new("L", rgba.shape[1::-1])
-    ImageDraw.Draw(mask).multiline_text((15, 15), "CT head", fill=255, font=ImageFont.load_default(size=26))
+    ImageDraw.Draw(mask).multiline_text((round(0.03 * side), round(0.03 * side)), "CT head", fill=255,
+                                        font=ImageFont.load_default(size=round(0.05 * side)), anchor="la")
     coverage = np.asarray(mask, np.float32)[..., None] / 255
     return coverage + (1 - coverage) * rgba
 
@@ -71,13 +92,11 @@ IMAGE_CASES = {
     "gradient under the image": ("Background", {}, ("image",), background_reference),
     "mix 0.3": ("ImageMix", {"factor": 0.3}, ("a", "b"), mix_reference),
     "caption": ("TextOverlay", {"text": "CT head"}, ("image",), text_reference),
+    "Gaussian, sigma 3 pixels": ("ImageBlur", {"sigma": 3.0}, ("image",), blur_reference),
+    "Sobel magnitude of the luminance": ("EdgeDetect", {"overlay": False, "scale": 0.25}, ("image",), edges_reference),
+    "unsharp-masked depth, sigma 8": ("DepthDarkening", {"sigma": 8.0, "strength": 1.0}, ("image", "depth"),
+                                      depth_darkening_reference),
 }
-
-
-def timed(run) -> float:
-    start = time.perf_counter()
-    run()
-    return time.perf_counter() - start
 
 
 def bench_images(size: int, rounds: int) -> list[str]:
