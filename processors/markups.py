@@ -32,13 +32,13 @@ from PIL import Image as PILImage
 from PIL import ImageDraw
 
 from vgraph import (BoolProperty, CameraProperty, ColorProperty, FloatProperty, Inport, IntProperty, MarkupsProperty,
-                    Outport, Processor, StringProperty, VGraphError)
+                    OptionProperty, Outport, Processor, StringProperty, VGraphError)
 from vgraph.camera import Camera
 from vgraph.gl.coverage import CoverageOverlay, overlay_font
 from vgraph.gl.raycasting.framed_view import framed_view
 from vgraph.gl.raycasting.geometry import DEFAULT_CAMERA
 from vgraph.image import Image
-from vgraph.markups import Markups as MarkupList
+from vgraph.markups import KINDS, Markups as MarkupList
 from vgraph.markups_drawing import MarkupView, Style, draw_markups, scene_eye_depth
 from vgraph.table import Column, Table
 from vgraph.volume import Volume
@@ -58,6 +58,8 @@ class Markups(Processor):
 
     markups = MarkupsProperty(MarkupList(), doc="the markups: name, kind (points, ruler, angle, closed_curve) "
                                                 "and world points (x, y, z) of each")
+    place_kind = OptionProperty("ruler", choices=list(KINDS), doc="the kind of markup the GUI's Add button "
+                                "and the mouse's Place mode start next")
     camera = CameraProperty(DEFAULT_CAMERA, doc="link it to the renderer's camera")
     color = ColorProperty((1.0, 0.85, 0.0, 1.0), doc="colour of lines, points and labels")
     line_width = IntProperty(2, min=1, max=64, doc="line width in pixels")

@@ -110,7 +110,7 @@ def test_a_point_list_grows_by_one_undo_step_per_click(head, qtbot):
     view = head.canvases.views["canvas"]
     view.set_placing(True)
     head.scene.select_processor("mk")
-    head.inspector.editors["markups"].kind.setCurrentText("points")
+    head.workspace.set_property("mk.place_kind", "points")
     network, undo = head.workspace.network, head.workspace.undo_stack
     first, second = head_pixels(view)
     place_at(head, qtbot, view, first)
@@ -169,7 +169,7 @@ def test_a_click_in_a_slice_places_the_point_on_its_plane(window, jobs, qtbot):
     mpr = open_mpr(window, qtbot, SIZE)
     mpr.workspace.add_processor("Markups", (400, 0), id="mk")
     mpr.scene.select_processor("mk")
-    mpr.inspector.editors["markups"].kind.setCurrentText("points")
+    mpr.workspace.set_property("mk.place_kind", "points")
     view = mpr.canvases.views["axial_canvas"]
     view.set_placing(True)
     centre = view.image_rect().center()

@@ -24,7 +24,8 @@ def markups_editor(window):
 def test_add_type_points_hide_remove_and_undo(window):
     editor = markups_editor(window)
     network, undo = window.workspace.network, window.workspace.undo_stack
-    editor.kind.setCurrentText("angle")
+    window.workspace.set_property("mk.place_kind", "angle")
+    editor = window.inspector.editors["markups"]
     editor.add_markup()
     editor = window.inspector.editors["markups"]
     assert network.get("mk.markups").names == ["angle 1"]

@@ -4,7 +4,7 @@
 Conventions:
 - The markups edited are those of the selected Markups processor, else of the nearest Markups
   upstream of the canvas (between its renderer and the canvas). The kind placed is the one chosen
-  in that processor's markups editor (``chosen_kind``: a ruler until another is chosen).
+  the processor's ``place_kind`` property (``chosen_kind``; a ruler unless set).
 - Placing (the canvas toolbar's Place, key M, ``CanvasView.set_placing``): a left click (press
   and release within ``CLICK_SLOP`` pixels) picks its pixel through the hover readout's probe
   channel (hover.py ``request``; the render process answers with ``Network.pick``): in a 3D view

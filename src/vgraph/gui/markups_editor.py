@@ -8,7 +8,7 @@ Conventions (as every editor, see editors.py):
   current markups again.
 - Points are typed as text, "x y z" per point, points separated by ";" (commas between numbers are
   taken too); the measurement column is the model's (read only).
-- Add puts a markup of the chosen kind with a free name ("ruler 1", ...) at points around the
+- Add puts a markup of the processor's ``place_kind`` with a free name ("ruler 1", ...) at points around the
   world origin, to be typed or imported over; Remove drops the selected rows.
 - Import replaces the markups with a file's (CSV, JSON, Slicer .mrk.json); Export writes them.
   A file's problem (MarkupsFileError, OutputFileError) is reported, nothing changes.
@@ -16,15 +16,13 @@ Conventions (as every editor, see editors.py):
 
 from __future__ import annotations
 
-import weakref
-
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import (QComboBox, QFileDialog, QHBoxLayout, QPushButton, QSizePolicy, QTableWidgetItem,
+from PySide6.QtWidgets import (QFileDialog, QHBoxLayout, QPushButton, QSizePolicy, QTableWidgetItem,
                                QVBoxLayout)
 
 from vgraph.errors import VGraphError
-from vgraph.gui.editors import PropertyEditor, list_popup, register_editor, row_table
-from vgraph.markups import KINDS, Markup, Markups, free_name
+from vgraph.gui.editors import PropertyEditor, register_editor, row_table
+from vgraph.markups import Markup, Markups, free_name
 from vgraph.markups_files import read_markups, write_markups
 
 COLUMNS = ("name", "kind", "measured", "points", "visible")
@@ -33,12 +31,12 @@ NEW_POINTS = {"points": [[0.0, 0.0, 0.0]], "ruler": [[0.0, 0.0, 0.0], [10.0, 0.0
               "angle": [[10.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 10.0, 0.0]],
               "closed_curve": [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [10.0, 10.0, 0.0], [0.0, 10.0, 0.0]]}
 FILES = "Markups (*.csv *.json *.mrk.json)"
-_CHOSEN: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()  # processor -> the kind chosen last
 
 
 def chosen_kind(processor) -> str:
-    """The kind chosen last in the editor of this Markups processor (Add's, and the mouse's)."""
-    return _CHOSEN.get(processor, "ruler")
+    """The kind Add and the mouse start next: the Markups processor's ``place_kind`` (a property
+    of its own, so it is saved, undone and shown in the inspector like any other)."""
+    return processor.place_kind
 
 
 def measured_text(markup: Markup) -> str:
@@ -72,14 +70,7 @@ class MarkupsEditor(PropertyEditor):
         self.table.itemChanged.connect(lambda _item: self.emit(self.rows()))
         column.addWidget(self.table)
         buttons = QHBoxLayout()
-        self.kind = list_popup(QComboBox())
-        self.kind.addItems(list(KINDS))
-        # The kind is kept per processor across editors (the inspector builds one per selection
-        # and edit): it is also the kind the mouse places (markup_placing.py).
-        self.kind.setCurrentText(chosen_kind(self.processor))
-        self.kind.currentTextChanged.connect(lambda kind: _CHOSEN.__setitem__(self.processor, kind))
-        buttons.addWidget(self.kind)
-        for label, tip, action in (("Add", "add a markup of the chosen kind", self.add_markup),
+        for label, tip, action in (("Add", "add a markup of the kind 'place kind' names", self.add_markup),
                                    ("Remove", "remove the selected markups", self.remove_selected),
                                    ("Import...", "replace the markups with a file's (CSV, JSON, Slicer)",
                                     self.import_file),
@@ -129,7 +120,7 @@ class MarkupsEditor(PropertyEditor):
                 for row in range(self.table.rowCount())]
 
     def add_markup(self) -> None:
-        kind = self.kind.currentText()
+        kind = chosen_kind(self.processor)
         name = free_name(self.current, kind)
         self.emit(self.rows() + [{"name": name, "kind": kind, "points": NEW_POINTS[kind], "visible": True}])
 
