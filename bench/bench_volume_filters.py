@@ -1,7 +1,7 @@
 """Benchmark: the volume filters (VolumeCrop, VolumeResample, VolumeSmooth, VolumeThreshold)
 against the scipy.ndimage / scikit-image call each one equals, on the 256^3 bonsai.
 
-Usage:  python bench/bench_volume_filters.py [--rounds N] [--data FOLDER] [--out FILE.md]
+Usage:  python bench/bench_volume_filters.py [--rounds N] [--data FOLDER] [--size N] [--out FILE.md]
         python bench/bench_volume_filters.py --chunked 512 [--budget MIB] [--brick 64] [--folder DIR]
                                              [--only Gaussian threshold ...]
 
@@ -32,8 +32,7 @@ import numpy as np
 from scipy import ndimage
 from skimage.filters import threshold_otsu
 
-from filter_timing import ours_against_reference, table_header, timed
-from vgraph.io import read_volume
+from filter_timing import bonsai, ours_against_reference, table_header, timed
 from vgraph.registry import registry
 from vgraph.volume import Volume
 
@@ -160,6 +159,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument("--size", type=int, default=256, help="N: the bonsai resampled to N^3 (linear)")
     parser.add_argument("--out", type=Path)
     parser.add_argument("--chunked", type=int, help="N: the filters on a generated N^3 store, chunk by chunk")
     parser.add_argument("--budget", type=float, default=256.0, help="the store's memory budget, MiB")
@@ -180,7 +180,7 @@ def main() -> None:
         if args.out:
             args.out.write_text("\n".join(rows) + "\n")
         return
-    volume = read_volume(args.data / "ct_bonsai" / "bonsai.nii.gz")
+    volume = bonsai(args.data, args.size)
     header = table_header(volume, args.rounds)
     rows = bench(volume, args.rounds)
     if args.out:

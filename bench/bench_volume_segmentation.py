@@ -2,7 +2,7 @@
 VolumeMath, VolumeMask) against the scipy.ndimage / scikit-image / numpy call each one equals, on
 the 256^3 bonsai (spacing 1, so world sizes are voxel sizes) and its mask at the leaves' level.
 
-Usage:  python bench/bench_volume_segmentation.py [--rounds N] [--data FOLDER] [--out FILE.md]
+Usage:  python bench/bench_volume_segmentation.py [--rounds N] [--data FOLDER] [--size N] [--out FILE.md]
 
 Ours runs the processor's process() on fresh Volumes each time (what it works out from the values
 is in its time, as in a first run); the reference is the library call on the bare arrays. The two
@@ -19,8 +19,7 @@ import numpy as np
 from scipy import ndimage
 from skimage.measure import label as skimage_label
 
-from filter_timing import ours_against_reference, table_header
-from vgraph.io import read_volume
+from filter_timing import bonsai, ours_against_reference, table_header
 from vgraph.registry import registry
 from vgraph.volume import Volume
 from vgraph.volume_segmentation import ball_offsets
@@ -73,9 +72,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument("--size", type=int, default=256, help="N: the bonsai resampled to N^3 (linear)")
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
-    volume = read_volume(args.data / "ct_bonsai" / "bonsai.nii.gz")
+    volume = bonsai(args.data, args.size)
     header = table_header(volume, args.rounds)
     rows = bench(volume, args.rounds)
     if args.out:

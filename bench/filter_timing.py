@@ -10,8 +10,21 @@ import platform
 import time
 
 import numpy as np
+from scipy import ndimage
 
 from interleave import interleaved, spread
+from vgraph.io import read_volume
+from vgraph.volume import Volume
+
+
+def bonsai(data, size: int = 256) -> Volume:
+    """The CT bonsai (256^3 uint8, spacing 1), or resampled to ``size``^3 (linear, spacing 1: the
+    bench's world sizes stay voxel sizes) for the larger rows."""
+    volume = read_volume(data / "ct_bonsai" / "bonsai.nii.gz")
+    if size == volume.dims[0]:
+        return volume
+    zoomed = ndimage.zoom(volume.data, size / np.array(volume.data.shape), order=1)
+    return Volume(zoomed.astype(volume.data.dtype))
 
 
 def timed(run) -> float:
