@@ -192,3 +192,45 @@ def test_place_point_holds_points_until_the_kind_is_complete():
     # an angle takes no more points: the next click starts a new one
     changed, current, held = place_point(changed, "angle", current, held, (5.0, 5.0, 5.0))
     assert changed is None and current is None and len(held) == 1
+
+
+def test_a_point_drawn_in_a_slice_is_dragged_on_its_plane_in_one_undo_step(window, jobs, qtbot):
+    if not DATA.is_dir():
+        pytest.skip(f"shared data sets not found at {DATA}")
+    mpr = open_mpr(window, qtbot, SIZE)
+    mpr.workspace.add_processor("Markups", (400, 0), id="mk")
+    view = mpr.canvases.views["axial_canvas"]
+    plane = mpr.evaluation.view_cameras["axial.slice_plane"]
+    centre = view.image_rect().center()
+    start, end = (centre.x() - 7, centre.y() + 5), (centre.x() + 9, centre.y() - 4)
+    at_start = plane.pixel_to_world(*frame_pixel(view, QPointF(*start)), (SIZE, SIZE))
+    other = np.asarray(plane.centre) + (20.0, 20.0, 0.0)
+    mpr.workspace.set_property("mk.markups", Markups(markups=(
+        Markup(name="r", kind="ruler", points=(tuple(at_start), tuple(other))),)))
+    steps, cursor = mpr.workspace.undo_stack.count(), mpr.workspace.network.get("axial.cursor")
+    send_mouse(view, QEvent.MouseButtonPress, start, Qt.LeftButton, Qt.LeftButton)
+    for i in (1, 2, 3):
+        point = (start[0] + (end[0] - start[0]) * i / 4, start[1] + (end[1] - start[1]) * i / 4)
+        send_mouse(view, QEvent.MouseMove, point, Qt.NoButton, Qt.LeftButton)
+    send_mouse(view, QEvent.MouseButtonRelease, end, Qt.LeftButton, Qt.NoButton)
+    answered(mpr, qtbot)
+    moved = mpr.workspace.network.get("mk.markups")["r"]
+    expected = plane.pixel_to_world(*frame_pixel(view, QPointF(*end)), (SIZE, SIZE))
+    np.testing.assert_allclose(moved.points[0], expected, atol=1e-9)
+    np.testing.assert_allclose(moved.points[1], other, atol=0)
+    assert mpr.workspace.undo_stack.count() == steps + 1
+    # the slice cursor stayed: the press grabbed the point instead of moving the cursor
+    assert mpr.workspace.network.get("axial.cursor") == cursor
+
+
+def test_nearest_slice_point_takes_points_in_the_slice_only():
+    from vgraph.gui.markup_placing import nearest_slice_point
+    from vgraph.slicing import slice_plane
+    plane = slice_plane("axial", None, (32.0, 32.0, 20.0), 1.0, (0.0, 0.0, 0.0), (1.0, 1.0, 2.0), (64, 64, 32),
+                        (64, 64))
+    markups = Markups(markups=(Markup(name="off", kind="points", points=((32.0, 32.0, 24.0),)),
+                               Markup(name="on", kind="points", points=((33.0, 32.0, 20.0),))))
+    rect = (0.0, 0.0, 64.0, 64.0)   # one widget pixel per world unit
+    u, v = plane.uv_of((32.0, 32.0, 20.0))
+    assert nearest_slice_point(markups, plane, 1.0, (u * 64, (1 - v) * 64), rect) == ("on", 0)
+    assert nearest_slice_point(markups, plane, 1.0, (u * 64 + 20, (1 - v) * 64), rect) is None

@@ -99,7 +99,7 @@ def _draw_markup(draw, view: MarkupView, markup: Markup, style: "Style", fill: i
     if lines is not None:
         _draw_polyline(draw, view, lines, style.line_width, fill, shown)
     if markup.kind == "angle":
-        _draw_polyline(draw, view, _arc(points), style.line_width, fill, shown)
+        _draw_polyline(draw, view, angle_arc(points), style.line_width, fill, shown)
     _draw_points(draw, view, points, style.point_radius, fill, shown)
     if style.font is not None:
         _draw_label(draw, view, markup, style, fill, shown)
@@ -188,7 +188,7 @@ def _runs(shown: np.ndarray) -> list[np.ndarray]:
     return np.split(indices, breaks)
 
 
-def _arc(points: np.ndarray) -> np.ndarray:
+def angle_arc(points: np.ndarray) -> np.ndarray:
     """The angle's arc: around the vertex, from the first arm to the last, at a quarter of the
     shorter arm's length (no arc for a straight or zero angle)."""
     first, vertex, last = points

@@ -28,6 +28,7 @@ from vgraph.errors import OutputFileError
 from vgraph.gui.canvas_mouse import CanvasMouse, camera_property_for
 from vgraph.gui.image_export import IMAGE_FILTER, suggested_image_path, write_frame
 from vgraph.gui.overlays import ViewGeometry, draw_overlays
+from vgraph.gui.slice_markups import draw_slice_markups
 from vgraph.gui.slice_overlay import draw_slice_overlay
 from vgraph.live import slice_clicks
 
@@ -150,6 +151,9 @@ class CanvasView(CanvasMouse, QWidget):
             viewer_id = slice_clicks.slice_viewer_for(self.workspace.network, self.canvas_id)
             if self._slices and viewer_id is not None:
                 draw_slice_overlay(painter, viewer_id, self.workspace.network, self.view_cameras(),
+                                   self.image_rect())
+            if viewer_id is not None:  # markups are data, drawn with or without the Slices overlay
+                draw_slice_markups(painter, viewer_id, self.workspace.network, self.view_cameras(),
                                    self.image_rect())
         if self._annotation:
             self._draw_annotation(painter)

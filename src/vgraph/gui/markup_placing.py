@@ -19,7 +19,8 @@ Conventions:
   visible markup of the Markups upstream of the canvas (the one drawn in it) as the frame draws it (projected by vgraph.markups_drawing with the frame's
   camera) drags that point: each move is picked and the point goes to the picked surface point;
   the whole drag is one undo step (one merge key). A move over nothing leaves the point where it
-  was and says so. Slice views draw no markups, so points are dragged in 3D views.
+  was and says so. In a slice view the points drawn are those in the slice (vgraph.markups_slice,
+  gui/slice_markups.py), grabbed where they are drawn and moved on the slice's plane.
 """
 
 from __future__ import annotations
@@ -32,9 +33,12 @@ from PySide6.QtCore import QObject, Qt
 from vgraph.errors import VGraphError
 from vgraph.gui.hover import frame_pixel
 from vgraph.gui.markups_editor import chosen_kind
+from vgraph.gui.slice_markups import markups_sources, network_slab
+from vgraph.live.slice_clicks import PLANE_SUFFIX, slice_viewer_for
 from vgraph.live.upstream import nearest_upstream, property_of_type
 from vgraph.markups import POINT_COUNTS, Markup, Markups, free_name
 from vgraph.markups_drawing import MarkupView
+from vgraph.markups_slice import slice_reach
 from vgraph.properties import MarkupsProperty
 
 CLICK_SLOP = 3       # widget pixels: a press and release closer than this is a click
@@ -147,10 +151,9 @@ class MarkupPlacer(QObject):
         address = markups_address(network, view.canvas_id, self.selected())
         base = {"button": event.button(), "start": event.position(), "active": False, "address": address,
                 "key": ("markups", next(self._keys))}
-        drawn = nearest_upstream(network, view.canvas_id, property_of_type(MarkupsProperty))  # drawn here
-        grabbed = self._grab(view, drawn, event.position()) if drawn is not None else None
+        grabbed = self._grab(view, event.position())
         if grabbed is not None:
-            return {**base, "mode": "markup_point", "address": drawn, "name": grabbed[0], "index": grabbed[1]}
+            return {**base, "mode": "markup_point", "address": grabbed[0], "name": grabbed[1], "index": grabbed[2]}
         if not view.placing:
             return None
         return {**base, "mode": "markup_place"}
@@ -223,11 +226,22 @@ class MarkupPlacer(QObject):
         self.say(f"{drag['name']}: point {drag['index'] + 1} at (" + ", ".join(f"{v:.2f}" for v in point) + ")")
 
     # --- grabbing -------------------------------------------------------------------------------
-    def _grab(self, view, address: str, position):
-        """(name, index) of the drawn point under widget ``position``, or None."""
-        pixel, frame = frame_pixel(view, position), view.frame()
-        if pixel is None:
+    def _grab(self, view, position):
+        """(markups address, name, index) of the drawn point under widget ``position``, or None:
+        in a 3D view the points the Markups upstream of the canvas draws, in a slice view those
+        of every Markups in the slice."""
+        if frame_pixel(view, position) is None:
             return None
+        network = self.workspace.network
+        viewer_id = slice_viewer_for(network, view.canvas_id)
+        if viewer_id is not None:
+            return self._grab_in_slice(view, viewer_id, position)
+        address = nearest_upstream(network, view.canvas_id, property_of_type(MarkupsProperty))  # drawn here
+        found = self._grab_in_3d(view, address, position) if address is not None else None
+        return None if found is None else (address, *found)
+
+    def _grab_in_3d(self, view, address: str, position):
+        pixel, frame = frame_pixel(view, position), view.frame()
         network = self.workspace.network
         camera = frame_camera(network, view.view_cameras(), address.split(".")[0])
         markups = network.get(address)
@@ -236,3 +250,36 @@ class MarkupPlacer(QObject):
         height, width = frame.shape[:2]
         radius = GRAB_RADIUS * width / max(view.image_rect().width(), 1.0)
         return nearest_drawn_point(markups, MarkupView(camera, (width, height)), pixel, radius)
+
+    def _grab_in_slice(self, view, viewer_id: str, position):
+        plane = view.view_cameras().get(viewer_id + PLANE_SUFFIX)
+        if plane is None:
+            return None
+        rect = view.image_rect()
+        reach = slice_reach(plane, network_slab(self.workspace.network, viewer_id))
+        where = (position.x(), position.y())
+        for address, markups, _colour, _units in markups_sources(self.workspace.network):
+            found = nearest_slice_point(markups, plane, reach, where,
+                                        (rect.left(), rect.top(), rect.width(), rect.height()))
+            if found is not None:
+                return (address, *found)
+        return None
+
+
+def nearest_slice_point(markups: Markups, plane, reach: float, widget, rect, radius: float = GRAB_RADIUS):
+    """(markup name, point index) of the visible markups' point in the slice drawn nearest to
+    ``widget`` (x, y) within ``radius`` widget pixels, or None; ``rect`` is where the frame is
+    drawn (left, top, width, height)."""
+    left, top, width, height = rect
+    best, best_distance = None, radius
+    for markup in markups.markups:
+        if not markup.visible:
+            continue
+        points = markup.array
+        inside = np.abs((points - np.asarray(plane.centre)) @ np.asarray(plane.normal)) <= reach
+        uv = plane.uv_of(points)
+        x, y = left + uv[:, 0] * width, top + (1.0 - uv[:, 1]) * height
+        distances = np.hypot(x - widget[0], y - widget[1])
+        for index in np.flatnonzero(inside & (distances <= best_distance)):
+            best, best_distance = (markup.name, int(index)), float(distances[index])
+    return best
