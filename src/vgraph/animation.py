@@ -1,12 +1,14 @@
-"""Turntables and parameter sweeps as videos: ``vgraph animate`` and ``animate()``.
+"""Turntables, parameter sweeps and keyframed timelines as videos: ``vgraph animate`` and ``animate()``.
 
 Frame i turns every camera of the network by ``orbit * i / frames`` degrees about its own up axis
 (Camera.rotate from the camera as it was, so nothing drifts; 360 degrees over 120 frames ends at
 357 and loops without a repeated frame), and/or sets an integer property to the i-th value of
 ``over`` (``ID.PROPERTY=START:STOP``, both ends included; without a range, 0 .. time_steps - 1 of
 the volume that processor produces). Linked cameras are set once per link group: a link carries the
-value to its followers. Each frame evaluates only what the target needs (network.update), and the
-network's cameras and the swept property are put back afterwards.
+value to its followers. With ``timeline`` the network's keyframe tracks (vgraph.tracks) set every
+tracked property instead, one frame every 1/fps seconds from 0 to the last keyframe (or ``frames``
+frames over that span). Each frame evaluates only what the target needs (network.update), and the
+network's cameras and the swept or tracked properties are put back afterwards.
 
 Outputs by name: ``.mp4`` (H.264, yuv420p, CRF 18, even width and height), ``.gif`` (loops for
 ever; frame times are whole hundredths of a second), a folder (``frame_0000.png``, ...) or a
@@ -41,6 +43,7 @@ from vgraph.network import Network, split_address
 from vgraph.properties import CameraProperty, IntProperty
 from vgraph.scheduler import BlankImageWarning, blank_image_warning, default_target
 from vgraph.time_series import warn_time_series
+from vgraph.tracks import apply_tracks, frame_times
 from vgraph.volume import Volume
 
 VIDEO_EXTENSIONS = (".mp4", ".gif")
@@ -53,19 +56,21 @@ FRAME_NAME = "frame_{:04d}.png"
 # --- the Python API -------------------------------------------------------------------------------
 def animate(network: Network, path, orbit: float | None = None, frames: int | None = None,
             over=None, fps: float = DEFAULT_FPS, size: tuple[int, int] | None = None,
-            target: str | None = None, progress: bool = False) -> int:
+            target: str | None = None, progress: bool = False, timeline: bool = False) -> int:
     """Render frames of ``target`` (default: the Canvas) into ``path`` and return how many.
 
     ``orbit``: degrees the cameras turn over all frames (default 360, or 0 when ``over`` is given).
     ``over``: "ID.PROPERTY", "ID.PROPERTY=START:STOP" or (address, values) for an integer property.
-    ``frames``: default the number of ``over`` values, else 120. ``size``: (width, height)."""
-    plan = plan_frames(network, orbit, frames, over)
+    ``frames``: default the number of ``over`` values, else 120. ``size``: (width, height).
+    ``timeline``: play the network's keyframe tracks instead (one frame every 1/fps seconds)."""
     _check_number(fps, "fps")
+    plan = plan_timeline(network, orbit, frames, over, fps) if timeline else \
+        plan_frames(network, orbit, frames, over)
     output = Output.of(path)
     output.check(size)
     target = target or default_target(network)
     cameras = CameraOrbit(network)
-    start_value = network.get(plan.address) if plan.address else None
+    start_values = {address: network.get(address) for address in plan.changed}
     bar = tqdm(total=plan.frames, unit="frame", file=sys.stderr, disable=not progress,
                desc=output.path.name)
     try:
@@ -76,8 +81,8 @@ def animate(network: Network, path, orbit: float | None = None, frames: int | No
     finally:
         bar.close()
         cameras.restore()
-        if plan.address:
-            network.set(plan.address, start_value)
+        for address, value in start_values.items():
+            network.set(address, value)
     return plan.frames
 
 
@@ -87,6 +92,8 @@ def render_frame(network: Network, target: str, plan: "FramePlan", index: int,
     cameras.turn(plan.orbit * index / plan.frames)
     if plan.address:
         network.set(plan.address, plan.values[index])
+    if plan.tracks:
+        apply_tracks(network, plan.tracks, plan.times[index])
     network.update(target, size=size)
     image = network.output(target)
     if not isinstance(image, Image):
@@ -108,6 +115,13 @@ class FramePlan:
     orbit: float                # degrees over all frames
     address: str | None = None  # the swept integer property
     values: tuple[int, ...] = ()
+    tracks: tuple = ()          # keyframe tracks (vgraph.tracks), played at ``times`` (seconds)
+    times: tuple[float, ...] = ()
+
+    @property
+    def changed(self) -> list[str]:
+        """The properties the frames set, to be put back afterwards."""
+        return ([self.address] if self.address else []) + [track.address for track in self.tracks]
 
 
 def plan_frames(network: Network, orbit, frames, over) -> FramePlan:
@@ -123,6 +137,21 @@ def plan_frames(network: Network, orbit, frames, over) -> FramePlan:
     orbit = (0.0 if values else 360.0) if orbit is None else orbit
     _check_number(orbit, "orbit", positive=False)
     return FramePlan(int(frames), float(orbit), address, tuple(values))
+
+
+def plan_timeline(network: Network, orbit, frames, over, fps: float) -> FramePlan:
+    """The frames of the network's tracks: every 1/fps seconds, or ``frames`` over their span."""
+    if orbit is not None or over is not None:
+        raise VGraphError("--timeline plays the network's tracks: leave out --orbit and --over "
+                          "(a turntable is a camera track; docs/guide/animation.md)")
+    if not network.tracks:
+        raise VGraphError("the network has no tracks to play: add keyframes in the GUI's Timeline "
+                          "or a \"tracks\" list to the file (docs/general/network-format.md)")
+    if frames is not None and (isinstance(frames, bool) or not isinstance(frames, (int, np.integer))
+                               or frames < 1):
+        raise VGraphError(f"frames must be a positive integer, got {frames!r}")
+    times = frame_times(network.tracks, fps, frames)
+    return FramePlan(len(times), 0.0, tracks=tuple(network.tracks), times=tuple(times))
 
 
 def sweep(network: Network, over) -> tuple[str, list[int]]:
@@ -359,10 +388,12 @@ def opaque_rgb(pixels: np.ndarray) -> np.ndarray:
 def add_parser(commands) -> argparse.ArgumentParser:
     """Add ``vgraph animate`` to the subparsers of vgraph.cli.build_parser."""
     parser = commands.add_parser(
-        "animate", help="render a turntable or a sweep over a property as MP4, GIF or PNG frames",
+        "animate", help="render a turntable, a sweep over a property or the network's keyframe "
+                        "timeline as MP4, GIF or PNG frames",
         description="Render frames of a network: the cameras orbit and/or an integer property "
-                    "steps through values. Output by name: .mp4, .gif, a folder or a pattern "
-                    "such as frames/turn_{:04d}.png (docs/guide/outputs.md).")
+                    "steps through values, or (--timeline) the network's keyframe tracks play. "
+                    "Output by name: .mp4, .gif, a folder or a pattern such as "
+                    "frames/turn_{:04d}.png (docs/guide/outputs.md).")
     parser.add_argument("network", type=user_path, help="the .json network")
     parser.add_argument("-o", "--output", required=True,
                         help="turn.mp4, turn.gif, a folder, or a pattern like frames/turn_{:04d}.png")
@@ -373,6 +404,9 @@ def add_parser(commands) -> argparse.ArgumentParser:
     parser.add_argument("--over", metavar="ID.PROPERTY[=START:STOP]",
                         help="step an integer property, START and STOP included (default range: "
                              "the volume's time steps)")
+    parser.add_argument("--timeline", action="store_true",
+                        help="play the network's keyframe tracks, one frame every 1/fps seconds "
+                             "(with --frames: that many frames over the tracks' span)")
     parser.add_argument("--fps", type=float, default=DEFAULT_FPS, help="frames per second (default 30)")
     parser.add_argument("--size", type=parse_size, help="image size WxH (default: the Canvas size)")
     parser.add_argument("--port", help="the image port to animate, ID.PORT (default: the Canvas)")
@@ -397,6 +431,7 @@ def command_animate(args) -> int:
     cli_common.check_before_evaluating(network, args.network)
     # A blank first frame warns (BlankImageWarning); vgraph.cli.main prints it as one line.
     count = animate(network, args.output, orbit=args.orbit, frames=args.frames, over=args.over,
-                    fps=args.fps, size=args.size, target=args.port, progress=not args.quiet)
+                    fps=args.fps, size=args.size, target=args.port, progress=not args.quiet,
+                    timeline=args.timeline)
     print(f"wrote {count} frames to {args.output}", file=sys.stderr)
     return cli_common.EXIT_OK

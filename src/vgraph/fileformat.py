@@ -3,7 +3,8 @@
     {"format": "vgraph-network", "version": 3, "description": "...",
      "processors": [{"id": "src", "type": "FunctionSelector", "properties": {...}, "position": [x, y]}],
      "connections": [{"from": "src.volume", "to": "spline.volume"}],
-     "links": [{"from": "eep.camera", "to": "rc.camera", "bidirectional": false}]}
+     "links": [{"from": "eep.camera", "to": "rc.camera", "bidirectional": false}],
+     "tracks": [{"property": "rc.camera", "keyframes": [{"time": 0, "value": {...}}, ...]}]}
 
 Loading either returns a complete Network or raises NetworkFileError listing every problem with
 its JSON path (``processors[2].properties.iso_level``) and reason; it never changes an existing network.
@@ -38,6 +39,7 @@ from vgraph.mesh_network import is_mesh_path, mesh_network
 from vgraph.network import Network
 from vgraph.properties import FilePathProperty
 from vgraph.registry import registry
+from vgraph.tracks import TrackEntry, tracks_from_json, tracks_to_json
 from vgraph.volume_network import is_volume_path, volume_network
 from vgraph.write_paths import check_write_paths
 
@@ -76,6 +78,7 @@ class NetworkDocument(_Strict):
     processors: list[ProcessorEntry] = []
     connections: list[ConnectionEntry] = []
     links: list[LinkEntry] = []
+    tracks: list[TrackEntry] = []   # keyframe animation (vgraph.tracks); left out when empty
 
 
 # --- migrations -----------------------------------------------------------------------------------
@@ -323,6 +326,7 @@ def build_network(document: NetworkDocument, file: str = "<network>", base_dir=N
                 problems.append((f"{kind}[{i}]", str(error)))
     if problems:
         raise NetworkFileError(file, problems)
+    network.tracks = tracks_from_json(document.tracks, network, file, base_dir)
     return network
 
 
@@ -345,7 +349,7 @@ def network_document(network: Network, base_dir: Path | None = None) -> dict:
                         for c in network.connections],
         "links": [{"from": l.source, "to": l.target, "bidirectional": l.bidirectional}
                   for l in network.links],
-    }
+    } | ({"tracks": tracks_to_json(network, network.tracks)} if network.tracks else {})
 
 
 def _relocated(processor, value: str, base_dir: Path) -> str:

@@ -124,6 +124,8 @@ class Network:
         self._listeners: list[Callable] = []
         self.base_dir = Path(base_dir) if base_dir is not None else None
         self.description = ""
+        # Keyframe tracks (vgraph.tracks.Track), saved with the network; only the timeline reads them
+        self.tracks: tuple = ()
         self.last_evaluation = None  # an EvaluationReport, set by the scheduler
         # Where the writer paths read from a file may write, re-checked as they write
         # (vgraph.write_paths.Confinement); None: a network built in Python, not from a file
