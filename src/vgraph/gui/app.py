@@ -43,12 +43,14 @@ from vgraph.gui.inspector import PropertyInspector
 from vgraph.gui.links import LinkDialog
 from vgraph.gui.live_evaluation import LiveEvaluation
 from vgraph.gui.log import LogPanel
+from vgraph.gui.markups_dock import markups_dock
 from vgraph.gui.menus import WindowMenus
 from vgraph.gui.palette import ProcessorPalette
 from vgraph.gui.perspectives import Perspectives
 from vgraph.gui.progress_view import EvaluationProgress
 from vgraph.gui.render_status import RenderStatus
 from vgraph.gui.scene import NetworkScene, NetworkView
+from vgraph.gui.timeline_dock import timeline_dock
 from vgraph.gui.welcome import WelcomeSwitch
 from vgraph.gui.workspace import Workspace
 from vgraph.live.render_process import RenderProcess
@@ -72,6 +74,8 @@ class MainWindow(FileActions, WindowMenus, RenderStatus, QMainWindow):
         self.properties_dock = self._dock("Properties", self.inspector, Qt.RightDockWidgetArea)
         self.log_dock = self._dock("Log", self.log, Qt.BottomDockWidgetArea)
         self.canvases = CanvasDocks(self, self.workspace, self.evaluation)
+        self.markups_dock = markups_dock(self)  # every markup in a table, tabbed with the Log, hidden
+        self.timeline_dock = timeline_dock(self)  # keyframes, scrub and play; tabbed with the Log, hidden
         self.running = EvaluationProgress(self)  # which processor runs, how far (progress_view.py)
         self.failures: dict[str, str] = {}
         self.remember_layout = True  # a screenshot run leaves the user's layout alone
@@ -193,7 +197,8 @@ class MainWindow(FileActions, WindowMenus, RenderStatus, QMainWindow):
         if not self.confirm_discard():
             event.ignore()
             return
-        for view in (self.scene, self.inspector, self.canvases, self.welcome):
+        for view in (self.scene, self.inspector, self.canvases, self.welcome, self.markups_dock.widget(),
+                     self.timeline_dock.widget()):
             view.detach()
         self.autosave.stop()
         self.autosave.remove()   # a clean exit: the changes were saved or discarded on purpose
