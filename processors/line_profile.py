@@ -5,6 +5,10 @@ Conventions (docs/guide/measuring.md shows them with examples; vgraph.measure_li
 sampling):
 - ``start`` and ``end`` are world points (x, y, z) in patient space, the frame of the volume's
   affine; distances are world units along the line from ``start``.
+- From a ruler: link a Markups processor's ``markups`` to this ``markups`` (a property link, so
+  the profile follows every move of the ruler, undo included) and name the ruler in ``ruler``; the
+  line then runs from the ruler's first point to its second, and ``start`` and ``end`` are unused.
+  A ``ruler`` that names no markup, or a markup that is not a ruler, is refused by name.
 - ``spacing_mode = samples``: ``samples`` points, both ends included. ``step``: one point every
   ``step`` world units from ``start``, up to the end.
 - ``interpolation``: nearest, linear (trilinear) or cubic (the cubic B-spline through the samples,
@@ -28,9 +32,10 @@ import warnings
 
 import numpy as np
 
-from vgraph import (FloatProperty, Inport, IntProperty, OptionProperty, Outport, Processor, PropertyError,
-                    VectorProperty, VGraphError, VGraphWarning)
+from vgraph import (FloatProperty, Inport, IntProperty, MarkupsProperty, OptionProperty, Outport, Processor,
+                    PropertyError, StringProperty, VectorProperty, VGraphError, VGraphWarning)
 from vgraph.image import Image
+from vgraph.markups import Markups
 from vgraph.measure_line import MAX_SAMPLES, ORDERS, sample_count, sample_distances, sample_line, spline_coefficients
 from vgraph.measure_plot import line_plot
 from vgraph.table import Column, Table
@@ -54,6 +59,10 @@ class LineProfile(Processor):
     step = FloatProperty(1.0, min=0.0, doc="distance between points in world units (> 0)")
     interpolation = OptionProperty("linear", choices=list(ORDERS),
                                    doc="nearest, linear (trilinear) or cubic (cubic B-spline)")
+    markups = MarkupsProperty(Markups(), doc="link a Markups processor's markups here to profile one of its "
+                                             "rulers (see ruler)")
+    ruler = StringProperty("", doc="the name of a ruler in markups: the line runs from its first point to its "
+                                   "second and follows it (start and end unused); empty: start and end")
 
     def __init__(self, id=None, **values):
         super().__init__(id, **values)
@@ -64,12 +73,29 @@ class LineProfile(Processor):
         return self.summary
 
     def inapplicable(self) -> set[str]:
-        return {"step"} if self.spacing_mode == "samples" else {"samples"}
+        unused = {"step"} if self.spacing_mode == "samples" else {"samples"}
+        return unused | ({"start", "end"} if self.ruler else set())
+
+    def ends(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """(start, end) of the line: the named ruler's points, else the properties."""
+        if not self.ruler:
+            return tuple(self.start), tuple(self.end)
+        if self.ruler not in self.markups.names:
+            there = ", ".join(m.name for m in self.markups.markups if m.kind == "ruler") or "none"
+            raise PropertyError(f"{self.id}.ruler", f"no ruler named {self.ruler!r} in {self.id}.markups (rulers "
+                                f"there: {there}); link a Markups processor's markups to {self.id}.markups")
+        markup = self.markups[self.ruler]
+        if markup.kind != "ruler":
+            raise PropertyError(f"{self.id}.ruler", f"{self.ruler!r} is {'an' if markup.kind == 'angle' else 'a'} "
+                                f"{markup.kind.replace('_', ' ')}, not a ruler: a profile runs along two points")
+        return markup.points[0], markup.points[1]
 
     def check(self) -> None:
+        start, _ = self.ends()
         length = self.length
         if length == 0.0:
-            raise PropertyError(f"{self.id}.end", f"the line has zero length: end equals start {list(self.start)}")
+            where = f"{self.id}.ruler" if self.ruler else f"{self.id}.end"
+            raise PropertyError(where, f"the line has zero length: end equals start {list(start)}")
         if self.spacing_mode == "step":
             if self.step <= 0.0:
                 raise PropertyError(f"{self.id}.step", f"must be above 0, got {self.step}")
@@ -83,7 +109,8 @@ class LineProfile(Processor):
 
     @property
     def length(self) -> float:
-        return float(np.linalg.norm(np.subtract(self.end, self.start)))
+        start, end = self.ends()
+        return float(np.linalg.norm(np.subtract(end, start)))
 
     def process(self, volume: Volume) -> dict:
         self.summary = ""
@@ -92,7 +119,7 @@ class LineProfile(Processor):
         distances = sample_distances(self.length, **({"samples": self.samples} if self.spacing_mode == "samples"
                                                      else {"step": self.step}))
         coefficients = self._coefficients(volume) if self.interpolation == "cubic" else None
-        line = sample_line(volume, self.start, self.end, distances, self.interpolation, coefficients)
+        line = sample_line(volume, *self.ends(), distances, self.interpolation, coefficients)
         self._warn_outside(line.distance, line.outside)
         table = Table((Column("distance", line.distance, "world"),
                        *(Column(axis, line.points[:, n], "world") for n, axis in enumerate("xyz")),

@@ -189,3 +189,47 @@ def test_nan_voxels_are_named_before_the_prefilter_and_stay_nan_in_nearest(head)
     assert np.isfinite(cubic).all()
     nearest = profile(volume, start=start, end=end, samples=21, interpolation="nearest")["value"]
     assert np.isnan(nearest).sum() == 1 and np.isnan(nearest[10])  # k = 40 is the middle sample
+
+
+def ruler_network(head, ends):
+    """The head through a LineProfile whose markups are linked to a Markups processor's."""
+    from vgraph.markups import Markup, Markups
+    network = Network()
+    network.add(GivenVolume(id="src", volume=head))
+    network.add("Markups", id="mk")
+    network.add("LineProfile", id="p")
+    network.connect("src.volume", "p.volume")
+    network.set("mk.markups", Markups(markups=(Markup(name="width", kind="ruler", points=ends),)))
+    network.link("mk.markups", "p.markups")
+    network.set("p.ruler", "width")
+    network.set("p.samples", 64)
+    return network
+
+
+def test_a_profile_linked_to_a_ruler_follows_it_when_it_moves(head):
+    from vgraph.markups import Markup, Markups
+    start, end = (tuple(world(head, ijk)) for ijk in INNER_ENDS)
+    network = ruler_network(head, (start, end))
+    table = network.evaluate("p.table")
+    expected = profile(head, start=start, end=end, samples=64)
+    assert np.array_equal(table["value"], expected["value"])
+    assert "start" in network["p"].inapplicable() and "end" in network["p"].inapplicable()
+    # the ruler moves (as a drag or the table does): the profile follows through the link
+    moved = tuple(world(head, (30.0, 30.0, 40.0)))
+    network.set("mk.markups", Markups(markups=(Markup(name="width", kind="ruler", points=(start, moved)),)))
+    table = network.evaluate("p.table")
+    np.testing.assert_allclose([table["x"][-1], table["y"][-1], table["z"][-1]], moved, atol=1e-9)
+    assert np.array_equal(table["value"], profile(head, start=start, end=moved, samples=64)["value"])
+
+
+def test_a_ruler_that_is_not_there_or_not_a_ruler_is_refused_by_name(head):
+    from vgraph.markups import Markup, Markups
+    start, end = (tuple(world(head, ijk)) for ijk in INNER_ENDS)
+    network = ruler_network(head, (start, end))
+    network.set("p.ruler", "height")
+    with pytest.raises(VGraphError, match=r"p\.ruler: no ruler named 'height'.*rulers there: width"):
+        network.evaluate("p.table")
+    network.set("mk.markups", Markups(markups=(
+        Markup(name="height", kind="angle", points=(start, end, (0.0, 0.0, 0.0))),)))
+    with pytest.raises(VGraphError, match=r"p\.ruler: 'height' is an angle, not a ruler"):
+        network.evaluate("p.table")
