@@ -321,3 +321,43 @@ INTERPOLATORS = {"float": _number, "int": _number, "vector": _vector, "color": _
                  "camera": _camera, "transfer_function": _transfer_function,
                  "clip_planes": _clip_planes}
 CHECKS = {"transfer_function": _tf_mismatch, "clip_planes": _planes_mismatch}
+
+
+# --- editing --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class SetTracks:
+    """An edit in vgraph.edits's vocabulary (apply, inverse, describe), so the GUI's undo stack
+    takes it: the network's tracks replaced by ``tracks`` (``old``: what they were)."""
+
+    tracks: tuple
+    old: tuple
+    text: str = "Edit keyframes"
+
+    @classmethod
+    def of(cls, network: Network, tracks, text: str = "Edit keyframes") -> "SetTracks":
+        return cls(tuple(tracks), tuple(network.tracks), text)
+
+    def describe(self) -> str:
+        return self.text
+
+    def apply(self, network: Network) -> None:
+        for track in self.tracks:
+            property_of(network, track.address)  # refuse a track of a processor that is gone
+        network.tracks = tuple(self.tracks)
+
+    def inverse(self) -> "SetTracks":
+        return SetTracks(self.old, self.tracks, self.text)
+
+
+def with_keyframe(tracks, address: str, keyframe: Keyframe) -> tuple[Track, ...]:
+    """``tracks`` with ``keyframe`` added to the track of ``address`` (a new track if none)."""
+    for index, track in enumerate(tracks):
+        if track.address == address:
+            return (*tracks[:index], track.with_keyframe(keyframe), *tracks[index + 1:])
+    return (*tracks, Track(address, (keyframe,)))
+
+
+def without_keyframe(tracks, address: str, time: float) -> tuple[Track, ...]:
+    """``tracks`` less the keyframe of ``address`` at ``time`` (a track left empty goes)."""
+    changed = (track.without_keyframe(time) if track.address == address else track for track in tracks)
+    return tuple(track for track in changed if track.keyframes)
