@@ -20,7 +20,7 @@ from vgraph.tracks import value_at
 from helpers.gui import settle
 from helpers.paths import REPO
 
-ANIMATION = REPO / "networks" / "animation_sphere.json"
+ANIMATION = REPO / "networks" / "animation_torus.json"
 SPHERE = REPO / "networks" / "raycast_sphere.json"
 
 

@@ -23,7 +23,7 @@ from vgraph.transfer_function import TransferFunction
 from helpers.paths import REPO
 
 SPHERE = REPO / "networks" / "raycast_sphere.json"
-ANIMATION = REPO / "networks" / "animation_sphere.json"
+ANIMATION = REPO / "networks" / "animation_torus.json"
 
 
 def document(tracks) -> dict:

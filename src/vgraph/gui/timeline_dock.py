@@ -48,6 +48,7 @@ class TimelinePanel(QWidget):
         super().__init__(parent)
         self.workspace, self.network = workspace, None
         self.property_box = QComboBox()
+        self.property_box.setSizeAdjustPolicy(QComboBox.AdjustToContents)
         self.property_box.setToolTip("the property a keyframe is added to or removed from")
         self.easing_box = QComboBox()
         self.easing_box.addItems(EASINGS)
