@@ -84,6 +84,17 @@ def test_keyframes_come_from_the_current_state_and_are_undoable(window, tmp_path
     assert [k["time"] for k in saved["tracks"][0]["keyframes"]] == [0.0, 2.0]
     assert vgraph.load(tmp_path / "saved.json").tracks == network.tracks
 
+    window.scene.select_processor("eep")
+    window.scene.delete_selected()   # its track stays in the network (for undo) but is not saved
+    assert panel.track_list.item(0).text().endswith("(processor removed: not saved)")
+    window.workspace.save_as(tmp_path / "removed.json")
+    assert "tracks" not in json.loads((tmp_path / "removed.json").read_text())
+    assert vgraph.load(tmp_path / "removed.json").tracks == ()
+    window.workspace.undo_stack.undo()
+    assert panel.track_list.item(0).text() == "eep.camera: 0 s (linear), 2 s (step)"
+    panel.scrub(1.0)
+    assert network.get("eep.camera") == halfway
+
 
 def test_a_keyframe_that_cannot_be_interpolated_is_refused_with_the_reason(window):
     assert window.open_network(SPHERE)

@@ -349,7 +349,13 @@ def network_document(network: Network, base_dir: Path | None = None) -> dict:
                         for c in network.connections],
         "links": [{"from": l.source, "to": l.target, "bidirectional": l.bidirectional}
                   for l in network.links],
-    } | ({"tracks": tracks_to_json(network, network.tracks)} if network.tracks else {})
+    } | _tracks_field(network)
+
+
+def _tracks_field(network: Network) -> dict:
+    """``{"tracks": [...]}``, or nothing without tracks: files without them keep their form."""
+    tracks = tracks_to_json(network, network.tracks)
+    return {"tracks": tracks} if tracks else {}
 
 
 def _relocated(processor, value: str, base_dir: Path) -> str:

@@ -180,9 +180,15 @@ def property_of(network: Network, address: str) -> Property:
 
 
 def tracks_to_json(network: Network, tracks) -> list[dict]:
+    """The file's form of ``tracks``. A track whose processor (or property) is gone is left out, as
+    the links of a removed processor go with it: a file naming it could not be read again. The
+    network keeps it, so undoing the removal brings it back."""
     out = []
     for track in tracks:
-        prop = network._property(track.address)
+        try:
+            prop = property_of(network, track.address)
+        except VGraphError:
+            continue
         out.append({"property": track.address,
                     "keyframes": [{"time": k.time, "value": prop.to_json(k.value), "easing": k.easing}
                                   for k in track.keyframes]})

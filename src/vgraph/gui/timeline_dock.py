@@ -128,6 +128,7 @@ class TimelinePanel(QWidget):
     def _on_event(self, event: str, **details) -> None:
         if event in ("processor_added", "processor_removed"):
             self._fill_properties()
+            self.refresh()
 
     def _fill_properties(self) -> None:
         chosen = self.property_box.currentText()
@@ -159,7 +160,8 @@ class TimelinePanel(QWidget):
         self.track_list.clear()
         for track in self.network.tracks:
             times = ", ".join(f"{k.time:g} s ({k.easing})" for k in track.keyframes)
-            self.track_list.addItem(f"{track.address}: {times}")
+            gone = "" if track.address.split(".")[0] in self.network else " (processor removed: not saved)"
+            self.track_list.addItem(f"{track.address}: {times}{gone}")
 
     # --- time -----------------------------------------------------------------------------------
     def time(self) -> float:
