@@ -1,20 +1,21 @@
 """Turntables, parameter sweeps and keyframed timelines as videos: ``vgraph animate`` and ``animate()``.
 
-Frame i turns every camera of the network by ``orbit * i / frames`` degrees about its own up axis
-(Camera.rotate from the camera as it was, so nothing drifts; 360 degrees over 120 frames ends at
-357 and loops without a repeated frame), and/or sets an integer property to the i-th value of
-``over`` (``ID.PROPERTY=START:STOP``, both ends included; without a range, 0 .. time_steps - 1 of
-the volume that processor produces). Linked cameras are set once per link group: a link carries the
-value to its followers. With ``timeline`` the network's keyframe tracks (vgraph.tracks) set every
-tracked property instead, one frame every 1/fps seconds from 0 to the last keyframe (or ``frames``
-frames over that span). Each frame evaluates only what the target needs (network.update), and the
-network's cameras and the swept or tracked properties are put back afterwards.
+Every animation is keyframe tracks (vgraph.tracks) played at one time per frame:
 
-Outputs by name: ``.mp4`` (H.264, yuv420p, CRF 18, even width and height), ``.gif`` (loops for
-ever; frame times are whole hundredths of a second), a folder (``frame_0000.png``, ...) or a
-pattern such as ``frames/turn_{:04d}.png``: 8-bit RGBA PNGs written exactly as ``vgraph run -o``
-writes its image. Videos are written to a temporary file that replaces the target only when the
-last frame is in (vgraph.atomic); each PNG is written atomically.
+- ``orbit``: frame i turns every camera of the network by ``orbit * i / frames`` degrees about its
+  own up axis (360 degrees over 120 frames ends at 357 and loops without a repeated frame). That is
+  a camera track with a keyframe every 90 degrees or less (Camera.rotate from the camera as it
+  was, so nothing drifts), whose slerp between keyframes is exactly the turn about the up axis;
+  time is the frame number. Linked cameras get one track per link group: a link carries the value
+  to its followers.
+- ``over``: frame i sets an integer property to the i-th value (``ID.PROPERTY=START:STOP``, both
+  ends included; without a range, 0 .. time_steps - 1 of the volume that processor produces): a
+  track with a ``step`` keyframe per frame.
+- ``timeline``: the network's own tracks, one frame every 1/fps seconds from 0 to the last keyframe
+  (or ``frames`` frames over that span).
+
+Each frame evaluates only what the target needs (network.update), and the properties the tracks
+set are put back afterwards. Where the frames go: vgraph.animation_output.
 """
 
 from __future__ import annotations
@@ -24,33 +25,28 @@ import math
 import sys
 import warnings
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 import vgraph
 from vgraph import cli_common, cli_values
-from vgraph.atomic import atomic_path, check_output_path
+from vgraph.animation_output import Output
 from vgraph.camera import VIEW_NAMES
 from vgraph.cli_common import add_allow_write
 from vgraph.cli_values import parse_size, user_path
 from vgraph.errors import PropertyError, VGraphError
-from vgraph.file_names import file_name_problem, shown
 from vgraph.image import Image
-from vgraph.imagefile import to_uint8, write_png
 from vgraph.network import Network, split_address
 from vgraph.properties import CameraProperty, IntProperty
 from vgraph.scheduler import BlankImageWarning, blank_image_warning, default_target
 from vgraph.time_series import warn_time_series
-from vgraph.tracks import apply_tracks, frame_times
+from vgraph.tracks import Keyframe, Track, apply_tracks, frame_times
 from vgraph.volume import Volume
 
-VIDEO_EXTENSIONS = (".mp4", ".gif")
 DEFAULT_FRAMES = 120
 DEFAULT_FPS = 30.0
-MP4_CRF = 18  # x264's constant rate factor: 18 is close to visually lossless, 23 its default
-FRAME_NAME = "frame_{:04d}.png"
+ORBIT_KEY_DEGREES = 90.0   # the largest turn between two orbit keyframes: slerp takes the short way
 
 
 # --- the Python API -------------------------------------------------------------------------------
@@ -69,31 +65,24 @@ def animate(network: Network, path, orbit: float | None = None, frames: int | No
     output = Output.of(path)
     output.check(size)
     target = target or default_target(network)
-    cameras = CameraOrbit(network)
-    start_values = {address: network.get(address) for address in plan.changed}
-    bar = tqdm(total=plan.frames, unit="frame", file=sys.stderr, disable=not progress,
+    start_values = {track.address: network.get(track.address) for track in plan.tracks}
+    bar = tqdm(total=len(plan.times), unit="frame", file=sys.stderr, disable=not progress,
                desc=output.path.name)
     try:
         with output.writer(fps) as write:
-            for index in range(plan.frames):
-                write(render_frame(network, target, plan, index, cameras, size), index)
+            for index in range(len(plan.times)):
+                write(render_frame(network, target, plan, index, size), index)
                 bar.update()
     finally:
         bar.close()
-        cameras.restore()
         for address, value in start_values.items():
             network.set(address, value)
-    return plan.frames
+    return len(plan.times)
 
 
-def render_frame(network: Network, target: str, plan: "FramePlan", index: int,
-                 cameras: "CameraOrbit", size) -> np.ndarray:
-    """Float RGBA (H, W, 4) of frame ``index``: the cameras turned, the property set, evaluated."""
-    cameras.turn(plan.orbit * index / plan.frames)
-    if plan.address:
-        network.set(plan.address, plan.values[index])
-    if plan.tracks:
-        apply_tracks(network, plan.tracks, plan.times[index])
+def render_frame(network: Network, target: str, plan: "FramePlan", index: int, size) -> np.ndarray:
+    """Float RGBA (H, W, 4) of frame ``index``: the tracked properties set, evaluated."""
+    apply_tracks(network, plan.tracks, plan.times[index])
     network.update(target, size=size)
     image = network.output(target)
     if not isinstance(image, Image):
@@ -101,7 +90,7 @@ def render_frame(network: Network, target: str, plan: "FramePlan", index: int,
                           f"port to animate")
     pixels = image.to_numpy()
     if index == 0:  # said once: the first frame stands for the others
-        warn_time_series(network, skip=plan.address)  # animating the time step shows them all
+        warn_time_series(network, skip=plan.swept)  # animating the time step shows them all
     warning = blank_image_warning(network, target, pixels) if index == 0 else None
     if warning:
         warnings.warn(BlankImageWarning(warning), stacklevel=3)
@@ -111,32 +100,43 @@ def render_frame(network: Network, target: str, plan: "FramePlan", index: int,
 # --- what each frame shows ------------------------------------------------------------------------
 @dataclass(frozen=True)
 class FramePlan:
-    frames: int
-    orbit: float                # degrees over all frames
-    address: str | None = None  # the swept integer property
-    values: tuple[int, ...] = ()
-    tracks: tuple = ()          # keyframe tracks (vgraph.tracks), played at ``times`` (seconds)
-    times: tuple[float, ...] = ()
-
-    @property
-    def changed(self) -> list[str]:
-        """The properties the frames set, to be put back afterwards."""
-        return ([self.address] if self.address else []) + [track.address for track in self.tracks]
+    tracks: tuple[Track, ...]   # what changes (vgraph.tracks) ...
+    times: tuple[float, ...]    # ... played at these times, one per frame
+    swept: str | None = None    # the integer property ``over`` steps through
 
 
 def plan_frames(network: Network, orbit, frames, over) -> FramePlan:
-    """Check the request against the network before anything is rendered."""
+    """A turntable and/or a sweep as tracks, checked against the network before anything is
+    rendered; time is the frame number."""
     address, values = sweep(network, over) if over is not None else (None, ())
     if frames is None:
         frames = len(values) if values else DEFAULT_FRAMES
-    if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
-        raise VGraphError(f"frames must be a positive integer, got {frames!r}")
+    _check_frames(frames)
     if values and frames != len(values):
         raise VGraphError(f"frames is {frames} but {address} takes {len(values)} values "
                           f"({values[0]} .. {values[-1]}): leave frames out or change the range")
     orbit = (0.0 if values else 360.0) if orbit is None else orbit
     _check_number(orbit, "orbit", positive=False)
-    return FramePlan(int(frames), float(orbit), address, tuple(values))
+    tracks = orbit_tracks(network, float(orbit), int(frames))
+    if address:
+        tracks += (Track(address, tuple(Keyframe(float(i), v, "step") for i, v in enumerate(values))),)
+    return FramePlan(tracks, tuple(float(i) for i in range(frames)), address)
+
+
+def orbit_tracks(network: Network, degrees: float, frames: int) -> tuple[Track, ...]:
+    """A turn of ``degrees`` over ``frames`` frames (the last frame one step short of it) as one
+    camera track per link group (``camera_leaders``), a keyframe every ORBIT_KEY_DEGREES or less."""
+    if degrees == 0.0:
+        return ()
+    keys = math.ceil(abs(degrees) / ORBIT_KEY_DEGREES)
+    turns = [(frames * k / keys, degrees * k / keys) for k in range(keys + 1)]
+    tracks = []
+    for address in camera_leaders(network):
+        camera = network.get(address)
+        tracks.append(Track(address, tuple(
+            Keyframe(time, camera if angle == 0.0 else camera.rotate(math.radians(angle), 0.0))
+            for time, angle in turns)))   # exactly the start at frame 0: rotate() orthonormalises up
+    return tuple(tracks)
 
 
 def plan_timeline(network: Network, orbit, frames, over, fps: float) -> FramePlan:
@@ -146,12 +146,15 @@ def plan_timeline(network: Network, orbit, frames, over, fps: float) -> FramePla
                           "(a turntable is a camera track; docs/guide/animation.md)")
     if not network.tracks:
         raise VGraphError("the network has no tracks to play: add keyframes in the GUI's Timeline "
-                          "or a \"tracks\" list to the file (docs/general/network-format.md)")
-    if frames is not None and (isinstance(frames, bool) or not isinstance(frames, (int, np.integer))
-                               or frames < 1):
+                          "or a \"tracks\" list to the file (docs/guide/animation.md)")
+    if frames is not None:
+        _check_frames(frames)
+    return FramePlan(tuple(network.tracks), tuple(frame_times(network.tracks, fps, frames)))
+
+
+def _check_frames(frames) -> None:
+    if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
         raise VGraphError(f"frames must be a positive integer, got {frames!r}")
-    times = frame_times(network.tracks, fps, frames)
-    return FramePlan(len(times), 0.0, tracks=tuple(network.tracks), times=tuple(times))
 
 
 def sweep(network: Network, over) -> tuple[str, list[int]]:
@@ -262,126 +265,6 @@ def camera_leaders(network: Network) -> list[str]:
                 covered.add(current)
                 pending.extend(follows[current])
     return leaders
-
-
-# --- outputs --------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Output:
-    path: Path
-    kind: str                  # "mp4", "gif" or "png"
-    pattern: str | None = None  # PNG sequence: a str.format pattern with one integer field
-
-    @classmethod
-    def of(cls, path) -> "Output":
-        text = str(path)
-        problem = file_name_problem(text)
-        if problem is not None:
-            raise VGraphError(f"-o {shown(text)}: {problem}")
-        suffix = Path(text).suffix.lower()
-        if "{" in text:
-            if suffix != ".png":
-                raise VGraphError(f"{text}: a frame pattern must end in .png, e.g. frames/turn_{{:04d}}.png")
-            try:
-                text.format(0)
-            except (ValueError, IndexError, KeyError) as error:
-                raise VGraphError(f"{text}: not a frame pattern with one integer field such as "
-                                  f"{{:04d}} ({error})") from None
-            return cls(Path(text), "png", text)
-        if suffix in VIDEO_EXTENSIONS:
-            return cls(Path(text), suffix[1:])
-        if not suffix or Path(text).is_dir():
-            return cls(Path(text), "png", str(Path(text) / FRAME_NAME))
-        raise VGraphError(f"{text}: cannot write '{suffix}' animations; use .mp4, .gif, a folder or "
-                          f"a pattern such as frames/turn_{{:04d}}.png")
-
-    def check(self, size=None) -> None:
-        """Refuse an unwritable target (and odd MP4 sizes) before anything is rendered."""
-        if self.kind == "png":
-            check_output_path(self.pattern.format(0), create_folder=True)
-        else:
-            check_output_path(self.path)
-        if self.kind == "mp4" and size is not None:
-            _check_even(size)
-
-    def writer(self, fps: float):
-        """A context manager giving ``write(rgba_float, index)``."""
-        if self.kind == "png":
-            return _PngSequence(self.pattern)
-        return _Video(self.path, self.kind, fps)
-
-
-def _check_even(size) -> None:
-    width, height = size
-    if width % 2 or height % 2:
-        raise VGraphError(f"an MP4 (H.264, yuv420p) needs an even width and height, got "
-                          f"{width}x{height}: choose another size")
-
-
-class _PngSequence:
-    def __init__(self, pattern: str):
-        self.pattern = pattern
-
-    def __enter__(self):
-        return lambda pixels, index: write_png(self.pattern.format(index), pixels)
-
-    def __exit__(self, *exc):
-        return False
-
-
-class _Video:
-    """MP4 frames stream into ffmpeg; GIF frames are kept and written at the end (Pillow writes a
-    GIF in one go). Either way into a temporary file that replaces the target at the end."""
-
-    def __init__(self, path: Path, kind: str, fps: float):
-        self.path, self.kind, self.fps = path, kind, fps
-        self.size = None
-
-    def __enter__(self):
-        self._atomic = atomic_path(self.path, suffix="." + self.kind)
-        self.temporary = self._atomic.__enter__()
-        self.frames = []
-        self.stream = None
-        return self.write
-
-    def write(self, pixels: np.ndarray, index: int) -> None:
-        size = (pixels.shape[1], pixels.shape[0])
-        if self.size is None:
-            self.size = size
-            if self.kind == "mp4":
-                _check_even(size)
-        elif size != self.size:
-            raise VGraphError(f"frame {index} is {size[0]}x{size[1]} but frame 0 was "
-                              f"{self.size[0]}x{self.size[1]}; a video needs one size")
-        rgb = opaque_rgb(pixels)
-        if self.kind == "gif":
-            self.frames.append(rgb)
-            return
-        if self.stream is None:
-            import imageio.v2 as imageio  # imported when a video is written: 8 ms at every command's start
-            self.stream = imageio.get_writer(
-                self.temporary, format="FFMPEG", fps=self.fps, codec="libx264", quality=None,
-                pixelformat="yuv420p", macro_block_size=1, ffmpeg_log_level="error",
-                output_params=["-crf", str(MP4_CRF), "-movflags", "+faststart"])
-        self.stream.append_data(rgb)
-
-    def __exit__(self, kind, error, traceback):
-        try:
-            if self.stream is not None:
-                self.stream.close()
-            if kind is None and self.kind == "gif":
-                import imageio.v3 as iio  # imported when a video is written: 8 ms at every command's start
-                iio.imwrite(self.temporary, np.stack(self.frames), extension=".gif",
-                            duration=1000.0 / self.fps, loop=0)
-        except BaseException as failure:
-            self._atomic.__exit__(type(failure), failure, failure.__traceback__)
-            raise
-        return self._atomic.__exit__(kind, error, traceback)
-
-
-def opaque_rgb(pixels: np.ndarray) -> np.ndarray:
-    """uint8 RGB over black: videos have no alpha (renderers' images are opaque anyway)."""
-    rgba = to_uint8(pixels).astype(np.uint16)
-    return (rgba[..., :3] * rgba[..., 3:] // 255).astype(np.uint8)
 
 
 # --- the command ----------------------------------------------------------------------------------
