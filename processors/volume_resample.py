@@ -17,8 +17,11 @@ Conventions:
   and Inf replaced first (vgraph.volume_filtering), and refuse label volumes (mixing labels
   makes new, wrong ones). The value range is the input's.
 - A store larger than its memory budget is resampled slab by slab into a new store
-  (vgraph.chunked_filtering), each slab from the input slices its samples reach: the same values,
-  nearest and linear only (the cubic B-spline's prefilter runs along whole axes: a named error).
+  (vgraph.chunked_filtering), each slab from the input slices its samples reach: the same values
+  for nearest and linear. cubic prefilters each slab's slices with 16 more on each side along z
+  (the B-spline prefilter's recursion runs along whole axes; cut 16 slices away its error has
+  fallen to about 0.268^16 = 7e-10 of the values): within 1e-6 of the largest |value| of the
+  in-memory result (tests/test_chunked_segmentation.py).
 """
 
 from __future__ import annotations
@@ -77,11 +80,6 @@ class VolumeResample(Processor):
     def _stored(self, volume: Volume, who: str, shape, step, start, spacing, origin) -> Volume:
         """A store larger than its budget, resampled slab by slab into a new store."""
         order = ORDERS[self.interpolation]
-        if order == 3:
-            raise PropertyError(f"{self.id}.interpolation", f"cubic interpolation of a store larger than "
-                                f"its memory budget ({volume.source or 'the store'}) is not done: its "
-                                f"B-spline prefilter runs along whole axes; use linear, or crop the store "
-                                f"to fit its budget first")
         if order and volume.holds_labels:
             self._refuse_labels()
         plan = resample_plan(volume, who, shape, step, start, order, spacing, origin)

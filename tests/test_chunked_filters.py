@@ -20,7 +20,6 @@ from vgraph.bricks.volume import BrickedVolume, MemoryBudgetError
 from vgraph.io import write_volume
 from vgraph.io.convert import convert
 from vgraph.registry import registry
-from vgraph import PropertyError
 
 BUDGET_MB = 4.5  # below the store's 5.8 MiB, above a slab's working set
 
@@ -129,12 +128,6 @@ def test_resample_of_a_store_larger_than_its_budget_equals_the_in_memory_one(tal
         assert ties.sum() < 0.2 * ties.size and set(differing) <= set(np.flatnonzero(ties))
     assert (ours.dims, ours.spacing) == (reference.dims, reference.spacing)
     assert np.allclose(ours.origin, reference.origin)
-
-
-def test_cubic_resampling_of_a_store_larger_than_its_budget_is_named(store_path, cache):
-    with pytest.raises(PropertyError, match=r"^f\.interpolation: cubic interpolation of a store larger"):
-        run("VolumeResample", store(store_path), interpolation="cubic")
-    assert not list(cache.glob("filtered/*.zarr"))
 
 
 def test_the_same_filter_of_the_same_store_opens_the_cached_store(store_path, cache):

@@ -6,7 +6,8 @@ Layout of a store (zarr v3, OME-NGFF 0.5):
                           (format version, brick (x, y, z), value_range, declared_range,
                           data_range, nonfinite voxel count, levels, and "direction" when the
                           volume's axes are turned: the rows of Volume.direction, a rotation,
-                          which NGFF 0.4/0.5 cannot hold; other tools see the store unrotated)
+                          which NGFF 0.4/0.5 cannot hold; other tools see the store unrotated);
+                          "ome" has "image-label" when the voxels are labels (the label flag)
   0, 1, ... N-1           one array per pyramid level, [z, y, x], chunks = the brick, Blosc zstd
   vgraph/min/<k>          per-brick min and max of level k's finite voxels, float64 arrays of
   vgraph/max/<k>          the brick grid [bz, by, bx] (NaN: no finite voxel in that brick)
@@ -92,8 +93,10 @@ class StoreWriter:
         return low, high
 
     def finish(self, value_range, declared_range, data_range, nonfinite: int,
-               unit: str | None = None, name: str = "", direction=IDENTITY) -> None:
-        """The group attributes, written last: a store without them is not a finished store."""
+               unit: str | None = None, name: str = "", direction=IDENTITY, holds_labels: bool = False) -> None:
+        """The group attributes, written last: a store without them is not a finished store.
+        ``holds_labels``: the voxels are labels, written as NGFF's "image-label" (what BrickStore
+        reads as the label flag, as in another tool's labels/ images)."""
         ours = {"format": FORMAT_VERSION, "brick": list(self.brick),
                 "value_range": _floats(value_range),
                 "declared_range": _floats(declared_range) if declared_range else None,
@@ -102,10 +105,10 @@ class StoreWriter:
                 "ranges": "vgraph/min/<level>, vgraph/max/<level>"}
         if not is_identity(direction):  # stores of unturned volumes stay as they were
             ours["direction"] = [_floats(row) for row in direction]
-        self.group.attrs.update({
-            "ome": {"version": NGFF_VERSION, "multiscales": multiscales(self.levels, unit, name)},
-            "vgraph": ours,
-        })
+        ome = {"version": NGFF_VERSION, "multiscales": multiscales(self.levels, unit, name)}
+        if holds_labels:
+            ome["image-label"] = {}  # every field of NGFF 0.5's image-label is optional
+        self.group.attrs.update({"ome": ome, "vgraph": ours})
 
 
 def _floats(pair) -> list[float]:

@@ -105,7 +105,8 @@ def convert(source, output, *, brick=DEFAULT_BRICK, levels: int | None = None, r
             stats = write_levels(data, writer, brick, progress, mirrored)
             value_range = data.declared_range or range_of(stats.data_range)
             writer.finish(value_range, data.declared_range, stats.data_range, stats.nonfinite,
-                          name=Path(str(source)).name, direction=data.direction)
+                          name=Path(str(source)).name, direction=data.direction,
+                          holds_labels=bool(getattr(data.volume, "holds_labels", False)))
         if not is_identity(data.direction):
             _warn_turned(output, data.direction, mirrored)
         traced = tracemalloc.get_traced_memory()[1] if trace_memory else None
