@@ -17,7 +17,7 @@ from vgraph.camera import Camera
 from vgraph.clipping import ClipPlane
 from vgraph.errors import NetworkFileError
 from vgraph.fileformat import build_network, network_document, parse_document
-from vgraph.tracks import Keyframe, Track, duration, eased, frame_times, value_at
+from vgraph.tracks import Keyframe, Track, duration, eased, frame_times, make_track, value_at
 from vgraph.transfer_function import TransferFunction
 
 from helpers.paths import REPO
@@ -155,6 +155,17 @@ def test_bad_tracks_are_refused_naming_file_track_and_field(tracks, where, messa
         load(tracks, file="anim.json")
     assert f"anim.json: {where}: " in str(caught.value)
     assert message in str(caught.value)
+
+
+def test_tracks_made_in_python_are_checked_as_a_files_are(tmp_path):
+    net = vgraph.load(SPHERE)
+    net.tracks = (make_track(net, "eep.camera", [(0, START), (2, START.rotate(math.radians(90), 0.0), "step")]),
+                  make_track(net, "rc.transfer_function", [(0, "grayscale"), {"time": 1, "value": "grayscale"}]))
+    assert net.tracks[0].keyframes[1].easing == "step" and isinstance(net.tracks[1].keyframes[0].value,
+                                                                      TransferFunction)
+    assert animation.animate(net, tmp_path / "f", timeline=True, frames=2, size=(16, 16)) == 2
+    with pytest.raises(NetworkFileError, match=r"<python>: tracks\[0\].keyframes\[1\].time: keyframes must"):
+        make_track(net, "rc.sampling_rate", [(1, 1.0), (1, 2.0)])
 
 
 def test_stepped_keyframes_need_not_match(tmp_path):

@@ -137,6 +137,16 @@ def tracks_from_json(entries, network: Network, file: str = "<network>", base_di
     return tuple(tracks)
 
 
+def make_track(network: Network, address: str, keyframes) -> Track:
+    """A checked track from Python: ``keyframes`` as (time, value) or (time, value, easing) tuples
+    or dicts as in the file; values in any form the property takes (a Camera, a preset's name ...).
+    NetworkFileError (file "<python>") as for a file's track."""
+    entries = [k if isinstance(k, dict) else dict(zip(("time", "value", "easing"), k)) for k in keyframes]
+    (track,) = tracks_from_json([{"property": address, "keyframes": entries}], network, "<python>",
+                                network.base_dir)
+    return track
+
+
 def _track(entry: TrackEntry, network: Network, where: str, problems: list, base_dir) -> Track | None:
     try:
         prop = property_of(network, entry.property)
