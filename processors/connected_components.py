@@ -15,6 +15,10 @@ Conventions:
   error naming ``min_size``.
 - A volume of intensities (floats that are not whole numbers, not flagged as labels) is refused:
   threshold it first (VolumeThreshold).
+- A store larger than its memory budget is labelled chunk by chunk into a new label store
+  (vgraph.chunked_segmentation: dask-image's labelling across tiles, the tiles' labels in a
+  scratch store): the same labels, numbering and sizes (a BrickedVolume with ``voxel_counts``,
+  ``world_volumes``, ``component_count``).
 """
 
 from __future__ import annotations
@@ -25,6 +29,8 @@ import numpy as np
 from scipy import ndimage
 
 from vgraph import FloatProperty, Inport, IntProperty, Outport, Processor, PropertyError
+from vgraph.chunked_filtering import is_chunked
+from vgraph.chunked_segmentation import component_store
 from vgraph.volume import Volume
 from vgraph.volume_filtering import samples_in_memory
 from vgraph.volume_segmentation import ComponentLabels, components_by_size, label_values
@@ -47,16 +53,20 @@ class ConnectedComponents(Processor):
         if self.connectivity not in CONNECTIVITY:
             raise PropertyError(f"{self.id}.connectivity", f"must be 6, 18 or 26, got {self.connectivity}")
 
-    def process(self, volume: Volume) -> ComponentLabels:
+    def process(self, volume: Volume) -> Volume:
         who = f"ConnectedComponents '{self.id}'"
         samples_in_memory(volume, who)
         self.check()
-        foreground = label_values(volume, who) != 0
         structure = ndimage.generate_binary_structure(3, CONNECTIVITY[self.connectivity])
-        labels, count = ndimage.label(foreground, structure=structure)
         voxel = float(np.prod(volume.spacing))
         # a component of exactly min_size is kept, whatever the rounding of voxels x voxel volume
         min_voxels = math.ceil(self.min_size / voxel - 1e-9)
+        if is_chunked(volume):
+            settings = {"type": "ConnectedComponents", "connectivity": self.connectivity, "min_size": self.min_size}
+            return component_store(volume, who, lambda block: label_values(volume, who, block) != 0, structure,
+                                   min_voxels, lambda kept, found: self._check_count(kept, found, volume), settings)
+        foreground = label_values(volume, who) != 0
+        labels, count = ndimage.label(foreground, structure=structure)
         labels, sizes = components_by_size(labels, count, min_voxels)
         self._check_count(sizes.size, count, volume)
         return ComponentLabels(labels, spacing=volume.spacing, origin=volume.origin, direction=volume.direction,

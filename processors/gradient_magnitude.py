@@ -13,6 +13,9 @@ Conventions:
   input's: the units differ). NaN and Inf are replaced by the value range's ends first, with a
   warning. Label volumes are refused (a gradient of label numbers means nothing); so is a sigma
   whose kernel reaches further than the volume.
+- A store larger than its memory budget is filtered chunk by chunk into a new store
+  (vgraph.chunked_segmentation): tiles with halos of 1 voxel (central) or the Gaussian's reach,
+  the same values.
 """
 
 from __future__ import annotations
@@ -21,8 +24,10 @@ import numpy as np
 from scipy import ndimage
 
 from vgraph import Inport, OptionProperty, Outport, Processor, PropertyError, VectorProperty
+from vgraph.chunked_filtering import filtered_store, is_chunked, kernel_plan
+from vgraph.chunked_segmentation import overlapping
 from vgraph.volume import Volume
-from vgraph.volume_filtering import finite_values, samples_in_memory
+from vgraph.volume_filtering import finite_values, mixed_type, samples_in_memory
 from vgraph.volume_segmentation import check_reach
 
 TRUNCATE = 4.0  # sigmas, as VolumeSmooth
@@ -57,10 +62,23 @@ class GradientMagnitude(Processor):
         if self.method == "gaussian":
             sigma = np.array(self.sigma) / spacing
             check_reach(f"{self.id}.sigma", "kernel", np.ceil(TRUNCATE * sigma - 1e-9), volume)
+        function = ((lambda d: central_magnitude(d, spacing)) if self.method == "central"
+                    else (lambda d: gaussian_magnitude(d, spacing, sigma)))
+        if is_chunked(volume):
+            return self._stored(volume, who, function, sigma if self.method == "gaussian" else None)
         data = finite_values(volume, who)
-        magnitude = (central_magnitude(data, spacing) if self.method == "central"
-                     else gaussian_magnitude(data, spacing, sigma))
-        return volume.with_data(magnitude.astype(data.dtype, copy=False), declared_range=None)
+        return volume.with_data(function(data).astype(data.dtype, copy=False), declared_range=None)
+
+    def _stored(self, volume: Volume, who: str, function, sigma) -> Volume:
+        """A store larger than its budget, slab by slab with halos of the differences' reach (1
+        voxel) or the Gaussian's (vgraph.chunked_segmentation): the in-memory values."""
+        reach = np.ones(3, dtype=int) if sigma is None else np.ceil(TRUNCATE * sigma[::-1]).astype(int)
+        dtype = mixed_type(volume.dtype)
+        plan = kernel_plan(volume, who, reach, dtype,
+                           overlapping(lambda d: function(d).astype(dtype, copy=False), reach[1:], dtype))
+        plan.declared_range = None  # its own range: the units are not the input's
+        settings = {"type": "GradientMagnitude", "method": self.method, "sigma": list(self.sigma)}
+        return filtered_store(volume, plan, who, settings)
 
 
 def central_magnitude(data: np.ndarray, spacing: np.ndarray) -> np.ndarray:

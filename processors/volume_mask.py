@@ -8,6 +8,8 @@ Conventions:
   GridMismatchError naming ``labels`` (resample the labels with VolumeResample, nearest).
 - The output has the volume's type, grid, value range and label flag; ``outside`` must fit the
   type (-1 into uint8 is refused, naming ``outside``).
+- Either input a store larger than its memory budget: the output is a new store, slab by slab
+  (vgraph.chunked_segmentation), the same values.
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ import re
 import numpy as np
 
 from vgraph import FloatProperty, Inport, Outport, Processor, PropertyError, StringProperty
+from vgraph.chunked_filtering import filtered_store, is_chunked
+from vgraph.chunked_segmentation import elementwise_plan, input_key, rows_of, voxel_type
 from vgraph.volume import Volume
 from vgraph.volume_filtering import filtered, samples_in_memory
 from vgraph.volume_segmentation import checked_fill, label_values, require_same_grid
@@ -50,7 +54,18 @@ class VolumeMask(Processor):
         kept = self.kept_labels()
         require_same_grid(f"{self.id}.labels", (f"{self.id}.volume", f"{self.id}.labels"), volume, labels,
                           "resample the labels onto the volume (VolumeResample, nearest)")
-        values = label_values(labels, who)
-        inside = values != 0 if kept is None else np.isin(values, kept)
-        outside = checked_fill(self.outside, volume.data.dtype, f"{self.id}.outside")
-        return filtered(volume, np.where(inside, volume.data, outside))
+        outside = checked_fill(self.outside, voxel_type(volume), f"{self.id}.outside")
+
+        def masked(values: np.ndarray, label_voxels: np.ndarray) -> np.ndarray:
+            label_voxels = label_values(labels, who, label_voxels)
+            inside = label_voxels != 0 if kept is None else np.isin(label_voxels, kept)
+            return np.where(inside, values, outside)
+        if is_chunked(volume) or is_chunked(labels):  # slab by slab (vgraph.chunked_segmentation)
+            anchor = volume if is_chunked(volume) else labels  # sets the bricks and the budget
+            plan = elementwise_plan(anchor, volume,
+                                    [lambda z0, z1: rows_of(volume, z0, z1), lambda z0, z1: rows_of(labels, z0, z1)],
+                                    masked, voxel_type(volume), volume.value_range, volume.holds_labels)
+            settings = {"type": "VolumeMask", "keep": kept, "outside": self.outside,
+                        "volume": input_key(volume), "labels": input_key(labels)}
+            return filtered_store(anchor, plan, who, settings)
+        return filtered(volume, masked(volume.data, labels.data))

@@ -13,15 +13,20 @@ Conventions:
 - mask: the first's voxels where the second is not 0, ``outside`` elsewhere (the type, value
   range and label flag of the first; ``outside`` must fit its type).
 - The output lies on the first's grid.
+- Either input a store larger than its memory budget: the output is a new store, slab by slab
+  (vgraph.chunked_segmentation), the same values; ``grid = resample`` then needs the second in
+  memory (a second over its budget is a named error).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from vgraph import FloatProperty, Inport, OptionProperty, Outport, Processor
+from vgraph import FloatProperty, Inport, OptionProperty, Outport, Processor, PropertyError
+from vgraph.chunked_filtering import filtered_store, is_chunked
+from vgraph.chunked_segmentation import elementwise_plan, input_key, on_slab_grid, rows_of, voxel_type
 from vgraph.volume import Volume
-from vgraph.volume_filtering import filtered, mixed_type, samples_in_memory
+from vgraph.volume_filtering import mixed_type, samples_in_memory
 from vgraph.volume_segmentation import checked_fill, require_same_grid, sampled_on_grid
 
 ARITHMETIC = {"add": np.add, "subtract": np.subtract, "multiply": np.multiply}
@@ -48,22 +53,57 @@ class VolumeMath(Processor):
     def process(self, first: Volume, second: Volume) -> Volume:
         for volume in (first, second):
             samples_in_memory(volume, f"VolumeMath '{self.id}'")
-        other = self._on_first_grid(first, second)
+        if is_chunked(first) or is_chunked(second):
+            return self._stored(first, second)
+        combine, dtype, declared, labels = self._combination(first, second)
+        return first.with_data(combine(first.data, self._on_first_grid(first, second)), declared_range=declared,
+                               holds_labels=labels)
+
+    def _combination(self, first: Volume, second: Volume):
+        """(combine(first's voxels, second's on its grid), the output type, declared range, label flag)."""
         if self.operation in ARITHMETIC:
-            dtype = np.result_type(mixed_type(first.data.dtype), mixed_type(other.dtype))
-            data = ARITHMETIC[self.operation](first.data, other, dtype=dtype)
-            return first.with_data(data, declared_range=None, holds_labels=False)
+            dtype = np.result_type(mixed_type(voxel_type(first)), mixed_type(self._second_type(first, second)))
+            return (lambda a, b: ARITHMETIC[self.operation](a, b, dtype=dtype)), dtype, None, False
         if self.operation in EXTREMES:
-            data = EXTREMES[self.operation](first.data, other)
-            return first.with_data(data, declared_range=None, holds_labels=first.holds_labels and second.holds_labels)
-        outside = checked_fill(self.outside, first.data.dtype, f"{self.id}.outside")
-        return filtered(first, np.where(other != 0, first.data, outside))
+            dtype = np.result_type(voxel_type(first), self._second_type(first, second))
+            return EXTREMES[self.operation], dtype, None, first.holds_labels and second.holds_labels
+        outside = checked_fill(self.outside, voxel_type(first), f"{self.id}.outside")
+        return (lambda a, b: np.where(b != 0, a, outside)), voxel_type(first), first.value_range, first.holds_labels
+
+    def _second_type(self, first: Volume, second: Volume) -> np.dtype:
+        """The type of the second's voxels on the first's grid (linear resampling mixes them)."""
+        if self.grid == "resample" and not second.holds_labels:
+            return mixed_type(voxel_type(second))
+        return voxel_type(second)
 
     def _on_first_grid(self, first: Volume, second: Volume) -> np.ndarray:
         """The second's voxels on the first's grid: as they are, or resampled when asked."""
         if self.grid == "same":
-            require_same_grid(f"{self.id}.grid", (f"{self.id}.first", f"{self.id}.second"), first, second,
-                              "resample one onto the other (VolumeResample), or set grid = resample")
+            self._require_same_grid(first, second)
             return second.data
         return sampled_on_grid(second, first, order=0 if second.holds_labels else 1)
 
+    def _require_same_grid(self, first: Volume, second: Volume) -> None:
+        require_same_grid(f"{self.id}.grid", (f"{self.id}.first", f"{self.id}.second"), first, second,
+                          "resample one onto the other (VolumeResample), or set grid = resample")
+
+    def _stored(self, first: Volume, second: Volume) -> Volume:
+        """Either input a store larger than its budget: the output a store, slab by slab from the
+        same slabs of both (vgraph.chunked_segmentation)."""
+        who = f"VolumeMath '{self.id}'"
+        if self.grid == "same":
+            self._require_same_grid(first, second)
+            other = lambda z0, z1: rows_of(second, z0, z1)  # noqa: E731
+        elif is_chunked(second):
+            raise PropertyError(f"{self.id}.grid", f"grid = resample samples the second volume whole, and "
+                                f"{second.source or 'it'} is a store larger than its memory budget: resample "
+                                f"it onto the first's grid (VolumeResample), then use grid = same")
+        else:
+            other = on_slab_grid(second, first, order=0 if second.holds_labels else 1)
+        combine, dtype, declared, labels = self._combination(first, second)
+        anchor = first if is_chunked(first) else second
+        plan = elementwise_plan(anchor, first, [lambda z0, z1: rows_of(first, z0, z1), other], combine, dtype,
+                                declared, labels)
+        settings = {"type": "VolumeMath", "operation": self.operation, "grid": self.grid, "outside": self.outside,
+                    "first": input_key(first), "second": input_key(second)}
+        return filtered_store(anchor, plan, who, settings)

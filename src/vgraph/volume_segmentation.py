@@ -93,15 +93,21 @@ def sampled_on_grid(volume: Volume, grid: Volume, order: int) -> np.ndarray:
     """``volume``'s voxels sampled at every voxel centre of ``grid`` ([z, y, x] of grid's shape),
     by nearest (order 0) or linear (order 1) interpolation; 0 beyond its voxel cells (module
     docstring). Linear gives float32 (float64 stays)."""
-    to_index = np.linalg.inv(volume.affine) @ grid.affine  # grid index (i, j, k) -> volume index
+    return sampled_at(volume, grid.affine, tuple(grid.dims[::-1]), order)
+
+
+def sampled_at(volume: Volume, affine: np.ndarray, shape, order: int) -> np.ndarray:
+    """sampled_on_grid on the grid of ``affine`` (index -> world) and ``shape`` ([z, y, x]): a
+    whole grid, or a slab of one (vgraph.chunked_segmentation)."""
+    to_index = np.linalg.inv(volume.affine) @ affine  # grid index (i, j, k) -> volume index
     matrix, offset = to_index[:3, :3][::-1, ::-1], to_index[:3, 3][::-1]  # in [z, y, x] order
     data = volume.data if order == 0 else volume.data.astype(np.float64 if volume.data.dtype == np.float64
                                                                     else np.float32)
-    out = ndimage.affine_transform(data, matrix, offset, output_shape=grid.data.shape, order=order, mode="nearest")
-    index = np.indices(grid.data.shape, dtype=np.float64).reshape(3, -1)
+    out = ndimage.affine_transform(data, matrix, offset, output_shape=tuple(shape), order=order, mode="nearest")
+    index = np.indices(tuple(shape), dtype=np.float64).reshape(3, -1)
     reached = matrix @ index + offset[:, None]
     upper = np.array(volume.data.shape)[:, None] - 0.5
-    outside = np.any((reached < -0.5 - 1e-9) | (reached > upper + 1e-9), axis=0).reshape(grid.data.shape)
+    outside = np.any((reached < -0.5 - 1e-9) | (reached > upper + 1e-9), axis=0).reshape(tuple(shape))
     out[outside] = 0
     return out
 
@@ -117,10 +123,10 @@ def checked_fill(value: float, dtype: np.dtype, where: str):
     return kind.type(value)
 
 
-def label_values(volume: Volume, who: str) -> np.ndarray:
-    """The voxels of a label volume or mask: integers, or floats that are whole numbers; anything
-    else is refused naming ``who``."""
-    data = volume.data
+def label_values(volume: Volume, who: str, data: np.ndarray | None = None) -> np.ndarray:
+    """The voxels of a label volume or mask (or ``data``, a part of them): integers, or floats that
+    are whole numbers; anything else is refused naming ``who``."""
+    data = volume.data if data is None else data
     if data.dtype.kind in "iu":
         return data
     if not volume.holds_labels and not np.all(np.isfinite(data) & (data == np.round(data))):

@@ -1,0 +1,217 @@
+"""Chunked segmentation: the segmentation processors (VolumeMorphology, GradientMagnitude,
+ConnectedComponents, VolumeMath, VolumeMask) on a store larger than its memory budget, chunk by
+chunk into a new store (docs/guide/volume-filters.md, "Stores larger than memory"), through
+vgraph.chunked_filtering's plans, cache and atomic writer.
+
+- Kernels (morphology, gradients): ``overlapping`` runs the processor's own in-memory function
+  over the tiles of a slab with dask's map_overlap (halos of the kernel's reach along y and x,
+  boundary 'none': the function's own boundary rule applies only at the volume's faces), and the
+  slab carries the reach more slices along z (kernel_plan); dask-image's ndmorph does the binary
+  steps of masks the same way. So each voxel is computed from the same voxels by the same code
+  as in memory: the same values, bit for bit.
+- Voxel by voxel (math, mask): each slab of the output from the same slab of each input (a store's
+  rows, an in-memory volume's slices, or a volume resampled onto the slab's grid) by the
+  processor's own combination.
+- Connected components: dask-image's labelling across chunks (dask_image.ndmeasure.label's
+  scheme and its own functions: each tile labelled by scipy.ndimage.label with numbers unique
+  over the volume, the labels touching across tile faces joined by the connected components of
+  their graph). The tiles' labels go to a scratch zarr array rather than staying in dask's memory
+  (dask_image.ndmeasure.label computed whole holds every tile's labels until the graph is solved:
+  four bytes a voxel, beyond any budget), and the faces are read back from it a band of slices
+  at a time. Then
+  one pass counts each component's voxels and finds its first voxel in memory order, so the
+  numbering is the in-memory one (largest first, a tie by the first voxel met), and the last pass
+  writes it.
+"""
+
+from __future__ import annotations
+
+import shutil
+import uuid
+
+import numpy as np
+
+from vgraph.bricks.volume import BrickedVolume
+from vgraph.chunked_filtering import (SlabPlan, cache_folder, check_working_memory, filtered_store,
+                                      output_brick, tile_size)
+from vgraph.errors import VGraphError
+from vgraph.volume import Volume
+from vgraph.volume_segmentation import sampled_at, smallest_label_type
+
+
+def rows_of(volume: Volume, z0: int, z1: int) -> np.ndarray:
+    """Slices z0 .. z1 - 1 ([z, y, x]) of a store's level 0 or of an in-memory volume."""
+    if volume.bricks is not None and not volume.fits_budget:
+        return volume.bricks.read(0, (z0, 0, 0), (z1, *volume.shape[1:]))
+    return volume.data[z0:z1]
+
+
+def voxel_type(volume: Volume) -> np.dtype:
+    """The type of a volume's voxels, without reading a store's."""
+    return np.dtype(volume.dtype) if isinstance(volume, BrickedVolume) else volume.data.dtype
+
+
+# --- kernels over tiles with halos --------------------------------------------------------------
+def overlapping(function, reach_yx, dtype):
+    """A kernel for chunked_filtering.kernel_plan: ``function`` (an in-memory filter of a [z, y, x]
+    array) over a slab's tiles with halos of ``reach_yx`` voxels (boundary 'none': at the volume's
+    faces the function's own boundary rule, elsewhere real voxels)."""
+    def kernel(tiles):
+        depth = {0: 0, 1: int(reach_yx[0]), 2: int(reach_yx[1])}
+        return tiles.map_overlap(function, depth=depth, boundary="none", dtype=np.dtype(dtype),
+                                 meta=np.empty((0, 0, 0), dtype=dtype))
+    return kernel
+
+
+# --- voxel by voxel -----------------------------------------------------------------------------
+def on_slab_grid(volume: Volume, grid: Volume, order: int):
+    """A row reader: ``volume`` sampled on the slices z0 .. z1 - 1 of ``grid`` (sampled_at)."""
+    shift = np.eye(4)
+
+    def rows(z0: int, z1: int) -> np.ndarray:
+        shift[2, 3] = z0  # the slab's first slice is the grid's slice z0
+        return sampled_at(volume, grid.affine @ shift, (z1 - z0, *grid.dims[1::-1]), order)
+    return rows
+
+
+def elementwise_plan(anchor: BrickedVolume, grid: Volume, readers, combine, dtype, declared_range,
+                     holds_labels: bool) -> SlabPlan:
+    """A plan whose slab z0 .. z1 is ``combine(*(reader(z0, z1) for reader in readers))`` on
+    ``grid``'s voxels; ``anchor``: the store that sets the bricks and the memory budget."""
+    def compute(z0: int, z1: int) -> np.ndarray:
+        return np.ascontiguousarray(combine(*(read(z0, z1) for read in readers)), dtype=dtype)
+
+    plane = grid.dims[0] * grid.dims[1]
+    bz = output_brick(anchor)[2]
+    return SlabPlan(tuple(grid.dims[::-1]), np.dtype(dtype), grid.spacing, grid.origin, declared_range,
+                    compute, len(readers) * bz * plane, holds_labels=holds_labels, source=anchor.source,
+                    temporary_bytes=2 * bz * plane * 8)
+
+
+def input_key(volume: Volume) -> dict:
+    """What names a volume's voxels in a cache key: a store's path and modification time, an
+    in-memory volume's hash (its voxels are in memory: hashing them is a pass over them)."""
+    import hashlib
+    if volume.bricks is not None and volume.source:
+        from pathlib import Path
+        metadata = Path(volume.source) / "zarr.json"
+        stamp = metadata.stat().st_mtime_ns if metadata.is_file() else uuid.uuid4().hex
+        return {"store": str(Path(volume.source).resolve()), "stamp": stamp, "grid": str(volume.affine.tolist())}
+    digest = hashlib.sha256(np.ascontiguousarray(volume.data).view(np.uint8).reshape(-1)).hexdigest()
+    return {"voxels": digest, "dtype": str(volume.data.dtype), "grid": str(volume.affine.tolist()),
+            "labels": volume.holds_labels}
+
+
+# --- connected components -----------------------------------------------------------------------
+def component_store(volume: BrickedVolume, who: str, foreground, structure, min_voxels: int,
+                    check_count, settings: dict) -> BrickedVolume:
+    """The connected components of a store's ``foreground`` (a function of a block of voxels) as a
+    label store numbered as in memory (module docstring); ``check_count(kept, found)`` refuses
+    too many labels. The result carries ComponentLabels' ``voxel_counts`` (voxels of label l at
+    [l - 1]), ``world_volumes`` and ``component_count``."""
+    depth, rows_y, cols_x = volume.shape
+    bz = output_brick(volume)[2]
+    ty, tx = tile_size(volume)
+    state = {}
+    plan = SlabPlan(volume.shape, np.dtype(np.uint32), volume.spacing, volume.origin, None,
+                    lambda z0, z1: state["numbering"][state["tiles"][z0:z1]], bz * rows_y * cols_x,
+                    holds_labels=True, source=volume.source,
+                    # the tile labels (int32) and the numbering's pass (np.unique sorts a copy)
+                    temporary_bytes=bz * rows_y * cols_x * (4 + 8 + 8))
+    check_working_memory(volume, plan, who)
+    scratch = cache_folder() / "scratch" / f"components-{uuid.uuid4().hex}.zarr"
+    try:
+        tiles, total = labelled_tiles(volume, foreground, structure, scratch, (bz, ty, tx))
+        state["tiles"] = tiles
+        joined = joined_components(tiles, structure, total)
+        sizes, first = component_extents(tiles, joined, bz)
+        numbering, counts = numbered_by_size(sizes, first, min_voxels)
+        check_count(counts.size, sizes.size - 1)
+        state["numbering"] = numbering[joined]  # tile label -> final label, in one lookup
+        plan.dtype = state["numbering"].dtype
+        plan.declared_range = (0.0, float(max(1, counts.size)))
+        plan.temporary_bytes += state["numbering"].nbytes + joined.nbytes
+        out = filtered_store(volume, plan, who, settings)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    # what ComponentLabels offers in memory
+    out.voxel_counts, out.component_count = counts, int(counts.size)
+    out.world_volumes = counts * float(np.prod(volume.spacing))
+    return out
+
+
+def labelled_tiles(volume: BrickedVolume, foreground, structure, scratch, chunks):
+    """Every tile's components by scipy.ndimage.label, numbered on from the previous tiles'
+    (dask_image.ndmeasure's first step), written to a scratch zarr array: (it, the count)."""
+    import zarr
+    from scipy import ndimage
+    from dask_image.ndmeasure._utils._label import LABEL_DTYPE
+    depth, rows_y, cols_x = volume.shape
+    tiles = zarr.create_array(str(scratch), shape=volume.shape, chunks=chunks, dtype=LABEL_DTYPE,
+                              fill_value=0)
+    total = 0
+    for z0 in range(0, depth, chunks[0]):
+        z1 = min(depth, z0 + chunks[0])
+        mask = foreground(rows_of(volume, z0, z1))
+        out = np.zeros(mask.shape, dtype=LABEL_DTYPE)
+        for y0 in range(0, rows_y, chunks[1]):
+            for x0 in range(0, cols_x, chunks[2]):
+                part = (slice(None), slice(y0, y0 + chunks[1]), slice(x0, x0 + chunks[2]))
+                labels, count = ndimage.label(mask[part], structure=structure, output=LABEL_DTYPE)
+                out[part] = np.where(labels > 0, labels + LABEL_DTYPE.type(total), 0)
+                total += count
+        if total > np.iinfo(LABEL_DTYPE).max:
+            raise VGraphError(f"{volume.source or 'the store'}: more than {np.iinfo(LABEL_DTYPE).max} "
+                              f"pieces of components in its tiles: too many to number")
+        tiles[z0:z1] = out
+    return tiles, total
+
+
+def joined_components(tiles, structure, total: int) -> np.ndarray:
+    """tile label -> component (0 the background): the labels that touch across tile faces, by
+    dask-image's own face list and grouping (_chunk_faces, _across_block_label_grouping), each face
+    read from the scratch array as it comes (a dask graph of thousands of small face tasks cost
+    more to build than to run), solved by scipy's connected_components as dask-image does."""
+    import scipy.sparse
+    from dask_image.ndmeasure._utils._label import _across_block_label_grouping, _chunk_faces
+    from scipy.sparse.csgraph import connected_components
+    chunks = tuple(tuple(min(c, n - start) for start in range(0, n, c)) for c, n in zip(tiles.chunks, tiles.shape))
+    pairs = [np.zeros((2, 0), dtype=np.int64)]
+    bands: dict = {}  # the faces come z band by z band: each band of slices is read once
+    for face in _chunk_faces(chunks, tiles.shape, structure):
+        key = (face[0].start, face[0].stop, face[0].step)
+        if key not in bands:
+            if len(bands) == 4:  # a slab and the face bands after it: older ones are done with
+                del bands[next(iter(bands))]
+            bands[key] = tiles[face[0]]
+        pairs.append(_across_block_label_grouping(bands[key][(slice(None), *face[1:])], structure)
+                     .astype(np.int64))
+    i, j = np.concatenate(pairs, axis=1)
+    graph = scipy.sparse.coo_matrix((np.ones_like(i), (i, j)), shape=(total + 1, total + 1)).tocsr()
+    # node 0 (the background) touches nothing: it is component 0, as dask-image relies on
+    return connected_components(graph, directed=False)[1]
+
+
+def component_extents(tiles, joined: np.ndarray, rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each component's voxel count and the memory-order index of its first voxel (full slabs of
+    ``rows`` slices: a slab's C order is the volume's)."""
+    count = int(joined.max()) + 1
+    sizes = np.zeros(count, dtype=np.int64)
+    first = np.full(count, np.iinfo(np.int64).max, dtype=np.int64)
+    depth, rows_y, cols_x = tiles.shape
+    for z0 in range(0, depth, rows):
+        components = joined[tiles[z0:min(depth, z0 + rows)]].reshape(-1)
+        present, index, counts = np.unique(components, return_index=True, return_counts=True)
+        sizes[present] += counts
+        np.minimum.at(first, present, index + z0 * rows_y * cols_x)
+    return sizes, first
+
+
+def numbered_by_size(sizes: np.ndarray, first: np.ndarray, min_voxels: int) -> tuple[np.ndarray, np.ndarray]:
+    """component -> final label, from the largest down (a tie: the first voxel met first, as
+    scipy numbers them in memory), those under ``min_voxels`` 0; and the kept sizes."""
+    order = np.lexsort((first[1:], -sizes[1:]))
+    kept = order[sizes[1:][order] >= min_voxels]
+    numbering = np.zeros(sizes.size, dtype=smallest_label_type(kept.size))
+    numbering[kept + 1] = np.arange(1, kept.size + 1)
+    return numbering, sizes[1:][kept]
