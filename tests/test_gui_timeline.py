@@ -140,3 +140,11 @@ def test_play_runs_to_the_end_of_the_tracks_and_stops(window, qtbot):
     qtbot.waitUntil(lambda: not panel.play_button.isChecked(), timeout=10000)
     assert panel.time() == pytest.approx(0.2) and network.get("rc.sampling_rate") == 2.0
     assert isinstance(network.get("eep.camera"), Camera)
+
+
+def test_the_view_menu_shows_the_hidden_timeline(window):
+    assert not window.timeline_dock.isVisible()   # hidden at first: the canvases keep their size
+    window.refresh_dock_menu()
+    (action,) = [a for a in window.view_menu.actions() if a.text() == "Timeline"]
+    action.trigger()
+    assert window.timeline_dock.isVisible()
