@@ -32,7 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vgraph.bricks.cells import cell_extent
+from vgraph import derived
+from vgraph.bricks.cells import cell_extent, table_of
 from vgraph.bricks.pyramid import BrickSource
 from vgraph.gl_context import release_quietly
 from vgraph.progress import report
@@ -116,9 +117,33 @@ def brick_texture_shape(source: BrickSource, key) -> tuple[int, int, int]:
     return tuple(int(n) for n in stop - start + 2 * HALO)
 
 
+def level_brick_bytes(source: BrickSource) -> list[np.ndarray]:
+    """Per level, int64 [z, y, x]: the bytes of every brick with its halo in the texture format,
+    made once per source and format (vgraph.derived): a frame's plan sums them over its bricks
+    in a few numpy operations instead of asking brick by brick."""
+    itemsize = texture_format(source.dtype, source.value_range).itemsize
+    return derived.value(source, "brick bytes", lambda: _level_brick_bytes(source, itemsize), params=itemsize)
+
+
+def _level_brick_bytes(source: BrickSource, itemsize: int) -> list[np.ndarray]:
+    tables = []
+    for spans in table_of(source).spans:  # per axis [z, y, x]: the cores' (starts, stops)
+        z, y, x = (stops - starts + 2 * HALO for starts, stops in spans)
+        tables.append(z[:, None, None] * y[None, :, None] * x[None, None, :] * itemsize)
+    return tables
+
+
 def brick_bytes(source: BrickSource, key) -> int:
-    fmt = texture_format(source.dtype, source.value_range)
-    return int(np.prod(brick_texture_shape(source, key))) * fmt.itemsize
+    """Bytes of one brick with its halo in the texture format."""
+    return int(level_brick_bytes(source)[key[0]][tuple(key[1:])])
+
+
+def bricks_bytes(source: BrickSource, keys) -> int:
+    """Bytes of the bricks ``keys`` (an iterable of keys, or an int array [n, 4]) together."""
+    keys = keys if isinstance(keys, np.ndarray) else np.asarray(list(keys), dtype=np.int64)
+    keys = keys.reshape(-1, 4)
+    tables = level_brick_bytes(source)
+    return sum(int(tables[level][tuple(keys[keys[:, 0] == level, 1:].T)].sum()) for level in np.unique(keys[:, 0]))
 
 
 def read_with_halo(source: BrickSource, key) -> np.ndarray:

@@ -43,7 +43,7 @@ import weakref
 import numpy as np
 
 from vgraph.bricks.atlas import BrickAtlas
-from vgraph.bricks.cache import MB, brick_bytes
+from vgraph.bricks.cache import MB, bricks_bytes
 from vgraph.bricks.page_table import PageTable, texel_offsets
 from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
 from vgraph.bricks.sampling import BrickSampling, level_span
@@ -78,6 +78,7 @@ class PagedSampling(Component):
         self.last_frame: dict = {}
         self.warned_level = None  # the level the atlas's slots last raised the frame to
         self.table_key = None     # what the leaf table was built from (leaf_table)
+        self.flags_kept = None    # (the atlas's blocks, (its uploads, the rule), binding): block_flags
 
     def bind(self, frame: Frame) -> Binding:
         return self.frame_binding  # made by draw_frame, which draws the pass
@@ -96,7 +97,7 @@ class PagedSampling(Component):
         cache = bricks.cache
         cache.use_source(source, frame.volume.value_range)
         cache.set_budgets(processor.ram_budget, processor.gl_budget)
-        geometry = BrickGeometry(source)
+        geometry = BrickGeometry.of(source)
         errors = bricks.lod_errors(source, geometry, frame)
         resident_before = set(self.atlas.slots) if self.atlas.key is not None else set()
         atlas = self.ensure_atlas(frame.ctx, source, cache.format)
@@ -157,7 +158,7 @@ class PagedSampling(Component):
         drawn = coarse_first(source, plan.at_floor(plan.floor_level + 1, source), resident, load_limit,
                              cache.seconds_per_byte(), bricks.budget())
         pinned = set(drawn.keys()) | (set(plan.keys()) & resident)
-        if sum(brick_bytes(source, key) for key in pinned) > bricks.budget():
+        if bricks_bytes(source, pinned) > bricks.budget():
             drawn, pinned = FramePlan([], plan.floor_level, 0), set(plan.keys()) & resident
         cache.begin_frame(pinned)
         return drawn
@@ -233,7 +234,9 @@ class PagedSampling(Component):
     def block_flags(self, frame: Frame, atlas: BrickAtlas) -> Binding | None:
         """With ``empty_space_skipping``, the flags of the atlas's blocks that add nothing this frame
         (vgraph.bricks.atlas_blocks; dvr: no opacity over the block's range, iso: below the level,
-        mip: nothing above 0); None when no block is skipped."""
+        mip: nothing above 0); None when no block is skipped. The last frame's, neither computed
+        nor uploaded again, while the atlas uploaded no brick and the rule is the same (a frame
+        that only moves the camera)."""
         processor = self.processor
         if not processor.empty_space_skipping:
             return None
@@ -242,16 +245,25 @@ class PagedSampling(Component):
             lut = processor.parts[TransferFunctionLut].lut
             lut.update(frame.ctx, processor.transfer_function, frame.volume)
             alpha = lut.alpha
-            flags = atlas.blocks.flags(lambda low, high: ~occupied_blocks(low, high, alpha))
+            rule, skippable = (mode, alpha.tobytes()), lambda low, high: ~occupied_blocks(low, high, alpha)
         elif mode == "iso":
-            flags = atlas.blocks.flags(lambda low, high: high < processor.iso_level)
+            level = processor.iso_level
+            rule, skippable = (mode, float(level)), lambda low, high: high < level
         else:
-            flags = atlas.blocks.flags(lambda low, high: high <= 0.0)
-        if not flags.any():
-            return None
-        return Binding({"PAGED_BLOCKS": True}, textures={"block_flags": atlas.blocks.upload(frame.ctx, flags)},
-                       uniforms={"slot_texels": vec(np.asarray(atlas.slot_shape, dtype=np.float64)),
-                                 "blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
+            rule, skippable = (mode,), lambda low, high: high <= 0.0
+        kept = self.flags_kept
+        texture = atlas.gl.get("block_flags")
+        if kept is not None and kept[0] is atlas.blocks and kept[1] == (atlas.stats["uploads"], rule) \
+                and (kept[2] is None or (texture is not None and texture.ctx is frame.ctx)):
+            return kept[2]
+        flags = atlas.blocks.flags(skippable)
+        binding = None
+        if flags.any():
+            binding = Binding({"PAGED_BLOCKS": True}, textures={"block_flags": atlas.blocks.upload(frame.ctx, flags)},
+                              uniforms={"slot_texels": vec(np.asarray(atlas.slot_shape, dtype=np.float64)),
+                                        "blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
+        self.flags_kept = (atlas.blocks, (atlas.stats["uploads"], rule), binding)
+        return binding
 
     def ensure_atlas(self, ctx, source, fmt) -> BrickAtlas:
         processor = self.processor

@@ -260,7 +260,7 @@ class BrickSampling(Component):
         source = self.brick_source(frame.volume)  # in the frame of the camera (an extreme box's)
         self.cache.use_source(source, frame.volume.value_range)
         self.cache.set_budgets(self.processor.ram_budget, self.processor.gl_budget)
-        geometry = BrickGeometry(source)
+        geometry = BrickGeometry.of(source)
         errors = self.lod_errors(source, geometry, frame)
         plan = self.plan(source, frame, errors)
         read_before, seconds_before = self.cache.stats["bricks_read"], self.cache.stats["read_seconds"]

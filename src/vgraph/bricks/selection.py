@@ -22,7 +22,10 @@ Conventions (docs/explanations/bricked-ray-casting.md):
   (empty_space.occupied_blocks, the RayCaster's skipping rule), iso those whose maximum is below the
   level, mip those whose maximum is <= 0.
 - Order: front to back, the grid's sweep order (tetrahedra.cells.axis_order, reversed) at the top
-  and for each brick's children, valid for orthographic and perspective cameras.
+  and for each brick's children, valid for orthographic and perspective cameras; the walk goes a
+  whole level at a time on arrays and sorts the cells it keeps by their place in that recursive
+  order (vgraph.bricks.walk_order). Brick bytes, geometry and normalised ranges are made once per
+  source (vgraph.derived), not per frame.
 - Coarse first (a ``LoadLimit``, the GUI's): when the plan's bricks not yet in the cache cannot be
   read within the limit, ``coarse_first`` draws the plan of the finest coarser floor level whose
   missing bricks can (the budget fallback's walk, one floor level up at a time); the plan's own
@@ -32,17 +35,19 @@ Conventions (docs/explanations/bricked-ray-casting.md):
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
 
-from vgraph.bricks.cache import LoadLimit, brick_bytes, usable_range
+from vgraph import derived
+from vgraph.bricks.cache import LoadLimit, bricks_bytes, usable_range
 from vgraph.bricks.cells import cell_factors, cell_grid, cells_of_bricks, coarseness
 from vgraph.bricks.pyramid import BrickSource
+from vgraph.bricks.walk_order import children, top_cells
 from vgraph.gl.raycasting.empty_space import occupied_blocks
-from vgraph.gl.tetrahedra.cells import axis_order
 
 OUTSIDE = 1e6  # texture coordinate of the volume's outer faces in the ownership test
 
@@ -52,13 +57,13 @@ class FramePlan:
     bricks: list = field(default_factory=list)  # (key, (x, y, w, h) scissor rect), front to back
     floor_level: int = 0                        # the finest level the budget allowed
     bytes: int = 0                              # the frame's bricks with halo
-    # floor level -> the bricks at that floor (the same walk, its tables reused): coarser plans
-    select: Callable[[int], list] | None = field(default=None, repr=False, compare=False)
+    # floor level -> (the bricks at that floor, their bytes) (the same walk, its tables reused): coarser plans
+    select: Callable[[int], tuple[list, int]] | None = field(default=None, repr=False, compare=False)
 
     def at_floor(self, floor_level: int, source: BrickSource) -> FramePlan:
         """This frame's plan with ``floor_level`` as the finest level allowed."""
-        bricks = self.select(floor_level)
-        return FramePlan(bricks, floor_level, sum(brick_bytes(source, key) for key, _ in bricks), self.select)
+        bricks, nbytes = self.select(floor_level)
+        return FramePlan(bricks, floor_level, nbytes, self.select)
 
     def keys(self) -> list:
         return [key for key, _ in self.bricks]
@@ -81,11 +86,13 @@ class LeafPass:
 
 
 class BrickGeometry:
-    """Where a source's bricks are: level-0 voxel bounds, world boxes and ownership bounds."""
+    """Where a source's bricks are: level-0 voxel bounds, world boxes and ownership bounds.
+    ``BrickGeometry.of(source)``: the one kept per source (vgraph.derived), which holds the source
+    weakly (a kept value must not keep its source alive)."""
 
-    def __init__(self, source: BrickSource):
+    def __init__(self, source: BrickSource, weak: bool = False):
         base = source.levels[0]
-        self.source = source
+        self._source = weakref.ref(source) if weak else (lambda: source)
         self.dims0 = np.asarray(base.shape[::-1], dtype=np.float64)      # (x, y, z)
         self.spacing0 = np.asarray(base.spacing, dtype=np.float64)
         self.origin0 = np.asarray(base.origin, dtype=np.float64)
@@ -99,6 +106,15 @@ class BrickGeometry:
         # edge over level 0's smallest voxel edge, whole (2^L where every axis halves).
         finest = float(self.spacing0.min())
         self.strides = [max(1, int(math.floor(float((f * self.spacing0).min()) / finest + 1e-9))) for f in factors]
+
+    @staticmethod
+    def of(source: BrickSource) -> BrickGeometry:
+        """The geometry of ``source``, made once per source (vgraph.derived)."""
+        return derived.value(source, "brick geometry", lambda: BrickGeometry(source, weak=True))
+
+    @property
+    def source(self) -> BrickSource:
+        return self._source()
 
     def voxel_bounds(self, key) -> tuple[np.ndarray, np.ndarray]:
         """Level-0 voxel bounds [lo, hi) (x, y, z) of a brick, hi clipped to the volume."""
@@ -123,13 +139,23 @@ class BrickGeometry:
 def normalised_ranges(source: BrickSource, level: int, value_range=None) -> tuple[np.ndarray, np.ndarray]:
     """Per-brick [z, y, x] min and max of normalised intensity over each brick and its neighbours;
     a brick without finite voxels counts as 0 (non-finite voxels are uploaded clamped); one whose
-    range is unknown (-inf, +inf: a level too large to read for its ranges) as everything."""
-    low, high = source.brick_ranges(level)
+    range is unknown (-inf, +inf: a level too large to read for its ranges) as everything. Made
+    once per source, range and level (vgraph.derived; a source's brick ranges do not change), read-only."""
     lo, hi = usable_range(value_range if value_range is not None else source.value_range)
+    per_level = derived.value(source, "normalised brick ranges", dict, params=(lo, hi))
+    if level not in per_level:
+        per_level[level] = _normalised_ranges(source, level, lo, hi)
+    return per_level[level]
+
+
+def _normalised_ranges(source: BrickSource, level: int, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+    low, high = source.brick_ranges(level)
     low = np.where(np.isfinite(low), (low - lo) / (hi - lo), 0.0)
     high = np.where(np.isnan(high), 0.0, (high - lo) / (hi - lo))  # +inf: clipped where used
-    return (ndimage.minimum_filter(low, size=3, mode="nearest"),
-            ndimage.maximum_filter(high, size=3, mode="nearest"))
+    ranges = (ndimage.minimum_filter(low, size=3, mode="nearest"), ndimage.maximum_filter(high, size=3, mode="nearest"))
+    for values in ranges:
+        values.setflags(write=False)
+    return ranges
 
 
 def visible_bricks(source: BrickSource, level: int, mode: str, alpha=None, iso_level: float = 0.5,
@@ -198,14 +224,6 @@ def screen_rects(geometry: BrickGeometry, view_projection, size, level: int) -> 
 
 
 # --- the walk ----------------------------------------------------------------------------------------
-def front_to_back(counts, eye, forward, perspective: bool, offset=(0, 0, 0)):
-    """Cells of a [x, y, z] block of ``counts`` starting at ``offset``, front to back, as (x, y, z)
-    indices; ``eye`` in cell units."""
-    axes = [axis_order(int(n), float(eye[a] - offset[a]) if perspective else None, float(forward[a]))[::-1] + offset[a]
-            for a, n in enumerate(counts)]
-    return [(int(x), int(y), int(z)) for z in axes[2] for y in axes[1] for x in axes[0]]
-
-
 class LevelTables:
     """Per-level rectangles, wanted levels and visibility of one frame, computed on first use."""
 
@@ -231,32 +249,61 @@ def select_bricks(source: BrickSource, camera, size, view_projection, visible, l
     is the bool [z, y, x] array of bricks that can contribute at that level; ``too_coarse(level)``,
     where given, the bool [z, y, x] array of cells of that level to refine whatever their footprint
     (their error bound is over the frame's share, plan_frame), down to ``floor_level``."""
-    geometry = geometry or BrickGeometry(source)
+    keys, rects = selected_arrays(source, camera, size, view_projection, visible, lod_bias, floor_level, geometry,
+                                  tables, too_coarse)
+    return brick_list(keys, rects)
+
+
+def brick_list(keys: np.ndarray, rects: np.ndarray) -> list:
+    """[(key, rect)] of the arrays of selected_arrays, as Python ints."""
+    return [(tuple(key), tuple(rect)) for key, rect in zip(keys.tolist(), rects.tolist())]
+
+
+def selected_arrays(source: BrickSource, camera, size, view_projection, visible, lod_bias: float,
+                    floor_level: int = 0, geometry: BrickGeometry | None = None,
+                    tables: LevelTables | None = None,
+                    too_coarse: Callable[[int], np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """select_bricks as arrays: keys int64 [n, 4] (level, z, y, x) and rects int64 [n, 4], front to
+    back. The walk goes down the octree a whole level at a time: the cells of a level that are
+    refined give their children, those that stay are kept with their place in the order. The place
+    is the walk's: the rank of the top cell in the grid's front-to-back order, then at each level
+    the rank of the cell among its parent's children (front_to_back of that block, axis_ranks per
+    axis, z before y before x), digits of one mixed-radix number; a cell kept at a coarser level
+    has zeros below (no kept cell is another's ancestor, so no two numbers tie) and one argsort of
+    the numbers is the order of the recursive walk."""
+    geometry = geometry or BrickGeometry.of(source)
     tables = tables or LevelTables(geometry, camera, size, view_projection, visible, lod_bias)
     top = len(source.levels) - 1
     perspective = camera.projection == "perspective"
     forward = camera.basis()[2]
-    chosen: list = []
-
-    def walk(level: int, cells):
-        eye = geometry.eye_in_bricks(camera.position, level)
-        rects, wants = tables(level, "rects"), tables(level, "wants")
-        for x, y, z in cells:
-            rect = rects[z, y, x]
-            if rect[2] == 0:
-                continue
-            if level > min(max(int(wants[z, y, x]), floor_level, 0), top) or (
-                    too_coarse is not None and level > floor_level and too_coarse(level)[z, y, x]):
-                grid, ratio = geometry.grids[level - 1], geometry.ratios[level]
-                first = np.array([x, y, z]) * ratio
-                counts = np.minimum(first + ratio, grid) - first
-                walk(level - 1, front_to_back(counts, eye * ratio, forward, perspective, first))
-            elif tables(level, "visible")[z, y, x]:
-                chosen.append(((level, z, y, x), tuple(int(v) for v in rect)))
-
-    eye_top = geometry.eye_in_bricks(camera.position, top)
-    walk(top, front_to_back(geometry.grids[top], eye_top, forward, perspective))
-    return chosen
+    z, y, x, order = top_cells(geometry, camera, forward, perspective)
+    kept_keys, kept_rects, kept_order = [], [], []
+    for level in range(top, -1, -1):
+        if len(z) == 0:
+            break
+        rects = tables(level, "rects")[z, y, x]
+        on_screen = rects[:, 2] != 0
+        wants = tables(level, "wants")[z, y, x]
+        refined = on_screen & (level > np.minimum(np.maximum(np.maximum(wants, floor_level), 0), top))
+        rest = on_screen & ~refined
+        if too_coarse is not None and level > floor_level and rest.any():
+            refined |= rest & too_coarse(level)[z, y, x]
+            rest &= ~refined
+        if rest.any():
+            rest &= tables(level, "visible")[z, y, x]
+            # Zeros for the levels below: the order number as if the cell were walked down to level 0.
+            below = math.prod(int(np.prod(geometry.ratios[k])) for k in range(1, level + 1))
+            kept_keys.append(np.stack([np.full(int(rest.sum()), level), z[rest], y[rest], x[rest]], axis=1))
+            kept_rects.append(rects[rest])
+            kept_order.append(order[rest] * below)
+        if level > 0:
+            z, y, x, order = children(geometry, camera, forward, perspective, level, z[refined], y[refined],
+                                      x[refined], order[refined])
+    if not kept_keys:
+        return np.zeros((0, 4), dtype=np.int64), np.zeros((0, 4), dtype=np.int64)
+    front_first = np.argsort(np.concatenate(kept_order), kind="stable")
+    return (np.concatenate(kept_keys).astype(np.int64)[front_first],
+            np.concatenate(kept_rects).astype(np.int64)[front_first])
 
 
 def plan_frame(source: BrickSource, camera, size, view_projection, visible, lod_bias: float,
@@ -267,10 +314,10 @@ def plan_frame(source: BrickSource, camera, size, view_projection, visible, lod_
     ``max_error`` < 1, a cell is also refined where its error bound is over a share of
     ``max_error``: the share starts at max_error and is divided by 8, then 0, until the frame's bound is
     within max_error (at share 0 every cell that can move a pixel is refined down to the floor)."""
-    geometry = BrickGeometry(source)
+    geometry = BrickGeometry.of(source)
     tables = LevelTables(geometry, camera, size, view_projection, visible, lod_bias)
 
-    def select_at(floor_level: int, share: float | None) -> list:
+    def select_at(floor_level: int, share: float | None) -> tuple[np.ndarray, np.ndarray]:
         over: dict = {}  # level -> cells whose bound is over the share
 
         def too_coarse(level: int) -> np.ndarray:
@@ -278,21 +325,22 @@ def plan_frame(source: BrickSource, camera, size, view_projection, visible, lod_
                 over[level] = errors(level) > share
             return over[level]
 
-        return select_bricks(source, camera, size, view_projection, visible, lod_bias, floor_level, geometry,
-                             tables, None if share is None else too_coarse)
+        return selected_arrays(source, camera, size, view_projection, visible, lod_bias, floor_level, geometry,
+                               tables, None if share is None else too_coarse)
 
-    def select(floor_level: int) -> list:
+    def select(floor_level: int) -> tuple[list, int]:
         if errors is None or max_error >= 1.0:
-            return select_at(floor_level, None)
+            keys, rects = select_at(floor_level, None)
+            return brick_list(keys, rects), bricks_bytes(source, keys)
         for share in (max_error, max_error / 8.0, 0.0):
-            bricks = select_at(floor_level, share)
+            keys, rects = select_at(floor_level, share)
+            bricks = brick_list(keys, rects)
             if errors.frame_bound(bricks, size) <= max_error:
                 break
-        return bricks
+        return bricks, bricks_bytes(source, keys)
 
     for floor_level in range(min(finest_level, len(source.levels) - 1), len(source.levels)):
-        bricks = select(floor_level)
-        total = sum(brick_bytes(source, key) for key, _ in bricks)
+        bricks, total = select(floor_level)
         if total <= budget_bytes:
             return FramePlan(bricks, floor_level, total, select)
     raise ValueError(f"the {len(bricks)} bricks of the coarsest level need {total / 2**20:.2f} MB "
@@ -309,9 +357,9 @@ def coarse_first(source: BrickSource, plan: FramePlan, resident: set, limit: Loa
     for floor_level in range(plan.floor_level, len(source.levels)):
         candidate = plan if floor_level == plan.floor_level else plan.at_floor(floor_level, source)
         missing = [key for key in candidate.keys() if key not in resident]
-        if limit.allows(len(missing), sum(brick_bytes(source, key) for key in missing), seconds_per_byte):
+        if limit.allows(len(missing), bricks_bytes(source, missing), seconds_per_byte):
             break
     if candidate is plan or set(candidate.keys()) == set(plan.keys()):
         return plan
     pinned = set(candidate.keys()) | (set(plan.keys()) & resident)
-    return candidate if sum(brick_bytes(source, key) for key in pinned) <= budget_bytes else plan
+    return candidate if bricks_bytes(source, pinned) <= budget_bytes else plan

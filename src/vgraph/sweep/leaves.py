@@ -11,7 +11,7 @@ its own, loaded once on demand, in visibility order; docs/explanations/sweep-pla
 - Reading: through a BrickCache (its bricks carry a halo of 2 voxels, so the overlap comes with
   the leaf), within the RAM budget of the BrickedVolume; the leaf being swept is pinned. A leaf
   larger than the budget is refused by name.
-- Order: front to back, the grid's sweep order (selection.front_to_back) over the leaves' grid,
+- Order: front to back, the grid's sweep order (walk_order.front_to_back) over the leaves' grid,
   whose separating planes are the seams (vertex indices start), valid for both projections.
 - Skipped without reading: a leaf the threshold empties (the per-brick min/max of the store over
   the leaf's brick and the bricks its overlap reaches does not meet [low, high]: then no cell's
@@ -32,7 +32,7 @@ import numpy as np
 
 from vgraph.bricks.cache import HALO, MB, BrickCache, brick_bytes, brick_extent, usable_range
 from vgraph.bricks.cells import cell_grid
-from vgraph.bricks.selection import front_to_back
+from vgraph.bricks.walk_order import front_to_back
 from vgraph.errors import VGraphError
 from vgraph.memory import format_bytes
 from vgraph.sweep.grid import grid_of

@@ -1,0 +1,80 @@
+"""The front-to-back order of the bricked renderer's octree walk (vgraph.bricks.selection), on
+whole arrays of cells.
+
+Conventions (docs/explanations/bricked-ray-casting.md):
+- Along each axis the cells of a block are taken in the sweep order of the cell projection
+  (vgraph.gl.tetrahedra.cells.axis_order) reversed, front first; a block's cells go z before y
+  before x (``front_to_back``). The walk takes the top level's grid in that order and, for every
+  cell it refines, the block of its children in that order, with the eye in the children's units.
+- On arrays: a cell's place in the walk is a mixed-radix number whose digits are the top cell's
+  rank in the grid's order, then at each level the rank of the cell among its parent's children
+  (``axis_ranks`` per axis). Sorting those numbers (a cell kept at a coarser level padded with
+  zeros, as no kept cell is another's ancestor) gives the recursive walk's order exactly, for
+  orthographic and perspective cameras alike.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vgraph.gl.tetrahedra.cells import axis_order
+
+
+def front_to_back(counts, eye, forward, perspective: bool, offset=(0, 0, 0)):
+    """Cells of a [x, y, z] block of ``counts`` starting at ``offset``, front to back, as (x, y, z)
+    indices; ``eye`` in cell units."""
+    axes = [axis_order(int(n), float(eye[a] - offset[a]) if perspective else None, float(forward[a]))[::-1] + offset[a]
+            for a, n in enumerate(counts)]
+    return [(int(x), int(y), int(z)) for z in axes[2] for y in axes[1] for x in axes[0]]
+
+
+def axis_ranks(cells, counts, eye, towards: float, perspective: bool) -> np.ndarray:
+    """The place of each of ``cells`` (0..count - 1 along one axis, int arrays with ``counts``
+    and ``eye`` broadcast against them; ``eye`` the eye's coordinate in cell units) in its axis's
+    front-to-back order, axis_order(count, eye, towards) reversed, whole arrays at a time: the cell
+    the eye's coordinate passes through first, then those above it ascending, then those below it
+    descending (perspective); all ascending or all descending with the view (orthographic)."""
+    if not perspective:
+        return cells if towards > 0 else counts - 1 - cells
+    below = np.clip(np.floor(eye), 0, counts).astype(np.int64)  # axis_runs, for arrays
+    above = np.clip(np.ceil(eye), 0, counts).astype(np.int64)
+    middle = (below < above).astype(np.int64)
+    ranks = np.where(cells >= above, middle + cells - above, middle + (counts - above) + (below - 1 - cells))
+    return np.where((middle == 1) & (cells == below), 0, ranks)
+
+
+def top_cells(geometry, camera, forward, perspective: bool):
+    """Every cell (z, y, x int arrays) of the top level of ``geometry`` (a selection.BrickGeometry)
+    and its order number: its rank in the top grid's front_to_back."""
+    top = len(geometry.grids) - 1
+    grid = np.asarray(geometry.grids[top], dtype=np.int64)  # (x, y, z)
+    z, y, x = (axis.ravel() for axis in np.meshgrid(*[np.arange(n) for n in grid[::-1]], indexing="ij"))
+    eye = geometry.eye_in_bricks(camera.position, top)
+    ranks = [axis_ranks(cells, grid[a], eye[a], float(forward[a]), perspective) for a, cells in enumerate((x, y, z))]
+    return z, y, x, (ranks[2] * grid[1] + ranks[1]) * grid[0] + ranks[0]
+
+
+def children(geometry, camera, forward, perspective: bool, level: int, z, y, x, order):
+    """The children (at level - 1) of the cells (z, y, x) of ``level`` and their order numbers
+    (select_bricks' walk): each parent's number times its block's radix plus the child's rank in
+    front_to_back of the parent's block."""
+    ratio = np.asarray(geometry.ratios[level], dtype=np.int64)        # (x, y, z) children per parent
+    grid = np.asarray(geometry.grids[level - 1], dtype=np.int64)      # (x, y, z)
+    eye = geometry.eye_in_bricks(camera.position, level) * ratio      # as front_to_back is given it
+    parents = np.stack([x, y, z], axis=1)
+    first = parents * ratio                                            # [n, 3] (x, y, z)
+    counts = np.minimum(first + ratio, grid) - first
+    rx, ry, rz = (int(r) for r in ratio)
+    dz, dy, dx = np.meshgrid(np.arange(rz), np.arange(ry), np.arange(rx), indexing="ij")
+    local = [d.ravel()[None, :] for d in (dx, dy, dz)]                 # [1, r] per axis (x, y, z)
+    inside = np.ones((len(parents), rx * ry * rz), dtype=bool)
+    ranks = []
+    for a in range(3):
+        count = counts[:, a:a + 1]
+        inside &= local[a] < count
+        ranks.append(axis_ranks(local[a], count, eye[a] - first[:, a:a + 1], float(forward[a]), perspective))
+    digits = (ranks[2] * ry + ranks[1]) * rx + ranks[0]
+    numbers = (order[:, None] * (rx * ry * rz) + digits)[inside]
+    cx, cy, cz = ((first[:, a:a + 1] + local[a]) for a in range(3))
+    return (np.broadcast_to(cz, inside.shape)[inside], np.broadcast_to(cy, inside.shape)[inside],
+            np.broadcast_to(cx, inside.shape)[inside], numbers)
