@@ -3,21 +3,23 @@ cost of a shadowed frame against the unshadowed one, and the error (the light vo
 shadow rays; the shadowed image against the unshadowed one).
 
     .venv/bin/python bench/bench_shadows.py [--volume bonsai|sphere] [--resolution 128]
-        [--size 384] [--rounds 3] [--light 1 1 1] [--points 3000]
+        [--size 512] [--rounds 5] [--light -0.4 -1 1.2] [--points 3000]
 
 Conventions:
 - Volume: the CT bonsai (256^3 uint8, shared/data) with bench/raycaster_speed's BONSAI_TF, or the
   FunctionSelector sphere at --resolution with a half-transparent shell TF. Light: --light (world,
   towards the light), the RayCaster shaded with the same light (``light = direction``).
-- Light-volume cost: extinction (numpy, the same for both) plus the sweep: vgraph's numpy sweep or
-  bench/gl_light_sweep.py's GL pass per slice (read back slice by slice). Interleaved rounds
-  (bench/interleave.py) after an untimed warm-up each; min / median / max seconds.
+- Light-volume cost: classification plus the sweep, from the volume to T: vgraph's numpy sweep on
+  sheared grids (vgraph.numerics.light_volume, rule 3) or bench/gl_light_sweep.py's GL pass per
+  slice (the voxels classified first, the optical depth resampled every slice, read back slice by
+  slice). Interleaved rounds (bench/interleave.py) after an untimed warm-up each; min / median /
+  max seconds.
 - Frame cost: RayCaster dvr + Blinn-Phong at --size^2, the camera orbiting 7 degrees a round, with
   and without the light volume connected (precomputed gradients, empty-space skipping as the
   defaults); interleaved after a warm-up frame each; the light volume is built before (it changes
   only with the TF or the light, not the camera).
-- Error of the sweep: |T_sweep - T_rays| at --points random voxels where the TF is visible, T_rays
-  from vgraph.numerics.reference_shadows (step min(spacing) / 4). Error against the unshadowed
+- Error of each sweep: |T_sweep - T_rays| at --points random voxels where the TF is visible, T_rays
+  from vgraph.numerics.reference_shadows (step min(spacing) / 4), T_sweep as the 16-bit codes. Error against the unshadowed
   frame: how much shadows change the picture, 8-bit RGB, max and mean over the pixels.
 - Timings are wall-clock on whatever machine runs this (say which, and its load, beside them).
 """
@@ -39,7 +41,7 @@ from raycaster_speed import BONSAI, BONSAI_TF, load_bonsai  # noqa: E402
 
 from vgraph.camera import Camera  # noqa: E402
 from vgraph.implicit import sample  # noqa: E402
-from vgraph.numerics.light_volume import CODES, extinction, index_light, light_volume, transmittance  # noqa: E402
+from vgraph.numerics.light_volume import CODES, extinction, index_light, light_volume  # noqa: E402
 from vgraph.numerics.reference_raycast import VolumeSampler, lookup, volume_box  # noqa: E402
 from vgraph.numerics.reference_shadows import shadow_rays  # noqa: E402
 from vgraph.scheduler import finish_gl  # noqa: E402
@@ -59,23 +61,25 @@ def load(name: str, resolution: int):
 
 
 def light_volume_costs(volume, tf, light, rounds: int):
+    """Seconds of each variant and its light volume (T as 16-bit codes, as light_volume stores it)."""
     index = index_light(volume, light)
     gl = GlSweep()
+    results = {}
 
     def numpy_sweep(_):
         start = time.perf_counter()
-        transmittance(extinction(volume, tf), volume.spacing, index)
+        results["numpy sheared sweep"] = light_volume(volume, tf, light).data
         return time.perf_counter() - start
 
     def gl_sweep(_):
         start = time.perf_counter()
-        gl.transmittance(extinction(volume, tf), volume.spacing, index)
+        t = gl.transmittance(extinction(volume, tf), volume.spacing, index)
+        results["GL pass per slice"] = np.rint(np.clip(t, 0.0, 1.0) * CODES).astype(np.uint16)
         return time.perf_counter() - start
 
-    seconds, _ = interleaved({"numpy sweep": numpy_sweep, "GL pass per slice": gl_sweep}, [None] * rounds, None)
-    sigma = extinction(volume, tf)
-    difference = np.abs(transmittance(sigma, volume.spacing, index) - gl.transmittance(sigma, volume.spacing, index))
-    return seconds, float(difference.max())
+    seconds, _ = interleaved({"numpy sheared sweep": numpy_sweep, "GL pass per slice": gl_sweep},
+                             [None] * rounds, None)
+    return seconds, results
 
 
 def frame_costs(volume, tf, light, size: int, rounds: int):
@@ -106,11 +110,11 @@ def frame_costs(volume, tf, light, size: int, rounds: int):
         network.set("eep.camera", cameras[0])
         images[name] = np.rint(np.clip(network.evaluate("rc.image", size=(size, size))[..., :3], 0, 1) * 255)
     change = np.abs(images["shadowed"] - images["unshadowed"])
-    return seconds, change, lit
+    return seconds, change
 
 
-def sweep_error(volume, tf, light, lit, points: int):
-    """|T_sweep - T_rays| at random voxels the TF shows."""
+def sweep_error(volume, tf, light, codes: np.ndarray, points: int):
+    """|T_sweep - T_rays| at random voxels the TF shows (the same voxels for every ``codes``)."""
     rng = np.random.default_rng(0)
     alpha = lookup(tf.for_volume(volume).lut().astype(np.float64)[:, 3:4],
                    VolumeSampler(volume).flat)[:, 0]
@@ -119,7 +123,7 @@ def sweep_error(volume, tf, light, lit, points: int):
     nx, ny = volume.dims[0], volume.dims[1]
     ijk = np.stack([chosen % nx, (chosen // nx) % ny, chosen // (nx * ny)], axis=1)
     world = volume.voxel_to_world(ijk)
-    sweep = lit.data.ravel()[chosen] / CODES
+    sweep = codes.ravel()[chosen] / CODES
     rays = shadow_rays(volume, tf, light)(world)
     return np.abs(sweep - rays)
 
@@ -128,9 +132,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--volume", choices=["bonsai", "sphere"], default="bonsai")
     parser.add_argument("--resolution", type=int, default=128, help="sphere voxels per axis")
-    parser.add_argument("--size", type=int, default=384)
-    parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--light", type=float, nargs=3, default=(1.0, 1.0, 1.0))
+    parser.add_argument("--size", type=int, default=512)
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--light", type=float, nargs=3, default=(-0.4, -1.0, 1.2))
     parser.add_argument("--points", type=int, default=3000)
     args = parser.parse_args()
     volume, tf = load(args.volume, args.resolution)
@@ -138,12 +142,14 @@ def main() -> None:
     print(f"volume {args.volume} {' x '.join(map(str, volume.dims))} {volume.data.dtype}, light {light}, "
           f"image {args.size}^2, {args.rounds} interleaved rounds after a warm-up, "
           f"shadow-ray error at {args.points} visible voxels")
-    seconds, gl_difference = light_volume_costs(volume, tf, light, args.rounds)
-    print("\nlight volume (extinction + sweep), seconds min / median / max")
+    seconds, results = light_volume_costs(volume, tf, light, args.rounds)
+    print("\nlight volume (classification + sweep), seconds min / median / max; |T - T_shadow_rays| at "
+          f"{args.points} visible voxels: max / mean / 99th percentile")
     for name, values in seconds.items():
-        print(f"  {name:18s} {spread(values)}")
-    print(f"  numpy vs GL sweep: max |T difference| {gl_difference:.1e}")
-    frames, change, lit = frame_costs(volume, tf, light, args.size, args.rounds)
+        error = sweep_error(volume, tf, light, results[name], args.points)
+        print(f"  {name:20s} {spread(values)}   error {error.max():.3f} / {error.mean():.4f} / "
+              f"{np.percentile(error, 99):.3f}")
+    frames, change = frame_costs(volume, tf, light, args.size, args.rounds)
     print(f"\nframe (dvr, Blinn-Phong, {args.size}^2), seconds min / median / max")
     for name, values in frames.items():
         print(f"  {name:18s} {spread(values)}")
@@ -151,9 +157,6 @@ def main() -> None:
     print(f"  shadowed / unshadowed (medians): {ratio:.2f}")
     print(f"  shadowed vs unshadowed image, 8-bit RGB: max {change.max():.0f}, mean {change.mean():.1f}, "
           f"pixels changed by more than 8: {np.mean(change.max(axis=-1) > 8) * 100:.0f} %")
-    error = sweep_error(volume, tf, light, lit, args.points)
-    print(f"\nlight volume vs shadow rays at {error.size} visible voxels: max {error.max():.3f}, "
-          f"mean {error.mean():.4f}, 99th percentile {np.percentile(error, 99):.3f}")
 
 
 if __name__ == "__main__":

@@ -1,11 +1,14 @@
-"""The light volume's sweep (rule 3 of vgraph.numerics.light_volume) as a GL pass per slice: the
-alternative to the numpy sweep that bench_shadows.py times against it.
+"""The light volume's sweep as a GL pass per slice, the alternative bench_shadows.py times against
+vgraph's numpy sweep (vgraph.numerics.light_volume).
 
 Each slice is one fullscreen pass into a float texture: it reads the previous slice's optical
 depth (ping-pong 2D textures, linear filter) and the extinction of both slices from a 3D R32F
-texture, and writes the new optical depth, which is read back into the numpy result (the light
-volume is a Volume, held in memory). The extinction is classified in numpy as in the library
-(vgraph.numerics.light_volume.extinction), so only the sweep differs. Kept in bench/: it lost
+texture, tau = tau_up + l (sigma + sigma_up) / 2 at the point the light comes from, and writes the
+new optical depth, which is read back into the numpy result (the light volume is a Volume, held in
+memory); where that point is beyond the slice, the light entered through a side face at d < l:
+tau = sigma d. The voxels are classified first (vgraph.numerics.light_volume.extinction). This was
+vgraph's first numpy sweep, pass for pass: resampling the optical depth at every slice blurs thin
+shadows, which the sheared grids of the library's sweep avoid. Kept in bench/ for the comparison
 (docs/reports/performance.md, "Volumetric shadows").
 """
 
