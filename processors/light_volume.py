@@ -26,8 +26,9 @@ class LightVolume(Processor):
     """Transmittance of a directional light through the volume under a transfer function (shadows)."""
 
     category = "Volume rendering"
-    inports = [Inport("volume", Volume)]
-    outports = [Outport("light_volume", Volume)]
+    inports = [Inport("volume", Volume, "the volume the RayCaster draws")]
+    outports = [Outport("light_volume", Volume, "transmittance T on the volume's grid as 16-bit codes (T = value / "
+                                                "65535): to RayCaster.light_volume")]
     transfer_function = palette_transfer_function()
     light_direction = VectorProperty((1.0, 1.0, 1.0), doc="world-space direction towards the light "
                                                           "(link it to the RayCaster's)")

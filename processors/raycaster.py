@@ -20,6 +20,9 @@ Conventions (docs/explanations/ray-casting.md explains each property with pictur
   sample. Which sample gives the depth depends on the compositing mode (the shader parts say).
   The depth output is on demand: drawn only when a target or a connected processor reads it.
 - The camera must equal the EntryExitPoints camera (link them): it gives depth and view direction.
+- ``light_volume`` (optional): a LightVolume's transmittance T; in dvr and iso each sample's colour
+  is multiplied by 1 - shadow_strength * (1 - T) (vgraph.gl.raycasting.light_volume;
+  docs/guide/shadows.md). Unconnected, nothing is compiled or bound for it.
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
   than its memory budget, is drawn from bricks instead of VolumeSampling, by the method the
   BrickedRayCaster's ``method`` auto chooses (vgraph.bricks.methods): through the PagedSampling
