@@ -183,3 +183,36 @@ def test_a_turned_light_volume_is_refused_by_name(sphere):
                     direction=((0, -1, 0), (1, 0, 0), (0, 0, 1)))
     with pytest.raises(VGraphError, match="rc.light_volume"):
         shadowed_network(sphere, sphere_camera(sphere), turned).evaluate("rc.image", size=SIZE)
+
+
+@pytest.mark.parametrize("compositing", ["dvr", "iso"])
+def test_a_uniform_light_volume_scales_the_colour_in_dvr_and_iso(sphere, compositing):
+    """T = 0.5 everywhere, strength 0.6: every colour is 1 - 0.6 * 0.5 = 0.7 of the unshadowed one
+    (black background); mip draws as without."""
+    camera = sphere_camera(sphere)
+    half = Volume(np.full((4, 5, 6), 32768, np.uint16), spacing=(0.7, 0.5, 0.6), origin=(-1.0, -1.0, -1.0),
+                  declared_range=(0.0, 65535.0))  # another grid: the mapping of texture coordinates
+    settings = dict(transfer_function=SPHERE_TF, compositing=compositing, shadow_strength=0.6)
+    plain = ray_caster_network(sphere, camera, **settings).evaluate("rc.image", size=SIZE)
+    lit = shadowed_network(sphere, camera, half, **settings).evaluate("rc.image", size=SIZE)
+    factor = 1.0 - 0.6 * (1.0 - 32768 / 65535)
+    assert plain[..., :3].max() > 0.3
+    np.testing.assert_allclose(lit[..., :3], plain[..., :3] * factor, atol=2e-6)
+    np.testing.assert_array_equal(lit[..., 3], plain[..., 3])
+    mip = dict(settings, compositing="mip")
+    assert np.array_equal(ray_caster_network(sphere, camera, **mip).evaluate("rc.image", size=SIZE),
+                          shadowed_network(sphere, camera, half, **mip).evaluate("rc.image", size=SIZE))
+
+
+def test_a_light_volume_on_its_own_grid_is_sampled_where_the_samples_are(sphere):
+    """A ramp on a coarser, shifted grid: the GL maps the volume's texture coordinates onto it as
+    the CPU reference samples it at the samples' world points (clamped beyond its box)."""
+    camera = sphere_camera(sphere)
+    z, y, x = np.indices((13, 15, 12))
+    ramp = Volume((65535 * (0.2 + 0.8 * (x / 11.0) * (z / 12.0))).astype(np.uint16), spacing=(0.13, 0.1, 0.11),
+                  origin=(-0.9, -1.1, -0.95), declared_range=(0.0, 65535.0))
+    gl = shadowed_network(sphere, camera, ramp, transfer_function=SPHERE_TF,
+                          shading="none").evaluate("rc.image", size=SIZE)
+    reference = render(sphere, camera, SPHERE_TF, SIZE, shadow=shadowed(ramp))
+    assert np.abs(reference - render(sphere, camera, SPHERE_TF, SIZE)).max() > 0.2
+    np.testing.assert_allclose(gl, reference, atol=REFERENCE_TOLERANCE)
