@@ -216,3 +216,11 @@ def test_a_light_volume_on_its_own_grid_is_sampled_where_the_samples_are(sphere)
     reference = render(sphere, camera, SPHERE_TF, SIZE, shadow=shadowed(ramp))
     assert np.abs(reference - render(sphere, camera, SPHERE_TF, SIZE)).max() > 0.2
     np.testing.assert_allclose(gl, reference, atol=REFERENCE_TOLERANCE)
+
+
+def test_a_volume_drawn_brick_by_brick_refuses_a_light_volume_by_name(sphere, monkeypatch):
+    import vgraph.processors.raycaster as raycaster
+    monkeypatch.setattr(raycaster, "needs_bricks", lambda volume, gl: True)  # as for a volume too large
+    light = light_volume(sphere, SPHERE_TF, LIGHT)
+    with pytest.raises(ProcessorError, match="rc.light_volume: .* drawn brick by brick.*disconnect light_volume"):
+        shadowed_network(sphere, sphere_camera(sphere), light).evaluate("rc.image", size=SIZE)
