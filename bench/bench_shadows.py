@@ -12,7 +12,8 @@ Conventions:
 - Light-volume cost: classification plus the sweep, from the volume to T: vgraph's numpy sweep on
   sheared grids (vgraph.numerics.light_volume, rule 3) or bench/gl_light_sweep.py's GL pass per
   slice (the voxels classified first, the optical depth resampled every slice, read back slice by
-  slice). Interleaved rounds (bench/interleave.py) after an untimed warm-up each; min / median /
+  slice), or the numpy sweep on a copy at half the voxels per axis (VolumeResample, linear; the
+  RayCaster samples a light volume on its own grid). Interleaved rounds (bench/interleave.py) after an untimed warm-up each; min / median /
   max seconds.
 - Frame cost: RayCaster dvr + Blinn-Phong at --size^2, the camera orbiting 7 degrees a round, with
   and without the light volume connected (precomputed gradients, empty-space skipping as the
@@ -43,7 +44,8 @@ from vgraph.camera import Camera  # noqa: E402
 from vgraph.implicit import sample  # noqa: E402
 from vgraph.numerics.light_volume import CODES, extinction, index_light, light_volume  # noqa: E402
 from vgraph.numerics.reference_raycast import VolumeSampler, lookup, volume_box  # noqa: E402
-from vgraph.numerics.reference_shadows import shadow_rays  # noqa: E402
+from vgraph.numerics.reference_shadows import shadow_rays, shadowed  # noqa: E402
+from vgraph.processors.volume_resample import VolumeResample  # noqa: E402
 from vgraph.scheduler import finish_gl  # noqa: E402
 from vgraph.testing import GivenVolume, ray_caster_network  # noqa: E402
 from vgraph.transfer_function import TransferFunction  # noqa: E402
@@ -68,17 +70,24 @@ def light_volume_costs(volume, tf, light, rounds: int):
 
     def numpy_sweep(_):
         start = time.perf_counter()
-        results["numpy sheared sweep"] = light_volume(volume, tf, light).data
+        results["numpy sheared sweep"] = light_volume(volume, tf, light)
         return time.perf_counter() - start
 
     def gl_sweep(_):
         start = time.perf_counter()
         t = gl.transmittance(extinction(volume, tf), volume.spacing, index)
-        results["GL pass per slice"] = np.rint(np.clip(t, 0.0, 1.0) * CODES).astype(np.uint16)
+        results["GL pass per slice"] = lit.with_data(np.rint(np.clip(t, 0.0, 1.0) * CODES).astype(np.uint16))
         return time.perf_counter() - start
 
-    seconds, _ = interleaved({"numpy sheared sweep": numpy_sweep, "GL pass per slice": gl_sweep},
-                             [None] * rounds, None)
+    def half_size(_):
+        start = time.perf_counter()
+        half = VolumeResample(id="half", mode="size", size=[max(1, n // 2) for n in volume.dims]).process(volume)
+        results["numpy, half size per axis"] = light_volume(half, tf, light)
+        return time.perf_counter() - start
+
+    lit = light_volume(volume, tf, light)
+    seconds, _ = interleaved({"numpy sheared sweep": numpy_sweep, "GL pass per slice": gl_sweep,
+                              "numpy, half size per axis": half_size}, [None] * rounds, None)
     return seconds, results
 
 
@@ -113,8 +122,9 @@ def frame_costs(volume, tf, light, size: int, rounds: int):
     return seconds, change
 
 
-def sweep_error(volume, tf, light, codes: np.ndarray, points: int):
-    """|T_sweep - T_rays| at random voxels the TF shows (the same voxels for every ``codes``)."""
+def sweep_error(volume, tf, light, lit, points: int):
+    """|T_sweep - T_rays| at random voxels the TF shows (the same voxels for every light volume
+    ``lit``, sampled trilinearly there: its own voxels where it has the volume's grid)."""
     rng = np.random.default_rng(0)
     alpha = lookup(tf.for_volume(volume).lut().astype(np.float64)[:, 3:4],
                    VolumeSampler(volume).flat)[:, 0]
@@ -123,7 +133,7 @@ def sweep_error(volume, tf, light, codes: np.ndarray, points: int):
     nx, ny = volume.dims[0], volume.dims[1]
     ijk = np.stack([chosen % nx, (chosen // nx) % ny, chosen // (nx * ny)], axis=1)
     world = volume.voxel_to_world(ijk)
-    sweep = codes.ravel()[chosen] / CODES
+    sweep = shadowed(lit)(world)
     rays = shadow_rays(volume, tf, light)(world)
     return np.abs(sweep - rays)
 
@@ -147,7 +157,7 @@ def main() -> None:
           f"{args.points} visible voxels: max / mean / 99th percentile")
     for name, values in seconds.items():
         error = sweep_error(volume, tf, light, results[name], args.points)
-        print(f"  {name:20s} {spread(values)}   error {error.max():.3f} / {error.mean():.4f} / "
+        print(f"  {name:26s} {spread(values)}   error {error.max():.3f} / {error.mean():.4f} / "
               f"{np.percentile(error, 99):.3f}")
     frames, change = frame_costs(volume, tf, light, args.size, args.rounds)
     print(f"\nframe (dvr, Blinn-Phong, {args.size}^2), seconds min / median / max")
