@@ -41,18 +41,21 @@ optical depth) besides the codes, and a few sheared slices.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
 
 from vgraph.errors import VGraphError
+from vgraph.progress import steps
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
 MAX_ALPHA = 1.0 - 1e-6  # rule 1: an opaque voxel still has a finite extinction
 CODES = 65535  # rule 4
 SLAB_VOXELS = 2**22  # classified slab by slab: float64 temporaries of ~100 MB at most
+PROGRESS_VOXELS = 32 * 2**20  # show a progress bar above this many voxels, as the gradient volume
 CHUNK_SLICES = 64  # slices a sheared grid spans (rule 3): 4 resamplings of the optical depth for 256
 
 
@@ -144,7 +147,8 @@ def transmittance(values: np.ndarray, extinction_of, spacing, light: np.ndarray,
     stack = np.ascontiguousarray(sweep.stack(values), dtype=np.float32)
     out = np.empty(stack.shape, dtype=np.float32)  # the optical depth first, T at the end
     out[0] = 0.0
-    for first in range(0, len(stack) - 1, chunk):
+    show = stack.size > PROGRESS_VOXELS  # on stderr; the GUI hears every chunk (vgraph.progress)
+    for first in steps(range(0, len(stack) - 1, chunk), "light volume", show=show, unit="chunk", file=sys.stderr):
         last = min(first + chunk, len(stack) - 1)
         out[first + 1:last + 1] = chunk_depths(stack[first:last + 1], out[first], extinction_of, sweep)
     np.exp(np.negative(out, out=out), out=out)
