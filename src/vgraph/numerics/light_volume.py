@@ -35,8 +35,8 @@ Model (the LightVolume processor and the ray casters' shadows rely on it; tests 
 4. Storage: 16-bit codes ``round(T * 65535)`` with declared range (0, 65535), on the input's grid,
    so the normalised intensity of the light volume is T within 7.6e-6 and its texture is R16.
 
-Memory: three float32 copies of the volume (the intensities, their slices in sweep order, the
-optical depth) besides the codes, and a few sheared slices.
+Memory: up to four float32 copies of the volume (the intensities, their slices in sweep order, the
+optical depth and its copy in [z, y, x] order) besides the codes, and a few sheared slices.
 """
 
 from __future__ import annotations
