@@ -20,6 +20,9 @@ Conventions (docs/explanations/ray-casting.md explains each property with pictur
   sample. Which sample gives the depth depends on the compositing mode (the shader parts say).
   The depth output is on demand: drawn only when a target or a connected processor reads it.
 - The camera must equal the EntryExitPoints camera (link them): it gives depth and view direction.
+- ``light_volume`` (optional): a LightVolume's transmittance T; in dvr and iso each sample's colour
+  is multiplied by 1 - shadow_strength * (1 - T) (vgraph.gl.raycasting.light_volume;
+  docs/guide/shadows.md). Unconnected, nothing is compiled or bound for it.
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
   than its memory budget, is drawn from bricks instead of VolumeSampling, by the method the
   BrickedRayCaster's ``method`` auto chooses (vgraph.bricks.methods): through the PagedSampling
@@ -47,6 +50,7 @@ from vgraph.gl.raycasting.components import (Background, CameraRays, EmptySpace,
                                              palette_shading, palette_transfer_function, ray_main_missed)
 from vgraph.gl.raycasting.empty_space import occupied_blocks, radii_if_worthwhile
 from vgraph.gl.raycasting.light import Gradients, Light
+from vgraph.gl.raycasting.light_volume import LightShadows
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.shown_volume import ShowsVolume
 from vgraph.gl.raycasting.targets import RenderTargets
@@ -92,7 +96,8 @@ class RayCaster(ShowsVolume, RaycasterBase):
                                              "drawn brick by brick)"),
                   Light(mode="compositing", shaded_modes=SHADED_MODES), EmptySpace(skip=skip_values),
                   Background(), BrickSampling(mode="compositing", when="only for a volume drawn brick by brick"),
-                  PagedSampling(), RayRequests())  # PagedSampling's properties are BrickSampling's
+                  PagedSampling(), RayRequests(),  # PagedSampling's properties are BrickSampling's
+                  LightShadows(mode="compositing", shadowed_modes=SHADED_MODES))
     uses_context = ("load_limit",)  # for the frames drawn brick by brick (module docstring)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING),
@@ -130,13 +135,15 @@ class RayCaster(ShowsVolume, RaycasterBase):
         return self.compositing == "iso"
 
     # --- evaluation -----------------------------------------------------------------------------
-    def process(self, volume: Volume, entry: Image, exit: Image, context: FrameContext) -> dict:
+    def process(self, volume: Volume, entry: Image, exit: Image, context: FrameContext,
+                light_volume: Volume | None = None) -> dict:
         volume.require_samples(f"RayCaster '{self.id}'")
         self.parts[Gradients].check()
+        self.parts[LightShadows].attach(volume, light_volume)
         self._drew_bricks = None
         bricks = needs_bricks(volume, self.gl)
         if bricks:
-            self._check_bricked_mode(volume)
+            self._check_bricked_mode(volume, light_volume)
         # A frame samples one texture (every part but the bricks') or the bricks (module docstring).
         one_texture = [part for part in self.parts if part not in BRICK_PARTS]
         frame = self.frame(volume, entry, exit, parts=[BrickSampling] if bricks else one_texture)
@@ -157,7 +164,11 @@ class RayCaster(ShowsVolume, RaycasterBase):
                   missed=ray_main_missed(self.background, with_depth))
         return outputs
 
-    def _check_bricked_mode(self, volume: Volume) -> None:
+    def _check_bricked_mode(self, volume: Volume, light_volume: Volume | None) -> None:
+        if light_volume is not None:
+            raise VGraphError(f"{self.id}.light_volume: {volume.source or 'the volume'} is drawn brick by "
+                              f"brick ({' x '.join(map(str, volume.dims))} voxels do not fit one GL texture "
+                              f"or the memory budget), which draws no shadows; disconnect light_volume")
         if self.compositing not in BRICKED_MODES:
             raise VGraphError(f"{self.id}.compositing: {volume.source or 'the volume'} is drawn brick by "
                               f"brick ({' x '.join(map(str, volume.dims))} voxels do not fit one GL texture "

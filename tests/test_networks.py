@@ -13,7 +13,8 @@ from helpers.paths import DATA, REPO
 NETWORKS = sorted((REPO / "networks").glob("*.json"))
 RENDERERS = ["raycast_sphere", "raycast_head", "mip_engine", "curvature_torus", "curvature_volume",
              "tets_lox_post", "tets_disk_out_ref", "tets_bonsai", "rzsweep_bonsai",
-             "mpr_mri_head", "head_skin_mesh_bone_volume", "two_channels_hydrogen_neghip", "labels_engine"]
+             "mpr_mri_head", "head_skin_mesh_bone_volume", "two_channels_hydrogen_neghip", "labels_engine",
+             "shadows_torus"]
 # mpr_mri_head's first Canvas (what `vgraph run` draws) is the axial slice. clip_engine is not in the list:
 # its background is dark grey (0.08, 0.08, 0.1), not the black corners this test expects.
 ON_SHARED_DATA = {"raycast_head", "mip_engine", "tets_lox_post", "tets_disk_out_ref", "tets_bonsai", "rzsweep_bonsai",

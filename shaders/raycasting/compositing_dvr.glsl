@@ -26,6 +26,9 @@ bool composited(Ray ray, int i, inout vec4 sum, inout Result result) {
 #ifdef SHADING_BLINN_PHONG
         color.rgb = shade(color.rgb, texel_gradient(t, texel), -ray.direction);
 #endif
+#ifdef LIGHT_VOLUME
+        color.rgb = shadowed(color.rgb, t);  // light_volume.glsl
+#endif
         if (result.depth_sample < 0.0) {
             result.depth_sample = float(i);
         }

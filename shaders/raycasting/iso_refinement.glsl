@@ -29,5 +29,8 @@ vec3 iso_surface_colour(Ray ray, float hit) {
     vec3 p = sample_point(ray, hit);
     rgb = shade(rgb, gradient(p, raw_sample(p)), -ray.direction);
 #endif
+#ifdef LIGHT_VOLUME
+    rgb = shadowed(rgb, sample_point(ray, hit));  // light_volume.glsl
+#endif
     return rgb;
 }

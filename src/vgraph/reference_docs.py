@@ -53,6 +53,7 @@ PICTURES: dict[str, tuple[str, str]] = {
     "MultiVolumeRayCaster": ("exploring_channels_blends.png", "The three blend modes of two channels"),
     "LabelRayCaster": ("exploring_labels_boundaries.png",
                        "The RayCaster against the LabelRayCaster on two touching label boxes"),
+    "LightVolume": ("shadows_bonsai.png", "The bonsai without and with shadows, and a slice of its light volume"),
     "SliceViewer": ("exploring_slice_display.png",
                     "An axial slice of the head in radiological (default) and neurological display"),
     # networks/head_skin_mesh_bone_volume.json: these four make that picture together
@@ -101,6 +102,7 @@ EXPLAINED_IN: dict[str, tuple[str, ...]] = {
     "ImageWriter": ("reports/reliability.md",),
     "IsoSurfaceExtractor": ("guide/surfaces.md#isosurfaceextractor",),
     "LabelRayCaster": ("guide/labels.md#label-volumes", "guide/own-data.md#label-volumes"),
+    "LightVolume": ("guide/shadows.md",),
     "LineProfile": ("guide/measuring.md#lineprofile", "guide/measuring.md#tables"),
     "Markups": ("guide/measuring.md#markups", "guide/measuring.md#tables"),
     "MeshSource": ("explanations/tetrahedra.md#meshes-and-meshsource", "guide/own-data.md#meshes"),

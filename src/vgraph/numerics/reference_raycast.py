@@ -62,7 +62,11 @@ Optical model (Inácio 2009 ch. 2.4 and 4.1-4.3), in this order:
 8. MIP: ``m`` = max over all n samples of the normalised intensity clamped to [0, 1] (no early
    termination, no opacity correction, no shading); ``(rgb, a) = TF(m)`` via the LUT as in 5;
    pixel = ``a * rgb + (1 - a) * bg.rgb``, alpha ``a + (1 - a) * bg.a`` - a single DVR sample.
-9. Memory: rays are marched ``chunk_rays`` at a time in lockstep, so the working memory is bounded
+9. Optional shadows (``shadow``, a callable from (M, 3) world points to the light's
+   transmittance T: vgraph.numerics.reference_shadows): in DVR each visible sample's colour,
+   shaded or not, is multiplied by ``1 - shadow_strength * (1 - T)`` at its point (the GL ray
+   caster's light_volume inport).
+10. Memory: rays are marched ``chunk_rays`` at a time in lockstep, so the working memory is bounded
    by the chunk (whatever the sampling rate or optical depth) plus a few float64 numbers per pixel
    (its ray, interval and result).
 
@@ -108,7 +112,8 @@ class Shading:
 def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, size,
            *, mode: str = "dvr", sampling_rate: float = 1.0, early_termination: float = 0.99,
            background=(0.0, 0.0, 0.0, 1.0), shading: Shading | None = None,
-           return_samples: bool = False, chunk_rays: int = 65536, clip_planes=(), crop_box=None):
+           return_samples: bool = False, chunk_rays: int = 65536, clip_planes=(), crop_box=None,
+           shadow=None, shadow_strength: float = 1.0):
     """Render ``volume`` as the GL ray caster does (model in the module docstring).
 
     ``clip_planes`` and ``crop_box`` cut each ray's interval before sampling (vgraph.clipping).
@@ -135,7 +140,7 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
         march = _march_dvr if mode == "dvr" else _march_mip
         rgba[rays], taken[rays] = march(sampler, lut, origins[rays], directions[rays],
                                         t_entry[rays], counts[rays], step, sampling_rate,
-                                        early_termination, shading)
+                                        early_termination, shading, (shadow, shadow_strength))
     # Over the background; a missed ray (A = 0, no samples) becomes the background exactly.
     coverage = rgba[:, 3:4]
     image = np.concatenate([rgba[:, :3] + (1.0 - coverage) * background[:3],
@@ -274,7 +279,7 @@ def lookup(lut: np.ndarray, intensity: np.ndarray) -> np.ndarray:
 
 # --- marching -----------------------------------------------------------------------------------
 def _march_dvr(sampler, lut, origins, directions, t_entry, counts, step, sampling_rate,
-               early_termination, shading):
+               early_termination, shading, shadow=(None, 1.0)):
     """Front-to-back compositing of a chunk of rays in lockstep, in log space (rule 7); returns
     premultiplied RGBA and the samples taken per ray."""
     colour = np.zeros((len(origins), 3))
@@ -290,6 +295,10 @@ def _march_dvr(sampler, lut, origins, directions, t_entry, counts, step, samplin
         rgb = sample[:, :3]
         if shading is not None:
             rgb = shade_samples(sampler, shading, points, directions[active], rgb, opacity > 0.0)
+        if shadow[0] is not None:  # rule 9; only where it adds (a shadow ray costs many samples)
+            lit = opacity > 0.0
+            rgb = rgb.copy()
+            rgb[lit] *= (1.0 - shadow[1] * (1.0 - shadow[0](points[lit])))[:, None]
         colour[active] += (np.exp(log_transparency[active]) * opacity)[:, None] * rgb
         with np.errstate(divide="ignore"):  # an opaque sample: ln 0 = -inf, the ray stops
             log_transparency[active] += np.log1p(-opacity)
@@ -313,7 +322,7 @@ def corrected_opacity(alpha: np.ndarray, exponent: float) -> np.ndarray:
 
 
 def _march_mip(sampler, lut, origins, directions, t_entry, counts, step, sampling_rate,
-               early_termination, shading):
+               early_termination, shading, shadow=None):
     """Maximum intensity along each ray, classified once; premultiplied RGBA (0 for misses)."""
     maximum = np.zeros(len(origins))  # intensities are clamped to [0, 1], so 0 is neutral
     active = np.flatnonzero(counts > 0)
