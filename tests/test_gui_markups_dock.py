@@ -84,3 +84,34 @@ def test_delete_removes_the_selected_markups_undoably(marked):
     assert network.get("mk.markups").names == ["a"] and dock.table.rowCount() == 2
     undo.undo()
     assert network.get("mk.markups").names == ["r", "a"]
+
+
+def test_profile_adds_a_line_profile_that_follows_the_ruler_in_one_undo_step(window, qtbot):
+    """Profile on a ruler's row: a LineProfile linked to the ruler (not a copy of its points), its
+    volume from what feeds the Markups node, a Canvas for the plot; one undo step removes all."""
+    from helpers.paths import DATA
+    if not DATA.is_dir():
+        pytest.skip(f"shared data sets not found at {DATA}")
+    workspace = window.workspace
+    workspace.add_processor("VolumeSource", (0, 0), id="source")
+    workspace.set_property("source.path", str(DATA / "ct_head_headsq" / "quarter.nhdr"))
+    workspace.add_processor("Markups", (0, 120), id="mk")
+    workspace.connect("source.volume", "mk.volume")
+    workspace.set_property("mk.markups", Markups(markups=(RULER, ANGLE)))
+    dock = window.markups_dock.widget()
+    dock.table.selectRow(1)
+    assert not dock.profile.isEnabled()      # an angle has no profile
+    dock.table.selectRow(0)
+    assert dock.profile.isEnabled()
+    steps, network = workspace.undo_stack.count(), workspace.network
+    dock.profile.click()
+    assert workspace.undo_stack.count() == steps + 1
+    assert network.get("profile.ruler") == "r" and network.inputs_of("profile", "volume")[0].source == "source"
+    assert any((link.source, link.target) == ("mk.markups", "profile.markups") for link in network.links)
+    assert network.inputs_of("profile_canvas", "image")[0].source == "profile"
+    assert window.inspector.processor_id == "profile"
+    dock.table.item(0, 5).setText("0 0 0; 30 40 0")   # the ruler moves: the profile's line follows
+    assert network["profile"].length == pytest.approx(50.0)
+    workspace.undo_stack.undo()
+    workspace.undo_stack.undo()
+    assert "profile" not in network.processors and "profile_canvas" not in network.processors

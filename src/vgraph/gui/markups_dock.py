@@ -16,6 +16,9 @@ Conventions:
   workspace: one undo step per edit. An edit the model refuses (a ruler with three points, a name
   taken) changes nothing; the reason goes to the status bar and the row shows the markup again.
   Delete removes the selected markups, one undo step per processor.
+- Profile (a ruler's row selected) adds a LineProfile fed from that ruler by a property link
+  (``markups`` linked, ``ruler`` named; processors/line_profile.py), its volume connected from
+  what feeds the Markups node's ``volume`` inport, and a Canvas showing its plot: one undo step.
 - Created hidden, tabbed with the Log at the bottom (View > Markups shows it), so the first-run
   and perspective layouts keep their canvas sizes.
 """
@@ -52,6 +55,7 @@ class MarkupsTable(QWidget):
 
     status_message = Signal(str)
     markup_selected = Signal(object)   # (address, name) or None
+    profiled = Signal(str)             # the id of a LineProfile added by Profile
 
     def __init__(self, workspace, parent=None):
         super().__init__(parent)
@@ -62,8 +66,13 @@ class MarkupsTable(QWidget):
         remove = QPushButton("Delete")
         remove.setToolTip("remove the selected markups (undoable)")
         remove.clicked.connect(self.delete_selected)
+        self.profile = QPushButton("Profile")
+        self.profile.setToolTip("a LineProfile along the selected ruler, following it (a property link)")
+        self.profile.clicked.connect(self.profile_selected)
+        self.profile.setEnabled(False)
         buttons = QHBoxLayout()
         buttons.addWidget(remove)
+        buttons.addWidget(self.profile)
         buttons.addStretch(1)
         column = QVBoxLayout(self)
         column.addWidget(self.table)
@@ -143,7 +152,13 @@ class MarkupsTable(QWidget):
         return False
 
     def _selection_changed(self) -> None:
-        self.markup_selected.emit(self.selected_markup())
+        key = self.selected_markup()
+        self.profile.setEnabled(key is not None and self._kind(*key) == "ruler")
+        self.markup_selected.emit(key)
+
+    def _kind(self, address: str, name: str) -> str | None:
+        markups = self.network.get(address)
+        return markups[name].kind if name in markups.names else None
 
     # --- editing --------------------------------------------------------------------------------
     def _edited(self, item: QTableWidgetItem) -> None:
@@ -163,6 +178,19 @@ class MarkupsTable(QWidget):
             return
         if new.name != name:
             self.select(address, new.name, emit=False)
+
+    def profile_selected(self) -> None:
+        key = self.selected_markup()
+        if key is None or self._kind(*key) != "ruler":
+            self.status_message.emit("select a ruler's row to profile it")
+            return
+        try:
+            profile_id, problem = profile_ruler(self.workspace, *key)
+        except VGraphError as error:
+            self.status_message.emit(f"cannot profile {key[1]}: {error}")
+            return
+        self.status_message.emit(problem or f"{profile_id}: the profile along {key[1]}, following it")
+        self.profiled.emit(profile_id)
 
     def delete_selected(self) -> None:
         chosen = [self._key(index.row()) for index in self.table.selectionModel().selectedRows()]
@@ -194,6 +222,7 @@ def markups_dock(window) -> QDockWidget:
     dock.hide()
     table.status_message.connect(window.statusBar().showMessage)
     table.markup_selected.connect(lambda key: _select_in_window(window, key))
+    table.profiled.connect(window.scene.select_processor)
     return dock
 
 
@@ -209,3 +238,29 @@ def _select_in_window(window, key) -> None:
         names = [m.name for m in window.workspace.network.get(address).markups]
         if name in names:
             editor.table.selectRow(names.index(name))
+
+
+def free_id(network, stem: str) -> str:
+    return next(f"{stem}{n}" if n else stem for n in range(len(network.processors) + 2)
+                if (f"{stem}{n}" if n else stem) not in network.processors)
+
+
+def profile_ruler(workspace, address: str, name: str) -> tuple[str, str | None]:
+    """Add a LineProfile along ruler ``name`` of ``address`` (linked, so it follows the ruler) and a
+    Canvas for its plot, as one undo step: (the profile's id, a problem to report or None)."""
+    network = workspace.network
+    markups_id = address.split(".")[0]
+    x, y = network[markups_id].position
+    profile_id, canvas_id = free_id(network, "profile"), free_id(network, "profile_canvas")
+    volumes = network.inputs_of(markups_id, "volume")
+    with workspace.macro(f"Profile {name}"):
+        workspace.add_processor("LineProfile", (x + 180.0, y), id=profile_id)
+        workspace.link(address, f"{profile_id}.markups")
+        workspace.set_property(f"{profile_id}.ruler", name)
+        workspace.add_processor("Canvas", (x + 180.0, y + 120.0), id=canvas_id)
+        workspace.connect(f"{profile_id}.plot", f"{canvas_id}.image")
+        if volumes:
+            workspace.connect(f"{volumes[0].source}.{volumes[0].outport}", f"{profile_id}.volume")
+    problem = None if volumes else (f"{profile_id}: connect the volume to sample to {profile_id}.volume "
+                                    f"(nothing feeds {markups_id}.volume to take it from)")
+    return profile_id, problem

@@ -86,6 +86,11 @@ class Workspace(QObject):
         stack.indexChanged.emit(stack.index())   # as push does after a merge: views follow it
         return True
 
+    def macro(self, text: str):
+        """A context in which several edits become one undo step named ``text`` (a view's
+        compound action: the Markups dock's Profile)."""
+        return self._macro(text)
+
     @contextmanager
     def _macro(self, text: str):
         self._macro_depth += 1
