@@ -101,6 +101,30 @@ def test_numbers_and_vectors_move_linearly_options_and_booleans_step():
     assert value_at(skipping, prop("rc.empty_space_skipping"), 0.5) is True
 
 
+def test_a_field_of_a_camera_or_a_transfer_function_animates_alone(tmp_path):
+    net = load([track("rc.transfer_function.tf_shift", (0, 0.0), (2, 0.5)),
+                track("eep.camera.fov", (0, 30.0), (1, 60.0, "step"))])
+    tf_before, camera_before = net.get("rc.transfer_function"), net.get("eep.camera")
+    from vgraph.tracks import apply_tracks
+    apply_tracks(net, net.tracks, 1.0)
+    assert net.get("rc.transfer_function") == tf_before.model_copy(update={"tf_shift": 0.25})  # points kept
+    assert net.get("eep.camera").fov == 60.0 and net.get("eep.camera").position == camera_before.position
+    net.save(tmp_path / "fields.json")
+    assert vgraph.load(tmp_path / "fields.json").tracks == net.tracks
+
+
+@pytest.mark.parametrize("address, value, message", [
+    ("rc.sampling_rate.x", 1.0, "tracks[0].property: a float property has no fields"),
+    ("eep.camera.zoom", 1.0, "tracks[0].property: Camera has no field 'zoom' (its fields: projection, position"),
+    ("eep.camera.fov", 200.0, "tracks[0].keyframes[0].value: invalid value 200.0: Input should be less than 180"),
+    ("eep.camera.fov.x.y", 1.0, "tracks[0].property: 'eep.camera.fov.x.y' is not a track address: ID.PROPERTY or"),
+])
+def test_bad_field_tracks_are_refused(address, value, message):
+    with pytest.raises(NetworkFileError, match="anim.json: tracks") as caught:
+        load([track(address, (0, value))])
+    assert message in str(caught.value)
+
+
 def test_easings_and_the_ends_of_a_track():
     net = load([track("rc.sampling_rate", (1, 1.0, "ease-in-out"), (3, 3.0, "step"), (4, 5.0))])
     rate, prop = net.tracks[0], net._property("rc.sampling_rate")

@@ -7,7 +7,9 @@ A network file may hold ``"tracks"``: each names a property by its address and l
         {"time": 0.0, "value": {...}, "easing": "linear"},
         {"time": 4.0, "value": {...}}]}
 
-``time`` in seconds (from 0, strictly increasing within a track), ``value`` in the property's JSON
+``property`` is ``id.property``, or ``id.property.field`` for one field of a camera or a transfer
+function (``rc.transfer_function.tf_shift``; vgraph.track_targets), ``time`` in seconds (from 0,
+strictly increasing within a track), ``value`` in the property's (or field's) JSON
 form (as under "properties"), ``easing`` how the segment from this keyframe to the next runs:
 ``linear``, ``ease-in-out`` (smoothstep, 3u^2 - 2u^3: starts and stops at rest) or ``step`` (this
 value holds until the next keyframe). Before the first keyframe the first value holds, after the
@@ -45,8 +47,9 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from vgraph.camera import Camera
 from vgraph.errors import NetworkFileError, VGraphError
-from vgraph.network import Network, split_address
+from vgraph.network import Network
 from vgraph.properties import Property
+from vgraph.track_targets import target_of
 from vgraph.transfer_function import TransferFunction
 
 EASINGS = ("linear", "ease-in-out", "step")
@@ -149,7 +152,7 @@ def make_track(network: Network, address: str, keyframes) -> Track:
 
 def _track(entry: TrackEntry, network: Network, where: str, problems: list, base_dir) -> Track | None:
     try:
-        prop = property_of(network, entry.property)
+        target = target_of(network, entry.property)
     except VGraphError as error:
         problems.append((f"{where}.property", getattr(error, "reason", str(error))))
         return None
@@ -160,7 +163,7 @@ def _track(entry: TrackEntry, network: Network, where: str, problems: list, base
                              f"keyframes must be in order of time, each later than the one before: "
                              f"{key.time:g} comes after {entry.keyframes[number - 1].time:g}"))
         try:
-            value = prop.validate(key.value, entry.property, base_dir)
+            value = target.validate(key.value, base_dir)
         except VGraphError as error:
             problems.append((f"{where}.keyframes[{number}].value", getattr(error, "reason", str(error))))
             continue
@@ -169,7 +172,7 @@ def _track(entry: TrackEntry, network: Network, where: str, problems: list, base
         return None
     track = Track(entry.property, tuple(keyframes))
     try:
-        check_track(track, prop)
+        check_track(track, target)
     except TrackError as error:
         problems.append((f"{where}.keyframes", str(error)))
         return None
@@ -181,12 +184,8 @@ def _json_path(where: str, location) -> str:
 
 
 def property_of(network: Network, address: str) -> Property:
-    """The property at ``address``; VGraphError naming what exists if there is none."""
-    processor_id, _ = split_address(address, "property")
-    if processor_id not in network:
-        known = ", ".join(network.processors) or "none"
-        raise VGraphError(f"no processor '{processor_id}' in the network (its processors: {known})")
-    return network._property(address)
+    """The property a track of ``address`` sets (its field's, for ``id.property.field``)."""
+    return network._property(target_of(network, address).address)
 
 
 def tracks_to_json(network: Network, tracks) -> list[dict]:
@@ -196,11 +195,11 @@ def tracks_to_json(network: Network, tracks) -> list[dict]:
     out = []
     for track in tracks:
         try:
-            prop = property_of(network, track.address)
+            target = target_of(network, track.address)
         except VGraphError:
             continue
         out.append({"property": track.address,
-                    "keyframes": [{"time": k.time, "value": prop.to_json(k.value), "easing": k.easing}
+                    "keyframes": [{"time": k.time, "value": target.to_json(k.value), "easing": k.easing}
                                   for k in track.keyframes]})
     return out
 
@@ -209,7 +208,8 @@ def tracks_to_json(network: Network, tracks) -> list[dict]:
 def apply_tracks(network: Network, tracks, time: float) -> None:
     """Set every tracked property to its value at ``time``."""
     for track in tracks:
-        network.set(track.address, value_at(track, network._property(track.address), time))
+        target = target_of(network, track.address)
+        target.set(network, value_at(track, target, time))
 
 
 def value_at(track: Track, prop: Property, time: float):
@@ -358,7 +358,7 @@ class SetTracks:
 
     def apply(self, network: Network) -> None:
         for track in self.tracks:
-            property_of(network, track.address)  # refuse a track of a processor that is gone
+            target_of(network, track.address)  # refuse a track of a processor that is gone
         network.tracks = tuple(self.tracks)
 
     def inverse(self) -> "SetTracks":
