@@ -244,6 +244,11 @@ def test_timeline_requests_are_refused_naming_the_problem(tmp_path, capsys, args
     assert not (tmp_path / "x.gif").exists()
 
 
+def test_validate_counts_the_tracks(capsys):
+    assert cli.main(["validate", str(ANIMATION)]) == 0
+    assert "valid (4 processors, 5 connections, 1 links, 3 tracks)" in capsys.readouterr().out
+
+
 def test_a_network_without_tracks_or_with_a_bad_one_exits_2_with_one_line(tmp_path, capsys):
     assert cli.main(["animate", str(SPHERE), "--timeline", "-o", str(tmp_path / "x.gif"), "--quiet"]) == 2
     assert "the network has no tracks to play" in capsys.readouterr().err

@@ -300,7 +300,8 @@ def command_validate(args) -> int:
                 print(f"{args.network}: warning: inport {processor.id}.{inport.name} is not connected",
                       file=sys.stderr)
     print(f"{args.network}: valid ({len(network.processors)} processors, "
-          f"{len(network.connections)} connections, {len(network.links)} links)")
+          f"{len(network.connections)} connections, {len(network.links)} links"
+          + (f", {len(network.tracks)} tracks)" if network.tracks else ")"))
     return EXIT_OK
 
 
