@@ -110,6 +110,7 @@ def test_profile_adds_a_line_profile_that_follows_the_ruler_in_one_undo_step(win
     assert any((link.source, link.target) == ("mk.markups", "profile.markups") for link in network.links)
     assert network.inputs_of("profile_canvas", "image")[0].source == "profile"
     assert window.inspector.processor_id == "profile"
+    assert dock.table.rowCount() == 2        # the profile's linked markups are the same: listed once
     dock.table.item(0, 5).setText("0 0 0; 30 40 0")   # the ruler moves: the profile's line follows
     assert network["profile"].length == pytest.approx(50.0)
     workspace.undo_stack.undo()

@@ -135,3 +135,13 @@ def test_the_markups_follow_the_slice_plane(slice_workspace, qtbot):
 
     assert near_colour(pixels, widget((30.0, 50.0, 24.0)), YELLOW, reach=1)
     assert not near_colour(pixels, widget((32.5, 40.0, 20.0)), YELLOW, reach=2, tolerance=120)
+
+
+def test_a_markups_property_that_follows_another_through_a_link_is_drawn_once(slice_workspace):
+    from vgraph.gui.slice_markups import markups_sources
+    workspace = slice_workspace
+    workspace.set_property("markups.markups", Markups(markups=(RULER,)))
+    workspace.add_processor("LineProfile", (400, 0), id="profile")
+    workspace.link("markups.markups", "profile.markups")
+    assert workspace.network.get("profile.markups") == workspace.network.get("markups.markups")
+    assert [address for address, *_ in markups_sources(workspace.network)] == ["markups.markups"]

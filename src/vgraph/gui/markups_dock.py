@@ -3,7 +3,8 @@
 Markups module list.
 
 Conventions:
-- One row per markup of every Markups processor (every MarkupsProperty), in network order: the
+- One row per markup of every Markups processor (every MarkupsProperty but those that follow
+  another through a link, as a LineProfile's linked to a ruler does), in network order: the
   processor, the name, the kind, the number of points, the measurement (a ruler's length and a
   closed curve's perimeter in world units followed by the processor's ``units``, an angle in
   degrees; vgraph.markups_drawing.label_text's numbers), the points ("x y z; ...") and visible.
@@ -31,6 +32,7 @@ from PySide6.QtWidgets import QDockWidget, QHBoxLayout, QPushButton, QTableWidge
 from vgraph.errors import VGraphError
 from vgraph.gui.editors import row_table
 from vgraph.gui.markups_editor import measured_text, parse_points, points_text
+from vgraph.gui.slice_markups import markups_sources
 from vgraph.markups import Markup, Markups
 from vgraph.properties import MarkupsProperty
 
@@ -40,14 +42,10 @@ ROW_KEY = Qt.UserRole + 1   # (address, name) of the markup a row shows
 
 
 def markup_rows(network) -> list[tuple[str, Markup, str]]:
-    """(markups address, markup, units) of every markup in the network, in order."""
-    rows = []
-    for processor_id, processor in network.processors.items():
-        units = str(processor.property_values.get("units", "") or "")
-        for name, prop in processor.properties.items():
-            if isinstance(prop, MarkupsProperty):
-                rows.extend((f"{processor_id}.{name}", m, units) for m in processor.property_values[name].markups)
-    return rows
+    """(markups address, markup, units) of every markup in the network, in order; a markups
+    property that follows another through a link (a LineProfile's) is its leader's, listed once."""
+    return [(address, markup, units) for address, markups, _colour, units in markups_sources(network)
+            for markup in markups.markups]
 
 
 class MarkupsTable(QWidget):
@@ -92,7 +90,7 @@ class MarkupsTable(QWidget):
             self.network.unsubscribe(self._on_event)
 
     def _on_event(self, event: str, **details) -> None:
-        if event in ("processor_added", "processor_removed"):
+        if event in ("processor_added", "processor_removed", "linked", "unlinked"):
             self.refresh()
         elif event == "property_changed":
             prop = details["processor"].properties.get(details["name"])

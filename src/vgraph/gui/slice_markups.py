@@ -1,5 +1,6 @@
 """The markups a slice canvas draws over its frame (issue 36; docs/guide/measuring.md, "Markups in
-the slice views"): the parts of every Markups processor's markups that lie in the slice
+the slice views"): the parts of every Markups processor's markups (every markups property that
+does not follow another through a link) that lie in the slice
 (vgraph.markups_slice: within half a voxel step of the plane, or half the thick slab), painted by
 Qt at screen resolution in that processor's ``color``, with their labels (name and length in world
 units followed by its ``units``, or angle in degrees).
@@ -27,14 +28,24 @@ CROSSING_RADIUS = 2.5   # where a line passes through the slice
 DEFAULT_COLOUR = QColor(255, 217, 0)   # the Markups processor's default colour
 
 
+def markups_addresses(network) -> list[str]:
+    """'id.name' of every markups property in the network, in order, except those that follow
+    another through a link (a LineProfile's, linked to a Markups node's ruler): they hold the same
+    markups, shown once, at their leader, and edited there."""
+    followers = {link.target for link in network.links}
+    return [f"{processor_id}.{name}" for processor_id, processor in network.processors.items()
+            for name, prop in processor.properties.items()
+            if isinstance(prop, MarkupsProperty) and f"{processor_id}.{name}" not in followers]
+
+
 def markups_sources(network) -> list[tuple[str, object, QColor, str]]:
-    """(address, markups, colour, units) of every markups property in the network, in order."""
+    """(address, markups, colour, units) of every markups property ``markups_addresses`` gives."""
     sources = []
-    for processor_id, processor in network.processors.items():
-        for name, prop in processor.properties.items():
-            if isinstance(prop, MarkupsProperty):
-                sources.append((f"{processor_id}.{name}", processor.property_values[name],
-                                _colour(processor), str(processor.property_values.get("units", "") or "")))
+    for address in markups_addresses(network):
+        processor_id, name = address.split(".", 1)
+        processor = network.processors[processor_id]
+        sources.append((address, processor.property_values[name], _colour(processor),
+                        str(processor.property_values.get("units", "") or "")))
     return sources
 
 
