@@ -164,6 +164,8 @@ def test_tracks_are_saved_and_read_back(tmp_path):
      "keyframes must be in order of time"),
     ([track("rc.sampling_rate", (0, 1.0)), track("eep.camera", (0, "left"))],
      "tracks[1].keyframes[0].value", "invalid value 'left'"),
+    ([track("rc.sampling_rate", (1e9, 1.0))], "tracks[0].keyframes[0].time",
+     "Input should be less than or equal to 86400"),
     ([track("rc.shading", (0, "none", "bounce"))], "tracks[0].keyframes[0].easing",
      "'linear', 'ease-in-out' or 'step'"),
     ([track("rc.transfer_function", (0, TF_A), (1, {"points": TF_A["points"][:2]}))],
@@ -236,6 +238,7 @@ def test_the_timeline_puts_the_network_back_and_counts_frames_by_fps(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["--orbit", "90"], "--timeline plays the network's tracks: leave out --orbit and --over"),
     (["--frames", "0"], "frames must be a positive integer"),
+    (["--fps", "1e9"], "4 s at 1e+09 frames per second are 4000000001 frames, more than 1000000"),
 ])
 def test_timeline_requests_are_refused_naming_the_problem(tmp_path, capsys, args, message):
     assert cli.main(["animate", str(ANIMATION), "--timeline", "-o", str(tmp_path / "x.gif"),

@@ -53,6 +53,8 @@ from vgraph.track_targets import target_of
 from vgraph.transfer_function import TransferFunction
 
 EASINGS = ("linear", "ease-in-out", "step")
+MAX_SECONDS = 86400.0    # a keyframe's time: a day is longer than any film made of a network
+MAX_FRAMES = 1_000_000   # a timeline's frames: 9 hours at 30 fps; more is a typo, not a film
 Easing = Literal["linear", "ease-in-out", "step"]
 
 
@@ -64,7 +66,7 @@ class TrackError(VGraphError):
 class KeyframeEntry(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    time: float = Field(ge=0.0, allow_inf_nan=False)
+    time: float = Field(ge=0.0, le=MAX_SECONDS, allow_inf_nan=False)
     value: Any
     easing: Easing = "linear"
 
@@ -112,8 +114,13 @@ def frame_times(tracks, fps: float, frames: int | None = None) -> list[float]:
     included), or ``frames`` times spread evenly over the same span."""
     end = duration(tracks)
     if frames is None:
-        frames = int(math.floor(end * fps + 1e-9)) + 1
-        return [index / fps for index in range(frames)]
+        count = math.floor(end * fps + 1e-9) + 1
+        if count > MAX_FRAMES:
+            raise VGraphError(f"{end:g} s at {fps:g} frames per second are {count} frames, more than "
+                              f"{MAX_FRAMES}: lower the fps or give the number of frames")
+        return [index / fps for index in range(count)]
+    if frames > MAX_FRAMES:
+        raise VGraphError(f"{frames} frames are more than a timeline plays ({MAX_FRAMES})")
     if frames == 1:
         return [0.0]
     return [end * index / (frames - 1) for index in range(frames)]
