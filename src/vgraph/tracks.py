@@ -37,6 +37,7 @@ file and the JSON path (``tracks[1].keyframes[2].value``).
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -225,7 +226,7 @@ def value_at(track: Track, prop: Property, time: float):
         return keys[0].value
     if time >= keys[-1].time:
         return keys[-1].value
-    index = max(i for i, key in enumerate(keys) if key.time <= time)
+    index = bisect.bisect_right(keys, time, key=lambda k: k.time) - 1  # the last at or before
     start, stop = keys[index], keys[index + 1]
     if time == start.time:
         return start.value
