@@ -234,3 +234,13 @@ def test_nearest_slice_point_takes_points_in_the_slice_only():
     u, v = plane.uv_of((32.0, 32.0, 20.0))
     assert nearest_slice_point(markups, plane, 1.0, (u * 64, (1 - v) * 64), rect) == ("on", 0)
     assert nearest_slice_point(markups, plane, 1.0, (u * 64 + 20, (1 - v) * 64), rect) is None
+
+
+def test_placing_with_a_linked_profile_selected_places_into_the_ruler_s_markups():
+    from vgraph.gui.markup_placing import markups_address
+    network = vgraph.Network()
+    network.add("Markups", id="mk")
+    network.add("LineProfile", id="profile")
+    network.link("mk.markups", "profile.markups")
+    assert markups_address(network, "nothing", "profile") == "mk.markups"
+    assert markups_address(network, "nothing", "mk") == "mk.markups"

@@ -48,12 +48,26 @@ NO_MARKUPS = ("no Markups processor to place in: select one, or connect one betw
 
 
 def markups_address(network, canvas_id: str, selected: str | None) -> str | None:
-    """'id.markups' of the selected Markups processor, else of the nearest upstream of the canvas."""
+    """'id.markups' of the selected Markups processor, else of the nearest upstream of the canvas;
+    a property that follows another through a link (a LineProfile's) stands for its leader, where
+    the markups are edited (an edit of the follower would be overwritten by the leader's next)."""
+    found = None
     if selected in network.processors:
         found = property_of_type(MarkupsProperty)(network[selected], selected)
-        if found is not None:
-            return found
-    return nearest_upstream(network, canvas_id, property_of_type(MarkupsProperty))
+    if found is None:
+        found = nearest_upstream(network, canvas_id, property_of_type(MarkupsProperty))
+    return None if found is None else leader_of(network, found)
+
+
+def leader_of(network, address: str) -> str:
+    """The property ``address`` follows through a link (followed back to the first), or itself."""
+    seen = {address}
+    while True:
+        leader = next((link.source for link in network.links if link.target == address), None)
+        if leader is None or leader in seen:
+            return address
+        seen.add(leader)
+        address = leader
 
 
 def picked_point(answer) -> tuple[float, float, float] | None:
