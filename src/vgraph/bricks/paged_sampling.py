@@ -111,7 +111,7 @@ class PagedSampling(Component):
         # ends (a fallback brick left out leaves its missing cells undrawn until their own come).
         wanted = list(dict.fromkeys([key for key in plan.keys() if key in cache.ram] + drawn.keys()))
         atlas.begin_frame(set(wanted) | (set(plan.keys()) & resident_before))
-        placed = [key for key in wanted if atlas.place(key, lambda key=key: cache.brick(key)) is not None]
+        placed = atlas.place_all(wanted, cache.brick)
         resolved, leaf = self.leaf_table(frame, source, geometry, plan, atlas)
         missing = [key for key in plan.keys() if key not in atlas.slots]
         requests = processor.parts[RayRequests]
@@ -172,7 +172,7 @@ class PagedSampling(Component):
         pixel), the levels drawn, the coarsest, and (dvr) the error bound of lod_error over those
         bricks (1 where a ray reached a cell with nothing resident above it)."""
         resident, reached = set(atlas.slots), {key for key, _ in requested}
-        sources = [(drawn_from(geometry, key, resident), rect) for key, rect in plan.bricks
+        sources = [(key if key in resident else drawn_from(geometry, key, resident), rect) for key, rect in plan.bricks
                    if key in resident or key in reached]
         levels = sorted({key[0] for key, _ in sources if key is not None})
         if errors is None:

@@ -59,6 +59,7 @@ class FramePlan:
     bytes: int = 0                              # the frame's bricks with halo
     # floor level -> (the bricks at that floor, their bytes) (the same walk, its tables reused): coarser plans
     select: Callable[[int], tuple[list, int]] | None = field(default=None, repr=False, compare=False)
+    _keys: list | None = field(default=None, init=False, repr=False, compare=False)
 
     def at_floor(self, floor_level: int, source: BrickSource) -> FramePlan:
         """This frame's plan with ``floor_level`` as the finest level allowed."""
@@ -66,7 +67,10 @@ class FramePlan:
         return FramePlan(bricks, floor_level, nbytes, self.select)
 
     def keys(self) -> list:
-        return [key for key, _ in self.bricks]
+        """The bricks' keys, front to back (made once: a frame asks several times; do not change it)."""
+        if self._keys is None:
+            self._keys = [key for key, _ in self.bricks]
+        return self._keys
 
 
 @dataclass
@@ -106,6 +110,7 @@ class BrickGeometry:
         # edge over level 0's smallest voxel edge, whole (2^L where every axis halves).
         finest = float(self.spacing0.min())
         self.strides = [max(1, int(math.floor(float((f * self.spacing0).min()) / finest + 1e-9))) for f in factors]
+        self.per_brick: dict = {}  # key -> the brick's uniforms (targets.brick_uniforms), made once
 
     @staticmethod
     def of(source: BrickSource) -> BrickGeometry:
@@ -256,7 +261,7 @@ def select_bricks(source: BrickSource, camera, size, view_projection, visible, l
 
 def brick_list(keys: np.ndarray, rects: np.ndarray) -> list:
     """[(key, rect)] of the arrays of selected_arrays, as Python ints."""
-    return [(tuple(key), tuple(rect)) for key, rect in zip(keys.tolist(), rects.tolist())]
+    return list(zip(map(tuple, keys.tolist()), map(tuple, rects.tolist())))
 
 
 def selected_arrays(source: BrickSource, camera, size, view_projection, visible, lod_bias: float,

@@ -66,10 +66,24 @@ class Accumulation:
         self.size = (0, 0)
 
 
+KEPT_BRICKS = 1 << 16  # bricks whose uniforms a geometry keeps (then it starts again): a few MB at most
+
+
 def brick_uniforms(geometry: BrickGeometry, key) -> dict:
     """Uniforms of bricks/brick_sampling.glsl and brick_span.glsl for one brick (float64 here):
     a level-0 texture coordinate t is at level voxel u = (o0 + (t n0 - 1/2) s0 - oL) / sL, and at
-    coordinate (u - (start - HALO) + 1/2) / m in the brick's texture of m voxels."""
+    coordinate (u - (start - HALO) + 1/2) / m in the brick's texture of m voxels. Worked out once
+    per brick of a geometry (kept in ``geometry.per_brick``; BrickGeometry.of keeps one per
+    source), not in every frame's pass per brick; a new dict each call (callers add to it)."""
+    kept = geometry.per_brick.get(key)
+    if kept is None:
+        if len(geometry.per_brick) >= KEPT_BRICKS:
+            geometry.per_brick.clear()
+        kept = geometry.per_brick[key] = _brick_uniforms(geometry, key)
+    return dict(kept)
+
+
+def _brick_uniforms(geometry: BrickGeometry, key) -> dict:
     source = geometry.source
     level = source.levels[key[0]]
     start, stop = brick_extent(source, key)
