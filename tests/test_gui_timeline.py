@@ -148,3 +148,21 @@ def test_the_view_menu_shows_the_hidden_timeline(window):
     (action,) = [a for a in window.view_menu.actions() if a.text() == "Timeline"]
     action.trigger()
     assert window.timeline_dock.isVisible()
+
+
+def test_export_writes_the_frames_vgraph_animate_writes(window, qtbot, tmp_path):
+    assert cli.main(["animate", str(ANIMATION), "--timeline", "--fps", "1", "-o",
+                     str(tmp_path / "cli"), "--quiet"]) == 0
+    assert window.open_network(ANIMATION)
+    panel = panel_of(window)
+    panel.scrub(2.5)
+    assert panel.export(str(tmp_path / "gui"), fps=1) == 5   # one frame a second, as --fps 1
+    for index in range(5):
+        name = f"frame_{index:04d}.png"
+        gui = np.asarray(PIL.Image.open(tmp_path / "gui" / name)).astype(int)
+        cli_frame = np.asarray(PIL.Image.open(tmp_path / "cli" / name)).astype(int)
+        assert np.abs(gui - cli_frame).max() <= 1
+    assert panel.time() == 2.5    # the time shown before, and its state
+    assert "Exported 5 frames" in window.statusBar().currentMessage()
+    assert panel.export(str(tmp_path / "x.avi")) == 0
+    assert "cannot write '.avi' animations" in window.statusBar().currentMessage()

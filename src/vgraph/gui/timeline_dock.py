@@ -19,15 +19,18 @@ Conventions:
 - Scrubbing sets properties without undo steps (like moving a time slider in ParaView): the
   keyframes are the document, the properties show a moment of it.
 - The list below shows each track and its keyframe times; the window's undo follows it.
+- **Export...** renders the tracks through the render process into an MP4, a GIF or PNG frames
+  (gui/timeline_export.py), the frames `vgraph animate --timeline` writes.
 """
 
 from __future__ import annotations
 
 from PySide6.QtCore import Qt, QTimer, Signal
-from PySide6.QtWidgets import (QComboBox, QDockWidget, QDoubleSpinBox, QHBoxLayout, QLabel, QListWidget,
-                               QPushButton, QSlider, QVBoxLayout, QWidget)
+from PySide6.QtWidgets import (QComboBox, QDockWidget, QDoubleSpinBox, QFileDialog, QHBoxLayout, QLabel,
+                               QListWidget, QPushButton, QSlider, QVBoxLayout, QWidget)
 
 from vgraph.errors import VGraphError
+from vgraph.gui.timeline_export import export_timeline
 from vgraph.properties import CameraProperty
 from vgraph.tracks import (EASINGS, Keyframe, SetTracks, apply_tracks, check_track, duration,
                            with_keyframe, without_keyframe)
@@ -69,6 +72,9 @@ class TimelinePanel(QWidget):
         self.slider.sliderPressed.connect(lambda: self.interacting.emit(True))
         self.slider.sliderReleased.connect(lambda: self.interacting.emit(False))
         self.track_list = QListWidget()
+        self.export_button = QPushButton("Export...")
+        self.export_button.setToolTip("render the tracks to an MP4, a GIF or a folder of PNG frames")
+        self.main_window = None   # the main window whose canvases an export renders (timeline_dock)
         self.timer = QTimer(self)
         self.timer.setInterval(round(1000 / FPS))
         self.timer.timeout.connect(self._next_frame)
@@ -84,7 +90,7 @@ class TimelinePanel(QWidget):
             keys.addWidget(widget)
         keys.addStretch(1)
         time = QHBoxLayout()
-        for widget in (self.play_button, self.slider, self.seconds):
+        for widget in (self.play_button, self.slider, self.seconds, self.export_button):
             time.addWidget(widget)
         column = QVBoxLayout(self)
         column.addLayout(keys)
@@ -197,6 +203,31 @@ class TimelinePanel(QWidget):
             return
         self.slider.setValue(self.slider.value() + 1)
 
+    # --- export ---------------------------------------------------------------------------------
+    def ask_export_path(self) -> str:
+        path, _ = QFileDialog.getSaveFileName(self, "Export Timeline", "animation.mp4",
+                                              "Video (*.mp4 *.gif);;PNG frames (*)")
+        return path
+
+    def export(self, path: str | None = None, fps: float = FPS) -> int:
+        """Render the tracks into ``path`` (asked if None), ``fps`` frames a second; the number of
+        frames, 0 if none."""
+        path = path or self.ask_export_path()
+        if not path:
+            return 0
+        start = self.time()
+        report = lambda done, total: self.status_message.emit(f"Exporting {path}: frame {done} of {total}")
+        try:
+            count = export_timeline(self.main_window, path, fps, progress=report)
+        except VGraphError as error:
+            self.status_message.emit(f"Cannot export: {error}")
+            return 0
+        finally:
+            self.scrub(start)
+            self._slider_moved(self.slider.value())  # the properties of the time shown again
+        self.status_message.emit(f"Exported {count} frames to {path}")
+        return count
+
     # --- keyframes ------------------------------------------------------------------------------
     def add_keyframe(self) -> bool:
         """A keyframe of the chosen property's current value at the time shown (one undo step)."""
@@ -235,4 +266,6 @@ def timeline_dock(window) -> QDockWidget:
     panel.status_message.connect(window.statusBar().showMessage)
     panel.interacting.connect(window.evaluation.interactive)
     panel.follow_scene(window.scene)
+    panel.main_window = window
+    panel.export_button.clicked.connect(lambda: panel.export())
     return dock
