@@ -1,0 +1,137 @@
+"""The bricked frame's plan on arrays (vgraph.bricks.walk_order, selection.selected_arrays): the same
+bricks in the same front-to-back order as the recursive walk it replaced, byte sizes from the
+per-source table, and nothing made again per frame that did not change."""
+
+from __future__ import annotations
+
+import gc
+import itertools
+import weakref
+
+import numpy as np
+import pytest
+
+from vgraph.bricks.cache import brick_texture_shape, bricks_bytes, level_brick_bytes, texture_format
+from vgraph.bricks.cells import cell_grid
+from vgraph.bricks.paged_sampling import PagedSampling
+from vgraph.bricks.pyramid import ArrayPyramid, brick_grid
+from vgraph.bricks.selection import BrickGeometry, LevelTables, select_bricks
+from vgraph.bricks.walk_order import axis_ranks, front_to_back
+from vgraph.camera import Camera
+from vgraph.gl.tetrahedra.cells import axis_order
+from vgraph.numerics.reference_raycast import volume_box
+from vgraph.testing import ray_caster_network
+from vgraph.volume import Volume
+
+from test_bricked_raycaster import WINDOW, field
+
+
+def recursive_walk(source, camera, size, view_projection, visible, lod_bias, floor_level):
+    """The walk as it was written before the arrays: cell by cell, recursively, front_to_back at
+    every block (the reference the array walk must equal exactly)."""
+    geometry = BrickGeometry(source)
+    tables = LevelTables(geometry, camera, size, view_projection, visible, lod_bias)
+    top = len(source.levels) - 1
+    perspective = camera.projection == "perspective"
+    forward = camera.basis()[2]
+    chosen = []
+
+    def walk(level, cells):
+        eye = geometry.eye_in_bricks(camera.position, level)
+        rects, wants = tables(level, "rects"), tables(level, "wants")
+        for x, y, z in cells:
+            rect = rects[z, y, x]
+            if rect[2] == 0:
+                continue
+            if level > min(max(int(wants[z, y, x]), floor_level, 0), top):
+                ratio, grid = geometry.ratios[level], geometry.grids[level - 1]
+                first = np.array([x, y, z]) * ratio
+                walk(level - 1, front_to_back(np.minimum(first + ratio, grid) - first, eye * ratio, forward,
+                                              perspective, first))
+            elif tables(level, "visible")[z, y, x]:
+                chosen.append(((level, z, y, x), tuple(int(v) for v in rect)))
+
+    walk(top, front_to_back(geometry.grids[top], geometry.eye_in_bricks(camera.position, top), forward, perspective))
+    return chosen
+
+
+def cameras(source):
+    base = source.levels[0]
+    lo = np.asarray(base.origin) - 0.5 * np.asarray(base.spacing)
+    hi = lo + np.asarray(base.shape[::-1]) * np.asarray(base.spacing)
+    for direction, projection in itertools.product([(-0.5, -0.3, -1.0), (1.0, 0.1, 0.2), (0.3, 0.9, -0.2)],
+                                                   ["perspective", "orthographic"]):
+        yield Camera.looking_at_box(lo, hi, direction=direction, projection=projection)
+    for inside in (0.5, 0.3):  # the eye inside the volume: every axis has cells on both sides
+        eye = lo + inside * (hi - lo)
+        yield Camera(position=tuple(map(float, eye)), focus=tuple(map(float, eye + (0.3, -0.2, 1.0))), fov=90.0,
+                     near=0.01, far=1000.0)
+
+
+@pytest.mark.parametrize("spacing", [(1.0, 1.0, 1.0), (0.7, 1.0, 2.1)])
+def test_the_array_walk_draws_the_recursive_walks_bricks_in_its_order(spacing):
+    source = ArrayPyramid(field((37, 50, 61)), spacing=spacing, origin=(3.0, -2.0, 1.0), brick=(8, 8, 8))
+    rng = np.random.default_rng(3)
+    empty = {level: rng.random(brick_grid(source.levels[level].shape, source.brick)) < 0.2
+             for level in range(len(source.levels))}
+
+    def visible(level):
+        return ~empty[level]
+
+    compared = 0
+    for camera in cameras(source):
+        for size in [(40, 40), (200, 120)]:
+            view_projection = camera.view_projection(size[0] / size[1])
+            for lod_bias, floor_level in itertools.product([-16.0, -1.0, 1.5, 4.0], [0, 1]):
+                expected = recursive_walk(source, camera, size, view_projection, visible, lod_bias, floor_level)
+                assert select_bricks(source, camera, size, view_projection, visible, lod_bias,
+                                     floor_level) == expected
+                compared += len({key[0] for key, _ in expected}) > 1  # frames of several levels
+    assert compared >= 5  # the walk was checked where it goes down to several levels
+
+
+@pytest.mark.parametrize("count", [1, 2, 5])
+def test_axis_ranks_are_the_places_in_the_reversed_axis_order(count):
+    cells = np.arange(count)
+    for eye in [-3.0, 0.0, 0.5, 1.0, 2.5, 4.0, 9.0]:
+        front_first = axis_order(count, eye, 1.0)[::-1]
+        assert axis_ranks(cells, count, eye, 1.0, True)[front_first].tolist() == list(range(count))
+    for towards in (1.0, -1.0):
+        front_first = axis_order(count, None, towards)[::-1]
+        assert axis_ranks(cells, count, None, towards, False)[front_first].tolist() == list(range(count))
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.float32])
+def test_brick_bytes_come_from_one_table_per_source(dtype):
+    source = ArrayPyramid((field((20, 24, 28)) * 200).astype(dtype), brick=(8, 8, 8))
+    itemsize = texture_format(source.dtype, source.value_range).itemsize
+    keys = [(level, *cell) for level in range(len(source.levels)) for cell in np.ndindex(*cell_grid(source, level))]
+    each = [int(np.prod(brick_texture_shape(source, key))) * itemsize for key in keys]
+    assert bricks_bytes(source, keys) == sum(each)
+    assert bricks_bytes(source, np.asarray(keys[3:9])) == sum(each[3:9]) and bricks_bytes(source, []) == 0
+    assert level_brick_bytes(source) is level_brick_bytes(source)  # made once
+
+
+def test_the_kept_geometry_is_one_per_source_and_does_not_keep_it_alive():
+    source = ArrayPyramid(field((20, 24, 28)), brick=(8, 8, 8))
+    geometry = BrickGeometry.of(source)
+    assert BrickGeometry.of(source) is geometry and geometry.source is source
+    alive = weakref.ref(source)
+    del source
+    gc.collect()
+    assert alive() is None
+
+
+def test_a_still_frame_makes_no_new_block_flags_or_leaf_table():
+    volume = Volume(field((40, 36, 44)))
+    camera = Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
+    network = ray_caster_network(volume, camera, "BrickedRayCaster", brick_size=16, lod_bias=-16.0,
+                                 method="single_pass", shading="none", transfer_function=WINDOW)
+    first = np.asarray(network.evaluate("rc.image", size=(48, 40)))
+    paged = network["rc"].parts[PagedSampling]
+    flags, table = paged.flags_kept, paged.resolved
+    network.set("rc.sampling_rate", 1.0 + 1e-6)  # evaluates again, the plan unchanged
+    second = np.asarray(network.evaluate("rc.image", size=(48, 40)))
+    assert paged.flags_kept is flags and paged.resolved is table
+    assert flags[2] is not None  # the frame skips blocks: a flag texture was made once
+    np.testing.assert_allclose(second, first, atol=1e-5)
