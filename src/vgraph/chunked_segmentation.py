@@ -39,6 +39,9 @@ from vgraph.volume import Volume
 from vgraph.volume_segmentation import sampled_at, smallest_label_type
 
 
+BAND_VOXELS = 2**20  # voxels of the component count's np.unique at once
+
+
 def rows_of(volume: Volume, z0: int, z1: int) -> np.ndarray:
     """Slices z0 .. z1 - 1 ([z, y, x]) of a store's level 0 or of an in-memory volume."""
     if volume.bricks is not None and not volume.fits_budget:
@@ -113,11 +116,14 @@ def component_store(volume: BrickedVolume, who: str, foreground, structure, min_
     bz = output_brick(volume)[2]
     ty, tx = tile_size(volume)
     state = {}
-    plan = SlabPlan(volume.shape, np.dtype(np.uint32), volume.spacing, volume.origin, None,
-                    lambda z0, z1: state["numbering"][state["tiles"][z0:z1]], bz * rows_y * cols_x,
+    slab = bz * rows_y * cols_x
+    # uint8 until the count is known (filtered_store checks again with the labels' own type)
+    plan = SlabPlan(volume.shape, np.dtype(np.uint8), volume.spacing, volume.origin, None,
+                    lambda z0, z1: state["numbering"][state["tiles"][z0:z1]], slab,
                     holds_labels=True, source=volume.source,
-                    # the tile labels (int32) and the numbering's pass (np.unique sorts a copy)
-                    temporary_bytes=bz * rows_y * cols_x * (4 + 8 + 8))
+                    # a slab's foreground (bool), its tile labels (int32) and their components
+                    # (int32), and a band's np.unique (its copy, order, index and counts)
+                    temporary_bytes=slab * (1 + 4 + 4) + min(slab, BAND_VOXELS) * (4 + 8 + 8 + 8))
     check_working_memory(volume, plan, who)
     scratch = cache_folder() / "scratch" / f"components-{uuid.uuid4().hex}.zarr"
     try:
@@ -193,17 +199,23 @@ def joined_components(tiles, structure, total: int) -> np.ndarray:
 
 
 def component_extents(tiles, joined: np.ndarray, rows: int) -> tuple[np.ndarray, np.ndarray]:
-    """Each component's voxel count and the memory-order index of its first voxel (full slabs of
-    ``rows`` slices: a slab's C order is the volume's)."""
+    """Each component's voxel count and the memory-order index of its first voxel, a band of
+    ``rows`` slices and some rows along y at a time (BAND_VOXELS: np.unique sorts a copy). In a
+    box of the volume, memory order is the box's own C order, so the first voxel np.unique finds
+    in a band is the band's first in the volume's order too."""
     count = int(joined.max()) + 1
     sizes = np.zeros(count, dtype=np.int64)
     first = np.full(count, np.iinfo(np.int64).max, dtype=np.int64)
     depth, rows_y, cols_x = tiles.shape
+    band_rows = max(1, BAND_VOXELS // (rows * cols_x))
     for z0 in range(0, depth, rows):
-        components = joined[tiles[z0:min(depth, z0 + rows)]].reshape(-1)
-        present, index, counts = np.unique(components, return_index=True, return_counts=True)
-        sizes[present] += counts
-        np.minimum.at(first, present, index + z0 * rows_y * cols_x)
+        slab = tiles[z0:min(depth, z0 + rows)]
+        for y0 in range(0, rows_y, band_rows):
+            band = joined[slab[:, y0:y0 + band_rows]]
+            present, index, counts = np.unique(band.reshape(-1), return_index=True, return_counts=True)
+            sizes[present] += counts
+            z, y, x = np.unravel_index(index, band.shape)
+            np.minimum.at(first, present, np.ravel_multi_index((z + z0, y + y0, x), tiles.shape))
     return sizes, first
 
 
