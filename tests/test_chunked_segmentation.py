@@ -227,3 +227,21 @@ def test_a_label_store_carries_the_label_flag_and_an_intensity_store_does_not(ta
         assert BrickedVolume.open(volume.source).holds_labels == labels
     source = registry.get("VolumeSource")("s", path=components.source)
     assert source.process().holds_labels
+
+
+def test_morphology_of_float_labels_in_a_store_is_refused_by_name(noise_path, cache):
+    """A label store of floats (another tool's: the image-label flag on float32 voxels) is refused
+    by chunked morphology, naming the property and what to do; nothing is written."""
+    mask = BrickedVolume.open(noise_path, memory_budget_mb=100).data.astype(np.float32)
+    np.save(cache.parent / "float_labels.npy", mask)
+    path = cache.parent / "float_labels.zarr"
+    convert(cache.parent / "float_labels.npy", path, brick=16, progress=False)
+    metadata = json.loads((path / "zarr.json").read_text())
+    metadata["attributes"]["ome"]["image-label"] = {}
+    (path / "zarr.json").write_text(json.dumps(metadata))
+    volume = store(path, budget=8.0)
+    assert volume.holds_labels
+    with pytest.raises(PropertyError, match=r"^f\.radius: .*float_labels\.zarr holds labels as floats: chunked "
+                                            r"morphology takes integer labels"):
+        run("VolumeMorphology", volume=volume, radius=2.0)
+    assert not list(cache.glob("filtered/*"))
