@@ -111,6 +111,10 @@ def test_a_field_of_a_camera_or_a_transfer_function_animates_alone(tmp_path):
     assert net.get("eep.camera").fov == 60.0 and net.get("eep.camera").position == camera_before.position
     net.save(tmp_path / "fields.json")
     assert vgraph.load(tmp_path / "fields.json").tracks == net.tracks
+    apply_tracks(net, net.tracks, 0.0)
+    before = net.get("rc.transfer_function")
+    assert animation.animate(net, tmp_path / "f", timeline=True, frames=2, size=(16, 16)) == 2
+    assert net.get("rc.transfer_function") == before   # put back
 
 
 @pytest.mark.parametrize("address, value, message", [

@@ -41,7 +41,7 @@ from vgraph.network import Network, split_address
 from vgraph.properties import CameraProperty, IntProperty
 from vgraph.scheduler import BlankImageWarning, blank_image_warning, default_target
 from vgraph.time_series import warn_time_series
-from vgraph.tracks import Keyframe, Track, apply_tracks, frame_times
+from vgraph.tracks import Keyframe, Track, apply_tracks, changed_properties, frame_times
 from vgraph.volume import Volume
 
 DEFAULT_FRAMES = 120
@@ -65,7 +65,7 @@ def animate(network: Network, path, orbit: float | None = None, frames: int | No
     output = Output.of(path)
     output.check(size)
     target = target or default_target(network)
-    start_values = {track.address: network.get(track.address) for track in plan.tracks}
+    start_values = {address: network.get(address) for address in changed_properties(plan.tracks, network)}
     bar = tqdm(total=len(plan.times), unit="frame", file=sys.stderr, disable=not progress,
                desc=output.path.name)
     try:

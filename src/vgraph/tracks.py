@@ -220,6 +220,11 @@ def apply_tracks(network: Network, tracks, time: float) -> None:
         target.set(network, value_at(track, target, time))
 
 
+def changed_properties(tracks, network: Network) -> list[str]:
+    """The properties (``id.property``) that playing ``tracks`` sets, each once, to put back after."""
+    return list(dict.fromkeys(target_of(network, track.address).address for track in tracks))
+
+
 def value_at(track: Track, prop: Property, time: float):
     keys = track.keyframes
     if time <= keys[0].time:
