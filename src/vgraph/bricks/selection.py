@@ -111,6 +111,7 @@ class BrickGeometry:
         finest = float(self.spacing0.min())
         self.strides = [max(1, int(math.floor(float((f * self.spacing0).min()) / finest + 1e-9))) for f in factors]
         self.per_brick: dict = {}  # key -> the brick's uniforms (targets.brick_uniforms), made once
+        self.per_level: dict = {}  # (what, level) -> a level's boxes and corners (kept_per_level)
 
     @staticmethod
     def of(source: BrickSource) -> BrickGeometry:
@@ -175,16 +176,50 @@ def visible_bricks(source: BrickSource, level: int, mode: str, alpha=None, iso_l
 
 
 # --- per-level tables: boxes, level of detail, screen rectangles -----------------------------------
+KEPT_CELLS = 1 << 15  # levels of at most this many cells keep their boxes and corners (8 MB at most)
+
+
+def kept_per_level(geometry: BrickGeometry, what: str, level: int, make):
+    """``make()`` for ``level``, kept in the geometry (one per source) where the level is small:
+    the boxes and corners of a level depend on nothing else, so a frame need not make them again."""
+    if math.prod(int(n) for n in geometry.grids[level]) > KEPT_CELLS:
+        return make()
+    key = (what, level)
+    if key not in geometry.per_level:
+        geometry.per_level[key] = make()
+    return geometry.per_level[key]
+
+
 def level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.ndarray]:
     """World boxes of the owned regions (inside the box of the voxel centres) of every brick of
-    ``level``: arrays [bz, by, bx, 3] (x, y, z)."""
+    ``level``: arrays [bz, by, bx, 3] (x, y, z), read-only."""
+    return kept_per_level(geometry, "boxes", level, lambda: _level_boxes(geometry, level))
+
+
+def _level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.ndarray]:
     grid = geometry.grids[level]
     index = np.stack(np.meshgrid(*[np.arange(n) for n in grid[::-1]], indexing="ij"), axis=-1)[..., ::-1]
     span = geometry.spans[level]
     top = geometry.dims0 - 1.0
     lo = np.clip(index * span - 0.5, 0.0, top)
     hi = np.clip(np.minimum((index + 1) * span, geometry.dims0) - 0.5, 0.0, top)
-    return geometry.origin0 + lo * geometry.spacing0, geometry.origin0 + hi * geometry.spacing0
+    boxes = geometry.origin0 + lo * geometry.spacing0, geometry.origin0 + hi * geometry.spacing0
+    for box in boxes:
+        box.setflags(write=False)
+    return boxes
+
+
+def box_corners(geometry: BrickGeometry, level: int) -> np.ndarray:
+    """The 8 corners of every box of level_boxes, homogeneous: [bz, by, bx, 8, 4], read-only."""
+    def make() -> np.ndarray:
+        lo, hi = level_boxes(geometry, level)
+        corners = np.ones(lo.shape[:-1] + (8, 4))
+        for i in range(8):
+            for a in range(3):
+                corners[..., i, a] = (lo, hi)[i >> a & 1][..., a]
+        corners.setflags(write=False)
+        return corners
+    return kept_per_level(geometry, "corners", level, make)
 
 
 def pixels_per_world(camera, size, distance):
@@ -213,16 +248,17 @@ def desired_levels(geometry: BrickGeometry, camera, size, level: int, lod_bias: 
 def screen_rects(geometry: BrickGeometry, view_projection, size, level: int) -> np.ndarray:
     """Pixel rectangles (x, y, w, h) covering each brick of ``level`` with one pixel of margin, int
     [bz, by, bx, 4]; w = 0 off screen; the whole viewport where a corner lies behind the eye."""
-    lo, hi = level_boxes(geometry, level)
-    corners = np.stack([np.stack([(lo, hi)[i >> a & 1][..., a] for a in range(3)] + [np.ones(lo.shape[:-1])], -1)
-                        for i in range(8)], axis=-2)                       # [..., 8, 4]
-    clip = corners @ np.asarray(view_projection, dtype=np.float64).T
-    behind = (clip[..., 3] <= 1e-9).any(axis=-1)
-    w = np.where(clip[..., 3:4] > 1e-9, clip[..., 3:4], 1.0)
-    pixel = (clip[..., :2] / w * 0.5 + 0.5) * np.asarray(size, dtype=np.float64)
-    first = np.maximum(np.floor(pixel.min(axis=-2)) - 1, 0)
-    last = np.minimum(np.ceil(pixel.max(axis=-2)) + 1, np.asarray(size, dtype=np.float64))
-    rects = np.concatenate([first, np.maximum(last - first, 0)], axis=-1)
+    clip = box_corners(geometry, level) @ np.asarray(view_projection, dtype=np.float64).T  # [..., 8, 4]
+    w = clip[..., 3]
+    behind = (w <= 1e-9).any(axis=-1)
+    w = np.where(w > 1e-9, w, 1.0)
+    rects = []
+    for axis in range(2):  # each axis's corners contiguous: the min and max over 8 are the cost here
+        pixel = (clip[..., axis] / w * 0.5 + 0.5) * float(size[axis])
+        first = np.maximum(np.floor(pixel.min(axis=-1)) - 1, 0)
+        last = np.minimum(np.ceil(pixel.max(axis=-1)) + 1, float(size[axis]))
+        rects.append((first, np.maximum(last - first, 0)))
+    rects = np.stack([rects[0][0], rects[1][0], rects[0][1], rects[1][1]], axis=-1)
     rects[behind] = (0, 0, size[0], size[1])
     rects[(rects[..., 2] == 0) | (rects[..., 3] == 0)] = 0
     return rects.astype(np.int64)
@@ -261,7 +297,7 @@ def select_bricks(source: BrickSource, camera, size, view_projection, visible, l
 
 def brick_list(keys: np.ndarray, rects: np.ndarray) -> list:
     """[(key, rect)] of the arrays of selected_arrays, as Python ints."""
-    return list(zip(map(tuple, keys.tolist()), map(tuple, rects.tolist())))
+    return list(zip(zip(*keys.T.tolist()), zip(*rects.T.tolist())))  # columns: no list per brick
 
 
 def selected_arrays(source: BrickSource, camera, size, view_projection, visible, lod_bias: float,
