@@ -1,0 +1,159 @@
+"""2D transfer functions over (value, gradient magnitude), built from primitives (Kniss, Kindlmann
+& Hansen 2002; Voreen's TransFunc2D primitives).
+
+JSON form::
+
+    {"primitives": [
+        {"kind": "rectangle", "value": [0.3, 0.5], "gradient": [0.0, 0.4], "color": [r, g, b, a]},
+        {"kind": "triangle", "vertices": [[0.5, 0.0], [0.3, 1.0], [0.7, 1.0]], "color": [r, g, b, a]},
+        {"kind": "gaussian", "centre": [0.6, 0.3], "width": [0.05, 0.1], "color": [r, g, b, a]}]}
+
+The plane's axes: ``value``, a normalised intensity in [0, 1] over the volume's value range (as a
+normalised 1D TF), and ``gradient``, the gradient fraction in [0, 1] (the gradient magnitude over
+the volume's largest, vgraph.gradient_opacity). Colours are RGBA in [0, 1], alpha the opacity of one
+sample at sampling rate 1, as in a 1D TF.
+
+- rectangle: ``color`` on the closed box value x gradient;
+- triangle: ``color`` on the closed triangle (Kniss's boundary widget: apex at gradient 0, the
+  material's value, opening towards high gradients);
+- gaussian: ``color`` with alpha ``a * exp(-((v - cv)^2 / (2 wv^2) + (g - cg)^2 / (2 wg^2)))``.
+
+Where primitives overlap they combine as independent absorbers, in any order: alpha
+``1 - prod(1 - a_i)``, colour the alpha-weighted mean of their colours. Renderers use ``lut()``:
+the function at a grid of LUT_SIZE x LUT_SIZE points (entry [j, i] at gradient j / (LUT_SIZE - 1),
+value i / (LUT_SIZE - 1)), looked up bilinearly (vgraph.numerics.reference_classification).
+A 2D-TF property also accepts a preset's name (``PRESETS``).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal, Union
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+LUT_SIZE = 256  # per axis, as Voreen's TransFunc2D texture
+
+Unit = Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)]
+Color = tuple[Unit, Unit, Unit, Unit]
+Pair = tuple[Unit, Unit]
+
+
+class _Primitive(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    color: Color
+
+    def alpha(self, value: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+        """The primitive's alpha at the grid points (its colour is constant)."""
+        raise NotImplementedError
+
+
+class Rectangle(_Primitive):
+    kind: Literal["rectangle"] = "rectangle"
+    value: Pair
+    gradient: Pair
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Rectangle":
+        for name in ("value", "gradient"):
+            low, high = getattr(self, name)
+            if low > high:
+                raise ValueError(f"rectangle {name} range must be [low, high] with low <= high, got [{low}, {high}]")
+        return self
+
+    def alpha(self, value, gradient):
+        inside = ((self.value[0] <= value) & (value <= self.value[1])
+                  & (self.gradient[0] <= gradient) & (gradient <= self.gradient[1]))
+        return np.where(inside, self.color[3], 0.0)
+
+
+class Triangle(_Primitive):
+    kind: Literal["triangle"] = "triangle"
+    vertices: tuple[Pair, Pair, Pair]
+
+    @model_validator(mode="after")
+    def _not_degenerate(self) -> "Triangle":
+        if abs(_twice_area(*self.vertices)) < 1e-9:
+            raise ValueError(f"triangle vertices {[list(v) for v in self.vertices]} lie on one line")
+        return self
+
+    def alpha(self, value, gradient):
+        a, b, c = self.vertices
+        area = _twice_area(a, b, c)
+        # Barycentric weights with the triangle's orientation; inside where all are >= 0.
+        slack = -1e-12 * abs(area)
+        inside = np.ones(np.broadcast(value, gradient).shape, dtype=bool)
+        for p, q in ((a, b), (b, c), (c, a)):
+            edge = (q[0] - p[0]) * (gradient - p[1]) - (q[1] - p[1]) * (value - p[0])
+            inside &= edge * np.sign(area) >= slack
+        return np.where(inside, self.color[3], 0.0)
+
+
+class Gaussian(_Primitive):
+    kind: Literal["gaussian"] = "gaussian"
+    centre: Pair
+    width: tuple[Annotated[float, Field(gt=0.0, le=1.0)], Annotated[float, Field(gt=0.0, le=1.0)]]
+
+    def alpha(self, value, gradient):
+        (cv, cg), (wv, wg) = self.centre, self.width
+        return self.color[3] * np.exp(-0.5 * (((value - cv) / wv) ** 2 + ((gradient - cg) / wg) ** 2))
+
+
+def _twice_area(a, b, c) -> float:
+    return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+
+Primitive = Annotated[Union[Rectangle, Triangle, Gaussian], Field(discriminator="kind")]
+
+
+class TransferFunction2D(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    primitives: list[Primitive] = Field(min_length=1)
+
+    def __call__(self, value, gradient) -> np.ndarray:
+        """Exact RGBA at (value, gradient fraction) points (broadcast shapes) -> shape + (4,)."""
+        value = np.clip(np.asarray(value, dtype=np.float64), 0.0, 1.0)
+        gradient = np.clip(np.asarray(gradient, dtype=np.float64), 0.0, 1.0)
+        shape = np.broadcast(value, gradient).shape
+        transparency = np.ones(shape)
+        weighted = np.zeros(shape + (3,))
+        total = np.zeros(shape)
+        for primitive in self.primitives:
+            alpha = primitive.alpha(value, gradient)
+            transparency *= 1.0 - alpha
+            weighted += alpha[..., None] * np.asarray(primitive.color[:3])
+            total += alpha
+        rgb = np.divide(weighted, total[..., None], out=np.zeros_like(weighted), where=total[..., None] > 0.0)
+        return np.concatenate([rgb, (1.0 - transparency)[..., None]], axis=-1)
+
+    def lut(self, size: int = LUT_SIZE) -> np.ndarray:
+        """(size, size, 4) float32 RGBA, [gradient, value]: entry [j, i] at gradient j / (size - 1),
+        value i / (size - 1)."""
+        axis = np.linspace(0.0, 1.0, size)
+        return self(axis[None, :], axis[:, None]).astype(np.float32)
+
+
+_WHITE_BONE = (1.0, 0.95, 0.85, 0.8)
+
+PRESETS: dict[str, TransferFunction2D] = {
+    # Boundaries of any material: a soft band over all values at high gradient fractions.
+    "boundaries": TransferFunction2D(primitives=[
+        Rectangle(value=(0.05, 1.0), gradient=(0.2, 1.0), color=(0.9, 0.85, 0.75, 0.25)),
+        Gaussian(centre=(0.5, 0.6), width=(0.3, 0.2), color=(1.0, 0.7, 0.4, 0.3))]),
+    # Kniss's arches: the boundary between background and a medium material, and between that and
+    # a dense one, each a triangle standing on its value at gradient 0.
+    "two-materials": TransferFunction2D(primitives=[
+        Triangle(vertices=((0.35, 0.0), (0.2, 1.0), (0.5, 1.0)), color=(0.85, 0.45, 0.3, 0.12)),
+        Triangle(vertices=((0.75, 0.0), (0.55, 1.0), (0.95, 1.0)), color=_WHITE_BONE)]),
+}
+
+
+def preset(value):
+    """A preset's model for its name; any other value unchanged (for the property's validation)."""
+    if isinstance(value, str):
+        if value not in PRESETS:
+            raise ValueError(f"{value!r} is not a 2D transfer-function preset ({', '.join(PRESETS)})")
+        return PRESETS[value]
+    return value
