@@ -16,7 +16,8 @@ sample at sampling rate 1, as in a 1D TF.
 - rectangle: ``color`` on the closed box value x gradient;
 - triangle: ``color`` on the closed triangle (Kniss's boundary widget: apex at gradient 0, the
   material's value, opening towards high gradients);
-- gaussian: ``color`` with alpha ``a * exp(-((v - cv)^2 / (2 wv^2) + (g - cg)^2 / (2 wg^2)))``.
+- gaussian: ``color`` with alpha ``a * exp(-d^2 / 2)``, ``d^2 = ((v - cv) / wv)^2 + ((g - cg) / wg)^2``
+  (d: the distance from the centre in widths), cut to 0 beyond ``d = 3`` (GAUSSIAN_REACH).
 
 Where primitives overlap they combine as independent absorbers, in any order: alpha
 ``1 - prod(1 - a_i)``, colour the alpha-weighted mean of their colours. Renderers use ``lut()``:
@@ -33,6 +34,9 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 LUT_SIZE = 256  # per axis, as Voreen's TransFunc2D texture
+# A Gaussian is cut to 0 beyond this many widths (1.1 % of its peak there): elsewhere the plane
+# stays empty, so empty-space skipping keeps its blocks and nearly flat regions their colour.
+GAUSSIAN_REACH = 3.0
 
 Unit = Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)]
 Color = tuple[Unit, Unit, Unit, Unit]
@@ -97,7 +101,8 @@ class Gaussian(_Primitive):
 
     def alpha(self, value, gradient):
         (cv, cg), (wv, wg) = self.centre, self.width
-        return self.color[3] * np.exp(-0.5 * (((value - cv) / wv) ** 2 + ((gradient - cg) / wg) ** 2))
+        distance = ((value - cv) / wv) ** 2 + ((gradient - cg) / wg) ** 2  # squared, in widths
+        return np.where(distance <= GAUSSIAN_REACH ** 2, self.color[3] * np.exp(-0.5 * distance), 0.0)
 
 
 def _twice_area(a, b, c) -> float:
