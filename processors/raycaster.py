@@ -174,7 +174,7 @@ class RayCaster(ShowsVolume, RaycasterBase):
         if self.parts[GradientClassification].is_on():
             raise VGraphError(f"{self.id}: {volume.source or 'the volume'} is drawn brick by brick, which "
                               f"has no gradient volume: gradient_opacity and transfer_function_2d "
-                              f"must be none")
+                              f"must be null")
         if light_volume is not None:
             raise VGraphError(f"{self.id}.light_volume: {volume.source or 'the volume'} is drawn brick by "
                               f"brick ({' x '.join(map(str, volume.dims))} voxels do not fit one GL texture "

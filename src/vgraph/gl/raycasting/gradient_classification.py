@@ -47,6 +47,25 @@ def largest_magnitude(volume: Volume) -> float:
     return derived.value(volume, LARGEST, compute)
 
 
+def value_gradient_histogram(volume: Volume, bins: int = 128) -> np.ndarray:
+    """(bins, bins) voxel counts over the 2D TF's plane, [gradient, value]: each voxel's normalised
+    intensity and gradient fraction (its central-difference gradient over ``largest_magnitude``),
+    slab by slab; what a 2D TF editor draws its primitives over (Kniss et al. 2002, fig. 3)."""
+    nz, ny, nx = volume.data.shape
+    thickness = max(1, SLAB_VOXELS // (nx * ny))
+    largest = largest_magnitude(volume)
+    counts = np.zeros((bins, bins), dtype=np.int64)
+    for z0 in range(0, nz, thickness):
+        z1 = min(z0 + thickness, nz)
+        magnitude = np.sqrt((slab_gradients(volume, z0, z1) ** 2).sum(axis=-1))
+        fraction = magnitude / largest if largest > 0.0 else magnitude
+        values = volume.normalized(np.asarray(volume.data[z0:z1], dtype=np.float64))
+        finite = np.isfinite(values)
+        counts += np.histogram2d(np.clip(fraction[finite], 0.0, 1.0), np.clip(values[finite], 0.0, 1.0),
+                                 bins=bins, range=((0.0, 1.0), (0.0, 1.0)))[0].astype(np.int64)
+    return counts
+
+
 class TableTexture:
     """A 2D TF's (n, n, 4) table as an n x n RGBA32F texture, linear filter, clamp-to-edge;
     rewritten only when the TF changes."""
@@ -92,11 +111,11 @@ class GradientClassification(Component):
         return {"gradient_opacity": GradientOpacityProperty(
                     None, doc="opacity factor over the gradient fraction (|gradient| / the volume's "
                               "largest), multiplying the TF's alpha; a preset name "
-                              "(boundaries, strong-edges); none: off"),
+                              "(boundaries, strong-edges); null: off"),
                 "transfer_function_2d": TransferFunction2DProperty(
                     None, doc="RGBA over (value, gradient fraction) from rectangles, triangles and "
                               "Gaussians, replacing transfer_function; a preset name "
-                              "(boundaries, two-materials); none: off")}
+                              "(boundaries, two-materials); null: off")}
 
     def is_on(self) -> bool:
         processor = self.processor
@@ -110,7 +129,7 @@ class GradientClassification(Component):
             name = "gradient_opacity" if processor.gradient_opacity is not None else "transfer_function_2d"
             raise VGraphError(f"{processor.id}.{name}: classifies samples by their gradient, which "
                               f"{self.mode} {mode} does not take (it classifies one value per ray); "
-                              f"use {' or '.join(self.modes)}, or set {processor.id}.{name} to none")
+                              f"use {' or '.join(self.modes)}, or set {processor.id}.{name} to null")
 
     def opacity_by_value(self, ctx: moderngl.Context) -> np.ndarray | None:
         """With a 2D TF, its largest alpha per value (over the gradient axis) for empty-space
