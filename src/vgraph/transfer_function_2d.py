@@ -52,6 +52,27 @@ class _Primitive(BaseModel):
         """The primitive's alpha at the grid points (its colour is constant)."""
         raise NotImplementedError
 
+    def corners(self) -> list[tuple[float, float]]:
+        """The (value, gradient) points that place the primitive (what a move shifts)."""
+        raise NotImplementedError
+
+    def covers(self, value: float, gradient: float) -> bool:
+        """Whether a point lies on the primitive (an editor picks it there), whatever its alpha."""
+        raise NotImplementedError
+
+    def moved(self, d_value: float, d_gradient: float) -> "_Primitive":
+        """A copy shifted by (d_value, d_gradient), the shift cut so every corner stays in [0, 1]."""
+        corners = np.asarray(self.corners())
+        d_value = float(np.clip(d_value, -corners[:, 0].min(), 1.0 - corners[:, 0].max()))
+        d_gradient = float(np.clip(d_gradient, -corners[:, 1].min(), 1.0 - corners[:, 1].max()))
+        return self._shifted(d_value, d_gradient)
+
+    def _shifted(self, d_value: float, d_gradient: float) -> "_Primitive":
+        raise NotImplementedError
+
+    def with_color(self, color) -> "_Primitive":
+        return self.model_copy(update={"color": tuple(float(c) for c in color)})
+
 
 class Rectangle(_Primitive):
     kind: Literal["rectangle"] = "rectangle"
@@ -70,6 +91,19 @@ class Rectangle(_Primitive):
         inside = ((self.value[0] <= value) & (value <= self.value[1])
                   & (self.gradient[0] <= gradient) & (gradient <= self.gradient[1]))
         return np.where(inside, self.color[3], 0.0)
+
+    def corners(self):
+        return [(self.value[0], self.gradient[0]), (self.value[1], self.gradient[1])]
+
+    def covers(self, value, gradient):
+        return bool(self.value[0] <= value <= self.value[1] and self.gradient[0] <= gradient <= self.gradient[1])
+
+    def _shifted(self, d_value, d_gradient):
+        return self.model_copy(update={"value": _plus(self.value, d_value), "gradient": _plus(self.gradient, d_gradient)})
+
+
+def _plus(pair, delta):
+    return tuple(min(max(v + delta, 0.0), 1.0) for v in pair)
 
 
 class Triangle(_Primitive):
@@ -93,6 +127,17 @@ class Triangle(_Primitive):
             inside &= edge * np.sign(area) >= slack
         return np.where(inside, self.color[3], 0.0)
 
+    def corners(self):
+        return list(self.vertices)
+
+    def covers(self, value, gradient):
+        return bool(Triangle.alpha(self.with_color((0, 0, 0, 1)), np.array(value), np.array(gradient)) > 0.0)
+
+    def _shifted(self, d_value, d_gradient):
+        return self.model_copy(update={"vertices": tuple((min(max(v + d_value, 0.0), 1.0),
+                                                          min(max(g + d_gradient, 0.0), 1.0))
+                                                         for v, g in self.vertices)})
+
 
 class Gaussian(_Primitive):
     kind: Literal["gaussian"] = "gaussian"
@@ -103,6 +148,17 @@ class Gaussian(_Primitive):
         (cv, cg), (wv, wg) = self.centre, self.width
         distance = ((value - cv) / wv) ** 2 + ((gradient - cg) / wg) ** 2  # squared, in widths
         return np.where(distance <= GAUSSIAN_REACH ** 2, self.color[3] * np.exp(-0.5 * distance), 0.0)
+
+    def corners(self):
+        return [self.centre]
+
+    def covers(self, value, gradient):  # within one width: the ellipse an editor draws
+        (cv, cg), (wv, wg) = self.centre, self.width
+        return ((value - cv) / wv) ** 2 + ((gradient - cg) / wg) ** 2 <= 1.0
+
+    def _shifted(self, d_value, d_gradient):
+        return self.model_copy(update={"centre": (min(max(self.centre[0] + d_value, 0.0), 1.0),
+                                                  min(max(self.centre[1] + d_gradient, 0.0), 1.0))})
 
 
 def _twice_area(a, b, c) -> float:
@@ -138,6 +194,19 @@ class TransferFunction2D(BaseModel):
         value i / (size - 1)."""
         axis = np.linspace(0.0, 1.0, size)
         return self(axis[None, :], axis[:, None]).astype(np.float32)
+
+
+def new_primitive(kind: str, value: float, gradient: float, color=(1.0, 1.0, 1.0, 0.5)):
+    """A primitive of ``kind`` about one fifth of the plane wide, centred near (value, gradient)
+    (moved inside the plane): what an editor's Add puts down."""
+    half = 0.1
+    shapes = {"rectangle": lambda: Rectangle(value=(0.5 - half, 0.5 + half), gradient=(0.5 - half, 0.5 + half), color=color),
+              "triangle": lambda: Triangle(vertices=((0.5, 0.5 - half), (0.5 - half, 0.5 + half), (0.5 + half, 0.5 + half)),
+                                           color=color),
+              "gaussian": lambda: Gaussian(centre=(0.5, 0.5), width=(half / 2, half / 2), color=color)}
+    if kind not in shapes:
+        raise ValueError(f"a 2D TF primitive is one of {', '.join(shapes)}, not {kind!r}")
+    return shapes[kind]().moved(value - 0.5, gradient - 0.5)
 
 
 _WHITE_BONE = (1.0, 0.95, 0.85, 0.8)

@@ -30,7 +30,9 @@ from vgraph.properties import GradientOpacityProperty, TransferFunction2DPropert
 from vgraph.transfer_function_2d import LUT_SIZE as TABLE_SIZE, TransferFunction2D
 from vgraph.volume import Volume
 
-LARGEST = "largest gradient magnitude"  # the kind of derived data (vgraph.derived) this module makes
+LARGEST = "largest gradient magnitude"  # the kinds of derived data (vgraph.derived) this module makes
+HISTOGRAM = "value gradient histogram"
+HISTOGRAM_BINS = 128  # per axis of the 2D TF editor's histogram
 
 
 def largest_magnitude(volume: Volume) -> float:
@@ -64,6 +66,14 @@ def value_gradient_histogram(volume: Volume, bins: int = 128) -> np.ndarray:
         counts += np.histogram2d(np.clip(fraction[finite], 0.0, 1.0), np.clip(values[finite], 0.0, 1.0),
                                  bins=bins, range=((0.0, 1.0), (0.0, 1.0)))[0].astype(np.int64)
     return counts
+
+
+def editor_histogram(volume: Volume) -> np.ndarray | None:
+    """value_gradient_histogram with HISTOGRAM_BINS bins, kept per volume; None for a volume
+    drawn brick by brick (its whole array is what the bricks avoid reading)."""
+    if volume.bricks is not None and not getattr(volume, "fits_budget", True):
+        return None
+    return derived.value(volume, HISTOGRAM, lambda: value_gradient_histogram(volume, HISTOGRAM_BINS))
 
 
 class TableTexture:

@@ -1,0 +1,104 @@
+"""The 2D transfer-function editor (vgraph.gui.transfer_function_2d_editor): real mouse and key
+events on its plot change the RayCaster's transfer_function_2d through the undo stack; Add,
+presets, Off; the value x gradient histogram comes from the render process."""
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QPoint, Qt
+
+from vgraph.gl.raycasting.gradient_classification import editor_histogram
+from vgraph.gui import transfer_function_2d_editor as editor_module
+from vgraph.transfer_function_2d import PRESETS, Rectangle, TransferFunction2D
+
+SQUARE = TransferFunction2D(primitives=[Rectangle(value=(0.2, 0.4), gradient=(0.1, 0.3), color=(1, 0, 0, 0.5))])
+
+
+@pytest.fixture
+def editor(window):
+    window.workspace.add_processor("RayCaster", (0, 0), id="rc")
+    window.workspace.set_property("rc.transfer_function_2d", SQUARE)
+    window.scene.select_processor("rc")
+    shown = window.inspector.editors["transfer_function_2d"]
+    assert isinstance(shown, editor_module.TransferFunction2DEditor)
+    return shown
+
+
+def tf(window) -> TransferFunction2D | None:
+    return window.workspace.network.get("rc.transfer_function_2d")
+
+
+def pixel_of(plot, value, gradient) -> QPoint:
+    return plot.to_pixel(value, gradient).toPoint()
+
+
+def plane_at(plot, pixel: QPoint):
+    """The documented mapping, written out: x = value left->right, y = gradient bottom->top."""
+    area = plot.area()
+    return (pixel.x() - area.left()) / area.width(), (area.bottom() - pixel.y()) / area.height()
+
+
+def mouse_drag(qtbot, plot, start: QPoint, end: QPoint, steps=4):
+    qtbot.mousePress(plot, Qt.LeftButton, pos=start)
+    for i in range(1, steps + 1):
+        qtbot.mouseMove(plot, start + (end - start) * (i / steps))
+    qtbot.mouseRelease(plot, Qt.LeftButton, pos=end)
+
+
+def test_a_drag_moves_the_primitive_under_the_mouse_as_one_undo_step(window, editor, qtbot):
+    plot, stack = editor.plot, window.workspace.undo_stack
+    assert plot.width() > 150 and plot.height() > 100
+    count = stack.count()
+    start, end = pixel_of(plot, 0.3, 0.2), pixel_of(plot, 0.6, 0.5)
+    mouse_drag(qtbot, plot, start, end)
+    (v0, g0), (v1, g1) = plane_at(plot, start), plane_at(plot, end)
+    moved = tf(window).primitives[0]
+    assert moved.value == pytest.approx((0.2 + v1 - v0, 0.4 + v1 - v0), abs=1e-6)
+    assert moved.gradient == pytest.approx((0.1 + g1 - g0, 0.3 + g1 - g0), abs=1e-6)
+    assert moved.color == (1, 0, 0, 0.5) and stack.count() == count + 1
+    # Dragged far beyond the plane's corner, it stops at the edge, whole.
+    centre = (sum(moved.value) / 2, sum(moved.gradient) / 2)
+    mouse_drag(qtbot, plot, pixel_of(plot, *centre), QPoint(plot.width() + 300, -300))
+    corner = tf(window).primitives[0]
+    assert corner.value[1] == pytest.approx(1.0) and corner.gradient[1] == pytest.approx(1.0)
+    assert corner.value[1] - corner.value[0] == pytest.approx(0.2, abs=1e-6)
+    assert stack.count() == count + 2
+    stack.undo()
+    stack.undo()
+    assert tf(window) == SQUARE
+
+
+def test_add_presets_delete_and_off(window, editor, qtbot):
+    editor.add_kind.setCurrentIndex(editor_module.KINDS.index("gaussian") + 1)
+    added = tf(window).primitives
+    assert len(added) == 2 and added[1].kind == "gaussian" and added[1].centre == (0.5, 0.5)
+    assert editor.add_kind.currentIndex() == 0
+
+    # Delete on the selected primitive (the one just added) removes it; on the last one: off.
+    editor.plot.setFocus()
+    qtbot.keyClick(editor.plot, Qt.Key_Delete)
+    assert tf(window) == SQUARE
+    qtbot.mouseClick(editor.plot, Qt.LeftButton, pos=pixel_of(editor.plot, 0.3, 0.2))
+    qtbot.keyClick(editor.plot, Qt.Key_Delete)
+    assert tf(window) is None
+
+    editor.presets.setCurrentIndex(list(PRESETS).index("two-materials") + 1)
+    assert tf(window) == PRESETS["two-materials"]
+    qtbot.mouseClick(editor.off_button, Qt.LeftButton)
+    assert tf(window) is None
+
+
+def test_the_histogram_reaches_the_editor_from_the_render_process(window, qtbot):
+    from helpers.paths import REPO
+    assert window.open_network(REPO / "networks" / "raycast_sphere.json")
+    window.evaluation.run(wait=True)
+    assert "rc.transfer_function_2d" not in window.evaluation.last_result.histograms  # off: not computed
+    with qtbot.waitSignal(window.evaluation.histograms, timeout=20000):
+        window.workspace.set_property("rc.transfer_function_2d", "boundaries")
+    window.scene.select_processor("rc")
+    counts = window.evaluation.last_result.histograms["rc.transfer_function_2d"]
+    resolution = window.workspace.network.get("source.resolution")
+    assert counts.shape == (128, 128) and counts.sum() == resolution ** 3
+    volume = window.workspace.network["rc"].inputs.get("volume")
+    if volume is not None:  # the network of this process evaluated too (not only the render process)
+        np.testing.assert_array_equal(counts, editor_histogram(volume))
+    assert window.inspector.editors["transfer_function_2d"].plot._histogram is not None
