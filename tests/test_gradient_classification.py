@@ -19,7 +19,8 @@ from vgraph.numerics.reference_classification import GradientClassification, lar
 from vgraph.numerics.reference_raycast import Shading, VolumeSampler, render, volume_box
 from vgraph.scheduler import BlankImageWarning
 from vgraph.transfer_function import TransferFunction
-from vgraph.transfer_function_2d import PRESETS as TABLES, Gaussian, Rectangle, TransferFunction2D, Triangle
+from vgraph.transfer_function_2d import (PRESETS as TABLES, Gaussian, Rectangle, TransferFunction2D, Triangle,
+                                         new_primitive)
 from vgraph.volume import Volume
 
 from helpers.networks import rendering_network
@@ -92,6 +93,20 @@ def test_overlapping_primitives_combine_as_independent_absorbers_in_any_order():
         rgba = TransferFunction2D(primitives=order)(np.array([0.25, 0.75]), 0.5)
         np.testing.assert_allclose(rgba[0], [1.0, 0.0, 0.0, 0.5])
         np.testing.assert_allclose(rgba[1], [0.5 / 0.75, 0.0, 0.25 / 0.75, 1.0 - 0.5 * 0.75])
+
+
+@pytest.mark.parametrize("kind", ["rectangle", "triangle", "gaussian"])
+def test_new_primitives_cover_their_place_and_moves_keep_them_in_the_plane(kind):
+    primitive = new_primitive(kind, 0.95, 0.02)  # near a corner: moved inside
+    corners = np.asarray(primitive.corners())
+    assert corners.min() >= 0.0 and corners.max() <= 1.0 and primitive.covers(*corners.mean(axis=0))
+    moved = primitive.moved(-5.0, 0.25)
+    shifted = np.asarray(moved.corners()) - corners
+    assert np.asarray(moved.corners())[:, 0].min() == 0.0  # cut at the plane's edge ...
+    np.testing.assert_allclose(shifted, np.broadcast_to(shifted[0], shifted.shape), atol=1e-12)  # ... whole
+    assert shifted[0, 1] == pytest.approx(0.25)
+    with pytest.raises(ValueError, match="one of rectangle, triangle, gaussian"):
+        new_primitive("circle", 0.5, 0.5)
 
 
 def test_the_table_is_indexed_gradient_then_value():

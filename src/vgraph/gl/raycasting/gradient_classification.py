@@ -98,11 +98,6 @@ class TableTexture:
             self.key = transfer_function
         return self.texture
 
-    def release(self) -> None:
-        if self.texture is not None:
-            self.texture.release()
-            self.texture = self.key = None
-
 
 class GradientClassification(Component):
     """gradient_opacity and transfer_function_2d (module docstring); classifies in the modes
