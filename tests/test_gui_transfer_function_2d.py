@@ -1,13 +1,15 @@
-"""The 2D transfer-function editor (vgraph.gui.transfer_function_2d_editor): real mouse and key
-events on its plot change the RayCaster's transfer_function_2d through the undo stack; Add,
-presets, Off; the value x gradient histogram comes from the render process."""
+"""The 2D transfer-function editor (vgraph.gui.transfer_function_2d_editor) and the gradient-opacity
+editor (vgraph.gui.gradient_opacity_editor): real mouse and key events on their plots change the
+RayCaster's transfer_function_2d and gradient_opacity through the undo stack; Add, presets, Off;
+the histograms come from the render process."""
 
 import numpy as np
 import pytest
 from PySide6.QtCore import QPoint, Qt
 
 from vgraph.gl.raycasting.gradient_classification import editor_histogram
-from vgraph.gui import transfer_function_2d_editor as editor_module
+from vgraph.gradient_opacity import PRESETS as CURVES, GradientOpacity
+from vgraph.gui import gradient_opacity_editor, transfer_function_2d_editor as editor_module
 from vgraph.transfer_function_2d import PRESETS, Rectangle, TransferFunction2D
 
 SQUARE = TransferFunction2D(primitives=[Rectangle(value=(0.2, 0.4), gradient=(0.1, 0.3), color=(1, 0, 0, 0.5))])
@@ -94,6 +96,8 @@ def test_the_histogram_reaches_the_editor_from_the_render_process(window, qtbot)
     assert "rc.transfer_function_2d" not in window.evaluation.last_result.histograms  # off: not computed
     with qtbot.waitSignal(window.evaluation.histograms, timeout=20000):
         window.workspace.set_property("rc.transfer_function_2d", "boundaries")
+    with qtbot.waitSignal(window.evaluation.histograms, timeout=20000):
+        window.workspace.set_property("rc.gradient_opacity", "boundaries")
     window.scene.select_processor("rc")
     counts = window.evaluation.last_result.histograms["rc.transfer_function_2d"]
     resolution = window.workspace.network.get("source.resolution")
@@ -102,3 +106,29 @@ def test_the_histogram_reaches_the_editor_from_the_render_process(window, qtbot)
     if volume is not None:  # the network of this process evaluated too (not only the render process)
         np.testing.assert_array_equal(counts, editor_histogram(volume))
     assert window.inspector.editors["transfer_function_2d"].plot._histogram is not None
+    by_gradient = window.evaluation.last_result.histograms["rc.gradient_opacity"]
+    np.testing.assert_array_equal(by_gradient, counts.sum(axis=1))
+    np.testing.assert_array_equal(window.inspector.editors["gradient_opacity"].plot.counts, by_gradient)
+
+
+def test_the_gradient_opacity_curve_is_edited_on_the_tf_plot(window, qtbot):
+    window.workspace.add_processor("RayCaster", (0, 0), id="rc")
+    window.scene.select_processor("rc")
+    editor = window.inspector.editors["gradient_opacity"]
+    assert isinstance(editor, gradient_opacity_editor.GradientOpacityEditor)
+    plot = editor.plot
+    assert [p[4] for p in plot.points] == [1.0, 1.0]  # off: every opacity kept
+    # Dragging the right end down turns gradient opacity on with that curve.
+    start, end = plot.to_pixel(1.0, 1.0).toPoint(), plot.to_pixel(1.0, 0.4).toPoint()
+    mouse_drag(qtbot, plot, start, end)
+    curve = window.workspace.network.get("rc.gradient_opacity")
+    area = plot.curve_rect()
+    assert curve.points[0] == (0.0, 1.0)
+    assert curve.points[1] == pytest.approx((1.0, (area.bottom() - end.y()) / area.height()), abs=1e-6)
+    editor.presets.setCurrentIndex(list(CURVES).index("strong-edges") + 1)
+    assert window.workspace.network.get("rc.gradient_opacity") == CURVES["strong-edges"]
+    assert [p[4] for p in editor.plot.points] == [0.0, 0.0, 1.0, 1.0]
+    qtbot.mouseClick(editor.off_button, Qt.LeftButton)
+    assert window.workspace.network.get("rc.gradient_opacity") is None
+    window.workspace.undo_stack.undo()
+    assert isinstance(window.workspace.network.get("rc.gradient_opacity"), GradientOpacity)

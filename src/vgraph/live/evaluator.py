@@ -41,8 +41,8 @@ from vgraph.mesh import TetMesh
 from vgraph.network import Network
 from vgraph.picking import depth_targets
 from vgraph.processor import Processor
-from vgraph.properties import (FilePathProperty, Invalidation, TransferFunction2DProperty,
-                               TransferFunctionProperty)
+from vgraph.properties import (FilePathProperty, GradientOpacityProperty, Invalidation,
+                               TransferFunction2DProperty, TransferFunctionProperty)
 from vgraph.scheduler import blank_image_warning, evaluate
 from vgraph.time_series import time_point_note
 from vgraph.transfer_function import ValueScale
@@ -158,17 +158,20 @@ def histograms(network: Network) -> dict[str, np.ndarray]:
     """For each processor with a transfer function, the histogram (256 bins over the value range)
     of the data each TF classifies, under 'id.<TF property>' (classified_inputs), for that TF's
     editor; and under 'id' that of the processor's first connected volume (for scripts). Under
-    'id.<2D TF property>', where that 2D TF is set, the (gradient, value) histogram of the
-    processor's volume (vgraph.gl.raycasting.gradient_classification.editor_histogram)."""
+    'id.<2D TF property>' and 'id.<gradient-opacity property>', where that property is set, the
+    (gradient, value) histogram of the processor's volume and its counts per gradient bin
+    (vgraph.gl.raycasting.gradient_classification.editor_histogram)."""
     found = _measured(network, lambda data: data.histogram()[0])
+    by_gradient = {TransferFunction2DProperty: lambda counts: counts,
+                   GradientOpacityProperty: lambda counts: counts.sum(axis=1)}
     for processor in network.processors.values():
         volume = processor.inputs.get("volume")
         for name, prop in processor.properties.items():
-            if (isinstance(prop, TransferFunction2DProperty) and isinstance(volume, Volume)
+            if (type(prop) in by_gradient and isinstance(volume, Volume)
                     and processor.property_values[name] is not None):
                 counts = editor_histogram(volume)
                 if counts is not None:
-                    found[f"{processor.id}.{name}"] = counts
+                    found[f"{processor.id}.{name}"] = by_gradient[type(prop)](counts)
     return found
 
 
