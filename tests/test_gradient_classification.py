@@ -146,6 +146,24 @@ def test_both_together_match_the_cpu_reference(blobs):
     np.testing.assert_allclose(gl, reference, atol=TABLE_TOLERANCE)
 
 
+@pytest.mark.parametrize("kind", ["uint8", "oriented"])
+def test_integer_and_oriented_volumes_match_the_cpu_reference(blobs, kind):
+    """uint8, shaded: the gradient texture also holds the value (GRADIENT_HOLDS_VALUE); oriented:
+    the gradient turns with the volume, its magnitude does not."""
+    if kind == "uint8":
+        volume = Volume((blobs.data / blobs.data.max() * 255).astype(np.uint8), spacing=blobs.spacing,
+                        origin=blobs.origin)
+    else:
+        volume = Volume(blobs.data, spacing=blobs.spacing, origin=blobs.origin,
+                        direction=np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
+    gl, _ = gl_image(volume, shading="blinn_phong", derivatives="precomputed",
+                     transfer_function_2d="two-materials", gradient_opacity=INTERIOR)
+    reference = reference_image(volume, True, transfer_function_2d=TABLES["two-materials"],
+                                gradient_opacity=INTERIOR)
+    assert np.abs(reference - reference[0, 0]).max() > 0.05  # faint (the curve hides the boundaries), not empty
+    np.testing.assert_allclose(gl, reference, atol=TABLE_TOLERANCE)
+
+
 def test_the_largest_gradient_is_the_references(blobs):
     assert largest_magnitude(blobs) == pytest.approx(largest_gradient_magnitude(VolumeSampler(blobs)), rel=1e-12)
 
