@@ -181,7 +181,8 @@ def test_nothing_visible_in_the_2d_tf_shows_the_background_in_dvr_and_first_hit(
     nothing = TransferFunction2D(primitives=[Rectangle(value=(0.0, 1.0), gradient=(0.0, 1.0),
                                                        color=(1.0, 1.0, 1.0, 0.0))])
     for compositing in ("dvr", "first_hit"):
-        with pytest.warns(BlankImageWarning, match="rendered an empty image"):
+        with pytest.warns(BlankImageWarning, match=r"rendered an empty image: rc.transfer_function_2d shows "
+                                                   r"nothing of its volume"):
             image, _ = gl_image(blobs, compositing=compositing, transfer_function_2d=nothing)
         np.testing.assert_allclose(image, np.broadcast_to(BACKGROUND, image.shape), atol=1e-7)
 
