@@ -26,7 +26,7 @@ from vgraph.volume import Volume
 from helpers.networks import rendering_network
 
 # Max |GL - reference| per channel, measured on llvmpipe: 1.1e-6 with gradient opacity (as the 1D
-# TF alone), 1.6e-5 with a 2D TF (its triangles and rectangles step by up to 0.8 from one texel
+# TF alone), 1.1e-5 with a 2D TF (its triangles and rectangles step by up to 0.8 from one texel
 # to the next, so a float rounding of the texture coordinate shows more); a few times that.
 CURVE_TOLERANCE = 1e-5
 TABLE_TOLERANCE = 5e-5
@@ -109,11 +109,12 @@ def test_new_primitives_cover_their_place_and_moves_keep_them_in_the_plane(kind)
         new_primitive("circle", 0.5, 0.5)
 
 
-def test_the_table_is_indexed_gradient_then_value():
+def test_the_table_is_indexed_gradient_then_value_and_premultiplied():
     table = TransferFunction2D(primitives=[Rectangle(value=(0.0, 1.0), gradient=(0.9, 1.0),
-                                                     color=(1, 1, 1, 1))]).lut()
+                                                     color=(1.0, 0.5, 0.0, 0.5))]).lut()
     assert table.shape == (256, 256, 4)
-    assert table[-1, :, 3].min() == 1.0 and table[0, :, 3].max() == 0.0
+    assert table[-1, :, 3].min() == 0.5 and table[0, :, 3].max() == 0.0
+    np.testing.assert_allclose(table[-1, 7], [0.5, 0.25, 0.0, 0.5])  # (a r, a g, a b, a)
 
 
 # --- against the CPU reference ------------------------------------------------------------------

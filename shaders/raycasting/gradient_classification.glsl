@@ -25,7 +25,7 @@ vec2 table_coordinates(vec2 at, vec2 n) {
 }
 
 #ifdef TRANSFER_FUNCTION_2D
-uniform sampler2D transfer_function_2d;  // [gradient, value] rows: x = value, y = gradient fraction
+uniform sampler2D transfer_function_2d;  // premultiplied RGBA, [gradient, value] rows: x = value, y = gradient fraction
 #endif
 #ifdef GRADIENT_OPACITY
 uniform sampler2D gradient_opacity;  // n x 1, the factor in every channel
@@ -36,6 +36,7 @@ vec4 classify_sample(vec3 t, float value) {
 #ifdef TRANSFER_FUNCTION_2D
     vec2 n = vec2(textureSize(transfer_function_2d, 0));
     vec4 color = textureLod(transfer_function_2d, table_coordinates(vec2(value, fraction), n), 0.0);
+    color.rgb = color.a > 0.0 ? color.rgb / color.a : vec3(0.0);  // the table is premultiplied
 #else
     vec4 color = classify(value);
 #endif

@@ -22,7 +22,8 @@ sample at sampling rate 1, as in a 1D TF.
 Where primitives overlap they combine as independent absorbers, in any order: alpha
 ``1 - prod(1 - a_i)``, colour the alpha-weighted mean of their colours. Renderers use ``lut()``:
 the function at a grid of LUT_SIZE x LUT_SIZE points (entry [j, i] at gradient j / (LUT_SIZE - 1),
-value i / (LUT_SIZE - 1)), looked up bilinearly (vgraph.numerics.reference_classification).
+value i / (LUT_SIZE - 1)), premultiplied by alpha, looked up bilinearly and divided by the alpha
+read (vgraph.numerics.reference_classification).
 A 2D-TF property also accepts a preset's name (``PRESETS``).
 """
 
@@ -190,10 +191,14 @@ class TransferFunction2D(BaseModel):
         return np.concatenate([rgb, (1.0 - transparency)[..., None]], axis=-1)
 
     def lut(self, size: int = LUT_SIZE) -> np.ndarray:
-        """(size, size, 4) float32 RGBA, [gradient, value]: entry [j, i] at gradient j / (size - 1),
-        value i / (size - 1)."""
+        """(size, size, 4) float32 premultiplied RGBA (a r, a g, a b, a), [gradient, value]: entry
+        [j, i] at gradient j / (size - 1), value i / (size - 1). Premultiplied, so that reading
+        between an entry inside a primitive and one outside it (colour 0) keeps the primitive's
+        colour instead of darkening it; readers divide rgb by a."""
         axis = np.linspace(0.0, 1.0, size)
-        return self(axis[None, :], axis[:, None]).astype(np.float32)
+        rgba = self(axis[None, :], axis[:, None])
+        rgba[..., :3] *= rgba[..., 3:]
+        return rgba.astype(np.float32)
 
 
 def new_primitive(kind: str, value: float, gradient: float, color=(1.0, 1.0, 1.0, 0.5)):

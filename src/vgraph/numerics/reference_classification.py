@@ -10,9 +10,10 @@ Model, for a sample at world point p with normalised intensity v (rule 4):
    reconstructed trilinearly at p: G(p). Whether or not the sample is shaded.
 2. Gradient fraction: ``f = |G(p)| / G_max``, clamped to [0, 1], with G_max the largest magnitude
    of the unquantised voxel gradients (0 everywhere when G_max is 0: a constant volume).
-3. Colour: with a 2D TF, its ``lut()`` (LUT_SIZE^2 entries) looked up bilinearly at
+3. Colour: with a 2D TF, its premultiplied ``lut()`` (LUT_SIZE^2 entries) looked up bilinearly at
    ``x = v * (n - 1)``, ``y = f * (n - 1)``, both clamped to the table (= a GL 2D texture with
-   linear filtering and clamp-to-edge at ``(x + 0.5) / n``); otherwise the 1D TF of rule 5.
+   linear filtering and clamp-to-edge at ``(x + 0.5) / n``), rgb then divided by the alpha read
+   (0 where it is 0); otherwise the 1D TF of rule 5.
 4. Gradient opacity: alpha times the curve's ``lut()`` (1024 entries) at f, linear between
    entries, clamped. Colour is unchanged.
 
@@ -54,7 +55,7 @@ class GradientClassification:
 
         def classify(points: np.ndarray, values: np.ndarray) -> np.ndarray:
             fraction = np.linalg.norm(sampler.voxel_gradient(points), axis=1) * inverse  # rules 1-2
-            rgba = lookup(lut, values) if table is None else bilinear(table, values, fraction)
+            rgba = lookup(lut, values) if table is None else unpremultiplied(bilinear(table, values, fraction))
             if factors is not None:
                 rgba[:, 3] *= lookup(factors[:, None], fraction)[:, 0]
             return rgba
@@ -70,6 +71,13 @@ def largest_gradient_magnitude(sampler) -> float:
 
 def _inverse(largest: float) -> float:
     return 1.0 / largest if largest > 0.0 else 0.0
+
+
+def unpremultiplied(rgba: np.ndarray) -> np.ndarray:
+    """(M, 4) premultiplied RGBA -> straight RGBA; rgb 0 where alpha is 0."""
+    alpha = rgba[:, 3:4]
+    rgba[:, :3] = np.divide(rgba[:, :3], alpha, out=np.zeros_like(rgba[:, :3]), where=alpha > 0.0)
+    return rgba
 
 
 def bilinear(table: np.ndarray, values: np.ndarray, fraction: np.ndarray) -> np.ndarray:

@@ -101,11 +101,12 @@ class TableTexture:
 
 class GradientClassification(Component):
     """gradient_opacity and transfer_function_2d (module docstring); classifies in the modes
-    ``modes`` of the processor's option ``mode``."""
+    ``modes`` of the processor's option ``mode`` (always with ``mode=None``: the
+    CurvatureVolumeRaycaster, which composites as dvr)."""
 
     glsl = ("raycasting/gradient_classification.glsl",)
 
-    def __init__(self, mode: str = "compositing", modes: tuple[str, ...] = ("dvr", "first_hit")):
+    def __init__(self, mode: str | None = "compositing", modes: tuple[str, ...] = ("dvr", "first_hit")):
         self.mode, self.modes = mode, modes
 
     def start(self) -> None:
@@ -129,8 +130,8 @@ class GradientClassification(Component):
     def check(self) -> None:
         """Refuses gradient classification in a mode that classifies no samples, by name."""
         processor = self.processor
-        mode = getattr(processor, self.mode)
-        if self.is_on() and mode not in self.modes:
+        mode = getattr(processor, self.mode) if self.mode is not None else None
+        if self.is_on() and self.mode is not None and mode not in self.modes:
             name = "gradient_opacity" if processor.gradient_opacity is not None else "transfer_function_2d"
             raise VGraphError(f"{processor.id}.{name}: classifies samples by their gradient, which "
                               f"{self.mode} {mode} does not take (it classifies one value per ray); "
