@@ -57,7 +57,6 @@ from vgraph.gl.raycasting.shown_volume import ShowsVolume
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.gl.raycasting.textures import needs_bricks
 from vgraph.image import Image
-from vgraph.shown_content import voxels_under_2d
 from vgraph.volume import Volume
 
 SHADER = "raycasting/raycaster.frag.glsl"
@@ -140,13 +139,6 @@ class RayCaster(ShowsVolume, RaycasterBase):
     def shows_iso_surface(self) -> bool:
         """iso shows the voxels reaching its iso level, the other modes those its TF shows (ShowsVolume)."""
         return self.compositing == "iso"
-
-    def shown_content(self) -> list:
-        """With a 2D TF, the voxels it shows at some gradient (it classifies instead of the TF)."""
-        volume = self.inputs.get("volume")
-        if volume is not None and self.transfer_function_2d is not None and not self.shows_iso_surface():
-            return [voxels_under_2d("volume", volume, self.transfer_function_2d)]
-        return super().shown_content()
 
     # --- evaluation -----------------------------------------------------------------------------
     def process(self, volume: Volume, entry: Image, exit: Image, context: FrameContext,
