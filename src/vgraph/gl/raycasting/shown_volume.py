@@ -1,9 +1,9 @@
 """What a volume renderer shows of its ``volume`` input: the voxels its transfer function (or its
 2D transfer function, where one is set) gives opacity or, drawing an iso-surface, the voxels that
-reach its iso level. It is said twice, in words for the scheduler's empty-image warning (``Processor.visible_content``) and as a
-vgraph.shown_content.Shown for the blank-image diagnosis (``Processor.shown_content``,
-vgraph.blank_causes); the RayCaster, the curvature ray casters and the SweepPlaneRenderer say it
-through this one mixin.
+reach its iso level. It is said twice, in words for the scheduler's empty-image warning
+(``Processor.visible_content``) and as a vgraph.shown_content.Shown for the blank-image diagnosis
+(``Processor.shown_content``, vgraph.blank_causes); the RayCaster, the curvature ray casters and
+the SweepPlaneRenderer say it through this one mixin.
 """
 
 from __future__ import annotations
