@@ -245,9 +245,27 @@ def test_the_network_file_keeps_both_and_renders_the_same(tmp_path):
     path = tmp_path / "classified.json"
     network.save(path)
     saved = json.loads(path.read_text())["processors"]
-    [entry] = [p for p in saved if p["id"] == "rc"] if isinstance(saved, list) else [saved["rc"]]
+    [entry] = [p for p in saved if p["id"] == "rc"]
     assert entry["properties"]["transfer_function_2d"]["primitives"][0]["kind"] == "triangle"
     loaded = load_network(path)
     assert loaded["rc"].transfer_function_2d == TABLES["two-materials"]
     assert loaded["rc"].gradient_opacity == CURVES["strong-edges"]
     np.testing.assert_array_equal(loaded.evaluate("rc.image", size=(32, 24)), network.evaluate("rc.image", size=(32, 24)))
+
+
+def test_a_network_file_with_a_bad_primitive_names_file_processor_and_primitive(tmp_path):
+    from vgraph.errors import NetworkFileError
+    network = Network()
+    network.add("FunctionSelector", id="source", function="torus", resolution=16)
+    network.add("RayCaster", id="rc", transfer_function_2d="two-materials")
+    path = tmp_path / "bad.json"
+    network.save(path)
+    text = json.loads(path.read_text())
+    [entry] = [p for p in text["processors"] if p["id"] == "rc"]
+    entry["properties"]["transfer_function_2d"]["primitives"][1]["vertices"] = [[0, 0], [0.5, 0.5], [1, 1]]
+    path.write_text(json.dumps(text))
+    with pytest.raises(NetworkFileError) as error:
+        load_network(path)
+    message = str(error.value)
+    assert "bad.json" in message and "transfer_function_2d" in message and "primitives.1" in message
+    assert "on one line" in message
