@@ -109,6 +109,18 @@ def test_new_primitives_cover_their_place_and_moves_keep_them_in_the_plane(kind)
         new_primitive("circle", 0.5, 0.5)
 
 
+def test_handles_reshape_primitives_and_never_make_them_invalid():
+    rectangle = new_primitive("rectangle", 0.5, 0.5)
+    assert rectangle.with_handle(1, 0.8, 0.9).value == (0.4, 0.8)
+    assert rectangle.with_handle(0, 0.9, 0.1).value == (0.6, 0.6)  # the low corner stops at the high one
+    triangle = new_primitive("triangle", 0.5, 0.5)
+    assert triangle.with_handle(0, 0.5, 0.2).vertices[0] == (0.5, 0.2)
+    assert triangle.with_handle(0, 0.5, 0.6) is triangle  # onto the line of the others: unchanged
+    gaussian = new_primitive("gaussian", 0.5, 0.5)
+    assert gaussian.with_handle(1, 0.7, 0.5).width == pytest.approx((0.2, 1e-3))
+    assert gaussian.with_handle(0, 2.0, -1.0).centre == (1.0, 0.0)  # clamped to the plane
+
+
 def test_the_table_is_indexed_gradient_then_value_and_premultiplied():
     table = TransferFunction2D(primitives=[Rectangle(value=(0.0, 1.0), gradient=(0.9, 1.0),
                                                      color=(1.0, 0.5, 0.0, 0.5))]).lut()

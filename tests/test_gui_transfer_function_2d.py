@@ -69,6 +69,23 @@ def test_a_drag_moves_the_primitive_under_the_mouse_as_one_undo_step(window, edi
     assert tf(window) == SQUARE
 
 
+def test_a_handle_drag_reshapes_the_selected_primitive(window, editor, qtbot):
+    plot = editor.plot
+    qtbot.mouseClick(plot, Qt.LeftButton, pos=pixel_of(plot, 0.3, 0.2))  # selects the square
+    assert plot.selected == 0
+    start, end = pixel_of(plot, 0.4, 0.3), pixel_of(plot, 0.7, 0.8)  # its high corner's handle
+    mouse_drag(qtbot, plot, start, end)
+    (v0, g0), (v1, g1) = plane_at(plot, start), plane_at(plot, end)
+    reshaped = tf(window).primitives[0]
+    assert reshaped.value == pytest.approx((0.2, 0.4 + v1 - v0), abs=1e-6)
+    assert reshaped.gradient == pytest.approx((0.1, 0.3 + g1 - g0), abs=1e-6)
+    # The low corner dragged past the high one stops there: never an inverted box.
+    mouse_drag(qtbot, plot, pixel_of(plot, 0.2, 0.1), QPoint(plot.width() + 100, -100))
+    squeezed = tf(window).primitives[0]
+    assert squeezed.value[0] == squeezed.value[1] == reshaped.value[1]
+    assert squeezed.gradient[0] == squeezed.gradient[1] == reshaped.gradient[1]
+
+
 def test_add_presets_delete_and_off(window, editor, qtbot):
     editor.add_kind.setCurrentIndex(editor_module.KINDS.index("gaussian") + 1)
     added = tf(window).primitives

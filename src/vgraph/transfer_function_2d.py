@@ -38,6 +38,7 @@ LUT_SIZE = 256  # per axis, as Voreen's TransFunc2D texture
 # A Gaussian is cut to 0 beyond this many widths (1.1 % of its peak there): elsewhere the plane
 # stays empty, so empty-space skipping keeps its blocks and nearly flat regions their colour.
 GAUSSIAN_REACH = 3.0
+MIN_WIDTH = 1e-3  # the narrowest Gaussian an editor's handle makes (the table's step is 1 / 255)
 
 Unit = Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)]
 Color = tuple[Unit, Unit, Unit, Unit]
@@ -71,6 +72,22 @@ class _Primitive(BaseModel):
     def _shifted(self, d_value: float, d_gradient: float) -> "_Primitive":
         raise NotImplementedError
 
+    def handles(self) -> list[tuple[float, float]]:
+        """The points an editor drags to reshape the primitive (its corners by default)."""
+        return self.corners()
+
+    def with_handle(self, index: int, value: float, gradient: float) -> "_Primitive":
+        """A copy with handle ``index`` at (value, gradient), clamped to the plane; the primitive
+        itself where that would make it invalid (a triangle on one line)."""
+        value, gradient = min(max(float(value), 0.0), 1.0), min(max(float(gradient), 0.0), 1.0)
+        try:
+            return self._reshaped(index, value, gradient)
+        except ValueError:  # pydantic's ValidationError is one
+            return self
+
+    def _reshaped(self, index: int, value: float, gradient: float) -> "_Primitive":
+        raise NotImplementedError
+
     def with_color(self, color) -> "_Primitive":
         return self.model_copy(update={"color": tuple(float(c) for c in color)})
 
@@ -101,6 +118,12 @@ class Rectangle(_Primitive):
 
     def _shifted(self, d_value, d_gradient):
         return self.model_copy(update={"value": _plus(self.value, d_value), "gradient": _plus(self.gradient, d_gradient)})
+
+    def _reshaped(self, index, value, gradient):
+        (v0, v1), (g0, g1) = self.value, self.gradient
+        if index == 0:  # the low corner stays at or below the high one
+            return Rectangle(value=(min(value, v1), v1), gradient=(min(gradient, g1), g1), color=self.color)
+        return Rectangle(value=(v0, max(value, v0)), gradient=(g0, max(gradient, g0)), color=self.color)
 
 
 def _plus(pair, delta):
@@ -134,6 +157,11 @@ class Triangle(_Primitive):
     def covers(self, value, gradient):
         return bool(Triangle.alpha(self.with_color((0, 0, 0, 1)), np.array(value), np.array(gradient)) > 0.0)
 
+    def _reshaped(self, index, value, gradient):
+        vertices = list(self.vertices)
+        vertices[index] = (value, gradient)
+        return Triangle(vertices=tuple(vertices), color=self.color)
+
     def _shifted(self, d_value, d_gradient):
         return self.model_copy(update={"vertices": tuple((min(max(v + d_value, 0.0), 1.0),
                                                           min(max(g + d_gradient, 0.0), 1.0))
@@ -156,6 +184,17 @@ class Gaussian(_Primitive):
     def covers(self, value, gradient):  # within one width: the ellipse an editor draws
         (cv, cg), (wv, wg) = self.centre, self.width
         return ((value - cv) / wv) ** 2 + ((gradient - cg) / wg) ** 2 <= 1.0
+
+    def handles(self):  # the centre, and a corner of its box of one width (what sets the widths)
+        (cv, cg), (wv, wg) = self.centre, self.width
+        return [self.centre, (cv + wv, cg + wg)]
+
+    def _reshaped(self, index, value, gradient):
+        if index == 0:
+            return self.model_copy(update={"centre": (value, gradient)})
+        (cv, cg) = self.centre
+        return Gaussian(centre=self.centre, width=(min(max(abs(value - cv), MIN_WIDTH), 1.0),
+                                                   min(max(abs(gradient - cg), MIN_WIDTH), 1.0)), color=self.color)
 
     def _shifted(self, d_value, d_gradient):
         return self.model_copy(update={"centre": (min(max(self.centre[0] + d_value, 0.0), 1.0),

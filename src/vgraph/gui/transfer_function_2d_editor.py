@@ -12,7 +12,10 @@ Conventions:
   stays visible) and outlined; the selected one is outlined thicker in yellow. A Gaussian is drawn
   as its ellipse of one width.
 - Mouse: a press on a primitive selects it (the last drawn, topmost, where several cover the
-  point) and a left-drag moves it, kept inside the plane; Delete removes the selected one. Each
+  point) and a left-drag moves it, kept inside the plane; the selected primitive shows its handles
+  (small squares: a rectangle's two corners, a triangle's vertices, a Gaussian's centre and the
+  corner of its box of one width), and a drag on a handle reshapes it; Delete removes the
+  selected one. Each
   drag emits ``changed`` with one merge key of its own (one undo step); every other edit emits with
   ``merge=None``. Removing the last primitive turns the 2D TF off (None). Emitted values are
   rounded to 6 decimals to keep saved networks readable.
@@ -33,6 +36,8 @@ from vgraph.gui.editors import PropertyEditor, list_popup, register_editor
 from vgraph.transfer_function_2d import PRESETS, Gaussian, Rectangle, TransferFunction2D, Triangle, new_primitive
 
 MARGIN = 4
+HANDLE = 4          # px: half the side of a handle's square
+PICK_DISTANCE = HANDLE + 3
 DECIMALS = 6
 KINDS = ("rectangle", "triangle", "gaussian")
 _drag_numbers = itertools.count(1)  # unique over all plots: a new editor never merges into an old drag
@@ -109,6 +114,16 @@ class TransferFunction2DPlot(QWidget):
                 return index
         return None
 
+    def handle_at(self, pixel: QPointF) -> int | None:
+        """The selected primitive's handle under the pixel, if any."""
+        if self.selected is None:
+            return None
+        for index, point in enumerate(self.primitives[self.selected].handles()):
+            at = self.to_pixel(*point)
+            if abs(at.x() - pixel.x()) <= PICK_DISTANCE and abs(at.y() - pixel.y()) <= PICK_DISTANCE:
+                return index
+        return None
+
     # --- edits ------------------------------------------------------------------------------------
     def commit(self, primitives: list, merge=None) -> None:
         self.transfer_function = rounded(TransferFunction2D(primitives=primitives)) if primitives else None
@@ -136,9 +151,11 @@ class TransferFunction2DPlot(QWidget):
     def mousePressEvent(self, event):
         if event.button() != Qt.LeftButton:
             return
-        self.selected = self.primitive_at(event.position())
+        handle = self.handle_at(event.position())
+        if handle is None:
+            self.selected = self.primitive_at(event.position())
         if self.selected is not None:
-            self._drag = (self.selected, next(_drag_numbers), self.from_pixel(event.position()),
+            self._drag = (self.selected, handle, next(_drag_numbers), self.from_pixel(event.position()),
                           self.primitives[self.selected])
             self.interacting.emit(True)
         self.update()
@@ -146,9 +163,14 @@ class TransferFunction2DPlot(QWidget):
     def mouseMoveEvent(self, event):
         if self._drag is None or not event.buttons() & Qt.LeftButton:
             return
-        index, number, (value0, gradient0), original = self._drag
+        index, handle, number, (value0, gradient0), original = self._drag
         value, gradient = self.from_pixel(event.position())
-        self.replace(index, original.moved(value - value0, gradient - gradient0), merge=(id(self), number))
+        if handle is None:
+            changed = original.moved(value - value0, gradient - gradient0)
+        else:  # the handle follows the mouse by as much as the mouse moved
+            start = original.handles()[handle]
+            changed = original.with_handle(handle, start[0] + value - value0, start[1] + gradient - gradient0)
+        self.replace(index, changed, merge=(id(self), number))
 
     def mouseReleaseEvent(self, event):
         if event.button() == Qt.LeftButton and self._drag is not None:
@@ -178,6 +200,12 @@ class TransferFunction2DPlot(QWidget):
             painter.drawImage(area, self._histogram)
         for index, primitive in enumerate(self.primitives):
             self._paint_primitive(painter, primitive, index == self.selected)
+        if self.selected is not None:
+            painter.setBrush(QBrush(QColor(255, 230, 0)))
+            painter.setPen(QPen(QColor(0, 0, 0), 1))
+            for point in self.primitives[self.selected].handles():
+                at = self.to_pixel(*point)
+                painter.drawRect(QRectF(at.x() - HANDLE, at.y() - HANDLE, 2 * HANDLE, 2 * HANDLE))
         painter.end()
 
     def _paint_primitive(self, painter: QPainter, primitive, selected: bool) -> None:
