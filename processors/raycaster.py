@@ -94,8 +94,8 @@ class RayCaster(ShowsVolume, RaycasterBase):
     inports = [Inport("volume", Volume)]
     outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
     components = (EntryExit(), CameraRays(), VolumeSampling(), Sampling(), TransferFunctionLut(),
-                  GradientClassification(),  # gradient opacity, 2D TFs (dvr, first_hit)
                   FrontToBack(mode="compositing", corrected=("dvr",)), IsoSurface(),
+                  GradientClassification(),  # gradient opacity, 2D TFs (dvr, first_hit)
                   Gradients(DERIVATIVES, doc="finite differences of the shading normals; precomputed: "
                                              "central differences at the voxels, computed once per volume "
                                              "(8 bytes a voxel), one fetch a shaded sample (central when "
