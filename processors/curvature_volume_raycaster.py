@@ -2,7 +2,9 @@
 
 Conventions (docs/explanations/curvature.md explains each property):
 - Opacity comes from the scalar transfer function of each sample's normalised intensity (only its
-  alpha is used), corrected for the sampling rate as in the RayCaster; colour from the normalised
+  alpha is used; times ``gradient_opacity``, or the alpha of ``transfer_function_2d`` instead, as
+  the RayCaster's, vgraph.gl.raycasting.gradient_classification, for sample volumes only),
+  corrected for the sampling rate as in the RayCaster; colour from the normalised
   curvature of the level set through the sample (the CurvatureRaycaster's measures,
   normalisations and colour maps), `undefined_color` where the curvature is undefined, optionally
   Blinn-Phong shaded. Front-to-back compositing with early termination (the RayCaster's dvr).
@@ -18,12 +20,13 @@ Conventions (docs/explanations/curvature.md explains each property):
 
 from __future__ import annotations
 
-from vgraph import Inport, OptionProperty, Outport, TransferFunctionProperty
+from vgraph import Inport, OptionProperty, Outport, TransferFunctionProperty, VGraphError
 from vgraph.gl.curvature import (CURVATURES, CurvatureColoring, CurvatureField, RangeReduction, measure_defines,
                                  measure_uniforms)
 from vgraph.gl.raycasting.components import (Background, CameraRays, EmptySpace, EntryExit, FrontToBack, Sampling,
                                              TransferFunctionLut, VolumeSampling)
 from vgraph.gl.raycasting.empty_space import occupied_blocks, radii_if_worthwhile
+from vgraph.gl.raycasting.gradient_classification import GradientClassification
 from vgraph.gl.raycasting.light import Light
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.shown_volume import ShowsVolume
@@ -36,14 +39,19 @@ SHADER = "curvature/curvature_volume_raycaster.frag.glsl"
 
 
 def skip_values(raycaster, frame):
-    """Blocks where the TF has opacity (components.EmptySpace; "opacity": empty blocks contribute
-    nothing, so ray bounds apply too)."""
+    """Blocks where the TF (or the 2D TF, at some gradient) has opacity (components.EmptySpace;
+    "opacity": empty blocks contribute nothing, so ray bounds apply too)."""
+    by_value = raycaster.parts[GradientClassification].opacity_by_value(frame.ctx)
+    if by_value is not None:
+        return (("opacity", raycaster.transfer_function_2d),
+                lambda low, high: radii_if_worthwhile(occupied_blocks(low, high, by_value)))
     lut = raycaster.parts[TransferFunctionLut].lut
     return (("opacity", raycaster.transfer_function),
             lambda low, high: radii_if_worthwhile(occupied_blocks(low, high, lut.alpha)))
 
 
 RANGE_PARTS = (EntryExit(), CameraRays(), VolumeSampling(), Sampling(), FrontToBack(), TransferFunctionLut(),
+               GradientClassification(mode=None),  # gradient opacity, the 2D TF's alpha; samples only
                CurvatureField(), CurvatureColoring(), EmptySpace(skip=skip_values), Background())
 
 # Two translucent shells, at the surface of every FunctionSelector volume (0.5) and inside it;
@@ -75,6 +83,11 @@ class CurvatureVolumeRaycaster(ShowsVolume, RaycasterBase):
         self._reduction = RangeReduction()
 
     def process(self, volume: Volume, entry: Image, exit: Image) -> dict:
+        if self.parts[GradientClassification].is_on() and self.derivatives.startswith("tricubic"):
+            raise VGraphError(f"{self.id}.derivatives: gradient_opacity and transfer_function_2d read "
+                              f"the gradients of voxel samples, and {self.derivatives} takes B-spline "
+                              f"coefficients; use forward, central or filtered (without the "
+                              f"CubicSplineProcessor), or set both to null")
         frame = self.frame(volume, entry, exit)
         image, depth = self._targets.ensure(frame.ctx, entry.size)
         own = Binding(defines={"RANGE_PASS": False})

@@ -49,6 +49,7 @@ from vgraph.gl.raycasting.components import (Background, CameraRays, EmptySpace,
                                              IsoSurface, Sampling, TransferFunctionLut, VolumeSampling,
                                              palette_shading, palette_transfer_function, ray_main_missed)
 from vgraph.gl.raycasting.empty_space import occupied_blocks, radii_if_worthwhile
+from vgraph.gl.raycasting.gradient_classification import GradientClassification
 from vgraph.gl.raycasting.light import Gradients, Light
 from vgraph.gl.raycasting.light_volume import LightShadows
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
@@ -72,6 +73,10 @@ def skip_values(raycaster: "RayCaster", frame):
     if kind == "maximum":
         return kind, lambda low, high: high
     if kind == "opacity":
+        by_value = raycaster.parts[GradientClassification].opacity_by_value(frame.ctx)
+        if by_value is not None:  # a 2D TF classifies instead
+            return (kind, raycaster.transfer_function_2d), lambda low, high: radii_if_worthwhile(
+                occupied_blocks(low, high, by_value))
         lut = raycaster.parts[TransferFunctionLut].lut
         lut.update(frame.ctx, raycaster.transfer_function, frame.volume)  # its alpha, for this volume
         return (kind, raycaster.transfer_function), lambda low, high: radii_if_worthwhile(
@@ -90,6 +95,7 @@ class RayCaster(ShowsVolume, RaycasterBase):
     outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
     components = (EntryExit(), CameraRays(), VolumeSampling(), Sampling(), TransferFunctionLut(),
                   FrontToBack(mode="compositing", corrected=("dvr",)), IsoSurface(),
+                  GradientClassification(),  # gradient opacity, 2D TFs (dvr, first_hit)
                   Gradients(DERIVATIVES, doc="finite differences of the shading normals; precomputed: "
                                              "central differences at the voxels, computed once per volume "
                                              "(8 bytes a voxel), one fetch a shaded sample (central when "
@@ -165,6 +171,10 @@ class RayCaster(ShowsVolume, RaycasterBase):
         return outputs
 
     def _check_bricked_mode(self, volume: Volume, light_volume: Volume | None) -> None:
+        if self.parts[GradientClassification].is_on():
+            raise VGraphError(f"{self.id}: {volume.source or 'the volume'} is drawn brick by brick, which "
+                              f"has no gradient volume: gradient_opacity and transfer_function_2d "
+                              f"must be null")
         if light_volume is not None:
             raise VGraphError(f"{self.id}.light_volume: {volume.source or 'the volume'} is drawn brick by "
                               f"brick ({' x '.join(map(str, volume.dims))} voxels do not fit one GL texture "

@@ -54,6 +54,37 @@ def test_one_colour_composites_like_the_raycasters_dvr(rate):
     np.testing.assert_allclose(ours, theirs, atol=1e-5)
 
 
+@pytest.mark.parametrize("classification", [{"gradient_opacity": {"points": [[0.0, 0.0], [1.0, 0.5]]}},
+                                            {"transfer_function_2d": "two-materials"}])
+def test_gradient_classification_composites_like_the_raycasters(classification):
+    """As above, with the RayCaster's gradient opacity or 2D TF alpha (its colour is curvature's):
+    the RayCaster's image with them matches the CPU reference (test_gradient_classification)."""
+    volume = sample("cylinder", 40, "float32")
+    camera = Camera.looking_at_box((-1, -1, -1), (1, 1, 1), direction=(-0.3, -0.4, -1.0))
+    green = tuple(colormap(np.array(0.5), "jet"))
+    ours = volume_network(volume, camera, derivatives="central", curvature="gaussian",
+                          normalization="exponential", attenuation=1e-3, transfer_function=tf((1, 1, 1)),
+                          **classification).evaluate("cr.image", size=SIZE)
+    if "transfer_function_2d" in classification:  # the 2D TF in the RayCaster's colour
+        from vgraph.transfer_function_2d import PRESETS
+        classification = {"transfer_function_2d": PRESETS["two-materials"].model_copy(update={"primitives": [
+            primitive.with_color((*green, primitive.color[3]))
+            for primitive in PRESETS["two-materials"].primitives]})}
+    theirs = rendering_network(volume, camera, transfer_function=tf(green),
+                               **classification).evaluate("rc.image", size=SIZE)
+    plain = rendering_network(volume, camera, transfer_function=tf(green)).evaluate("rc.image", size=SIZE)
+    assert theirs[..., 1].max() > 0.05 and np.abs(theirs - plain).max() > 0.05  # visible, and classified
+    np.testing.assert_allclose(ours, theirs, atol=1e-5)
+
+
+def test_gradient_classification_is_refused_for_spline_coefficients(torus):
+    _, coefficients = torus
+    network = volume_network(coefficients, TORUS_CAMERA, derivatives="tricubic", gradient_opacity="boundaries")
+    with pytest.raises(ProcessorError, match=r"cr.derivatives: gradient_opacity and transfer_function_2d "
+                                             r"read the gradients of voxel samples"):
+        network.evaluate("cr.image", size=SIZE)
+
+
 @pytest.mark.parametrize("normalization", ["exponential", "linear"])
 def test_sample_colour_is_the_colour_map_of_its_curvature(normalization):
     """Inside the sphere's distance field f = r - |p| the level set through p is the sphere of

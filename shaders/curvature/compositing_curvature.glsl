@@ -11,6 +11,8 @@
 // termination): (min, max, count, 1), reduced over the image by RangeReduction.
 // Depth: the first sample with a' > 0. With SKIP_EMPTY_SPACE, regions of blocks where the TF has
 // no opacity are jumped over (empty_space.glsl).
+#include "raycasting/gradient_classification.glsl"  // classify_sample()
+
 uniform float early_termination;
 uniform float min_gradient;  // |grad f| at or below this (per world unit): curvature undefined
 uniform vec4 undefined_color;
@@ -29,7 +31,7 @@ Result march(Ray ray) {
     while (cursor.i < ray.samples) {
         if (!next_occupied_sample(cursor, ray)) break;
         vec3 t = sample_point(ray, float(cursor.i));
-        vec4 classified = classify(march_value(t) * intensity_scale + intensity_offset);
+        vec4 classified = classify_sample(t, march_value(t) * intensity_scale + intensity_offset);
         result.taken++;
         if (classified.a > 0.0) {
             float alpha = corrected_opacity(classified.a);

@@ -12,6 +12,7 @@
 // only the sample counter of the depth output counts the extra samples. More samples per look-up
 // than these lost again (measured in docs/reports/performance.md); without skipping the plain loop
 // is the fastest.
+#include "raycasting/gradient_classification.glsl"  // classify_sample()
 #ifdef COMPOSITING_DVR
 uniform float early_termination;
 
@@ -19,7 +20,7 @@ uniform float early_termination;
 bool composited(Ray ray, int i, inout vec4 sum, inout Result result) {
     vec3 t = sample_point(ray, float(i));
     vec4 texel = shading_texel(t);  // raw value in .a (gradients.glsl)
-    vec4 color = classify(texel.a * intensity_scale + intensity_offset);
+    vec4 color = classify_sample(t, texel.a * intensity_scale + intensity_offset);  // gradient_classification.glsl
     result.taken++;
     if (color.a > 0.0) {
         float alpha = corrected_opacity(color.a);
@@ -42,7 +43,8 @@ bool composited(Ray ray, int i, inout vec4 sum, inout Result result) {
 #ifdef SHADING_BLINN_PHONG
 // Whether sample i is visible (counted as taken when not: the main loop takes it again).
 bool visible(Ray ray, int i, inout Result result) {
-    if (classify(intensity(sample_point(ray, float(i)))).a > 0.0) {
+    vec3 t = sample_point(ray, float(i));
+    if (classify_sample(t, intensity(t)).a > 0.0) {
         return true;
     }
     result.taken++;

@@ -1,6 +1,7 @@
 // COMPOSITING_FIRST_HIT: first-hit points (as Voreen's FHP): the texture coordinates of the first
-// sample whose TF opacity is > 0, as rgb with alpha 1 (the encoding of the entry/exit images), for
-// later passes. Depth: that sample. With SKIP_EMPTY_SPACE, blocks of zero opacity are skipped.
+// sample whose opacity is > 0 (TF, gradient opacity or 2D TF), as rgb with alpha 1 (the encoding of
+// the entry/exit images), for later passes. Depth: that sample. With SKIP_EMPTY_SPACE, blocks of zero opacity are skipped.
+#include "raycasting/gradient_classification.glsl"  // classify_sample()
 #ifdef COMPOSITING_FIRST_HIT
 Result march(Ray ray) {
     Result result = empty_result();
@@ -9,7 +10,7 @@ Result march(Ray ray) {
         if (!next_occupied_sample(cursor, ray)) break;
         vec3 t = sample_point(ray, float(cursor.i));
         result.taken++;
-        if (classify(intensity(t)).a > 0.0) {
+        if (classify_sample(t, intensity(t)).a > 0.0) {  // gradient_classification.glsl
             result.color = vec4(t, 1.0);
             result.depth_sample = float(cursor.i);
             return result;

@@ -342,6 +342,8 @@ def share_text(shown) -> str:
     share = shown.share()
     amount = f"{share:.0%}" if share >= 0.005 else "under 1%"
     return {"transfer_function": f"{amount} of the {shown.noun} are visible under the transfer function",
+            "transfer_function_2d": f"{amount} of the voxels have values the 2D transfer function "
+                                    f"shows at some gradient",
             "iso_level": f"{amount} of the voxels reach the iso level",
             "labels": f"{amount} of the voxels hold shown labels",
             "window": f"{amount} of the voxels are shown"}[shown.rule]

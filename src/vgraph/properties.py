@@ -21,6 +21,7 @@ from pydantic import (AfterValidator, BeforeValidator, Field, StrictBool, Strict
 from vgraph.camera import Camera
 from vgraph.errors import PropertyError
 from vgraph.file_names import check_file_name, shown
+from vgraph import gradient_opacity, transfer_function_2d
 from vgraph.labels import LabelTable
 from vgraph.markups import Markups
 from vgraph.ports import SNAKE_CASE
@@ -236,6 +237,25 @@ def _preset_or_file(value, info: ValidationInfo):
     return value
 
 
+class GradientOpacityProperty(Property):
+    """A GradientOpacity curve (vgraph.gradient_opacity) or None (off); a string names a preset."""
+
+    kind = "gradient_opacity"
+
+    def _value_type(self):
+        return Annotated[gradient_opacity.GradientOpacity | None, BeforeValidator(gradient_opacity.preset)]
+
+
+class TransferFunction2DProperty(Property):
+    """A TransferFunction2D (vgraph.transfer_function_2d) or None (off); a string names a preset."""
+
+    kind = "transfer_function_2d"
+
+    def _value_type(self):
+        return Annotated[transfer_function_2d.TransferFunction2D | None,
+                         BeforeValidator(transfer_function_2d.preset)]
+
+
 class CameraProperty(Property):
     kind = "camera"
 
@@ -276,5 +296,6 @@ def _add_alpha(value):
 PROPERTY_KINDS: dict[str, type[Property]] = {
     cls.kind: cls for cls in (FloatProperty, IntProperty, BoolProperty, OptionProperty,
                               StringProperty, FilePathProperty, VectorProperty, DictProperty, ColorProperty,
-                              TransferFunctionProperty, CameraProperty, LabelTableProperty, MarkupsProperty)
+                              TransferFunctionProperty, GradientOpacityProperty, TransferFunction2DProperty,
+                              CameraProperty, LabelTableProperty, MarkupsProperty)
 }

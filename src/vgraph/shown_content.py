@@ -205,6 +205,16 @@ def voxels_under(port: str, volume, transfer_function, control: str = "transfer_
                        lambda intensity: np.interp(intensity, entries, alpha) > 0.0)
 
 
+def voxels_under_2d(port: str, volume, transfer_function_2d, control: str = "transfer_function_2d") -> ShownVoxels:
+    """The voxels whose value a 2D TF (vgraph.transfer_function_2d) gives opacity at some gradient:
+    its largest opacity per value, read as the 1D LUT is (an upper bound; the gradient decides)."""
+    alpha = transfer_function_2d.lut()[..., 3].max(axis=0).astype(np.float64)
+    entries = np.linspace(0.0, 1.0, len(alpha))
+    key = hashlib.blake2b(alpha.tobytes(), digest_size=16).hexdigest()
+    return ShownVoxels(port, volume, control, "transfer_function_2d", key,
+                       lambda intensity: np.interp(intensity, entries, alpha) > 0.0)
+
+
 def voxels_reaching(port: str, volume, level: float, control: str = "iso_level") -> ShownVoxels:
     """The voxels at or above the normalised iso ``level``: the inside of the surface."""
     level = float(level)

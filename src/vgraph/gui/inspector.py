@@ -28,6 +28,8 @@ from PySide6.QtWidgets import QFormLayout, QLabel, QScrollArea, QVBoxLayout, QWi
 
 from vgraph.errors import VGraphError
 from vgraph.gui import transfer_function_editor  # noqa: F401  (registers the TF editor)
+from vgraph.gui import gradient_opacity_editor  # noqa: F401  (registers the gradient-opacity editor)
+from vgraph.gui import transfer_function_2d_editor  # noqa: F401  (registers the 2D TF editor)
 from vgraph.gui import clip_planes_editor  # noqa: F401  (registers the clip-planes editor)
 from vgraph.gui import label_table_editor  # noqa: F401  (registers the label-table editor)
 from vgraph.gui import markups_editor  # noqa: F401  (registers the markups editor)

@@ -33,6 +33,7 @@ from vgraph import derived
 from vgraph.camera import Camera
 from vgraph.errors import ProcessorError, VGraphWarning
 from vgraph.frame_context import FrameContext
+from vgraph.gl.raycasting.gradient_classification import editor_histogram
 from vgraph.live.slice_clicks import slice_planes
 from vgraph.image import Image
 from vgraph.imagefile import to_uint8
@@ -40,7 +41,8 @@ from vgraph.mesh import TetMesh
 from vgraph.network import Network
 from vgraph.picking import depth_targets
 from vgraph.processor import Processor
-from vgraph.properties import FilePathProperty, Invalidation, TransferFunctionProperty
+from vgraph.properties import (FilePathProperty, GradientOpacityProperty, Invalidation,
+                               TransferFunction2DProperty, TransferFunctionProperty)
 from vgraph.scheduler import blank_image_warning, evaluate
 from vgraph.time_series import time_point_note
 from vgraph.transfer_function import ValueScale
@@ -155,8 +157,22 @@ def display_size(processor: Processor, scale: float) -> tuple[int, int]:
 def histograms(network: Network) -> dict[str, np.ndarray]:
     """For each processor with a transfer function, the histogram (256 bins over the value range)
     of the data each TF classifies, under 'id.<TF property>' (classified_inputs), for that TF's
-    editor; and under 'id' that of the processor's first connected volume (for scripts)."""
-    return _measured(network, lambda data: data.histogram()[0])
+    editor; and under 'id' that of the processor's first connected volume (for scripts). Under
+    'id.<2D TF property>' and 'id.<gradient-opacity property>', where that property is set, the
+    (gradient, value) histogram of the processor's volume and its counts per gradient bin
+    (vgraph.gl.raycasting.gradient_classification.editor_histogram)."""
+    found = _measured(network, lambda data: data.histogram()[0])
+    by_gradient = {TransferFunction2DProperty: lambda counts: counts,
+                   GradientOpacityProperty: lambda counts: counts.sum(axis=1)}
+    for processor in network.processors.values():
+        volume = processor.inputs.get("volume")
+        for name, prop in processor.properties.items():
+            if (type(prop) in by_gradient and isinstance(volume, Volume)
+                    and processor.property_values[name] is not None):
+                counts = editor_histogram(volume)
+                if counts is not None:
+                    found[f"{processor.id}.{name}"] = by_gradient[type(prop)](counts)
+    return found
 
 
 def value_scales(network: Network) -> dict[str, ValueScale]:

@@ -27,7 +27,8 @@ Optical model (Inácio 2009 ch. 2.4 and 4.1-4.3), in this order:
    with voxel centres at integer u. Values are normalised intensities ``volume.normalized``;
    non-finite voxels count as the value range's end (NaN and -inf -> low, +inf -> high), as the
    volume's texture upload does.
-5. Classification: the TF's 4096-entry LUT (``TransferFunction.lut()``) with LINEAR interpolation
+5. Classification (``classification``: by value and gradient magnitude as
+   vgraph.numerics.reference_classification states): the TF's 4096-entry LUT (``TransferFunction.lut()``) with LINEAR interpolation
    between entries, intensity clamped to [0, 1]: ``x = v * 4095``, entries floor(x) and floor(x)+1
    (= a GL 1D texture, linear filter, clamp-to-edge, coordinate ``0.5/4096 + v * 4095/4096``).
 6. Optional shading (``shading=Shading(...)``, Inácio 2009 ch. 4.3, Blinn-Phong with a headlight):
@@ -113,8 +114,11 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
            *, mode: str = "dvr", sampling_rate: float = 1.0, early_termination: float = 0.99,
            background=(0.0, 0.0, 0.0, 1.0), shading: Shading | None = None,
            return_samples: bool = False, chunk_rays: int = 65536, clip_planes=(), crop_box=None,
-           shadow=None, shadow_strength: float = 1.0):
+           shadow=None, shadow_strength: float = 1.0, classification=None):
     """Render ``volume`` as the GL ray caster does (model in the module docstring).
+
+    ``classification`` (dvr only): a reference_classification.GradientClassification, gradient
+    opacity and 2D transfer functions by its model.
 
     ``clip_planes`` and ``crop_box`` cut each ray's interval before sampling (vgraph.clipping).
     ``size`` is (width, height). Returns the float32 (H, W, 4) image, row 0 at the top, and with
@@ -132,13 +136,14 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
     counts = sample_counts(t_entry, t_exit, step)
     sampler = VolumeSampler(volume)
     lut = transfer_function.for_volume(volume).lut().astype(np.float64)
+    classify = _classifier(sampler, lut, classification, mode)
 
     rgba = np.empty((len(origins), 4))
     taken = np.zeros(len(origins), dtype=np.int32)
     for start in range(0, len(origins), chunk_rays):
         rays = slice(start, start + chunk_rays)
-        march = _march_dvr if mode == "dvr" else _march_mip
-        rgba[rays], taken[rays] = march(sampler, lut, origins[rays], directions[rays],
+        march, table = (_march_dvr, classify) if mode == "dvr" else (_march_mip, lut)
+        rgba[rays], taken[rays] = march(sampler, table, origins[rays], directions[rays],
                                         t_entry[rays], counts[rays], step, sampling_rate,
                                         early_termination, shading, (shadow, shadow_strength))
     # Over the background; a missed ray (A = 0, no samples) becomes the background exactly.
@@ -278,7 +283,17 @@ def lookup(lut: np.ndarray, intensity: np.ndarray) -> np.ndarray:
 
 
 # --- marching -----------------------------------------------------------------------------------
-def _march_dvr(sampler, lut, origins, directions, t_entry, counts, step, sampling_rate,
+def _classifier(sampler, lut, classification, mode):
+    """classify(points, values) -> RGBA: the LUT (rule 5), or ``classification``'s model."""
+    if classification is None or classification.is_off:
+        return lambda points, values: lookup(lut, values)
+    if mode != "dvr":
+        raise VGraphError(f"reference ray caster: gradient opacity and 2D transfer functions "
+                          f"classify dvr samples, not {mode}")
+    return classification.classifier(sampler, lut)
+
+
+def _march_dvr(sampler, classify, origins, directions, t_entry, counts, step, sampling_rate,
                early_termination, shading, shadow=(None, 1.0)):
     """Front-to-back compositing of a chunk of rays in lockstep, in log space (rule 7); returns
     premultiplied RGBA and the samples taken per ray."""
@@ -290,7 +305,7 @@ def _march_dvr(sampler, lut, origins, directions, t_entry, counts, step, samplin
     i = 0
     while active.size:
         points = origins[active] + (t_entry[active] + i * step)[:, None] * directions[active]
-        sample = lookup(lut, sampler(points))
+        sample = classify(points, sampler(points))
         opacity = corrected_opacity(sample[:, 3], exponent)
         rgb = sample[:, :3]
         if shading is not None:
