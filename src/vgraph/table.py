@@ -104,16 +104,23 @@ class Table:
     def lines(self, max_rows: int = 12) -> list[str]:
         """The headings and up to ``max_rows`` rows as aligned text (module docstring)."""
         cells = [[c.heading for c in self.columns]]
-        cells += [[_cell(value) for value in row] for row in self.rows()[:max_rows]]
+        cells += [[cell_text(value) for value in row] for row in self.rows()[:max_rows]]
         widths = [max(len(row[i]) for row in cells) for i in range(len(self.columns))]
         lines = ["  ".join(cell.rjust(width) for cell, width in zip(row, widths)).rstrip() for row in cells]
         if self.row_count > max_rows:
             lines.append(f"... {self.row_count - max_rows} more rows")
         return lines
 
-    def csv_text(self) -> str:
+    def take(self, rows, names=None) -> "Table":
+        """The rows at indices ``rows`` (in that order) of the columns ``names`` (all by default)."""
+        rows = np.asarray(rows, dtype=np.intp)
+        chosen = self.columns if names is None else [self.column(name) for name in names]
+        return Table(tuple(Column(c.name, c.values[rows], c.unit) for c in chosen), self.source)
+
+    def csv_text(self, delimiter: str = ",") -> str:
+        """The CSV file's text; with ``delimiter="\\t"`` what a spreadsheet takes from the clipboard."""
         buffer = io.StringIO()
-        writer = csv.writer(buffer, lineterminator="\n")
+        writer = csv.writer(buffer, delimiter=delimiter, lineterminator="\n")
         writer.writerow([c.heading for c in self.columns])
         writer.writerows(self.rows())
         return buffer.getvalue()
@@ -126,5 +133,6 @@ class Table:
         return f"<Table{self._from}: {self.row_count} rows x {', '.join(c.heading for c in self.columns)}>"
 
 
-def _cell(value) -> str:
+def cell_text(value) -> str:
+    """A value for people: numbers to 6 significant digits."""
     return f"{value:.6g}" if isinstance(value, float) else str(value)

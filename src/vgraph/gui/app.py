@@ -50,6 +50,7 @@ from vgraph.gui.perspectives import Perspectives
 from vgraph.gui.progress_view import EvaluationProgress
 from vgraph.gui.render_status import RenderStatus
 from vgraph.gui.scene import NetworkScene, NetworkView
+from vgraph.gui.table_dock import table_dock
 from vgraph.gui.timeline_dock import timeline_dock
 from vgraph.gui.welcome import WelcomeSwitch
 from vgraph.gui.workspace import Workspace
@@ -76,6 +77,7 @@ class MainWindow(FileActions, WindowMenus, RenderStatus, QMainWindow):
         self.canvases = CanvasDocks(self, self.workspace, self.evaluation)
         self.markups_dock = markups_dock(self)  # every markup in a table, tabbed with the Log, hidden
         self.timeline_dock = timeline_dock(self)  # keyframes, scrub and play; tabbed with the Log, hidden
+        self.table_dock = table_dock(self)  # the selected processor's whole table; tabbed with the Log, hidden
         self.running = EvaluationProgress(self)  # which processor runs, how far (progress_view.py)
         self.failures: dict[str, str] = {}
         self.remember_layout = True  # a screenshot run leaves the user's layout alone

@@ -60,6 +60,7 @@ from vgraph.live.changes import append_change, change_of
 from vgraph.live.evaluator import EvaluationOutcome, ProcessorStatus, processor_status
 from vgraph.live.render_messages import GUI_LOAD_LIMIT, RenderJob, RenderResult, plugin_modules
 from vgraph.live.render_process import RenderProcess
+from vgraph.live.tables import merged_tables
 from vgraph.gui.render_watchdog import (STALL_FACTOR, STALL_FIRST_SECONDS, STALL_MIN_SECONDS, WATCHDOG_MS,
                                        RenderWatchdog)
 from vgraph.gui.workspace import Workspace
@@ -78,6 +79,7 @@ class LiveEvaluation(RenderWatchdog, QObject):
     frames = Signal(dict, bool)  # display id -> uint8 RGBA frame, final
     histograms = Signal(dict)   # processor id -> histogram counts of its volume
     value_scales = Signal(dict)  # processor id -> ValueScale of its volume
+    tables_changed = Signal()   # ``tables`` changed (a measuring processor ran again, or went)
     crashed = Signal(str)       # a job failed as a whole, with the reason
     busy_changed = Signal(bool)
     warning = Signal(str)       # a job takes far too long; a job was cancelled
@@ -102,6 +104,7 @@ class LiveEvaluation(RenderWatchdog, QObject):
         self.last_result: RenderResult | None = None
         self.statuses: dict[str, ProcessorStatus] = {}
         self.view_cameras: dict = {}  # 'id.camera' -> the concrete camera of the last frame
+        self.tables: dict = {}      # 'id.port' -> the Table it output (vgraph.live.tables)
         self.version = 0            # counts changes; a result is current when it carries the latest
         self.scale = 1.0
         self.load_limit = GUI_LOAD_LIMIT  # reading per frame in the render process (None: complete frames)
@@ -311,6 +314,7 @@ class LiveEvaluation(RenderWatchdog, QObject):
                 self._refine(result)
             self.view_cameras = dict(result.view_cameras)
             self._emit_extras(result)
+            self._take_tables(result)
             self.finished.emit(result.outcome)
         coarse_last = self._last_job is not None and self._last_job.scale < 1.0
         if self._wanted or (coarse_last and self.scale == 1.0):  # a drag ended: the full frame
@@ -328,6 +332,12 @@ class LiveEvaluation(RenderWatchdog, QObject):
         self._shown_extras = extras
         self.histograms.emit(result.histograms)
         self.value_scales.emit(result.value_scales)
+
+    def _take_tables(self, result: RenderResult) -> None:
+        tables = merged_tables(self.tables, result.tables, result.table_addresses)
+        if result.tables or tables.keys() != self.tables.keys():
+            self.tables = tables
+            self.tables_changed.emit()
 
     def _refine(self, result: RenderResult) -> None:
         """Render the same state again: the bricks read meanwhile make the frame finer."""

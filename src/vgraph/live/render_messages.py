@@ -87,6 +87,8 @@ class RenderResult:
     statuses: dict[str, ProcessorStatus] = field(default_factory=dict)
     histograms: dict[str, np.ndarray] = field(default_factory=dict)
     value_scales: dict = field(default_factory=dict)
+    tables: dict = field(default_factory=dict)  # 'id.port' -> Table, new since the last result (live.tables)
+    table_addresses: tuple[str, ...] = ()       # every table's address now
     view_cameras: dict = field(default_factory=dict)
     view_boxes: dict = field(default_factory=dict)  # 'id.camera' -> the box it framed (canvas overlays)
     seconds: float = 0.0

@@ -28,6 +28,7 @@ from vgraph.live.mirror import mirror
 from vgraph.live.probes import Probe, ProbeAnswer, answer as probe_answer
 from vgraph.live.progress_messages import ProgressForwarder
 from vgraph.live.render_messages import RenderJob, RenderProgress, RenderResult
+from vgraph.live.tables import TableSender
 from vgraph.live.view_boxes import view_boxes
 from vgraph.network import Network
 from vgraph.registry import registry
@@ -58,6 +59,7 @@ class RenderServer:
         self.progress = None              # progress(RenderProgress) while a frame is drawn on a cluster
         self.running = None               # running(ProcessorProgress) while a job is evaluated
         self.context = None               # the FrameContext of the last frame (probes pick with it)
+        self.tables = TableSender()       # the tables the window holds (sent once each)
 
     def close(self) -> None:
         self.cluster.close()
@@ -88,6 +90,7 @@ class RenderServer:
             incomplete = [frame for frame in self._frames(result.outcome.ran) if frame.get("complete") is False]
             result.refining = bool(incomplete)
             result.bricks_read = sum(frame.get("bricks_read", 0) for frame in incomplete)
+            result.tables, result.table_addresses = self.tables.changes(self.network)  # last: nothing fails after it
         except Exception:  # a bug below the evaluator: report it, keep serving
             result.error = "internal error in the render process (please report it):\n" + traceback.format_exc()
         result.seconds = time.perf_counter() - start
@@ -108,6 +111,7 @@ class RenderServer:
         try:
             self._import_plugins(job.plugins)
             if job.document is not None:
+                self.tables.forget()   # the window starts over: it gets every table again
                 if job.fresh:
                     self._drop_network()
                 self.network = mirror(self.network, job.document, job.base_dir)
