@@ -7,7 +7,10 @@ Conventions (vgraph.measure_regions holds the rules; docs/guide/measuring.md sho
   value present, ascending; ``mask``: one row (label 1) for all non-zero voxels.
 - ``volume`` (optional): the intensities, on the same grid as the labels (same voxel counts and
   affine, else a named error). Without it the table has no value columns.
-- Columns: label, count, volume (world units cubed), then with intensities mean, std (population),
+- ``label_table`` (link it to a LabelRayCaster's): with ``regions = labels``, a ``name`` column
+  beside ``label`` holds each region's name from it ("" for an unnamed one), when it names one of
+  the regions present (the default table names only the background, 0: no column).
+- Columns: label, (name,) count, volume (world units cubed), then with intensities mean, std (population),
   min, max and one ``p<percent>`` per entry of ``percentiles`` (p2_5 for 2.5), then surface_area
   (world units squared, marching cubes) when ``surface_area`` is on.
 - ``vgraph run --port stats.table --data stats.csv`` writes the table as CSV.
@@ -17,7 +20,9 @@ Conventions (vgraph.measure_regions holds the rules; docs/guide/measuring.md sho
 
 from __future__ import annotations
 
-from vgraph import BoolProperty, Inport, OptionProperty, Outport, Processor, PropertyError, StringProperty
+from vgraph import (BoolProperty, Inport, LabelTableProperty, OptionProperty, Outport, Processor, PropertyError,
+                    StringProperty)
+from vgraph.labels import LabelTable
 from vgraph.measure_regions import REGION_RULES, check_same_grid, percentile_name, region_codes, region_table
 from vgraph.table import Table
 from vgraph.volume import Volume
@@ -37,6 +42,8 @@ class RegionStatistics(Processor):
     percentiles = StringProperty("5, 25, 50, 75, 95",
                                  doc="percentiles of the values per region, in [0, 100], comma-separated (may be empty)")
     surface_area = BoolProperty(True, doc="the area of each region's boundary (marching cubes)")
+    label_table = LabelTableProperty(LabelTable.default(),
+                                     doc="the labels' names, for a name column (link it to a LabelRayCaster's)")
 
     def check(self) -> None:
         self.percent_values()
@@ -75,5 +82,7 @@ class RegionStatistics(Processor):
         codes = region_codes(labels, self.regions, who)
         if volume is not None:
             check_same_grid(labels, volume, who)
-        self.table = region_table(codes, labels, volume, percents, self.surface_area, who)
+        names = {entry.value: entry.name for entry in self.label_table.labels if entry.name}
+        self.table = region_table(codes, labels, volume, percents, self.surface_area, who,
+                                  names if self.regions == "labels" else None)
         return self.table

@@ -171,6 +171,35 @@ def test_the_shared_engine_labels_equal_regionprops_and_marching_cubes():
         assert np.isclose(table["surface_area"][row], mesh_surface_area(vertices, faces), rtol=1e-6)  # theirs summed in float32
 
 
+def test_names_from_the_label_table_linked_from_the_label_ray_caster(tmp_path):
+    """networks/labels_engine.json names the engine's labels in its LabelRayCaster's table
+    (casing 1, dense parts 2): linked to RegionStatistics' label_table they become a name column
+    beside label, in the table and its CSV; the default table names no region: no column."""
+    import vgraph
+    from helpers.paths import REPO
+    from vgraph.labels import LabelEntry, LabelTable
+    network = vgraph.load(REPO / "networks" / "labels_engine.json")
+    network.add("RegionStatistics", id="stats", surface_area=False)
+    network.connect("source.volume", "stats.labels")
+    assert "name" not in network.evaluate("stats.table").dtype.names
+    network.link("labels.label_table", "stats.label_table")
+    network.update("stats.table")
+    table = network.output("stats.table")
+    labels = network.output("source.volume").data
+    assert table.names == ["label", "name", "count", "volume"]
+    assert table["name"].tolist() == ["casing", "dense parts"]
+    assert table["count"].tolist() == [int((labels == 1).sum()), int((labels == 2).sum())]
+    renamed = network.get("labels.label_table").labels
+    network.set("labels.label_table", LabelTable(labels=tuple(e for e in renamed if e.value != 2)
+                                                 + (LabelEntry(value=2, name="inserts, dense"),)))
+    network.update("stats.table")
+    network.output("stats.table").to_csv(tmp_path / "stats.csv")
+    rows = list(csv.reader(open(tmp_path / "stats.csv")))
+    assert rows[0][:2] == ["label", "name"] and [row[1] for row in rows[1:]] == ["casing", "inserts, dense"]
+    network.set("stats.regions", "mask")              # one region of all labels: no name
+    assert "name" not in network.evaluate("stats.table").dtype.names
+
+
 def test_the_gui_shows_the_rows_and_the_profile_in_the_nodes_status(data_dir):
     """What a node shows after the GUI's render side drew the view (vgraph.live.evaluator: the
     canvas with the profile's plot, and the statistics as a leaf of the graph; the node's data from

@@ -62,15 +62,16 @@ def check_same_grid(labels: Volume, values: Volume, who: str) -> None:
 
 
 def region_table(codes: np.ndarray, labels: Volume, values: Volume | None, percentiles, surface_area: bool,
-                 who: str) -> Table:
-    """The statistics table (module docstring), one row per label value present, ascending."""
+                 who: str, names: dict[int, str] | None = None) -> Table:
+    """The statistics table (module docstring), one row per label value present, ascending;
+    a ``name`` column beside ``label`` when ``names`` (label value -> name) names a region."""
     flat = codes.ravel()
     foreground = np.flatnonzero(flat)
     order = foreground[np.argsort(flat[foreground], kind="stable")]  # voxel indices grouped by label
     present, starts = np.unique(flat[order], return_index=True)
     groups = np.split(order, starts[1:])
     count = np.array([len(g) for g in groups], dtype=np.int64)
-    columns = [Column("label", present), Column("count", count),
+    columns = [Column("label", present), *_name_column(present, names or {}), Column("count", count),
                Column("volume", count * float(np.prod(labels.spacing)), "world^3")]
     if values is not None:
         columns += _value_columns(values, groups, percentiles, who)
@@ -78,6 +79,13 @@ def region_table(codes: np.ndarray, labels: Volume, values: Volume | None, perce
         areas = [_surface_area(codes, label, group, labels.spacing) for label, group in zip(present, groups)]
         columns.append(Column("surface_area", np.array(areas), "world^2"))
     return Table(tuple(columns), source=who)
+
+
+def _name_column(present: np.ndarray, names: dict[int, str]) -> list[Column]:
+    """[the names of the regions present ("" for one without)], or [] when none has a name."""
+    if not any(int(value) in names for value in present):
+        return []
+    return [Column("name", np.array([names.get(int(value), "") for value in present], dtype=str))]
 
 
 def percentile_name(percent: float) -> str:
