@@ -6,6 +6,10 @@ Conventions (the model, with its rules and errors, is vgraph.numerics.light_volu
 - ``transfer_function`` classifies the voxels as the ray caster does (link it to the RayCaster's
   transfer_function), ``light_direction`` is the world direction towards the light (link it to the
   RayCaster's, with its ``light = direction``, so the shading and the shadows come from one light).
+- ``gradient_opacity`` and ``transfer_function_2d`` (off by default: the TF alone, as before)
+  classify the voxels by their gradient fraction as the RayCaster's properties of those names do
+  (rule 5 of the model); link them to the RayCaster's too, or the shadows come from another
+  classification than the image.
 - The output is a volume on the input's grid holding T in [0, 1] as 16-bit codes (declared range
   0..65535): connect it to the RayCaster's ``light_volume`` inport, or look at it in a SliceViewer.
 - Computed in numpy by a slab sweep along the axis the light crosses the most voxels on; a change
@@ -19,6 +23,8 @@ from __future__ import annotations
 from vgraph import Inport, Outport, Processor, PropertyError, VectorProperty, VGraphError
 from vgraph.gl.raycasting.components import palette_transfer_function
 from vgraph.numerics.light_volume import light_volume
+from vgraph.numerics.reference_classification import GradientClassification
+from vgraph.properties import GradientOpacityProperty, TransferFunction2DProperty
 from vgraph.volume import Volume
 
 
@@ -32,6 +38,12 @@ class LightVolume(Processor):
     transfer_function = palette_transfer_function()
     light_direction = VectorProperty((1.0, 1.0, 1.0), doc="world-space direction towards the light "
                                                           "(link it to the RayCaster's)")
+    gradient_opacity = GradientOpacityProperty(
+        None, doc="opacity factor over the gradient fraction multiplying the TF's alpha, as the "
+                  "RayCaster's (link it to the RayCaster's); null: off")
+    transfer_function_2d = TransferFunction2DProperty(
+        None, doc="alpha over (value, gradient fraction) replacing transfer_function's, as the "
+                  "RayCaster's (link it to the RayCaster's); null: off")
 
     def process(self, volume: Volume) -> Volume:
         who = f"LightVolume '{self.id}'"
@@ -42,4 +54,5 @@ class LightVolume(Processor):
                               f"memory: downsample it first (VolumeResample)")
         if not any(self.light_direction):
             raise PropertyError(f"{self.id}.light_direction", f"must not be zero, got {list(self.light_direction)}")
-        return light_volume(volume, self.transfer_function, self.light_direction)
+        classification = GradientClassification(self.gradient_opacity, self.transfer_function_2d)
+        return light_volume(volume, self.transfer_function, self.light_direction, classification)

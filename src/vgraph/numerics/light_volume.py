@@ -34,8 +34,17 @@ Model (the LightVolume processor and the ray casters' shadows rely on it; tests 
    vgraph.numerics.reference_shadows (docs/reports/performance.md, "Volumetric shadows").
 4. Storage: 16-bit codes ``round(T * 65535)`` with declared range (0, 65535), on the input's grid,
    so the normalised intensity of the light volume is T within 7.6e-6 and its texture is R16.
+5. Gradient classification (the LightVolume's ``gradient_opacity`` and ``transfer_function_2d``,
+   linked to the RayCaster's): the alpha of rule 1 becomes that of the ray casters' model
+   (vgraph.numerics.reference_classification, rules 2-4: the 2D TF's alpha bilinear at (v, f),
+   times the gradient-opacity curve at f), with f each voxel's gradient fraction
+   (vgraph.numerics.voxel_gradients.gradient_fractions: the quantised voxel gradient's magnitude
+   over the volume's largest, as the GL gradient volume gives it). In the sweep f is interpolated
+   with the intensities and classified with them: at the voxels it is the ray casters' f; between
+   them it interpolates the magnitudes where the ray casters take the magnitude of the
+   interpolated gradient (at most as large). Both off: rule 1, bit for bit.
 
-Memory: up to four float32 copies of the volume (the intensities, their slices in sweep order, the
+Memory: up to four float32 copies of the volume (six with rule 5: the gradient fractions and their slices) (the intensities, their slices in sweep order, the
 optical depth and its copy in [z, y, x] order) besides the codes, and a few sheared slices.
 """
 
@@ -48,6 +57,9 @@ import numpy as np
 from scipy import ndimage
 
 from vgraph.errors import VGraphError
+from vgraph.numerics.reference_classification import bilinear
+from vgraph.numerics.reference_raycast import lookup
+from vgraph.numerics.voxel_gradients import gradient_fractions
 from vgraph.progress import steps
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
@@ -61,15 +73,33 @@ CHUNK_SLICES = 64  # slices a sheared grid spans (rule 3): 4 resamplings of the 
 
 class Extinction:
     """sigma per world unit of normalised intensities under ``transfer_function`` (rule 1): the
-    LUT's alpha, linear between entries, as the CPU reference ray caster classifies."""
+    LUT's alpha, linear between entries, as the CPU reference ray caster classifies; with a
+    ``classification`` (a reference_classification.GradientClassification that is not off) the
+    alpha of rule 5 from the intensities and the gradient fractions."""
 
-    def __init__(self, volume: Volume, transfer_function: TransferFunction):
+    def __init__(self, volume: Volume, transfer_function: TransferFunction, classification=None):
         self.alpha = transfer_function.for_volume(volume).lut().astype(np.float64)[:, 3]
         self.entries = np.arange(len(self.alpha), dtype=np.float64)
         self.h = float(min(volume.spacing))
+        on = classification is not None and not classification.is_off
+        table_2d = classification.transfer_function_2d if on else None
+        curve = classification.gradient_opacity if on else None
+        # Alpha only: rgb does not absorb (unpremultiplying the table leaves its alpha as it is).
+        self.table = None if table_2d is None else table_2d.lut().astype(np.float64)[..., 3:4]
+        self.factors = None if curve is None else curve.lut().astype(np.float64)[:, None]
 
-    def __call__(self, values: np.ndarray) -> np.ndarray:
-        alpha = np.interp(np.clip(values, 0.0, 1.0) * (len(self.alpha) - 1), self.entries, self.alpha)
+    @property
+    def uses_gradients(self) -> bool:
+        """Whether the classification reads gradient fractions (rule 5)."""
+        return self.table is not None or self.factors is not None
+
+    def __call__(self, values: np.ndarray, fractions: np.ndarray | None = None) -> np.ndarray:
+        if self.table is None:
+            alpha = np.interp(np.clip(values, 0.0, 1.0) * (len(self.alpha) - 1), self.entries, self.alpha)
+        else:
+            alpha = bilinear(self.table, values.ravel(), fractions.ravel())[:, 0].reshape(values.shape)
+        if self.factors is not None:
+            alpha = alpha * lookup(self.factors, fractions.ravel())[:, 0].reshape(values.shape)
         return (-np.log1p(-np.minimum(alpha, MAX_ALPHA)) / self.h).astype(np.float32)
 
 
@@ -87,9 +117,10 @@ def normalized_values(volume: Volume) -> np.ndarray:
     return out
 
 
-def extinction(volume: Volume, transfer_function: TransferFunction) -> np.ndarray:
-    """float32 [z, y, x] sigma per world unit at every voxel (rule 1)."""
-    return Extinction(volume, transfer_function)(normalized_values(volume))
+def extinction(volume: Volume, transfer_function: TransferFunction, classification=None) -> np.ndarray:
+    """float32 [z, y, x] sigma per world unit at every voxel (rules 1 and 5)."""
+    of = Extinction(volume, transfer_function, classification)
+    return of(normalized_values(volume), gradient_fractions(volume) if of.uses_gradients else None)
 
 
 def index_light(volume: Volume, light_direction) -> np.ndarray:
@@ -138,27 +169,33 @@ class Sweep:
 
 
 def transmittance(values: np.ndarray, extinction_of, spacing, light: np.ndarray,
-                  chunk: int = CHUNK_SLICES) -> np.ndarray:
+                  chunk: int = CHUNK_SLICES, fractions: np.ndarray | None = None) -> np.ndarray:
     """float32 [z, y, x] transmittance T by the sweep of rule 3: ``values`` [z, y, x] normalised
     intensities, ``extinction_of`` their sigma (an Extinction), ``spacing`` and ``light`` (unit,
-    towards the light, index axes) as (x, y, z); ``chunk`` slices share one sheared grid."""
+    towards the light, index axes) as (x, y, z); ``chunk`` slices share one sheared grid;
+    ``fractions`` [z, y, x] the voxels' gradient fractions where ``extinction_of`` reads them
+    (rule 5), interpolated as the intensities."""
     sweep = Sweep.of(spacing, light)
     # Contiguous slices: strided ones (a sweep along x) made the sweep 8x slower.
-    stack = np.ascontiguousarray(sweep.stack(values), dtype=np.float32)
+    stacks = [np.ascontiguousarray(sweep.stack(a), dtype=np.float32) for a in (values, fractions) if a is not None]
+    stack = stacks[0]
     out = np.empty(stack.shape, dtype=np.float32)  # the optical depth first, T at the end
     out[0] = 0.0
     show = stack.size > PROGRESS_VOXELS  # on stderr; the GUI hears every chunk (vgraph.progress)
     for first in steps(range(0, len(stack) - 1, chunk), "light volume", show=show, unit="chunk", file=sys.stderr):
         last = min(first + chunk, len(stack) - 1)
-        out[first + 1:last + 1] = chunk_depths(stack[first:last + 1], out[first], extinction_of, sweep)
+        out[first + 1:last + 1] = chunk_depths([s[first:last + 1] for s in stacks], out[first], extinction_of, sweep)
     np.exp(np.negative(out, out=out), out=out)
     return sweep.unstack(out)
 
 
-def chunk_depths(slices: np.ndarray, depth: np.ndarray, extinction_of, sweep: "Sweep") -> np.ndarray:
+def chunk_depths(slices, depth: np.ndarray, extinction_of, sweep: "Sweep") -> np.ndarray:
     """The optical depths of ``slices[1:]`` (normalised intensities, sweep order) from those of
-    ``slices[0]`` (``depth``): along the light's rays on a grid sheared with them (rule 3)."""
-    count, rows, columns = len(slices) - 1, slices.shape[1], slices.shape[2]
+    ``slices[0]`` (``depth``): along the light's rays on a grid sheared with them (rule 3).
+    ``slices`` may be a list of such stacks (the intensities, their gradient fractions), each
+    interpolated alike and passed to ``extinction_of`` in that order."""
+    channels = slices if isinstance(slices, list) else [slices]
+    count, rows, columns = len(channels[0]) - 1, channels[0].shape[1], channels[0].shape[2]
     offset = np.asarray(sweep.offset)
     # A ray through voxel p of slice j crossed the chunk's first slice at p + j * offset: the
     # sheared grid holds those points, so it reaches count * |offset| beyond the slice on that side.
@@ -170,11 +207,11 @@ def chunk_depths(slices: np.ndarray, depth: np.ndarray, extinction_of, sweep: "S
     def sheared(j: int) -> np.ndarray:
         """sigma of slice j where the rays cross it: intensities interpolated, then classified; 0
         outside the box."""
-        values = ndimage.shift(np.pad(slices[j], pad, mode="edge"), j * offset, order=1, mode="nearest",
-                               prefilter=False)
+        values = [ndimage.shift(np.pad(c[j], pad, mode="edge"), j * offset, order=1, mode="nearest",
+                                prefilter=False) for c in channels]
         source = [axis - j * o for axis, o in zip(grid, offset)]  # where each point lies in slice j
         inside = [(s >= -1e-6) & (s <= n - 1 + 1e-6) for s, n in zip(source, (rows, columns))]
-        return np.where(inside[0][:, None] & inside[1][None, :], extinction_of(values), np.float32(0.0))
+        return np.where(inside[0][:, None] & inside[1][None, :], extinction_of(*values), np.float32(0.0))
 
     along = np.pad(depth, pad)  # optical depth of each ray so far; 0 for rays still outside the box
     before = sheared(0)
@@ -189,11 +226,16 @@ def chunk_depths(slices: np.ndarray, depth: np.ndarray, extinction_of, sweep: "S
     return out
 
 
-def light_volume(volume: Volume, transfer_function: TransferFunction, light_direction) -> Volume:
+def light_volume(volume: Volume, transfer_function: TransferFunction, light_direction,
+                 classification=None) -> Volume:
     """The light volume of ``volume`` under ``transfer_function`` lit from ``light_direction``
-    (world, towards the light): 16-bit transmittance codes on the volume's grid (rule 4)."""
+    (world, towards the light): 16-bit transmittance codes on the volume's grid (rule 4).
+    ``classification``: a reference_classification.GradientClassification (gradient opacity, a 2D
+    TF) classifying the voxels as the ray casters do (rule 5); None or off: the TF's alpha alone."""
     light = index_light(volume, light_direction)
-    t = transmittance(normalized_values(volume), Extinction(volume, transfer_function), volume.spacing, light)
+    extinction_of = Extinction(volume, transfer_function, classification)
+    fractions = gradient_fractions(volume) if extinction_of.uses_gradients else None
+    t = transmittance(normalized_values(volume), extinction_of, volume.spacing, light, fractions=fractions)
     codes = np.rint(np.clip(t, 0.0, 1.0) * CODES).astype(np.uint16)
     source = f"light volume of {volume.source}" if volume.source else "light volume"
     return Volume(codes, spacing=volume.spacing, origin=volume.origin, direction=volume.direction,

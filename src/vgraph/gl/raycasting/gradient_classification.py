@@ -21,9 +21,10 @@ import numpy as np
 
 from vgraph import derived
 from vgraph.errors import VGraphError
-from vgraph.gl.raycasting.gradient_volume import SLAB_VOXELS, gradient_texture, slab_gradients
+from vgraph.gl.raycasting.gradient_volume import SLAB_VOXELS, gradient_texture
 from vgraph.gl.raycasting.raycaster_base import Binding, Component, Frame
 from vgraph.gl.raycasting.textures import LookupTexture, linear_sampler
+from vgraph.numerics.voxel_gradients import slab_gradients
 from vgraph.gradient_opacity import LUT_SIZE as CURVE_SIZE
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.properties import GradientOpacityProperty, TransferFunction2DProperty

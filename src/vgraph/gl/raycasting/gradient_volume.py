@@ -30,7 +30,9 @@ import numpy as np
 
 from vgraph import derived
 from vgraph.errors import VGraphError
-from vgraph.numerics.reference_raycast import GRADIENT_STEPS, central_differences, gradient_scale
+from vgraph.numerics.reference_raycast import GRADIENT_STEPS, gradient_scale
+# The voxel gradients live beside the CPU models, so the light volume classifies with the same ones.
+from vgraph.numerics.voxel_gradients import padded_slab as _padded_slab
 from vgraph.progress import steps
 from vgraph.volume import Volume, r16_texels
 
@@ -56,26 +58,6 @@ def gradient_texture(ctx: moderngl.Context, volume: Volume) -> tuple[moderngl.Te
 def is_cached(volume: Volume) -> bool:
     """Whether a gradient texture was built for ``volume`` (on any context)."""
     return derived.holds(volume, TEXTURE)
-
-
-def slab_gradients(volume: Volume, z0: int, z1: int) -> np.ndarray:
-    """float64 (z1 - z0, ny, nx, 3) voxel gradients of slices [z0, z1), identical to those of the
-    whole volume (the slab reads one slice more on each side where there is one)."""
-    return central_differences(_padded_slab(volume, z0, z1), volume.spacing)
-
-
-def _padded_slab(volume: Volume, z0: int, z1: int) -> np.ndarray:
-    """Normalised float64 slices [z0 - 1, z1 + 1) and one voxel more around x and y: neighbours
-    where the volume has them, edge values beyond its faces."""
-    nz = volume.data.shape[0]
-    below, above = max(z0 - 1, 0), min(z1 + 1, nz)
-    values = volume.data[below:above]
-    if volume.nonfinite_count:  # as the volume texture stores them (vgraph.volume)
-        lo, hi = volume.value_range
-        values = np.nan_to_num(values.astype(np.float64), nan=lo, posinf=hi, neginf=lo)
-    values = volume.normalized(values)
-    pad_z = (1 if below == z0 else 0, 1 if above == z1 else 0)  # edge values only at the faces
-    return np.pad(values, (pad_z, (1, 1), (1, 1)), mode="edge")
 
 
 def _slabs(volume: Volume, what: str):
