@@ -17,6 +17,8 @@ sampling):
   mode='mirror'). A label volume takes nearest only; a volume of B-spline coefficients
   (CubicSplineProcessor) cubic only. Before the prefilter NaN/Inf voxels are replaced by the
   value range's ends, with a warning naming the processor and the count.
+- A store (BrickedVolume) is read only around the line for nearest and linear (vgraph.measure_line);
+  cubic reads its full-resolution array, within the store's memory budget.
 - Points outside the box of voxel centres get NaN, and a VGraphWarning names the processor, how
   many points and where along the line: a profile still shows the part inside.
 - Outports: ``table`` (vgraph.table.Table: distance, x, y, z in world units, value; ``vgraph run

@@ -6,6 +6,7 @@ outside; bad values named; the table as CSV from the command line; the plot imag
 
 import csv
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -233,3 +234,34 @@ def test_a_ruler_that_is_not_there_or_not_a_ruler_is_refused_by_name(head):
         Markup(name="height", kind="angle", points=(start, end, (0.0, 0.0, 0.0))),)))
     with pytest.raises(VGraphError, match=r"p\.ruler: 'height' is an angle, not a ruler"):
         network.evaluate("p.table")
+
+
+def test_a_store_over_its_memory_budget_is_read_only_where_the_line_runs(tmp_path):
+    """A BrickedVolume whose whole array exceeds its budget: nearest and linear profiles read
+    the boxes around the line's runs of samples from level 0 (never the whole array) and equal
+    the in-memory profile bit for bit; cubic needs the whole array and is refused by name."""
+    from vgraph.bricks.volume import BrickedVolume, MemoryBudgetError
+    from vgraph.io.convert import convert
+    from vgraph.volume import Volume
+    z, y, x = np.mgrid[0:30, 0:36, 0:40]
+    data = (np.sin(x / 3.0) * np.cos(y / 5.0) + z / 7.0).astype(np.float32)
+    np.save(tmp_path / "wave.npy", data)
+    convert(tmp_path / "wave.npy", tmp_path / "wave.zarr", brick=8, progress=False)
+    store = BrickedVolume.open(tmp_path / "wave.zarr", memory_budget_mb=0.01)   # the array is 0.16 MiB
+    memory = Volume(data, spacing=store.spacing, origin=store.origin)
+    boxes, read = [], store.bricks.read
+    store.bricks.read = lambda level, start, stop: boxes.append((level, start, stop)) or read(level, start, stop)
+    lines = [dict(start=(0.0, 0.0, 0.0), end=(39.0, 35.0, 29.0), samples=301),       # corner to corner
+             dict(start=(-5.0, 17.3, 12.6), end=(45.0, 18.1, 13.2), samples=97),       # ends outside
+             dict(start=(10.5, 3.25, 0.0), end=(10.5, 3.25, 29.0), samples=58)]        # along z
+    for line in lines:
+        for interpolation in ("nearest", "linear"):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", VGraphWarning)   # the points outside
+                ours = profile(store, interpolation=interpolation, **line)["value"]
+                theirs = profile(memory, interpolation=interpolation, **line)["value"]
+            assert np.array_equal(ours, theirs, equal_nan=True), (line, interpolation)
+    assert store._data is None and boxes and all(level == 0 for level, _, _ in boxes)
+    assert max(np.prod(np.subtract(stop, start)) for _, start, stop in boxes) <= 12 ** 3   # a brick's run + 2 around
+    with pytest.raises(MemoryBudgetError, match="exceeds the memory budget"):
+        profile(store, interpolation="cubic", **lines[0])

@@ -18,6 +18,13 @@ Conventions:
   more than 1e-9 voxel) has no value: it gets NaN, and the caller warns (the renderers' clamped
   textures would repeat the edge voxel there, which is no measurement). Points inside get their
   value whatever the boundary rule, since the rules differ only outside.
+- A store (a BrickedVolume: ``volume.bricks``) is read only where the line runs, for nearest and
+  linear: each run of consecutive samples in one brick reads the box of voxels their
+  interpolation touches (BRICK_MARGIN voxels around them) from the full-resolution level, so a
+  line through a store larger than memory is measured, with the values the whole array gives
+  (map_coordinates on the box, the coordinates shifted by whole voxels). Cubic needs the
+  B-spline prefilter over whole lines of the volume: it reads the array whole (within the store's
+  memory budget, else MemoryBudgetError).
 - Values are float64; NaN voxels give NaN where they enter (nearest: that voxel; linear: the
   cell; cubic: NaN and Inf are replaced by the value range's ends before the prefilter, as the
   CubicSplineProcessor does, or they would spread along whole lines of the volume).
@@ -35,6 +42,7 @@ from vgraph.volume import Volume
 
 ORDERS = {"nearest": 0, "linear": 1, "cubic": 3}
 INSIDE_TOLERANCE = 1e-9  # voxels: a point computed on the box's face counts as inside
+BRICK_MARGIN = 2  # voxels read beyond a run's samples: nearest and linear reach 1 voxel from a point
 MAX_SAMPLES = 1_000_000  # a step of 1e-9 world units would ask for more memory than any profile needs
 
 
@@ -105,5 +113,28 @@ def _interpolated(volume: Volume, voxels: np.ndarray, interpolation: str,
         data = spline_coefficients(volume) if coefficients is None else coefficients
         return ndimage.map_coordinates(data.astype(np.float64, copy=False), coordinates, order=3,
                                        mode="mirror", prefilter=False)
-    data = volume.data if order == 0 else volume.data.astype(np.float64, copy=False)
+    if getattr(volume, "bricks", None) is not None:
+        return _interpolated_from_bricks(volume.bricks, volume.shape, coordinates, order)
+    return _map(volume.data, coordinates, order)
+
+
+def _map(data: np.ndarray, coordinates: np.ndarray, order: int) -> np.ndarray:
+    data = data if order == 0 else data.astype(np.float64, copy=False)
     return ndimage.map_coordinates(data, coordinates, order=order, mode="nearest").astype(np.float64)
+
+
+def _interpolated_from_bricks(bricks, shape, coordinates: np.ndarray, order: int) -> np.ndarray:
+    """``_map`` of the store's level 0, reading only the boxes around runs of consecutive samples
+    in one brick (module docstring). ``coordinates``: (3, n) [z, y, x], within the box."""
+    brick = np.array(bricks.brick[::-1])[:, None]   # (x, y, z) voxels per brick, as [z, y, x]
+    cells = np.floor(coordinates / brick).astype(np.int64)
+    breaks = np.flatnonzero(np.any(cells[:, 1:] != cells[:, :-1], axis=0)) + 1
+    top = np.asarray(shape, dtype=np.int64)
+    values = np.empty(coordinates.shape[1])
+    for run in np.split(np.arange(coordinates.shape[1]), breaks):
+        part = coordinates[:, run]
+        low = np.clip(np.floor(part.min(axis=1)).astype(np.int64) - BRICK_MARGIN, 0, top)
+        high = np.clip(np.floor(part.max(axis=1)).astype(np.int64) + BRICK_MARGIN + 1, 0, top)
+        block = np.asarray(bricks.read(0, tuple(map(int, low)), tuple(map(int, high))))
+        values[run] = _map(block, part - low[:, None], order)   # whole-voxel shifts: exact
+    return values
