@@ -51,6 +51,7 @@ def test_the_dock_shows_every_row_of_the_selected_processors_table_and_sorts(sta
     assert [row[1] for row in rows] == [str(15 - k) for k in range(1, 15)]
     panel.view.sortByColumn(1, Qt.AscendingOrder)    # by count: label 14 (1 voxel) first
     assert [row[0] for row in shown(panel)] == [str(k) for k in range(14, 0, -1)]
+    assert panel.model.headerData(0, Qt.Vertical) == "14"   # row headers: the row's place in the table
     panel.view.sortByColumn(0, Qt.DescendingOrder)
     assert [row[0] for row in shown(panel)] == [str(k) for k in range(14, 0, -1)]
     stats_window.scene.select_processor("source")    # a processor without a table keeps the table shown

@@ -9,7 +9,7 @@ Conventions:
   window's LiveEvaluation holds them, ``tables_changed`` says when.
 - Numbers are shown to 6 significant digits (vgraph.table.cell_text); a click on a heading sorts by
   that column (numpy's stable argsort; NaN last both ways), the model reorders an index, the
-  table stays as it came.
+  table stays as it came; the row headers keep each row's number in the table.
 - Ctrl+C (or Copy) puts the selected cells' rows and columns, in the order shown, on the clipboard
   as tab-separated text with a heading row, every digit kept (the CSV's numbers): a spreadsheet
   takes it as it is. Save CSV... writes the whole table in its own order, byte for byte what
@@ -20,6 +20,7 @@ Conventions:
 from __future__ import annotations
 
 import numpy as np
+import shiboken6
 from PySide6.QtCore import QAbstractTableModel, QModelIndex, Qt, Signal
 from PySide6.QtGui import QGuiApplication, QKeySequence
 from PySide6.QtWidgets import (QAbstractItemView, QDockWidget, QFileDialog, QHBoxLayout, QLabel, QPushButton,
@@ -69,7 +70,7 @@ class TableModel(QAbstractTableModel):
             return None
         if orientation == Qt.Horizontal:
             return self.table.columns[section].heading if self.table is not None else None
-        return str(section + 1)
+        return str(self.order[section] + 1)   # the row's place in the table, sorted or not
 
     def sort(self, column: int, order=Qt.AscendingOrder) -> None:
         if self.table is None or not 0 <= column < len(self.table.columns):
@@ -120,6 +121,7 @@ class TablePanel(QWidget):
         self.view.horizontalHeader().setSortIndicatorShown(True)
         self.view.setSelectionMode(QAbstractItemView.ExtendedSelection)
         self.view.setEditTriggers(QAbstractItemView.NoEditTriggers)
+        self.view.verticalHeader().setDefaultSectionSize(self.view.fontMetrics().height() + 6)
         self.view.copy_requested.connect(self.copy)
         copy = QPushButton("Copy")
         copy.setToolTip("the selected cells as tab-separated text, with headings (Ctrl+C)")
@@ -161,6 +163,7 @@ class TablePanel(QWidget):
         table = self.table
         if self.model.table is not table:
             self.model.show(table)
+            self.view.resizeColumnsToContents()
         if self.address is None:
             self.title.setText(NOTHING)
         elif table is None:
@@ -228,6 +231,8 @@ def table_dock(window) -> QDockWidget:
 
 
 def _selected(window, panel: TablePanel) -> None:
+    if not (shiboken6.isValid(window.scene) and shiboken6.isValid(panel)):
+        return   # the window is being torn down: the scene clears its selection as it goes
     processors, _, _ = window.scene.selection()
     if len(processors) == 1:
         panel.show_processor(processors[0])
