@@ -52,6 +52,7 @@ from vgraph.gl.raycasting.empty_space import occupied_blocks, radii_if_worthwhil
 from vgraph.gl.raycasting.gradient_classification import GradientClassification
 from vgraph.gl.raycasting.light import Gradients, Light
 from vgraph.gl.raycasting.light_volume import LightShadows
+from vgraph.gl.raycasting.mask import CutAway, Mask, check_drawable
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.shown_volume import ShowsVolume
 from vgraph.gl.raycasting.targets import RenderTargets
@@ -64,6 +65,9 @@ COMPOSITING = ("dvr", "mip", "iso", "first_hit", "xray")
 SHADED_MODES = ("dvr", "iso")
 SKIPPING = {"dvr": "opacity", "first_hit": "opacity", "iso": "level", "mip": "maximum"}
 BRICK_PARTS = (BrickSampling, PagedSampling, RayRequests)  # a frame draws through these or the others
+# Where masks and cut-aways (vgraph.gl.raycasting.mask) are not drawn, and why.
+MASKLESS = {"iso": "the iso surface takes no mask or cut-away (use first_hit or dvr)",
+            "bricks": "a volume drawn brick by brick takes no mask or cut-away"}
 DERIVATIVES = ("none", "forward", "backward", "central", "sobel", "precomputed")
 
 
@@ -103,7 +107,8 @@ class RayCaster(ShowsVolume, RaycasterBase):
                   Light(mode="compositing", shaded_modes=SHADED_MODES), EmptySpace(skip=skip_values),
                   Background(), BrickSampling(mode="compositing", when="only for a volume drawn brick by brick"),
                   PagedSampling(), RayRequests(),  # PagedSampling's properties are BrickSampling's
-                  LightShadows(mode="compositing", shadowed_modes=SHADED_MODES))
+                  LightShadows(mode="compositing", shadowed_modes=SHADED_MODES),
+                  Mask(), CutAway())
     uses_context = ("load_limit",)  # for the frames drawn brick by brick (module docstring)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING),
@@ -142,12 +147,14 @@ class RayCaster(ShowsVolume, RaycasterBase):
 
     # --- evaluation -----------------------------------------------------------------------------
     def process(self, volume: Volume, entry: Image, exit: Image, context: FrameContext,
-                light_volume: Volume | None = None) -> dict:
+                light_volume: Volume | None = None, mask: Volume | None = None) -> dict:
         volume.require_samples(f"RayCaster '{self.id}'")
         self.parts[Gradients].check()
         self.parts[LightShadows].attach(volume, light_volume)
         self._drew_bricks = None
         bricks = needs_bricks(volume, self.gl)
+        self.parts[Mask].use(mask, volume)
+        check_drawable(self, self.parts, MASKLESS.get("bricks" if bricks else self.compositing))
         if bricks:
             self._check_bricked_mode(volume, light_volume)
         # A frame samples one texture (every part but the bricks') or the bricks (module docstring).

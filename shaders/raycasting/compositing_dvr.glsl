@@ -21,6 +21,7 @@ bool composited(Ray ray, int i, inout vec4 sum, inout Result result) {
     vec3 t = sample_point(ray, float(i));
     vec4 texel = shading_texel(t);  // raw value in .a (gradients.glsl)
     vec4 color = classify_sample(t, texel.a * intensity_scale + intensity_offset);  // gradient_classification.glsl
+    color.a *= sample_weight(t);  // 0: masked or cut away (sample_weight.glsl)
     result.taken++;
     if (color.a > 0.0) {
         float alpha = corrected_opacity(color.a);
@@ -44,7 +45,7 @@ bool composited(Ray ray, int i, inout vec4 sum, inout Result result) {
 // Whether sample i is visible (counted as taken when not: the main loop takes it again).
 bool visible(Ray ray, int i, inout Result result) {
     vec3 t = sample_point(ray, float(i));
-    if (classify_sample(t, intensity(t)).a > 0.0) {
+    if (classify_sample(t, intensity(t)).a * sample_weight(t) > 0.0) {
         return true;
     }
     result.taken++;

@@ -10,7 +10,7 @@ Result march(Ray ray) {
         if (!next_occupied_sample(cursor, ray)) break;
         vec3 t = sample_point(ray, float(cursor.i));
         result.taken++;
-        if (classify_sample(t, intensity(t)).a > 0.0) {  // gradient_classification.glsl
+        if (classify_sample(t, intensity(t)).a * sample_weight(t) > 0.0) {  // gradient_classification.glsl
             result.color = vec4(t, 1.0);
             result.depth_sample = float(cursor.i);
             return result;

@@ -68,7 +68,8 @@ void take_stretch(Ray ray, int start, int end, float bound, inout float best, in
         if (j > best_sample && best >= bound) {
             break;
         }
-        float value = min(intensity(sample_point(ray, float(j))), 1.0);
+        vec3 t = sample_point(ray, float(j));
+        float value = min(intensity(t) * sample_weight(t), 1.0);  // 0: masked (sample_weight.glsl)
         result.taken++;
         if (value > best || (value == best && j < best_sample)) {
             best = value;
@@ -165,7 +166,8 @@ Result march(Ray ray) {
         // (a literal true, compiled away, but for the single-pass bricked ray caster's jumps over
         // cells that are not drawn and its requests: bricks/paged_sampling.glsl)
         if (!next_occupied_sample(cursor, ray)) break;
-        float value = intensity(sample_point(ray, float(cursor.i)));
+        vec3 t = sample_point(ray, float(cursor.i));
+        float value = intensity(t) * sample_weight(t);  // 0: masked (sample_weight.glsl)
         result.taken++;
         if (value > best) {
             best = value;

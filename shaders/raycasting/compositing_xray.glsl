@@ -8,10 +8,11 @@ Result march(Ray ray) {
     Result result = empty_result();
     float sum = 0.0;
     for (int i = 0; i < ray.samples; ++i) {
-        sum += clamp(intensity(sample_point(ray, float(i))), 0.0, 1.0);
+        vec3 t = sample_point(ray, float(i));
+        sum += clamp(intensity(t), 0.0, 1.0) * sample_weight(t);
     }
     float rest = clamp(ray.steps - float(ray.samples - 1), 0.0, 1.0);
-    sum += rest * clamp(intensity(ray.end), 0.0, 1.0);
+    sum += rest * clamp(intensity(ray.end), 0.0, 1.0) * sample_weight(ray.end);
     vec4 color = classify(sum / (float(ray.samples) + rest));
     result.color = vec4(color.rgb * color.a, color.a);
     result.depth_sample = 0.0;

@@ -11,6 +11,7 @@
 // The RayCaster's own part; its components' GLSL (pixel ray, camera rays and depth output, volume
 // sampling, transfer function, gradients, shading, empty space, background) is included ahead of
 // it by RaycasterBase.draw.
+#include "raycasting/sample_weight.glsl"
 #include "raycasting/march.glsl"
 #include "raycasting/compositing_dvr.glsl"
 #include "raycasting/compositing_mip.glsl"

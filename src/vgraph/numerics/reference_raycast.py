@@ -114,13 +114,15 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
            *, mode: str = "dvr", sampling_rate: float = 1.0, early_termination: float = 0.99,
            background=(0.0, 0.0, 0.0, 1.0), shading: Shading | None = None,
            return_samples: bool = False, chunk_rays: int = 65536, clip_planes=(), crop_box=None,
-           shadow=None, shadow_strength: float = 1.0, classification=None):
+           shadow=None, shadow_strength: float = 1.0, classification=None, sample_weights=None):
     """Render ``volume`` as the GL ray caster does (model in the module docstring).
 
     ``classification`` (dvr only): a reference_classification.GradientClassification, gradient
     opacity and 2D transfer functions by its model.
 
     ``clip_planes`` and ``crop_box`` cut each ray's interval before sampling (vgraph.clipping).
+    ``sample_weights`` (vgraph.masking.MaskWeights: a mask, a cut-away) weighs each sample at its
+    world point: dvr multiplies the TF opacity by it before the correction, mip the intensity.
     ``size`` is (width, height). Returns the float32 (H, W, 4) image, row 0 at the top, and with
     ``return_samples=True`` also the int32 (H, W) number of samples each ray took."""
     width, height, background = _check_arguments(volume, size, mode, sampling_rate,
@@ -145,7 +147,7 @@ def render(volume: Volume, camera: Camera, transfer_function: TransferFunction, 
         march, table = (_march_dvr, classify) if mode == "dvr" else (_march_mip, lut)
         rgba[rays], taken[rays] = march(sampler, table, origins[rays], directions[rays],
                                         t_entry[rays], counts[rays], step, sampling_rate,
-                                        early_termination, shading, (shadow, shadow_strength))
+                                        early_termination, shading, (shadow, shadow_strength), sample_weights)
     # Over the background; a missed ray (A = 0, no samples) becomes the background exactly.
     coverage = rgba[:, 3:4]
     image = np.concatenate([rgba[:, :3] + (1.0 - coverage) * background[:3],
@@ -294,7 +296,7 @@ def _classifier(sampler, lut, classification, mode):
 
 
 def _march_dvr(sampler, classify, origins, directions, t_entry, counts, step, sampling_rate,
-               early_termination, shading, shadow=(None, 1.0)):
+               early_termination, shading, shadow=(None, 1.0), sample_weights=None):
     """Front-to-back compositing of a chunk of rays in lockstep, in log space (rule 7); returns
     premultiplied RGBA and the samples taken per ray."""
     colour = np.zeros((len(origins), 3))
@@ -306,6 +308,8 @@ def _march_dvr(sampler, classify, origins, directions, t_entry, counts, step, sa
     while active.size:
         points = origins[active] + (t_entry[active] + i * step)[:, None] * directions[active]
         sample = classify(points, sampler(points))
+        if sample_weights is not None:  # a mask or cut-away (vgraph.masking)
+            sample = np.column_stack([sample[:, :3], sample[:, 3] * sample_weights(points)])
         opacity = corrected_opacity(sample[:, 3], exponent)
         rgb = sample[:, :3]
         if shading is not None:
@@ -337,14 +341,17 @@ def corrected_opacity(alpha: np.ndarray, exponent: float) -> np.ndarray:
 
 
 def _march_mip(sampler, lut, origins, directions, t_entry, counts, step, sampling_rate,
-               early_termination, shading, shadow=None):
+               early_termination, shading, shadow=None, sample_weights=None):
     """Maximum intensity along each ray, classified once; premultiplied RGBA (0 for misses)."""
     maximum = np.zeros(len(origins))  # intensities are clamped to [0, 1], so 0 is neutral
     active = np.flatnonzero(counts > 0)
     i = 0
     while active.size:
         points = origins[active] + (t_entry[active] + i * step)[:, None] * directions[active]
-        maximum[active] = np.maximum(maximum[active], np.clip(sampler(points), 0.0, 1.0))
+        value = np.clip(sampler(points), 0.0, 1.0)
+        if sample_weights is not None:  # a mask or cut-away (vgraph.masking)
+            value = value * sample_weights(points)
+        maximum[active] = np.maximum(maximum[active], value)
         i += 1
         active = active[i < counts[active]]
     sample = lookup(lut, maximum)
