@@ -1,0 +1,199 @@
+"""Masks and cut-aways of the RayCaster (vgraph.masking, vgraph.gl.raycasting.mask) on the shared
+label volume (networks/data/engine_labels.nrrd, the engine CT classified by
+bench/make_label_volume.py: 0 background, 1 casing, 2 dense parts): the first hit never lies in a
+voxel of a hidden label; with nearest sampling a mask equals setting the hidden voxels to the lowest
+value, bit for bit (first_hit, mip, dvr); mip and dvr match the
+CPU reference with the same mask (kept, hidden, smoothed, on a coarser turned grid) and cut-away;
+keeping every label is the unmasked image bit for bit; bad input is refused naming processor and
+port or property; the properties survive a .json round trip."""
+
+import numpy as np
+import pytest
+
+from vgraph import VGraphError
+from vgraph.camera import Camera
+from vgraph.fileformat import load_network, save_network
+from vgraph.io import read_volume
+from vgraph.network import Network
+from vgraph.masking import CutAwayRegion, MaskSelection, MaskWeights, kept_indicator
+from vgraph.numerics.reference_raycast import render, volume_box
+from vgraph.testing import GivenVolume
+from vgraph.transfer_function import TransferFunction
+from vgraph.volume import Volume
+
+from helpers.networks import UNSHADED_RAMP, rendering_network
+from helpers.paths import DATA, REPO
+
+SIZE = (48, 36)
+# float32 GL against the float64 reference, hard masks (measured <= 1e-5: the mask voxel of every
+# sample agrees; one that flipped would differ by a sample's whole contribution)
+REFERENCE_TOLERANCE = 5e-5
+# smoothed masks: the R8 indicator filtered by llvmpipe with 8-bit weights (measured <= 7e-3)
+SMOOTH_TOLERANCE = 1.5e-2
+# any visible value is hit: opacity 1 from normalised 0.3 up (the casing starts near 0.31)
+STEP = TransferFunction(points=[(0.0, 1, 1, 1, 0.0), (0.299, 1, 1, 1, 0.0), (0.3, 1, 1, 1, 1.0),
+                                (1.0, 1, 1, 1, 1.0)])
+
+
+@pytest.fixture(scope="module")
+def engine():
+    if not DATA.is_dir():
+        pytest.skip(f"shared data sets not found at {DATA}")
+    return read_volume(DATA / "ct_engine" / "engine.nii.gz")
+
+
+@pytest.fixture(scope="module")
+def labels():
+    return read_volume(REPO / "networks" / "data" / "engine_labels.nrrd")
+
+
+def camera_of(volume):
+    return Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
+
+
+def masked_network(volume, mask, **properties):
+    network = rendering_network(volume, camera_of(volume), **properties)
+    if mask is not None:
+        network.add(GivenVolume(id="m", volume=mask))
+        network.connect("m.volume", "rc.mask")
+    return network
+
+
+def gl_image(volume, mask, **properties):
+    return masked_network(volume, mask, **properties).evaluate("rc.image", size=SIZE)
+
+
+def reference(volume, mode, weights):
+    return render(volume, camera_of(volume), UNSHADED_RAMP["transfer_function"], SIZE, mode=mode,
+                  sample_weights=weights)
+
+
+def hit_voxels(image, dims):
+    """The voxels (x, y, z) of first_hit's texture coordinates (rgb) where alpha says there is one."""
+    hit = image[..., 3] > 0.5
+    return np.minimum(np.floor(image[hit][:, :3] * np.asarray(dims)).astype(int), np.asarray(dims) - 1)
+
+
+def test_the_mask_has_the_labels_of_the_engine(labels):
+    assert set(np.unique(labels.data).tolist()) == {0, 1, 2}
+
+
+@pytest.mark.parametrize("kept, mode", [((2,), "keep"), ((1,), "hide"), ((1, 2), "keep")])
+def test_the_first_hit_lies_in_a_kept_voxel(engine, labels, kept, mode):
+    """Nearest sampling, mask on the volume's grid: the voxel of every hit (its texture
+    coordinates) holds a kept label and a visible value."""
+    image = gl_image(engine, labels, compositing="first_hit", interpolation="nearest", transfer_function=STEP,
+                     mask_labels=", ".join(map(str, kept)), mask_mode=mode, background=(0, 0, 0, 0))
+    voxels = hit_voxels(image, engine.dims)
+    hit_labels = labels.data[voxels[:, 2], voxels[:, 1], voxels[:, 0]]
+    assert len(voxels) > 50
+    assert (np.isin(hit_labels, kept) if mode == "keep" else ~np.isin(hit_labels, kept)).all()
+    assert (engine.normalized(engine.data[voxels[:, 2], voxels[:, 1], voxels[:, 0]]) >= 0.3).all()
+
+
+@pytest.mark.parametrize("compositing", ["first_hit", "mip", "dvr"])
+def test_the_mask_hides_exactly_the_voxels_of_the_unchosen_labels(engine, labels, compositing):
+    """Nearest sampling: masking keeps label 2 exactly as setting every other voxel to the volume's
+    lowest value (the same value range) does, bit for bit, in the image and the depth output."""
+    zeroed = np.where(labels.data == 2, engine.data, engine.data.min())
+    hidden = Volume(zeroed, spacing=engine.spacing, origin=engine.origin).with_overrides(
+        declared_range=engine.value_range)
+    properties = {"compositing": compositing, "interpolation": "nearest", "transfer_function": STEP}
+    masked = masked_network(engine, labels, mask_labels="2", **properties)
+    expected = masked_network(hidden, None, **properties)
+    for output in ("image", "depth"):
+        image = masked.evaluate(f"rc.{output}", size=SIZE)
+        plain = expected.evaluate(f"rc.{output}", size=SIZE)
+        if output == "depth":  # r, g, a (b counts the samples taken, which skipping changes)
+            image, plain = image[..., [0, 1, 3]], plain[..., [0, 1, 3]]
+        assert np.array_equal(image, plain)
+    assert not np.array_equal(masked.evaluate("rc.image", size=SIZE),
+                              masked_network(engine, None, **properties).evaluate("rc.image", size=SIZE))
+
+
+def test_keeping_every_label_is_the_unmasked_image_bit_for_bit(engine, labels):
+    for mode in ("dvr", "mip"):
+        plain = gl_image(engine, None, compositing=mode)
+        assert np.array_equal(gl_image(engine, labels, compositing=mode, mask_labels="0, 1, 2"), plain)
+        assert not np.array_equal(gl_image(engine, labels, compositing=mode, mask_labels="2"), plain)
+
+
+@pytest.mark.parametrize("mode", ["mip", "dvr"])
+@pytest.mark.parametrize("case", ["keep dense parts", "hide casing and a sphere", "binary mask and a box"])
+def test_mip_and_dvr_match_the_cpu_reference(engine, labels, mode, case):
+    if case == "keep dense parts":
+        properties, weights = {"mask_labels": "2"}, MaskWeights(labels, MaskSelection((2,)))
+    elif case == "hide casing and a sphere":
+        properties = {"mask_labels": "1", "mask_mode": "hide", "cutaway": "sphere",
+                      "cutaway_center": (10.0, -20.0, 0.0), "cutaway_size": (150.0, 150.0, 150.0)}
+        weights = MaskWeights(labels, MaskSelection((1,), "hide"),
+                              CutAwayRegion("sphere", (10.0, -20.0, 0.0), (150.0, 150.0, 150.0)))
+    else:
+        properties = {"cutaway": "box", "cutaway_center": (60.0, -60.0, 20.0), "cutaway_size": (140.0, 130.0, 90.0)}
+        weights = MaskWeights(labels, MaskSelection(), CutAwayRegion("box", (60.0, -60.0, 20.0), (140.0, 130.0, 90.0)))
+    image = gl_image(engine, labels, compositing=mode, **properties)
+    expected = reference(engine, mode, weights)
+    assert np.abs(image - expected).max() <= REFERENCE_TOLERANCE
+    assert np.abs(image - reference(engine, mode, None)).max() > 0.05  # the mask shows
+
+
+def test_a_mask_on_its_own_coarser_turned_grid_matches_the_reference(engine):
+    """A ball of label 3 on a 3 mm grid turned by 30 degrees about z and shifted: sampled through
+    its own affine, not the volume's grid."""
+    turn = np.radians(30.0)
+    direction = ((np.cos(turn), -np.sin(turn), 0.0), (np.sin(turn), np.cos(turn), 0.0), (0.0, 0.0, 1.0))
+    z, y, x = np.mgrid[0:40, 0:50, 0:60]
+    ball = ((x - 30) / 25.0) ** 2 + ((y - 25) / 20.0) ** 2 + ((z - 20) / 15.0) ** 2 <= 1.0
+    mask = Volume(ball.astype(np.uint8) * 3, spacing=(3.0, 3.0, 3.0), origin=(-60.0, -80.0, -40.0),
+                  direction=direction)
+    for mode in ("mip", "dvr"):
+        image = gl_image(engine, mask, compositing=mode, mask_labels="3")
+        assert np.abs(image - reference(engine, mode, MaskWeights(mask, MaskSelection((3,))))).max() \
+            <= REFERENCE_TOLERANCE
+        assert 0.02 < (image[..., :3] > 0).mean() < 0.5
+
+
+def test_a_smoothed_mask_matches_the_reference_and_softens_the_edge(engine, labels):
+    selection = MaskSelection((2,), "keep", "smooth", 1.0)
+    indicator = kept_indicator(labels, selection, "test")
+    assert 0 < ((indicator > 0) & (indicator < 255)).sum()  # a soft edge
+    for mode in ("mip", "dvr"):
+        properties = {"mask_labels": "2", "mask_boundary": "smooth", "mask_smoothing": 1.0}
+        image = gl_image(engine, labels, compositing=mode, **properties)
+        assert np.abs(image - reference(engine, mode, MaskWeights(labels, selection))).max() <= SMOOTH_TOLERANCE
+
+
+def test_bad_masks_are_refused_naming_processor_and_port(engine, labels):
+    fractional = Volume(labels.data.astype(np.float32) + 0.5, spacing=labels.spacing, origin=labels.origin)
+    with pytest.raises(VGraphError, match=r"rc\.mask.*integer labels"):
+        masked_network(engine, fractional, mask_labels="1").evaluate("rc.image", size=SIZE)
+    far = Volume(labels.data, spacing=labels.spacing, origin=(1000.0, 0.0, 0.0))
+    with pytest.raises(VGraphError, match=r"rc\.mask.*does not overlap"):
+        masked_network(engine, far).evaluate("rc.image", size=SIZE)
+    with pytest.raises(VGraphError, match=r"rc\.mask.*no voxel of label 7 \(it holds 0, 1, 2\)"):
+        masked_network(engine, labels, mask_labels="2, 7").evaluate("rc.image", size=SIZE)
+    with pytest.raises(VGraphError, match=r"rc\.mask_labels.*not a list of integer labels"):
+        masked_network(engine, labels, mask_labels="dense").evaluate("rc.image", size=SIZE)
+    with pytest.raises(VGraphError, match=r"rc\.mask: the iso surface takes no mask"):
+        masked_network(engine, labels, compositing="iso").evaluate("rc.image", size=SIZE)
+    with pytest.raises(VGraphError, match=r"rc\.cutaway_size.*sizes > 0"):
+        masked_network(engine, None, cutaway="box", cutaway_size=(1.0, 0.0, 1.0)).evaluate("rc.image", size=SIZE)
+
+
+def test_a_binary_float_mask_needs_no_integer_labels(engine, labels):
+    """No labels listed: every nonzero voxel is in, whatever the type."""
+    binary = Volume((labels.data == 2).astype(np.float32) * 0.7, spacing=labels.spacing, origin=labels.origin)
+    assert np.array_equal(gl_image(engine, binary, compositing="mip"),
+                          gl_image(engine, labels, compositing="mip", mask_labels="2"))
+
+
+def test_mask_and_cutaway_properties_survive_a_json_round_trip(tmp_path):
+    network = Network()
+    network.add("RayCaster", id="rc", mask_labels="1, 2", mask_mode="hide", mask_boundary="smooth",
+                mask_smoothing=2.0, cutaway="sphere", cutaway_center=(1.0, 2.0, 3.0), cutaway_size=(4.0, 5.0, 6.0))
+    save_network(network, tmp_path / "masked.json")
+    loaded = load_network(tmp_path / "masked.json")
+    for name, value in (("mask_labels", "1, 2"), ("mask_mode", "hide"), ("mask_boundary", "smooth"),
+                        ("mask_smoothing", 2.0), ("cutaway", "sphere"), ("cutaway_center", (1.0, 2.0, 3.0)),
+                        ("cutaway_size", (4.0, 5.0, 6.0))):
+        assert loaded.get(f"rc.{name}") == value
