@@ -16,6 +16,8 @@ Conventions (docs/explanations/curvature.md explains each property):
   composites. So linear normalisation costs about twice exponential.
 - Outputs: `image` RGBA32F composited over `background`; `depth` as the RayCaster's (the first
   sample with opacity > 0).
+- The optional inport `mask` and the cut-away region weigh each sample's opacity as in the
+  RayCaster's dvr (vgraph.masking; the range pass too, so only kept samples set kmin, kmax).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from vgraph.gl.raycasting.components import (Background, CameraRays, EmptySpace,
 from vgraph.gl.raycasting.empty_space import occupied_blocks, radii_if_worthwhile
 from vgraph.gl.raycasting.gradient_classification import GradientClassification
 from vgraph.gl.raycasting.light import Light
+from vgraph.gl.raycasting.mask import CutAway, Mask
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.shown_volume import ShowsVolume
 from vgraph.gl.raycasting.targets import RenderTargets
@@ -52,7 +55,8 @@ def skip_values(raycaster, frame):
 
 RANGE_PARTS = (EntryExit(), CameraRays(), VolumeSampling(), Sampling(), FrontToBack(), TransferFunctionLut(),
                GradientClassification(mode=None),  # gradient opacity, the 2D TF's alpha; samples only
-               CurvatureField(), CurvatureColoring(), EmptySpace(skip=skip_values), Background())
+               CurvatureField(), CurvatureColoring(), EmptySpace(skip=skip_values), Background(), Mask(),
+               CutAway())
 
 # Two translucent shells, at the surface of every FunctionSelector volume (0.5) and inside it;
 # only the opacity is used.
@@ -82,7 +86,8 @@ class CurvatureVolumeRaycaster(ShowsVolume, RaycasterBase):
         self._targets = RenderTargets(2)  # image (or the range in the first pass), depth
         self._reduction = RangeReduction()
 
-    def process(self, volume: Volume, entry: Image, exit: Image) -> dict:
+    def process(self, volume: Volume, entry: Image, exit: Image, mask: Volume | None = None) -> dict:
+        self.parts[Mask].use(mask, volume)
         if self.parts[GradientClassification].is_on() and self.derivatives.startswith("tricubic"):
             raise VGraphError(f"{self.id}.derivatives: gradient_opacity and transfer_function_2d read "
                               f"the gradients of voxel samples, and {self.derivatives} takes B-spline "

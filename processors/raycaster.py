@@ -23,6 +23,11 @@ Conventions (docs/explanations/ray-casting.md explains each property with pictur
 - ``light_volume`` (optional): a LightVolume's transmittance T; in dvr and iso each sample's colour
   is multiplied by 1 - shadow_strength * (1 - T) (vgraph.gl.raycasting.light_volume;
   docs/guide/shadows.md). Unconnected, nothing is compiled or bound for it.
+- Masks and cut-aways (vgraph.masking; docs/guide/clipping.md): the optional inport `mask`, a
+  label or binary volume on its own grid, keeps (or hides) the samples in ``mask_labels``, with a
+  hard or smoothed boundary; ``cutaway`` subtracts a box or sphere. Each sample's opacity (dvr,
+  first_hit) or intensity (mip, xray) is multiplied by its weight; iso and volumes drawn brick by
+  brick refuse them by name. With no mask and no cut-away the image is the same bit for bit.
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
   than its memory budget, is drawn from bricks instead of VolumeSampling, by the method the
   BrickedRayCaster's ``method`` auto chooses (vgraph.bricks.methods): through the PagedSampling

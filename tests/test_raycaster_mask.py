@@ -197,3 +197,30 @@ def test_mask_and_cutaway_properties_survive_a_json_round_trip(tmp_path):
                         ("mask_smoothing", 2.0), ("cutaway", "sphere"), ("cutaway_center", (1.0, 2.0, 3.0)),
                         ("cutaway_size", (4.0, 5.0, 6.0))):
         assert loaded.get(f"rc.{name}") == value
+
+
+def test_the_curvature_volume_raycaster_takes_the_mask_and_the_cutaway():
+    """Its opacity is weighed as the RayCaster's dvr: a mask keeping everything is the unmasked
+    image bit for bit; one keeping the half x < centre leaves fewer pixels with a visible sample
+    (depth output); a cut-away box around the whole volume leaves the background."""
+    from helpers.curvature import TORUS_CAMERA, curvature_network
+    from vgraph.implicit import sample
+    torus = sample("torus", 48, "float32")
+    half = np.zeros(torus.data.shape, dtype=np.uint8)
+    half[:, :, :24] = 1
+
+    def network(mask, **properties):
+        built = curvature_network(torus, TORUS_CAMERA, processor="CurvatureVolumeRaycaster",
+                                  normalization="linear", derivatives="central", **properties)
+        if mask is not None:
+            built.add(GivenVolume(id="m", volume=Volume(mask, spacing=torus.spacing, origin=torus.origin)))
+            built.connect("m.volume", "cr.mask")
+        return built
+
+    plain = network(None).evaluate("cr.image", size=SIZE)
+    assert np.array_equal(network(np.ones_like(half)).evaluate("cr.image", size=SIZE), plain)
+    coverage = network(None).evaluate("cr.depth", size=SIZE)[..., 3]  # 1 where a sample has opacity
+    masked = network(half).evaluate("cr.depth", size=SIZE)[..., 3]
+    assert 0.2 * coverage.mean() < masked.mean() < 0.8 * coverage.mean() and (masked <= coverage).all()
+    background = network(None, cutaway="box", cutaway_size=(10.0, 10.0, 10.0)).evaluate("cr.image", size=SIZE)
+    assert np.array_equal(background, np.broadcast_to(background[0, 0], background.shape))

@@ -32,6 +32,7 @@ Result march(Ray ray) {
         if (!next_occupied_sample(cursor, ray)) break;
         vec3 t = sample_point(ray, float(cursor.i));
         vec4 classified = classify_sample(t, march_value(t) * intensity_scale + intensity_offset);
+        classified.a *= sample_weight(t);  // 0: masked or cut away (raycasting/sample_weight.glsl)
         result.taken++;
         if (classified.a > 0.0) {
             float alpha = corrected_opacity(classified.a);

@@ -14,6 +14,7 @@
 // Its own part; the GLSL of its components (pixel ray, camera rays and depth output, volume
 // sampling, transfer function, curvature field and colouring, empty space, background, shading)
 // is included ahead of it by RaycasterBase.draw.
+#include "raycasting/sample_weight.glsl"
 #include "raycasting/march.glsl"
 #include "curvature/compositing_curvature.glsl"
 
