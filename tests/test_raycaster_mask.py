@@ -224,3 +224,24 @@ def test_the_curvature_volume_raycaster_takes_the_mask_and_the_cutaway():
     assert 0.2 * coverage.mean() < masked.mean() < 0.8 * coverage.mean() and (masked <= coverage).all()
     background = network(None, cutaway="box", cutaway_size=(10.0, 10.0, 10.0)).evaluate("cr.image", size=SIZE)
     assert np.array_equal(background, np.broadcast_to(background[0, 0], background.shape))
+
+
+@pytest.mark.parametrize("case", ["lps", "turned", "tiny box"])
+def test_masks_and_cutaways_follow_oriented_and_extreme_volumes(engine, labels, case):
+    """Volume and mask share a grid that is mirrored (LPS), turned by 20 degrees, or 1e-9 mm
+    small (drawn in its normalised frame): the ray positions go through the frame and the
+    volume's direction to the world, then into the mask's and the region's coordinates."""
+    turn = np.radians(20.0)
+    direction = {"lps": ((-1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0)),
+                 "turned": ((np.cos(turn), 0.0, np.sin(turn)), (0.0, 1.0, 0.0), (-np.sin(turn), 0.0, np.cos(turn))),
+                 "tiny box": ((-1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0))}[case]
+    scale = 1e-9 if case == "tiny box" else 1.0
+    grid = {"spacing": tuple(np.asarray(engine.spacing) * scale), "origin": (10.0 * scale, 20.0 * scale, 5.0 * scale),
+            "direction": direction}
+    volume, mask = Volume(engine.data, **grid), Volume(labels.data, **grid)
+    region = CutAwayRegion("sphere", grid["origin"], (120.0 * scale,) * 3)
+    image = gl_image(volume, mask, compositing="dvr", mask_labels="2", cutaway="sphere",
+                     cutaway_center=region.center, cutaway_size=region.size)
+    expected = reference(volume, "dvr", MaskWeights(mask, MaskSelection((2,)), region))
+    assert np.abs(image - expected).max() <= REFERENCE_TOLERANCE
+    assert np.abs(image - reference(volume, "dvr", None)).max() > 0.05
