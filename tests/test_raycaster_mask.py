@@ -222,7 +222,9 @@ def test_the_curvature_volume_raycaster_takes_the_mask_and_the_cutaway():
     coverage = network(None).evaluate("cr.depth", size=SIZE)[..., 3]  # 1 where a sample has opacity
     masked = network(half).evaluate("cr.depth", size=SIZE)[..., 3]
     assert 0.2 * coverage.mean() < masked.mean() < 0.8 * coverage.mean() and (masked <= coverage).all()
-    background = network(None, cutaway="box", cutaway_size=(10.0, 10.0, 10.0)).evaluate("cr.image", size=SIZE)
+    from vgraph.scheduler import BlankImageWarning
+    with pytest.warns(BlankImageWarning, match=r"cr\.cutaway \(box"):
+        background = network(None, cutaway="box", cutaway_size=(10.0, 10.0, 10.0)).evaluate("cr.image", size=SIZE)
     assert np.array_equal(background, np.broadcast_to(background[0, 0], background.shape))
 
 
@@ -245,3 +247,13 @@ def test_masks_and_cutaways_follow_oriented_and_extreme_volumes(engine, labels, 
     expected = reference(volume, "dvr", MaskWeights(mask, MaskSelection((2,)), region))
     assert np.abs(image - expected).max() <= REFERENCE_TOLERANCE
     assert np.abs(image - reference(volume, "dvr", None)).max() > 0.05
+
+
+def test_an_image_emptied_by_the_cutaway_or_the_mask_names_them(engine, labels):
+    from vgraph.scheduler import BlankImageWarning
+    with pytest.warns(BlankImageWarning, match=r"rc\.cutaway \(box at \[0\.0, 0\.0, 0\.0\], size \[1000\.0, "
+                                               r"1000\.0, 1000\.0\]\) removed every visible sample"):
+        masked_network(engine, None, cutaway="box", cutaway_size=(1000.0, 1000.0, 1000.0)).evaluate(
+            "rc.image", size=SIZE)
+    with pytest.warns(BlankImageWarning, match=r"rc\.mask \(hide 0, 1, 2\) removed every visible sample"):
+        masked_network(engine, labels, mask_labels="0, 1, 2", mask_mode="hide").evaluate("rc.image", size=SIZE)

@@ -18,7 +18,10 @@ processor and the property to change; the causes after it are not blamed:
    nearer than its near plane, beyond its far plane, left, right, above or below the view) or
    cover less than a pixel: the camera that casts the rays is named (the EntryExitPoints' for a
    ray caster, the renderer's own otherwise).
-5. ``unexplained``: what shows, is kept and is in view; the image is still empty.
+5. ``masked_away``: what shows is kept and in view, but the ray caster's mask or cut-away
+   (vgraph.masking) is on: they are named as the likely cause (they weigh samples, not voxels, so
+   what they leave is not counted here).
+6. ``unexplained``: what shows, is kept and is in view; the image is still empty.
 
 Renderers of plug-ins that only say ``visible_content()`` (in words) get that said, as before.
 """
@@ -314,7 +317,23 @@ def where_in_view(camera: Camera, low, high, size) -> str | None:
     return None
 
 
-# --- 5. nothing to blame -------------------------------------------------------------------------
+# --- 5. a mask or cut-away of the ray casters (vgraph.masking) -------------------------------------
+def masked_away(case: Case) -> str | None:
+    renderer = case.renderer
+    removers = []
+    if renderer.inputs.get("mask") is not None:
+        labels = getattr(renderer, "mask_labels", "") or "every nonzero label"
+        removers.append(f"{renderer.id}.mask ({getattr(renderer, 'mask_mode', 'keep')} {labels})")
+    if getattr(renderer, "cutaway", "none") != "none":
+        removers.append(f"{renderer.id}.cutaway ({renderer.cutaway} at {list(renderer.cutaway_center)}, "
+                        f"size {list(renderer.cutaway_size)})")
+    if not removers or not case.content:
+        return None
+    return (f"{case.name} rendered an empty image although {case.content}: "
+            f"{' and '.join(removers)} removed every visible sample; check that the kept region holds them")
+
+
+# --- 6. nothing to blame -------------------------------------------------------------------------
 def unexplained(case: Case) -> str | None:
     if not case.content:
         return None
@@ -324,7 +343,7 @@ def unexplained(case: Case) -> str | None:
             f"the cause; check {case.renderer.id}'s other properties (opacities, sampling, window)")
 
 
-CAUSES = (nothing_shown, clipped_away, slice_off_volume, out_of_view, unexplained)
+CAUSES = (nothing_shown, clipped_away, slice_off_volume, out_of_view, masked_away, unexplained)
 
 
 # --- renderers that say only in words ---------------------------------------------------------------
