@@ -26,8 +26,8 @@ Conventions (docs/explanations/ray-casting.md explains each property with pictur
 - Masks and cut-aways (vgraph.masking; docs/guide/clipping.md): the optional inport `mask`, a
   label or binary volume on its own grid, keeps (or hides) the samples in ``mask_labels``, with a
   hard or smoothed boundary; ``cutaway`` subtracts a box or sphere. Each sample's opacity (dvr,
-  first_hit) or intensity (mip, xray) is multiplied by its weight; iso and volumes drawn brick by
-  brick refuse them by name. With no mask and no cut-away the image is the same bit for bit.
+  first_hit) or intensity (mip, xray) is multiplied by its weight; iso takes no hit at a sample of
+  weight below 1/2 (the surface is cut there); volumes drawn brick by brick refuse them by name. With no mask and no cut-away the image is the same bit for bit.
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
   than its memory budget, is drawn from bricks instead of VolumeSampling, by the method the
   BrickedRayCaster's ``method`` auto chooses (vgraph.bricks.methods): through the PagedSampling
@@ -71,8 +71,7 @@ SHADED_MODES = ("dvr", "iso")
 SKIPPING = {"dvr": "opacity", "first_hit": "opacity", "iso": "level", "mip": "maximum"}
 BRICK_PARTS = (BrickSampling, PagedSampling, RayRequests)  # a frame draws through these or the others
 # Where masks and cut-aways (vgraph.gl.raycasting.mask) are not drawn, and why.
-MASKLESS = {"iso": "the iso surface takes no mask or cut-away (use first_hit or dvr)",
-            "bricks": "a volume drawn brick by brick takes no mask or cut-away"}
+MASKLESS = {"bricks": "a volume drawn brick by brick takes no mask or cut-away"}
 DERIVATIVES = ("none", "forward", "backward", "central", "sobel", "precomputed")
 
 

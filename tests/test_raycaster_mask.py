@@ -175,8 +175,6 @@ def test_bad_masks_are_refused_naming_processor_and_port(engine, labels):
         masked_network(engine, labels, mask_labels="2, 7").evaluate("rc.image", size=SIZE)
     with pytest.raises(VGraphError, match=r"rc\.mask_labels.*not a list of integer labels"):
         masked_network(engine, labels, mask_labels="dense").evaluate("rc.image", size=SIZE)
-    with pytest.raises(VGraphError, match=r"rc\.mask: the iso surface takes no mask"):
-        masked_network(engine, labels, compositing="iso").evaluate("rc.image", size=SIZE)
     with pytest.raises(VGraphError, match=r"rc\.cutaway_size.*sizes > 0"):
         masked_network(engine, None, cutaway="box", cutaway_size=(1.0, 0.0, 1.0)).evaluate("rc.image", size=SIZE)
 
@@ -258,3 +256,27 @@ def test_an_image_emptied_by_the_cutaway_or_the_mask_names_them(engine, labels):
             "rc.image", size=SIZE)
     with pytest.warns(BlankImageWarning, match=r"rc\.mask \(hide 0, 1, 2\) removed every visible sample"):
         masked_network(engine, labels, mask_labels="0, 1, 2", mask_mode="hide").evaluate("rc.image", size=SIZE)
+
+
+def test_the_iso_surface_is_cut_where_the_mask_hides(engine, labels):
+    """iso, mask keeping label 2: every hit lies in or next to (one voxel) a label-2 voxel, no hit
+    is nearer than the unmasked one, some are farther (the surfaces of the casing are gone), and
+    keeping every label is the unmasked image bit for bit."""
+    properties = {"compositing": "iso", "iso_level": 0.5}
+    plain = masked_network(engine, None, **properties)
+    assert np.array_equal(masked_network(engine, labels, mask_labels="0, 1, 2", **properties)
+                          .evaluate("rc.image", size=SIZE), plain.evaluate("rc.image", size=SIZE))
+    masked = masked_network(engine, labels, mask_labels="2", **properties)
+    depth, unmasked = masked.evaluate("rc.depth", size=SIZE), plain.evaluate("rc.depth", size=SIZE)
+    hit = depth[..., 3] > 0.5
+    assert 50 < hit.sum() < (unmasked[..., 3] > 0.5).sum() and (unmasked[..., 3][hit] > 0.5).all()
+    assert (depth[..., 1][hit] >= unmasked[..., 1][hit] - 1e-3).all()
+    assert (depth[..., 1][hit] > unmasked[..., 1][hit] + 1.0).any()
+    camera = masked["rc"].view_camera
+    origins, directions = camera.rays(*SIZE)
+    points = origins[hit] + depth[..., 1][hit][:, None] * directions[hit]
+    voxels = np.rint(labels.world_to_voxel(points)).astype(int)
+    near_dense = [(labels.data[max(z - 1, 0):z + 2, max(y - 1, 0):y + 2, max(x - 1, 0):x + 2] == 2).any()
+                  for x, y, z in voxels]
+    assert all(near_dense)
+    assert (labels.data[voxels[:, 2], voxels[:, 1], voxels[:, 0]] == 2).mean() > 0.9

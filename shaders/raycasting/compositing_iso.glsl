@@ -21,9 +21,11 @@ Result march(Ray ray) {
         int i = cursor.i;
         float value = intensity(sample_point(ray, float(i)));
         result.taken++;
-        if (value >= iso_level) {
+        // A masked or cut-away sample (weight below 1/2, sample_weight.glsl) is no hit; after one,
+        // the hit is the sample itself: the surface is cut there.
+        if (value >= iso_level && sample_weight(sample_point(ray, float(i))) >= 0.5) {
             float hit = float(i);
-            if (i > 0) {
+            if (i > 0 && sample_weight(sample_point(ray, float(i - 1))) >= 0.5) {
                 float before = have_previous ? previous
                                              : intensity(sample_point(ray, float(i - 1)));
                 hit = refine_crossing(ray, float(i - 1), before - iso_level, hit, value - iso_level);
