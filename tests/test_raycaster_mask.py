@@ -173,8 +173,8 @@ def test_bad_masks_are_refused_naming_processor_and_port(engine, labels):
         masked_network(engine, far).evaluate("rc.image", size=SIZE)
     with pytest.raises(VGraphError, match=r"rc\.mask.*no voxel of label 7 \(it holds 0, 1, 2\)"):
         masked_network(engine, labels, mask_labels="2, 7").evaluate("rc.image", size=SIZE)
-    with pytest.raises(VGraphError, match=r"rc\.mask_labels.*not a list of integer labels"):
-        masked_network(engine, labels, mask_labels="dense").evaluate("rc.image", size=SIZE)
+    with pytest.raises(VGraphError, match=r"rc\.mask_labels.*'dense' is not a list of integer labels"):
+        masked_network(engine, labels, mask_labels="dense")
     with pytest.raises(VGraphError, match=r"rc\.cutaway_size.*sizes > 0"):
         masked_network(engine, None, cutaway="box", cutaway_size=(1.0, 0.0, 1.0)).evaluate("rc.image", size=SIZE)
 
@@ -290,3 +290,24 @@ def test_a_volume_drawn_brick_by_brick_refuses_the_mask_and_the_cutaway(engine, 
     with pytest.raises(VGraphError, match=r"rc\.cutaway: a volume drawn brick by brick takes no mask or cut-away; "
                                           r"set it to none"):
         masked_network(engine, None, cutaway="box").evaluate("rc.image", size=SIZE)
+
+
+def test_the_cli_renders_the_shipped_network_and_refuses_a_missing_label_in_one_line(tmp_path, capsys, engine):
+    from vgraph.cli import main
+    network = str(REPO / "networks" / "mask_engine.json")
+    assert main(["run", network, "-o", str(tmp_path / "dense.png"), "--size", "64x48"]) == 0
+    assert (tmp_path / "dense.png").stat().st_size > 0
+    capsys.readouterr()
+    assert main(["run", network, "-o", str(tmp_path / "none.png"), "--set", "rc.mask_labels=7"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "rc.mask" in error and "no voxel of label 7 (it holds 0, 1, 2)" in error
+
+
+def test_mask_labels_take_a_number_or_a_list_as_text():
+    network = Network()
+    network.add("RayCaster", id="rc")
+    for value, text in ((2, "2"), ([1, 3], "1, 3"), ("1 3", "1 3"), ("", "")):
+        network.set("rc.mask_labels", value)
+        assert network.get("rc.mask_labels") == text
+    with pytest.raises(VGraphError, match=r"rc\.mask_labels.*'1\.5' is not a list of integer labels"):
+        network.set("rc.mask_labels", "1.5")

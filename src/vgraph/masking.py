@@ -27,11 +27,14 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import Annotated
 
 import numpy as np
+from pydantic import AfterValidator, BeforeValidator
 
 from vgraph.errors import PropertyError, VGraphError
 from vgraph.labels import label_codes
+from vgraph.properties import StringProperty
 from vgraph.volume import Volume
 
 MODES = ("keep", "hide")
@@ -42,12 +45,41 @@ LEVELS = 255  # the R8 texture's steps (smoothed indicators are rounded to them,
 
 def parse_labels(text: str, address: str) -> tuple[int, ...]:
     """'1, 3 7' -> (1, 3, 7); '' -> () (a binary mask). PropertyError naming ``address`` otherwise."""
+    try:
+        return _labels_of(text)
+    except ValueError as error:
+        raise PropertyError(address, str(error)) from None
+
+
+def _labels_of(text: str) -> tuple[int, ...]:
     words = [word for word in re.split(r"[,\s]+", text.strip()) if word]
     try:
         return tuple(sorted({int(word) for word in words}))
     except ValueError:
-        raise PropertyError(address, f"{text!r} is not a list of integer labels (e.g. '2' or '1, 3'); "
-                                     f"leave it empty to keep every nonzero voxel") from None
+        raise ValueError(f"{text!r} is not a list of integer labels (e.g. '2' or '1, 3'); "
+                         f"leave it empty to keep every nonzero voxel") from None
+
+
+def _label_text(value):
+    """A label, or a list of them, as ``--set ID.mask_labels=2`` or ``[1, 3]`` parse, as text."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        return str(value)
+    if isinstance(value, (list, tuple)) and all(isinstance(v, int) and not isinstance(v, bool) for v in value):
+        return ", ".join(map(str, value))
+    return value
+
+
+def _checked_label_text(text: str) -> str:
+    _labels_of(text)
+    return text
+
+
+class LabelListProperty(StringProperty):
+    """Integer labels as text ('2', '1, 3'; '' for none), checked when set; a number or a list of
+    numbers is taken as that text. Edited as a string."""
+
+    def _value_type(self):
+        return Annotated[str, BeforeValidator(_label_text), AfterValidator(_checked_label_text)]
 
 
 @dataclass(frozen=True)

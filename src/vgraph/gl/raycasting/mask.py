@@ -23,10 +23,10 @@ from vgraph import derived
 from vgraph.errors import VGraphError
 from vgraph.gl.raycasting.geometry import VolumeGeometry
 from vgraph.gl.raycasting.raycaster_base import Binding, Component, Frame
-from vgraph.masking import (BOUNDARIES, MODES, SHAPES, CutAwayRegion, MaskSelection, check_overlap,
-                            kept_indicator, parse_labels, world_to_mask_texture)
+from vgraph.masking import (BOUNDARIES, MODES, SHAPES, CutAwayRegion, LabelListProperty, MaskSelection,
+                            check_overlap, kept_indicator, parse_labels, world_to_mask_texture)
 from vgraph.ports import Inport
-from vgraph.properties import FloatProperty, OptionProperty, StringProperty, VectorProperty
+from vgraph.properties import FloatProperty, OptionProperty, VectorProperty
 from vgraph.volume import Volume
 
 INDICATOR_TEXTURE = "mask indicator texture"  # kind of derived data (vgraph.derived)
@@ -57,7 +57,7 @@ class Mask(Component):
     glsl = ("raycasting/mask.glsl",)
 
     def declare(self):
-        return {"mask_labels": StringProperty("", doc="labels of the mask kept (or hidden), e.g. '2' or "
+        return {"mask_labels": LabelListProperty("", doc="labels of the mask kept (or hidden), e.g. '2' or "
                                                       "'1, 3'; empty: every nonzero voxel"),
                 "mask_mode": OptionProperty("keep", choices=list(MODES),
                                             doc="keep: draw only where the mask holds these labels; "
