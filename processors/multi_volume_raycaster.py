@@ -47,6 +47,9 @@ Conventions (the CPU reference vgraph.numerics.multivolume_reference states the 
   by the order and sign of their axes (an LPS and a RAS file of one scan), not by a turn; such a
   channel is refused naming its inport ("mv.volume2: its axes are turned against volume1's ...;
   resample one onto the other's grid").
+- The optional inport `mask` and the cut-away region (vgraph.masking) weigh each channel's sample
+  as the RayCaster's do: its TF opacity (accumulate, nearest_opaque: before the threshold) or its
+  intensity (maximum).
 - Not here: other derivatives, empty-space skipping, bricked volumes (each channel must fit one 3D
   texture).
 """
@@ -61,6 +64,7 @@ from vgraph import FloatProperty, Inport, OptionProperty, Outport, VGraphError
 from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, Sampling,
                                              TransferFunctionLut, ray_main_missed)
 from vgraph.gl.raycasting.light import Light
+from vgraph.gl.raycasting.mask import CutAway, Mask
 from vgraph.gl.raycasting.raycaster_base import Binding, Frame, RaycasterBase
 from vgraph.gl.raycasting.empty_space import visible_under
 from vgraph.gl.raycasting.framed_view import frame_rotation
@@ -113,7 +117,7 @@ class MultiVolumeRayCaster(RaycasterBase):
     outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
     components = (EntryExit(), CameraRays(), Sampling(over="all volumes"), TRANSFER_FUNCTIONS,
                   FrontToBack(mode="blend", corrected=("accumulate",)),
-                  Light(mode="blend", shaded_modes=SHADED_BLENDS), Background())
+                  Light(mode="blend", shaded_modes=SHADED_BLENDS), Background(), Mask(), CutAway())
 
     blend = OptionProperty("accumulate", choices=list(BLEND_MODES),
                            doc="accumulate: channels mixed per sample, composited front to back; "
@@ -147,13 +151,14 @@ class MultiVolumeRayCaster(RaycasterBase):
                 for port in CHANNEL_PORTS if self.inputs.get(port) is not None]
 
     def process(self, volume1: Volume, volume2: Volume | None, volume3: Volume | None,
-                volume4: Volume | None, entry: Image, exit: Image) -> dict:
+                volume4: Volume | None, entry: Image, exit: Image, mask: Volume | None = None) -> dict:
         channels = [Channel(number, volume)
                     for number, volume in enumerate((volume1, volume2, volume3, volume4), start=1)
                     if volume is not None]
         for channel in channels:
             self._check(channel)
         self._check_turned_alike(channels)
+        self.parts[Mask].use(mask, volume1)
         # The rays' camera is resolved on the union box, as EntryExitPoints does, and the channels
         # are drawn in its frame.
         frame = self.frame(volume1, entry, exit, volumes=[c.volume for c in channels])

@@ -4,8 +4,10 @@ bench/make_label_volume.py: 0 background, 1 casing, 2 dense parts): the first hi
 voxel of a hidden label; with nearest sampling a mask equals setting the hidden voxels to the lowest
 value, bit for bit (first_hit, mip, dvr); mip and dvr match the
 CPU reference with the same mask (kept, hidden, smoothed, on a coarser turned grid) and cut-away;
-keeping every label is the unmasked image bit for bit; bad input is refused naming processor and
-port or property; the properties survive a .json round trip."""
+keeping every label is the unmasked image bit for bit; iso surfaces are cut where the mask hides;
+the CurvatureVolumeRaycaster and the MultiVolumeRayCaster (against its CPU reference) take them
+too; bad input is refused naming processor and port or property (also from the CLI, in one line);
+an image they empty names them; the properties survive a .json round trip."""
 
 import numpy as np
 import pytest
@@ -311,3 +313,33 @@ def test_mask_labels_take_a_number_or_a_list_as_text():
         assert network.get("rc.mask_labels") == text
     with pytest.raises(VGraphError, match=r"rc\.mask_labels.*'1\.5' is not a list of integer labels"):
         network.set("rc.mask_labels", "1.5")
+
+
+@pytest.mark.parametrize("blend", ["accumulate", "nearest_opaque", "maximum"])
+def test_the_multi_volume_raycaster_weighs_every_channel_as_the_cpu_reference(blend):
+    """Two channels (torus, shifted copy); a mask of label 1 on its own 0.25-unit grid turned by
+    30 degrees, and a sphere cut away: GL and the multivolume CPU reference with the same weights."""
+    from helpers.multivolume import BLUE, ORANGE, REFERENCE_TOLERANCE, shifted
+    from test_multi_volume_raycaster import multivolume_network, oblique_camera
+    from vgraph.implicit import sample
+    from vgraph.numerics.multivolume_reference import render_channels
+    torus = sample("torus", 28, "float32")
+    channels = [torus, shifted(torus, (4, -3, 2))]
+    turn = np.radians(30.0)
+    direction = ((np.cos(turn), -np.sin(turn), 0.0), (np.sin(turn), np.cos(turn), 0.0), (0.0, 0.0, 1.0))
+    half = np.zeros((10, 10, 10), dtype=np.uint8)
+    half[:, :, :5] = 1
+    mask = Volume(half, spacing=(0.25, 0.25, 0.25), origin=(-1.0, -1.4, -1.2), direction=direction)
+    region = CutAwayRegion("sphere", (0.4, 0.5, 0.0), (0.8, 0.8, 0.8))
+    camera = oblique_camera(torus)
+    network = multivolume_network(channels, camera, blend=blend, transfer_function1=ORANGE, transfer_function2=BLUE,
+                                  opacity_threshold=0.3, mask_labels="1", cutaway="sphere",
+                                  cutaway_center=region.center, cutaway_size=region.size)
+    network.add(GivenVolume(id="m", volume=mask))
+    network.connect("m.volume", "mv.mask")
+    image = network.evaluate("mv.image", size=SIZE)
+    pairs = [(channels[0], ORANGE), (channels[1], BLUE)]
+    expected = render_channels(pairs, camera, SIZE, blend=blend, opacity_threshold=0.3,
+                               sample_weights=MaskWeights(mask, MaskSelection((1,)), region))
+    np.testing.assert_allclose(image, expected, atol=REFERENCE_TOLERANCE)
+    assert np.abs(expected - render_channels(pairs, camera, SIZE, blend=blend, opacity_threshold=0.3)).max() > 0.1

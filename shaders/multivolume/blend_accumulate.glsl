@@ -21,6 +21,7 @@ void mix_channel(int k, vec3 t, vec3 view, bool shaded, inout Mix mixed) {
         return;
     }
     vec4 color = channel_classify(k, channel_value(k, tk));
+    color.a *= sample_weight(t);  // 0: masked or cut away (raycasting/sample_weight.glsl)
     if (color.a > 0.0) {
         float alpha = channel_opacity(k, color.a);
 #ifdef SHADING_BLINN_PHONG

@@ -17,7 +17,7 @@ void take_channel(int k, vec3 t, int i, inout Maxima m) {
         return;
     }
     m.met[k] = true;
-    float value = min(channel_value(k, tk), 1.0);
+    float value = min(channel_value(k, tk), 1.0) * sample_weight(t);  // 0: masked (sample_weight.glsl)
     if (value > m.best[k]) {
         m.best[k] = value;
         m.best_sample[k] = i;

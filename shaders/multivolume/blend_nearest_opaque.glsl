@@ -19,6 +19,7 @@ void test_channel(int k, vec3 t, inout Hit hit) {
         return;
     }
     vec4 color = channel_classify(k, channel_value(k, tk));
+    color.a *= sample_weight(t);  // 0: masked or cut away (raycasting/sample_weight.glsl)
     if (color.a >= opacity_threshold && color.a > hit.color.a) {
         hit = Hit(color, k, tk);
     }

@@ -9,6 +9,7 @@
 // The MultiVolumeRayCaster's own part; its components' GLSL (pixel ray, camera rays and depth
 // output, the channels' transfer functions, shading, background) is included ahead of it by
 // RaycasterBase.draw.
+#include "raycasting/sample_weight.glsl"
 #include "multivolume/channels.glsl"
 #include "multivolume/blend_accumulate.glsl"
 #include "multivolume/blend_nearest_opaque.glsl"

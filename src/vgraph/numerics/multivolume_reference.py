@@ -82,10 +82,12 @@ def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate"
                     sampling_rate: float = 1.0, early_termination: float = 0.99,
                     opacity_threshold: float = 0.5, background=(0.0, 0.0, 0.0, 1.0),
                     shading: Shading | None = None, clip_planes=(), crop_box=None,
-                    chunk_rays: int = 65536) -> np.ndarray:
+                    chunk_rays: int = 65536, sample_weights=None) -> np.ndarray:
     """Render ``channels``, a list of (Volume, TransferFunction), the rays spanning the union of
     their boxes, as the MultiVolumeRayCaster does (model in the module docstring). ``size`` is (width, height);
-    ``clip_planes`` and ``crop_box`` are those of the EntryExitPoints."""
+    ``clip_planes`` and ``crop_box`` are those of the EntryExitPoints. ``sample_weights``
+    (vgraph.masking.MaskWeights) weighs each channel's TF opacity (accumulate, nearest_opaque) or
+    intensity (maximum) at the sample's world point."""
     if not 1 <= len(channels) <= MAX_CHANNELS:
         raise VGraphError(f"multivolume reference: 1 to {MAX_CHANNELS} channels, got {len(channels)}")
     if blend not in BLENDS:
@@ -107,7 +109,7 @@ def render_channels(channels, camera: Camera, size, *, blend: str = "accumulate"
         rays = slice(start, start + chunk_rays)
         rgba[rays] = march(ready, origins[rays], directions[rays], t_entry[rays], counts[rays], step,
                            early_termination=early_termination, threshold=opacity_threshold,
-                           shading=shading)
+                           shading=shading, weights=sample_weights)
     bg = np.asarray(background, dtype=np.float64)
     coverage = rgba[:, 3:4]
     image = np.concatenate([rgba[:, :3] + (1.0 - coverage) * bg[:3], coverage + (1.0 - coverage) * bg[3]],
@@ -126,19 +128,27 @@ def _check_turned_alike(volumes) -> None:
                               f"{np.round(first, 6).tolist()}); resample one onto the other's grid")
 
 
-def _classified(channel: _Channel, points: np.ndarray, alone: bool):
-    """(RGBA per point, present per point) of one channel (rule 3)."""
+def _classified(channel: _Channel, points: np.ndarray, alone: bool, weights=None):
+    """(RGBA per point, present per point) of one channel (rule 3); opacities times ``weights``
+    (a mask or cut-away: vgraph.masking) where given."""
     present = np.ones(len(points), dtype=bool) if alone else channel.inside(points)
     rgba = np.zeros((len(points), 4))
     rgba[present] = lookup(channel.lut, channel.sampler(points[present]))
+    if weights is not None:
+        rgba[:, 3] *= weights
     return rgba, present
+
+
+def _weights_at(weights, points):
+    return None if weights is None else weights(points)
 
 
 def _points(origins, directions, t_entry, rays, i, step):
     return origins[rays] + (t_entry[rays] + i * step)[:, None] * directions[rays]
 
 
-def _accumulate(channels, origins, directions, t_entry, counts, step, *, early_termination, shading, **_):
+def _accumulate(channels, origins, directions, t_entry, counts, step, *, early_termination, shading, weights,
+                **_):
     """Rule 4 in log space (reference_raycast's rule 7): ln(1 - alpha) of a sample is the sum of
     its channels' log1p(-a'_k), the ray keeps ln(1 - A)."""
     colour = np.zeros((len(origins), 3))
@@ -150,8 +160,9 @@ def _accumulate(channels, origins, directions, t_entry, counts, step, *, early_t
         log_sample = np.zeros(len(active))  # ln(1 - alpha) of the sample
         weight = np.zeros(len(active))
         weighted = np.zeros((len(active), 3))
+        kept = _weights_at(weights, points)
         for k, channel in enumerate(channels):
-            rgba, _ = _classified(channel, points, len(channels) == 1)
+            rgba, _ = _classified(channel, points, len(channels) == 1, kept)
             corrected = corrected_opacity(rgba[:, 3], step / channel.min_spacing)  # 0 stays 0
             if shading is not None:
                 rgba[:, :3] = shade_samples(channel.sampler, shading, points, directions[active],
@@ -170,15 +181,16 @@ def _accumulate(channels, origins, directions, t_entry, counts, step, *, early_t
     return np.concatenate([colour, -np.expm1(log_transparency)[:, None]], axis=1)
 
 
-def _nearest_opaque(channels, origins, directions, t_entry, counts, step, *, threshold, shading, **_):
+def _nearest_opaque(channels, origins, directions, t_entry, counts, step, *, threshold, shading, weights, **_):
     rgba = np.zeros((len(origins), 4))
     active = np.flatnonzero(counts > 0)
     i = 0
     while active.size:
         points = _points(origins, directions, t_entry, active, i, step)
         hit = np.zeros((len(active), 4))
+        kept = _weights_at(weights, points)
         for k, channel in enumerate(channels):
-            sample, present = _classified(channel, points, len(channels) == 1)
+            sample, present = _classified(channel, points, len(channels) == 1, kept)
             better = present & (sample[:, 3] >= threshold) & (sample[:, 3] > hit[:, 3])
             if shading is not None:
                 sample[:, :3] = shade_samples(channel.sampler, shading, points, directions[active],
@@ -193,17 +205,20 @@ def _nearest_opaque(channels, origins, directions, t_entry, counts, step, *, thr
     return rgba
 
 
-def _maximum(channels, origins, directions, t_entry, counts, step, **_):
+def _maximum(channels, origins, directions, t_entry, counts, step, *, weights, **_):
     maxima = np.zeros((len(channels), len(origins)))
     met = np.zeros((len(channels), len(origins)), dtype=bool)
     active = np.flatnonzero(counts > 0)
     i = 0
     while active.size:
         points = _points(origins, directions, t_entry, active, i, step)
+        kept = _weights_at(weights, points)
         for k, channel in enumerate(channels):
             present = np.ones(len(points), dtype=bool) if len(channels) == 1 else channel.inside(points)
             rows = active[present]
             values = np.clip(channel.sampler(points[present]), 0.0, 1.0)
+            if kept is not None:
+                values = values * kept[present]
             maxima[k, rows] = np.maximum(maxima[k, rows], values)
             met[k, rows] = True
         i += 1
