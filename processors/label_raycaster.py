@@ -25,6 +25,9 @@ Conventions (docs/guide/exploring.md has pictures):
 - Samples as the RayCaster's: every min(spacing) / sampling_rate world units from the entry point
   (raycasting/ray.glsl), so clipping planes in EntryExitPoints apply here too.
   ``vgraph.numerics.reference_labels`` is the CPU reference of the picture.
+- The optional inport ``mask`` and the cut-away region (vgraph.masking) weigh each sample: its
+  label's opacity (composite) or, below 1/2, no hit (first_hit; after such a sample the hit is the
+  sample itself, not refined into the removed part).
 - ``depth`` (on demand, drawn only when something reads it: the picking of vgraph.picking): the
   RayCaster's depth output convention (raycasting/depth_output.glsl) at the first sample whose
   label is shown (first_hit: at the refined hit), a = 0 where no shown label is met.
@@ -40,6 +43,7 @@ import numpy as np
 from vgraph import Inport, OptionProperty, Outport, VGraphError, derived
 from vgraph.gl.raycasting.components import Background, CameraRays, EmptySpace, EntryExit, FrontToBack, Sampling
 from vgraph.gl.raycasting.light import Light
+from vgraph.gl.raycasting.mask import CutAway, Mask
 from vgraph.gl.raycasting.raycaster_base import Binding, Frame, RaycasterBase
 from vgraph.gl.raycasting.empty_space import radii_if_worthwhile, window_reduced
 from vgraph.gl.raycasting.geometry import vec
@@ -75,7 +79,7 @@ class LabelRayCaster(RaycasterBase):
     inports = [Inport("labels", Volume)]
     outports = [Outport("image", Image), Outport("depth", Image, on_demand=True)]
     components = (EntryExit(), CameraRays(), Sampling(), FrontToBack(), Light(), EmptySpace(skip=skip_values),
-                  Background())
+                  Background(), Mask(), CutAway())
 
     label_table = LabelTableProperty(LabelTable.default(),
                                      doc="per label value: name, colour, opacity, visible; unlisted "
@@ -90,8 +94,9 @@ class LabelRayCaster(RaycasterBase):
         self._colors = ColorTable()
         self.frame_codes: LabelCodes | None = None  # of the frame being drawn (skip_values reads them)
 
-    def process(self, labels: Volume, entry: Image, exit: Image) -> dict:
+    def process(self, labels: Volume, entry: Image, exit: Image, mask: Volume | None = None) -> dict:
         consumer = self._checked(labels)
+        self.parts[Mask].use(mask, labels)
         frame = self.frame(labels, entry, exit)
         with_depth = self.wants("depth")
         targets = self._targets[with_depth]

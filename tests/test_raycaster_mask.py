@@ -5,8 +5,8 @@ voxel of a hidden label; with nearest sampling a mask equals setting the hidden 
 value, bit for bit (first_hit, mip, dvr); mip and dvr match the
 CPU reference with the same mask (kept, hidden, smoothed, on a coarser turned grid) and cut-away;
 keeping every label is the unmasked image bit for bit; iso surfaces are cut where the mask hides;
-the CurvatureVolumeRaycaster and the MultiVolumeRayCaster (against its CPU reference) take them
-too; bad input is refused naming processor and port or property (also from the CLI, in one line);
+the CurvatureVolumeRaycaster, the MultiVolumeRayCaster and the LabelRayCaster (the last two
+against their CPU references) take them too; bad input is refused naming processor and port or property (also from the CLI, in one line);
 an image they empty names them; the properties survive a .json round trip."""
 
 import numpy as np
@@ -19,7 +19,7 @@ from vgraph.io import read_volume
 from vgraph.network import Network
 from vgraph.masking import CutAwayRegion, MaskSelection, MaskWeights, kept_indicator
 from vgraph.numerics.reference_raycast import render, volume_box
-from vgraph.testing import GivenVolume
+from vgraph.testing import GivenVolume, ray_caster_network
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
@@ -343,3 +343,39 @@ def test_the_multi_volume_raycaster_weighs_every_channel_as_the_cpu_reference(bl
                                sample_weights=MaskWeights(mask, MaskSelection((1,)), region))
     np.testing.assert_allclose(image, expected, atol=REFERENCE_TOLERANCE)
     assert np.abs(expected - render_channels(pairs, camera, SIZE, blend=blend, opacity_threshold=0.3)).max() > 0.1
+
+
+@pytest.mark.parametrize("compositing", ["composite", "first_hit"])
+def test_the_label_raycaster_takes_the_mask_and_the_cutaway_as_its_cpu_reference(labels, compositing):
+    """The engine's labels cut by a sphere and masked by a coarse turned box of label 1 on its own
+    grid (the LabelRayCaster's reference works in texture coordinates: the weights are asked at
+    their world points); keeping every label without a region is the unmasked picture bit for bit."""
+    from vgraph.numerics.reference_labels import render_labels
+    turn = np.radians(25.0)
+    direction = ((np.cos(turn), -np.sin(turn), 0.0), (np.sin(turn), np.cos(turn), 0.0), (0.0, 0.0, 1.0))
+    box = np.zeros((20, 30, 30), dtype=np.uint8)
+    box[2:18, 4:26, 3:20] = 1
+    mask = Volume(box, spacing=(8.0, 8.0, 6.0), origin=(-110.0, -130.0, -60.0), direction=direction)
+    region = CutAwayRegion("sphere", (40.0, -40.0, 30.0), (120.0, 120.0, 120.0))
+    table = load_network(REPO / "networks" / "labels_engine.json").get("labels.label_table")
+    camera = camera_of(labels)
+
+    def network(mask_volume, **properties):
+        built = ray_caster_network(labels, camera, "LabelRayCaster", "lrc", inport="labels", label_table=table,
+                                   compositing=compositing, **properties)
+        if mask_volume is not None:
+            built.add(GivenVolume(id="m", volume=mask_volume))
+            built.connect("m.volume", "lrc.mask")
+        return built
+
+    plain = network(None).evaluate("lrc.image", size=SIZE)
+    assert np.array_equal(network(labels, mask_labels="0, 1, 2").evaluate("lrc.image", size=SIZE), plain)
+    masked = network(mask, mask_labels="1", cutaway="sphere", cutaway_center=region.center, cutaway_size=region.size)
+    image = masked.evaluate("lrc.image", size=SIZE)
+    entry, exit_ = masked.evaluate("eep.entry", size=SIZE), masked.evaluate("eep.exit", size=SIZE)
+    weights = MaskWeights(mask, MaskSelection((1,)), region)
+    dims = np.asarray(labels.dims, dtype=np.float64)
+    expected = render_labels(labels, table, entry, exit_, mode=compositing,
+                             sample_weights=lambda t: weights(labels.voxel_to_world(t * dims - 0.5)))
+    assert np.abs(image - expected).max() <= REFERENCE_TOLERANCE
+    assert np.abs(image - plain).max() > 0.3

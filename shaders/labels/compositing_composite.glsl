@@ -14,12 +14,15 @@ vec4 march(Ray ray) {
     March cursor = start_march(ray);
     while (cursor.i < ray.samples) {
         if (!next_occupied_sample(cursor, ray)) break;  // march.glsl
-        Label label = majority_label(sample_point(ray, float(cursor.i)));
-        if (label.code != BACKGROUND) {
+        vec3 t = sample_point(ray, float(cursor.i));
+        Label label = majority_label(t);
+        float kept = sample_weight(t);  // 0: masked or cut away (raycasting/sample_weight.glsl)
+        if (label.code != BACKGROUND && kept > 0.0) {
             if (depth_sample < 0.0) {
                 depth_sample = float(cursor.i);  // the depth output's sample: the first shown label
             }
             vec4 color = code_color(label.code);
+            color.a *= kept;
             float alpha = color.a >= SMALL_OPACITY ? 1.0 - pow(1.0 - color.a, opacity_exponent)
                           : opacity_of_depth(opacity_exponent * depth_of_opacity(color.a));
             float weight = (1.0 - sum.a) * alpha;

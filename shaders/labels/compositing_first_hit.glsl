@@ -28,10 +28,13 @@ vec4 march(Ray ray) {
     March cursor = start_march(ray);
     while (cursor.i < ray.samples) {
         if (!next_occupied_sample(cursor, ray)) break;  // march.glsl
-        Label label = majority_label(sample_point(ray, float(cursor.i)));
-        if (label.code != BACKGROUND) {
+        vec3 t = sample_point(ray, float(cursor.i));
+        Label label = majority_label(t);
+        // A masked or cut-away sample (weight below 1/2, raycasting/sample_weight.glsl) is no hit;
+        // after one, the hit is the sample itself: the labels are cut there.
+        if (label.code != BACKGROUND && sample_weight(t) >= 0.5) {
             depth_sample = float(cursor.i);
-            if (cursor.i > 0) {
+            if (cursor.i > 0 && sample_weight(sample_point(ray, float(cursor.i - 1))) >= 0.5) {
                 label = refined_hit(ray, float(cursor.i - 1), float(cursor.i), label);
             }
             return vec4(label_shade(code_color(label.code).rgb, label, ray), 1.0);

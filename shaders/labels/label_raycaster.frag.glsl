@@ -11,6 +11,7 @@
 // shading, empty space and ray bounds, background) is included ahead of it by RaycasterBase.draw.
 float depth_sample = -1.0;  // set by march(): the ray parameter of the depth output's sample
 
+#include "raycasting/sample_weight.glsl"
 #include "raycasting/march.glsl"
 #include "labels/majority.glsl"
 #include "labels/label_shading.glsl"

@@ -31,9 +31,13 @@ HIT_REFINEMENT = 6  # halvings of the first hit's step (shaders/labels/compositi
 
 def render_labels(volume: Volume, table: LabelTable, entry: np.ndarray, exit: np.ndarray, *,
                   mode: str = "composite", sampling_rate: float = 1.0, early_termination: float = 0.99,
-                  background=(0.0, 0.0, 0.0, 1.0), shading: dict | None = None) -> np.ndarray:
+                  background=(0.0, 0.0, 0.0, 1.0), shading: dict | None = None,
+                  sample_weights=None) -> np.ndarray:
     """The picture (H, W, 4) from entry and exit images (H, W, 4) as Image.to_numpy() gives them.
-    ``shading``: None, or {"ambient", "diffuse", "specular", "shininess"} of a headlight."""
+    ``shading``: None, or {"ambient", "diffuse", "specular", "shininess"} of a headlight.
+    ``sample_weights``: None, or weights (a mask, a cut-away: vgraph.masking) at (M, 3) points in
+    the volume's texture coordinates: composite multiplies the label's opacity by them, first_hit
+    takes no hit below 1/2 and does not refine a hit after such a sample."""
     codes = label_codes(volume.data, "reference")
     classes = codes.classes(table)[codes.codes.astype(np.int64)]
     colors = table.colors(codes.values).astype(np.float64)
@@ -49,7 +53,7 @@ def render_labels(volume: Volume, table: LabelTable, entry: np.ndarray, exit: np
     direction = along * dims * spacing / np.maximum(length, 1e-300)[:, None]
     total = np.zeros((len(start), 4))
     march = dict(classes=classes, colors=colors, spacing=spacing, mode=mode, exponent=1.0 / sampling_rate,
-                 early_termination=early_termination, shading=shading)
+                 early_termination=early_termination, shading=shading, weights=sample_weights)
     for first in range(0, len(start), CHUNK_RAYS):  # bounded memory, whatever the image size
         rays = slice(first, first + CHUNK_RAYS)
         total[rays] = _march(start[rays], step[rays], direction[rays], samples[rays], **march)
@@ -61,7 +65,7 @@ def render_labels(volume: Volume, table: LabelTable, entry: np.ndarray, exit: np
 
 
 def _march(start, step, direction, samples, *, classes, colors, spacing, mode, exponent,
-           early_termination, shading):
+           early_termination, shading, weights=None):
     """Premultiplied RGBA of rays from ``start`` by ``step`` (texture coordinates) for ``samples``
     samples each, composited in log space or to the first hit."""
     total = np.zeros((len(start), 4))
@@ -72,10 +76,15 @@ def _march(start, step, direction, samples, *, classes, colors, spacing, mode, e
         if rays.size == 0:
             break
         winner, _, normal = majority(classes, start[rays] + i * step[rays])
-        shown = winner != BACKGROUND
-        rays, winner, normal = rays[shown], winner[shown], normal[shown]
+        kept = np.ones(len(rays)) if weights is None else weights(start[rays] + i * step[rays])
+        shown = (winner != BACKGROUND) & (kept >= 0.5 if mode == "first_hit" else kept > 0.0)
+        rays, winner, normal, kept = rays[shown], winner[shown], normal[shown], kept[shown]
         if mode == "first_hit" and i > 0:
-            winner, normal = _refined_hit(classes, start[rays], step[rays], i, winner, normal)
+            refine = np.ones(len(rays), dtype=bool) if weights is None \
+                else weights(start[rays] + (i - 1) * step[rays]) >= 0.5
+            refined = _refined_hit(classes, start[rays[refine]], step[rays[refine]], i, winner[refine],
+                                   normal[refine])
+            winner[refine], normal[refine] = refined
         rgb = colors[winner, :3]
         if shading is not None:
             rgb = _headlight(rgb, normal / spacing, direction[rays], shading, spacing.min())
@@ -83,7 +92,7 @@ def _march(start, step, direction, samples, *, classes, colors, spacing, mode, e
             total[rays] = np.concatenate([rgb, np.ones((len(rays), 1))], axis=1)
             active[rays] = False
             continue
-        alpha = corrected_opacity(colors[winner, 3], exponent)
+        alpha = corrected_opacity(colors[winner, 3] * kept, exponent)
         total[rays, :3] += (np.exp(log_transparency[rays]) * alpha)[:, None] * rgb
         with np.errstate(divide="ignore"):  # an opaque label: ln 0 = -inf
             log_transparency[rays] += np.log1p(-alpha)
