@@ -23,7 +23,8 @@ from __future__ import annotations
 from vgraph import (BoolProperty, Inport, LabelTableProperty, OptionProperty, Outport, Processor, PropertyError,
                     StringProperty)
 from vgraph.labels import LabelTable
-from vgraph.measure_regions import REGION_RULES, check_same_grid, percentile_name, region_codes, region_table
+from vgraph.measure_regions import (REGION_RULES, check_same_grid, percentile_name, region_codes, region_table,
+                                    with_names)
 from vgraph.table import Table
 from vgraph.volume import Volume
 from vgraph.volume_filtering import samples_in_memory
@@ -67,6 +68,7 @@ class RegionStatistics(Processor):
     def __init__(self, id=None, **values):
         super().__init__(id, **values)
         self.table: Table | None = None  # the last run's, for the inspector
+        self._measured: tuple | None = None  # (inputs and settings, the table without names)
 
     def frame_summary(self) -> str:
         """The table's rows, for the GUI's inspector (the first 12; the CSV holds all)."""
@@ -79,10 +81,21 @@ class RegionStatistics(Processor):
         for each in (labels, volume):
             if each is not None:
                 samples_in_memory(each, who)
+        self.table = self._statistics(labels, volume, percents, who)
+        if self.regions == "labels":
+            self.table = with_names(self.table, {e.value: e.name for e in self.label_table.labels if e.name})
+        return self.table
+
+    def _statistics(self, labels: Volume, volume: Volume | None, percents: list[float], who: str) -> Table:
+        """The table without names, kept while the inputs and settings stay: a colour or a name
+        changed in a linked label table must not measure every region again."""
+        settings = (tuple(percents), self.regions, self.surface_area)
+        kept = self._measured
+        if kept is not None and kept[0] is labels and kept[1] is volume and kept[2] == settings:
+            return kept[3]
         codes = region_codes(labels, self.regions, who)
         if volume is not None:
             check_same_grid(labels, volume, who)
-        names = {entry.value: entry.name for entry in self.label_table.labels if entry.name}
-        self.table = region_table(codes, labels, volume, percents, self.surface_area, who,
-                                  names if self.regions == "labels" else None)
-        return self.table
+        table = region_table(codes, labels, volume, percents, self.surface_area, who)
+        self._measured = (labels, volume, settings, table)
+        return table

@@ -193,6 +193,7 @@ def test_names_from_the_label_table_linked_from_the_label_ray_caster(tmp_path):
     network.set("labels.label_table", LabelTable(labels=tuple(e for e in renamed if e.value != 2)
                                                  + (LabelEntry(value=2, name="inserts, dense"),)))
     network.update("stats.table")
+    assert network.output("stats.table").column("count") is table.column("count")   # renamed, not measured again
     network.output("stats.table").to_csv(tmp_path / "stats.csv")
     rows = list(csv.reader(open(tmp_path / "stats.csv")))
     assert rows[0][:2] == ["label", "name"] and [row[1] for row in rows[1:]] == ["casing", "inserts, dense"]

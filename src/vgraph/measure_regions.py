@@ -62,16 +62,15 @@ def check_same_grid(labels: Volume, values: Volume, who: str) -> None:
 
 
 def region_table(codes: np.ndarray, labels: Volume, values: Volume | None, percentiles, surface_area: bool,
-                 who: str, names: dict[int, str] | None = None) -> Table:
-    """The statistics table (module docstring), one row per label value present, ascending;
-    a ``name`` column beside ``label`` when ``names`` (label value -> name) names a region."""
+                 who: str) -> Table:
+    """The statistics table (module docstring), one row per label value present, ascending."""
     flat = codes.ravel()
     foreground = np.flatnonzero(flat)
     order = foreground[np.argsort(flat[foreground], kind="stable")]  # voxel indices grouped by label
     present, starts = np.unique(flat[order], return_index=True)
     groups = np.split(order, starts[1:])
     count = np.array([len(g) for g in groups], dtype=np.int64)
-    columns = [Column("label", present), *_name_column(present, names or {}), Column("count", count),
+    columns = [Column("label", present), Column("count", count),
                Column("volume", count * float(np.prod(labels.spacing)), "world^3")]
     if values is not None:
         columns += _value_columns(values, groups, percentiles, who)
@@ -81,11 +80,14 @@ def region_table(codes: np.ndarray, labels: Volume, values: Volume | None, perce
     return Table(tuple(columns), source=who)
 
 
-def _name_column(present: np.ndarray, names: dict[int, str]) -> list[Column]:
-    """[the names of the regions present ("" for one without)], or [] when none has a name."""
+def with_names(table: Table, names: dict[int, str]) -> Table:
+    """``table`` with a ``name`` column beside ``label`` (label value -> name; "" for one without),
+    or ``table`` itself when ``names`` names none of its regions."""
+    present = table["label"]
     if not any(int(value) in names for value in present):
-        return []
-    return [Column("name", np.array([names.get(int(value), "") for value in present], dtype=str))]
+        return table
+    column = Column("name", np.array([names.get(int(value), "") for value in present], dtype=str))
+    return Table((table.columns[0], column, *table.columns[1:]), table.source)
 
 
 def percentile_name(percent: float) -> str:
