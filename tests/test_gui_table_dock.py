@@ -89,3 +89,14 @@ def test_save_csv_writes_what_the_command_line_writes(stats_window, tmp_path):
     assert (tmp_path / "dock.csv").read_text().splitlines()[1] == "1,14,14.0"   # label, count, volume
     assert not panel.save_csv(tmp_path / "missing" / "dock.csv")   # a folder that is not there: said, not raised
     assert "cannot write" in stats_window.statusBar().currentMessage()
+
+
+def test_sorting_keeps_nan_last_and_sorts_names_and_whole_numbers_both_ways():
+    from vgraph.gui.table_dock import sorted_order
+    values = np.array([2.0, np.nan, -1.0, 5.0, np.nan, 2.0])
+    assert sorted_order(values, Qt.AscendingOrder).tolist() == [2, 0, 5, 3, 1, 4]
+    assert sorted_order(values, Qt.DescendingOrder).tolist() == [3, 0, 5, 2, 1, 4]
+    names = np.array(["casing", "", "dense parts", "casing"])
+    assert sorted_order(names, Qt.DescendingOrder).tolist() == [2, 0, 3, 1]
+    big = np.array([2**63 - 1, 0, 2**62], dtype=np.uint64)
+    assert sorted_order(big, Qt.DescendingOrder).tolist() == [0, 2, 1]
