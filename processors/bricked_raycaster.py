@@ -18,6 +18,9 @@ Conventions (docs/explanations/bricked-ray-casting.md explains each with the num
   missing bricks they reach (RayRequests, vgraph.bricks.ray_requests), which are read after the
   frame. ``auto`` (the default) takes per frame the one vgraph.bricks.methods chooses: the single
   pass for dvr and iso, where it measured faster, passes for mip and for the leaves split.
+- Masks and cut-aways (vgraph.masking; docs/guide/clipping.md) as the RayCaster's: the optional
+  inport ``mask`` and ``mask_labels``, ``mask_mode``, ``mask_boundary``, ``mask_smoothing``,
+  ``cutaway*`` (the Mask and CutAway components) weigh each sample in every mode and method.
 - The frame context (vgraph.frame_context; not properties) gives BrickSampling the ``load_limit``
   (coarse first in the GUI) and the ``leaf`` (the leaves split's run of bricks,
   vgraph.distributed.leaves).
@@ -35,6 +38,7 @@ from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, IsoSurface, Sampling,
                                              TransferFunctionLut, palette_shading, palette_transfer_function)
 from vgraph.gl.raycasting.light import Gradients, Light
+from vgraph.gl.raycasting.mask import CutAway, Mask
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.targets import RenderTargets
 from vgraph.image import Image
@@ -55,7 +59,7 @@ class BrickedRayCaster(RaycasterBase):
                   FrontToBack(mode="compositing", corrected=("dvr",), early_termination=1.0), IsoSurface(),
                   BrickSampling(mode="compositing"), Gradients(DERIVATIVES),
                   Light(mode="compositing", shaded_modes=SHADED_MODES), Background(), PagedSampling(),
-                  RayRequests())
+                  RayRequests(), Mask(), CutAway())
     uses_context = ("load_limit", "leaf")  # BrickSampling's (vgraph.bricks.sampling)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING), doc="dvr, mip, iso (surface at iso_level)")
@@ -104,8 +108,10 @@ class BrickedRayCaster(RaycasterBase):
         volume = self.inputs.get("volume")
         return [voxels_by_compositing("volume", volume, self)] if volume is not None else []
 
-    def process(self, volume: Volume, entry: Image, exit: Image, context: FrameContext) -> dict:
+    def process(self, volume: Volume, entry: Image, exit: Image, context: FrameContext,
+                mask: Volume | None = None) -> dict:
         volume.require_samples(f"BrickedRayCaster '{self.id}'")
+        self.parts[Mask].use(mask, volume)
         frame = self.frame(volume, entry, exit)
         own = Binding(defines={f"COMPOSITING_{self.compositing.upper()}": True})
         image, depth = self._targets.ensure(frame.ctx, frame.size)

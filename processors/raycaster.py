@@ -27,7 +27,7 @@ Conventions (docs/explanations/ray-casting.md explains each property with pictur
   label or binary volume on its own grid, keeps (or hides) the samples in ``mask_labels``, with a
   hard or smoothed boundary; ``cutaway`` subtracts a box or sphere. Each sample's opacity (dvr,
   first_hit) or intensity (mip, xray) is multiplied by its weight; iso takes no hit at a sample of
-  weight below 1/2 (the surface is cut there); volumes drawn brick by brick refuse them by name. With no mask and no cut-away the image is the same bit for bit.
+  weight below 1/2 (the surface is cut there), also for volumes drawn brick by brick. With no mask and no cut-away the image is the same bit for bit.
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
   than its memory budget, is drawn from bricks instead of VolumeSampling, by the method the
   BrickedRayCaster's ``method`` auto chooses (vgraph.bricks.methods): through the PagedSampling
@@ -57,7 +57,7 @@ from vgraph.gl.raycasting.empty_space import occupied_blocks, radii_if_worthwhil
 from vgraph.gl.raycasting.gradient_classification import GradientClassification
 from vgraph.gl.raycasting.light import Gradients, Light
 from vgraph.gl.raycasting.light_volume import LightShadows
-from vgraph.gl.raycasting.mask import CutAway, Mask, check_drawable
+from vgraph.gl.raycasting.mask import CutAway, Mask
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
 from vgraph.gl.raycasting.shown_volume import ShowsVolume
 from vgraph.gl.raycasting.targets import RenderTargets
@@ -70,8 +70,6 @@ COMPOSITING = ("dvr", "mip", "iso", "first_hit", "xray")
 SHADED_MODES = ("dvr", "iso")
 SKIPPING = {"dvr": "opacity", "first_hit": "opacity", "iso": "level", "mip": "maximum"}
 BRICK_PARTS = (BrickSampling, PagedSampling, RayRequests)  # a frame draws through these or the others
-# Where masks and cut-aways (vgraph.gl.raycasting.mask) are not drawn, and why.
-MASKLESS = {"bricks": "a volume drawn brick by brick takes no mask or cut-away"}
 DERIVATIVES = ("none", "forward", "backward", "central", "sobel", "precomputed")
 
 
@@ -158,7 +156,6 @@ class RayCaster(ShowsVolume, RaycasterBase):
         self._drew_bricks = None
         bricks = needs_bricks(volume, self.gl)
         self.parts[Mask].use(mask, volume)
-        check_drawable(self, self.parts, MASKLESS.get("bricks" if bricks else self.compositing))
         if bricks:
             self._check_bricked_mode(volume, light_volume)
         # A frame samples one texture (every part but the bricks') or the bricks (module docstring).

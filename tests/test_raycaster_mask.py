@@ -284,16 +284,6 @@ def test_the_iso_surface_is_cut_where_the_mask_hides(engine, labels):
     assert (labels.data[voxels[:, 2], voxels[:, 1], voxels[:, 0]] == 2).mean() > 0.9
 
 
-def test_a_volume_drawn_brick_by_brick_refuses_the_mask_and_the_cutaway(engine, labels, monkeypatch):
-    import vgraph.processors.raycaster as raycaster
-    monkeypatch.setattr(raycaster, "needs_bricks", lambda volume, ctx: True)  # as for a store over budget
-    with pytest.raises(VGraphError, match=r"rc\.mask: a volume drawn brick by brick takes no mask"):
-        masked_network(engine, labels).evaluate("rc.image", size=SIZE)
-    with pytest.raises(VGraphError, match=r"rc\.cutaway: a volume drawn brick by brick takes no mask or cut-away; "
-                                          r"set it to none"):
-        masked_network(engine, None, cutaway="box").evaluate("rc.image", size=SIZE)
-
-
 def test_the_cli_renders_the_shipped_network_and_refuses_a_missing_label_in_one_line(tmp_path, capsys, engine):
     from vgraph.cli import main
     network = str(REPO / "networks" / "mask_engine.json")

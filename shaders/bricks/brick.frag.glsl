@@ -13,7 +13,10 @@
 // The compositing is this shader's own part; the components' GLSL (pixel ray, camera rays and
 // depth output, transfer function, the brick's sampling, span, blocks and front state, gradients,
 // shading) is included ahead of it by the BrickSampling component (vgraph.bricks.sampling,
-// BRICK_PARTS).
+// BRICK_PARTS). sample_weight(t) (raycasting/sample_weight.glsl: the Mask and CutAway components,
+// vgraph.gl.raycasting.mask) weighs each sample as in the RayCaster; t is the sample's level-0
+// texture coordinate, the frame volume's, so the components' maps texture -> world apply unchanged.
+#include "raycasting/sample_weight.glsl"
 #include "bricks/composite_dvr.glsl"
 #include "bricks/composite_mip.glsl"
 #include "bricks/composite_iso.glsl"

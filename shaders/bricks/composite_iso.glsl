@@ -15,9 +15,11 @@ void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {  
         }
         SKIP_BLOCK_IF(ray, t, i, range.y < iso_level)  // (the sample before a hit is fetched anyway)
         float value = intensity(t);
-        if (value >= iso_level) {
+        // A masked or cut-away sample (weight below 1/2) is no hit; after one, the hit is the
+        // sample itself: the surface is cut there (as raycasting/compositing_iso.glsl).
+        if (value >= iso_level && sample_weight(t) >= 0.5) {
             float hit = float(i);
-            if (i > 0) {
+            if (i > 0 && sample_weight(sample_point(ray, float(i - 1))) >= 0.5) {
                 float before = intensity(sample_point(ray, float(i - 1)));
                 hit = refine_crossing(ray, float(i - 1), before - iso_level, hit, value - iso_level);
             }

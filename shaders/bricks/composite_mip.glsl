@@ -3,6 +3,8 @@
 // 0, 1) with gl_FragDepth = 1 - maximum under a LESS depth test, so across bricks (drawn front to
 // back) the largest maximum wins and a tie keeps the front brick: the RayCaster's first maximum.
 // Classification happens once, in resolve.frag.glsl. A brick with nothing above 0 writes nothing.
+// Each intensity is weighed by the sample's mask and cut-away weight (at most 1, so the block
+// ranges still bound it), as the RayCaster's.
 //
 // With SKIP_EMPTY_BLOCKS, as the RayCaster's MIP (raycasting/compositing_mip.glsl): the stretches
 // of the span (its samples in one block) are taken in three passes: the block ranges alone for
@@ -16,7 +18,7 @@
 // a tie: the maximum starts at 0).
 float owned_value(Ray ray, int i) {
     vec3 t = sample_point(ray, float(i));
-    return owns(t) ? min(intensity(t), 1.0) : -1.0;
+    return owns(t) ? min(intensity(t) * sample_weight(t), 1.0) : -1.0;  // 0: masked (sample_weight.glsl)
 }
 
 #ifdef SKIP_EMPTY_BLOCKS

@@ -56,6 +56,7 @@ from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, 
 from vgraph.gl.raycasting.empty_space import occupied_blocks
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.light import Gradients, Light
+from vgraph.gl.raycasting.mask import CutAway, Mask
 from vgraph.gl.raycasting.raycaster_base import Binding, Component, Frame
 from vgraph.gl.raycasting.textures import linear_sampler
 from vgraph.gl_context import release_quietly
@@ -327,5 +328,6 @@ class PagedSampling(Component):
 # (RayRequests first: its GLSL is an #extension line).
 # Not Gradients: its GLSL comes with PagedSampling's (after raw_sample) and its binding is
 # PagedSampling's (the bricks' format and level 0's step; precomputed drawn as central).
+# Mask and CutAway weigh the samples as in the RayCaster (its shader's sample_weight.glsl).
 PAGED_PARTS = (RayRequests, EntryExit, CameraRays, PagedSampling, Sampling, TransferFunctionLut, FrontToBack, IsoSurface,
-               Light, Background)
+               Light, Background, Mask, CutAway)

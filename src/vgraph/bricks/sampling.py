@@ -75,6 +75,7 @@ from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, IsoSurface, Sampling,
                                              TransferFunctionLut)
 from vgraph.gl.raycasting.light import Gradients, Light
+from vgraph.gl.raycasting.mask import CutAway, Mask
 from vgraph.gl.raycasting.raycaster_base import Binding, Component, Frame
 from vgraph.gl.raycasting.textures import linear_sampler
 from vgraph.gl.shaders import programs
@@ -420,6 +421,7 @@ class BrickSampling(Component):
 
 # Each brick's pass: the GLSL of these parts, in this order (gradients.glsl reads the brick's
 # raw_sample), ahead of BRICK_SHADER; Gradients' binding is BrickSampling's (per brick level).
+# Mask and CutAway weigh the samples (raycasting/sample_weight.glsl); the processor has both.
 BRICK_PARTS = (EntryExit, CameraRays, Sampling, TransferFunctionLut, FrontToBack, IsoSurface, BrickSampling,
-               Gradients, Light)
+               Gradients, Light, Mask, CutAway)
 RESOLVE_PARTS = (EntryExit, CameraRays, Sampling, TransferFunctionLut, Background)
