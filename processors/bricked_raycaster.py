@@ -21,6 +21,10 @@ Conventions (docs/explanations/bricked-ray-casting.md explains each with the num
 - Masks and cut-aways (vgraph.masking; docs/guide/clipping.md) as the RayCaster's: the optional
   inport ``mask`` and ``mask_labels``, ``mask_mode``, ``mask_boundary``, ``mask_smoothing``,
   ``cutaway*`` (the Mask and CutAway components) weigh each sample in every mode and method.
+- ``gradient_opacity`` (dvr; vgraph.gl.raycasting.gradient_classification, docs/guide/
+  gradient-classification.md): the gradient from central differences at the sample inside the
+  brick (no gradient volume), scaled by the largest voxel gradient of a volume in memory; a store
+  and ``transfer_function_2d`` are refused by name.
 - The frame context (vgraph.frame_context; not properties) gives BrickSampling the ``load_limit``
   (coarse first in the GUI) and the ``leaf`` (the leaves split's run of bricks,
   vgraph.distributed.leaves).
@@ -37,6 +41,7 @@ from vgraph.bricks.sampling import COMPOSITING, BrickSampling
 from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, IsoSurface, Sampling,
                                              TransferFunctionLut, palette_shading, palette_transfer_function)
+from vgraph.gl.raycasting.gradient_classification import GradientClassification
 from vgraph.gl.raycasting.light import Gradients, Light
 from vgraph.gl.raycasting.mask import CutAway, Mask
 from vgraph.gl.raycasting.raycaster_base import Binding, RaycasterBase
@@ -59,7 +64,8 @@ class BrickedRayCaster(RaycasterBase):
                   FrontToBack(mode="compositing", corrected=("dvr",), early_termination=1.0), IsoSurface(),
                   BrickSampling(mode="compositing"), Gradients(DERIVATIVES),
                   Light(mode="compositing", shaded_modes=SHADED_MODES), Background(), PagedSampling(),
-                  RayRequests(), Mask(), CutAway())
+                  RayRequests(), Mask(), CutAway(),
+                  GradientClassification(modes=("dvr",), from_samples=True))  # gradient opacity, dvr
     uses_context = ("load_limit", "leaf")  # BrickSampling's (vgraph.bricks.sampling)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING), doc="dvr, mip, iso (surface at iso_level)")

@@ -36,7 +36,8 @@ Conventions (docs/explanations/ray-casting.md explains each property with pictur
   as the BrickedRayCaster draws: its properties ``brick_size``, ``lod_bias``, ``max_error``,
   ``ram_budget`` and ``gl_budget`` are this processor's and apply only then. dvr, mip and iso only; ``precomputed``
   derivatives become ``central`` there (a gradient volume of a volume that large is what bricking
-  avoids; inside the box both give the same gradient up to 16-bit steps); ``volume_precision``
+  avoids; inside the box both give the same gradient up to 16-bit steps), and so does the
+  gradient opacity's gradient (a store, a 2D TF and the light volume are refused by name); ``volume_precision``
   and ``interpolation`` do not apply (the bricks keep their own texture format, sampled
   trilinearly), nor ``ray_bounds``. The frame context's ``load_limit`` (the GUI's: coarse first;
   vgraph.frame_context) goes to them, and ``last_frame`` says what such a frame drew.
@@ -156,6 +157,8 @@ class RayCaster(ShowsVolume, RaycasterBase):
         self._drew_bricks = None
         bricks = needs_bricks(volume, self.gl)
         self.parts[Mask].use(mask, volume)
+        # the bricks have no gradient volume: gradient opacity from central differences at the sample
+        self.parts[GradientClassification].from_samples = bricks
         if bricks:
             self._check_bricked_mode(volume, light_volume)
         # A frame samples one texture (every part but the bricks') or the bricks (module docstring).
@@ -179,10 +182,6 @@ class RayCaster(ShowsVolume, RaycasterBase):
         return outputs
 
     def _check_bricked_mode(self, volume: Volume, light_volume: Volume | None) -> None:
-        if self.parts[GradientClassification].is_on():
-            raise VGraphError(f"{self.id}: {volume.source or 'the volume'} is drawn brick by brick, which "
-                              f"has no gradient volume: gradient_opacity and transfer_function_2d "
-                              f"must be null")
         if light_volume is not None:
             raise VGraphError(f"{self.id}.light_volume: {volume.source or 'the volume'} is drawn brick by "
                               f"brick ({' x '.join(map(str, volume.dims))} voxels do not fit one GL texture "

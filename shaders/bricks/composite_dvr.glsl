@@ -10,6 +10,7 @@
 // lattice, each for the level-0 samples up to the next (brick_span.glsl: owned_run, next_taken,
 // stepped_opacity); at level 0 every candidate is tested and taken as before. A sample's opacity is
 // weighed by its mask and cut-away weight (sample_weight) before anything else, as the RayCaster's.
+#include "raycasting/gradient_classification.glsl"  // classify_sample(): gradient opacity
 #ifdef COMPOSITING_DVR
 uniform float early_termination;
 
@@ -29,7 +30,7 @@ void composite(Ray ray, Span span, inout vec4 sum, inout float depth_sample) {
         }
         SKIP_BLOCK_TO(ray, t, i, next, transparent(range))
         float raw = raw_sample(t);
-        vec4 color = classify(raw * intensity_scale + intensity_offset);
+        vec4 color = classify_sample(t, raw * intensity_scale + intensity_offset);  // gradient_classification.glsl
         color.a *= sample_weight(t);  // 0: masked or cut away (raycasting/sample_weight.glsl)
         if (color.a > 0.0) {
             float alpha = stepped_opacity(color.a, next - i);

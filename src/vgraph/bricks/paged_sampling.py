@@ -55,6 +55,7 @@ from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, 
                                              TransferFunctionLut, ray_main_missed)
 from vgraph.gl.raycasting.empty_space import occupied_blocks
 from vgraph.gl.raycasting.geometry import vec
+from vgraph.gl.raycasting.gradient_classification import GradientClassification
 from vgraph.gl.raycasting.light import Gradients, Light
 from vgraph.gl.raycasting.mask import CutAway, Mask
 from vgraph.gl.raycasting.raycaster_base import Binding, Component, Frame
@@ -328,6 +329,7 @@ class PagedSampling(Component):
 # (RayRequests first: its GLSL is an #extension line).
 # Not Gradients: its GLSL comes with PagedSampling's (after raw_sample) and its binding is
 # PagedSampling's (the bricks' format and level 0's step; precomputed drawn as central).
-# Mask and CutAway weigh the samples as in the RayCaster (its shader's sample_weight.glsl).
+# Mask and CutAway weigh the samples as in the RayCaster (its shader's sample_weight.glsl),
+# GradientClassification the gradient opacity (after PagedSampling: it reads intensity()).
 PAGED_PARTS = (RayRequests, EntryExit, CameraRays, PagedSampling, Sampling, TransferFunctionLut, FrontToBack, IsoSurface,
-               Light, Background, Mask, CutAway)
+               Light, Background, Mask, CutAway, GradientClassification)

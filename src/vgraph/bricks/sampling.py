@@ -74,6 +74,7 @@ from vgraph.frame_context import FrameContext
 from vgraph.gl.passes import FULLSCREEN_VERTEX_SHADER, fullscreen_pass
 from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, IsoSurface, Sampling,
                                              TransferFunctionLut)
+from vgraph.gl.raycasting.gradient_classification import GradientClassification
 from vgraph.gl.raycasting.light import Gradients, Light
 from vgraph.gl.raycasting.mask import CutAway, Mask
 from vgraph.gl.raycasting.raycaster_base import Binding, Component, Frame
@@ -421,7 +422,8 @@ class BrickSampling(Component):
 
 # Each brick's pass: the GLSL of these parts, in this order (gradients.glsl reads the brick's
 # raw_sample), ahead of BRICK_SHADER; Gradients' binding is BrickSampling's (per brick level).
-# Mask and CutAway weigh the samples (raycasting/sample_weight.glsl); the processor has both.
+# Mask and CutAway weigh the samples (raycasting/sample_weight.glsl), GradientClassification the
+# gradient opacity (after BrickSampling: it reads intensity()); the processor has all three.
 BRICK_PARTS = (EntryExit, CameraRays, Sampling, TransferFunctionLut, FrontToBack, IsoSurface, BrickSampling,
-               Gradients, Light, Mask, CutAway)
+               Gradients, Light, Mask, CutAway, GradientClassification)
 RESOLVE_PARTS = (EntryExit, CameraRays, Sampling, TransferFunctionLut, Background)

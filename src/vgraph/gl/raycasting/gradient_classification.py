@@ -107,8 +107,11 @@ class GradientClassification(Component):
 
     glsl = ("raycasting/gradient_classification.glsl",)
 
-    def __init__(self, mode: str | None = "compositing", modes: tuple[str, ...] = ("dvr", "first_hit")):
-        self.mode, self.modes = mode, modes
+    def __init__(self, mode: str | None = "compositing", modes: tuple[str, ...] = ("dvr", "first_hit"),
+                 from_samples: bool = False):
+        # from_samples (the bricks, which have no gradient volume): the gradient as central
+        # differences of the sampled intensity (CLASSIFICATION_CENTRAL; the shader says why equal)
+        self.mode, self.modes, self.from_samples = mode, modes, from_samples
 
     def start(self) -> None:
         self.curve = LookupTexture(CURVE_SIZE)
@@ -154,6 +157,8 @@ class GradientClassification(Component):
             return Binding()
         self.check()
         processor = self.processor
+        if self.from_samples:
+            return self._bind_from_samples(frame)
         gradients, scale = gradient_texture(frame.ctx, frame.volume)
         largest = largest_magnitude(frame.volume)
         binding = Binding(textures={"classification_gradients": gradients},
@@ -169,3 +174,24 @@ class GradientClassification(Component):
             binding.defines["TRANSFER_FUNCTION_2D"] = True
             binding.textures["transfer_function_2d"] = self.table.update(frame.ctx, processor.transfer_function_2d)
         return binding
+
+    def _bind_from_samples(self, frame: Frame) -> Binding:
+        """Gradient opacity brick by brick: central differences at the sample over the volume's
+        largest voxel gradient (computed from the array in memory; a store is refused by name)."""
+        processor, volume = self.processor, frame.volume
+        if processor.transfer_function_2d is not None:
+            raise VGraphError(f"{processor.id}.transfer_function_2d: a volume drawn brick by brick skips "
+                              f"bricks and blocks by the 1D transfer function's opacity, so a 2D TF is not "
+                              f"drawn there; set {processor.id}.transfer_function_2d to null")
+        if getattr(volume, "bricks", None) is not None:
+            raise VGraphError(f"{processor.id}.gradient_opacity: {volume.source or 'the volume'} is a store "
+                              f"read brick by brick, whose largest gradient magnitude (the curve's scale) "
+                              f"would need every voxel read; set {processor.id}.gradient_opacity to null")
+        largest = largest_magnitude(volume)
+        curve = processor.gradient_opacity
+        return Binding(defines={"GRADIENT_OPACITY": True, "CLASSIFICATION_CENTRAL": True},
+                       textures={"gradient_opacity": self.curve.update(
+                           frame.ctx, curve, lambda: np.repeat(curve.lut(CURVE_SIZE)[:, None], 4, axis=1))},
+                       uniforms={"inverse_largest_gradient": 1.0 / largest if largest > 0.0 else 0.0,
+                                 "classification_voxel_step": vec(1.0 / frame.geometry.dims),
+                                 "classification_inverse_span": vec(0.5 / frame.geometry.spacing)})

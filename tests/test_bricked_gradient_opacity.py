@@ -1,0 +1,75 @@
+"""Gradient opacity brick by brick (vgraph.gl.raycasting.gradient_classification with
+``from_samples``: central differences of the sampled intensity inside the brick, no gradient
+volume): at level 0 with every brick resident the BrickedRayCaster's dvr image equals the
+RayCaster's (which reads the precomputed gradient volume) within one 8-bit step, in both methods,
+shaded or not; off, the image is the plain one; a store, the 2D TF and mip are refused by name."""
+
+import numpy as np
+import pytest
+
+from vgraph import VGraphError
+from vgraph.gradient_opacity import GradientOpacity
+
+from test_bricked_mask import SIZE
+from test_bricked_raycaster import FINEST, WINDOW, odd_volume, oblique, render
+
+# float32 differences of the interpolated field against the gradient volume's 16-bit rounding
+# (the same numbers otherwise: the shader says why), far below one step of an 8-bit image.
+TOLERANCE = 1e-4  # measured <= 3.2e-6 on llvmpipe
+STEEP = GradientOpacity(points=[(0.0, 0.0), (0.15, 0.0), (0.6, 1.0), (1.0, 1.0)])
+
+
+def images(volume, method, **properties):
+    properties = {"compositing": "dvr", "transfer_function": WINDOW, "early_termination": 1.0, **properties}
+    want, _, _ = render(volume, oblique(volume), "RayCaster", size=SIZE, **properties)
+    got, _, rc = render(volume, oblique(volume), size=SIZE, brick_size=16, lod_bias=FINEST, method=method,
+                        **properties)
+    assert rc.drawn_method == method and rc.last_frame["levels"] == [0] and rc.last_frame["complete"]
+    return got, want
+
+
+@pytest.mark.parametrize("method", ["passes", "single_pass"])
+@pytest.mark.parametrize("shading", ["none", "blinn_phong"])
+@pytest.mark.parametrize("curve", ["boundaries", "steep"])
+def test_gradient_opacity_brick_by_brick_equals_the_raycasters(method, shading, curve):
+    volume = odd_volume()
+    opacity = {"boundaries": "boundaries", "steep": STEEP}[curve]
+    got, want = images(volume, method, shading=shading, gradient_opacity=opacity)
+    plain, _ = images(volume, method, shading=shading)
+    assert np.abs(want - plain).max() > 0.02  # the curve changes the image (9 steps at least)
+    assert np.abs(got - want).max() <= TOLERANCE, np.abs(got - want).max()
+
+
+def test_the_2d_tf_and_mip_are_refused_by_name():
+    volume = odd_volume()
+    with pytest.raises(VGraphError, match=r"rc\.transfer_function_2d: a volume drawn brick by brick skips "
+                                          r"bricks .* set rc\.transfer_function_2d to null"):
+        render(volume, oblique(volume), brick_size=16, transfer_function_2d="boundaries")
+    with pytest.raises(VGraphError, match=r"rc\.gradient_opacity: .* compositing mip does not take"):
+        render(volume, oblique(volume), brick_size=16, compositing="mip", gradient_opacity="boundaries")
+
+
+def test_a_store_is_refused_by_name(tmp_path):
+    from vgraph.io import read_volume
+    from vgraph.io.convert import convert
+    np.save(tmp_path / "field.npy", (odd_volume().data * 65535).astype(np.uint16))
+    convert(tmp_path / "field.npy", tmp_path / "field.zarr", brick=16, progress=False)
+    store = read_volume(tmp_path / "field.zarr")
+    with pytest.raises(VGraphError, match=r"rc\.gradient_opacity: .*field\.zarr is a store read brick by brick, "
+                                          r"whose largest gradient magnitude"):
+        render(store, oblique(store), gradient_opacity="boundaries", lod_bias=FINEST)
+
+
+def test_the_raycaster_hands_gradient_opacity_over_to_the_bricks(monkeypatch):
+    volume = odd_volume()
+    properties = {"compositing": "dvr", "transfer_function": WINDOW, "early_termination": 1.0,
+                  "gradient_opacity": STEEP}
+    want, _, _ = render(volume, oblique(volume), "RayCaster", size=SIZE, **properties)
+    import vgraph.processors.raycaster as raycaster
+    monkeypatch.setattr(raycaster, "needs_bricks", lambda volume, ctx: True)  # as for a store over budget
+    got, _, rc = render(volume, oblique(volume), "RayCaster", size=SIZE, brick_size=16, lod_bias=FINEST,
+                        **properties)
+    assert rc.last_frame and rc.last_frame["complete"] and rc.last_frame["levels"] == [0]
+    assert np.abs(got - want).max() <= TOLERANCE, np.abs(got - want).max()
+    with pytest.raises(VGraphError, match=r"rc\.transfer_function_2d: a volume drawn brick by brick"):
+        render(volume, oblique(volume), "RayCaster", size=SIZE, transfer_function_2d="boundaries")
