@@ -9,8 +9,10 @@ Conventions:
   (StoreWriter, write_levels: the same pyramid, the same atomic folder, the same progress bar), and
   handed on as a BrickedVolume of it with the input's memory budget, so the BrickedRayCaster draws
   it and the next filter takes it in chunks again. A store of labels or a mask carries the label
-  flag as NGFF's "image-label" (StoreWriter.finish), so whatever opens it later sees labels. Its bricks are the input's (vgraph convert's
-  default, 64, where the input's are not even sizes).
+  flag as NGFF's "image-label" (StoreWriter), so whatever opens it later sees labels, and its
+  coarser levels hold the most frequent label of each 2 x 2 x 2 group (pyramid.halve_labels), not
+  a mean. Its bricks are the input's (vgraph convert's default, 64, where the input's are not even
+  sizes).
 - Filters with a kernel (VolumeSmooth) read each slab's slices and the kernel's reach more on
   each side (along z), cut them into tiles of whole bricks (at least TILE voxels along y and x)
   and run dask-image over them: its map_overlap gives each tile a halo of the kernel's reach
@@ -130,16 +132,16 @@ def filtered_store(volume: BrickedVolume, plan: SlabPlan, who: str, settings: di
     while len(levels) < level_count(plan.shape, brick):
         levels.append(next_level(levels[-1]))
     with atomic_folder(path) as folder:
-        writer = StoreWriter(folder, levels, plan.dtype, brick)
+        writer = StoreWriter(folder, levels, plan.dtype, brick, holds_labels=plan.holds_labels)
         stats = write_levels(plan, writer, brick, progress, False, doing=who)
         value_range = plan.declared_range or range_of(stats.data_range)
         writer.finish(value_range, plan.declared_range, stats.data_range, stats.nonfinite,
-                      name=path.name, direction=volume.direction, holds_labels=plan.holds_labels)
+                      name=path.name, direction=volume.direction)
     return opened(path, volume)
 
 
 def opened(path: Path, volume: BrickedVolume) -> BrickedVolume:
-    # the label flag is the store's own ("image-label", StoreWriter.finish): what opens it again sees it
+    # the label flag is the store's own ("image-label", StoreWriter): what opens it again sees it
     return BrickedVolume.open(path, memory_budget_mb=volume.memory_budget_mb)
 
 

@@ -6,7 +6,10 @@ Conventions (docs/guide/large-data.md has the long form):
   voxel i of level k + 1 is the mean of voxels 2i and 2i + 1 of level k along each axis (the last
   voxel of an odd axis averages the one voxel it has). So a level's spacing is twice the previous
   one and its first voxel centre lies half a (previous) voxel further: ``origin_{k+1} = origin_k +
-  spacing_k / 2``. Integer data are rounded to the nearest value of their type. (That is how
+  spacing_k / 2``. Integer data are rounded to the nearest value of their type. A label volume
+  (``holds_labels``) halves by ``halve_labels`` instead: each voxel of level k + 1 is the most
+  frequent label of its 2 x 2 x 2 group, ties to the smallest label, so a coarse level holds only
+  labels of level 0 (a mean of labels 1 and 3 would be label 2). (That is how
   ArrayPyramid and vgraph convert build levels; another tool's store may keep an axis or reduce
   it by another factor, with any translation: the renderer places each level by its own spacing
   and origin, cells.py.)
@@ -85,6 +88,38 @@ def halve(data: np.ndarray) -> np.ndarray:
     return out.astype(data.dtype)
 
 
+def halve_labels(data: np.ndarray) -> np.ndarray:
+    """One pyramid step of a [z, y, x] label block: the most frequent label of each 2 x 2 x 2
+    group, ties to the smallest (NGFF's image-label asks for nearest or mode downsampling). An odd
+    axis's last voxel repeats itself as ``halve`` does, which scales every count of its group
+    alike, so the mode is that of the voxels it has. NaN equals nothing, so it wins only a group
+    of NaN."""
+    groups = _groups_of_eight(data)                  # [n, 8]
+    groups.sort(axis=1)
+    counts = np.empty(groups.shape, dtype=np.uint8)
+    for j in range(8):  # 8 columns, not voxels: each counts its label's copies in every group
+        counts[:, j] = np.count_nonzero(groups == groups[:, j:j + 1], axis=1)
+    first_most = np.argmax(counts, axis=1)           # sorted: the first maximum is the smallest label
+    shape = tuple((n + 1) // 2 for n in data.shape)
+    return groups[np.arange(len(groups)), first_most].reshape(shape)
+
+
+def _groups_of_eight(data: np.ndarray) -> np.ndarray:
+    """The 2 x 2 x 2 groups of ``data`` as rows of 8 voxels, in output order (an odd axis's last
+    voxel repeated)."""
+    pad = [(0, n % 2) for n in data.shape]
+    if any(p for _, p in pad):
+        data = np.pad(data, pad, mode="edge")
+    z, y, x = (n // 2 for n in data.shape)
+    blocks = data.reshape(z, 2, y, 2, x, 2).transpose(0, 2, 4, 1, 3, 5)
+    return blocks.reshape(z * y * x, 8).copy()
+
+
+def halver(holds_labels: bool):
+    """The pyramid step of a volume: ``halve_labels`` for labels, else ``halve``."""
+    return halve_labels if holds_labels else halve
+
+
 def brick_grid(shape, brick) -> tuple[int, int, int]:
     """Bricks per axis, [z, y, x], of a level of ``shape`` ([z, y, x])."""
     return tuple(math.ceil(n / b) for n, b in zip(shape, tuple(brick)[::-1]))
@@ -138,19 +173,21 @@ def sample_blocks(source: BrickSource, level: int, max_voxels: int, max_bricks: 
 
 class ArrayPyramid:
     """A BrickSource over an in-memory [z, y, x] array: the levels are computed up front with
-    ``halve``. For tests, for volumes already in memory that are too large for one GL texture, and
-    as the reference the on-disk store must equal."""
+    ``halve`` (``halve_labels`` where ``holds_labels``). For tests, for volumes already in memory
+    that are too large for one GL texture, and as the reference the on-disk store must equal."""
 
     def __init__(self, data: np.ndarray, spacing: Vec3 = (1.0, 1.0, 1.0), origin: Vec3 = (0.0, 0.0, 0.0),
-                 brick=(64, 64, 64), levels: int | None = None, value_range=None, source: str = ""):
+                 brick=(64, 64, 64), levels: int | None = None, value_range=None, source: str = "",
+                 holds_labels: bool = False):
         self.brick = tuple(int(b) for b in brick)
         self.dtype = np.dtype(data.dtype)
         self.source = source
         count = levels or level_count(data.shape, self.brick)
         self.levels = [Level(tuple(data.shape), tuple(map(float, spacing)), tuple(map(float, origin)))]
         self._data = [data]
+        step = halver(holds_labels)
         for _ in range(count - 1):
-            self._data.append(halve(self._data[-1]))
+            self._data.append(step(self._data[-1]))
             self.levels.append(next_level(self.levels[-1]))
         self._ranges: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         if value_range is None:
@@ -161,7 +198,7 @@ class ArrayPyramid:
     @classmethod
     def from_volume(cls, volume, brick=(64, 64, 64), levels: int | None = None) -> "ArrayPyramid":
         return cls(volume.data, volume.spacing, volume.origin, brick, levels, volume.value_range,
-                   volume.source)
+                   volume.source, holds_labels=bool(getattr(volume, "holds_labels", False)))
 
     def read(self, level: int, start, stop) -> np.ndarray:
         data = self._data[level]

@@ -35,28 +35,40 @@ COMPRESSOR = BloscCodec(cname="zstd", clevel=3, shuffle="bitshuffle")
 _RANGE_ROWS = 64  # brick rows (along z) per chunk of the per-brick range arrays
 
 
-def multiscales(levels: list[Level], unit: str | None = None, name: str = "") -> list[dict]:
+def multiscales(levels: list[Level], unit: str | None = None, name: str = "",
+                holds_labels: bool = False) -> list[dict]:
     """The NGFF "multiscales" list of one image: axes z, y, x and per level the transformation
-    array index -> world (scale, then translation; both [z, y, x] as the axes)."""
+    array index -> world (scale, then translation; both [z, y, x] as the axes), and how the
+    levels were reduced (the mean, or the mode of labels)."""
     axes = [{"name": a, "type": "space", **({"unit": unit} if unit else {})} for a in "zyx"]
     datasets = [{"path": str(k), "coordinateTransformations": [
         {"type": "scale", "scale": list(level.spacing[::-1])},
         {"type": "translation", "translation": list(level.origin[::-1])}]}
         for k, level in enumerate(levels)]
     # NGFF 0.5 keeps the version in "ome" only (0.4 had it here)
-    return [{"name": name, "axes": axes, "datasets": datasets,
-             "type": "mean", "metadata": {"method": "vgraph.bricks.pyramid.halve",
-                                          "description": "mean of 2x2x2 voxels, ceil(n/2)"}}]
+    reduction = _LABEL_REDUCTION if holds_labels else _MEAN_REDUCTION
+    return [{"name": name, "axes": axes, "datasets": datasets, **reduction}]
+
+
+_MEAN_REDUCTION = {"type": "mean", "metadata": {"method": "vgraph.bricks.pyramid.halve",
+                                                "description": "mean of 2x2x2 voxels, ceil(n/2)"}}
+_LABEL_REDUCTION = {"type": "mode", "metadata": {
+    "method": "vgraph.bricks.pyramid.halve_labels",
+    "description": "most frequent label of 2x2x2 voxels (ties: the smallest), ceil(n/2)"}}
 
 
 class StoreWriter:
     """Creates the arrays of a store in ``folder`` and takes the levels slab by slab: a slab is a
-    run of whole brick rows along z (the last may be shorter), so every chunk is written once."""
+    run of whole brick rows along z (the last may be shorter), so every chunk is written once.
+    ``holds_labels``: the voxels are labels; the levels' writer halves them by their mode
+    (pyramid.halver), and ``finish`` marks the store as NGFF's "image-label" (what BrickStore
+    reads as the label flag, as in another tool's labels/ images)."""
 
-    def __init__(self, folder: Path, levels: list[Level], dtype, brick):
+    def __init__(self, folder: Path, levels: list[Level], dtype, brick, holds_labels: bool = False):
         self.folder = Path(folder)
         self.levels = levels
         self.brick = tuple(int(b) for b in brick)
+        self.holds_labels = bool(holds_labels)
         self.dtype = np.dtype(dtype).newbyteorder("=")
         self.group = zarr.create_group(str(self.folder), zarr_format=3)
         self.arrays = [self._level_array(k, level) for k, level in enumerate(levels)]
@@ -93,10 +105,8 @@ class StoreWriter:
         return low, high
 
     def finish(self, value_range, declared_range, data_range, nonfinite: int,
-               unit: str | None = None, name: str = "", direction=IDENTITY, holds_labels: bool = False) -> None:
-        """The group attributes, written last: a store without them is not a finished store.
-        ``holds_labels``: the voxels are labels, written as NGFF's "image-label" (what BrickStore
-        reads as the label flag, as in another tool's labels/ images)."""
+               unit: str | None = None, name: str = "", direction=IDENTITY) -> None:
+        """The group attributes, written last: a store without them is not a finished store."""
         ours = {"format": FORMAT_VERSION, "brick": list(self.brick),
                 "value_range": _floats(value_range),
                 "declared_range": _floats(declared_range) if declared_range else None,
@@ -105,8 +115,9 @@ class StoreWriter:
                 "ranges": "vgraph/min/<level>, vgraph/max/<level>"}
         if not is_identity(direction):  # stores of unturned volumes stay as they were
             ours["direction"] = [_floats(row) for row in direction]
-        ome = {"version": NGFF_VERSION, "multiscales": multiscales(self.levels, unit, name)}
-        if holds_labels:
+        ome = {"version": NGFF_VERSION,
+               "multiscales": multiscales(self.levels, unit, name, self.holds_labels)}
+        if self.holds_labels:
             ome["image-label"] = {}  # every field of NGFF 0.5's image-label is optional
         self.group.attrs.update({"ome": ome, "vgraph": ours})
 

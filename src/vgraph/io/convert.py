@@ -1,7 +1,8 @@
 """``vgraph convert``: a volume file -> an OME-Zarr pyramid of bricks (docs/guide/large-data.md).
 
 The input is read in slabs of one brick row (``brick`` z slices) where its format allows
-(slabs.py); each slab is written to level 0 and halved (pyramid.halve, in pieces along y so its
+(slabs.py); each slab is written to level 0 and halved (pyramid.halve, or pyramid.halve_labels
+for a label volume; in pieces along y so its
 float64 temporary stays small) into half a slab of level 1, two of which make a level-1 slab,
 and so on down the levels. Memory therefore holds about one slab per level, whatever the
 volume's size: level 0's slab, at most one slab being assembled per coarser level, and the
@@ -41,7 +42,7 @@ import numpy as np
 from tqdm import tqdm
 
 from vgraph.atomic import remove_stale_temporaries
-from vgraph.bricks.pyramid import Level, halve, level_count, next_level
+from vgraph.bricks.pyramid import Level, halve, halver, level_count, next_level
 from vgraph.io.slabs import SlabInput, open_input
 from vgraph.bricks.store_writer import StoreWriter
 from vgraph.errors import OutputFileError, VGraphError, VGraphWarning
@@ -101,12 +102,12 @@ def convert(source, output, *, brick=DEFAULT_BRICK, levels: int | None = None, r
         data, mirrored = as_rotation(open_input(source, raw=raw, time_step=time_step))
         pyramid = _levels(data, brick, levels)
         with atomic_folder(output) as folder:
-            writer = StoreWriter(folder, pyramid, data.dtype, brick)
+            writer = StoreWriter(folder, pyramid, data.dtype, brick,
+                                 holds_labels=data.holds_labels)
             stats = write_levels(data, writer, brick, progress, mirrored)
             value_range = data.declared_range or range_of(stats.data_range)
             writer.finish(value_range, data.declared_range, stats.data_range, stats.nonfinite,
-                          name=Path(str(source)).name, direction=data.direction,
-                          holds_labels=bool(getattr(data.volume, "holds_labels", False)))
+                          name=Path(str(source)).name, direction=data.direction)
         if not is_identity(data.direction):
             _warn_turned(output, data.direction, mirrored)
         traced = tracemalloc.get_traced_memory()[1] if trace_memory else None
@@ -218,6 +219,7 @@ class _Cascade:
 
     def __init__(self, writer: StoreWriter, bz: int):
         self.writer, self.bz = writer, bz
+        self.step = halver(writer.holds_labels)
         count = len(writer.levels)
         self.next_z = [0] * count
         self.pending: list[list[np.ndarray]] = [[] for _ in range(count)]
@@ -226,7 +228,7 @@ class _Cascade:
         self.writer.write_slab(k, self.next_z[k], slab)
         self.next_z[k] += slab.shape[0]
         if k + 1 < len(self.next_z):
-            self._collect(k + 1, halve_slab(slab))
+            self._collect(k + 1, halve_slab(slab, self.step))
 
     def _collect(self, k: int, half: np.ndarray) -> None:
         self.pending[k].append(half)
@@ -245,16 +247,16 @@ class _Cascade:
                 self._emit(k)
 
 
-def halve_slab(slab: np.ndarray) -> np.ndarray:
-    """pyramid.halve of a slab computed in pieces of an even number of y rows (each output voxel
-    is computed exactly as halve computes it, so the result is identical)."""
+def halve_slab(slab: np.ndarray, step=halve) -> np.ndarray:
+    """``step`` (pyramid.halve or halve_labels) of a slab computed in pieces of an even number of
+    y rows (each output voxel is computed exactly as step computes it, so the result is identical)."""
     depth, rows, width = slab.shape
-    step = max(2, (HALVING_PIECE_VOXELS // max(1, depth * width)) // 2 * 2)
-    if step >= rows:
-        return halve(slab)
+    rows_at_once = max(2, (HALVING_PIECE_VOXELS // max(1, depth * width)) // 2 * 2)
+    if rows_at_once >= rows:
+        return step(slab)
     out = np.empty(((depth + 1) // 2, (rows + 1) // 2, (width + 1) // 2), dtype=slab.dtype)
-    for y0 in range(0, rows, step):
-        piece = halve(slab[:, y0:y0 + step])
+    for y0 in range(0, rows, rows_at_once):
+        piece = step(slab[:, y0:y0 + rows_at_once])
         out[:, y0 // 2:y0 // 2 + piece.shape[1]] = piece
     return out
 

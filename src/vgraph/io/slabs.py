@@ -24,6 +24,7 @@ from vgraph.errors import VolumeFileError
 from vgraph.io import extension_of, read_volume
 from vgraph.io import metaimage, nifti, nrrd_data, nrrd_format, numpy_format
 from vgraph.io._common import data_start, check_dims, check_time_step, parse_numbers, regular_file
+from vgraph.io.label_hints import nifti_says_labels, nrrd_says_labels
 from vgraph.io.raw import checked_raw_description, description_from_name
 from vgraph.volume_grid import IDENTITY
 
@@ -44,6 +45,7 @@ class SlabInput:
     file_dtype: np.dtype | None = None    # the stored byte order
     volume: object = None                 # the whole Volume when it was read whole
     direction: tuple = IDENTITY           # in RAS, as the reader gives it (vgraph.io.orientation)
+    holds_labels: bool = False            # the header declares labels (vgraph.io.label_hints)
 
     @property
     def streamed(self) -> bool:
@@ -84,16 +86,17 @@ def _whole(path: Path, raw, time_step: int, reason: str) -> SlabInput:
     volume = read_volume(path, raw=raw, time_step=time_step)
     return SlabInput(volume.data.shape, volume.data.dtype, volume.spacing, volume.origin,
                      volume.declared_range, str(path), f"read whole ({reason})", volume=volume,
-                     direction=volume.direction)
+                     direction=volume.direction, holds_labels=bool(volume.holds_labels))
 
 
-def _streamed(path, data_file, start, file_dtype, dims, grid, declared, kind) -> SlabInput:
+def _streamed(path, data_file, start, file_dtype, dims, grid, declared, kind,
+              holds_labels: bool = False) -> SlabInput:
     """``grid``: (spacing, origin, direction) as the format's reader works them out."""
     spacing, origin, direction = grid
     return SlabInput(tuple(dims[::-1]), np.dtype(file_dtype).newbyteorder("="), tuple(spacing),
                      tuple(origin), declared, str(path), f"streamed ({kind}, slab by slab)",
                      file=Path(data_file), start=start, file_dtype=np.dtype(file_dtype),
-                     direction=direction)
+                     direction=direction, holds_labels=holds_labels)
 
 
 def _checked_start(data_file, header, dims, dtype, offset, allow_trailing, field,
@@ -143,7 +146,7 @@ def _nrrd(path: Path, time_step: int):
     offset = -1 if byte_skip == -1 else start + byte_skip
     start = _checked_start(file, path, dims, dtype, offset, explicit, "sizes", time_step, time_steps)
     return _streamed(path, file, start, dtype, dims, nrrd_format.grid_of(header, path),
-                     nrrd_format._declared_range(header, path), "NRRD raw")
+                     nrrd_format._declared_range(header, path), "NRRD raw", nrrd_says_labels(header))
 
 
 def _nifti(path: Path, time_step: int):
@@ -160,7 +163,7 @@ def _nifti(path: Path, time_step: int):
     start = _checked_start(path, path, dims, stored, header.get_data_offset(), True, "dim",
                            time_step, time_steps)
     return _streamed(path, path, start, stored, dims, nifti.grid_of(header, path),
-                     nifti._declared_range(header), "NIfTI")
+                     nifti._declared_range(header), "NIfTI", nifti_says_labels(header))
 
 
 def _metaimage(path: Path, time_step: int):
