@@ -2,7 +2,8 @@
 ``from_samples``: central differences of the sampled intensity inside the brick, no gradient
 volume): at level 0 with every brick resident the BrickedRayCaster's dvr image equals the
 RayCaster's (which reads the precomputed gradient volume) within one 8-bit step, in both methods,
-shaded or not; off, the image is the plain one; a store, the 2D TF and mip are refused by name."""
+shaded or not; off, the image is the plain one; a store over its budget takes its scale from one
+pass over level 0; the 2D TF and mip are refused by name."""
 
 import numpy as np
 import pytest
@@ -49,15 +50,40 @@ def test_the_2d_tf_and_mip_are_refused_by_name():
         render(volume, oblique(volume), brick_size=16, compositing="mip", gradient_opacity="boundaries")
 
 
-def test_a_store_is_refused_by_name(tmp_path):
-    from vgraph.io import read_volume
+def test_a_store_over_its_budget_has_the_in_memory_scale_and_image(tmp_path, monkeypatch):
+    """A store over its memory budget: its largest voxel gradient from one pass over level 0, slab
+    by slab (slabs of 3 slices here, so the halo between slabs counts) equals the same store's in
+    memory bit for bit (the same voxels and float64 arithmetic); its image with gradient opacity
+    equals the RayCaster's of the store in memory within TOLERANCE; the pass runs once."""
+    pytest.importorskip("zarr")
+    from vgraph import derived
+    from vgraph.bricks.volume import BrickedVolume
+    from vgraph.gl.raycasting import gradient_classification
     from vgraph.io.convert import convert
     np.save(tmp_path / "field.npy", (odd_volume().data * 65535).astype(np.uint16))
     convert(tmp_path / "field.npy", tmp_path / "field.zarr", brick=16, progress=False)
-    store = read_volume(tmp_path / "field.zarr")
-    with pytest.raises(VGraphError, match=r"rc\.gradient_opacity: .*field\.zarr is a store read brick by brick, "
-                                          r"whose largest gradient magnitude"):
-        render(store, oblique(store), gradient_opacity="boundaries", lod_bias=FINEST)
+    memory = BrickedVolume.open(tmp_path / "field.zarr")
+    store = BrickedVolume.open(tmp_path / "field.zarr", memory_budget_mb=0.05)
+    assert memory.fits_budget and not store.fits_budget
+    nz, ny, nx = store.shape
+    monkeypatch.setattr(gradient_classification, "SLAB_VOXELS", 3 * ny * nx)
+    largest = gradient_classification.largest_magnitude(store)
+    assert largest > 0.0 and largest == gradient_classification.largest_magnitude(memory)
+    derived.forget(store)
+    derived.reset_stats()
+    properties = {"compositing": "dvr", "transfer_function": WINDOW, "early_termination": 1.0,
+                  "gradient_opacity": STEEP}
+    want, _, _ = render(memory, oblique(memory), "RayCaster", size=SIZE, **properties)
+    got, _, rc = render(store, oblique(store), size=SIZE, brick_size=16, lod_bias=FINEST, **properties)
+    assert rc.last_frame["levels"] == [0] and rc.last_frame["complete"]
+    assert np.abs(got - want).max() <= TOLERANCE, np.abs(got - want).max()
+    misses = derived.stats()[gradient_classification.LARGEST].misses
+    again, _, _ = render(store, oblique(store), size=SIZE, brick_size=16, lod_bias=FINEST, **properties)
+    counts = derived.stats()[gradient_classification.LARGEST]
+    assert counts.misses == misses and counts.hits >= 1  # the second frame reads no voxel for it
+    assert np.array_equal(again, got)
+    with pytest.raises(Exception, match="memory budget"):
+        store.data  # never loaded whole
 
 
 def test_the_raycaster_hands_gradient_opacity_over_to_the_bricks(monkeypatch):

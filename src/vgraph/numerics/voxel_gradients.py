@@ -15,18 +15,19 @@ from vgraph.volume import Volume
 SLAB_VOXELS = 2**22  # voxels per numpy slab: ~100 MB of float64 temporaries
 
 
-def slab_gradients(volume: Volume, z0: int, z1: int) -> np.ndarray:
+def slab_gradients(volume: Volume, z0: int, z1: int, rows=None) -> np.ndarray:
     """float64 (z1 - z0, ny, nx, 3) voxel gradients of slices [z0, z1), identical to those of the
-    whole volume (the slab reads one slice more on each side where there is one)."""
-    return central_differences(padded_slab(volume, z0, z1), volume.spacing)
+    whole volume (the slab reads one slice more on each side where there is one). ``rows(a, b)``
+    reads stored slices [a, b) (a store's level 0 brick by brick); by default ``volume.data``."""
+    return central_differences(padded_slab(volume, z0, z1, rows), volume.spacing)
 
 
-def padded_slab(volume: Volume, z0: int, z1: int) -> np.ndarray:
+def padded_slab(volume: Volume, z0: int, z1: int, rows=None) -> np.ndarray:
     """Normalised float64 slices [z0 - 1, z1 + 1) and one voxel more around x and y: neighbours
-    where the volume has them, edge values beyond its faces."""
-    nz = volume.data.shape[0]
+    where the volume has them, edge values beyond its faces (``rows`` as in slab_gradients)."""
+    nz = volume.shape[0] if rows is not None else volume.data.shape[0]
     below, above = max(z0 - 1, 0), min(z1 + 1, nz)
-    values = volume.data[below:above]
+    values = rows(below, above) if rows is not None else volume.data[below:above]
     if volume.nonfinite_count:  # as the volume texture stores them (vgraph.volume)
         lo, hi = volume.value_range
         values = np.nan_to_num(values.astype(np.float64), nan=lo, posinf=hi, neginf=lo)

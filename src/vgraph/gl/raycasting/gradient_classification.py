@@ -16,8 +16,11 @@ no gradient) either property is refused by name.
 
 from __future__ import annotations
 
+import sys
+
 import moderngl
 import numpy as np
+from tqdm import tqdm
 
 from vgraph import derived
 from vgraph.errors import VGraphError
@@ -34,20 +37,37 @@ from vgraph.volume import Volume
 LARGEST = "largest gradient magnitude"  # the kinds of derived data (vgraph.derived) this module makes
 HISTOGRAM = "value gradient histogram"
 HISTOGRAM_BINS = 128  # per axis of the 2D TF editor's histogram
+PROGRESS_SLABS = 8  # a store read in this many slabs or more shows a progress bar
 
 
 def largest_magnitude(volume: Volume) -> float:
     """The largest magnitude of the volume's voxel gradients (unquantised central differences of
-    the normalised intensities, per world unit), slab by slab; cached per volume."""
+    the normalised intensities, per world unit), slab by slab; cached per volume. A store over its
+    memory budget is read brick by brick from level 0, one slab at a time with its one-slice halo
+    (the same voxels and arithmetic as in memory, so the same number bit for bit); only the
+    running largest is kept, with a progress bar when the store takes many slabs."""
     def compute() -> float:
-        nz, ny, nx = volume.data.shape
+        rows = store_rows(volume)
+        nz, ny, nx = volume.shape if rows is not None else volume.data.shape
         thickness = max(1, SLAB_VOXELS // (nx * ny))
+        slabs = range(0, nz, thickness)
         largest = 0.0
-        for z0 in range(0, nz, thickness):
-            gradients = slab_gradients(volume, z0, min(z0 + thickness, nz))
+        for z0 in tqdm(slabs, desc="largest gradient", unit="slab", file=sys.stderr, leave=False,
+                       disable=rows is None or len(slabs) < PROGRESS_SLABS):
+            gradients = slab_gradients(volume, z0, min(z0 + thickness, nz), rows)
             largest = max(largest, float(np.sqrt((gradients ** 2).sum(axis=-1)).max()))
         return largest
     return derived.value(volume, LARGEST, compute)
+
+
+def store_rows(volume: Volume):
+    """A reader of level-0 slices [a, b) of a store over its memory budget; None for a volume
+    whose array is (or may be) in memory."""
+    bricks = getattr(volume, "bricks", None)
+    if bricks is None or volume.fits_budget:
+        return None
+    _, ny, nx = volume.shape
+    return lambda a, b: bricks.read(0, (a, 0, 0), (b, ny, nx))
 
 
 def value_gradient_histogram(volume: Volume, bins: int = 128) -> np.ndarray:
@@ -177,16 +197,12 @@ class GradientClassification(Component):
 
     def _bind_from_samples(self, frame: Frame) -> Binding:
         """Gradient opacity brick by brick: central differences at the sample over the volume's
-        largest voxel gradient (computed from the array in memory; a store is refused by name)."""
+        largest voxel gradient (``largest_magnitude``: a store's by one pass over its level 0)."""
         processor, volume = self.processor, frame.volume
         if processor.transfer_function_2d is not None:
             raise VGraphError(f"{processor.id}.transfer_function_2d: a volume drawn brick by brick skips "
                               f"bricks and blocks by the 1D transfer function's opacity, so a 2D TF is not "
                               f"drawn there; set {processor.id}.transfer_function_2d to null")
-        if getattr(volume, "bricks", None) is not None:
-            raise VGraphError(f"{processor.id}.gradient_opacity: {volume.source or 'the volume'} is a store "
-                              f"read brick by brick, whose largest gradient magnitude (the curve's scale) "
-                              f"would need every voxel read; set {processor.id}.gradient_opacity to null")
         largest = largest_magnitude(volume)
         curve = processor.gradient_opacity
         return Binding(defines={"GRADIENT_OPACITY": True, "CLASSIFICATION_CENTRAL": True},
