@@ -24,7 +24,8 @@ Conventions (docs/explanations/bricked-ray-casting.md explains each with the num
 - ``gradient_opacity`` (dvr; vgraph.gl.raycasting.gradient_classification, docs/guide/
   gradient-classification.md): the gradient from central differences at the sample inside the
   brick (no gradient volume), scaled by the volume's largest voxel gradient (a store's from one pass
-  over its level 0, once per store); ``transfer_function_2d`` is refused by name.
+  over its level 0, once per store); ``transfer_function_2d`` too, the bricks and blocks
+  skipped by its largest opacity per value (``max_error`` < 1 with it is refused by name).
 - The frame context (vgraph.frame_context; not properties) gives BrickSampling the ``load_limit``
   (coarse first in the GUI) and the ``leaf`` (the leaves split's run of bricks,
   vgraph.distributed.leaves).

@@ -37,7 +37,7 @@ Conventions (docs/explanations/ray-casting.md explains each property with pictur
   ``ram_budget`` and ``gl_budget`` are this processor's and apply only then. dvr, mip and iso only; ``precomputed``
   derivatives become ``central`` there (a gradient volume of a volume that large is what bricking
   avoids; inside the box both give the same gradient up to 16-bit steps), and so does the
-  gradient opacity's gradient (a 2D TF and the light volume are refused by name); ``volume_precision``
+  gradient opacity's gradient and the 2D TF's (the light volume is refused by name); ``volume_precision``
   and ``interpolation`` do not apply (the bricks keep their own texture format, sampled
   trilinearly), nor ``ray_bounds``. The frame context's ``load_limit`` (the GUI's: coarse first;
   vgraph.frame_context) goes to them, and ``last_frame`` says what such a frame drew.

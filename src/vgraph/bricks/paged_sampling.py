@@ -46,7 +46,7 @@ from vgraph.bricks.atlas import BrickAtlas
 from vgraph.bricks.cache import MB, bricks_bytes
 from vgraph.bricks.page_table import PageTable, texel_offsets
 from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
-from vgraph.bricks.sampling import BrickSampling, level_span
+from vgraph.bricks.sampling import BrickSampling, level_span, skipping_alpha
 from vgraph.bricks.selection import BrickGeometry, FramePlan, coarse_first, normalised_ranges
 from vgraph.bricks.targets import level_voxel
 from vgraph.errors import VGraphError
@@ -244,9 +244,7 @@ class PagedSampling(Component):
             return None
         mode = processor.compositing
         if mode == "dvr":
-            lut = processor.parts[TransferFunctionLut].lut
-            lut.update(frame.ctx, processor.transfer_function, frame.volume)
-            alpha = lut.alpha
+            alpha = skipping_alpha(processor, frame)  # the 1D TF's, or the 2D TF's largest per value
             rule, skippable = (mode, alpha.tobytes()), lambda low, high: ~occupied_blocks(low, high, alpha)
         elif mode == "iso":
             level = processor.iso_level

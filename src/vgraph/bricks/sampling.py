@@ -183,11 +183,7 @@ class BrickSampling(Component):
     def visible(self, source, frame: Frame):
         """visible(level) -> bool per brick for this frame's mode (selection.visible_bricks)."""
         mode, processor = self.compositing, self.processor
-        alpha = None
-        if mode == "dvr":
-            lut = processor.parts[TransferFunctionLut].lut
-            lut.update(frame.ctx, processor.transfer_function, frame.volume)
-            alpha = lut.alpha
+        alpha = skipping_alpha(processor, frame) if mode == "dvr" else None
         value_range = frame.volume.value_range
         return lambda level: visible_bricks(source, level, mode, alpha, processor.iso_level, value_range)
 
@@ -205,6 +201,10 @@ class BrickSampling(Component):
             self.warned_mode = self.compositing
             return None
         self.warned_mode = None
+        if processor.transfer_function_2d is not None and processor.max_error < 1.0:
+            raise VGraphError(f"{processor.id}.max_error: the error bounds of a level go by the 1D "
+                              f"transfer function, not transfer_function_2d; set {processor.id}.max_error "
+                              f"to 1 (levels by footprint) or {processor.id}.transfer_function_2d to null")
         lighting = (processor.ambient, processor.diffuse, processor.specular) if processor.shaded() else None
         key = (processor.transfer_function.for_volume(frame.volume), lighting)
         if self.spread[0] != key:
@@ -329,7 +329,7 @@ class BrickSampling(Component):
             defines.update(processor.parts[Gradients].defines(self.derivatives()))
         textures = {}
         if self.compositing == "dvr" and skipping:
-            textures["alpha_count"] = self.alpha_count_texture(frame.ctx)
+            textures["alpha_count"] = self.alpha_count_texture(frame.ctx, skipping_alpha(processor, frame))
         fmt = self.cache.format
         return Binding(defines, textures, uniforms={"intensity_scale": float(fmt.scale),
                                                     "intensity_offset": float(fmt.offset)})
@@ -379,9 +379,9 @@ class BrickSampling(Component):
             ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
             ctx.blend_func = moderngl.DEFAULT_BLENDING
 
-    def alpha_count_texture(self, ctx):
-        """4097 x 1 R32F: entry i = the LUT entries below i with opacity > 0 (brick_blocks.glsl)."""
-        alpha = self.processor.parts[TransferFunctionLut].lut.alpha
+    def alpha_count_texture(self, ctx, alpha: np.ndarray):
+        """4097 x 1 R32F: entry i = the entries of ``alpha`` (skipping_alpha) below i with opacity
+        > 0 (brick_blocks.glsl)."""
         texture = self.alpha_count.get("texture")
         if texture is None or texture.ctx is not ctx:
             release_quietly(self.alpha_count)
@@ -418,6 +418,20 @@ class BrickSampling(Component):
         textures = {"accumulated_sum": accumulation.textures[0], "accumulated_first": accumulation.textures[1]}
         self.processor.draw(frame, RESOLVE_SHADER, target, parts=RESOLVE_PARTS,
                             own=Binding(defines=own.defines, textures=textures))
+
+
+def skipping_alpha(processor, frame: Frame) -> np.ndarray:
+    """The opacity per value (the LUT's entries over the normalised intensity) that dvr's brick
+    and block skipping goes by: the 1D TF's LUT alpha, or with a 2D TF its largest alpha over the
+    gradient axis (GradientClassification.opacity_by_value) on the LUT's entries, each the larger
+    of the two table entries around it, so that it bounds the table's bilinear lookup."""
+    lut = processor.parts[TransferFunctionLut].lut
+    lut.update(frame.ctx, processor.transfer_function, frame.volume)
+    by_value = processor.parts[GradientClassification].opacity_by_value(frame.ctx)
+    if by_value is None:
+        return lut.alpha
+    at = np.linspace(0.0, 1.0, len(lut.alpha)) * (len(by_value) - 1)
+    return np.maximum(by_value[np.floor(at).astype(np.int64)], by_value[np.ceil(at).astype(np.int64)])
 
 
 # Each brick's pass: the GLSL of these parts, in this order (gradients.glsl reads the brick's

@@ -176,7 +176,6 @@ class GradientClassification(Component):
         if not self.is_on():
             return Binding()
         self.check()
-        processor = self.processor
         if self.from_samples:
             return self._bind_from_samples(frame)
         gradients, scale = gradient_texture(frame.ctx, frame.volume)
@@ -185,6 +184,24 @@ class GradientClassification(Component):
                           samplers={"classification_gradients": linear_sampler(frame.ctx)},
                           uniforms={"classification_gradient_scale": vec(scale),
                                     "inverse_largest_gradient": 1.0 / largest if largest > 0.0 else 0.0})
+        self._bind_tables(frame, binding)
+        return binding
+
+    def _bind_from_samples(self, frame: Frame) -> Binding:
+        """Brick by brick: the gradient from central differences at the sample over the volume's
+        largest voxel gradient (``largest_magnitude``: a store's by one pass over its level 0);
+        the curve and the 2D table bound as for the gradient volume."""
+        largest = largest_magnitude(frame.volume)
+        binding = Binding(defines={"CLASSIFICATION_CENTRAL": True},
+                          uniforms={"inverse_largest_gradient": 1.0 / largest if largest > 0.0 else 0.0,
+                                    "classification_voxel_step": vec(1.0 / frame.geometry.dims),
+                                    "classification_inverse_span": vec(0.5 / frame.geometry.spacing)})
+        self._bind_tables(frame, binding)
+        return binding
+
+    def _bind_tables(self, frame: Frame, binding: Binding) -> None:
+        """The gradient-opacity curve and the 2D TF's table, where set."""
+        processor = self.processor
         if processor.gradient_opacity is not None:
             curve = processor.gradient_opacity
             binding.defines["GRADIENT_OPACITY"] = True
@@ -193,21 +210,3 @@ class GradientClassification(Component):
         if processor.transfer_function_2d is not None:
             binding.defines["TRANSFER_FUNCTION_2D"] = True
             binding.textures["transfer_function_2d"] = self.table.update(frame.ctx, processor.transfer_function_2d)
-        return binding
-
-    def _bind_from_samples(self, frame: Frame) -> Binding:
-        """Gradient opacity brick by brick: central differences at the sample over the volume's
-        largest voxel gradient (``largest_magnitude``: a store's by one pass over its level 0)."""
-        processor, volume = self.processor, frame.volume
-        if processor.transfer_function_2d is not None:
-            raise VGraphError(f"{processor.id}.transfer_function_2d: a volume drawn brick by brick skips "
-                              f"bricks and blocks by the 1D transfer function's opacity, so a 2D TF is not "
-                              f"drawn there; set {processor.id}.transfer_function_2d to null")
-        largest = largest_magnitude(volume)
-        curve = processor.gradient_opacity
-        return Binding(defines={"GRADIENT_OPACITY": True, "CLASSIFICATION_CENTRAL": True},
-                       textures={"gradient_opacity": self.curve.update(
-                           frame.ctx, curve, lambda: np.repeat(curve.lut(CURVE_SIZE)[:, None], 4, axis=1))},
-                       uniforms={"inverse_largest_gradient": 1.0 / largest if largest > 0.0 else 0.0,
-                                 "classification_voxel_step": vec(1.0 / frame.geometry.dims),
-                                 "classification_inverse_span": vec(0.5 / frame.geometry.spacing)})
