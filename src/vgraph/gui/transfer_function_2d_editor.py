@@ -223,7 +223,7 @@ class TransferFunction2DPlot(QWidget):
 
 
 class TransferFunction2DEditor(PropertyEditor):
-    """The plot, and below it Add, Remove, Colour..., Presets and Off."""
+    """The plot, and below it Add, Remove and Colour..., then Presets and Off."""
 
     def build(self):
         self.plot = TransferFunction2DPlot()
@@ -245,12 +245,14 @@ class TransferFunction2DEditor(PropertyEditor):
         self.off_button = QPushButton("Off")
         self.off_button.setToolTip("no 2D TF: the 1D transfer function classifies")
         self.off_button.clicked.connect(lambda: self.emit(None))
-        row = QHBoxLayout()
-        for widget in (self.add_kind, self.remove_button, self.color_button, self.presets, self.off_button):
-            row.addWidget(widget)
         column = QVBoxLayout()
         column.addWidget(self.plot, 1)
-        column.addLayout(row)
+        # two rows: five buttons in one made the inspector wider than a 1280-pixel window gives it
+        for widgets in ((self.add_kind, self.remove_button, self.color_button), (self.presets, self.off_button)):
+            row = QHBoxLayout()
+            for widget in widgets:
+                row.addWidget(widget)
+            column.addLayout(row)
         self.layout_.addLayout(column)
 
     def _show(self, value: TransferFunction2D | None):
