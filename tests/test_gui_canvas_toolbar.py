@@ -398,3 +398,22 @@ def test_reset_layout_puts_the_canvases_back_below_the_palette(window, qtbot):
     front = max((first, second), key=lambda dock: dock.y())   # the tab behind is moved out of sight
     assert front.y() > window.palette_dock.y() + window.palette_dock.height() - 8
     assert window.dockWidgetArea(window.properties_dock) == Qt.RightDockWidgetArea
+
+
+def test_reset_layout_tabs_the_markups_tables_and_timeline_docks_with_the_log_again(window, qtbot):
+    from vgraph.gui import layout
+
+    markups, tables, timeline = window.markups_dock, window.table_dock, window.timeline_dock
+    markups.show()
+    markups.setFloating(True)
+    window.addDockWidget(Qt.RightDockWidgetArea, tables)
+    tables.show()
+    layout.reset_layout(window)
+    qtbot.wait(50)
+    for dock in (markups, tables, timeline):
+        assert not dock.isFloating() and not dock.isVisible()
+        assert window.dockWidgetArea(dock) == Qt.BottomDockWidgetArea
+        dock.show()                                    # View > Markups: it opens as a tab of the Log
+        qtbot.wait(20)
+        assert dock in window.tabifiedDockWidgets(window.log_dock)
+        dock.hide()

@@ -102,6 +102,10 @@ class MainWindow(FileActions, WindowMenus, RenderStatus, QMainWindow):
         return {self.palette_dock: Qt.LeftDockWidgetArea, self.properties_dock: Qt.RightDockWidgetArea,
                 self.log_dock: Qt.BottomDockWidgetArea}
 
+    def log_tabs(self) -> list[QDockWidget]:
+        """The docks tabbed with the Log and hidden at first (Reset Layout puts them back there)."""
+        return [self.markups_dock, self.timeline_dock, self.table_dock]
+
     def _dock(self, title: str, widget, area) -> QDockWidget:
         dock = QDockWidget(title, self)
         dock.setObjectName(title)

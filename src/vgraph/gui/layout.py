@@ -136,6 +136,8 @@ def reset_layout(window) -> None:
         dock.setFloating(False)
         window.addDockWidget(area, dock)
         dock.show()
+    for dock in window.log_tabs():
+        _tab_with_log(window, dock)
     canvases = list(window.canvases.docks.values())
     for index, dock in enumerate(canvases):
         dock.setFloating(False)
@@ -144,6 +146,24 @@ def reset_layout(window) -> None:
     arrange(window, *first_run_size(window))
     settings = window.workspace.settings
     settings.remove(GEOMETRY_KEY), settings.remove(STATE_KEY)
+
+
+def log_tab(window, title: str, panel) -> QDockWidget:
+    """A dock tabbed with the Log and hidden until View shows it (Markups, Tables, Timeline); the
+    panel's ``status_message`` goes to the status bar."""
+    dock = QDockWidget(title, window)
+    dock.setObjectName(title)
+    dock.setWidget(panel)
+    _tab_with_log(window, dock)
+    panel.status_message.connect(window.statusBar().showMessage)
+    return dock
+
+
+def _tab_with_log(window, dock: QDockWidget) -> None:
+    dock.setFloating(False)
+    window.addDockWidget(Qt.BottomDockWidgetArea, dock)
+    window.tabifyDockWidget(window.log_dock, dock)
+    dock.hide()
 
 
 def shown_whole(widget: QWidget) -> bool:

@@ -31,6 +31,7 @@ from PySide6.QtWidgets import QDockWidget, QHBoxLayout, QPushButton, QTableWidge
 
 from vgraph.errors import VGraphError
 from vgraph.gui.editors import row_table
+from vgraph.gui.layout import log_tab
 from vgraph.gui.markups_editor import measured_text, parse_points, points_text
 from vgraph.gui.slice_markups import markups_sources
 from vgraph.markups import Markup, Markups
@@ -212,13 +213,7 @@ def markups_dock(window) -> QDockWidget:
     """The dock, tabbed with the Log and hidden; a row's selection selects its processor in the
     network editor and the markup's row in the inspector's markups table."""
     table = MarkupsTable(window.workspace)
-    dock = QDockWidget("Markups", window)
-    dock.setObjectName("Markups")
-    dock.setWidget(table)
-    window.addDockWidget(Qt.BottomDockWidgetArea, dock)
-    window.tabifyDockWidget(window.log_dock, dock)
-    dock.hide()
-    table.status_message.connect(window.statusBar().showMessage)
+    dock = log_tab(window, "Markups", table)
     table.markup_selected.connect(lambda key: _select_in_window(window, key))
     table.profiled.connect(window.scene.select_processor)
     return dock

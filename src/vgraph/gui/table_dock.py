@@ -27,6 +27,7 @@ from PySide6.QtWidgets import (QAbstractItemView, QDockWidget, QFileDialog, QHBo
                                QTableView, QVBoxLayout, QWidget)
 
 from vgraph.errors import VGraphError
+from vgraph.gui.layout import log_tab
 from vgraph.table import Table, cell_text
 
 NOTHING = "select a processor with a table (RegionStatistics, LineProfile, Markups) in the network editor"
@@ -218,13 +219,7 @@ def table_dock(window) -> QDockWidget:
     """The dock, tabbed with the Log and hidden; it shows the table of the processor selected in
     the network editor."""
     panel = TablePanel(window.evaluation)
-    dock = QDockWidget("Tables", window)
-    dock.setObjectName("Tables")
-    dock.setWidget(panel)
-    window.addDockWidget(Qt.BottomDockWidgetArea, dock)
-    window.tabifyDockWidget(window.log_dock, dock)
-    dock.hide()
-    panel.status_message.connect(window.statusBar().showMessage)
+    dock = log_tab(window, "Tables", panel)
     window.scene.selectionChanged.connect(lambda: _selected(window, panel))
     window.workspace.network_replaced.connect(panel.forget)
     return dock

@@ -30,6 +30,7 @@ from PySide6.QtWidgets import (QComboBox, QDockWidget, QDoubleSpinBox, QFileDial
                                QListWidget, QPushButton, QSlider, QVBoxLayout, QWidget)
 
 from vgraph.errors import VGraphError
+from vgraph.gui.layout import log_tab
 from vgraph.gui.timeline_export import export_timeline
 from vgraph.properties import CameraProperty
 from vgraph.tracks import (EASINGS, Keyframe, SetTracks, apply_tracks, check_track, duration,
@@ -257,13 +258,7 @@ def timeline_dock(window) -> QDockWidget:
     """The dock, tabbed with the Log and hidden (View > Timeline shows it); it follows the network
     editor's selection and scrubs with coarse frames."""
     panel = TimelinePanel(window.workspace)
-    dock = QDockWidget("Timeline", window)
-    dock.setObjectName("Timeline")
-    dock.setWidget(panel)
-    window.addDockWidget(Qt.BottomDockWidgetArea, dock)
-    window.tabifyDockWidget(window.log_dock, dock)
-    dock.hide()
-    panel.status_message.connect(window.statusBar().showMessage)
+    dock = log_tab(window, "Timeline", panel)
     panel.interacting.connect(window.evaluation.interactive)
     panel.follow_scene(window.scene)
     panel.main_window = window
