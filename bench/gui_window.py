@@ -1,10 +1,12 @@
 """A fresh main window for the bench's GUI pictures (make_gui_screenshots, make_mpr_screenshot,
-make_picking_screenshot): its own settings file in a temporary folder, so the user's remembered
-layout is not used, laid out as a first run on a screen of the given size (``layout.arrange``).
+make_picking_screenshot, make_slice_markups_screenshot, make_table_dock_screenshot): its own
+settings file in a temporary folder, so the user's remembered layout is not used, laid out as a first
+run on a screen of the given size (``layout.arrange``); and the command line those scripts share.
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 import tempfile
 from contextlib import contextmanager
@@ -38,3 +40,25 @@ def fresh_window(size: tuple[int, int], network: Path | None = None, settings_va
             window.workspace.open(network)
             window.view.fit_network()
         yield app, window
+
+
+def screenshot_parser(doc: str, out: Path, size: str) -> argparse.ArgumentParser:
+    """The options every screenshot script takes: ``--out`` (default ``out``) and ``--size`` WIDTHxHEIGHT
+    (default ``size``); described by the first line of the script's ``doc``."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=out)
+    parser.add_argument("--size", default=size)
+    return parser
+
+
+def window_size(text: str) -> tuple[int, int]:
+    """``"1920x1080"`` as ``(1920, 1080)``."""
+    width, height = (int(v) for v in text.lower().split("x"))
+    return width, height
+
+
+def screenshot_main(doc: str, out: Path, size: str, shoot, argv=None) -> int:
+    """The main() of a screenshot script with no options of its own: ``shoot(out, (width, height))``."""
+    args = screenshot_parser(doc, out, size).parse_args(argv)
+    shoot(args.out, window_size(args.size))
+    return 0

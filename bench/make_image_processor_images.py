@@ -10,13 +10,12 @@ labelled) of the head with the ray caster's transfer function over it.
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
 
 import vgraph
-from panel_row import write_panel_row
+from panel_row import panel_row_main
 
 REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "docs" / "images" / "image_processors.png"
@@ -53,12 +52,7 @@ def panels() -> list[np.ndarray]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=OUT)
-    args = parser.parse_args(argv)
-    write_panel_row(args.out, panels())
-    print(args.out)
-    return 0
+    return panel_row_main(__doc__, OUT, panels, argv)
 
 
 if __name__ == "__main__":

@@ -11,11 +11,10 @@ selected so the inspector shows the SliceViewer's properties.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
-from gui_window import fresh_window
+from gui_window import fresh_window, screenshot_parser, window_size
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -48,13 +47,10 @@ def shoot(out: Path, size: tuple[int, int], click: tuple[float, float]) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=REPO / "docs" / "images" / "exploring_mpr.png")
-    parser.add_argument("--size", default="1920x1080")
+    parser = screenshot_parser(__doc__, REPO / "docs" / "images" / "exploring_mpr.png", "1920x1080")
     parser.add_argument("--click", type=float, nargs=2, default=(0.40, 0.62), metavar=("U", "V"))
     args = parser.parse_args(argv)
-    width, height = (int(v) for v in args.size.lower().split("x"))
-    shoot(args.out, (width, height), tuple(args.click))
+    shoot(args.out, window_size(args.size), tuple(args.click))
     return 0
 
 

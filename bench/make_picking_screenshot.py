@@ -11,12 +11,11 @@ the status bar show the picked point, voxel, value and curvatures.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path
 
-from gui_window import fresh_window
+from gui_window import fresh_window, screenshot_parser, window_size
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -63,13 +62,10 @@ def shoot(out: Path, size: tuple[int, int], at: tuple[float, float]) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=REPO / "docs" / "images" / "picking_hover.png")
-    parser.add_argument("--size", default="1200x760")
+    parser = screenshot_parser(__doc__, REPO / "docs" / "images" / "picking_hover.png", "1200x760")
     parser.add_argument("--at", type=float, nargs=2, default=(0.45, 0.40), metavar=("U", "V"))
     args = parser.parse_args(argv)
-    width, height = (int(v) for v in args.size.lower().split("x"))
-    shoot(args.out, (width, height), tuple(args.at))
+    shoot(args.out, window_size(args.size), tuple(args.at))
     return 0
 
 

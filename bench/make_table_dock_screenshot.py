@@ -9,10 +9,9 @@ as for Ctrl+C; the canvas shows the profile's plot.
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
-from gui_window import fresh_window
+from gui_window import fresh_window, screenshot_main
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -43,13 +42,7 @@ def shoot(out: Path, size: tuple[int, int]) -> None:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=REPO / "docs" / "images" / "table_dock.png")
-    parser.add_argument("--size", default="1600x900")
-    args = parser.parse_args(argv)
-    width, height = (int(v) for v in args.size.lower().split("x"))
-    shoot(args.out, (width, height))
-    return 0
+    return screenshot_main(__doc__, REPO / "docs" / "images" / "table_dock.png", "1600x900", shoot, argv)
 
 
 if __name__ == "__main__":
