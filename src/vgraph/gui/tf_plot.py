@@ -33,10 +33,11 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-from PySide6.QtCore import QEvent, QPointF, QRectF, Qt, Signal
+from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QBrush, QColor, QImage, QPainter, QPen, QPixmap, QPolygonF
 from PySide6.QtWidgets import QWidget
 
+from vgraph.gui.delete_key import OwnsDeleteKey, is_delete_key
 from vgraph.transfer_function import POSITION_LIMITS, TransferFunction, ValueScale
 
 MARGIN = 7          # px around the curve area: room for the circles of points at the edges
@@ -53,7 +54,7 @@ def _rounded(point) -> tuple:
     return tuple(round(float(v), DECIMALS) for v in point)
 
 
-class TransferFunctionPlot(QWidget):
+class TransferFunctionPlot(OwnsDeleteKey, QWidget):
     """Paints a transfer function over a histogram and edits its control points with the mouse."""
 
     changed = Signal(object, object)    # TransferFunction, merge key (None: a separate undo step)
@@ -248,15 +249,8 @@ class TransferFunctionPlot(QWidget):
             self.selected = hit
             self.color_requested.emit(hit)
 
-    def event(self, event):
-        # Delete also deletes processors (a window shortcut): on the plot it means the point.
-        if event.type() == QEvent.ShortcutOverride and event.key() in (Qt.Key_Delete, Qt.Key_Backspace):
-            event.accept()
-            return True
-        return super().event(event)
-
     def keyPressEvent(self, event):
-        if event.key() in (Qt.Key_Delete, Qt.Key_Backspace) and self.selected is not None:
+        if is_delete_key(event) and self.selected is not None:
             self.remove_point(self.selected)
         elif event.key() in (Qt.Key_Return, Qt.Key_Enter) and self.selected is not None:
             self.point_requested.emit(self.selected)

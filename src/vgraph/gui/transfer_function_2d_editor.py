@@ -28,10 +28,11 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-from PySide6.QtCore import QEvent, QPointF, QRectF, Qt, Signal
+from PySide6.QtCore import QPointF, QRectF, Qt, Signal
 from PySide6.QtGui import QBrush, QColor, QImage, QPainter, QPen, QPolygonF
 from PySide6.QtWidgets import QColorDialog, QComboBox, QHBoxLayout, QPushButton, QVBoxLayout, QWidget
 
+from vgraph.gui.delete_key import OwnsDeleteKey, is_delete_key
 from vgraph.gui.editors import PropertyEditor, list_popup, register_editor
 from vgraph.transfer_function_2d import PRESETS, Gaussian, Rectangle, TransferFunction2D, Triangle, new_primitive
 
@@ -56,7 +57,7 @@ def rounded(transfer_function: TransferFunction2D) -> TransferFunction2D:
     return TransferFunction2D.model_validate(walk(transfer_function.model_dump()))
 
 
-class TransferFunction2DPlot(QWidget):
+class TransferFunction2DPlot(OwnsDeleteKey, QWidget):
     """Paints a 2D TF's primitives over a histogram and moves them with the mouse."""
 
     changed = Signal(object, object)   # TransferFunction2D or None, merge key
@@ -177,15 +178,8 @@ class TransferFunction2DPlot(QWidget):
             self._drag = None
             self.interacting.emit(False)
 
-    def event(self, event):
-        # Delete also deletes processors (a window shortcut): on the plot it means the primitive.
-        if event.type() == QEvent.ShortcutOverride and event.key() in (Qt.Key_Delete, Qt.Key_Backspace):
-            event.accept()
-            return True
-        return super().event(event)
-
     def keyPressEvent(self, event):
-        if event.key() in (Qt.Key_Delete, Qt.Key_Backspace):
+        if is_delete_key(event):
             self.remove_selected()
         else:
             super().keyPressEvent(event)
