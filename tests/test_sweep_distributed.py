@@ -1,11 +1,15 @@
 """SweepPlaneRenderer on a Dask cluster (issue 34 item 3; docs/guide/distributed.md): the tiles split
 (each tile sweeps the leaves it sees) and the leaves split (each leaf once on one worker, partials
-composited in visibility order) equal the single-process picture."""
+composited in visibility order) equal the single-process picture; render_report says what each
+worker read (tiles: every leaf its tiles see; leaves: each leaf once); with early termination the
+leaves split is within 1 - early_termination of the single process."""
+
+import re
 
 import numpy as np
 import pytest
 
-from vgraph.distributed import TileError, render
+from vgraph.distributed import render, render_report
 from vgraph.distributed.render import prepare
 from vgraph.network import Network
 from vgraph.transfer_function import TransferFunction
@@ -33,11 +37,13 @@ def store(tmp_path_factory):
     return folder
 
 
-def network(path, **values) -> Network:
+def network(path, renderer="sweep", **values) -> Network:
+    """``renderer``: the renderer's id; another id is another network on the workers (their
+    networks, and so their caches, are kept by document)."""
     net = Network(base_dir=path.parent)
     net.add("VolumeSource", id="src", path=str(path))
-    net.add("SweepPlaneRenderer", id="sweep", transfer_function=TF, **values)
-    net.connect("src.volume", "sweep.volume")
+    net.add("SweepPlaneRenderer", id=renderer, transfer_function=TF, **values)
+    net.connect("src.volume", f"{renderer}.volume")
     return net
 
 
@@ -49,11 +55,10 @@ def client():
         yield client
 
 
-def test_the_leaves_split_needs_a_store_and_no_early_termination(store):
-    with pytest.raises(TileError, match="sweep.early_termination: 0.99"):
-        prepare(network(store / "ball.zarr"), split="leaves", target="sweep.image", size=SIZE)
-    assert prepare(network(store / "ball.zarr", early_termination=1.0), split="leaves",
-                   target="sweep.image", size=SIZE).tiles == []
+def test_the_leaves_split_takes_a_store_with_or_without_early_termination(store):
+    for stop_at in (0.99, 1.0):
+        assert prepare(network(store / "ball.zarr", early_termination=stop_at), split="leaves",
+                       target="sweep.image", size=SIZE).tiles == []
 
 
 @pytest.mark.parametrize("name, threshold", [("ball.zarr", None), ("ball.zarr", [0.3, 1.0]), ("ball.npy", None)])
@@ -78,3 +83,100 @@ def test_leaves_on_two_workers_equal_the_single_process_picture(client, store, t
         assert np.abs(image - reference).max() <= TOLERANCE, (runs, np.abs(image - reference).max())
     depth = render(net, client, split="leaves", size=SIZE, runs=3, target="sweep.depth")
     assert np.abs(depth - net.evaluate("sweep.depth", size=SIZE)).max() <= TOLERANCE
+
+
+# --- what each worker read (render_report) ------------------------------------------------------------
+def cache_reads(client) -> dict:
+    """Worker address -> bytes read by every brick cache of the networks it holds (the caches'
+    own counters)."""
+    def counted():
+        from vgraph.distributed.report import _caches
+        from vgraph.distributed.worker import kept_networks
+        return sum(cache.stats["bytes_read"] for cache in _caches(kept_networks()))
+    return client.run(counted)
+
+
+def leaves_seen(net, renderer, tile) -> set:
+    """The leaves (cache keys) one process reads for ``tile`` of the SIZE picture."""
+    from vgraph.distributed.tiles import cameras, set_tile_cameras
+    from vgraph.distributed.worker import build, shipped
+    copy = build(*shipped(net))
+    set_tile_cameras(copy, cameras(copy), tile, SIZE)
+    copy.evaluate(f"{renderer}.image", size=tile.rendered[2:])
+    assert copy[renderer].last_sweep["leaves_swept"] == len(copy[renderer].cache.ram)  # none evicted
+    return set(copy[renderer].cache.ram)
+
+
+def test_tiles_read_every_leaf_their_tiles_see_on_each_worker(client, store):
+    from vgraph.bricks.cache import read_with_halo
+    from vgraph.distributed import cut
+    net = network(store / "ball.zarr", renderer="tiles_bytes")
+    reference = net.evaluate("tiles_bytes.image", size=SIZE)
+    single = net["tiles_bytes"].last_sweep["bytes_read"]
+    source = net.output("src.volume").bricks
+    size_of = {}
+
+    def read(keys):
+        return sum(size_of.setdefault(k, read_with_halo(source, k).nbytes) for k in keys)
+
+    tiles = cut(SIZE, (2, 1))
+    seen = [leaves_seen(net, "tiles_bytes", tile) for tile in tiles]
+    assert seen[0] & seen[1] and read(seen[0] | seen[1]) == single  # leaves on the seam: seen by both
+    before = cache_reads(client)
+    frame = render_report(net, client, split="tiles", tiles=(2, 1), size=SIZE, target="tiles_bytes.image")
+    assert np.abs(frame.image - reference).max() <= TOLERANCE and frame.split == "tiles"
+    after = cache_reads(client)
+    on = {}  # worker -> the leaves its tiles see
+    for tile_seen, task in zip(seen, frame.tasks):
+        on.setdefault(task.worker, set()).update(tile_seen)
+    assert set(frame.workers) == set(on)
+    for address, worker in frame.workers.items():
+        assert worker.bytes_read == read(on[address]) == after[address] - before[address]
+        assert worker.bricks_read == len(on[address]) and worker.seconds > 0
+    # Each worker reads what its tiles see: on two workers the seam's leaves twice in all.
+    assert frame.bytes_read == sum(read(keys) for keys in on.values()) >= single
+    if len(on) == 2:
+        assert frame.bytes_read == read(seen[0]) + read(seen[1]) > single
+
+
+def test_leaves_read_each_leaf_once_in_all_and_report_it_per_worker(client, store):
+    net = network(store / "ball.zarr", renderer="leaves_bytes", early_termination=1.0)
+    reference = net.evaluate("leaves_bytes.image", size=SIZE)
+    single = net["leaves_bytes"].last_sweep
+    before = cache_reads(client)
+    frame = render_report(net, client, split="leaves", size=SIZE, runs=3, target="leaves_bytes.image")
+    after = cache_reads(client)
+    assert np.abs(frame.image - reference).max() <= TOLERANCE and frame.split == "leaves"
+    assert frame.bytes_read == single["bytes_read"] and frame.bricks_read == single["leaves_swept"]
+    for address, worker in frame.workers.items():
+        assert worker.bytes_read == after[address] - before[address]
+    runs = [task for task in frame.tasks if task.task.startswith("run ")]
+    assert len(runs) == 3
+    for task in runs:  # each run read its own leaves: 'run 2 of 3 (bricks 17-32 of 48)'
+        first, last = (int(v) for v in re.search(r"bricks (\d+)-(\d+) of", task.task).groups())
+        assert task.bricks_read == last - first + 1 and task.seconds > 0
+    assert sum(task.bytes_read for task in frame.tasks if not task.task.startswith("run ")) == 0
+    again = render_report(net, client, split="leaves", size=SIZE, runs=3, target="leaves_bytes.image")
+    assert again.bytes_read == 0 and np.array_equal(again.image, frame.image)  # kept by the workers' caches
+
+
+# --- the leaves split with early termination -------------------------------------------------------------
+@pytest.mark.parametrize("stop_at", [0.5, 0.9, 0.99])
+def test_leaves_with_early_termination_are_within_one_minus_it_of_the_single_process(client, store, stop_at):
+    """Each run stops its rays at its own opacity, never before one sweep would; the composite
+    keeps the front alone where it is opaque: the extra segments lie behind the point one sweep
+    stops at, so the picture differs by at most 1 - early_termination (sweep-plane.md)."""
+    net = network(store / "ball.zarr", early_termination=stop_at)
+    reference = net.evaluate("sweep.image", size=SIZE)
+    depth = net.evaluate("sweep.depth", size=SIZE)
+    net.set("sweep.early_termination", 1.0)
+    assert np.abs(net.evaluate("sweep.image", size=SIZE) - reference).max() > 0.5 * (1 - stop_at)  # it stops rays
+    net.set("sweep.early_termination", stop_at)
+    for runs in (None, 3):
+        image = render(net, client, split="leaves", size=SIZE, runs=runs, target="sweep.image")
+        assert np.abs(image - reference).max() <= (1 - stop_at) + TOLERANCE, (runs, np.abs(image - reference).max())
+    split_depth = render(net, client, split="leaves", size=SIZE, runs=3, target="sweep.depth")
+    # The first segment with opacity lies before any stop: the depth is one sweep's; the runs
+    # composite at least the segments one sweep does.
+    assert np.abs(split_depth[..., [0, 1, 3]] - depth[..., [0, 1, 3]]).max() <= TOLERANCE
+    assert (split_depth[..., 2] >= depth[..., 2]).all()

@@ -10,7 +10,7 @@ import sys
 import time
 
 from vgraph.cli_common import EXIT_INTERRUPTED, EXIT_OK
-from vgraph.distributed import connect, parse_cluster, parse_grid, render
+from vgraph.distributed import connect, parse_cluster, parse_grid, render_report
 from vgraph.distributed.render import prepare
 from vgraph.errors import VGraphError
 
@@ -35,16 +35,18 @@ def run_on_cluster(args, network, outputs, target) -> int:
     try:
         with connect(args.cluster) as client:
             workers = len(client.scheduler_info().get("workers", {}))
-            pixels = render(network, client, split=split, tiles=grid, size=args.size, target=target,
-                            plugins=args.plugin or (), cluster=args.cluster)
+            frame = render_report(network, client, split=split, tiles=grid, size=args.size, target=target,
+                                  plugins=args.plugin or (), cluster=args.cluster)
     except KeyboardInterrupt:
         # render() cancelled the frame's tasks and connect() closed the cluster it started: one
         # line, and the exit code of a command stopped by SIGINT.
         print(f"vgraph: interrupted: the render on {args.cluster} was cancelled after "
               f"{time.perf_counter() - start:.1f} s; nothing was written", file=sys.stderr)
         return EXIT_INTERRUPTED
-    write_image_outputs(outputs, pixels)
+    write_image_outputs(outputs, frame.image)
     how = f"{grid[0]}x{grid[1]} tiles" if split == "tiles" else "runs of bricks (leaves)"
     print(f"rendered {target} as {how} on {workers} worker(s) of "
           f"{args.cluster} in {time.perf_counter() - start:.3f} s", file=sys.stderr)
+    for line in frame.lines():  # what each worker read through its brick caches and computed
+        print(line, file=sys.stderr)
     return EXIT_OK

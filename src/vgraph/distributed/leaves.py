@@ -35,6 +35,7 @@ import numpy as np
 
 from vgraph.bricks.cache import brick_extent
 from vgraph.bricks.selection import LeafPass
+from vgraph.distributed.report import ClusterFrame, measured, task_report
 from vgraph.distributed.tiles import TileError
 from vgraph.distributed.watch import results, watch
 from vgraph.distributed.worker import GL_LOCK, load_plugins, shipped, worker_network
@@ -61,9 +62,11 @@ def bricked_caster(network, target: str) -> str:
                         f"one SweepPlaneRenderer) among the workers; {target} needs {found} (use split='tiles')")
     caster = network[casters[0]]
     values = caster.property_values
-    if compositing(caster) in ("dvr", "sweep") and values.get("early_termination", 1.0) < 1.0:
+    if compositing(caster) == "dvr" and values.get("early_termination", 1.0) < 1.0:
         # A run cannot know how opaque the runs in front of it are, so it cannot stop its rays
-        # where one process would: the image would differ by up to 1 - early_termination.
+        # where one process would. (RZSweep's runs stop at their own opacity, which is within
+        # 1 - early_termination of one sweep: vgraph.sweep.leaves.composite; the same for the
+        # GL passes is not done: their bricks' early termination reads the accumulation.)
         raise TileError(f"{casters[0]}.early_termination: {values['early_termination']:g} stops rays "
                         "by what the bricks in front left, which a worker's run of bricks cannot see; "
                         "set it to 1 for the leaves split (or use split='tiles')")
@@ -91,9 +94,10 @@ def split_runs(weights, count: int) -> list[tuple[int, int]]:
 
 
 def render_leaves(plan, client, runs: int | None = None, plugins=(), timeout=None,
-                  cluster: str | None = None) -> np.ndarray:
-    """The picture of ``plan`` (render.Plan) drawn by the leaves split; ``runs``: brick runs
-    (default: one per worker); ``timeout`` and ``cluster`` as render() takes them."""
+                  cluster: str | None = None) -> ClusterFrame:
+    """The picture of ``plan`` (render.Plan) drawn by the leaves split, with what each task read
+    (vgraph.distributed.report); ``runs``: brick runs (default: one per worker); ``timeout`` and
+    ``cluster`` as render() takes them."""
     caster = bricked_caster(plan.network, plan.target)
     document, base_dir = shipped(plan.network)
     plugins = tuple(plugins)
@@ -102,10 +106,12 @@ def render_leaves(plan, client, runs: int | None = None, plugins=(), timeout=Non
     # key and recomputes the same value from its arguments alone.
     token = uuid.uuid4().hex[:12]
     mode = compositing(plan.network[caster])
-    planned = client.submit(plan_task, *common, pure=False, key=f"vgraph-leaves-{token}-plan")
-    planning = {planned: "the plan of the frame's bricks"}
+    stop_at = float(plan.network[caster].property_values.get("early_termination", 1.0))
+    planning_label = "the plan of the frame's bricks"
+    planned = client.submit(measured, plan_task, *common, pure=False, key=f"vgraph-leaves-{token}-plan")
+    planning = {planned: planning_label}
     watch(client, planning, timeout, cluster)
-    [(bricks, weights)] = results(client, planning, cluster)
+    [((bricks, weights), plan_costs)] = results(client, planning, cluster)
     workers = sorted(client.scheduler_info().get("workers", {}))
     pieces = split_runs(weights, runs or max(1, len(workers)))
     layers, tasks = [], {}
@@ -114,23 +120,48 @@ def render_leaves(plan, client, runs: int | None = None, plugins=(), timeout=Non
         # on the worker that holds its network and bricks, frame after frame. The restriction is
         # loose, so the run moves to another worker when that one is gone (killed, replaced).
         place = {"workers": [workers[i % len(workers)]], "allow_other_workers": True} if workers else {}
-        layers.append(client.submit(run_task, *common, bricks[start:stop], pure=False,
+        label = f"run {i + 1} of {len(pieces)} (bricks {start + 1}-{stop} of {len(bricks)})"
+        layers.append(client.submit(run_layer, label, *common, bricks[start:stop], pure=False,
                                     key=f"vgraph-leaves-{token}-run{i}", **place))
-        tasks[layers[-1]] = f"run {i + 1} of {len(pieces)} (bricks {start + 1}-{stop} of {len(bricks)})"
+        tasks[layers[-1]] = label
     level = 0
     while len(layers) > 1:  # adjacent layers pairwise, front before back: the visibility order
         level += 1
-        layers = [client.submit(composite, *layers[j:j + 2], mode, pure=False,
+        layers = [client.submit(combine, *layers[j:j + 2], mode, stop_at,
+                                f"composite {j // 2 + 1} of level {level}", pure=False,
                                 key=f"vgraph-leaves-{token}-composite{level}-{j // 2}")
                   if j + 1 < len(layers) else layers[j] for j in range(0, len(layers), 2)]
         tasks.update({layer: f"composite {j + 1} of level {level}" for j, layer in enumerate(layers)
                       if layer not in tasks})
     accumulated = layers[0] if layers else None
-    resolved = client.submit(resolve_task, *common, accumulated, pure=False,
+    resolved = client.submit(resolve_layer, *common, accumulated, pure=False,
                              key=f"vgraph-leaves-{token}-resolve")
     tasks[resolved] = "the resolve pass"
     watch(client, tasks, timeout, cluster)
-    return results(client, {resolved: tasks[resolved]}, cluster)[0]
+    picture, costs = results(client, {resolved: tasks[resolved]}, cluster)[0]
+    reports = (task_report(planning_label, plan_costs), *(task_report(c["task"], c) for c in costs))
+    return ClusterFrame(picture, "leaves", reports)
+
+
+# --- the layers: partial accumulations with what their tasks cost (on the workers) -----------------
+def run_layer(label, *arguments) -> tuple:
+    """(run_task's accumulation, [its costs]): a layer of the composite tree."""
+    partial, costs = measured(run_task, *arguments)
+    return partial, [{**costs, "task": label}]
+
+
+def combine(front: tuple, back: tuple, mode: str, early_termination: float, label: str) -> tuple:
+    """Two adjacent layers -> one (``composite``), their tasks' costs in front-to-back order."""
+    together, costs = measured(composite, front[0], back[0], mode, early_termination)
+    return together, [*front[1], {**costs, "task": label}, *back[1]]
+
+
+def resolve_layer(*arguments) -> tuple:
+    """(resolve_task's picture, the costs of every task of the frame after the plan)."""
+    *common, layer = arguments
+    accumulated, costs = (None, []) if layer is None else layer
+    picture, own = measured(resolve_task, *common, accumulated)
+    return picture, [*costs, {**own, "task": "the resolve pass"}]
 
 
 # --- compositing (pure numpy; on the workers) --------------------------------------------------------
@@ -139,11 +170,12 @@ def compositing(processor) -> str:
     return "sweep" if processor.type_name == SWEEP else processor.compositing
 
 
-def composite(front: tuple, back: tuple, mode: str) -> tuple:
+def composite(front: tuple, back: tuple, mode: str, early_termination: float = 1.0) -> tuple:
     """Two partial accumulations (sum, first) of adjacent runs -> the accumulation of both, as the
-    single process's brick passes leave it ("sweep": RZSweep's partials, vgraph.sweep.leaves)."""
+    single process's brick passes leave it ("sweep": RZSweep's partials, vgraph.sweep.leaves,
+    where the back is left out of pixels the front made opaque to ``early_termination``)."""
     if mode == "sweep":
-        return sweep_leaves.composite(front, back)
+        return sweep_leaves.composite(front, back, early_termination)
     front_sum, front_first = front
     back_sum, back_first = back
     if mode == "mip":

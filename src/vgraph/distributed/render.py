@@ -20,6 +20,7 @@ import numpy as np
 
 import vgraph
 from vgraph.distributed.leaves import bricked_caster, render_leaves
+from vgraph.distributed.report import ClusterFrame, measured, task_report
 from vgraph.distributed.tiles import Tile, TileError, assemble, check_grid, cut, untileable
 from vgraph.distributed.watch import ClusterWarning, TaskCancelledError, TaskTimeout, results, watch
 from vgraph.distributed.worker import render_tile, shipped
@@ -44,9 +45,17 @@ class Plan:
 def render(network_or_path, client, split: str = "tiles", tiles=(2, 2), size=None,
            target: str | None = None, plugins=(), runs: int | None = None,
            timeout: TaskTimeout | None = None, cluster: str | None = None) -> np.ndarray:
-    """The image at ``target`` (default: the network's Canvas, as ``vgraph run`` picks it) at
-    ``size`` (width, height; default: the Canvas's size), float32 (H, W, 4), row 0 at the top, as
-    Network.evaluate returns it. ``network_or_path``: a Network, or a .json network or volume file
+    """The picture of render_report (the same arguments), without the report."""
+    return render_report(network_or_path, client, split, tiles, size, target, plugins, runs, timeout,
+                         cluster).image
+
+
+def render_report(network_or_path, client, split: str = "tiles", tiles=(2, 2), size=None,
+                  target: str | None = None, plugins=(), runs: int | None = None,
+                  timeout: TaskTimeout | None = None, cluster: str | None = None) -> ClusterFrame:
+    """A ClusterFrame (vgraph.distributed.report): ``image``, the image at ``target`` (default:
+    the network's Canvas, as ``vgraph run`` picks it) at ``size`` (width, height; default: the
+    Canvas's size), float32 (H, W, 4), row 0 at the top, as Network.evaluate returns it. ``network_or_path``: a Network, or a .json network or volume file
     (as ``vgraph.load`` reads it). ``client``: a dask.distributed Client. ``tiles``: (columns,
     rows) of the tiles split. ``plugins``: plug-in modules the workers import before building the
     network (as ``--plugin``; each worker must be able to import them). ``runs``: how many runs
@@ -54,7 +63,9 @@ def render(network_or_path, client, split: str = "tiles", tiles=(2, 2), size=Non
     ``timeout``: how long a task may run before its worker is restarted (default: the Dask
     configuration's vgraph.task-timeout; vgraph.distributed.watch). ``cluster``: the cluster's name
     in messages (default: the scheduler's address). A frame one of whose tasks the scheduler
-    cancelled (the client did not) is drawn again with new tasks, once, with a ClusterWarning."""
+    cancelled (the client did not) is drawn again with new tasks, once, with a ClusterWarning.
+    Its ``tasks`` and ``workers`` say what each task and each worker read through its brick
+    caches (bytes, bricks or leaves) and the seconds it computed."""
     plan = prepare(network_or_path, split, tiles, size, target)
     for attempt in (1, 2):
         try:
@@ -68,16 +79,18 @@ def render(network_or_path, client, split: str = "tiles", tiles=(2, 2), size=Non
 
 
 def render_tiles(plan: Plan, client, plugins=(), timeout: TaskTimeout | None = None,
-                 cluster: str | None = None) -> np.ndarray:
-    """The picture of ``plan`` drawn by the tiles split (one task per tile)."""
+                 cluster: str | None = None) -> ClusterFrame:
+    """The picture of ``plan`` drawn by the tiles split (one task per tile), with its report."""
     document, base_dir = shipped(plan.network)
     # Unique keys: the same tile of another call (a changed file with the same name) is new work.
     token = uuid.uuid4().hex[:12]
-    futures = {client.submit(render_tile, document, base_dir, plan.target, plan.size, tile,
+    futures = {client.submit(measured, render_tile, document, base_dir, plan.target, plan.size, tile,
                              tuple(plugins), pure=False, key=f"vgraph-tile-{token}-{i}"):
                tile_label(i, plan.tiles) for i, tile in enumerate(plan.tiles)}
     watch(client, futures, timeout, cluster)
-    return assemble(plan.size, plan.tiles, results(client, futures, cluster))
+    done = results(client, futures, cluster)
+    reports = tuple(task_report(label, costs) for label, (_, costs) in zip(futures.values(), done))
+    return ClusterFrame(assemble(plan.size, plan.tiles, [pixels for pixels, _ in done]), "tiles", reports)
 
 
 def tile_label(index: int, tiles: list[Tile]) -> str:

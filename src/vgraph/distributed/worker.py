@@ -75,6 +75,11 @@ def worker_info() -> dict:
             "networks": len(_NETWORKS)}
 
 
+def kept_networks() -> list:
+    """The networks this worker process holds (vgraph.distributed.report counts their caches)."""
+    return [network for network, _ in _NETWORKS.values()]
+
+
 def worker_network(document: str, base_dir: str | None, target: str):
     """The built network of ``document`` with its cameras as the document has them. Networks are
     kept by the document without its cameras: a frame from another view reuses the network (its

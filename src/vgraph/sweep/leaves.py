@@ -115,13 +115,19 @@ def partial(frame: Frame) -> tuple:
     return frame.colour, frame.log_transparency, frame.first_t, frame.segments
 
 
-def composite(front: tuple, back: tuple) -> tuple:
+def composite(front: tuple, back: tuple, early_termination: float = 1.0) -> tuple:
     """Two partials of adjacent runs of leaves (``front`` nearer the eye) -> the partial of both,
-    as one sweep over both runs composites it (without early termination)."""
+    as one sweep over both runs composites it. A pixel whose front is opaque to
+    ``early_termination`` keeps the front alone (one sweep stops there). Each run stopped its rays
+    at its own opacity, never before one sweep would: the extra segments lie behind the point one
+    sweep stops at, so the picture differs from one sweep's by at most 1 - early_termination
+    (docs/explanations/sweep-plane.md "On a cluster")."""
     colour_f, log_f, first_f, segments_f = front
     colour_b, log_b, first_b, segments_b = back
-    return (colour_f + np.exp(log_f)[:, None] * colour_b, log_f + log_b,
-            np.where(np.isnan(first_f), first_b, first_f), segments_f + segments_b)
+    opaque = -np.expm1(log_f) >= early_termination  # the kernel's test before each segment
+    return (np.where(opaque[:, None], colour_f, colour_f + np.exp(log_f)[:, None] * colour_b),
+            np.where(opaque, log_f, log_f + log_b), np.where(np.isnan(first_f), first_b, first_f),
+            np.where(opaque, segments_f, segments_f + segments_b))
 
 
 def restore(frame: Frame, accumulated: tuple) -> None:

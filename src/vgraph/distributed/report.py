@@ -1,0 +1,131 @@
+"""What each worker read and computed for one cluster frame (issue 34: "bytes read per worker for
+tiles against leaves"; docs/guide/distributed.md "What each worker read").
+
+- Worker side (``measured``): a task runs its function and reports, with the result, the worker's
+  address, the seconds the function took there and what the brick caches of the worker's
+  networks read from their stores meanwhile (``bytes_read``, ``bricks_read``: the caches' own
+  counters, vgraph.bricks.cache.BrickCache.stats). Every renderer that reads a store does so
+  through a BrickCache: the BrickedRayCaster's bricks, the SweepPlaneRenderer's leaves (one leaf is
+  one brick). A volume held in memory is read by its source, not through a cache: 0 here.
+- Client side (``ClusterFrame``): the picture with one ``TaskReport`` per task that finished,
+  summed per worker (``workers``). A task that did not finish (its worker died) reports nothing;
+  its rerun on another worker reports there.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from vgraph.bricks.cache import BrickCache
+from vgraph.memory import format_bytes
+
+COUNTED = ("bytes_read", "bricks_read")  # the BrickCache counters a task reports
+
+
+@dataclass(frozen=True)
+class TaskReport:
+    """One finished task: where it ran, what its worker's caches read, how long it took there."""
+
+    task: str  # as messages name it: 'tile 2 of 4 (pixels ...)', 'run 1 of 2 (bricks 1-5 of 9)'
+    worker: str  # the worker's address
+    bytes_read: int
+    bricks_read: int  # bricks of a BrickedRayCaster, leaves of a SweepPlaneRenderer
+    seconds: float  # the task's function in the worker (building the network, reading, drawing)
+
+
+@dataclass(frozen=True)
+class WorkerReport:
+    """A worker's tasks of one frame, summed."""
+
+    bytes_read: int
+    bricks_read: int
+    seconds: float
+    tasks: int
+
+
+@dataclass(frozen=True)
+class ClusterFrame:
+    """A picture drawn on a cluster (vgraph.distributed.render_report) and what its tasks did."""
+
+    image: np.ndarray  # float32 (H, W, 4), row 0 at the top, as render() returns it
+    split: str  # "tiles" or "leaves"
+    tasks: tuple[TaskReport, ...]
+
+    @property
+    def workers(self) -> dict[str, WorkerReport]:
+        """Worker address -> its tasks summed, by address."""
+        summed = {}
+        for address in sorted({task.worker for task in self.tasks}):
+            mine = [task for task in self.tasks if task.worker == address]
+            summed[address] = WorkerReport(sum(t.bytes_read for t in mine), sum(t.bricks_read for t in mine),
+                                           sum(t.seconds for t in mine), len(mine))
+        return summed
+
+    @property
+    def bytes_read(self) -> int:
+        """All workers together."""
+        return sum(task.bytes_read for task in self.tasks)
+
+    @property
+    def bricks_read(self) -> int:
+        return sum(task.bricks_read for task in self.tasks)
+
+    def lines(self) -> list[str]:
+        """One line per worker, as ``vgraph run --cluster`` prints them."""
+        return [f"  worker {address}: read {format_bytes(w.bytes_read)} ({w.bricks_read} bricks), "
+                f"computed {w.seconds:.3f} s in {w.tasks} task(s)" for address, w in self.workers.items()]
+
+
+def task_report(label: str, measured_values: dict) -> TaskReport:
+    """The client's record of a task from what ``measured`` returned with its result."""
+    return TaskReport(label, measured_values["worker"], int(measured_values["bytes_read"]),
+                      int(measured_values["bricks_read"]), float(measured_values["seconds"]))
+
+
+# --- in the worker process ---------------------------------------------------------------------------
+def measured(function, *args):
+    """(``function(*args)``, what it cost this worker: its address, the seconds, and what every
+    brick cache of the worker's networks read meanwhile)."""
+    from vgraph.distributed.worker import kept_networks
+
+    before = {id(cache): (cache, _counts(cache)) for cache in _caches(kept_networks())}
+    started = time.perf_counter()
+    result = function(*args)
+    seconds = time.perf_counter() - started
+    read = dict.fromkeys(COUNTED, 0)
+    for cache in _caches(kept_networks()):
+        earlier = before.get(id(cache))
+        start = earlier[1] if earlier is not None and earlier[0] is cache else dict.fromkeys(COUNTED, 0)
+        for name in COUNTED:
+            read[name] += cache.stats[name] - start[name]
+    return result, {"worker": _address(), "seconds": seconds, **read}
+
+
+def _caches(networks) -> list[BrickCache]:
+    """The brick caches of the networks' processors (the processor's own, or its parts'), once each."""
+    found = {}
+    for network in networks:
+        for processor in network.processors.values():
+            holders = [processor, *getattr(processor, "parts", {}).values()]
+            for holder in holders:
+                cache = getattr(holder, "cache", None)
+                if isinstance(cache, BrickCache):
+                    found[id(cache)] = cache
+    return list(found.values())
+
+
+def _counts(cache: BrickCache) -> dict:
+    return {name: cache.stats[name] for name in COUNTED}
+
+
+def _address() -> str:
+    """This worker's address (the scheduler's name for it); a task run outside a worker: its pid."""
+    try:
+        from distributed import get_worker
+        return str(get_worker().address)
+    except (ImportError, ValueError):
+        import os
+        return f"pid {os.getpid()}"
