@@ -29,12 +29,29 @@ def panel_of(window):
     return window.timeline_dock.widget()
 
 
-def test_the_gui_shows_the_frames_the_cli_renders_of_a_camera_tf_and_clip_animation(window, qtbot, tmp_path):
-    # times 0, 1, 2, 3, 4 s: at 1 s and 3 s the camera, the TF and the clip plane are all between keyframes
-    assert cli.main(["animate", str(ANIMATION), "--timeline", "--frames", "5", "-o",
-                     str(tmp_path / "frames"), "--quiet"]) == 0
+@pytest.fixture
+def animation_panel(window):
+    """networks/animation_torus.json open in the window: its Timeline panel."""
     assert window.open_network(ANIMATION)
-    panel = panel_of(window)
+    return panel_of(window)
+
+
+@pytest.fixture
+def sphere_panel(window):
+    """networks/raycast_sphere.json open in the window: its Timeline panel and network."""
+    assert window.open_network(SPHERE)
+    return panel_of(window), window.workspace.network
+
+
+def cli_frames(out, *options) -> None:
+    """The frames `vgraph animate --timeline` writes of networks/animation_torus.json into ``out``."""
+    assert cli.main(["animate", str(ANIMATION), "--timeline", *options, "-o", str(out), "--quiet"]) == 0
+
+
+def test_the_gui_shows_the_frames_the_cli_renders_of_a_camera_tf_and_clip_animation(window, animation_panel, qtbot, tmp_path):
+    # times 0, 1, 2, 3, 4 s: at 1 s and 3 s the camera, the TF and the clip plane are all between keyframes
+    cli_frames(tmp_path / "frames", "--frames", "5")
+    panel = animation_panel
     view = window.canvases.views["canvas"]
     for index in (1, 3):
         panel.scrub(float(index))
@@ -48,9 +65,8 @@ def test_the_gui_shows_the_frames_the_cli_renders_of_a_camera_tf_and_clip_animat
     assert np.abs(view.frame().astype(int) - first).max() > 50  # the frames differ: something moved
 
 
-def test_keyframes_come_from_the_current_state_and_are_undoable(window, tmp_path):
-    assert window.open_network(SPHERE)
-    panel, network = panel_of(window), window.workspace.network
+def test_keyframes_come_from_the_current_state_and_are_undoable(window, sphere_panel, tmp_path):
+    panel, network = sphere_panel
     window.scene.select_processor("eep")
     assert panel.property_box.currentText() == "eep.camera"   # the selected processor's camera
     start = network.get("eep.camera")
@@ -96,9 +112,8 @@ def test_keyframes_come_from_the_current_state_and_are_undoable(window, tmp_path
     assert network.get("eep.camera") == halfway
 
 
-def test_a_keyframe_that_cannot_be_interpolated_is_refused_with_the_reason(window):
-    assert window.open_network(SPHERE)
-    panel, network = panel_of(window), window.workspace.network
+def test_a_keyframe_that_cannot_be_interpolated_is_refused_with_the_reason(window, sphere_panel):
+    panel, network = sphere_panel
     panel.property_box.setCurrentText("rc.transfer_function")
     assert panel.add_keyframe()
     steps = window.workspace.undo_stack.count()
@@ -110,9 +125,8 @@ def test_a_keyframe_that_cannot_be_interpolated_is_refused_with_the_reason(windo
     assert window.workspace.undo_stack.count() == steps + 1   # the TF edit, no keyframe step
 
 
-def test_scrubbing_renders_coarse_frames_and_the_full_frame_on_release(window, qtbot):
-    assert window.open_network(ANIMATION)
-    panel = panel_of(window)
+def test_scrubbing_renders_coarse_frames_and_the_full_frame_on_release(window, animation_panel, qtbot):
+    panel = animation_panel
     window.evaluation.run(wait=True)
     settle(window, qtbot)
     width, height = window.workspace.network.get("canvas.size")
@@ -127,9 +141,8 @@ def test_scrubbing_renders_coarse_frames_and_the_full_frame_on_release(window, q
     assert sizes[-1] == ((height, width), True)
 
 
-def test_play_runs_to_the_end_of_the_tracks_and_stops(window, qtbot):
-    assert window.open_network(SPHERE)
-    panel, network = panel_of(window), window.workspace.network
+def test_play_runs_to_the_end_of_the_tracks_and_stops(window, sphere_panel, qtbot):
+    panel, network = sphere_panel
     panel.property_box.setCurrentText("rc.sampling_rate")
     assert panel.add_keyframe()
     panel.scrub(0.2)
@@ -150,11 +163,9 @@ def test_the_view_menu_shows_the_hidden_timeline(window):
     assert window.timeline_dock.isVisible()
 
 
-def test_export_writes_the_frames_vgraph_animate_writes(window, qtbot, tmp_path):
-    assert cli.main(["animate", str(ANIMATION), "--timeline", "--fps", "1", "-o",
-                     str(tmp_path / "cli"), "--quiet"]) == 0
-    assert window.open_network(ANIMATION)
-    panel = panel_of(window)
+def test_export_writes_the_frames_vgraph_animate_writes(window, animation_panel, qtbot, tmp_path):
+    cli_frames(tmp_path / "cli", "--fps", "1")
+    panel = animation_panel
     panel.scrub(2.5)
     assert panel.export(str(tmp_path / "gui"), fps=1) == 5   # one frame a second, as --fps 1
     for index in range(5):

@@ -81,25 +81,32 @@ def slice_workspace(tmp_path):
     return workspace
 
 
-def test_the_slice_canvas_draws_the_markups_in_the_slice_where_they_lie(slice_workspace, qtbot):
-    workspace = slice_workspace
-    workspace.set_property("markups.markups", Markups(markups=(RULER, ABOVE, ANGLE)))
-    plane = axial()
-    view = CanvasView(workspace, "canvas", view_cameras=lambda: {"axial.slice_plane": plane})
-    qtbot.addWidget(view)
-    view.resize(256, 256)
-    view.show()
-    qtbot.waitExposed(view)
-    frame = np.zeros((64, 64, 4), np.uint8)
-    frame[..., 3] = 255
-    view.show_frame(frame)
-    pixels = grab_rgba(view)
-    rect = view.image_rect()
+@pytest.fixture
+def drawn_slice(slice_workspace, qtbot):
+    """``draw(markups, plane)``: the slice canvas of ``slice_workspace`` showing a black frame of
+    ``plane`` with ``markups`` set -> its pixels and ``widget(point)``, the widget pixel of a world
+    point."""
+    def draw(markups, plane):
+        slice_workspace.set_property("markups.markups", markups)
+        view = CanvasView(slice_workspace, "canvas", view_cameras=lambda: {"axial.slice_plane": plane})
+        qtbot.addWidget(view)
+        view.resize(256, 256)
+        view.show()
+        qtbot.waitExposed(view)
+        frame = np.zeros((64, 64, 4), np.uint8)
+        frame[..., 3] = 255
+        view.show_frame(frame)
+        rect = view.image_rect()
 
-    def widget(point):
-        u, v = plane.uv_of(point)
-        return rect.left() + u * rect.width(), rect.top() + (1 - v) * rect.height()
+        def widget(point):
+            u, v = plane.uv_of(point)
+            return rect.left() + u * rect.width(), rect.top() + (1 - v) * rect.height()
+        return grab_rgba(view), widget
+    return draw
 
+
+def test_the_slice_canvas_draws_the_markups_in_the_slice_where_they_lie(drawn_slice):
+    pixels, widget = drawn_slice(Markups(markups=(RULER, ABOVE, ANGLE)), axial())
     # the ruler's ends and middle, the angle's vertex and its arms' middles carry the markups' colour
     for point in ((10.0, 10.0, 20.0), (40.0, 50.0, 20.0), (25.0, 30.0, 20.0), (10.0, 40.0, 20.0),
                   (15.0, 40.0, 20.0), (10.0, 45.0, 20.0)):
@@ -113,26 +120,9 @@ def test_the_slice_canvas_draws_the_markups_in_the_slice_where_they_lie(slice_wo
     assert (np.abs(label - YELLOW).max(axis=-1) <= 60).sum() >= 20
 
 
-def test_the_markups_follow_the_slice_plane(slice_workspace, qtbot):
+def test_the_markups_follow_the_slice_plane(drawn_slice):
     """Paging to the slice of the ruler above draws it, and no longer the one at z = 20."""
-    workspace = slice_workspace
-    workspace.set_property("markups.markups", Markups(markups=(RULER, ABOVE)))
-    plane = axial(cursor=(32.0, 32.0, 24.0))
-    view = CanvasView(workspace, "canvas", view_cameras=lambda: {"axial.slice_plane": plane})
-    qtbot.addWidget(view)
-    view.resize(256, 256)
-    view.show()
-    qtbot.waitExposed(view)
-    frame = np.zeros((64, 64, 4), np.uint8)
-    frame[..., 3] = 255
-    view.show_frame(frame)
-    pixels = grab_rgba(view)
-    rect = view.image_rect()
-
-    def widget(point):
-        u, v = plane.uv_of(point)
-        return rect.left() + u * rect.width(), rect.top() + (1 - v) * rect.height()
-
+    pixels, widget = drawn_slice(Markups(markups=(RULER, ABOVE)), axial(cursor=(32.0, 32.0, 24.0)))
     assert near_colour(pixels, widget((30.0, 50.0, 24.0)), YELLOW, reach=1)
     assert not near_colour(pixels, widget((32.5, 40.0, 20.0)), YELLOW, reach=2, tolerance=120)
 
