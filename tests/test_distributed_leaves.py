@@ -4,6 +4,7 @@ single-process picture; and a worker killed during a render is replaced while th
 completes with the right picture (tiles and leaves)."""
 
 import os
+import re
 import signal
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -11,7 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from vgraph.distributed import TileError, render
+from vgraph.distributed import TileError, render, render_report
 from vgraph.distributed.leaves import composite, split_runs
 from vgraph.distributed.render import prepare
 
@@ -117,8 +118,15 @@ def test_leaves_of_an_ome_zarr_store_read_by_the_workers(client, tmp_path):
     convert(tmp_path / "ball.npy", tmp_path / "ball.zarr", brick=32, progress=False)
     network = bricked_network(tmp_path / "ball.zarr", compositing="mip")
     reference = network.evaluate(size=(48, 40))
-    image = render(network, client, split="leaves", size=(48, 40))
-    assert psnr(image, reference) >= PSNR_FLOOR
+    single = dict(network["rc"].cache.stats)  # one process, a fresh cache: the frame's bricks
+    frame = render_report(network, client, split="leaves", size=(48, 40))
+    assert psnr(frame.image, reference) >= PSNR_FLOOR
+    # What each worker's brick cache read (vgraph.distributed.report): each planned brick once in all.
+    assert frame.bytes_read == single["bytes_read"] > 0 and frame.bricks_read == single["bricks_read"]
+    assert sum(w.bytes_read for w in frame.workers.values()) == frame.bytes_read
+    tiles = render_report(network, client, split="tiles", tiles=(2, 1), size=(48, 40))
+    assert np.array_equal(tiles.image, reference)  # a worker that ran a run has its bricks already:
+    assert all(w.bytes_read <= single["bytes_read"] for w in tiles.workers.values())  # at most the rest
 
 
 def test_a_new_view_reuses_the_workers_networks_and_their_bricks(client, tmp_path):
@@ -149,7 +157,12 @@ def test_cli_split_leaves_writes_the_local_image(tmp_path, capsys):
     leaves, local = tmp_path / "leaves.png", tmp_path / "local.png"
     assert main(["run", str(tmp_path / "net.json"), "-o", str(leaves), "--size", "64x48",
                  "--cluster", "local:2", "--split", "leaves"]) == 0
-    assert "as runs of bricks (leaves) on 2 worker(s) of local:2" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "as runs of bricks (leaves) on 2 worker(s) of local:2" in err
+    # then a line per worker: what its brick cache read and the seconds its tasks computed
+    read = re.findall(r"^  worker tcp://[\d.:]+: read [\d.]+ \w+ \((\d+) bricks\), computed [\d.]+ s in "
+                      r"\d+ task\(s\)$", err, re.MULTILINE)
+    assert len(read) == 2 and sum(int(n) for n in read) > 0, err
     assert main(["run", str(tmp_path / "net.json"), "-o", str(local), "--size", "64x48"]) == 0
     a, b = (np.asarray(PIL.Image.open(p), dtype=int) for p in (leaves, local))
     assert np.abs(a - b).max() <= 1  # 8-bit: a float32 rounding can cross a level at most
