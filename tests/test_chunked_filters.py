@@ -14,10 +14,10 @@ import tracemalloc
 import numpy as np
 import pytest
 
+from helpers.chunked_stores import chunked_cache, over_budget, whole, write_store
 from helpers.headsq import read_head
 from vgraph.bricks.pyramid import halve
 from vgraph.bricks.volume import BrickedVolume, MemoryBudgetError
-from vgraph.io import write_volume
 from vgraph.io.convert import convert
 from vgraph.registry import registry
 
@@ -32,34 +32,20 @@ def tall():
 
 @pytest.fixture(scope="module")
 def store_path(tall, tmp_path_factory):
-    folder = tmp_path_factory.mktemp("chunked")
-    write_volume(tall, folder / "tall.nrrd")
-    convert(folder / "tall.nrrd", folder / "tall.zarr", brick=16, progress=False)
-    return folder / "tall.zarr"
+    return write_store(tall, tmp_path_factory.mktemp("chunked"))
 
 
 @pytest.fixture(autouse=True)
 def cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("VGRAPH_CACHE", str(tmp_path / "cache"))
-    # tiles of 32 x 32 voxels (2 x 2 in a plane of the head): halos along y and x as well as z
-    monkeypatch.setattr("vgraph.chunked_filtering.TILE", 32)
-    return tmp_path / "cache"
+    return chunked_cache(tmp_path, monkeypatch, tile=32)  # 2 x 2 tiles in a plane of the head
 
 
 def store(path, budget=BUDGET_MB):
-    volume = BrickedVolume.open(path, memory_budget_mb=budget)
-    assert not volume.fits_budget
-    return volume
+    return over_budget(path, budget)
 
 
 def run(type_name, volume, **properties):
     return registry.get(type_name)("f", **properties).process(volume=volume)
-
-
-def whole(volume):
-    """The voxels of a filtered store, read with a budget they fit."""
-    assert isinstance(volume, BrickedVolume)
-    return BrickedVolume.open(volume.source, memory_budget_mb=1000).data
 
 
 def assert_close(ours, reference):

@@ -16,10 +16,10 @@ import json
 import numpy as np
 import pytest
 
+from helpers.chunked_stores import chunked_cache, over_budget, whole, write_store
 from helpers.headsq import read_head
 from vgraph import PropertyError
 from vgraph.bricks.volume import BrickedVolume
-from vgraph.io import write_volume
 from vgraph.io.convert import convert
 from vgraph.registry import registry
 from vgraph.volume import Volume
@@ -37,10 +37,7 @@ def tall():
 
 @pytest.fixture(scope="module")
 def store_path(tall, tmp_path_factory):
-    folder = tmp_path_factory.mktemp("segmentation")
-    write_volume(tall, folder / "tall.nrrd")
-    convert(folder / "tall.nrrd", folder / "tall.zarr", brick=16, progress=False)
-    return folder / "tall.zarr"
+    return write_store(tall, tmp_path_factory.mktemp("segmentation"))
 
 
 @pytest.fixture(scope="module")
@@ -54,28 +51,17 @@ def noise_path(tmp_path_factory):
 
 @pytest.fixture(autouse=True)
 def cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("VGRAPH_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setattr("vgraph.chunked_filtering.TILE", 16)
-    return tmp_path / "cache"
+    return chunked_cache(tmp_path, monkeypatch, tile=16)
 
 
 def store(path, budget=BUDGET_MB):
-    volume = BrickedVolume.open(path, memory_budget_mb=budget)
-    assert not volume.fits_budget
-    return volume
+    return over_budget(path, budget)
 
 
 def run(type_name, **inputs_and_properties):
     inputs = {k: v for k, v in inputs_and_properties.items() if isinstance(v, Volume)}
     properties = {k: v for k, v in inputs_and_properties.items() if k not in inputs}
     return registry.get(type_name)("f", **properties).process(**inputs)
-
-
-def whole(volume):
-    """The voxels of a filtered store, read with a budget they fit, and its label flag as read."""
-    assert isinstance(volume, BrickedVolume)
-    again = BrickedVolume.open(volume.source, memory_budget_mb=1000)
-    return again.data
 
 
 def assert_same(ours, reference):
