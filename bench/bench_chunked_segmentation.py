@@ -20,15 +20,14 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from bench_volume_filters import make_store, reset_peak_resident, resident
-from filter_timing import timed
+from bench_volume_filters import make_store
+from chunked_runs import fresh_process_row, measure, table_columns
 from vgraph.registry import registry
 
 # name -> (processor, its properties, its inputs: port -> "field" or "mask")
@@ -84,12 +83,7 @@ def run_one(stores: str, type_name: str, properties: str) -> None:
               for port, (path, budget) in json.loads(stores).items()}
     assert not any(volume.fits_budget for volume in inputs.values())
     processor = registry.get(type_name)("bench", **json.loads(properties))
-    before = resident("VmRSS")
-    reset_peak_resident()
-    seconds = timed(lambda: processor.process(**inputs))
-    peak = resident("VmHWM")
-    voxels = int(np.prod(next(iter(inputs.values())).dims))
-    print(json.dumps({"seconds": seconds, "before": before, "peak": peak, "voxels": voxels}))
+    measure(lambda: processor.process(**inputs), int(np.prod(next(iter(inputs.values())).dims)))
 
 
 def bench(size: int, budgets: dict, brick: int, folder: Path, cases: dict) -> list[str]:
@@ -100,21 +94,13 @@ def bench(size: int, budgets: dict, brick: int, folder: Path, cases: dict) -> li
         stores["float mask"] = make_float_mask(stores["mask"], brick, folder)
     rows = [f"{size}^3 float32 store and its uint8 mask, bricks {brick}^3, memory budgets {budgets['field']:g} "
             f"and {budgets['mask']:g} MiB (the float32 mask: {budgets['field']:g}), {os.cpu_count()} cores", "",
-            "| case | processor | s | M voxels / s | peak RSS above the baseline | baseline after imports |",
-            "|---|---|---|---|---|---|"]
+            *table_columns("case")]
     print("\n".join(rows), flush=True)
     for name, (type_name, properties, ports) in cases.items():
         paths = json.dumps({port: (str(stores[kind]), budgets.get(kind, budgets["field"]))
                             for port, kind in ports.items()})
-        done = subprocess.run([sys.executable, __file__, "--run-one", paths, type_name, json.dumps(properties)],
-                              capture_output=True, text=True)
-        if done.returncode:
-            rows.append(f"| {name} | {type_name} | {done.stderr.strip().splitlines()[-1]} | | | |")
-        else:
-            result = json.loads(done.stdout.strip().splitlines()[-1])
-            rate = result["voxels"] / result["seconds"] / 1e6
-            rows.append(f"| {name} | {type_name} | {result['seconds']:.1f} | {rate:.1f} | "
-                        f"{(result['peak'] - result['before']) / 2**20:.0f} MiB | {result['before'] / 2**20:.0f} MiB |")
+        rows.append(fresh_process_row(name, type_name, [sys.executable, __file__, "--run-one", paths, type_name,
+                                                        json.dumps(properties)]))
         print(rows[-1], flush=True)
     return rows
 

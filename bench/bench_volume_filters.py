@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -32,7 +31,8 @@ import numpy as np
 from scipy import ndimage
 from skimage.filters import threshold_otsu
 
-from filter_timing import bonsai, ours_against_reference, table_header, timed
+from chunked_runs import fresh_process_row, measure, table_columns
+from filter_timing import bonsai, ours_against_reference, table_header
 from vgraph.registry import registry
 from vgraph.volume import Volume
 
@@ -112,45 +112,19 @@ def run_one(store: str, type_name: str, properties: str, budget: float) -> None:
         n = volume.dims[0]
         properties["voxel_box"] = [n // 32, n // 32, 0, n - n // 32 - 1, n - n // 32 - 1, n - 1]
     processor = registry.get(type_name)("bench", **properties)
-    before = resident("VmRSS")
-    reset_peak_resident()
-    seconds = timed(lambda: processor.process(volume=volume))
-    peak = resident("VmHWM")
-    print(json.dumps({"seconds": seconds, "before": before, "peak": peak, "voxels": int(np.prod(volume.dims))}))
-
-
-def resident(field: str) -> int:
-    """Bytes of VmRSS (resident now) or VmHWM (its peak since reset_peak_resident) of this process
-    (ru_maxrss would carry the parent's peak across exec on Linux)."""
-    with open("/proc/self/status") as status:
-        return next(int(line.split()[1]) * 1024 for line in status if line.startswith(field + ":"))
-
-
-def reset_peak_resident() -> None:
-    with open("/proc/self/clear_refs", "w") as refs:
-        refs.write("5")  # resets VmHWM to the current VmRSS (Linux proc(5))
+    measure(lambda: processor.process(volume=volume), int(np.prod(volume.dims)))
 
 
 def bench_chunked(size: int, budget: float, brick: int, folder: Path, cases: dict) -> list[str]:
     store = make_store(size, brick, folder)
     stored = sum(f.stat().st_size for f in store.rglob("*") if f.is_file())
     rows = [f"{size}^3 float32 store ({4 * size**3 / 2**20:.0f} MiB of voxels, {stored / 2**20:.0f} MiB on disk), "
-            f"bricks {brick}^3, memory budget {budget:g} MiB, {os.cpu_count()} cores", "",
-            "| filter | processor | s | M voxels / s | peak RSS above the baseline | baseline after imports |",
-            "|---|---|---|---|---|---|"]
+            f"bricks {brick}^3, memory budget {budget:g} MiB, {os.cpu_count()} cores", "", *table_columns("filter")]
     print("\n".join(rows), flush=True)
     for name, (type_name, properties) in cases.items():
         env = dict(os.environ, VGRAPH_CACHE=str(folder / "cache"))
-        done = subprocess.run([sys.executable, __file__, "--run-one", str(store), type_name, json.dumps(properties),
-                               str(budget)], env=env, capture_output=True, text=True)
-        if done.returncode:
-            rows.append(f"| {name} | {type_name} | {done.stderr.strip().splitlines()[-1]} | | | |")
-            print(rows[-1], flush=True)
-            continue
-        result = json.loads(done.stdout.strip().splitlines()[-1])
-        rate = result["voxels"] / result["seconds"] / 1e6
-        rows.append(f"| {name} | {type_name} | {result['seconds']:.1f} | {rate:.1f} | "
-                    f"{(result['peak'] - result['before']) / 2**20:.0f} MiB | {result['before'] / 2**20:.0f} MiB |")
+        rows.append(fresh_process_row(name, type_name, [sys.executable, __file__, "--run-one", str(store), type_name,
+                                                        json.dumps(properties), str(budget)], env))
         print(rows[-1], flush=True)
     return rows
 
