@@ -5,8 +5,10 @@ tiles against leaves"; docs/guide/distributed.md "What each worker read").
   address, the seconds the function took there and what the brick caches of the worker's
   networks read from their stores meanwhile (``bytes_read``, ``bricks_read``: the caches' own
   counters, vgraph.bricks.cache.BrickCache.stats). Every renderer that reads a store does so
-  through a BrickCache: the BrickedRayCaster's bricks, the SweepPlaneRenderer's leaves (one leaf is
-  one brick). A volume held in memory is read by its source, not through a cache: 0 here.
+  through a BrickCache: the BrickedRayCaster's bricks (of a store, or of the pyramid it makes of
+  a volume in memory), the SweepPlaneRenderer's leaves (one leaf is one brick). A renderer that
+  draws a volume in memory whole (the RayCaster, a SweepPlaneRenderer on a Volume) reads through
+  no cache: 0 here (its source read the file, once per worker).
 - Client side (``ClusterFrame``): the picture with one ``TaskReport`` per task that finished,
   summed per worker (``workers``). A task that did not finish (its worker died) reports nothing;
   its rerun on another worker reports there.
