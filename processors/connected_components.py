@@ -45,18 +45,13 @@ class ConnectedComponents(Processor):
     category = "Volume filters"
     inports = [Inport("volume", Volume)]
     outports = [Outport("volume", Volume)]
-    connectivity = IntProperty(26, min=6, max=26,
+    connectivity = IntProperty(26, min=6, max=26, choices=tuple(CONNECTIVITY),
                                doc="neighbours that connect: 6 (faces), 18 (and edges) or 26 (and corners)")
     min_size = FloatProperty(0.0, min=0.0, doc="smaller components (cubic world units) become background")
-
-    def check(self) -> None:
-        if self.connectivity not in CONNECTIVITY:
-            raise PropertyError(f"{self.id}.connectivity", f"must be 6, 18 or 26, got {self.connectivity}")
 
     def process(self, volume: Volume) -> Volume:
         who = f"ConnectedComponents '{self.id}'"
         samples_in_memory(volume, who)
-        self.check()
         structure = ndimage.generate_binary_structure(3, CONNECTIVITY[self.connectivity])
         voxel = float(np.prod(volume.spacing))
         # a component of exactly min_size is kept, whatever the rounding of voxels x voxel volume

@@ -127,6 +127,7 @@ def test_unknown_property_lists_the_known_ones(net):
 
 @pytest.mark.parametrize("prop, good, bad", [
     (vgraph.IntProperty(3, min=1, max=5), 4, 2.5),
+    (vgraph.IntProperty(26, choices=(6, 18, 26)), 18, 20),
     (vgraph.BoolProperty(False), True, 1),
     (vgraph.OptionProperty("mip", choices=["mip", "dvr"]), "dvr", "iso"),
     (vgraph.ColorProperty((0, 0, 0)), (1, 0.5, 0), (2, 0, 0)),

@@ -160,7 +160,7 @@ def test_many_components_take_a_wider_type_and_too_many_for_the_label_ray_caster
     with pytest.raises(PropertyError, match=r"^f\.min_size: 2048 components of the volume \(of 2048 found\) are "
                                             r"more labels than the LabelRayCaster can show \(1000\): raise min_size"):
         run("ConnectedComponents", Volume(checkers), connectivity=6)
-    with pytest.raises(PropertyError, match=r"^f\.connectivity: must be 6, 18 or 26, got 8"):
+    with pytest.raises(PropertyError, match=r"^f\.connectivity: invalid value 8: must be 6, 18 or 26$"):
         run("ConnectedComponents", Volume(checkers), connectivity=8)
 
 

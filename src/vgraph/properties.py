@@ -17,6 +17,7 @@ from typing import Annotated, Literal
 
 from pydantic import (AfterValidator, BeforeValidator, Field, StrictBool, StrictInt, TypeAdapter, ValidationError,
                       ValidationInfo)
+from pydantic_core import PydanticCustomError
 
 from vgraph.camera import Camera
 from vgraph.errors import PropertyError
@@ -120,14 +121,27 @@ class FloatProperty(Property):
 
 
 class IntProperty(Property):
+    """A whole number in ``min``..``max``; ``choices``, where given, the only ones allowed (a range
+    cannot say "6, 18 or 26")."""
+
     kind = "int"
 
-    def __init__(self, default: int, *, min: int | None = None, max: int | None = None, **kw):
+    def __init__(self, default: int, *, min: int | None = None, max: int | None = None,
+                 choices: tuple[int, ...] = (), **kw):
         self.min, self.max = min, max
+        self.choices = tuple(choices)
         super().__init__(default, **kw)
 
     def _value_type(self):
-        return Annotated[StrictInt, Field(ge=self.min, le=self.max)]
+        number = Annotated[StrictInt, Field(ge=self.min, le=self.max)]
+        return Annotated[number, AfterValidator(self._one_of_choices)] if self.choices else number
+
+    def _one_of_choices(self, value: int) -> int:
+        if value not in self.choices:
+            *first, last = (str(c) for c in self.choices)
+            raise PydanticCustomError("int_choice", "must be {allowed}",
+                                      {"allowed": f"{', '.join(first)} or {last}" if first else last})
+        return value
 
 
 class BoolProperty(Property):

@@ -19,6 +19,8 @@ def kind_text(prop: Property) -> str:
     kind = prop.kind
     if kind == "option":
         return f"option: {'|'.join(prop.choices)}"
+    if kind == "int" and prop.choices:
+        return f"int: {'|'.join(str(c) for c in prop.choices)}"
     if kind in ("float", "int"):
         return f"{kind} {range_text(prop.min, prop.max)}".rstrip()
     if kind == "vector":
