@@ -16,9 +16,8 @@ from vgraph.gl.raycasting import gradient_volume
 from vgraph.gl.raycasting.gradient_volume import gradient_texture, holds_values, is_cached
 from vgraph.gl.shaders import compose
 from vgraph.implicit import sample
-from vgraph.numerics.reference_raycast import (GRADIENT_STEPS, Shading, VolumeSampler, central_differences,
-                                               lookup, quantized_gradients, render, shade_points,
-                                               volume_box)
+from vgraph.numerics.reference_raycast import Shading, VolumeSampler, lookup, render, shade_points, volume_box
+from vgraph.numerics.reference_sampling import GRADIENT_STEPS, central_differences, quantized_gradients
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 

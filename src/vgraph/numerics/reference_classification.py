@@ -29,7 +29,8 @@ from typing import Callable
 import numpy as np
 
 from vgraph.gradient_opacity import GradientOpacity
-from vgraph.numerics.reference_raycast import central_differences, lookup
+from vgraph.numerics.reference_raycast import lookup
+from vgraph.numerics.reference_sampling import central_differences
 from vgraph.transfer_function_2d import TransferFunction2D
 
 Classify = Callable[[np.ndarray, np.ndarray], np.ndarray]  # (points (M, 3), values (M,)) -> (M, 4)

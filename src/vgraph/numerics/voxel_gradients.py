@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vgraph.numerics.reference_raycast import central_differences, dequantized, gradient_scale, quantized_gradients
+from vgraph.numerics.reference_sampling import central_differences, dequantized, gradient_scale, quantized_gradients
 from vgraph.volume import Volume
 
 SLAB_VOXELS = 2**22  # voxels per numpy slab: ~100 MB of float64 temporaries

@@ -30,7 +30,7 @@ import numpy as np
 
 from vgraph import derived
 from vgraph.errors import VGraphError
-from vgraph.numerics.reference_raycast import GRADIENT_STEPS, gradient_scale
+from vgraph.numerics.reference_sampling import GRADIENT_STEPS, gradient_scale
 # The voxel gradients live beside the CPU models, so the light volume classifies with the same ones.
 from vgraph.numerics.voxel_gradients import padded_slab as _padded_slab
 from vgraph.progress import steps
