@@ -13,7 +13,7 @@ from vgraph.errors import (CycleError, NetworkFileError, OutputFileError, PortEr
                            ShaderError, VGraphError, VGraphWarning, VolumeFileError, WritePathError)
 from vgraph.frame_context import FrameContext
 from vgraph.network import Network
-from vgraph.network import bind_services as _bind_services
+from vgraph.network_services import bind_services as _bind_services
 from vgraph.ports import Inport, Outport
 from vgraph.processor import Processor
 from vgraph.properties import (BoolProperty, CameraProperty, ColorProperty, DictProperty, FilePathProperty,
@@ -26,7 +26,7 @@ __version__ = "0.1.0"
 
 
 class _Services:
-    """network.NetworkServices as ``vgraph.services``, imported when a network is first evaluated or
+    """network_services.NetworkServices as ``vgraph.services``, imported when a network is first evaluated or
     saved: importing the model (``vgraph.network``, which runs this file first) must import neither
     the scheduler (and with it GL) nor the file format, which both import the model."""
 

@@ -15,9 +15,10 @@ Questions about the graph alone (descendants, the scheduler's order) are answere
 of the graph (``graph_query``): a camera drag asks them every frame, and networkx on graph views
 costs far more than the answer.
 
-Evaluation and saving are not the model's business: ``update``, ``output``, ``evaluate``, ``save``
-and ``_repr_png_`` forward to the ``NetworkServices`` the vgraph package binds (``vgraph.services``,
-docs/explanations/architecture.md), so this module imports neither the scheduler nor the file format.
+Evaluation and saving are not the model's business: ``update``, ``output``, ``evaluate``, ``pick``,
+``save`` and ``_repr_png_`` come from ``vgraph.network_services.ServiceMethods``, which forwards them
+to the services the vgraph package binds, so this module imports neither the scheduler nor the file
+format.
 """
 
 from __future__ import annotations
@@ -27,11 +28,12 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
-from typing import Callable, Mapping, Protocol
+from typing import Callable, Mapping
 
 import networkx as nx
 
 from vgraph.errors import CycleError, PortError, PropertyError, VGraphError
+from vgraph.network_services import ServiceMethods
 from vgraph.processor import Processor
 from vgraph.properties import Invalidation
 from vgraph.registry import registry
@@ -72,31 +74,6 @@ class Removal:
     links: tuple[tuple[int, Link], ...]
 
 
-class NetworkServices(Protocol):
-    """What a Network does beyond being a model; the vgraph package binds ``vgraph.services``."""
-    def update(self, network: Network, targets: tuple[str, ...], size, context=None): ...
-    def output(self, network: Network, target: str): ...
-    def evaluate(self, network: Network, target: str | None, size, context=None): ...
-    def picture(self, network: Network) -> bytes | None: ...
-    def pick(self, network: Network, canvas: str, x: float, y: float): ...
-    def save(self, network: Network, path: str | Path) -> None: ...
-
-
-_services: NetworkServices | None = None
-
-
-def bind_services(services: NetworkServices) -> None:
-    """Give every Network its evaluation and saving (done once, by ``vgraph/__init__``)."""
-    global _services
-    _services = services
-
-
-def _bound() -> NetworkServices:
-    if _services is None:  # only if vgraph/__init__ was bypassed: it binds before this module is used
-        raise VGraphError("no evaluation services are bound to vgraph.network (import vgraph)")
-    return _services
-
-
 def split_address(address: str, what: str = "port") -> tuple[str, str]:
     """'id.name' -> ('id', 'name')."""
     owner, dot, name = str(address).rpartition(".")
@@ -115,7 +92,7 @@ def _checked_index(index: int | None, length: int) -> int:
     return index
 
 
-class Network:
+class Network(ServiceMethods):
     def __init__(self, base_dir: str | Path | None = None):
         self.graph = nx.MultiDiGraph()  # for the scheduler's graph queries; edges keyed (outport, inport)
         self._processors: dict[str, Processor] = {}
@@ -375,33 +352,6 @@ class Network:
 
     def sinks(self) -> list[Processor]:
         return [p for p in self._processors.values() if not p.outports]
-
-    # --- evaluation and files (the bound NetworkServices) ----------------------------------------
-    def update(self, *targets: str, size: tuple[int, int] | None = None, context=None):
-        """Evaluate what ``targets`` need ('id.outport' or a sink's id; default: every sink);
-        ``context``: the frame's ``vgraph.frame_context.FrameContext`` (None: no field given)."""
-        return _bound().update(self, targets, size, context)
-
-    def output(self, target: str):
-        """The data at 'id.outport', or what a sink 'id' received (after update)."""
-        return _bound().output(self, target)
-
-    def evaluate(self, target: str | None = None, size: tuple[int, int] | None = None, context=None):
-        """Evaluate one target and return its data as numpy: an image as float32 (H, W, 4) with
-        row 0 at the top, a volume as its [z, y, x] array (``context`` as for ``update``)."""
-        return _bound().evaluate(self, target, size, context)
-
-    def pick(self, canvas: str, x: float, y: float):
-        """What lies under pixel (x, y) of ``canvas`` (row 0 at the top): world point, voxel, the
-        values of the volumes upstream, the iso-surface point (``vgraph.picking.PickResult``)."""
-        return _bound().pick(self, canvas, x, y)
-
-    def _repr_png_(self) -> bytes | None:
-        """Jupyter shows a network as its picture (see ``vgraph.services.picture``)."""
-        return _bound().picture(self)
-
-    def save(self, path: str | Path) -> None:
-        _bound().save(self, path)
 
     # --- listeners ------------------------------------------------------------------------------
     def subscribe(self, callback: Callable) -> None:

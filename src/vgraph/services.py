@@ -1,4 +1,4 @@
-"""The services behind a Network's convenience methods (``network.NetworkServices``): evaluation
+"""The services behind a Network's convenience methods (``network_services.NetworkServices``): evaluation
 by the scheduler and saving by the file format.
 
 The model (network.py) imports neither: ``vgraph/__init__`` binds this module to every Network
