@@ -10,22 +10,18 @@ from vgraph.gui import transfer_function_editor as tfe
 from vgraph.gui.tf_shift_controls import SLIDER_STEPS
 from vgraph.transfer_function import PRESETS, TransferFunction, ValueScale
 
+from helpers.gui import ray_caster_tf, ray_caster_tf_editor
+
 # A volume spanning -1000 .. 1000 HU, its percentiles evenly spread.
 SCALE = ValueScale((-1000.0, 1000.0), tuple(np.linspace(-1000, 1000, 101)))
 
 
 @pytest.fixture
 def editor(window):
-    window.workspace.add_processor("RayCaster", (0, 0), id="rc")
-    window.workspace.set_property("rc.transfer_function", PRESETS["ct-bone"])
-    window.scene.select_processor("rc")
-    shown = window.inspector.editors["transfer_function"]
-    assert isinstance(shown, tfe.TransferFunctionEditor)
-    return shown
+    return ray_caster_tf_editor(window, PRESETS["ct-bone"])
 
 
-def tf(window) -> TransferFunction:
-    return window.workspace.network.get("rc.transfer_function")
+tf = ray_caster_tf
 
 
 def test_the_shift_slider_waits_for_the_volumes_range(window, editor):

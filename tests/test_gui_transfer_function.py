@@ -11,7 +11,9 @@ from PySide6.QtWidgets import QColorDialog
 
 from vgraph.gl.raycasting.components import TransferFunctionLut
 from vgraph.gui import transfer_function_editor as tfe
-from vgraph.transfer_function import PRESETS, TransferFunction, ValueScale
+from vgraph.transfer_function import PRESETS, ValueScale
+
+from helpers.gui import ray_caster_tf, ray_caster_tf_editor
 
 
 
@@ -20,16 +22,10 @@ def editor(window):
     """The TF editor of a selected RayCaster (the inspector's editor for transfer functions), on
     the ray casters' ramp over normalised intensity (the palette's RayCaster starts with the auto
     preset, in percentiles, which the plot edits once a volume has given it a scale)."""
-    window.workspace.add_processor("RayCaster", (0, 0), id="rc")
-    window.workspace.set_property("rc.transfer_function", TransferFunctionLut.DEFAULT)
-    window.scene.select_processor("rc")
-    shown = window.inspector.editors["transfer_function"]
-    assert isinstance(shown, tfe.TransferFunctionEditor)
-    return shown
+    return ray_caster_tf_editor(window, TransferFunctionLut.DEFAULT)
 
 
-def tf(window) -> TransferFunction:
-    return window.workspace.network.get("rc.transfer_function")
+tf = ray_caster_tf
 
 
 def pixel_of(plot, position, opacity) -> QPoint:

@@ -77,3 +77,20 @@ def open_and_compare_with_run(window, path):
     assert frame.shape == expected.shape and view.is_final
     assert np.abs(frame.astype(int) - expected).max() <= 1
     return frame
+
+
+def ray_caster_tf_editor(window, transfer_function):
+    """The inspector's transfer-function editor of a RayCaster 'rc', added, given
+    ``transfer_function`` and selected."""
+    from vgraph.gui.transfer_function_editor import TransferFunctionEditor
+    window.workspace.add_processor("RayCaster", (0, 0), id="rc")
+    window.workspace.set_property("rc.transfer_function", transfer_function)
+    window.scene.select_processor("rc")
+    shown = window.inspector.editors["transfer_function"]
+    assert isinstance(shown, TransferFunctionEditor)
+    return shown
+
+
+def ray_caster_tf(window):
+    """The transfer function of the RayCaster 'rc'."""
+    return window.workspace.network.get("rc.transfer_function")
