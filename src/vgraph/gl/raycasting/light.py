@@ -73,7 +73,7 @@ class Gradients(Component):
     """The normals of a lit frame: finite differences of the sampled field (``derivatives`` one
     of ``choices``: forward, backward, central, sobel; none; precomputed: central differences at
     the voxels, computed once per volume, vgraph.gl.raycasting.gradient_volume). Binds nothing
-    for an unlit frame; a lit one without derivatives is refused by name."""
+    for an unlit frame (``frame.lit``); a lit one without derivatives is refused by name."""
 
     glsl = ("raycasting/gradients.glsl",)
     DOC = "finite differences of the shading normals"
@@ -94,10 +94,9 @@ class Gradients(Component):
                               f"precomputed) or {processor.id}.shading to none")
 
     def defines(self, derivatives: str | None = None) -> dict[str, bool]:
-        """GRADIENT_<derivatives> when the frame is lit (``derivatives``: the processor's unless
-        given; the bricks draw precomputed as central, vgraph.bricks.sampling)."""
-        derivatives = derivatives or self.processor.derivatives
-        return {f"GRADIENT_{derivatives.upper()}": True} if self.processor.shaded() else {}
+        """GRADIENT_<derivatives>, for a lit frame (``derivatives``: the processor's unless given;
+        the bricks draw precomputed as central, vgraph.bricks.sampling)."""
+        return {f"GRADIENT_{(derivatives or self.processor.derivatives).upper()}": True}
 
     def uniforms(self, intensity_scale: float, voxel, spacing, derivatives: str | None = None) -> dict[str, object]:
         """The finite differences' uniforms for a grid of texture-space ``voxel`` and world
@@ -107,9 +106,9 @@ class Gradients(Component):
 
     def bind(self, frame: Frame) -> Binding:
         self.check()
+        if not frame.lit:
+            return Binding()
         binding = Binding(self.defines())
-        if not binding.defines:
-            return binding
         if self.processor.derivatives == "precomputed":
             texture, scale = gradient_texture(frame.ctx, frame.volume)
             binding.defines["GRADIENT_HOLDS_VALUE"] = holds_values(frame.volume)

@@ -7,7 +7,8 @@ A component is one part of a ray caster. It declares, once:
 - ``glsl``: its GLSL segments, which ``draw()`` includes ahead of the processor's own shader, in
   the order of the components (a processor's shader includes only its own parts);
 - ``bind(frame)``: what it binds for one frame, a Binding of defines, textures (with samplers) and
-  uniforms: exactly the uniforms its GLSL declares (vgraph.gl.passes sets them strictly).
+  uniforms: exactly the uniforms its GLSL declares (vgraph.gl.passes sets them strictly). What
+  the frame's other parts decide comes with the frame (``frame.lit``: the Light's say).
 
 What a component depends on is given when it is built (``Light(mode="compositing",
 shaded_modes=("dvr", "iso"))``, ``EmptySpace(skip=skip_values)``), never looked up on the
@@ -68,7 +69,9 @@ MISSED_FILL_SHADER = "missed_fill.frag.glsl"
 class Frame:
     """One evaluation of a ray caster: its inputs and the concrete camera, in the normalised frame
     ``box_frame`` of the volumes' box (the world itself for an ordinary box); ``volumes`` are all
-    the volumes of the view in it (``volume``, at its precision, is the first)."""
+    the volumes of the view in it (``volume``, at its precision, is the first); ``lit``: whether
+    the frame is lit (the processor's shaded(), which its Light says), for the parts that bind
+    only for lit frames (Gradients)."""
 
     ctx: moderngl.Context
     volume: Volume
@@ -78,6 +81,7 @@ class Frame:
     geometry: VolumeGeometry
     box_frame: BoxFrame = BoxFrame()
     volumes: tuple[Volume, ...] = ()
+    lit: bool = False
 
     @property
     def size(self) -> tuple[int, int]:
@@ -200,7 +204,7 @@ class RaycasterBase(Processor):
         for part in self.used_parts(parts):
             volume = part.frame_volume(volume)
         return Frame(self.gl, volume, entry, exit, view.camera, VolumeGeometry.of(volume), view.frame,
-                     view.volumes)
+                     view.volumes, lit=self.shaded())
 
     def extreme_box_refusal(self, volume: Volume) -> str:
         """Why this ray caster does not draw ``volume`` (frames_extreme_boxes False)."""
