@@ -90,3 +90,24 @@ def test_the_render_process_draws_a_drags_frame_at_its_levels_step(ball):
     released = server.handle(RenderJob(2, None, scale=1.0))
     assert released.error is None and not caster.evaluated_context.interactive
     assert caster.last_frame["sample_stride"] == 1
+
+
+def test_the_raycaster_drawing_a_store_over_its_budget_takes_the_drags_step_too(tmp_path):
+    """The RayCaster's hand-over to the bricks (a store over its memory budget) is given the
+    context's ``interactive`` as the BrickedRayCaster is."""
+    from vgraph.bricks.volume import BrickedVolume
+    from vgraph.io.convert import convert
+
+    z, y, x = np.mgrid[-1:1:96j, -1:1:80j, -1:1:112j]
+    np.save(tmp_path / "ball.npy", (np.clip(1.0 - np.sqrt(x * x + y * y + z * z), 0, 1) * 65535).astype(np.uint16))
+    convert(tmp_path / "ball.npy", tmp_path / "ball.zarr", brick=16, progress=False)
+    camera = Camera.looking_at_box((0, 0, 0), (111, 79, 95), direction=(-0.5, -0.3, -1.0))
+    store = BrickedVolume.open(tmp_path / "ball.zarr", memory_budget_mb=1.0)  # 1.7 MB: over it
+    net = ray_caster_network(store, camera, "RayCaster", compositing="dvr",
+                             transfer_function=TF, lod_bias=1.0, ram_budget=1.0, gl_budget=1.0)
+    still, _, still_frame = frame(net)
+    drag, _, drag_frame = frame(net, DRAG)
+    level = min(drag_frame["levels"])
+    assert net["rc"].frame_summary().startswith("single pass") and level >= 1 and still_frame["levels"] == drag_frame["levels"]
+    assert still_frame["sample_stride"] == 1 and drag_frame["sample_stride"] == 2 ** level
+    assert np.abs(drag - still).mean() <= MEAN_TOLERANCE
