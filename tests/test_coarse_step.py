@@ -50,6 +50,9 @@ def test_a_drags_frame_takes_its_levels_samples_and_stays_close_to_the_still_fra
     drag, drag_samples, drag_frame = frame(net, DRAG)
     assert still_frame["levels"] == drag_frame["levels"] == [2]
     assert still_frame["sample_stride"] == 1 and drag_frame["sample_stride"] == 4  # 2^2 level-0 steps
+    # the levels' error bound is of level-0 steps: a drag's frame claims none
+    assert still_frame["error_bound"] is not None and drag_frame["error_bound"] is None
+    assert "a sample every 4 level-0 steps (dragging)" in net["rc"].frame_summary()
     assert drag_samples <= still_samples / 3  # about a quarter (a ray's first sample is taken by both)
     difference = np.abs(drag - still)
     assert difference.mean() <= MEAN_TOLERANCE and difference.max() <= MAX_TOLERANCE

@@ -24,7 +24,7 @@ Conventions (docs/explanations/bricked-ray-casting.md, "One pass, a page table")
   (bricks rays reached missing), ``unreached`` (planned, missing, reached by no ray) and
   ``requests`` ((key, pixels), in the order read), ``sample_stride`` (level-0 steps per sample: 1,
   or in a drag's frame, ``FrameContext.interactive``, the finest planned level's,
-  vgraph.bricks.coarse_step).
+  vgraph.bricks.coarse_step; such a frame reports no ``error_bound``).
 - ``empty_space_skipping``: the blocks of 8^3 voxels inside the atlas's bricks that add nothing
   this frame (vgraph.bricks.atlas_blocks) are jumped over too (define PAGED_BLOCKS).
 - The atlas holds ``gl_budget`` MB of slots at most (no more than the pyramid's bricks); a budget
@@ -139,7 +139,8 @@ class PagedSampling(Component):
                              cache.stats["bricks_read"] - read_before,
                              cache.stats["read_seconds"] - seconds_before)
         self.last_frame = {"bricks": len(placed), "floor_level": drawn.floor_level, "bytes": drawn.bytes,
-                           **self.drawn_report(frame, geometry, plan, atlas, requested, errors),
+                           # lod_error bounds level-0 steps, not a drag's longer ones: no bound then
+                           **self.drawn_report(frame, geometry, plan, atlas, requested, errors if stride == 1 else None),
                            "planned_floor_level": plan.floor_level, "missing": len(requested),
                            "unreached": len(missing) - len(requested), "requests": by_priority(requested),
                            "bricks_read": cache.stats["bricks_read"] - read_before,
@@ -201,6 +202,8 @@ class PagedSampling(Component):
         line = f"single pass: level {level_span(frame['levels'])}, {frame['bricks']} bricks in an atlas of {frame['atlas_slots']} slots"
         if frame["missing"]:
             line += f", {frame['missing']} missing bricks reached (drawn coarser)"
+        if frame["sample_stride"] > 1:
+            line += f", a sample every {frame['sample_stride']} level-0 steps (dragging)"
         if frame["error_bound"] is not None:
             line += f"; error bound {frame['error_bound']:.3g} against the level-0 frame"
         if frame["complete"]:
