@@ -28,7 +28,8 @@ Conventions (docs/explanations/bricked-ray-casting.md explains each with the num
   skipped by its largest opacity per value (``max_error`` < 1 with it is refused by name).
 - The frame context (vgraph.frame_context; not properties) gives BrickSampling the ``load_limit``
   (coarse first in the GUI) and the ``leaf`` (the leaves split's run of bricks,
-  vgraph.distributed.leaves).
+  vgraph.distributed.leaves), and PagedSampling ``interactive`` (a drag's frame samples at the step
+  of the finest level it draws, vgraph.bricks.coarse_step).
 """
 
 from __future__ import annotations
@@ -67,7 +68,8 @@ class BrickedRayCaster(RaycasterBase):
                   Light(mode="compositing", shaded_modes=SHADED_MODES), Background(), PagedSampling(),
                   RayRequests(), Mask(), CutAway(),
                   GradientClassification(modes=("dvr",), from_samples=True))  # gradient opacity, dvr
-    uses_context = ("load_limit", "leaf")  # BrickSampling's (vgraph.bricks.sampling)
+    # BrickSampling's (vgraph.bricks.sampling); interactive: PagedSampling's step (vgraph.bricks.coarse_step)
+    uses_context = ("load_limit", "leaf", "interactive")
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING), doc="dvr, mip, iso (surface at iso_level)")
     transfer_function = palette_transfer_function()  # auto, shaded: as the RayCaster

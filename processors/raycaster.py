@@ -40,7 +40,8 @@ Conventions (docs/explanations/ray-casting.md explains each property with pictur
   gradient opacity's gradient and the 2D TF's (the light volume is refused by name); ``volume_precision``
   and ``interpolation`` do not apply (the bricks keep their own texture format, sampled
   trilinearly), nor ``ray_bounds``. The frame context's ``load_limit`` (the GUI's: coarse first;
-  vgraph.frame_context) goes to them, and ``last_frame`` says what such a frame drew.
+  vgraph.frame_context) and ``interactive`` (a drag's single-pass frame samples at its coarse
+  level's step, vgraph.bricks.coarse_step) go to them, and ``last_frame`` says what such a frame drew.
 """
 
 from __future__ import annotations
@@ -112,7 +113,7 @@ class RayCaster(ShowsVolume, RaycasterBase):
                   PagedSampling(), RayRequests(),  # PagedSampling's properties are BrickSampling's
                   LightShadows(mode="compositing", shadowed_modes=SHADED_MODES),
                   Mask(), CutAway())
-    uses_context = ("load_limit",)  # for the frames drawn brick by brick (module docstring)
+    uses_context = ("load_limit", "interactive")  # for the frames drawn brick by brick (module docstring)
 
     compositing = OptionProperty("dvr", choices=list(COMPOSITING),
                                  doc="dvr, mip, iso (surface at iso_level), first_hit (positions), "

@@ -3,7 +3,8 @@
 A property is part of the network (saved, linked, edited, undone). Some things a frame needs are
 not: how much the GUI's render process lets a frame read (``load_limit``), which of a frame's
 bricks a cluster task draws (``leaf``), whether the frame is one of a drag's (``interactive``: a
-ProjectedTetrahedra then draws its mesh's coarse level of detail, vgraph.mesh_lod). They belong
+ProjectedTetrahedra then draws its mesh's coarse level of detail, vgraph.mesh_lod; a bricked
+single-pass frame samples at its coarse level's step, vgraph.bricks.coarse_step). They belong
 to the one evaluation that asks for them, so they travel as its explicit argument::
 
     evaluate(network, ["rc.image"], size, context=FrameContext(load_limit=LoadLimit(bricks=8)))

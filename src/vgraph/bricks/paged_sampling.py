@@ -22,7 +22,9 @@ Conventions (docs/explanations/bricked-ray-casting.md, "One pass, a page table")
   limit, never a brick no ray reached. ``last_frame``: ``complete`` (no ray reached a missing
   brick), ``levels`` drawn and ``coarsest_level``, ``error_bound`` (dvr, lod_error), ``missing``
   (bricks rays reached missing), ``unreached`` (planned, missing, reached by no ray) and
-  ``requests`` ((key, pixels), in the order read).
+  ``requests`` ((key, pixels), in the order read), ``sample_stride`` (level-0 steps per sample: 1,
+  or in a drag's frame, ``FrameContext.interactive``, the finest planned level's,
+  vgraph.bricks.coarse_step; such a frame reports no ``error_bound``).
 - ``empty_space_skipping``: the blocks of 8^3 voxels inside the atlas's bricks that add nothing
   this frame (vgraph.bricks.atlas_blocks) are jumped over too (define PAGED_BLOCKS).
 - The atlas holds ``gl_budget`` MB of slots at most (no more than the pyramid's bricks); a budget
@@ -44,6 +46,7 @@ import numpy as np
 
 from vgraph.bricks.atlas import BrickAtlas
 from vgraph.bricks.cache import MB, bricks_bytes
+from vgraph.bricks.coarse_step import coarse_step_binding, sample_stride
 from vgraph.bricks.page_table import PageTable, texel_offsets
 from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
 from vgraph.bricks.sampling import BrickSampling, level_span, skipping_alpha
@@ -126,7 +129,9 @@ class PagedSampling(Component):
         # missing, or some block is skipped: on llvmpipe the jumps' look-ups cost every sample
         self.frame_binding.defines["PAGED_SKIPPING"] = (blocks is not None or requests.asked
                                                         or bool((resolved[..., 3] < 0.0).any()))
-        self.draw(frame, target, own)
+        # a drag's frame steps at the finest planned level's step (vgraph.bricks.coarse_step)
+        stride = sample_stride(geometry, plan.keys(), context.interactive)
+        self.draw(frame, target, own.merge(coarse_step_binding(processor, frame, stride)))
         requested = requests.read(frame.ctx, geometry)  # (key, pixels) of the missing cells rays reached
         if requested and context.load_limit is not None:  # the next frame refines (the GUI asks again)
             cache.begin_frame(plan.keys())
@@ -134,11 +139,13 @@ class PagedSampling(Component):
                              cache.stats["bricks_read"] - read_before,
                              cache.stats["read_seconds"] - seconds_before)
         self.last_frame = {"bricks": len(placed), "floor_level": drawn.floor_level, "bytes": drawn.bytes,
-                           **self.drawn_report(frame, geometry, plan, atlas, requested, errors),
+                           # lod_error bounds level-0 steps, not a drag's longer ones: no bound then
+                           **self.drawn_report(frame, geometry, plan, atlas, requested, errors if stride == 1 else None),
                            "planned_floor_level": plan.floor_level, "missing": len(requested),
                            "unreached": len(missing) - len(requested), "requests": by_priority(requested),
                            "bricks_read": cache.stats["bricks_read"] - read_before,
-                           "atlas_slots": atlas.capacity, "seconds": time.perf_counter() - started}
+                           "atlas_slots": atlas.capacity, "sample_stride": stride,
+                           "seconds": time.perf_counter() - started}
 
     def fallback(self, source, plan: FramePlan, ctx, load_limit) -> FramePlan:
         """The bricks read for this frame, pinned in the cache with the plan's resident ones:
@@ -195,6 +202,8 @@ class PagedSampling(Component):
         line = f"single pass: level {level_span(frame['levels'])}, {frame['bricks']} bricks in an atlas of {frame['atlas_slots']} slots"
         if frame["missing"]:
             line += f", {frame['missing']} missing bricks reached (drawn coarser)"
+        if frame["sample_stride"] > 1:
+            line += f", a sample every {frame['sample_stride']} level-0 steps (dragging)"
         if frame["error_bound"] is not None:
             line += f"; error bound {frame['error_bound']:.3g} against the level-0 frame"
         if frame["complete"]:
