@@ -18,21 +18,14 @@
 // Second output (the depth image, with DEPTH_OUTPUT): as project.frag.glsl's, for the first piece
 // with opacity.
 #include "segment.glsl"
+#include "raycasting/pixel_depth.glsl"
 
 flat in vec4 unit_origin;  // cells.geom.glsl
 flat in vec4 planes[5];
 uniform vec3 spacing;
-uniform mat4 view_projection;
-uniform vec2 viewport_size;  // of the whole picture; pixel_offset: this image's place in it
-uniform vec2 pixel_offset;   // (geometry.pixel_rays: a tile's rays are the whole picture's)
-uniform vec3 near_centre;      // the pixel centre (ndc_x, ndc_y) starts its ray at near_centre +
-uniform vec3 near_right;       // ndc_x near_right + ndc_y near_up and goes along direction_centre +
-uniform vec3 near_up;          // ndc_x direction_right + ndc_y direction_up (Camera.rays)
-uniform vec3 direction_centre;
-uniform vec3 direction_right;
-uniform vec3 direction_up;
-uniform float world_length;  // world units per unit of the drawn mesh (a mesh drawn in its box's
-                             // normalised frame, vgraph.gl.tetrahedra.frame; else 1)
+uniform vec3 direction_centre;  // the ray of the pixel centre (ndc_x, ndc_y) starts at
+uniform vec3 direction_right;   // near_point(ndc) (pixel_depth.glsl) and goes along direction_centre
+uniform vec3 direction_up;      // + ndc_x direction_right + ndc_y direction_up (Camera.rays)
 
 layout(location = 0) out vec4 color;
 #ifdef DEPTH_OUTPUT
@@ -60,17 +53,15 @@ void add_piece(float a, float b) {
     vec4 piece = segment(at_origin + a * slope, at_origin + b * slope, (b - a) * scale);
 #ifdef DEPTH_OUTPUT
     if (piece.a > 0.0 && depth.a == 0.0) {
-        vec3 front = origin + a * direction;
-        vec4 clip = view_projection * vec4(front, 1.0);
-        depth = vec4(clip.z / clip.w * 0.5 + 0.5, distance(front, origin) * world_length, 0.0, 1.0);
+        depth = point_depth(origin + a * direction, origin, 0.0);
     }
 #endif
     color += (1.0 - color.a) * piece;
 }
 
 void main() {
-    vec2 ndc = (gl_FragCoord.xy + pixel_offset) / viewport_size * 2.0 - 1.0;
-    origin = near_centre + ndc.x * near_right + ndc.y * near_up;
+    vec2 ndc = pixel_ndc();
+    origin = near_point(ndc);
     direction = direction_centre + ndc.x * direction_right + ndc.y * direction_up;
     scale = length(direction);
     vec3 to_unit = vec3(unit_origin.w, 1.0, 1.0) / spacing;

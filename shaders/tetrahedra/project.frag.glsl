@@ -9,21 +9,13 @@
 // start on the near plane, 0, 1) where alpha > 0, else 0, which the blending leaves as it was: the
 // last tetrahedron with opacity drawn, the nearest in the visibility order, wins.
 #include "segment.glsl"
+#include "raycasting/pixel_depth.glsl"
 
 noperspective in vec4 front_h;
 noperspective in vec4 back_h;
 noperspective in vec2 scalar_h;
 flat in vec3 limits;  // (depth extent of the tetrahedron along view_forward, scalar min, max)
 uniform vec3 view_forward;
-
-uniform mat4 view_projection;
-uniform vec2 viewport_size;  // of the whole picture; pixel_offset: this image's place in it
-uniform vec2 pixel_offset;   // (geometry.pixel_rays: a tile's rays are the whole picture's)
-uniform vec3 near_centre;  // the pixel centre (ndc_x, ndc_y) is at near_centre + ndc_x near_right
-uniform vec3 near_right;   // + ndc_y near_up on the near plane (where Camera.rays start)
-uniform vec3 near_up;
-uniform float world_length;  // world units per unit of the drawn mesh (a mesh drawn in its box's
-                             // normalised frame, vgraph.gl.tetrahedra.frame; else 1)
 
 layout(location = 0) out vec4 color;
 #ifdef DEPTH_OUTPUT
@@ -53,10 +45,7 @@ void main() {
     color = segment(s_front, s_back, thickness);
 #ifdef DEPTH_OUTPUT
     if (color.a > 0.0) {
-        vec4 clip = view_projection * vec4(x_front, 1.0);
-        vec2 ndc = (gl_FragCoord.xy + pixel_offset) / viewport_size * 2.0 - 1.0;
-        vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
-        depth = vec4(clip.z / clip.w * 0.5 + 0.5, distance(x_front, origin) * world_length, 0.0, 1.0);
+        depth = point_depth(x_front, near_point(pixel_ndc()), 0.0);
     } else {
         depth = vec4(0.0);
     }
