@@ -2,6 +2,7 @@
 // Background: the pattern of image/background_pattern.glsl, with the image "over" it (premultiplied
 // Porter-Duff, as ImageCompositor) when HAS_IMAGE.
 #include "image/background_pattern.glsl"
+#include "image/over.glsl"
 #ifdef HAS_IMAGE
 uniform sampler2D image;
 #endif
@@ -12,7 +13,7 @@ void main() {
     vec4 back = background_at(pixel);
 #ifdef HAS_IMAGE
     vec4 front = texelFetch(image, pixel, 0);
-    color = front + (1.0 - front.a) * back;
+    color = over(front, back);
 #else
     color = back;
 #endif
