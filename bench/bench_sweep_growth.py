@@ -4,10 +4,11 @@ the image size, measured, with a least-squares model and its residuals
 docs/images/sweep_growth.png).
 
     .venv/bin/python bench/bench_sweep_growth.py [--sizes 32 48 64 96 128 192 256] [--size-image 128]
-        [--images 128 256 400 560 800] [--image-volume 64] [--repeat 3] [--plot PNG] [--quick]
+        [--images 128 256 400 560 800] [--image-volumes 64 128] [--repeat 3] [--plot PNG] [--quick]
 
 Volume: the smooth blob of bench/bench_sweep_plane.py (n^3 vertices, no threshold: every vertex
-swept). Series 1: n^3 at --size-image^2 pixels; series 2: --image-volume^3 at m^2 pixels. Each
+swept). Series 1: n^3 at --size-image^2 pixels; series 2: for each of --image-volumes, v^3 at m^2
+pixels (two volume sizes separate the ray-face crossings, P N^(1/3), from the pixels, P). Each
 point is the median of --repeat frames (a new camera angle each) after one untimed warm-up; the
 points of a series are interleaved round by round (bench/interleave.py).
 
@@ -83,18 +84,22 @@ def fit(rows, model: str):
 
 def plot(series_n, series_p, coefficients, args) -> None:
     figure, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
-    for axis, rows, x_of, label in ((left, series_n, lambda r: r[0], "vertices N"),
-                                    (right, series_p, lambda r: r[1], "pixels P")):
+    panels = [(left, series_n, lambda r: r[0], "", "C0")]
+    panels += [(right, [r for r in series_p if r[0] == v ** 3], lambda r: r[1], f"{v}^3: ", f"C{k}")
+               for k, v in enumerate(args.image_volumes)]
+    for axis, rows, x_of, prefix, colour in panels:
         xs = np.array([x_of(r) for r in rows], float)
-        axis.plot(xs, [r[2] for r in rows], "o", label="measured (median)")
+        axis.plot(xs, [r[2] for r in rows], "o", color=colour, label=f"{prefix}measured (median)")
         vertices, pixels = np.array([r[0] for r in rows], float), np.array([r[1] for r in rows], float)
         for model, style in (("A", "--"), ("B", "-")):
-            axis.plot(xs, design(vertices, pixels, model) @ coefficients[model], style, label=f"model {model}")
+            axis.plot(xs, design(vertices, pixels, model) @ coefficients[model], style, color=colour,
+                      label=f"{prefix}model {model}")
+    for axis, label in ((left, "vertices N"), (right, "pixels P")):
         axis.set_xlabel(label)
         axis.set_ylabel("frame seconds")
-        axis.legend()
+        axis.legend(fontsize="small")
     left.set_title(f"n^3, {args.size_image}^2 pixels")
-    right.set_title(f"{args.image_volume}^3, m^2 pixels")
+    right.set_title(f"{' and '.join(f'{v}^3' for v in args.image_volumes)}, m^2 pixels")
     figure.suptitle("SweepPlaneRenderer (RZSweep) frame time; 2 shared cores, numba, serial sweep")
     figure.tight_layout()
     args.plot.parent.mkdir(parents=True, exist_ok=True)
@@ -106,26 +111,28 @@ def main() -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=[32, 48, 64, 96, 128, 192, 256])
     parser.add_argument("--size-image", type=int, default=128)
     parser.add_argument("--images", type=int, nargs="+", default=[128, 256, 400, 560, 800])
-    parser.add_argument("--image-volume", type=int, default=64)
+    parser.add_argument("--image-volumes", type=int, nargs="+", default=[64, 128],
+                        help="the pixel series' volume sizes (two or more separate crossings from pixels)")
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--plot", type=Path, default=PLOT)
     parser.add_argument("--quick", action="store_true", help="tiny sizes, for the test: seconds")
     args = parser.parse_args()
     if args.quick:
-        args.sizes, args.size_image, args.images, args.image_volume, args.repeat = [8, 12, 16], 24, [16, 24, 32], 8, 1
+        args.sizes, args.size_image, args.images, args.image_volumes, args.repeat = [8, 12, 16], 24, [16, 24, 32], [8, 12], 1
     print(f"settings: {vars(args)}")
     by_size = measure({f"{n}^3": (n, args.size_image) for n in args.sizes}, args.repeat, "vertices")
-    by_image = measure({f"{m}^2": (args.image_volume, m) for m in args.images}, args.repeat, "pixels")
+    pixel_points = [(v, m) for v in args.image_volumes for m in args.images]
+    by_image = measure({f"{v}^3 at {m}^2": (v, m) for v, m in pixel_points}, args.repeat, "pixels")
     series_n = [(n ** 3, args.size_image ** 2, float(np.median(by_size[f"{n}^3"]))) for n in args.sizes]
-    series_p = [(args.image_volume ** 3, m * m, float(np.median(by_image[f"{m}^2"]))) for m in args.images]
+    series_p = [(v ** 3, m * m, float(np.median(by_image[f"{v}^3 at {m}^2"]))) for v, m in pixel_points]
     rows = series_n + series_p
     coefficients, predicted = {}, {}
     for model in ("A", "B"):
         coefficients[model], predicted[model] = fit(rows, model)
     print("\n| point | N vertices | P pixels | frame s (min / median / max) | model A s | residual A | model B s | residual B |")
     print("|---|---|---|---|---|---|---|---|")
-    names = [f"{n}^3 at {args.size_image}^2" for n in args.sizes] + [f"{args.image_volume}^3 at {m}^2" for m in args.images]
-    frames = [by_size[f"{n}^3"] for n in args.sizes] + [by_image[f"{m}^2"] for m in args.images]
+    names = [f"{n}^3 at {args.size_image}^2" for n in args.sizes] + [f"{v}^3 at {m}^2" for v, m in pixel_points]
+    frames = [by_size[f"{n}^3"] for n in args.sizes] + [by_image[name] for name in names[len(args.sizes):]]
     for k, (name, (vertices, pixels, median)) in enumerate(zip(names, rows)):
         print(f"| {name} | {vertices} | {pixels} | {spread(frames[k], 3)} | {predicted['A'][k]:.3f} | "
               f"{median - predicted['A'][k]:+.3f} | {predicted['B'][k]:.3f} | {median - predicted['B'][k]:+.3f} |")

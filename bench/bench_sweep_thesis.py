@@ -4,7 +4,8 @@
 
     .venv/bin/python bench/bench_sweep_thesis.py [--image 800] [--repeat 2] [--sets mriHead ctSkull]
         [--levels 1 2] [--workers 1 2] [--compare-sizes 256] [--compare-image 256]
-        [--psnr-image 128] [--reference-rate 16] [--quick]
+        [--psnr-image 128] [--reference-rate 16] [--store-sizes 512] [--store-budget 64]
+        [--store-brick 64] [--quick]
 
 Thesis set-up: threshold 40-80 (8-bit scalar values), 800 x 800 pixels, octree levels 1 and 2,
 each frame after a rotation of the data (here: of the camera, a new angle each frame). Its data
@@ -13,9 +14,15 @@ thesis's Volvis data are 8-bit) and resampled (scipy.ndimage.zoom, linear) to th
 keeping the physical extent. The TF is zero outside 40-80, so the threshold leaves the image as
 it is and only removes work.
 
-Tiles against leaves (frame time and bytes read per worker, 1 and 2 workers, levels 1 and 2)
-need the SweepPlaneRenderer on the `--split` route (issue 34 item 3): the bench asks
-vgraph.distributed at run time and prints "not available" with the reason where it refuses.
+Tiles against leaves (frame time and bytes read per worker, 1 and 2 workers, levels 1 and 2):
+the SweepPlaneRenderer on the `--split` route through vgraph.distributed.render_report, which
+says what each worker's caches read; "not available" with the reason where the route refuses.
+
+Side by side: at the --store-sizes (512^3: the in-memory sweep's float64 grid would take about
+14 GiB) the SweepPlaneRenderer and the BrickedRayCaster read the volume converted to an OME-Zarr
+store (bricks of --store-brick voxels) out of core, through a VolumeSource whose memory_budget is
+--store-budget MiB (the sweep's leaves are the store's bricks); the RayCaster draws the volume in
+memory (one 3D texture).
 
 Timing: every variant draws one untimed warm-up frame (numba cache load, shader compile), then
 the variants take turns frame by frame (bench/interleave.py). Peak memory: the resident high-water
@@ -94,6 +101,40 @@ def network_of(renderer: str, volume: Volume, camera: Camera) -> Network:
     return ray_caster_network(volume, camera, renderer, transfer_function=TF, **extra)
 
 
+
+def store_of(volume: Volume, folder: Path, brick: int) -> Path:
+    """``volume`` converted to an OME-Zarr store in ``folder`` (bricks of ``brick`` voxels, one level:
+    the sweep's leaves and the BrickedRayCaster's finest bricks), next to the grid.json the peak
+    child reads."""
+    from vgraph.io.convert import convert
+    npy = folder / "volume.npy"
+    np.save(npy, volume.data)
+    store = folder / f"brick{brick}.zarr"
+    convert(npy, store, brick=brick, levels=1, progress=False)
+    npy.unlink()
+    return store
+
+
+def out_of_core_network(renderer: str, store: Path, volume: Volume, camera: Camera, budget_mib: float) -> Network:
+    """``renderer`` over ``store`` read out of core by a VolumeSource (memory_budget ``budget_mib``),
+    with ``volume``'s grid; the RayCaster draws ``volume`` in memory (network_of)."""
+    if renderer == "RayCaster":
+        return network_of(renderer, volume, camera)
+    network = Network()
+    network.add("VolumeSource", id="src", path=str(store), spacing=list(volume.spacing),
+                origin=list(volume.origin), value_range=[0.0, 255.0], memory_budget=budget_mib)
+    if renderer == "SweepPlaneRenderer":
+        network.add(renderer, id="rc", camera=camera, transfer_function=TF, threshold=THRESHOLD, leaf_level=0)
+        network.connect("src.volume", "rc.volume")
+        return network
+    network.add("EntryExitPoints", id="eep", camera=camera)
+    network.add(renderer, id="rc", transfer_function=TF, lod_bias=-16.0)
+    network.link("eep.camera", "rc.camera")
+    for source, target in (("src.volume", "eep.volume"), ("src.volume", "rc.volume"),
+                           ("eep.entry", "rc.entry"), ("eep.exit", "rc.exit")):
+        network.connect(source, target)
+    return network
+
 def camera_owner(network: Network):
     return network.processors["eep" if "eep" in network.processors else "rc"]
 
@@ -115,6 +156,10 @@ def cameras(base: Camera, repeat: int) -> list[Camera]:
 
 def bytes_read(renderer: str, network: Network, volume: Volume) -> str:
     """What the renderer read of the volume's data in its last frame."""
+    if renderer == "SweepPlaneRenderer" and "leaves_swept" in network.processors["rc"].last_sweep:
+        counts = network.processors["rc"].last_sweep
+        return (f"{counts['bytes_read'] / 2**20:.1f} MiB ({counts['leaves_swept']} leaves read through the cache, "
+                f"peak {counts['peak_cache_bytes'] / 2**20:.0f} MiB held)")
     if renderer == "SweepPlaneRenderer":
         return f"{volume.data.nbytes / 2**20:.0f} MiB (every voxel, classified each frame)"
     if renderer == "BrickedRayCaster":
@@ -122,13 +167,17 @@ def bytes_read(renderer: str, network: Network, volume: Volume) -> str:
     return f"0 (texture resident; {volume.data.nbytes / 2**20:.0f} MiB uploaded once)"
 
 
-def peak_memory_mib(renderer: str, volume: Volume, image: int) -> str:
+def peak_memory_mib(renderer: str, volume: Volume, image: int, store: Path | None = None,
+                    budget_mib: float = 0.0) -> str:
     """Peak resident memory a child process adds drawing one frame (run with --peak): the volume
-    goes to it as a .npy, so that building it (resampling's float copies) sets no high-water mark."""
+    goes to it as a .npy, so that building it (resampling's float copies) sets no high-water mark;
+    or, for a renderer reading ``store`` out of core, the store's path."""
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "volume.npy"
         np.save(path, volume.data)
-        (Path(folder) / "grid.json").write_text(json.dumps({"spacing": volume.spacing, "origin": volume.origin}))
+        (Path(folder) / "grid.json").write_text(json.dumps({"spacing": volume.spacing, "origin": volume.origin,
+                                                            "store": str(store) if store else None,
+                                                            "budget_mib": budget_mib}))
         done = subprocess.run([sys.executable, __file__, "--peak", renderer, str(path), str(image)],
                               capture_output=True, text=True, cwd=Path(__file__).parent)
     if done.returncode != 0:
@@ -138,9 +187,12 @@ def peak_memory_mib(renderer: str, volume: Volume, image: int) -> str:
 
 def peak_child(renderer: str, path: str, image: int) -> None:
     grid = json.loads((Path(path).parent / "grid.json").read_text())
-    volume = Volume(np.load(path), spacing=tuple(grid["spacing"]), origin=tuple(grid["origin"]),
-                    declared_range=(0.0, 255.0))
-    network = network_of(renderer, volume, Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0)))
+    out_of_core = grid["store"] is not None and renderer != "RayCaster"
+    volume = Volume(np.load(path, mmap_mode="r" if out_of_core else None), spacing=tuple(grid["spacing"]),
+                    origin=tuple(grid["origin"]), declared_range=(0.0, 255.0))  # memory-mapped: grid only
+    camera = Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
+    network = out_of_core_network(renderer, Path(grid["store"]), volume, camera, grid["budget_mib"]) if out_of_core \
+        else network_of(renderer, volume, camera)
     before = high_water_kib()
     network.evaluate("rc.image", size=(image, image))
     print(json.dumps({"peak_mib": (high_water_kib() - before) / 1024.0}))
@@ -183,31 +235,46 @@ def store_network(volume: Volume, camera: Camera, folder: Path, level: int) -> t
 
 
 def split_columns(network: Network, size, workers: int) -> dict:
-    """Tiles and leaves on ``workers`` local Dask workers (leaves: one run of leaves a worker),
-    or why not (the route refuses, or issue 34 item 3 is not built). One frame each after a 64 x 64
-    warm-up (worker imports, numba cache load)."""
-    from vgraph.distributed.render import prepare, render
+    """Tiles and leaves on ``workers`` local Dask workers (leaves: one run of leaves a worker):
+    split -> (seconds, what each worker read in the first frame, in the timed frame), or why not (the
+    route refuses). One timed frame each after a 64 x 64 warm-up (worker imports, numba cache load),
+    which is the first, cold frame: it reads what the tiles or runs of leaves see (the same at any
+    image size), and the workers keep their networks and caches, so the timed frame reads only what
+    the caches' budget (the VolumeSource's memory_budget) let go."""
+    from vgraph.distributed.render import prepare, render_report
     columns = {}
     for split in ("tiles", "leaves"):
         try:
             prepare(network, split, THESIS_TILES[workers], size, "rc.image")
         except Exception as error:  # the route's own refusal is the answer here
-            columns[split] = f"not available ({str(error).splitlines()[0][:100]})"
+            columns[split] = (f"not available ({str(error).splitlines()[0][:100]})", "", "")
     if len(columns) == 2:
         return columns
     from dask.distributed import Client, LocalCluster
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True) as cluster, Client(cluster) as client:
-        for split in [s for s in ("tiles", "leaves") if s not in columns]:
+    for split in [s for s in ("tiles", "leaves") if s not in columns]:
+        # A cluster of its own per split: workers keep their networks and caches, so the second
+        # split's first frame would read only what the first split left out.
+        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True) as cluster, \
+                Client(cluster) as client:
             try:
                 options = dict(split=split, tiles=THESIS_TILES[workers], size=size, target="rc.image",
                                runs=workers if split == "leaves" else None)
-                render(network, client, **{**options, "size": (64, 64)})  # warm-up: imports, numba cache load
+                first = render_report(network, client, **{**options, "size": (64, 64)})  # warm-up, cold
                 start = time.perf_counter()
-                render(network, client, **options)
-                columns[split] = f"{time.perf_counter() - start:.2f} s"
+                timed = render_report(network, client, **options)
+                columns[split] = (f"{time.perf_counter() - start:.2f} s", per_worker(first, client),
+                                  per_worker(timed, client))
             except Exception as error:
-                columns[split] = f"not available ({str(error).splitlines()[0][:100]})"
+                columns[split] = (f"not available ({str(error).splitlines()[0][:100]})", "", "")
     return columns
+
+
+def per_worker(frame, client) -> str:
+    """What each worker of the cluster read in ``frame`` ('a + b'; a worker given no task: 0)."""
+    from vgraph.memory import format_bytes
+    addresses = sorted(client.scheduler_info()["workers"])
+    read = {address: report.bytes_read for address, report in frame.workers.items()}
+    return " + ".join(format_bytes(read.get(address, 0)) for address in addresses)
 
 
 def thesis_rows(args) -> None:
@@ -247,22 +314,25 @@ def single_process_rows(args, volumes, networks, size) -> None:
 
 def split_rows(args, volumes, bases, size) -> None:
     print(f"\nSplits on a Dask LocalCluster (one thread a worker), {size[0]} x {size[1]}, tiles as the thesis's "
-          "table 5.2, leaves: one run a worker; no early termination; one frame after a 64 x 64 warm-up. "
-          "Bytes read per worker: not reported by vgraph.distributed.render")
-    print("\n| data | octree level (leaves) | workers | tiles s | leaves s |")
-    print("|---|---|---|---|---|")
+          "table 5.2, leaves: one run a worker; no early termination; one frame after a 64 x 64 warm-up "
+          "(the first, cold frame). Read per worker (vgraph.distributed.render_report): in the first "
+          "frame, and in the timed frame (the workers keep their caches)")
+    print("\n| data | octree level (leaves) | workers | tiles s | tiles: read per worker, first frame "
+          "(timed frame) | leaves s | leaves: read per worker, first frame (timed frame) |")
+    print("|---|---|---|---|---|---|---|")
     for name, volume in volumes.items():
         with tempfile.TemporaryDirectory() as folder:
             for level in args.levels:
                 try:
                     network, count = store_network(volume, bases[name], Path(folder), level)
                 except Exception as error:
-                    print(f"| {name} | {level} | - | not available ({str(error).splitlines()[0][:100]}) | |")
+                    print(f"| {name} | {level} | - | not available ({str(error).splitlines()[0][:100]}) | | | |")
                     continue
                 for workers in args.workers:
                     columns = split_columns(network, size, workers)
-                    print(f"| {name} | {level} ({count}) | {workers} | {columns['tiles']} | {columns['leaves']} |",
-                          flush=True)
+                    cells = [f"{seconds} | {first} ({timed})" if first else f"{seconds} | "
+                             for seconds, first, timed in (columns["tiles"], columns["leaves"])]
+                    print(f"| {name} | {level} ({count}) | {workers} | {' | '.join(cells)} |", flush=True)
 
 
 def comparison_rows(args) -> None:
@@ -270,22 +340,35 @@ def comparison_rows(args) -> None:
     print(f"\n## RZSweep vs BrickedRayCaster vs RayCaster: bonsai resampled to n^3, TF and threshold "
           f"{LOW}-{HIGH} as above, {args.compare_image}^2, {args.repeat} interleaved frames after a warm-up; "
           f"PSNR (RGB) at {args.psnr_image}^2 against the CPU reference at rate {args.reference_rate}; "
-          "early termination 0.99, no shading, BrickedRayCaster at its finest level")
+          "early termination 0.99, no shading, BrickedRayCaster at its finest level; at "
+          f"{args.store_sizes}: sweep and BrickedRayCaster out of core over a store of {args.store_brick}^3 "
+          f"bricks, memory_budget {args.store_budget:g} MiB, the RayCaster in memory")
     print("\n| n^3 | renderer | frame s (min / median / max) | bytes read per frame | peak memory MiB | PSNR dB |")
     print("|---|---|---|---|---|---|")
     for n in args.compare_sizes:
         volume = cube(n)
-        base = Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
-        networks = {renderer: network_of(renderer, volume, base) for renderer in RENDERERS}
-        seconds, _ = interleaved({r: frame(net, size) for r, net in networks.items()}, cameras(base, args.repeat), None)
-        read = {r: bytes_read(r, net, volume) for r, net in networks.items()}
-        exact = reference_raycast.render(volume, base, TF, psnr_size, sampling_rate=args.reference_rate)
-        for renderer, network in tqdm(networks.items(), desc=f"{n}^3 psnr/peak", file=sys.stderr):
-            camera_owner(network).camera = base
-            image = network.evaluate("rc.image", size=psnr_size)
-            peak = "not measured (--quick)" if args.quick else peak_memory_mib(renderer, volume, args.compare_image)
-            print(f"| {n}^3 | {renderer} | {spread(seconds[renderer], 2)} | {read[renderer]} | {peak} | "
-                  f"{psnr(image, exact):.1f} |", flush=True)
+        with tempfile.TemporaryDirectory() as folder:
+            store = store_of(volume, Path(folder), args.store_brick) if n in args.store_sizes else None
+            comparison_of_size(args, n, volume, store, size, psnr_size)
+
+
+def comparison_of_size(args, n: int, volume: Volume, store: Path | None, size, psnr_size) -> None:
+    base = Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
+    networks = {renderer: network_of(renderer, volume, base) if store is None
+                else out_of_core_network(renderer, store, volume, base, args.store_budget) for renderer in RENDERERS}
+    seconds, _ = interleaved({r: frame(net, size) for r, net in networks.items()}, cameras(base, args.repeat), None)
+    read = {r: bytes_read(r, net, volume) for r, net in networks.items()}
+    start = time.perf_counter()
+    exact = reference_raycast.render(volume, base, TF, psnr_size, sampling_rate=args.reference_rate)
+    print(f"(reference at {n}^3: {time.perf_counter() - start:.1f} s)", file=sys.stderr)
+    for renderer, network in tqdm(networks.items(), desc=f"{n}^3 psnr/peak", file=sys.stderr):
+        camera_owner(network).camera = base
+        image = network.evaluate("rc.image", size=psnr_size)
+        peak = "not measured (--quick)" if args.quick else \
+            peak_memory_mib(renderer, volume, args.compare_image, store, args.store_budget)
+        where = " (out of core)" if store is not None and renderer != "RayCaster" else ""
+        print(f"| {n}^3 | {renderer}{where} | {spread(seconds[renderer], 2)} | {read[renderer]} | {peak} | "
+              f"{psnr(image, exact):.1f} |", flush=True)
 
 
 def main() -> None:
@@ -301,6 +384,10 @@ def main() -> None:
     parser.add_argument("--compare-image", type=int, default=256)
     parser.add_argument("--psnr-image", type=int, default=128)
     parser.add_argument("--reference-rate", type=float, default=16.0)
+    parser.add_argument("--store-sizes", type=int, nargs="*", default=[512],
+                        help="compare sizes drawn out of core from a store (sweep, BrickedRayCaster)")
+    parser.add_argument("--store-budget", type=float, default=64.0, help="the store's memory_budget, MiB")
+    parser.add_argument("--store-brick", type=int, default=64, help="the store's brick (the sweep's leaf)")
     parser.add_argument("--parts", nargs="+", default=["times", "splits", "compare"],
                         choices=["times", "splits", "compare"])
     parser.add_argument("--quick", action="store_true", help="tiny sizes, for the test: seconds")
@@ -310,8 +397,9 @@ def main() -> None:
         return peak_child(args.peak[0], args.peak[1], int(args.peak[2]))
     if args.quick:
         args.image, args.repeat, args.sets, args.shrink = 32, 1, ["mriHead"], 16
-        args.levels, args.workers, args.compare_sizes = [1], [1], [16]
+        args.levels, args.workers, args.compare_sizes = [1], [1], [16, 24]
         args.compare_image, args.psnr_image, args.reference_rate = 32, 16, 2.0
+        args.store_sizes, args.store_brick, args.store_budget = [24], 8, 1.0
     print(f"settings: {vars(args)}; numba threads 1 (the sweep is serial)")
     if {"times", "splits"} & set(args.parts):
         thesis_rows(args)

@@ -28,17 +28,21 @@ def test_thesis_bench_prints_every_row():
     out = run_bench("bench_sweep_thesis.py")
     assert "| mriHead (256 x 256 x 111) | 16 x 16 x 8 |" in out
     split_row = next(line for line in out.splitlines() if line.startswith("| mriHead | 1 (8) | 1 |"))
-    for cell in split_row.strip("|").split("|")[3:]:  # measured seconds, or not available with why
-        assert re.search(r"\d+\.\d+ s|not available \(.+\)", cell), split_row
-    for renderer in ("SweepPlaneRenderer", "BrickedRayCaster", "RayCaster"):
-        row = next(line for line in out.splitlines() if line.startswith(f"| 16^3 | {renderer} |"))
+    tiles_s, tiles_read, leaves_s, leaves_read = split_row.strip("|").split("|")[3:]
+    for seconds, read in ((tiles_s, tiles_read), (leaves_s, leaves_read)):  # measured, or why not
+        assert re.search(r"\d+\.\d+ s", seconds) and re.search(r"\d+(\.\d+)? (bytes|[KMG]iB)", read) \
+            or re.search(r"not available \(.+\)", seconds), split_row
+    for n, renderer in [(16, r) for r in ("SweepPlaneRenderer", "BrickedRayCaster", "RayCaster")] + \
+            [(24, "SweepPlaneRenderer (out of core)"), (24, "BrickedRayCaster (out of core)"), (24, "RayCaster")]:
+        row = next(line for line in out.splitlines() if line.startswith(f"| {n}^3 | {renderer} |"))
         assert float(row.strip("|").split("|")[-1]) > 20.0, row  # PSNR against the reference, dB
+    assert re.search(r"\| 24\^3 \| SweepPlaneRenderer \(out of core\) \| .* \| \S+ MiB \(\d+ leaves read", out)
 
 
 def test_growth_bench_fits_both_models_and_writes_the_plot(tmp_path):
     plot = tmp_path / "growth.png"
     out = run_bench("bench_sweep_growth.py", "--plot", str(plot))
-    assert len([line for line in out.splitlines() if re.match(r"\| \d+\^3 at \d+\^2 \|", line)]) == 6
+    assert len([line for line in out.splitlines() if re.match(r"\| \d+\^3 at \d+\^2 \|", line)]) == 3 + 2 * 3
     assert re.search(r"model A: t = \S+ N log2 N \+ \S+ P \+ \S+", out)
     assert re.search(r"model B: t = .*P N\^\(1/3\)", out)
     assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
