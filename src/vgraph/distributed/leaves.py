@@ -23,7 +23,11 @@ composited in visibility order on the workers before the frame is resolved once.
 - A SweepPlaneRenderer (RZSweep) over a store is split alike: its plan is the store's leaves front
   to back, a run task sweeps its run of leaves into a partial (colour, log transparency, first t,
   segments), partials composite front over back (vgraph.sweep.leaves.composite) and the resolve
-  task finishes the picture over the background.
+  task finishes the picture over the background. Its runs stop their rays at their own opacity
+  (early termination): within 1 - early_termination of one process (vgraph.sweep.leaves.composite).
+- Costs: each task reports what its worker's brick caches read and its seconds
+  (vgraph.distributed.report.measured); they travel with the partials through the composite tree
+  (a few numbers) and reach the client with the picture.
 """
 
 from __future__ import annotations
