@@ -60,8 +60,8 @@ def test_auto_is_the_default_and_draws_a_leaf_of_the_leaves_split_by_passes():
 
 def test_auto_draws_by_passes_where_the_leaf_table_would_pass_the_budgets():
     volume = Volume(field((80, 80, 80)))
-    cells, need = leaf_table_need(ArrayPyramid(volume.data, brick=(8, 8, 8)))
-    assert cells == 1000 and need == 1000 * 16 * 4  # one RGBA32F texel a brick, four copies
+    texels, need = leaf_table_need(ArrayPyramid(volume.data, brick=(8, 8, 8)), 1.0)
+    assert texels == 1000 and need == 1000 * 20 * 4  # flat: an RGBA32F and an R32F texel a brick, four copies
     budget = 4 * need / 2 ** 20  # MB: the table would be a quarter of it (auto wants an eighth at most)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the budget raises the level (test_bricked_raycaster says so)
