@@ -2,7 +2,7 @@
 on read (vgraph.bricks.implicit_store), named by ``implicit:`` URLs (vgraph.bricks.implicit_url):
 valid metadata for vgraph and for zarr, chunks equal to the function, coarser levels as documented,
 the same image as the function sampled into memory, a 8192^3 store drawn within a memory budget,
-single_pass refusing a leaf table it cannot hold, and bad URLs refused by name (exit 2 in the CLI)."""
+the 8192^3 and 16384^3 stores in one pass with a leaf table bounded by the atlas's slots, and bad URLs refused by name (exit 2 in the CLI)."""
 
 import json
 import pickle
