@@ -19,7 +19,7 @@ import zarr
 from vgraph import Network
 from vgraph.bricks import leaf_pages
 from vgraph.bricks.cache import LoadLimit
-from vgraph.bricks.methods import leaf_table_need
+from vgraph.bricks.methods import leaf_table_need, whole_volume_level
 from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.sampling import BrickSampling
 from vgraph.bricks.selection import BrickGeometry
@@ -158,12 +158,15 @@ def test_a_8192_store_renders_a_frame_within_the_memory_budget():
     grown = peak_rss_mib() - before
     frame = network["rc"].last_frame
     assert network["src"].outputs["volume"].dims == (8192, 8192, 8192)
+    # auto: passes, which step each level's lattice (the budgets hold the volume from level 5 up;
+    # the single pass samples level 0's: bricks/methods.py)
+    assert network["rc"].drawn_method == "passes"
     assert image[..., 3].max() > 0.5 and 0 < frame["bricks_read"] <= 64
     assert grown < BUDGET_MB, f"peak RSS grew {grown:.0f} MiB drawing the 8192^3 store"
 
 
-@pytest.mark.parametrize("size, directory", [(8192, 2), (16384, 3)])
-def test_single_pass_draws_the_virtual_stores_with_a_leaf_table_that_follows_the_frame(size, directory):
+@pytest.mark.parametrize("size, directory, whole", [(8192, 2, 5), (16384, 3, 6)])
+def test_single_pass_draws_the_virtual_stores_with_a_leaf_table_that_follows_the_frame(size, directory, whole):
     """Issue #33: one texel per level-0 cell was 32 MiB at 8192^3 and 256 MiB at 16384^3 (refused);
     the directory and pages hold what the frame's plan reaches, within the atlas's slots."""
     budgets = {"ram_budget": BUDGET_MB / 2, "gl_budget": BUDGET_MB / 2}
@@ -183,8 +186,8 @@ def test_single_pass_draws_the_virtual_stores_with_a_leaf_table_that_follows_the
     # The flat table would be (size / 64)^3 texels of 16 bytes; this one is bounded by the slots.
     assert table.table[..., 0].size <= 1.2 * leaf_pages.table_bound(geometry, slots)
     assert table.nbytes < BUDGET_MB * 2 ** 20 / 64 < (size // 64) ** 3 * 16
-    assert leaf_table_need(source, budgets["gl_budget"])[1] \
-        < BUDGET_MB * 2 ** 20 / 8  # auto's rule lets the single pass draw it (bricks/methods.py)
+    assert leaf_table_need(source, budgets["gl_budget"])[1] < BUDGET_MB * 2 ** 20 / 8  # auto's memory rule
+    assert whole_volume_level(source, BUDGET_MB / 2 * 2 ** 20) == whole  # auto's coarse rule: passes
 
 
 @pytest.mark.parametrize("url, field, words", [

@@ -17,6 +17,15 @@ one texture cannot hold) takes the single pass where it measured faster and pass
   a directory and pages (vgraph.bricks.leaf_pages) its size follows the atlas's slots, not the
   volume (the 8192^3 virtual store in 64^3 bricks under 128 + 128 MB: 1.2 MiB where one texel
   per level-0 cell was 32 MiB), so this holds only for budgets of a few slots.
+- a volume whose budgets hold its whole pyramid only from level COARSE_LEVEL up
+  (``whole_volume_level`` of min(ram_budget, gl_budget); the 8192^3 and 16384^3 virtual stores
+  in 64^3 bricks under 256 MB: levels 5 and 6):
+  passes. The single pass samples level 0's lattice in every brick (the in-core lattice, so level
+  0 equals the RayCaster's image), up to 2^L samples per voxel of a level-L brick, where a pass
+  per brick steps its level's lattice: the 8192^3 store drawn at level 5 took 135 s to the first
+  frame in one pass against 13 s by passes (bench/bench_virtual_store.py; docs/reports/
+  performance.md, "Virtual stores"). The 1024^3 bonsai store (level 2) stays on the single pass
+  (measured 2.4x slower there too: its GUI frames are issue #33's other work).
 ``passes`` and ``single_pass`` force one; ``single_pass`` refuses a leaf frame and a leaf table
 past the budgets by name.
 """
@@ -26,7 +35,8 @@ from __future__ import annotations
 import math
 
 from vgraph.bricks.atlas import brick_count, slot_shape_of
-from vgraph.bricks.cache import MB
+from vgraph.bricks.cache import HALO, MB, texture_format
+from vgraph.bricks.cells import table_of
 from vgraph.bricks.leaf_pages import TEXEL_BYTES, table_bound
 from vgraph.bricks.selection import BrickGeometry
 from vgraph.errors import VGraphError
@@ -38,6 +48,19 @@ SINGLE_PASS_MODES = ("dvr", "iso")  # where the single pass measured faster (mod
 # held about this many times while a frame builds and uploads it (leaf, fallback, gathers, bytes)
 LEAF_TABLE_COPIES = 4
 AUTO_TABLE_SHARE = 1 / 8  # auto's single pass: the leaf table small beside the budgets (module docstring)
+COARSE_LEVEL = 3  # auto: passes where the budgets hold the whole volume only from this level up (module docstring)
+
+
+def whole_volume_level(source, budget_bytes: float) -> int:
+    """The finest level of ``source`` whose bricks, with their halos in the texture format, fit
+    ``budget_bytes`` together (the top level where none does). Per axis sums, not a table of bricks:
+    level 0 of a 16384^3 volume in 64^3 bricks has 16.7 M."""
+    itemsize = texture_format(source.dtype, source.value_range).itemsize
+    spans = table_of(source).spans  # per level, per axis [z, y, x]: the cores' (starts, stops)
+    for level, axes in enumerate(spans):
+        if math.prod(int((stops - starts + 2 * HALO).sum()) for starts, stops in axes) * itemsize <= budget_bytes:
+            return level
+    return len(spans) - 1
 
 
 def leaf_table_need(source, gl_budget_mb: float) -> tuple[int, int]:
@@ -67,6 +90,6 @@ def chosen_method(processor, source, leaf, name: str) -> str:
                               f"builds it, more than min(ram_budget, gl_budget) = {format_bytes(budget)}: use "
                               f"method 'passes' (its memory follows the budgets) or a larger budget")
         return method
-    fits = leaf is None and need <= AUTO_TABLE_SHARE * budget
+    fits = leaf is None and need <= AUTO_TABLE_SHARE * budget and whole_volume_level(source, budget) < COARSE_LEVEL
     return "single_pass" if fits and processor.compositing in SINGLE_PASS_MODES else "passes"
 
