@@ -2,8 +2,9 @@
 every level-0 cell, looked up as the shader does (bricks/paged_sampling.glsl, leaf_texel), finds
 the entry of the flat leaf table that PageTable.resolve makes over the whole volume, at every
 directory level, on plans with levels mixed, missing cells, empty cells and stale atlas bricks;
-the wanted values name the missing cell holding each level-0 cell; and the table's size is
-bounded by the atlas's slots, not the volume."""
+the wanted values name the missing cell holding each level-0 cell; the shader's look-up through
+the directory draws the in-core image; and the table's size is bounded by the atlas's slots, not
+the volume."""
 
 import itertools
 import math
@@ -16,7 +17,11 @@ from vgraph.bricks.leaf_pages import POINTER, build, directory_level, table_boun
 from vgraph.bricks.implicit_url import open_implicit
 from vgraph.bricks.page_table import PageTable
 from vgraph.bricks.pyramid import ArrayPyramid
+from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.selection import BrickGeometry
+
+from helpers.networks import UNSHADED_RAMP
+from test_bricked_raycaster import FINEST, WINDOW, odd_volume, oblique, render
 
 
 def looked_up(leaf, grid0) -> tuple[np.ndarray, np.ndarray]:
@@ -96,3 +101,24 @@ def test_the_directory_is_flat_for_small_volumes_and_pages_past_them():
         texels = math.prod(int(n) for n in large.grids[level]) + slots * 8 ** level
         assert level > 0 and table_bound(large, slots) == texels
         assert texels * leaf_pages.TEXEL_BYTES < 7 * 2 ** 20 < 256 ** 3 * 16  # 6 MiB at most where flat is 256 MiB
+
+
+@pytest.mark.parametrize("compositing", ["dvr", "iso"])
+def test_the_shader_through_the_directory_and_pages_draws_the_in_core_image(monkeypatch, compositing):
+    """A small volume gets the flat table; with FLAT_CELLS at 0 it gets a directory, pointers and
+    pages (PAGE_DIRECTORY), and the image at level 0 is the flat table's, the in-core RayCaster's."""
+    volume = odd_volume()
+    camera = oblique(volume)
+    properties = {**UNSHADED_RAMP, "compositing": compositing,
+                  **({"transfer_function": WINDOW, "early_termination": 0.99} if compositing == "dvr"
+                     else {"iso_level": 0.3, "shading": "blinn_phong"})}
+    want, _, _ = render(volume, camera, "RayCaster", **properties)
+    flat, _, rc = render(volume, camera, method="single_pass", brick_size=8, lod_bias=FINEST, **properties)
+    assert rc.parts[PagedSampling].resolved.level == 0
+    monkeypatch.setattr(leaf_pages, "FLAT_CELLS", 0)
+    got, _, rc = render(volume, camera, method="single_pass", brick_size=8, lod_bias=FINEST, **properties)
+    table = rc.parts[PagedSampling].resolved
+    assert table.level > 0 and table.pages > 0
+    assert rc.last_frame["levels"] == [0] and want[..., 3].max() > 0.3
+    np.testing.assert_allclose(got, flat, atol=1e-6)
+    assert np.abs(got - want).max() <= 1 / 255
