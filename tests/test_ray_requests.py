@@ -73,7 +73,7 @@ def test_the_wanted_table_marks_the_level_0_cells_of_missing_cells_and_the_walk_
     resident = np.array([(0, 2, 1, 2)])  # in the atlas: not missing
     leaf = leaf_pages.build(geometry, planned, resident, np.zeros((1, 3)),
                             lambda level: np.zeros(geometry.grids[level][::-1]), slots=8)
-    assert leaf.missing == [(1, 0, 0, 0), (0, 2, 1, 3)] and leaf.level == 0  # a flat table: one texel a cell
+    assert leaf.missing.tolist() == [[1, 0, 0, 0], [0, 2, 1, 3]] and leaf.level == 0  # a flat table: one texel a cell
     wanted = leaf.wanted  # 1 + the index in `missing` of the missing cell holding each level-0 cell
     assert wanted.shape == (3, 2, 4)
     assert (wanted[:2, :2, :2] == 1.0).all() and wanted[2, 1, 3] == 2.0

@@ -65,9 +65,9 @@ def _texels(geometry: BrickGeometry, level: int, slots: int) -> int:
 
 class LeafPages:
     """One frame's table (module docstring): ``table`` float32 [z, y, x, 4], ``wanted`` float32
-    [z, y, x], ``missing`` (the planned keys the atlas misses, in the plan's order), ``level`` (D),
-    ``page_cells`` (x, y, z), ``pages`` and ``undrawn`` (whether some cell of the volume is not
-    drawn: the march's jumps are worth compiling)."""
+    [z, y, x], ``missing`` (int [n, 4]: the planned keys the atlas misses, in the plan's order),
+    ``level`` (D), ``page_cells`` (x, y, z), ``pages`` and ``undrawn`` (whether some cell of the
+    volume is not drawn: the march's jumps are worth compiling)."""
 
     def __init__(self, table, wanted, missing, level, cells, pages, undrawn):
         self.table, self.wanted, self.missing = table, wanted, missing
@@ -117,7 +117,8 @@ class _Regions:
         return np.where(page >= 0, page * int(np.prod(per)) + local, -1)
 
 
-def build(geometry: BrickGeometry, planned, resident, offsets, lows, slots: int, directory: int | None = None) -> LeafPages:
+def build(geometry: BrickGeometry, planned, resident, offsets, lows, slots: int,
+          directory: int | None = None) -> LeafPages:
     """The table of a frame: ``planned`` the keys its plan draws, ``resident`` the atlas's keys [n, 4]
     with their texel offsets ``offsets`` [n, 3] (page_table.texel_offsets), ``lows(level)`` the
     cells' smallest normalised intensities [z, y, x], ``slots`` the atlas's (directory_level;
@@ -125,9 +126,7 @@ def build(geometry: BrickGeometry, planned, resident, offsets, lows, slots: int,
     level at a time."""
     planned = np.asarray(list(planned), dtype=np.int64).reshape(-1, 4)
     resident = np.asarray(resident, dtype=np.int64).reshape(-1, 4)
-    in_atlas = {tuple(key) for key in resident.tolist()}
-    missing = [tuple(key) for key in planned.tolist() if tuple(key) not in in_atlas]
-    missing_keys = np.asarray(missing, dtype=np.int64).reshape(-1, 4)
+    missing_keys = planned[~np.isin(_key_ids(geometry, planned), _key_ids(geometry, resident))]
     directory = directory_level(geometry, slots) if directory is None else directory
     regions = _Regions(geometry, directory)
     top = len(geometry.grids) - 1
@@ -156,13 +155,19 @@ def build(geometry: BrickGeometry, planned, resident, offsets, lows, slots: int,
         leaf[nothing] = 0.0
         leaf[nothing & empty, 0] = mark.lows(lows, cells)[nothing & empty]
         leaf[nothing, 3] = -(level + 1.0)
-        index, _ = mark.values(missing_keys, np.arange(1, len(missing) + 1, dtype=np.float64)[:, None])
+        index, _ = mark.values(missing_keys, np.arange(1, len(missing_keys) + 1, dtype=np.float64)[:, None])
         wanted[stops] = index[stops, 0]
         if level == directory:
             table, pages = _directory(regions, leaf, wanted, refined & open_, level)
             if directory == 0:
                 break
-    return _assembled(regions, table, pages, leaf, wanted, missing)
+    return _assembled(regions, table, pages, leaf, wanted, missing_keys)
+
+
+def _key_ids(geometry: BrickGeometry, keys: np.ndarray) -> np.ndarray:
+    """One int64 per key [n, 4] (level, z, y, x), the same for the same key: for np.isin."""
+    size = int(max(int(n) for grid in geometry.grids for n in grid)) + 1
+    return ((keys[:, 0] * size + keys[:, 1]) * size + keys[:, 2]) * size + keys[:, 3]
 
 
 class _Marks:

@@ -92,8 +92,8 @@ class RayRequests(Component):
         return self.frame_binding
 
     def read(self, ctx, missing) -> list:
-        """(key, pixels) of the cells of ``missing`` (the frame's, in its order) the last frame's rays
-        reached; [] when it did not ask."""
+        """(key, pixels) of the cells of ``missing`` (the frame's keys [n, 4], in its order) the last
+        frame's rays reached; [] when it did not ask."""
         if not self.asked:
             return []
         ctx.memory_barrier()  # the shader's image stores, before reading the texture
