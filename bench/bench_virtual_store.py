@@ -10,7 +10,9 @@ Per case: the first frame (seconds from the process's start: imports, opening th
 first frame at the load limit), the frames until one is complete (``last_frame["complete"]``,
 each reading at most LOAD_LIMIT bricks, as the GUI does), the bricks read and the time to the
 completed frame, and the process's peak RSS (resource.getrusage), in all and what the frames added
-to it after the volume was opened and the GL started. Prints a markdown table.
+to it after the volume was opened and the GL started; for the single pass, its leaf table's size
+(the directory and pages of vgraph.bricks.leaf_pages: bytes, directory level, pages) in the last
+frame. Prints a markdown table.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import json, resource, sys, warnings
 import vgraph
 from vgraph.frame_context import FrameContext
 from vgraph.bricks.cache import LoadLimit
+from vgraph.bricks.paged_sampling import PagedSampling
 url, budget, size, limit, method, bias = (sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]),
                                           sys.argv[5], float(sys.argv[6]))
 warnings.simplefilter("ignore")
@@ -53,6 +56,9 @@ try:
               "complete": bool(frame.get("complete", True)), "levels": sorted(set(frame["levels"])),
               "bricks_read": net["rc"].cache.stats["bricks_read"],
               "bytes_read": net["rc"].cache.stats.get("bytes_read")}
+    table = getattr(net["rc"].parts[PagedSampling], "resolved", None)  # the single pass's leaf table
+    if table is not None:
+        result.update(table_mib=table.nbytes / 2**20, directory_level=table.level, pages=table.pages)
 except vgraph.VGraphError as error:
     result = {"refused": str(error)}
 result["peak_rss_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
@@ -67,6 +73,13 @@ def run_case(url: str, budget: float, image: int, limit: int, method: str, bias:
     if done.returncode:
         return {"failed": done.stderr.strip().splitlines()[-1] if done.stderr.strip() else str(done.returncode)}
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def table_text(result: dict) -> str:
+    if "table_mib" not in result:
+        return ""
+    return (f"{result['table_mib']:.2f} MiB (directory at level {result['directory_level']}, "
+            f"{result['pages']} pages)")
 
 
 def main() -> None:
@@ -84,21 +97,21 @@ def main() -> None:
     print(f"{args.image}^2, ram_budget = gl_budget = {args.budget:g} MB, load limit {args.load_limit} "
           f"bricks a frame, lod_bias {args.lod_bias:g}\n")
     print("| store | method | first frame (s) | frames to complete | complete at (s) | levels | "
-          "bricks read | MiB read | peak RSS (MiB) | of which frames (MiB) |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "bricks read | MiB read | peak RSS (MiB) | of which frames (MiB) | leaf table |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     urls = [f"implicit:{args.function}?size={size}&brick=64" for size in args.sizes]
     for url in args.stores + urls:
         for method in args.methods:
             r = run_case(url, args.budget, args.image, args.load_limit, method, args.lod_bias)
             if "first" not in r:
                 print(f"| `{url}` | {method} | {r.get('refused') or r.get('failed')} |  |  |  |  |  | "
-                      f"{r.get('peak_rss_mib', 0):.0f} | |", flush=True)
+                      f"{r.get('peak_rss_mib', 0):.0f} | | |", flush=True)
                 continue
             mib = (r["bytes_read"] or 0) / 2**20
             print(f"| `{url}` | {method} | {r['first']:.2f} | {r['frames']}{'' if r['complete'] else ' (not complete)'} | "
                   f"{r['complete_at']:.2f} | {', '.join(map(str, r['levels']))} | {r['bricks_read']} | "
-                  f"{mib:.0f} | {r['peak_rss_mib']:.0f} | {r['peak_rss_mib'] - r['rss_before_mib']:.0f} |",
-                  flush=True)
+                  f"{mib:.0f} | {r['peak_rss_mib']:.0f} | {r['peak_rss_mib'] - r['rss_before_mib']:.0f} | "
+                  f"{table_text(r)} |", flush=True)
 
 
 if __name__ == "__main__":

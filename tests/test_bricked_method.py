@@ -9,6 +9,7 @@ import warnings
 import numpy as np
 import pytest
 
+from vgraph import ProcessorError
 from vgraph.bricks.methods import leaf_table_need
 from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.selection import LeafPass
@@ -60,14 +61,21 @@ def test_auto_is_the_default_and_draws_a_leaf_of_the_leaves_split_by_passes():
 
 def test_auto_draws_by_passes_where_the_leaf_table_would_pass_the_budgets():
     volume = Volume(field((80, 80, 80)))
-    cells, need = leaf_table_need(ArrayPyramid(volume.data, brick=(8, 8, 8)))
-    assert cells == 1000 and need == 1000 * 16 * 4  # one RGBA32F texel a brick, four copies
+    texels, need = leaf_table_need(ArrayPyramid(volume.data, brick=(8, 8, 8)), 1.0)
+    assert texels == 1000 and need == 1000 * 20 * 4  # flat: an RGBA32F and an R32F texel a brick, four copies
     budget = 4 * need / 2 ** 20  # MB: the table would be a quarter of it (auto wants an eighth at most)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the budget raises the level (test_bricked_raycaster says so)
         image, _, rc = render(volume, oblique(volume), brick_size=8, method="auto", ram_budget=budget,
                               gl_budget=budget)
     assert rc.drawn_method == "passes" and image[..., 3].max() > 0.1
+
+
+def test_single_pass_refuses_a_leaf_table_past_the_budgets_by_name():
+    volume = Volume(field((80, 80, 80)))  # 1000 level-0 cells: a flat table of 80000 bytes while built
+    with pytest.raises(ProcessorError, match=r"rc\.method: single_pass keeps a leaf table of up to 1000 texels "
+                                             r".*more than min\(ram_budget, gl_budget\).*use method 'passes'"):
+        render(volume, oblique(volume), brick_size=8, method="single_pass", ram_budget=0.05, gl_budget=0.05)
 
 
 @pytest.mark.parametrize("compositing, drawn", [("dvr", "single_pass"), ("mip", "passes")])

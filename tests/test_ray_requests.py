@@ -11,7 +11,8 @@ import pytest
 from vgraph.bricks.cache import LoadLimit
 from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.pyramid import ArrayPyramid
-from vgraph.bricks.ray_requests import by_priority, drawn_from, wanted_levels
+from vgraph.bricks import leaf_pages
+from vgraph.bricks.ray_requests import by_priority, drawn_from
 from vgraph.bricks.sampling import BrickSampling
 from vgraph.bricks.selection import BrickGeometry
 from vgraph.camera import Camera
@@ -68,9 +69,14 @@ def test_requests_go_by_pixels_then_coarser_levels_first():
 
 def test_the_wanted_table_marks_the_level_0_cells_of_missing_cells_and_the_walk_finds_ancestors():
     geometry = BrickGeometry(ArrayPyramid(field((20, 16, 28)), brick=(8, 8, 8)))  # level 0: 4 x 2 x 3 cells
-    wanted = wanted_levels(geometry, [(1, 0, 0, 0), (0, 2, 1, 3)])
+    planned = [(1, 0, 0, 0), (0, 2, 1, 3), (0, 2, 1, 2)]
+    resident = np.array([(0, 2, 1, 2)])  # in the atlas: not missing
+    leaf = leaf_pages.build(geometry, planned, resident, np.zeros((1, 3)),
+                            lambda level: np.zeros(geometry.grids[level][::-1]), slots=8)
+    assert leaf.missing.tolist() == [[1, 0, 0, 0], [0, 2, 1, 3]] and leaf.level == 0  # a flat table: one texel a cell
+    wanted = leaf.wanted  # 1 + the index in `missing` of the missing cell holding each level-0 cell
     assert wanted.shape == (3, 2, 4)
-    assert (wanted[:2, :2, :2] == 2.0).all() and wanted[2, 1, 3] == 1.0
+    assert (wanted[:2, :2, :2] == 1.0).all() and wanted[2, 1, 3] == 2.0
     assert np.count_nonzero(wanted) == 9
     resident = {(2, 0, 0, 0), (1, 0, 0, 1)}
     assert drawn_from(geometry, (0, 1, 1, 3), resident) == (1, 0, 0, 1)

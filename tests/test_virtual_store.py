@@ -2,7 +2,7 @@
 on read (vgraph.bricks.implicit_store), named by ``implicit:`` URLs (vgraph.bricks.implicit_url):
 valid metadata for vgraph and for zarr, chunks equal to the function, coarser levels as documented,
 the same image as the function sampled into memory, a 8192^3 store drawn within a memory budget,
-single_pass refusing a leaf table it cannot hold, and bad URLs refused by name (exit 2 in the CLI)."""
+the 8192^3 and 16384^3 stores in one pass with a leaf table bounded by the atlas's slots, and bad URLs refused by name (exit 2 in the CLI)."""
 
 import json
 import pickle
@@ -16,8 +16,13 @@ import numpy as np
 import pytest
 import zarr
 
-from vgraph import Network, VGraphError
+from vgraph import Network
+from vgraph.bricks import leaf_pages
 from vgraph.bricks.cache import LoadLimit
+from vgraph.bricks.methods import leaf_table_need, whole_volume_level
+from vgraph.bricks.paged_sampling import PagedSampling
+from vgraph.bricks.sampling import BrickSampling
+from vgraph.bricks.selection import BrickGeometry
 from vgraph.bricks.implicit_store import ImplicitStore
 from vgraph.bricks.implicit_url import ImplicitUrlError, open_implicit, parse_implicit_url
 from vgraph.bricks.pyramid import ArrayPyramid
@@ -153,15 +158,36 @@ def test_a_8192_store_renders_a_frame_within_the_memory_budget():
     grown = peak_rss_mib() - before
     frame = network["rc"].last_frame
     assert network["src"].outputs["volume"].dims == (8192, 8192, 8192)
+    # auto: passes, which step each level's lattice (the budgets hold the volume from level 5 up;
+    # the single pass samples level 0's: bricks/methods.py)
+    assert network["rc"].drawn_method == "passes"
     assert image[..., 3].max() > 0.5 and 0 < frame["bricks_read"] <= 64
     assert grown < BUDGET_MB, f"peak RSS grew {grown:.0f} MiB drawing the 8192^3 store"
 
 
-def test_single_pass_refuses_a_leaf_table_beyond_the_budget_by_name():
-    network = virtual_network("implicit:sphere?size=16384&brick=64", method="single_pass",
-                              ram_budget=256, gl_budget=256)
-    with pytest.raises(VGraphError, match=r"rc\.method: single_pass keeps a leaf table .*\(16777216 bricks of .*1\.0 GiB.*use method .passes."):
-        network.evaluate("rc.image", size=(32, 32))
+@pytest.mark.parametrize("size, directory, whole", [(8192, 2, 5), (16384, 3, 6)])
+def test_single_pass_draws_the_virtual_stores_with_a_leaf_table_that_follows_the_frame(size, directory, whole):
+    """Issue #33: one texel per level-0 cell was 32 MiB at 8192^3 and 256 MiB at 16384^3 (refused);
+    the directory and pages hold what the frame's plan reaches, within the atlas's slots."""
+    budgets = {"ram_budget": BUDGET_MB / 2, "gl_budget": BUDGET_MB / 2}
+    network = virtual_network(f"implicit:torus?size={size}&brick=64", method="single_pass", **budgets)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the budget raises the level (said by the frame's warning)
+        image = np.asarray(network.evaluate("rc.image", size=(32, 32),
+                                            context=FrameContext(load_limit=LoadLimit(bricks=16))))
+    rc = network["rc"]
+    paged = rc.parts[PagedSampling]
+    table, slots = paged.resolved, paged.atlas.capacity
+    source = rc.parts[BrickSampling].brick_source(network["src"].outputs["volume"])
+    geometry = BrickGeometry.of(source)
+    assert rc.drawn_method == "single_pass" and image[..., 3].max() > 0.5
+    assert table.level == directory and table.pages <= slots
+    assert table.table.shape[:3] == tuple(paged.page_table.gl["texture"].size[::-1])
+    # The flat table would be (size / 64)^3 texels of 16 bytes; this one is bounded by the slots.
+    assert table.table[..., 0].size <= 1.2 * leaf_pages.table_bound(geometry, slots)
+    assert table.nbytes < BUDGET_MB * 2 ** 20 / 64 < (size // 64) ** 3 * 16
+    assert leaf_table_need(source, budgets["gl_budget"])[1] < BUDGET_MB * 2 ** 20 / 8  # auto's memory rule
+    assert whole_volume_level(source, BUDGET_MB / 2 * 2 ** 20) == whole  # auto's coarse rule: passes
 
 
 @pytest.mark.parametrize("url, field, words", [

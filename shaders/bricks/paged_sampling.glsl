@@ -4,9 +4,9 @@
 // gradients and shading work unchanged; march.glsl's PAGED_SKIPPING hook calls paged_skipped() to
 // jump over cells that add nothing.
 //
-// A sample at level-0 texture coordinate t reads the leaf table's entry of its level-0 cell
-// (vgraph.bricks.page_table.PageTable.resolve: the page table's walk from the top level down,
-// done on the CPU): a >= 1: drawn from the brick of level a - 1 in the atlas, rgb = the texel
+// A sample at level-0 texture coordinate t reads the leaf entry of its level-0 cell (the page
+// table's walk from the top level down, done on the CPU: vgraph.bricks.leaf_pages, in a directory
+// and pages where PAGE_DIRECTORY is defined, leaf_texel): a >= 1: drawn from the brick of level a - 1 in the atlas, rgb = the texel
 // offset of its slot; a <= -1: nothing drawn (empty under the TF, or missing without a resident
 // ancestor), r = a normalised intensity that adds nothing, and the walk stopped at level -a - 1,
 // whose cell a ray may jump over. No branch decides what to fetch: llvmpipe would run its code for
@@ -17,7 +17,7 @@
 #define PAGE_FAR 1e6  // the volume's outer faces: samples on or a rounding past them have an owner
 
 uniform sampler3D volume;        // the atlas
-uniform sampler3D page_table;    // the leaf table, RGBA32F, one texel per level-0 cell
+uniform sampler3D page_table;    // the leaf table, RGBA32F: its directory, then its pages
 uniform float intensity_scale;   // normalised intensity = raw * scale + offset
 uniform float intensity_offset;
 uniform vec3 atlas_texels;                   // the atlas's size (x, y, z)
@@ -28,8 +28,27 @@ uniform vec3 cell_scale[PAGE_LEVELS];        // t -> cell coordinates: level-0 v
 uniform vec3 level_scale[PAGE_LEVELS];       // t -> the level's voxel coordinate u = t * scale + offset
 uniform vec3 level_offset[PAGE_LEVELS];
 
+#ifdef PAGE_DIRECTORY
+#define PAGE_POINTER 1024.0      // vgraph.bricks.leaf_pages.POINTER
+uniform ivec3 page_cells;        // level-0 cells per directory cell (x, y, z)
+#endif
+
+// The texel of the leaf entry of t's level-0 cell: without PAGE_DIRECTORY the table is flat (one
+// texel per level-0 cell); with it, the directory entry of the cell's directory cell is final, or
+// a pointer (a = PAGE_POINTER) to the page holding its level-0 cells at rgb. No branch: a select.
+ivec3 leaf_texel(vec3 t) {
+    ivec3 cell = clamp(ivec3(floor(t * leaf_scale)), ivec3(0), leaf_grid - 1);
+#ifdef PAGE_DIRECTORY
+    ivec3 directory = cell / page_cells;
+    vec4 entry = texelFetch(page_table, directory, 0);
+    return entry.a >= PAGE_POINTER ? ivec3(entry.rgb) + cell - directory * page_cells : directory;
+#else
+    return cell;
+#endif
+}
+
 vec4 leaf_entry(vec3 t) {
-    return texelFetch(page_table, clamp(ivec3(floor(t * leaf_scale)), ivec3(0), leaf_grid - 1), 0);
+    return texelFetch(page_table, leaf_texel(t), 0);
 }
 
 float raw_sample(vec3 t) {

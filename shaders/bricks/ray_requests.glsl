@@ -1,26 +1,22 @@
 // RayRequests (issue #33, item 2; vgraph.bricks.ray_requests): with PAGED_REQUESTS, the cells of
 // the frame's plan that the atlas does not hold and that a ray reached are counted, one count per
-// ray (a pixel), in `requests`, laid out as the page table (level L's cells at z + page_z_offset[L]);
-// the CPU reads it back after the frame and loads what rays asked for. A ray asks at every sample it
-// evaluates and at the start of every jump (paged_skipped), so a cell behind the sample where the ray
-// stopped (early termination, mip's maximum of 1) is never asked for. Included by paged_sampling.glsl.
+// ray (a pixel), in `requests`, one counter per missing cell (cell i at texel (i % request_row,
+// i / request_row, 0)); the CPU reads it back after the frame and loads what rays asked for. A ray
+// asks at every sample it evaluates and at the start of every jump (paged_skipped), so a cell behind
+// the sample where the ray stopped (early termination, mip's maximum of 1) is never asked for.
+// Included by paged_sampling.glsl (after leaf_texel).
 #ifdef PAGED_REQUESTS
-uniform sampler3D wanted_table;           // per level-0 cell: 1 + the level of the planned cell there
-                                          // that the atlas misses, 0 where none is missing
+uniform sampler3D wanted_table;           // laid out as the leaf table (leaf_texel): 1 + the index
+                                          // of the missing planned cell there, 0 where none is
 layout(r32ui) uniform uimage3D requests;  // rays that reached each missing cell
-uniform int page_z_offset[PAGE_LEVELS];
-ivec3 last_request = ivec3(-1);           // this ray's last counted cell: a ray counts a cell once
+uniform int request_row;
+int last_request = -1;                    // this ray's last counted cell: a ray counts a cell once
 
 void request_missing(vec3 t) {
-    float wanted = texelFetch(wanted_table, clamp(ivec3(floor(t * leaf_scale)), ivec3(0), leaf_grid - 1), 0).r;
-    if (wanted > 0.5) {
-        int level = int(wanted + 0.5) - 1;
-        ivec3 cell = clamp(ivec3(floor(t * cell_scale[level])), ivec3(0), page_grid[level] - 1);
-        cell.z += page_z_offset[level];
-        if (cell != last_request) {
-            imageAtomicAdd(requests, cell, 1u);
-            last_request = cell;
-        }
+    int wanted = int(texelFetch(wanted_table, leaf_texel(t), 0).r + 0.5) - 1;
+    if (wanted >= 0 && wanted != last_request) {
+        imageAtomicAdd(requests, ivec3(wanted % request_row, wanted / request_row, 0), 1u);
+        last_request = wanted;
     }
 }
 #else

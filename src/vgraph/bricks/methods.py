@@ -13,9 +13,19 @@ one texture cannot hold) takes the single pass where it measured faster and pass
   its run of bricks into an accumulation that the next worker continues; the single pass has no
   such partial frame;
 - a leaf table of more than AUTO_TABLE_SHARE of min(ram_budget, gl_budget) (leaf_table_need):
-  passes, whose memory follows the budgets. The table is memory beyond both budgets: the 8192^3
-  virtual store in 64^3 bricks (a 128 MiB table) under 128 + 128 MB grew the peak RSS by 301 MiB
-  in one pass, past the 256 MB that tests/test_virtual_store.py holds it to.
+  passes, whose memory follows the budgets. The table is memory beyond both budgets. Since it is
+  a directory and pages (vgraph.bricks.leaf_pages) its size follows the atlas's slots, not the
+  volume (the 8192^3 virtual store in 64^3 bricks under 128 + 128 MB: 1.2 MiB where one texel
+  per level-0 cell was 32 MiB), so this holds only for budgets of a few slots.
+- a volume whose budgets hold its whole pyramid only from level COARSE_LEVEL up
+  (``whole_volume_level`` of min(ram_budget, gl_budget); the 8192^3 and 16384^3 virtual stores
+  in 64^3 bricks under 256 MB: levels 5 and 6):
+  passes. The single pass samples level 0's lattice in every brick (the in-core lattice, so level
+  0 equals the RayCaster's image), up to 2^L samples per voxel of a level-L brick, where a pass
+  per brick steps its level's lattice: the 8192^3 store drawn at level 5 took 135 s to the first
+  frame in one pass against 13 s by passes (bench/bench_virtual_store.py; docs/reports/
+  performance.md, "Virtual stores"). The 1024^3 bonsai store (level 2) stays on the single pass
+  (measured 2.4x slower there too: its GUI frames are issue #33's other work).
 ``passes`` and ``single_pass`` force one; ``single_pass`` refuses a leaf frame and a leaf table
 past the budgets by name.
 """
@@ -24,24 +34,41 @@ from __future__ import annotations
 
 import math
 
-from vgraph.bricks.cache import MB
-from vgraph.bricks.pyramid import brick_grid
+from vgraph.bricks.atlas import brick_count, slot_shape_of
+from vgraph.bricks.cache import HALO, MB, texture_format
+from vgraph.bricks.cells import table_of
+from vgraph.bricks.leaf_pages import TEXEL_BYTES, table_bound
+from vgraph.bricks.selection import BrickGeometry
 from vgraph.errors import VGraphError
 from vgraph.memory import format_bytes
 
 METHODS = ("auto", "passes", "single_pass")
 SINGLE_PASS_MODES = ("dvr", "iso")  # where the single pass measured faster (module docstring)
-# The single pass's page table resolves to a leaf table of one RGBA32F texel per level-0 brick,
-# held about this many times while a frame builds it (entries, leaf, fallback, the texture):
-# 128 MiB at 8192^3 in 64^3 bricks, 1 GiB at 16384^3, which is refused rather than allocated
-LEAF_TABLE_BYTES, LEAF_TABLE_COPIES = 16, 4
+# The single pass's leaf table (vgraph.bricks.leaf_pages: RGBA32F entries and R32F wanted values),
+# held about this many times while a frame builds and uploads it (leaf, fallback, gathers, bytes)
+LEAF_TABLE_COPIES = 4
 AUTO_TABLE_SHARE = 1 / 8  # auto's single pass: the leaf table small beside the budgets (module docstring)
+COARSE_LEVEL = 3  # auto: passes where the budgets hold the whole volume only from this level up (module docstring)
 
 
-def leaf_table_need(source) -> tuple[int, int]:
-    """(level-0 bricks, bytes) of the single pass's leaf table for ``source`` (a BrickSource)."""
-    cells = math.prod(brick_grid(source.levels[0].shape, source.brick))
-    return cells, cells * LEAF_TABLE_BYTES * LEAF_TABLE_COPIES
+def whole_volume_level(source, budget_bytes: float) -> int:
+    """The finest level of ``source`` whose bricks, with their halos in the texture format, fit
+    ``budget_bytes`` together (the top level where none does). Per axis sums, not a table of bricks:
+    level 0 of a 16384^3 volume in 64^3 bricks has 16.7 M."""
+    itemsize = texture_format(source.dtype, source.value_range).itemsize
+    spans = table_of(source).spans  # per level, per axis [z, y, x]: the cores' (starts, stops)
+    for level, axes in enumerate(spans):
+        if math.prod(int((stops - starts + 2 * HALO).sum()) for starts, stops in axes) * itemsize <= budget_bytes:
+            return level
+    return len(spans) - 1
+
+
+def leaf_table_need(source, gl_budget_mb: float) -> tuple[int, int]:
+    """(texels, bytes) of the single pass's leaf table for ``source`` (a BrickSource) at most, with
+    the atlas's slots of ``gl_budget_mb`` (as many as one byte a voxel gives: the most)."""
+    slots = min(int(gl_budget_mb * MB) // math.prod(slot_shape_of(source)), brick_count(source))
+    texels = table_bound(BrickGeometry.of(source), max(slots, 1))
+    return texels, texels * TEXEL_BYTES * LEAF_TABLE_COPIES
 
 
 def chosen_method(processor, source, leaf, name: str) -> str:
@@ -51,19 +78,18 @@ def chosen_method(processor, source, leaf, name: str) -> str:
     method = getattr(processor, "method", "auto")
     if method == "passes":
         return method
-    cells, need = leaf_table_need(source)
+    texels, need = leaf_table_need(source, processor.gl_budget)
     budget = min(processor.ram_budget, processor.gl_budget) * MB
     if method == "single_pass":
         if leaf is not None:
             raise VGraphError(f"{processor.id}.method: single_pass does not draw the leaves split's runs of "
                               f"bricks (a worker's partial frame); use method 'passes' or 'auto'")
         if need > budget:
-            raise VGraphError(f"{processor.id}.method: single_pass keeps a leaf table of one RGBA32F texel per "
-                              f"level-0 brick ({cells} bricks of {name}), about "
-                              f"{format_bytes(need)} while a frame builds it, more than min(ram_budget, "
-                              f"gl_budget) = {format_bytes(budget)}: use method 'passes' (its memory follows "
-                              f"the budgets) or larger bricks")
+            raise VGraphError(f"{processor.id}.method: single_pass keeps a leaf table of up to {texels} texels "
+                              f"for {name} (a directory and pages), about {format_bytes(need)} while a frame "
+                              f"builds it, more than min(ram_budget, gl_budget) = {format_bytes(budget)}: use "
+                              f"method 'passes' (its memory follows the budgets) or a larger budget")
         return method
-    fits = leaf is None and need <= AUTO_TABLE_SHARE * budget
+    fits = leaf is None and need <= AUTO_TABLE_SHARE * budget and whole_volume_level(source, budget) < COARSE_LEVEL
     return "single_pass" if fits and processor.compositing in SINGLE_PASS_MODES else "passes"
 

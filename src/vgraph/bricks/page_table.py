@@ -19,15 +19,17 @@ Conventions:
   plan allows), or nothing when there is none. So the plan is the LOD rule (BrickSampling's:
   footprint, lod_bias, max_error, the budget's floor level) and the page table says how much of
   it is resident.
-- The shader does not walk: ``resolve`` walks every level-0 cell on the CPU (a few numpy passes,
-  top down) into the *leaf table*, one RGBA32F entry per level-0 cell that the shader reads once
-  per sample (bricks/paged_sampling.glsl): drawn, a = 1 + the level drawn, rgb = that brick's
-  texel offset; not drawn, a = -(1 + the level of the cell where the walk stopped, whose box a
-  ray may jump over), r = the value. Why flat: llvmpipe runs every ``if`` for all 8 pixels of a
-  SIMD group whether or not one takes it, so a walk "only when a ray enters a new cell" cost a
-  walk per sample (5-8x the in-core frame); one fetch of a small table costs about one sample's.
-  Its size is level 0's cell grid (a 16384^3 volume in bricks of 64: 256^3 cells, 256 MB), which
-  a page table of several levels would avoid (not done yet).
+- The shader does not walk: the walk of every level-0 cell is done on the CPU into the *leaf
+  table*, one RGBA32F entry per level-0 cell that the shader reads once per sample
+  (bricks/paged_sampling.glsl): drawn, a = 1 + the level drawn, rgb = that brick's texel offset;
+  not drawn, a = -(1 + the level of the cell where the walk stopped, whose box a ray may jump
+  over), r = the value. Why flat: llvmpipe runs every ``if`` for all 8 pixels of a SIMD group
+  whether or not one takes it, so a walk "only when a ray enters a new cell" cost a walk per
+  sample (5-8x the in-core frame); one fetch of a small table costs about one sample's.
+- ``entries`` and ``resolve`` define the walk on whole levels (a table over the whole volume:
+  256 MiB for a 16384^3 volume in bricks of 64). A frame builds its leaf table with
+  vgraph.bricks.leaf_pages instead, the same walk on the cells its plan reaches, in a directory
+  and pages whose size follows the plan (tests/test_leaf_pages.py checks it against these).
 """
 
 from __future__ import annotations
@@ -154,7 +156,7 @@ class PageTable:
         return leaf
 
     def upload(self, ctx, table: np.ndarray):
-        """``table`` (the leaf table) as the RGBA32F texture (kept while its size and context stay)."""
+        """``table`` (the leaf table, leaf_pages.LeafPages.table) as the RGBA32F texture (kept while its size and context stay)."""
         size = table.shape[2], table.shape[1], table.shape[0]
         texture = self.gl.get("texture")
         if texture is None or texture.ctx is not ctx or texture.size != size:

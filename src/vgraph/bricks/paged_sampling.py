@@ -14,7 +14,8 @@ Conventions (docs/explanations/bricked-ray-casting.md, "One pass, a page table")
   footprint, ``lod_bias``, ``max_error`` and the budget's floor level, the GUI's ``load_limit``):
   its bricks, and the planned ones already in memory, are placed in the atlas (read through the
   brick cache), the page table marks them, their ancestors (REFINE) and the cells the plan leaves
-  out (EMPTY), and its leaf table (PageTable.resolve) is what the shader reads. A planned brick
+  out (EMPTY), and its leaf table (PageTable.resolve's walk, in a directory and pages:
+  vgraph.bricks.leaf_pages) is what the shader reads. A planned brick
   the atlas does not hold is drawn from its finest resident ancestor. Under a ``load_limit`` a
   frame with missing bricks reads only a coarser plan within the limit (``fallback``, for those
   ancestors); the planned bricks that rays reached missing are counted by the shader
@@ -46,6 +47,7 @@ import numpy as np
 
 from vgraph.bricks.atlas import BrickAtlas
 from vgraph.bricks.cache import MB, bricks_bytes
+from vgraph.bricks import leaf_pages
 from vgraph.bricks.coarse_step import coarse_step_binding, sample_stride
 from vgraph.bricks.page_table import PageTable, texel_offsets
 from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
@@ -118,21 +120,21 @@ class PagedSampling(Component):
         atlas.begin_frame(set(wanted) | (set(plan.keys()) & resident_before))
         placed = atlas.place_all(wanted, cache.brick)
         resolved, leaf = self.leaf_table(frame, source, geometry, plan, atlas)
-        missing = [key for key in plan.keys() if key not in atlas.slots]
+        missing = resolved.missing  # the plan's cells the atlas misses
         requests = processor.parts[RayRequests]
-        requests.prepare(frame.ctx, geometry, missing)  # the rays ask for what they reach of these
-        self.frame_binding = self.binding_of(frame, geometry, source, leaf)
+        requests.prepare(frame.ctx, resolved)  # the rays ask for what they reach of these
+        self.frame_binding = self.binding_of(frame, geometry, source, resolved, leaf)
         blocks = self.block_flags(frame, atlas)
         if blocks is not None:
             self.frame_binding = self.frame_binding.merge(blocks)
         # march.glsl's jumps (and the requests, asked there) only where some cell is not drawn or
         # missing, or some block is skipped: on llvmpipe the jumps' look-ups cost every sample
         self.frame_binding.defines["PAGED_SKIPPING"] = (blocks is not None or requests.asked
-                                                        or bool((resolved[..., 3] < 0.0).any()))
+                                                        or resolved.undrawn)
         # a drag's frame steps at the finest planned level's step (vgraph.bricks.coarse_step)
         stride = sample_stride(geometry, plan.keys(), context.interactive)
         self.draw(frame, target, own.merge(coarse_step_binding(processor, frame, stride)))
-        requested = requests.read(frame.ctx, geometry)  # (key, pixels) of the missing cells rays reached
+        requested = requests.read(frame.ctx, missing)  # (key, pixels) of the missing cells rays reached
         if requested and context.load_limit is not None:  # the next frame refines (the GUI asks again)
             cache.begin_frame(plan.keys())
             cache.read_ahead([key for key, _ in by_priority(requested) if key not in cache.ram], context.load_limit,
@@ -211,18 +213,18 @@ class PagedSampling(Component):
         return line + f"; coarsest level {frame['coarsest_level']}; refining"
 
     def leaf_table(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas):
-        """The frame's leaf table (numpy) and its texture: the page table of the plan and the
-        atlas's bricks, resolved (vgraph.bricks.page_table); the last frame's while neither the
-        plan nor the atlas's bricks changed (a still camera: no table to build)."""
+        """The frame's leaf table (vgraph.bricks.leaf_pages.LeafPages) and its texture: the page
+        table of the plan and the atlas's bricks, resolved into a directory and pages; the last
+        frame's while neither the plan nor the atlas's bricks changed (a still camera: no table to
+        build)."""
         key = (id(source), frame.volume.value_range, tuple(plan.keys()), atlas.key, atlas.stats["uploads"],
                atlas.stats["evictions"], id(atlas.gl.get("texture")))
         if self.table_key != key or self.page_table.gl.get("texture") is None \
                 or self.page_table.gl["texture"].ctx is not frame.ctx:
             keys, origins = atlas.resident()
-            table = PageTable.entries(geometry, plan.keys(), (keys, texel_offsets(source, keys, origins)),
-                                      self.lows(source, geometry, frame))
-            self.resolved = PageTable.resolve(geometry, table)
-            self.page_table.upload(frame.ctx, self.resolved)
+            self.resolved = leaf_pages.build(geometry, plan.keys(), keys, texel_offsets(source, keys, origins),
+                                             self.lows(source, geometry, frame), atlas.capacity)
+            self.page_table.upload(frame.ctx, self.resolved.table)
             self.table_key = key
         return self.resolved, self.page_table.gl["texture"]
 
@@ -293,8 +295,9 @@ class PagedSampling(Component):
             return values
         return low
 
-    def binding_of(self, frame: Frame, geometry: BrickGeometry, source, leaf) -> Binding:
-        """The pass's atlas, leaf table and their uniforms (bricks/paged_sampling.glsl)."""
+    def binding_of(self, frame: Frame, geometry: BrickGeometry, source, resolved, leaf) -> Binding:
+        """The pass's atlas, leaf table (``resolved``, its texture ``leaf``) and their uniforms
+        (bricks/paged_sampling.glsl)."""
         processor, atlas = self.processor, self.atlas
         fmt = processor.parts[BrickSampling].cache.format
         levels = len(source.levels)
@@ -311,8 +314,9 @@ class PagedSampling(Component):
                     "leaf_grid": tuple(int(n) for n in geometry.grids[0]),
                     "leaf_scale": vec(dims0 / geometry.spans[0]),
                     "level_scale": np.asarray(level_scale, dtype=np.float32),
-                    "level_offset": np.asarray(level_offset, dtype=np.float32)}
-        defines = {"PAGE_LEVELS": levels}
+                    "level_offset": np.asarray(level_offset, dtype=np.float32),
+                    "page_cells": tuple(int(n) for n in resolved.page_cells)}
+        defines = {"PAGE_LEVELS": levels, "PAGE_DIRECTORY": resolved.level > 0}
         if processor.shaded():
             gradients = processor.parts[Gradients]
             gradients.check()

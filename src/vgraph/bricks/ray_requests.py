@@ -6,11 +6,12 @@ of components: vgraph.gl.raycasting.raycaster_base.
 
 Conventions:
 - Only a frame whose plan misses cells in the atlas asks (define PAGED_REQUESTS; a complete frame
-  pays nothing). Its ``wanted`` table holds, per level-0 cell, 1 + the level of the planned cell
-  there that the atlas misses (0: none); the shader (bricks/ray_requests.glsl) adds one per ray to
-  that cell's counter in an R32UI image laid out as the page table (vgraph.bricks.page_table) with
-  image atomics (GL_ARB_shader_image_load_store, in Mesa's llvmpipe; the extension line is this
-  part's GLSL, included ahead of every other part).
+  pays nothing). Its ``wanted`` table (vgraph.bricks.leaf_pages, laid out as the leaf table)
+  holds, per leaf texel, 1 + the index of the planned cell there that the atlas misses (0: none);
+  the shader (bricks/ray_requests.glsl) adds one per ray to that cell's counter in an R32UI image
+  of one texel per missing cell (REQUEST_ROW a row), so its size follows the frame's plan, not
+  the volume, with image atomics (GL_ARB_shader_image_load_store, in Mesa's llvmpipe; the
+  extension line is this part's GLSL, included ahead of every other part).
 - A ray asks where it evaluates a sample or starts a jump over a cell not drawn, so a cell no ray
   reaches (hidden behind opaque bricks once rays stop early, outside every ray, behind mip's
   maximum of 1) is never asked for, and never read. What a ray reads only through the shading's
@@ -27,28 +28,13 @@ import weakref
 
 import numpy as np
 
-from vgraph.bricks.page_table import PageTable
+from vgraph.bricks.leaf_pages import LeafPages
 from vgraph.bricks.selection import BrickGeometry
 from vgraph.gl.raycasting.raycaster_base import Binding, Component
 from vgraph.gl_context import release_quietly
 
 IMAGE_UNIT = 0  # the image unit of the requests (image units are apart from texture units)
-
-
-def wanted_levels(geometry: BrickGeometry, missing) -> np.ndarray:
-    """float32 [z, y, x] per level-0 cell: 1 + the level of the cell of ``missing`` (keys) holding
-    it, 0 where none does. The planned cells tile the volume, so at most one holds a cell."""
-    shape = tuple(int(n) for n in geometry.grids[0][::-1])
-    wanted = np.zeros(shape, dtype=np.float32)
-    keys = np.asarray(list(missing), dtype=np.int64).reshape(-1, 4)
-    for level in np.unique(keys[:, 0]):
-        level = int(level)
-        mask = np.zeros(tuple(int(n) for n in geometry.grids[level][::-1]), dtype=bool)
-        mask[tuple(keys[keys[:, 0] == level, 1:].T)] = True
-        per_cell = (geometry.spans[level] / geometry.spans[0]).astype(np.int64)[::-1]  # level-0 cells, [z, y, x]
-        index = np.ix_(*[np.arange(n) // int(r) for n, r in zip(shape, per_cell)])
-        wanted[mask[index]] = level + 1.0
-    return wanted
+REQUEST_ROW = 1024  # missing cells' counters per row of the request image
 
 
 def by_priority(requests: list) -> list:
@@ -79,7 +65,7 @@ class RayRequests(Component):
     glsl = ("bricks/ray_requests_extension.glsl",)
 
     def start(self) -> None:
-        self.gl: dict = {}  # "requests" (R32UI, the page table's layout), "wanted" (R32F, level 0's cells)
+        self.gl: dict = {}  # "requests" (R32UI, a counter per missing cell), "wanted" (R32F, the leaf table's layout)
         weakref.finalize(self.processor, release_quietly, self.gl)
         self.frame_binding = Binding()
         self.asked = False  # whether the frame being drawn asks
@@ -87,36 +73,32 @@ class RayRequests(Component):
     def bind(self, frame) -> Binding:
         return self.frame_binding  # made by prepare, before the pass
 
-    def prepare(self, ctx, geometry: BrickGeometry, missing) -> Binding:
-        """The pass's binding for a frame whose plan the atlas misses ``missing`` of: the zeroed
+    def prepare(self, ctx, leaf: LeafPages) -> Binding:
+        """The pass's binding for a frame whose plan the atlas misses ``leaf.missing`` of: the zeroed
         request image bound to its image unit and the wanted table; nothing when none is missing."""
-        self.asked = bool(missing)
+        count = len(leaf.missing)
+        self.asked = bool(count)
         if not self.asked:
             self.frame_binding = Binding()
             return self.frame_binding
-        (size_x, size_y, size_z), z_offsets = PageTable.layout(geometry)
-        requests = self._texture(ctx, "requests", (size_x, size_y, size_z), "u4")
-        requests.write(np.zeros(size_x * size_y * size_z, dtype=np.uint32).tobytes())
+        size = (min(count, REQUEST_ROW), -(-count // REQUEST_ROW), 1)
+        requests = self._texture(ctx, "requests", size, "u4")
+        requests.write(np.zeros(size[0] * size[1], dtype=np.uint32).tobytes())
         requests.bind_to_image(IMAGE_UNIT, read=True, write=True)
-        wanted = wanted_levels(geometry, missing)
-        table = self._texture(ctx, "wanted", wanted.shape[::-1], "f4")
-        table.write(wanted.tobytes())
+        table = self._texture(ctx, "wanted", leaf.wanted.shape[::-1], "f4")
+        table.write(np.ascontiguousarray(leaf.wanted).tobytes())
         self.frame_binding = Binding({"PAGED_REQUESTS": True}, textures={"wanted_table": table},
-                                     uniforms={"requests": IMAGE_UNIT,
-                                               "page_z_offset": np.asarray(z_offsets, dtype=np.int32)})
+                                     uniforms={"requests": IMAGE_UNIT, "request_row": size[0]})
         return self.frame_binding
 
-    def read(self, ctx, geometry: BrickGeometry) -> list:
-        """(key, pixels) of the missing cells the last frame's rays reached; [] when it did not ask."""
+    def read(self, ctx, missing) -> list:
+        """(key, pixels) of the cells of ``missing`` (the frame's keys [n, 4], in its order) the last
+        frame's rays reached; [] when it did not ask."""
         if not self.asked:
             return []
-        (size_x, size_y, size_z), z_offsets = PageTable.layout(geometry)
         ctx.memory_barrier()  # the shader's image stores, before reading the texture
-        counts = np.frombuffer(self.gl["requests"].read(), dtype=np.uint32).reshape(size_z, size_y, size_x)
-        z, y, x = np.nonzero(counts)
-        levels = np.searchsorted(np.asarray(z_offsets), z, side="right") - 1
-        return [((int(level), int(k - z_offsets[level]), int(j), int(i)), int(counts[k, j, i]))
-                for level, k, j, i in zip(levels, z, y, x)]
+        counts = np.frombuffer(self.gl["requests"].read(), dtype=np.uint32)[:len(missing)]
+        return [(tuple(int(i) for i in missing[index]), int(counts[index])) for index in np.flatnonzero(counts)]
 
     def _texture(self, ctx, name: str, size, dtype: str):
         texture = self.gl.get(name)
