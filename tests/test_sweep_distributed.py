@@ -86,13 +86,12 @@ def test_leaves_on_two_workers_equal_the_single_process_picture(client, store, t
 
 
 # --- what each worker read (render_report) ------------------------------------------------------------
-def cache_reads(client) -> dict:
-    """Worker address -> bytes read by every brick cache of the networks it holds (the caches'
-    own counters)."""
+def cache_reads(client, renderer) -> dict:
+    """Worker address -> bytes read by the brick cache of ``renderer`` in the networks the
+    worker holds (the cache's own counter; other networks may come and go meanwhile)."""
     def counted():
-        from vgraph.distributed.report import _caches
         from vgraph.distributed.worker import kept_networks
-        return sum(cache.stats["bytes_read"] for cache in _caches(kept_networks()))
+        return sum(net[renderer].cache.stats["bytes_read"] for net in kept_networks() if renderer in net.processors)
     return client.run(counted)
 
 
@@ -122,10 +121,10 @@ def test_tiles_read_every_leaf_their_tiles_see_on_each_worker(client, store):
     tiles = cut(SIZE, (2, 1))
     seen = [leaves_seen(net, "tiles_bytes", tile) for tile in tiles]
     assert seen[0] & seen[1] and read(seen[0] | seen[1]) == single  # leaves on the seam: seen by both
-    before = cache_reads(client)
+    before = cache_reads(client, "tiles_bytes")
     frame = render_report(net, client, split="tiles", tiles=(2, 1), size=SIZE, target="tiles_bytes.image")
     assert np.abs(frame.image - reference).max() <= TOLERANCE and frame.split == "tiles"
-    after = cache_reads(client)
+    after = cache_reads(client, "tiles_bytes")
     on = {}  # worker -> the leaves its tiles see
     for tile_seen, task in zip(seen, frame.tasks):
         on.setdefault(task.worker, set()).update(tile_seen)
@@ -143,9 +142,9 @@ def test_leaves_read_each_leaf_once_in_all_and_report_it_per_worker(client, stor
     net = network(store / "ball.zarr", renderer="leaves_bytes", early_termination=1.0)
     reference = net.evaluate("leaves_bytes.image", size=SIZE)
     single = net["leaves_bytes"].last_sweep
-    before = cache_reads(client)
+    before = cache_reads(client, "leaves_bytes")
     frame = render_report(net, client, split="leaves", size=SIZE, runs=3, target="leaves_bytes.image")
-    after = cache_reads(client)
+    after = cache_reads(client, "leaves_bytes")
     assert np.abs(frame.image - reference).max() <= TOLERANCE and frame.split == "leaves"
     assert frame.bytes_read == single["bytes_read"] and frame.bricks_read == single["leaves_swept"]
     for address, worker in frame.workers.items():
