@@ -1,19 +1,22 @@
 // PagedSampling (issue #33, item 1; vgraph.bricks.paged_sampling): the volume sampled in one pass
 // through a page table and a brick atlas. Same names as raycasting/volume_sampling.glsl
 // (raw_sample, intensity, volume, intensity_scale/offset), so the RayCaster's compositing,
-// gradients and shading work unchanged; march.glsl's PAGED_SKIPPING hook calls paged_skipped() to
-// jump over cells that add nothing.
+// gradients and shading work unchanged; march.glsl's PAGED_SKIPPING hook (always compiled here)
+// calls paged_run() whenever a sample leaves its run.
 //
-// A sample at level-0 texture coordinate t reads the leaf entry of its level-0 cell (the page
+// A ray walks runs: paged_run() reads the leaf entry of the sample's level-0 cell (the page
 // table's walk from the top level down, done on the CPU: vgraph.bricks.leaf_pages, in a directory
-// and pages where PAGE_DIRECTORY is defined, leaf_texel): a >= 1: drawn from the brick of level a - 1 in the atlas, rgb = the texel
+// and pages where PAGE_DIRECTORY is defined, leaf_texel): a >= 1: drawn from the brick of level
+// a - 1 in the atlas, rgb = the texel
 // offset of its slot; a <= -1: nothing drawn (empty under the TF, or missing without a resident
-// ancestor), r = a normalised intensity that adds nothing, and the walk stopped at level -a - 1,
-// whose cell a ray may jump over. No branch decides what to fetch: llvmpipe would run its code for
-// every sample anyway (docs/reports/performance.md, "Code that no pixel needs is not free").
-// Reads near a cell's faces (trilinear, gradients) come from the slot of the cell they fall in;
-// each slot's apron of 2 voxels holds what its own samples filter, so level 0 equals the whole
-// volume's texture.
+// ancestor), and the walk stopped at level -a - 1, whose cell the ray jumps over. A drawn cell
+// starts a run: the samples up to where the ray leaves the cell (or the cube of blocks of
+// PAGED_BLOCKS) are read from its slot with no further look-up, their gradients too. Each slot's
+// apron of 2 voxels holds what its own samples filter and what reads up to 1.5 voxels past its
+// cell do (differences, iso's refinement), the voxels the neighbouring cell's brick holds, so level
+// 0 equals the whole volume's texture. The look-ups are in a loop of their own: llvmpipe runs the
+// code of an `if` for all 8 pixels of a SIMD group, but a loop only while one of them needs it
+// (docs/reports/performance.md, "Code that no pixel needs is not free").
 #define PAGE_FAR 1e6  // the volume's outer faces: samples on or a rounding past them have an owner
 
 uniform sampler3D volume;        // the atlas
@@ -21,6 +24,7 @@ uniform sampler3D page_table;    // the leaf table, RGBA32F: its directory, then
 uniform float intensity_scale;   // normalised intensity = raw * scale + offset
 uniform float intensity_offset;
 uniform vec3 atlas_texels;                   // the atlas's size (x, y, z)
+uniform vec3 slot_texels;                    // the atlas's slot shape (x, y, z)
 uniform ivec3 leaf_grid;                     // level 0's cells per axis (page_grid[0], cell_scale[0]:
 uniform vec3 leaf_scale;                     //   apart, as a compiler trims an array read at 0 only)
 uniform ivec3 page_grid[PAGE_LEVELS];        // cells per axis of each level
@@ -51,12 +55,16 @@ vec4 leaf_entry(vec3 t) {
     return texelFetch(page_table, leaf_texel(t), 0);
 }
 
+// The run of samples the march is in (paged_run below): a stretch of the ray inside one drawn
+// level-0 cell (and, with PAGED_BLOCKS, one block that adds something), read from that cell's
+// slot. Set once per run, so a sample and its gradient's reads fetch no leaf entry.
+vec3 run_scale;   // t -> normalised atlas coordinate: t * run_scale + run_offset
+vec3 run_offset;
+vec3 run_low;     // the run's slot (its apron included) as normalised atlas coordinates of its
+vec3 run_high;    //   outermost texel centres: no read leaves the slot
+
 float raw_sample(vec3 t) {
-    vec4 entry = leaf_entry(t);
-    int level = max(int(entry.a + 0.5) - 1, 0);  // (a cell not drawn fetches something: see the top)
-    vec3 texel = t * level_scale[level] + level_offset[level] + entry.rgb;
-    float fetched = textureLod(volume, texel / atlas_texels, 0.0).r;
-    return entry.a > 0.0 ? fetched : (entry.r - intensity_offset) / intensity_scale;
+    return textureLod(volume, clamp(t * run_scale + run_offset, run_low, run_high), 0.0).r;
 }
 
 float intensity(vec3 t) {
@@ -71,67 +79,79 @@ void cell_box(vec3 t, vec3 scale, ivec3 grid, out vec3 lo, out vec3 hi) {
     hi = mix(vec3(cell + 1) / scale, vec3(PAGE_FAR), equal(cell, grid - 1));
 }
 
+
 #ifdef PAGED_BLOCKS
-// Skipping inside the atlas's bricks (vgraph.bricks.atlas_blocks): 1 where a block of BLOCK^3 core
-// voxels of a slot adds nothing this frame; slot s's blocks start at texel slot * blocks_per_slot.
+// Skipping inside the atlas's bricks (vgraph.bricks.atlas_blocks): per block of BLOCK^3 core voxels
+// of a slot, k >= 1 where every block within Chebyshev distance k - 1 adds nothing this frame (a ray
+// jumps over that cube), -k where every block within k - 1 may add something (a run spans that
+// cube: no look-up inside it). empty_space.glsl's radii over the flags laid out as the slots:
+// blocks of other slots lie within a cube only outside the cell, which bounds every box; unknown
+// blocks count as occupied. Slot s's blocks start at texel slot * blocks_per_slot.
 #define PAGE_BLOCK 8.0
 #define PAGE_APRON 2.0
 uniform sampler3D block_flags;
-uniform vec3 slot_texels;        // the atlas's slot shape (x, y, z)
 uniform ivec3 blocks_per_slot;
 
-// Whether the drawn sample at t (leaf entry `entry`) lies in a block that adds nothing; if so its
-// box in t, within the level-0 cell of t (a block may reach past the cells its brick draws).
-bool in_empty_block(vec3 t, vec4 entry, inout vec3 lo, inout vec3 hi) {
-    int level = max(int(entry.a + 0.5) - 1, 0);
-    vec3 p = t * level_scale[level] + level_offset[level] + entry.rgb;  // atlas texels
-    vec3 slot = floor(p / slot_texels);
-    vec3 k = clamp(floor((p - slot * slot_texels - PAGE_APRON) / PAGE_BLOCK), vec3(0.0),
-                   vec3(blocks_per_slot - 1));
-    bool empty = texelFetch(block_flags, ivec3(slot) * blocks_per_slot + ivec3(k), 0).r > 0.5;
-    vec3 block_lo = (slot * slot_texels + PAGE_APRON + k * PAGE_BLOCK - level_offset[level] - entry.rgb)
-                    / level_scale[level];
-    lo = max(lo, block_lo);
-    hi = min(hi, block_lo + PAGE_BLOCK / level_scale[level]);
-    return empty;
+// Whether the sample at t, at atlas texel p of the slot whose first texel is `slot_origin`, lies in
+// a block that adds nothing; narrows [lo, hi) to the box in t of the cube of blocks around it that
+// all add nothing or all may add something (texel_offset, scale: t = (p - texel_offset) / scale).
+bool in_empty_block(vec3 p, vec3 slot_origin, vec3 texel_offset, vec3 scale, inout vec3 lo, inout vec3 hi) {
+    vec3 k = clamp(floor((p - slot_origin - PAGE_APRON) / PAGE_BLOCK), vec3(0.0), vec3(blocks_per_slot - 1));
+    float radius = texelFetch(block_flags, ivec3(slot_origin / slot_texels + 0.5) * blocks_per_slot + ivec3(k), 0).r;
+    float reach = abs(radius);
+    vec3 block_lo = (slot_origin + PAGE_APRON + k * PAGE_BLOCK - texel_offset) / scale;
+    lo = max(lo, block_lo - (reach - 1.0) * PAGE_BLOCK / scale);
+    hi = min(hi, block_lo + reach * PAGE_BLOCK / scale);
+    return radius > 0.5;
 }
 #endif
 
 #include "bricks/ray_requests.glsl"
 
-// Where sample i lies in a cell that is not drawn (or, with PAGED_BLOCKS, in a block that adds
-// nothing), move i to the first sample past that box and return true (march.glsl's
-// PAGED_SKIPPING hook jumps until this returns false). Samples skipped add nothing, so the image
-// is the same; a sample a rounding past the box's face still lies within half a voxel of it,
-// whose range covers it. Every sample a mode evaluates passes here first, so it is where a ray
-// asks for the missing cells it reaches (ray_requests.glsl).
-bool paged_skipped(inout int i, Ray ray) {
+// march.glsl's PAGED_SKIPPING hook, called whenever sample i is past the run (i >= run_end), in a
+// loop of its own: looks up the leaf entry of sample i. Where its cell is not drawn (or, with
+// PAGED_BLOCKS, its block adds nothing) moves i to the first sample past that box; else starts the
+// run there: run_end = the first sample past the box, and the run's slot for raw_sample(). Samples
+// skipped add nothing, so the image is the same; a sample a rounding past the box's face still
+// lies within half a voxel of it, which the box's range and its slot's apron cover. Reads of a
+// run's samples up to 1.5 voxels of its level outside the box (gradients' differences, iso's sample
+// before a hit and its refinement, with sampling rates from 2/3) come from the slot's apron of 2
+// voxels, the same voxels as the neighbouring cell's brick holds: at level 0 the in-core values.
+// Every run starts here, so it is where a ray asks for the missing cells it reaches
+// (ray_requests.glsl).
+void paged_run(inout int i, inout int run_end, Ray ray) {
     vec3 t = sample_point(ray, float(i));
     request_missing(t);  // (PAGED_REQUESTS: a cell of the plan the atlas misses, reached here)
     vec4 entry = leaf_entry(t);
+    bool drawn = entry.a > 0.0;
+    // drawn: the level drawn, its level-0 cell; else: the cell where the walk stopped
+    int level = int(abs(entry.a) + 0.5) - 1;
+    int box_level = drawn ? 0 : level;
     vec3 lo, hi;
-    bool skip;
-    if (entry.a > 0.0) {
+    cell_box(t, cell_scale[box_level], page_grid[box_level], lo, hi);
+    vec3 scale = level_scale[level];
+    vec3 texel_offset = level_offset[level] + entry.rgb;  // the level's voxel coordinate -> atlas texel
+    vec3 slot_origin = floor((t * scale + texel_offset) / slot_texels) * slot_texels;
+    bool skip = !drawn;
 #ifdef PAGED_BLOCKS
-        cell_box(t, leaf_scale, leaf_grid, lo, hi);
-        skip = in_empty_block(t, entry, lo, hi);
-#else
-        skip = false;
+    if (drawn) {
+        skip = in_empty_block(t * scale + texel_offset, slot_origin, texel_offset, scale, lo, hi);
+    }
 #endif
-    } else {
-        int level = int(-entry.a + 0.5) - 1;  // the cell where the walk stopped
-        cell_box(t, cell_scale[level], page_grid[level], lo, hi);
-        skip = true;
-    }
-    if (!skip) {
-        return false;
-    }
     // Per axis, the sample index where the ray leaves the box (the face ahead of it).
     vec3 face = mix(lo, hi, step(vec3(0.0), ray.step));
     vec3 ahead = vec3(ray.step.x != 0.0 ? (face.x - ray.start.x) / ray.step.x : 1e30,
                       ray.step.y != 0.0 ? (face.y - ray.start.y) / ray.step.y : 1e30,
                       ray.step.z != 0.0 ? (face.z - ray.start.z) / ray.step.z : 1e30);
     float leave = min(min(ahead.x, ahead.y), ahead.z);
-    i = max(i + 1, int(min(ceil(leave), float(ray.samples))));
-    return true;
+    int end = max(i + 1, int(min(ceil(leave), float(ray.samples))));
+    if (skip) {
+        i = end;
+    } else {
+        run_end = end;
+        run_scale = scale / atlas_texels;
+        run_offset = texel_offset / atlas_texels;
+        run_low = (slot_origin + 0.5) / atlas_texels;
+        run_high = (slot_origin + slot_texels - 0.5) / atlas_texels;
+    }
 }

@@ -39,6 +39,8 @@ struct March {
     int i;           // the sample to evaluate next
 #ifdef SKIP_EMPTY_SPACE
     BlockWalk walk;  // for modes with their own rule on the block values (mip)
+#elif defined(PAGED_SKIPPING)
+    int run_end;     // samples before it lie in the run bricks/paged_sampling.glsl's paged_run() found
 #endif
 };
 
@@ -53,6 +55,8 @@ March start_march(Ray ray) {
 #endif
 #ifdef SKIP_EMPTY_SPACE
     cursor.walk = block_walk(ray);
+#elif defined(PAGED_SKIPPING)
+    cursor.run_end = 0;
 #endif
     return cursor;
 }
@@ -75,12 +79,17 @@ bool next_occupied_sample(inout March cursor, Ray ray) {
     return cursor.i < ray.samples;
 }
 #elif defined(PAGED_SKIPPING)
-// The single-pass bricked ray caster's hook (bricks/paged_sampling.glsl, included ahead): jump
-// over the cells of the page table that are not drawn (empty under the TF, or missing); with
-// PAGED_REQUESTS a ray also asks there for the missing cells it reaches (bricks/ray_requests.glsl).
+// The single-pass bricked ray caster's hook (bricks/paged_sampling.glsl, included ahead): a ray
+// walks runs of samples, each inside one drawn cell (and block) of the page table, read from that
+// cell's slot. Only a sample past the run looks the page table up, in a loop of its own (entered
+// only when one of a SIMD group's rays leaves its run), which jumps over the cells and blocks that
+// add nothing and starts the next run; with PAGED_REQUESTS a ray also asks there for the missing
+// cells it reaches (bricks/ray_requests.glsl).
 bool skip_empty_space(inout March cursor, Ray ray) {
     int before = cursor.i;
-    while (cursor.i < ray.samples && paged_skipped(cursor.i, ray)) {}
+    while (cursor.i < ray.samples && cursor.i >= cursor.run_end) {
+        paged_run(cursor.i, cursor.run_end, ray);
+    }
     return cursor.i != before;
 }
 

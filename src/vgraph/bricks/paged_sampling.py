@@ -8,8 +8,9 @@ Conventions (docs/explanations/bricked-ray-casting.md, "One pass, a page table")
 - Its GLSL (bricks/paged_sampling.glsl) replaces VolumeSampling's: raw_sample(t) and intensity(t)
   of a level-0 texture coordinate, so the compositing modes (dvr, mip, iso), FrontToBack's opacity
   correction and early termination, the transfer function, the gradients and the lighting are the
-  RayCaster's, unchanged. march.glsl's PAGED_SKIPPING hook jumps over cells that are not drawn
-  (defined only in frames that have such cells).
+  RayCaster's, unchanged. march.glsl's PAGED_SKIPPING hook walks each ray in runs: one leaf-table
+  look-up where a ray enters a drawn cell (or cube of blocks), whose slot its samples and their
+  gradients then read; cells that are not drawn are jumped over.
 - The frame's plan is BrickSampling's (the same pyramid, brick cache, levels of detail by
   footprint, ``lod_bias``, ``max_error`` and the budget's floor level, the GUI's ``load_limit``):
   its bricks, and the planned ones already in memory, are placed in the atlas (read through the
@@ -27,7 +28,8 @@ Conventions (docs/explanations/bricked-ray-casting.md, "One pass, a page table")
   or in a drag's frame, ``FrameContext.interactive``, the finest planned level's,
   vgraph.bricks.coarse_step; such a frame reports no ``error_bound``).
 - ``empty_space_skipping``: the blocks of 8^3 voxels inside the atlas's bricks that add nothing
-  this frame (vgraph.bricks.atlas_blocks) are jumped over too (define PAGED_BLOCKS).
+  this frame (vgraph.bricks.atlas_blocks) are jumped over too, by cubes of them as the RayCaster's
+  skipping (their Chebyshev radii; occupied blocks' radii size the runs) (define PAGED_BLOCKS).
 - The atlas holds ``gl_budget`` MB of slots at most (no more than the pyramid's bricks); a budget
   that needs a texture past GL_MAX_3D_TEXTURE_SIZE, or holds not one brick, is a VGraphError
   naming ``<processor>.gl_budget``.
@@ -58,7 +60,7 @@ from vgraph.errors import VGraphError
 from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, IsoSurface, Sampling,
                                              TransferFunctionLut, ray_main_missed)
-from vgraph.gl.raycasting.empty_space import occupied_blocks
+from vgraph.gl.raycasting.empty_space import occupied_blocks, skip_radii
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.gradient_classification import GradientClassification
 from vgraph.gl.raycasting.light import Gradients, Light
@@ -127,10 +129,9 @@ class PagedSampling(Component):
         blocks = self.block_flags(frame, atlas)
         if blocks is not None:
             self.frame_binding = self.frame_binding.merge(blocks)
-        # march.glsl's jumps (and the requests, asked there) only where some cell is not drawn or
-        # missing, or some block is skipped: on llvmpipe the jumps' look-ups cost every sample
-        self.frame_binding.defines["PAGED_SKIPPING"] = (blocks is not None or requests.asked
-                                                        or resolved.undrawn)
+        # march.glsl's runs: every sample is read from the slot its run's look-up found (also where
+        # every cell is drawn: one look-up a run, not one a sample)
+        self.frame_binding.defines["PAGED_SKIPPING"] = True
         # a drag's frame steps at the finest planned level's step (vgraph.bricks.coarse_step)
         stride = sample_stride(geometry, plan.keys(), context.interactive)
         self.draw(frame, target, own.merge(coarse_step_binding(processor, frame, stride)))
@@ -270,9 +271,10 @@ class PagedSampling(Component):
         flags = atlas.blocks.flags(skippable)
         binding = None
         if flags.any():
-            binding = Binding({"PAGED_BLOCKS": True}, textures={"block_flags": atlas.blocks.upload(frame.ctx, flags)},
-                              uniforms={"slot_texels": vec(np.asarray(atlas.slot_shape, dtype=np.float64)),
-                                        "blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
+            # jumps over cubes of empty blocks, runs over cubes of occupied ones (paged_sampling.glsl)
+            radii = skip_radii(flags == 0.0) - skip_radii(flags != 0.0)
+            binding = Binding({"PAGED_BLOCKS": True}, textures={"block_flags": atlas.blocks.upload(frame.ctx, radii)},
+                              uniforms={"blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
         self.flags_kept = (atlas.blocks, (atlas.stats["uploads"], rule), binding)
         return binding
 
@@ -309,6 +311,7 @@ class PagedSampling(Component):
             level_offset.append((origin0 - 0.5 * spacing0 - origin) / spacing)
         uniforms = {"intensity_scale": float(fmt.scale), "intensity_offset": float(fmt.offset),
                     "atlas_texels": vec(np.asarray(atlas.size, dtype=np.float64)),
+                    "slot_texels": vec(np.asarray(atlas.slot_shape, dtype=np.float64)),
                     "page_grid": np.asarray([np.asarray(g) for g in geometry.grids], dtype=np.int32),
                     "cell_scale": np.asarray([dims0 / span for span in geometry.spans], dtype=np.float32),
                     "leaf_grid": tuple(int(n) for n in geometry.grids[0]),
