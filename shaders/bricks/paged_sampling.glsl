@@ -89,16 +89,26 @@ void cell_box(vec3 t, vec3 scale, ivec3 grid, out vec3 lo, out vec3 hi) {
 // blocks count as occupied. Slot s's blocks start at texel slot * blocks_per_slot.
 #define PAGE_BLOCK 8.0
 #define PAGE_APRON 2.0
-uniform sampler3D block_flags;
+uniform sampler3D block_flags;   // .g (PAGED_MIP): the block's largest normalised intensity
 uniform ivec3 blocks_per_slot;
+#ifdef PAGED_MIP
+float paged_best = 0.0;          // the ray's running maximum: compositing_mip.glsl's plain march sets it
+#endif
 
 // Whether the sample at t, at atlas texel p of the slot whose first texel is `slot_origin`, lies in
 // a block that adds nothing; narrows [lo, hi) to the box in t of the cube of blocks around it that
 // all add nothing or all may add something (texel_offset, scale: t = (p - texel_offset) / scale).
 bool in_empty_block(vec3 p, vec3 slot_origin, vec3 texel_offset, vec3 scale, inout vec3 lo, inout vec3 hi) {
     vec3 k = clamp(floor((p - slot_origin - PAGE_APRON) / PAGE_BLOCK), vec3(0.0), vec3(blocks_per_slot - 1));
-    float radius = texelFetch(block_flags, ivec3(slot_origin / slot_texels + 0.5) * blocks_per_slot + ivec3(k), 0).r;
+    vec4 block = texelFetch(block_flags, ivec3(slot_origin / slot_texels + 0.5) * blocks_per_slot + ivec3(k), 0);
+    float radius = block.r;
     float reach = abs(radius);
+#ifdef PAGED_MIP
+    // mip: an occupied block not above the ray's running maximum adds nothing either (its maximum,
+    // .g, bounds every sample in it); runs are single blocks, so each one's maximum is asked
+    reach = radius > 0.5 ? reach : 1.0;
+    radius = radius < 0.5 && block.g <= paged_best ? 1.0 : radius;
+#endif
     vec3 block_lo = (slot_origin + PAGE_APRON + k * PAGE_BLOCK - texel_offset) / scale;
     lo = max(lo, block_lo - (reach - 1.0) * PAGE_BLOCK / scale);
     hi = min(hi, block_lo + reach * PAGE_BLOCK / scale);

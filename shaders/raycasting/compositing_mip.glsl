@@ -172,6 +172,9 @@ Result march(Ray ray) {
         if (value > best) {
             best = value;
             best_sample = cursor.i;
+#ifdef PAGED_MIP
+            paged_best = best;  // the single pass skips blocks not above it (bricks/paged_sampling.glsl)
+#endif
         }
         ++cursor.i;
     }

@@ -48,17 +48,27 @@ class AtlasBlocks:
         known = np.isfinite(low) & np.isfinite(high)
         skip = np.zeros(low.shape, dtype=bool)
         skip[known] = skippable(low[known], high[known])
+        return self.laid_out(skip)
+
+    def maxima(self) -> np.ndarray:
+        """float32 [z, y, x] laid out as ``flags``: each block's largest normalised intensity, 1e30
+        where unknown (a mip ray skips a block not above its running maximum: never these)."""
+        return self.laid_out(np.nan_to_num(self.ranges[..., 1], nan=1e30))
+
+    def laid_out(self, values: np.ndarray) -> np.ndarray:
+        """Per-block values [slot, bz, by, bx] as the atlas lays out its slots, float32 [z, y, x]."""
         gx, gy, gz = self.slot_grid
         bx, by, bz = self.per_slot
-        grid = skip.reshape(gz, gy, gx, bz, by, bx).transpose(0, 3, 1, 4, 2, 5)
+        grid = values.reshape(gz, gy, gx, bz, by, bx).transpose(0, 3, 1, 4, 2, 5)
         return np.ascontiguousarray(grid.reshape(gz * bz, gy * by, gx * bx), dtype=np.float32)
 
     def upload(self, ctx, flags: np.ndarray):
-        """The flags as an R32F 3D texture (kept while its size and context stay)."""
-        size = flags.shape[2], flags.shape[1], flags.shape[0]
+        """The flags as a 3D texture, R32F, or with ``flags`` [z, y, x, c] one of c float channels
+        (kept while its size, channels and context stay)."""
+        size, components = (flags.shape[2], flags.shape[1], flags.shape[0]), (flags.shape[3] if flags.ndim == 4 else 1)
         texture = self.gl.get("block_flags")
-        if texture is None or texture.ctx is not ctx or texture.size != size:
+        if texture is None or texture.ctx is not ctx or texture.size != size or texture.components != components:
             release_quietly({"block_flags": self.gl.pop("block_flags", None) or {}})
-            texture = self.gl["block_flags"] = ctx.texture3d(size, 1, dtype="f4")
+            texture = self.gl["block_flags"] = ctx.texture3d(size, components, dtype="f4")
         texture.write(flags.tobytes())
         return texture

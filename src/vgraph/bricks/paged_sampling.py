@@ -248,7 +248,8 @@ class PagedSampling(Component):
     def block_flags(self, frame: Frame, atlas: BrickAtlas) -> Binding | None:
         """With ``empty_space_skipping``, the flags of the atlas's blocks that add nothing this frame
         (vgraph.bricks.atlas_blocks; dvr: no opacity over the block's range, iso: below the level,
-        mip: nothing above 0); None when no block is skipped. The last frame's, neither computed
+        mip: nothing above 0, and each block's maximum for the skipping below the ray's); None when
+        no block is skipped. The last frame's, neither computed
         nor uploaded again, while the atlas uploaded no brick and the rule is the same (a frame
         that only moves the camera)."""
         processor = self.processor
@@ -270,10 +271,14 @@ class PagedSampling(Component):
             return kept[2]
         flags = atlas.blocks.flags(skippable)
         binding = None
-        if flags.any():
-            # jumps over cubes of empty blocks, runs over cubes of occupied ones (paged_sampling.glsl)
-            radii = skip_radii(flags == 0.0) - skip_radii(flags != 0.0)
-            binding = Binding({"PAGED_BLOCKS": True}, textures={"block_flags": atlas.blocks.upload(frame.ctx, radii)},
+        if flags.any() or mode == "mip":
+            # jumps over cubes of empty blocks, runs over cubes of occupied ones (paged_sampling.glsl);
+            # mip: with each block's maximum, skipped where not above the ray's maximum (PAGED_MIP)
+            values = skip_radii(flags == 0.0) - skip_radii(flags != 0.0)
+            if mode == "mip":
+                values = np.stack([values, atlas.blocks.maxima()], axis=-1)
+            binding = Binding({"PAGED_BLOCKS": True, "PAGED_MIP": mode == "mip"},
+                              textures={"block_flags": atlas.blocks.upload(frame.ctx, values)},
                               uniforms={"blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
         self.flags_kept = (atlas.blocks, (atlas.stats["uploads"], rule), binding)
         return binding
