@@ -7,8 +7,9 @@ one texture cannot hold) takes the single pass where it measured faster and pass
 - dvr (shaded or not, with or without early termination) and iso: the single pass, 1.5-3x faster
   than a pass per brick on llvmpipe (bench/bench_paged_bricks.py, bonsai 256^3 and a 512^3
   volume, 32^3 and 64^3 bricks);
-- mip: passes. Its single pass jumps over no block below the running maximum (the pass per brick
-  does), so it samples every step of a drawn cell and measured slower with 64^3 bricks;
+- mip: passes. Its single pass skips blocks below the running maximum front to back only (the
+  pass per brick takes each brick's stretch with the largest block maximum first, as the
+  RayCaster) and measured 1.1-1.2x slower with 64^3 bricks;
 - a frame of the leaves split (FrameContext.leaf, vgraph.distributed.leaves): passes. A leaf draws
   its run of bricks into an accumulation that the next worker continues; the single pass has no
   such partial frame;
