@@ -213,6 +213,19 @@ def test_skipping_empty_blocks_inside_the_atlas_bricks_leaves_the_image_and_save
     assert got_depth[..., 2].sum() < 0.7 * every_depth[..., 2].sum()  # depth's b: the samples evaluated
 
 
+def test_mip_skips_blocks_below_the_rays_maximum_with_the_same_image_and_depth(bonsai):
+    """A block whose maximum is not above the ray's running maximum holds no sample that changes the
+    maximum or its first sample (PAGED_MIP): image and depth as without skipping, fewer samples."""
+    properties = {**UNSHADED_RAMP, "compositing": "mip", "brick_size": 32, "lod_bias": FINEST}
+    camera = oblique(bonsai)
+    every, every_depth, _ = single_pass(bonsai, camera, empty_space_skipping=False, **properties)
+    got, got_depth, rc = single_pass(bonsai, camera, **properties)
+    assert "PAGED_MIP" in rc.passes[-1].defines
+    assert np.abs(got - every).max() <= 1e-6 and got[..., :3].std() > 0.01
+    np.testing.assert_allclose(got_depth[..., :2], every_depth[..., :2], atol=1e-5)
+    assert got_depth[..., 2].sum() < 0.7 * every_depth[..., 2].sum()  # depth's b: the samples evaluated
+
+
 def sparse_ball() -> Volume:
     """A small ball in the middle of 41 x 29 x 37 voxels, zero around it: most bricks of 8 (and
     their neighbours, which a brick's samples may filter) are empty."""
