@@ -67,6 +67,15 @@ float raw_sample(vec3 t) {
     return textureLod(volume, clamp(t * run_scale + run_offset, run_low, run_high), 0.0).r;
 }
 
+// raw_sample() from now on reads the slot at `slot_origin` (atlas texels), where the level's voxel
+// coordinate t * scale + level offset lies at texel + texel_offset.
+void read_from(vec3 scale, vec3 texel_offset, vec3 slot_origin) {
+    run_scale = scale / atlas_texels;
+    run_offset = texel_offset / atlas_texels;
+    run_low = (slot_origin + 0.5) / atlas_texels;
+    run_high = (slot_origin + slot_texels - 0.5) / atlas_texels;
+}
+
 float intensity(vec3 t) {
     return raw_sample(t) * intensity_scale + intensity_offset;
 }
@@ -159,9 +168,20 @@ void paged_run(inout int i, inout int run_end, Ray ray) {
         i = end;
     } else {
         run_end = end;
-        run_scale = scale / atlas_texels;
-        run_offset = texel_offset / atlas_texels;
-        run_low = (slot_origin + 0.5) / atlas_texels;
-        run_high = (slot_origin + slot_texels - 0.5) / atlas_texels;
+        read_from(scale, texel_offset, slot_origin);
+    }
+}
+
+// Shaded iso (iso_refinement.glsl's iso_surface_colour): the gradient at the refined hit, which
+// may lie up to a step before the run's cell, reads the slot of the hit's own cell where that cell
+// is drawn (differences from the run's slot would reach 2 voxels past it, beyond its apron).
+void paged_seat(vec3 t) {
+    vec4 entry = leaf_entry(t);
+    int level = max(int(entry.a + 0.5) - 1, 0);
+    vec3 scale = level_scale[level];
+    vec3 texel_offset = level_offset[level] + entry.rgb;
+    vec3 slot_origin = floor((t * scale + texel_offset) / slot_texels) * slot_texels;
+    if (entry.a > 0.0) {
+        read_from(scale, texel_offset, slot_origin);
     }
 }

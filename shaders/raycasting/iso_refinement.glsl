@@ -27,6 +27,9 @@ vec3 iso_surface_colour(Ray ray, float hit) {
     vec3 rgb = classify(iso_level).rgb;
 #ifdef SHADING_BLINN_PHONG
     vec3 p = sample_point(ray, hit);
+#ifdef PAGED_SKIPPING
+    paged_seat(p);  // the single-pass bricked ray caster: the hit's own cell (bricks/paged_sampling.glsl)
+#endif
     rgb = shade(rgb, gradient(p, raw_sample(p)), -ray.direction);
 #endif
 #ifdef LIGHT_VOLUME
