@@ -3,7 +3,7 @@
 (docs/explanations/sweep-plane.md, section "Measured", records the numbers).
 
     .venv/bin/python bench/bench_sweep_thesis.py [--image 800] [--repeat 2] [--sets mriHead ctSkull]
-        [--levels 1 2] [--workers 1 2] [--compare-sizes 256] [--compare-image 256]
+        [--levels 1 2] [--workers 1 2 4 8] [--compare-sizes 256] [--compare-image 256]
         [--psnr-image 128] [--reference-rate 16] [--store-sizes 512] [--store-budget 64]
         [--store-brick 64] [--quick]
 
@@ -14,9 +14,10 @@ thesis's Volvis data are 8-bit) and resampled (scipy.ndimage.zoom, linear) to th
 keeping the physical extent. The TF is zero outside 40-80, so the threshold leaves the image as
 it is and only removes work.
 
-Tiles against leaves (frame time and bytes read per worker, 1 and 2 workers, levels 1 and 2):
-the SweepPlaneRenderer on the `--split` route through vgraph.distributed.render_report, which
-says what each worker's caches read; "not available" with the reason where the route refuses.
+Tiles against leaves (frame time and bytes read per worker, --workers 1 2 4 8 as the thesis's
+table 5.2, levels 1 and 2): the SweepPlaneRenderer on the `--split` route through
+vgraph.distributed.render_report, which says what each worker's caches read; "not available" with
+the reason where the route refuses. A second table: bytes and leaves read per worker and in all.
 
 Side by side: at the --store-sizes (512^3: the in-memory sweep's float64 grid would take about
 14 GiB) the SweepPlaneRenderer and the BrickedRayCaster read the volume converted to an OME-Zarr
@@ -236,18 +237,19 @@ def store_network(volume: Volume, camera: Camera, folder: Path, level: int) -> t
 
 def split_columns(network: Network, size, workers: int) -> dict:
     """Tiles and leaves on ``workers`` local Dask workers (leaves: one run of leaves a worker):
-    split -> (seconds, what each worker read in the first frame, in the timed frame), or why not (the
-    route refuses). One timed frame each after a 64 x 64 warm-up (worker imports, numba cache load),
-    which is the first, cold frame: it reads what the tiles or runs of leaves see (the same at any
-    image size), and the workers keep their networks and caches, so the timed frame reads only what
-    the caches' budget (the VolumeSource's memory_budget) let go."""
+    split -> (seconds, what each worker read in the first frame, in the timed frame: lists of
+    (bytes, leaves) per worker), or (why not, None, None) where the route refuses. One timed frame
+    each after a 64 x 64 warm-up (worker imports, numba cache load), which is the first, cold
+    frame: it reads what the tiles or runs of leaves see (the same at any image size), and the
+    workers keep their networks and caches, so the timed frame reads only what the caches' budget
+    (the VolumeSource's memory_budget) let go."""
     from vgraph.distributed.render import prepare, render_report
     columns = {}
     for split in ("tiles", "leaves"):
         try:
             prepare(network, split, THESIS_TILES[workers], size, "rc.image")
         except Exception as error:  # the route's own refusal is the answer here
-            columns[split] = (f"not available ({str(error).splitlines()[0][:100]})", "", "")
+            columns[split] = (f"not available ({str(error).splitlines()[0][:100]})", None, None)
     if len(columns) == 2:
         return columns
     from dask.distributed import Client, LocalCluster
@@ -265,16 +267,32 @@ def split_columns(network: Network, size, workers: int) -> dict:
                 columns[split] = (f"{time.perf_counter() - start:.2f} s", per_worker(first, client),
                                   per_worker(timed, client))
             except Exception as error:
-                columns[split] = (f"not available ({str(error).splitlines()[0][:100]})", "", "")
+                columns[split] = (f"not available ({str(error).splitlines()[0][:100]})", None, None)
     return columns
 
 
-def per_worker(frame, client) -> str:
-    """What each worker of the cluster read in ``frame`` ('a + b'; a worker given no task: 0)."""
-    from vgraph.memory import format_bytes
+def per_worker(frame, client) -> list[tuple[int, int]]:
+    """(bytes, leaves) each worker of the cluster read in ``frame``, by address (a worker given no
+    task: 0, 0)."""
     addresses = sorted(client.scheduler_info()["workers"])
-    read = {address: report.bytes_read for address, report in frame.workers.items()}
-    return " + ".join(format_bytes(read.get(address, 0)) for address in addresses)
+    read = {address: (report.bytes_read, report.bricks_read) for address, report in frame.workers.items()}
+    return [read.get(address, (0, 0)) for address in addresses]
+
+
+def bytes_each(reads) -> str:
+    """'a + b' in bytes units, one term a worker."""
+    from vgraph.memory import format_bytes
+    return " + ".join(format_bytes(b) for b, _ in reads)
+
+
+def read_cells(seconds: str, reads) -> str:
+    """The bytes-read table's cells of one split: leaves per worker | bytes per worker | in all | s."""
+    if reads is None:
+        return f"{seconds} | | |"
+    from vgraph.memory import format_bytes
+    leaves = " + ".join(str(n) for _, n in reads)
+    total = f"{format_bytes(sum(b for b, _ in reads))} ({sum(n for _, n in reads)} leaves)"
+    return f"{leaves} | {bytes_each(reads)} | {total} | {seconds}"
 
 
 def thesis_rows(args) -> None:
@@ -320,6 +338,7 @@ def split_rows(args, volumes, bases, size) -> None:
     print("\n| data | octree level (leaves) | workers | tiles s | tiles: read per worker, first frame "
           "(timed frame) | leaves s | leaves: read per worker, first frame (timed frame) |")
     print("|---|---|---|---|---|---|---|")
+    reads = []  # the bytes-read table's rows, printed after the first table
     for name, volume in volumes.items():
         with tempfile.TemporaryDirectory() as folder:
             for level in args.levels:
@@ -327,12 +346,23 @@ def split_rows(args, volumes, bases, size) -> None:
                     network, count = store_network(volume, bases[name], Path(folder), level)
                 except Exception as error:
                     print(f"| {name} | {level} | - | not available ({str(error).splitlines()[0][:100]}) | | | |")
+                    reads.append(f"| {name} | {level} | - | not available | | | | | | | |")
                     continue
                 for workers in args.workers:
                     columns = split_columns(network, size, workers)
-                    cells = [f"{seconds} | {first} ({timed})" if first else f"{seconds} | "
+                    cells = [f"{seconds} | {bytes_each(first)} ({bytes_each(timed)})" if first else f"{seconds} | "
                              for seconds, first, timed in (columns["tiles"], columns["leaves"])]
                     print(f"| {name} | {level} ({count}) | {workers} | {' | '.join(cells)} |", flush=True)
+                    reads.append(f"| {name} | {level} ({count}) | {workers} | "
+                                 + " | ".join(read_cells(seconds, first) for seconds, first, _ in
+                                              (columns["tiles"], columns["leaves"])) + " |")
+    print("\nBytes read, the first (cold) frame: leaves and bytes per worker and in all (exact counts, "
+          "whatever the cores), and the timed frame's seconds\n")
+    print("| data | octree level (leaves) | workers | tiles: leaves per worker | tiles: bytes per worker | "
+          "tiles: in all | tiles s | leaves: leaves per worker | leaves: bytes per worker | leaves: in all | "
+          "leaves s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("\n".join(reads), flush=True)
 
 
 def comparison_rows(args) -> None:
