@@ -48,8 +48,8 @@ def page_cells(geometry: BrickGeometry, level: int) -> np.ndarray:
 
 def directory_level(geometry: BrickGeometry, slots: int) -> int:
     """The directory's level for an atlas of ``slots`` slots (module docstring)."""
-    if math.prod(int(n) for n in geometry.grids[0]) <= FLAT_CELLS:
-        return 0
+    if math.prod(int(n) for n in geometry.grids[0]) <= FLAT_CELLS or len(geometry.grids) == 1:
+        return 0  # (a store of one level, another tool's, has no coarser level to be a directory)
     return min(range(1, len(geometry.grids)), key=lambda level: _texels(geometry, level, slots))
 
 
