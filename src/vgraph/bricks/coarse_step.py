@@ -11,18 +11,20 @@ one sample per voxel of that level at sampling rate 1, as the pass per brick sam
 brick ("Coarse levels sample their own lattice", docs/explanations/bricked-ray-casting.md). The
 samples keep their places on level 0's lattice (every stride-th of them, from the entry point),
 and dvr's opacity is corrected for the longer step (FrontToBack's exponent times ``stride``), so
-the picture stays the same medium, sampled more coarsely. Only uniforms change (``step_length``,
-``opacity_exponent``) and the define OPACITY_CORRECTION; the march, its jumps and the depth output
-follow ``step_length`` already.
+the picture stays the same medium, sampled more coarsely. The frame says so
+(``Frame.sample_stride``): Sampling's ``step_length`` and FrontToBack's ``opacity_exponent`` and
+define OPACITY_CORRECTION follow it, as every part reads what the frame decides; the march, its
+jumps and the depth output follow ``step_length`` already.
 
 A frame that is not interactive (the refined frame after the release, scripts, ``vgraph run``)
-gets no binding: it is drawn exactly as before, bit for bit.
+has a stride of 1: it is drawn exactly as before, bit for bit.
 """
 
 from __future__ import annotations
 
-from vgraph.gl.raycasting.components import FrontToBack, Sampling
-from vgraph.gl.raycasting.raycaster_base import Binding, Frame, in_modes
+from dataclasses import replace
+
+from vgraph.gl.raycasting.raycaster_base import Frame
 
 
 def sample_stride(geometry, plan_keys, interactive: bool) -> int:
@@ -34,15 +36,6 @@ def sample_stride(geometry, plan_keys, interactive: bool) -> int:
     return int(geometry.strides[min(levels)])
 
 
-def coarse_step_binding(processor, frame: Frame, stride: int) -> Binding:
-    """The uniforms (and define) that make the pass step ``stride`` level-0 steps per sample; an
-    empty binding for a stride of 1. Merged after the parts' bindings, so it replaces Sampling's
-    ``step_length`` and FrontToBack's ``opacity_exponent``."""
-    if stride == 1:
-        return Binding()
-    binding = Binding(uniforms={"step_length": processor.parts[Sampling].step_length(frame) * stride})
-    front = processor.parts[FrontToBack]
-    if in_modes(processor, front.mode, front.corrected):  # dvr: each sample stands for stride steps
-        binding = binding.merge(Binding(defines={"OPACITY_CORRECTION": True},
-                                        uniforms={"opacity_exponent": front.opacity_exponent() * stride}))
-    return binding
+def strided(frame: Frame, stride: int) -> Frame:
+    """``frame`` sampled every ``stride`` level-0 steps (its parts bind the longer step)."""
+    return frame if stride == 1 else replace(frame, sample_stride=stride)

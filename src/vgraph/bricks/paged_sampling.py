@@ -50,7 +50,7 @@ import numpy as np
 from vgraph.bricks.atlas import BrickAtlas
 from vgraph.bricks.cache import MB, bricks_bytes
 from vgraph.bricks import leaf_pages
-from vgraph.bricks.coarse_step import coarse_step_binding, sample_stride
+from vgraph.bricks.coarse_step import sample_stride, strided
 from vgraph.bricks.page_table import PageTable, texel_offsets
 from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
 from vgraph.bricks.sampling import BrickSampling, level_span, skipping_alpha
@@ -134,7 +134,7 @@ class PagedSampling(Component):
         self.frame_binding.defines["PAGED_SKIPPING"] = True
         # a drag's frame steps at the finest planned level's step (vgraph.bricks.coarse_step)
         stride = sample_stride(geometry, plan.keys(), context.interactive)
-        self.draw(frame, target, own.merge(coarse_step_binding(processor, frame, stride)))
+        self.draw(strided(frame, stride), target, own)
         requested = requests.read(frame.ctx, missing)  # (key, pixels) of the missing cells rays reached
         if requested and context.load_limit is not None:  # the next frame refines (the GUI asks again)
             cache.begin_frame(plan.keys())
@@ -325,7 +325,7 @@ class PagedSampling(Component):
                     "level_offset": np.asarray(level_offset, dtype=np.float32),
                     "page_cells": tuple(int(n) for n in resolved.page_cells)}
         defines = {"PAGE_LEVELS": levels, "PAGE_DIRECTORY": resolved.level > 0}
-        if processor.shaded():
+        if frame.lit:
             gradients = processor.parts[Gradients]
             gradients.check()
             derivatives = processor.parts[BrickSampling].derivatives()

@@ -205,13 +205,13 @@ class BrickSampling(Component):
             raise VGraphError(f"{processor.id}.max_error: the error bounds of a level go by the 1D "
                               f"transfer function, not transfer_function_2d; set {processor.id}.max_error "
                               f"to 1 (levels by footprint) or {processor.id}.transfer_function_2d to null")
-        lighting = (processor.ambient, processor.diffuse, processor.specular) if processor.shaded() else None
+        lighting = (processor.ambient, processor.diffuse, processor.specular) if frame.lit else None
         key = (processor.transfer_function.for_volume(frame.volume), lighting)
         if self.spread[0] != key:
             self.spread = (key, TransferFunctionSpread(key[0].lut(), lighting))
         stops = processor.early_termination if self.reads_accumulation() else 1.0
         return LodErrors(source, geometry, self.spread[1], processor.sampling_rate,
-                         processor.parts[FrontToBack].opacity_exponent(), stops, frame.volume.value_range)
+                         processor.parts[FrontToBack].opacity_exponent(frame), stops, frame.volume.value_range)
 
     def warn(self, message: str) -> None:
         log.warning(message)
@@ -325,7 +325,7 @@ class BrickSampling(Component):
         skipping = processor.empty_space_skipping
         defines = {"READ_ACCUMULATION": terminating, "EARLY_TERMINATION": terminating,
                    "SKIP_EMPTY_BLOCKS": skipping}
-        if processor.shaded():
+        if frame.lit:
             defines.update(processor.parts[Gradients].defines(self.derivatives()))
         textures = {}
         if self.compositing == "dvr" and skipping:
@@ -334,10 +334,10 @@ class BrickSampling(Component):
         return Binding(defines, textures, uniforms={"intensity_scale": float(fmt.scale),
                                                     "intensity_offset": float(fmt.offset)})
 
-    def brick_binding(self, geometry, key) -> dict:
+    def brick_binding(self, frame: Frame, geometry, key) -> dict:
         """The uniforms of one brick: where it lies and its level's finite differences."""
         uniforms = brick_uniforms(geometry, key)
-        if self.processor.shaded():
+        if frame.lit:
             voxel, spacing = level_voxel(geometry, key[0])
             uniforms.update(self.processor.parts[Gradients].uniforms(self.cache.format.scale, voxel, spacing,
                                                                       self.derivatives()))
@@ -369,7 +369,7 @@ class BrickSampling(Component):
                 target.framebuffer.scissor = rect
                 fullscreen_pass(ctx, program, target, {**textures, "volume": self.cache.texture(ctx, key),
                                                        "blocks": self.cache.blocks(ctx, key)},
-                                {**binding.uniforms, **self.brick_binding(geometry, key)},
+                                {**binding.uniforms, **self.brick_binding(frame, geometry, key)},
                                 samplers={"volume": linear_sampler(ctx)})
                 if reading:
                     self.copy_back(ctx, copy, accumulation, rect, first=number == 0)

@@ -110,10 +110,10 @@ class Sampling(Component):
                                                    f"(a world-space step)")}
 
     def step_length(self, frame: Frame) -> float:
-        """World units between samples (ray.glsl's step_length)."""
-        if self.over == "volume":
-            return frame.min_spacing / self.processor.sampling_rate
-        return finest_spacing(frame) / self.processor.sampling_rate
+        """World units between samples (ray.glsl's step_length): ``frame.sample_stride`` steps of
+        the sampling rate's."""
+        spacing = frame.min_spacing if self.over == "volume" else finest_spacing(frame)
+        return spacing / self.processor.sampling_rate * frame.sample_stride
 
     def bind(self, frame: Frame) -> Binding:
         return Binding(uniforms={"step_length": self.step_length(frame)})
@@ -125,10 +125,10 @@ def finest_spacing(frame: Frame) -> float:
 
 
 class FrontToBack(Component):
-    """Front-to-back compositing: each sample's opacity corrected for the step, 1 - (1 - a)^(1 /
-    sampling_rate) (the one writer of OPACITY_CORRECTION; with ``mode``, only in the
-    ``corrected`` modes of that option, those that composite opacities), and the ray stopped once
-    its opacity reaches ``early_termination``."""
+    """Front-to-back compositing: each sample's opacity corrected for the step, 1 - (1 - a)^(stride
+    / sampling_rate) (``frame.sample_stride``; the one writer of OPACITY_CORRECTION; with
+    ``mode``, only in the ``corrected`` modes of that option, those that composite opacities), and
+    the ray stopped once its opacity reaches ``early_termination``."""
 
     def __init__(self, mode: str | None = None, corrected: tuple[str, ...] | None = None,
                  early_termination: float = 0.99):
@@ -138,14 +138,16 @@ class FrontToBack(Component):
         return {"early_termination": FloatProperty(self.early_termination, min=0.01, max=1.0,
                                                    doc="stop a ray once its opacity reaches this")}
 
-    def opacity_exponent(self) -> float:
-        return 1.0 / self.processor.sampling_rate
+    def opacity_exponent(self, frame: Frame) -> float:
+        """The step in samples at rate 1 (stride / sampling_rate): what the opacity of a sample,
+        the TF's per sample at rate 1, is corrected by."""
+        return 1.0 / self.processor.sampling_rate * frame.sample_stride
 
     def bind(self, frame: Frame) -> Binding:
-        rate = self.processor.sampling_rate
-        corrected = rate != 1.0 and in_modes(self.processor, self.mode, self.corrected)
+        step_not_a_voxel = self.processor.sampling_rate != 1.0 or frame.sample_stride != 1
+        corrected = step_not_a_voxel and in_modes(self.processor, self.mode, self.corrected)
         return Binding(defines={"OPACITY_CORRECTION": corrected},
-                       uniforms={"opacity_exponent": self.opacity_exponent(),
+                       uniforms={"opacity_exponent": self.opacity_exponent(frame),
                                  "early_termination": self.processor.early_termination})
 
 

@@ -8,7 +8,8 @@ A component is one part of a ray caster. It declares, once:
   the order of the components (a processor's shader includes only its own parts);
 - ``bind(frame)``: what it binds for one frame, a Binding of defines, textures (with samplers) and
   uniforms: exactly the uniforms its GLSL declares (vgraph.gl.passes sets them strictly). What
-  the frame's other parts decide comes with the frame (``frame.lit``: the Light's say).
+  the frame's other parts decide comes with the frame (``frame.lit``: the Light's say;
+  ``frame.sample_stride``: the sampling's, a drag's single pass stepping coarser).
 
 What a component depends on is given when it is built (``Light(mode="compositing",
 shaded_modes=("dvr", "iso"))``, ``EmptySpace(skip=skip_values)``), never looked up on the
@@ -71,7 +72,9 @@ class Frame:
     ``box_frame`` of the volumes' box (the world itself for an ordinary box); ``volumes`` are all
     the volumes of the view in it (``volume``, at its precision, is the first); ``lit``: whether
     the frame is lit (the processor's shaded(), which its Light says), for the parts that bind
-    only for lit frames (Gradients)."""
+    only for lit frames (Gradients); ``sample_stride``: steps of ``step_length`` per sample, 1
+    but in a drag's single-pass frame of bricks (vgraph.bricks.coarse_step), whose samples
+    Sampling spaces and FrontToBack corrects for."""
 
     ctx: moderngl.Context
     volume: Volume
@@ -82,6 +85,7 @@ class Frame:
     box_frame: BoxFrame = BoxFrame()
     volumes: tuple[Volume, ...] = ()
     lit: bool = False
+    sample_stride: int = 1
 
     @property
     def size(self) -> tuple[int, int]:
