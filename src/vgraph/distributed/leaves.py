@@ -39,10 +39,10 @@ import numpy as np
 
 from vgraph.bricks.cache import brick_extent
 from vgraph.bricks.selection import LeafPass
-from vgraph.distributed.report import ClusterFrame, measured, task_report
+from vgraph.distributed.report import ClusterFrame, counted_reads, measured, task_report
 from vgraph.distributed.tiles import TileError
 from vgraph.distributed.watch import results, watch
-from vgraph.distributed.worker import GL_LOCK, load_plugins, shipped, worker_network
+from vgraph.distributed.worker import GL_LOCK, kept_networks, load_plugins, shipped, worker_network
 from vgraph.frame_context import FrameContext
 from vgraph.sweep import leaves as sweep_leaves
 
@@ -241,7 +241,7 @@ def _draw(document, base_dir, target, size, caster, plugins, result, output=None
     caster (and what is downstream) runs again for each task's new leaf and for a later task
     without one, so a retried or later task on this worker starts afresh: tasks are idempotent."""
     load_plugins(plugins)
-    with GL_LOCK:
+    with GL_LOCK, counted_reads(kept_networks):
         network, full_cameras = worker_network(document, base_dir, target)
         for address, camera in full_cameras.items():  # a tiles task may have left a tile's camera
             network.set(address, camera)

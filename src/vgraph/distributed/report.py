@@ -3,8 +3,10 @@ tiles against leaves"; docs/guide/distributed.md "What each worker read").
 
 - Worker side (``measured``): a task runs its function and reports, with the result, the worker's
   address, the seconds the function took there and what the brick caches of the worker's
-  networks read from their stores meanwhile (``bytes_read``, ``bricks_read``: the caches' own
-  counters, vgraph.bricks.cache.BrickCache.stats). Every renderer that reads a store does so
+  networks read from their stores while the task held the worker's GL lock (``bytes_read``,
+  ``bricks_read``: the caches' own counters, vgraph.bricks.cache.BrickCache.stats;
+  ``counted_reads``): its own reads only, also beside another task of a worker with several
+  threads, and whichever of the worker's networks it evaluated. Every renderer that reads a store does so
   through a BrickCache: the BrickedRayCaster's bricks (of a store, or of the pyramid it makes of
   a volume in memory), the SweepPlaneRenderer's leaves (one leaf is one brick). A renderer that
   draws a volume in memory whole (the RayCaster, a SweepPlaneRenderer on a Volume) reads through
@@ -16,6 +18,8 @@ tiles against leaves"; docs/guide/distributed.md "What each worker read").
 
 from __future__ import annotations
 
+import contextlib
+import threading
 import time
 from dataclasses import dataclass
 
@@ -88,22 +92,43 @@ def task_report(label: str, measured_values: dict) -> TaskReport:
 
 
 # --- in the worker process ---------------------------------------------------------------------------
-def measured(function, *args):
-    """(``function(*args)``, what it cost this worker: its address, the seconds, and what every
-    brick cache of the worker's networks read meanwhile)."""
-    from vgraph.distributed.worker import kept_networks
+# The reads of the task each thread runs (``measured``): a worker started with several threads runs
+# several tasks at once, so the caches' counters around one task's whole function would also count
+# what the others read meanwhile (a composite beside a run; docs/guide/distributed.md). Reads are
+# counted inside ``counted_reads`` blocks instead, which hold the worker's GL lock.
+_TASK = threading.local()
 
-    before = {id(cache): (cache, _counts(cache)) for cache in _caches(kept_networks())}
+
+def measured(function, *args):
+    """(``function(*args)``, what it cost this worker: its address, the seconds, and what the
+    brick caches of the worker's networks read in its ``counted_reads`` blocks)."""
+    _TASK.read = dict.fromkeys(COUNTED, 0)
     started = time.perf_counter()
-    result = function(*args)
+    try:
+        result = function(*args)
+    finally:
+        read, _TASK.read = _TASK.read, None
     seconds = time.perf_counter() - started
-    read = dict.fromkeys(COUNTED, 0)
-    for cache in _caches(kept_networks()):
-        earlier = before.get(id(cache))
-        start = earlier[1] if earlier is not None and earlier[0] is cache else dict.fromkeys(COUNTED, 0)
-        for name in COUNTED:
-            read[name] += cache.stats[name] - start[name]
     return result, {"worker": _address(), "seconds": seconds, **read}
+
+
+@contextlib.contextmanager
+def counted_reads(networks):
+    """Counts for this thread's task (``measured``) what the brick caches of ``networks()`` (the
+    worker's networks, asked again at the end: the block may build one) read in the block. The
+    block must hold the worker's GL lock (vgraph.distributed.worker.GL_LOCK), which every task
+    holds while it evaluates a network: what is read meanwhile is this task's alone."""
+    before = {id(cache): (cache, _counts(cache)) for cache in _caches(networks())}
+    try:
+        yield
+    finally:
+        tally = getattr(_TASK, "read", None)
+        if tally is not None:  # a task function called outside measured() counts nothing
+            for cache in _caches(networks()):
+                earlier = before.get(id(cache))
+                start = earlier[1] if earlier is not None and earlier[0] is cache else dict.fromkeys(COUNTED, 0)
+                for name in COUNTED:
+                    tally[name] += cache.stats[name] - start[name]
 
 
 def _caches(networks) -> list[BrickCache]:

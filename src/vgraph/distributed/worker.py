@@ -12,7 +12,8 @@
 - One GL context per worker process: ``vgraph.gl_context.get_context()`` creates the process's
   headless EGL context on the first evaluation in that worker (never in the client or the
   scheduler) and every later task reuses it. GL contexts are not thread-safe, so tasks of one
-  worker hold ``GL_LOCK`` while they touch it (workers are started single-threaded anyway).
+  worker hold ``GL_LOCK`` while they touch it (workers are started single-threaded anyway); what
+  the worker's brick caches read while a task holds it is that task's (report.counted_reads).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from tqdm import tqdm
 
 import vgraph
 from vgraph import gl_context
+from vgraph.distributed.report import counted_reads
 from vgraph.distributed.tiles import Tile, cameras, set_tile_cameras
 from vgraph.fileformat import build_network, network_document, parse_document
 
@@ -45,7 +47,7 @@ def render_tile(document: str, base_dir: str | None, target: str, size: tuple[in
     """The rendered rectangle of ``tile`` (its halo included) of the ``size`` image of ``target``,
     float32 (h, w, 4), row 0 at the top: the task of the tiles split."""
     load_plugins(plugins)
-    with GL_LOCK:
+    with GL_LOCK, counted_reads(kept_networks):
         network, full_cameras = worker_network(document, base_dir, target)
         set_tile_cameras(network, full_cameras, tile, size)
         network.update(target, size=tuple(tile.rendered[2:]))
