@@ -5,14 +5,10 @@
 // pixel's ray start on the near plane, b = 0, a = 1. The GL depth test keeps the nearest surface.
 #include "geometry/surface_color.glsl"
 #include "raycasting/shading.glsl"
+// The pixel's ray start (pixel_ndc, near_point) and world_length: units of the drawn geometry
+// (one drawn in its box's normalised frame, vgraph.box_frame; else 1).
+#include "raycasting/pixel_depth.glsl"
 
-uniform vec2 viewport_size;  // of the whole picture; pixel_offset: this image's place in it
-uniform vec2 pixel_offset;   // (geometry.pixel_rays: a tile's rays are the whole picture's)
-uniform vec3 near_centre;  // the pixel centre (ndc_x, ndc_y) is at near_centre + ndc_x near_right
-uniform vec3 near_right;   // + ndc_y near_up on the near plane (where Camera.rays start)
-uniform vec3 near_up;
-uniform float world_length;  // world units per unit of the drawn geometry (one drawn in its box's
-                             // normalised frame, vgraph.box_frame; else 1)
 #ifdef PROJECTION_PERSPECTIVE
 uniform vec3 eye;
 #else
@@ -37,7 +33,6 @@ void main() {
     rgb = shade(rgb, world_normal, towards_viewer);
 #endif
     color = vec4(rgb, 1.0);
-    vec2 ndc = (gl_FragCoord.xy + pixel_offset) / viewport_size * 2.0 - 1.0;
-    vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
-    depth = vec4(gl_FragCoord.z, distance(world, origin) * world_length, 0.0, 1.0);
+    // The rasterised depth, not point_depth's from view_projection: the GL depth test compares it.
+    depth = vec4(gl_FragCoord.z, distance(world, near_point(pixel_ndc())) * world_length, 0.0, 1.0);
 }

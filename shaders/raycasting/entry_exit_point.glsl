@@ -20,11 +20,9 @@
 // >= offset. A ray whose front face lies in the removed part now starts on the plane: the cut
 // shows the inside (capping), for every ray caster, as they march from entry to exit point. A
 // crop box needs no code here: EntryExitPoints narrows box_min/box_max (and the hit box) to it.
-uniform vec2 viewport_size;  // of the whole picture (a tile's too: geometry.pixel_rays)
-uniform vec2 pixel_offset;   // where this image lies in it (0 but for a tile)
-uniform vec3 near_centre;  // near-plane point of pixel centre (ndc_x, ndc_y):
-uniform vec3 near_right;   //   near_centre + ndc_x * near_right + ndc_y * near_up
-uniform vec3 near_up;
+// The pixel's ray start: pixel_ndc() in the whole picture (a tile's too: geometry.pixel_rays),
+// near_point(ndc) on the near plane.
+#include "raycasting/pixel_depth.glsl"
 uniform vec3 direction_centre;  // its direction: direction_centre + ndc_x * direction_right + ...
 uniform vec3 direction_right;   // (given apart from the points: near_point - eye would lose
 uniform vec3 direction_up;      //  digits when the near plane is close to the eye)
@@ -73,10 +71,6 @@ vec2 picture_pixel() {
     return gl_FragCoord.xy + pixel_offset;
 }
 
-vec2 pixel_ndc() {
-    return picture_pixel() / viewport_size * 2.0 - 1.0;
-}
-
 // The ray parameters [enter, leave] of the part of the ray inside [lo, hi] and in [0, far - near].
 vec2 slab_interval(vec3 origin, vec3 inverse, vec3 lo, vec3 hi) {
     vec3 t0 = (lo - origin) * inverse;
@@ -95,7 +89,7 @@ vec3 texture_point(vec3 origin, vec3 direction, float s) {
 
 void box_points(out vec4 entry, out vec4 exit) {
     vec2 ndc = pixel_ndc();
-    vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
+    vec3 origin = near_point(ndc);
     vec3 direction = direction_centre + ndc.x * direction_right + ndc.y * direction_up;
     // A ray parallel to a slab is inside it for all or no t: a huge 1/d gives +-huge or 0 there.
     vec3 inverse = vec3(direction.x != 0.0 ? 1.0 / direction.x : 1e30,
