@@ -231,3 +231,23 @@ def test_morphology_of_float_labels_in_a_store_is_refused_by_name(noise_path, ca
                                             r"morphology takes integer labels"):
         run("VolumeMorphology", volume=volume, radius=2.0)
     assert not list(cache.glob("filtered/*"))
+
+
+@pytest.mark.parametrize("rank, density", [(1, 0.3), (2, 0.15), (3, 0.08)])  # 6, 18, 26 neighbours
+def test_tiles_joined_across_faces_edges_and_corners_are_scipys_components(tmp_path, rank, density):
+    """The tiles' labels joined across their boundaries (tiles of uneven sizes, 3 x 3 x 4 of
+    them) are the components scipy.ndimage.label finds in the whole mask: one component per
+    tile label's voxels, and as many components. Densities below percolation: many components."""
+    from scipy import ndimage
+    from vgraph.chunked_segmentation import joined_components, labelled_tiles
+    mask = np.random.default_rng(3).random((23, 29, 37)) < density
+    np.save(tmp_path / "mask.npy", mask.astype(np.uint8))
+    convert(tmp_path / "mask.npy", tmp_path / "mask.zarr", brick=8, progress=False)
+    structure = ndimage.generate_binary_structure(3, rank)
+    tiles, total = labelled_tiles(BrickedVolume.open(tmp_path / "mask.zarr"), lambda block: block != 0,
+                                  structure, tmp_path / "tiles.zarr", (8, 10, 12))
+    joined = joined_components(tiles, structure, total)[tiles[:]]
+    reference, count = ndimage.label(mask, structure=structure)
+    assert count > 100 and total > count + 50  # many components cross tiles
+    pairs = np.unique(np.stack([reference.reshape(-1), joined.reshape(-1)]), axis=1)
+    assert pairs.shape[1] == count + 1 and np.unique(pairs[1]).size == count + 1  # one to one

@@ -13,12 +13,12 @@ vgraph.chunked_filtering's plans, cache and atomic writer.
   rows, an in-memory volume's slices, or a volume resampled onto the slab's grid) by the
   processor's own combination.
 - Connected components: dask-image's labelling across chunks (dask_image.ndmeasure.label's
-  scheme and its own functions: each tile labelled by scipy.ndimage.label with numbers unique
-  over the volume, the labels touching across tile faces joined by the connected components of
-  their graph). The tiles' labels go to a scratch zarr array rather than staying in dask's memory
-  (dask_image.ndmeasure.label computed whole holds every tile's labels until the graph is solved:
-  four bytes a voxel, beyond any budget), and the faces are read back from it a band of slices
-  at a time. Then
+  scheme, with scipy's functions: each tile labelled by scipy.ndimage.label with numbers unique
+  over the volume, the labels touching across tile boundaries joined by the connected components
+  of their graph). Not dask_image.ndmeasure.label itself (its only public function for it):
+  computed whole it holds every tile's labels until the graph is solved, four bytes a voxel,
+  beyond any budget. The tiles' labels go to a scratch zarr array instead, and the boundaries
+  are read back from it a band of slices at a time. Then
   one pass counts each component's voxels and finds its first voxel in memory order, so the
   numbering is the in-memory one (largest first, a tie by the first voxel met), and the last pass
   writes it.
@@ -40,6 +40,7 @@ from vgraph.volume_segmentation import sampled_at, smallest_label_type
 
 
 BAND_VOXELS = 2**20  # voxels of the component count's np.unique at once
+LABEL_DTYPE = np.dtype(np.int32)  # scipy.ndimage.label's output type: the tiles' labels
 
 
 def rows_of(volume: Volume, z0: int, z1: int) -> np.ndarray:
@@ -151,7 +152,6 @@ def labelled_tiles(volume: BrickedVolume, foreground, structure, scratch, chunks
     (dask_image.ndmeasure's first step), written to a scratch zarr array: (it, the count)."""
     import zarr
     from scipy import ndimage
-    from dask_image.ndmeasure._utils._label import LABEL_DTYPE
     depth, rows_y, cols_x = volume.shape
     tiles = zarr.create_array(str(scratch), shape=volume.shape, chunks=chunks, dtype=LABEL_DTYPE,
                               fill_value=0)
@@ -174,28 +174,43 @@ def labelled_tiles(volume: BrickedVolume, foreground, structure, scratch, chunks
 
 
 def joined_components(tiles, structure, total: int) -> np.ndarray:
-    """tile label -> component (0 the background): the labels that touch across tile faces, by
-    dask-image's own face list and grouping (_chunk_faces, _across_block_label_grouping), each face
-    read from the scratch array as it comes (a dask graph of thousands of small face tasks cost
-    more to build than to run), solved by scipy's connected_components as dask-image does."""
+    """tile label -> component (0 the background): the tile labels that touch across a boundary
+    between tiles joined by scipy's connected_components, as dask-image's label joins them. Two
+    voxels that touch (by ``structure``) in different tiles lie on either side of a boundary along
+    some axis, so they touch in the two slices around it (``touching``). The scratch array is read
+    a band of a tile's slices at a time: its boundaries along y and x, and along z with the next
+    band's first slice (a face a task would cost more to schedule than to compute)."""
     import scipy.sparse
-    from dask_image.ndmeasure._utils._label import _across_block_label_grouping, _chunk_faces
     from scipy.sparse.csgraph import connected_components
-    chunks = tuple(tuple(min(c, n - start) for start in range(0, n, c)) for c, n in zip(tiles.chunks, tiles.shape))
+    depth = tiles.shape[0]
+    bz, ty, tx = tiles.chunks
     pairs = [np.zeros((2, 0), dtype=np.int64)]
-    bands: dict = {}  # the faces come z band by z band: each band of slices is read once
-    for face in _chunk_faces(chunks, tiles.shape, structure):
-        key = (face[0].start, face[0].stop, face[0].step)
-        if key not in bands:
-            if len(bands) == 4:  # a slab and the face bands after it: older ones are done with
-                del bands[next(iter(bands))]
-            bands[key] = tiles[face[0]]
-        pairs.append(_across_block_label_grouping(bands[key][(slice(None), *face[1:])], structure)
-                     .astype(np.int64))
+    band = tiles[0:min(depth, bz)]
+    for z0 in range(0, depth, bz):
+        for axis, step in ((1, ty), (2, tx)):
+            for edge in range(step, tiles.shape[axis], step):
+                pairs.append(touching(np.take(band, [edge - 1, edge], axis=axis), structure))
+        if z0 + bz < depth:
+            following = tiles[z0 + bz:min(depth, z0 + 2 * bz)]
+            pairs.append(touching(np.concatenate([band[-1:], following[:1]]), structure))
+            band = following
     i, j = np.concatenate(pairs, axis=1)
     graph = scipy.sparse.coo_matrix((np.ones_like(i), (i, j)), shape=(total + 1, total + 1)).tocsr()
-    # node 0 (the background) touches nothing: it is component 0, as dask-image relies on
+    # node 0 (the background) touches nothing: it is component 0
     return connected_components(graph, directed=False)[1]
+
+
+def touching(face: np.ndarray, structure) -> np.ndarray:
+    """(2, M) edges between tile labels: those in one piece of ``face`` (two slices across a
+    boundary between tiles, labelled by scipy.ndimage.label with ``structure``) are chained
+    together, each to the next."""
+    from scipy import ndimage
+    pieces = ndimage.label(face, structure=structure)[0]
+    inside = pieces > 0
+    # (piece, tile label) once each, sorted by piece: a piece's labels are adjacent columns
+    found = np.unique(np.stack([pieces[inside], face[inside]]).astype(np.int64), axis=1)
+    chained = np.flatnonzero(np.diff(found[0]) == 0)
+    return np.stack([found[1][chained], found[1][chained + 1]])
 
 
 def component_extents(tiles, joined: np.ndarray, rows: int) -> tuple[np.ndarray, np.ndarray]:
