@@ -266,6 +266,17 @@ def test_unreachable_scheduler_is_named_quickly():
             pass
 
 
+def test_a_worker_with_several_threads_is_refused_by_name():
+    """A worker's GL context is current in the thread that made it: with 2 threads a worker's
+    tasks on the other thread failed ('cannot create texture'). Refused before any task."""
+    from distributed import Client, LocalCluster
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        with pytest.raises(ClusterError, match=r"cluster .*: worker \S+ \(2 threads\): vgraph's tasks need one "
+                                               r"thread per worker .*--nthreads 1"):
+            render(SPHERE, client, split="tiles", tiles=(2, 1), size=(32, 24))
+
+
 # --- on two worker processes ----------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def client():

@@ -1,6 +1,7 @@
 """What a task reports it read (vgraph.distributed.report.measured) when several networks share a
 worker process: each task only its own network's reads, also while another task of that worker
-runs (a worker with several threads: a composite beside a run). The tasks run in this process, as
+runs in another thread (a worker with several threads, now refused by render_report, ran a
+composite beside a run). The tasks run in this process, as
 tests/test_distributed.py's shipped_tiles does: a task on a worker is the same function."""
 
 from __future__ import annotations
@@ -74,8 +75,8 @@ def test_two_networks_on_one_worker_each_report_their_own_reads(stores, fresh_wo
 
 
 def test_a_task_does_not_report_what_another_task_of_its_worker_read_meanwhile(stores, fresh_worker):
-    """A worker with two threads: a task that reads nothing (a composite of the leaves split) runs
-    while a run task of another network reads its leaves; each reports only its own reads."""
+    """A task that reads nothing (a composite of the leaves split) runs in one thread while a task
+    of a network reads its leaves in another; each reports only its own reads."""
     running, finish = threading.Event(), threading.Event()
     reports = {}
 

@@ -68,6 +68,19 @@ def connect(spec: str, timeout: float = CONNECT_TIMEOUT):
         client.close()
 
 
+def one_thread_each(client, cluster: str | None = None) -> None:
+    """Refuses (ClusterError) a cluster with a worker of several threads: a worker's tasks draw in
+    its process's one GL context, which is current only in the thread that made it; a task on
+    another thread fails ('cannot create texture', seen with 2 threads a worker)."""
+    workers = client.scheduler_info().get("workers", {})
+    crowded = sorted(f"{address} ({info['nthreads']} threads)" for address, info in workers.items()
+                     if info.get("nthreads", 1) > 1)
+    if crowded:
+        raise ClusterError(f"cluster {cluster or client.scheduler.address}: worker {', '.join(crowded)}: "
+                           "vgraph's tasks need one thread per worker (a worker's GL context serves one "
+                           "thread); start the workers with `dask worker SCHEDULER --nthreads 1`")
+
+
 @contextlib.contextmanager
 def local_cluster(workers: int):
     """A LocalCluster of ``workers`` single-threaded worker processes on 127.0.0.1, closed on

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 import vgraph
+from vgraph.distributed.cluster import one_thread_each
 from vgraph.distributed.leaves import bricked_caster, render_leaves
 from vgraph.distributed.report import ClusterFrame, measured, task_report
 from vgraph.distributed.tiles import Tile, TileError, assemble, check_grid, cut, untileable
@@ -63,10 +64,12 @@ def render_report(network_or_path, client, split: str = "tiles", tiles=(2, 2), s
     ``timeout``: how long a task may run before its worker is restarted (default: the Dask
     configuration's vgraph.task-timeout; vgraph.distributed.watch). ``cluster``: the cluster's name
     in messages (default: the scheduler's address). A frame one of whose tasks the scheduler
-    cancelled (the client did not) is drawn again with new tasks, once, with a ClusterWarning.
+    cancelled (the client did not) is drawn again with new tasks, once, with a ClusterWarning. A
+    cluster with a worker of several threads is refused (ClusterError: its GL context serves one).
     Its ``tasks`` and ``workers`` say what each task and each worker read through its brick
     caches (bytes, bricks or leaves) and the seconds it computed."""
     plan = prepare(network_or_path, split, tiles, size, target)
+    one_thread_each(client, cluster)
     for attempt in (1, 2):
         try:
             if split == "leaves":

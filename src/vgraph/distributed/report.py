@@ -5,8 +5,8 @@ tiles against leaves"; docs/guide/distributed.md "What each worker read").
   address, the seconds the function took there and what the brick caches of the worker's
   networks read from their stores while the task held the worker's GL lock (``bytes_read``,
   ``bricks_read``: the caches' own counters, vgraph.bricks.cache.BrickCache.stats;
-  ``counted_reads``): its own reads only, also beside another task of a worker with several
-  threads, and whichever of the worker's networks it evaluated. Every renderer that reads a store does so
+  ``counted_reads``): its own reads only, whichever of the worker's networks it evaluated, also
+  while another thread of the worker reads. Every renderer that reads a store does so
   through a BrickCache: the BrickedRayCaster's bricks (of a store, or of the pyramid it makes of
   a volume in memory), the SweepPlaneRenderer's leaves (one leaf is one brick). A renderer that
   draws a volume in memory whole (the RayCaster, a SweepPlaneRenderer on a Volume) reads through
@@ -92,10 +92,11 @@ def task_report(label: str, measured_values: dict) -> TaskReport:
 
 
 # --- in the worker process ---------------------------------------------------------------------------
-# The reads of the task each thread runs (``measured``): a worker started with several threads runs
-# several tasks at once, so the caches' counters around one task's whole function would also count
-# what the others read meanwhile (a composite beside a run; docs/guide/distributed.md). Reads are
-# counted inside ``counted_reads`` blocks instead, which hold the worker's GL lock.
+# The reads of the task each thread runs (``measured``): the caches' counters around a task's whole
+# function would also count what another thread of the process read meanwhile (a worker with
+# several threads, which render_report refuses as cluster.one_thread_each says, ran a composite
+# beside a run). Reads are counted inside ``counted_reads`` blocks instead, which hold the
+# worker's GL lock.
 _TASK = threading.local()
 
 
