@@ -20,7 +20,7 @@ from matplotlib.patches import ConnectionPatch, Rectangle  # noqa: E402
 
 from vgraph.bricks.leaf_pages import POINTER, build  # noqa: E402
 from vgraph.bricks.pyramid import ArrayPyramid  # noqa: E402
-from vgraph.bricks.selection import BrickGeometry  # noqa: E402
+from vgraph.bricks.brick_geometry import BrickGeometry  # noqa: E402
 
 LEVEL_COLOURS = ["#6baed6", "#fd8d3c", "#74c476", "#9e9ac8", "#969696"]  # levels 0 to 4
 BRICK, CELLS = 16, 16  # a 256 x 256 x 16 volume: 16 x 16 level-0 cells, one deep

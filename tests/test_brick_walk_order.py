@@ -15,7 +15,9 @@ from vgraph.bricks.cache import brick_texture_shape, bricks_bytes, level_brick_b
 from vgraph.bricks.cells import cell_grid
 from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.pyramid import ArrayPyramid, brick_grid
-from vgraph.bricks.selection import BrickGeometry, LevelTables, select_bricks
+from vgraph.bricks.brick_geometry import BrickGeometry
+from vgraph.bricks.level_tables import LevelTables
+from vgraph.bricks.selection import select_bricks
 from vgraph.bricks.walk_order import axis_ranks, front_to_back
 from vgraph.camera import Camera
 from vgraph.gl.tetrahedra.cells import axis_order

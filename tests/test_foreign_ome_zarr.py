@@ -18,7 +18,7 @@ from scipy import ndimage
 
 from vgraph.bricks.cache import read_with_halo
 from vgraph.bricks.cells import cell_extent, cell_grid, coarseness
-from vgraph.bricks.selection import BrickGeometry
+from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.store import BrickStore
 from vgraph.bricks.foreign_stores import StoreImagesWarning
 from vgraph.bricks.store_metadata import StoreLevelsWarning

@@ -18,7 +18,7 @@ from vgraph.bricks.implicit_url import open_implicit
 from vgraph.bricks.page_table import PageTable
 from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.paged_sampling import PagedSampling
-from vgraph.bricks.selection import BrickGeometry
+from vgraph.bricks.brick_geometry import BrickGeometry
 
 from helpers.networks import UNSHADED_RAMP
 from test_bricked_raycaster import FINEST, WINDOW, odd_volume, oblique, render

@@ -18,7 +18,8 @@ from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.sampling import BrickSampling
 from vgraph.bricks.cells import coarseness
-from vgraph.bricks.selection import BrickGeometry, LeafPass
+from vgraph.bricks.brick_geometry import BrickGeometry
+from vgraph.bricks.selection import LeafPass
 from vgraph.bricks.volume import BrickedVolume
 from vgraph.camera import Camera
 from vgraph.clipping import ClipPlane

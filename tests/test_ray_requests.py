@@ -14,7 +14,7 @@ from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks import leaf_pages
 from vgraph.bricks.ray_requests import by_priority, drawn_from
 from vgraph.bricks.sampling import BrickSampling
-from vgraph.bricks.selection import BrickGeometry
+from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.camera import Camera
 from vgraph.frame_context import FrameContext
 from vgraph.numerics.reference_raycast import volume_box

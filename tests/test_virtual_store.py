@@ -22,7 +22,7 @@ from vgraph.bricks.cache import LoadLimit
 from vgraph.bricks.methods import leaf_table_need, whole_volume_level
 from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.sampling import BrickSampling
-from vgraph.bricks.selection import BrickGeometry
+from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.implicit_store import ImplicitStore
 from vgraph.bricks.implicit_url import ImplicitUrlError, open_implicit, parse_implicit_url
 from vgraph.bricks.pyramid import ArrayPyramid

@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from vgraph.bricks.selection import BrickGeometry
+from vgraph.bricks.brick_geometry import BrickGeometry
 
 POINTER = 1024.0       # a directory entry's alpha that means "go to the page at rgb" (levels are < 64)
 FLAT_CELLS = 64 ** 3   # up to here one fetch of a flat leaf table per sample (5 MiB with `wanted`)

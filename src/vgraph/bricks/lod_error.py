@@ -27,7 +27,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from vgraph.bricks.selection import BrickGeometry, normalised_ranges
+from vgraph.bricks.brick_geometry import BrickGeometry
+from vgraph.bricks.selection import normalised_ranges
 
 CELL_PIXELS = 4  # the frame bound's grid: rectangles rounded out to 4 x 4 pixel cells (only grows it)
 

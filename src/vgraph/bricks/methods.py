@@ -36,10 +36,10 @@ from __future__ import annotations
 import math
 
 from vgraph.bricks.atlas import brick_count, slot_shape_of
+from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.cache import HALO, MB, texture_format
 from vgraph.bricks.cells import table_of
 from vgraph.bricks.leaf_pages import TEXEL_BYTES, table_bound
-from vgraph.bricks.selection import BrickGeometry
 from vgraph.errors import VGraphError
 from vgraph.memory import format_bytes
 

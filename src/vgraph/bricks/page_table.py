@@ -36,9 +36,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.cache import HALO
 from vgraph.bricks.cells import table_of
-from vgraph.bricks.selection import BrickGeometry
 from vgraph.gl_context import release_quietly
 
 RESIDENT, REFINE, EMPTY = 1, 2, 4

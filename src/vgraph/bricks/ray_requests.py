@@ -28,8 +28,8 @@ import weakref
 
 import numpy as np
 
+from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.leaf_pages import LeafPages
-from vgraph.bricks.selection import BrickGeometry
 from vgraph.gl.raycasting.raycaster_base import Binding, Component
 from vgraph.gl_context import release_quietly
 

@@ -1,19 +1,10 @@
 """Which bricks a frame of the bricked ray caster draws, at which level, in which order.
 
 Conventions (docs/explanations/bricked-ray-casting.md):
-- The pyramid is an octree of cells (vgraph.bricks.cells): cell b of level L covers level-0 voxels
-  [b * B * f_L, (b + 1) * B * f_L) per axis (B the brick size, f_L the level's factor: 2^L where
-  every level halves every axis, 1 along an axis the pyramid keeps), exactly its children at level
-  L - 1, and reads the level-L voxels that cover that region. The selection walks it from the
-  coarsest level down, so the chosen cells ("bricks") tile the volume whatever their levels.
-- A brick *owns* the samples whose level-0 texture coordinate t lies in [j_lo / n, j_hi / n) per
-  axis (j the level-0 voxel bounds above, n the level-0 voxels): half-open, so each sample of the
-  global lattice lies in exactly one brick; the volume's outer faces are pushed to +-OUTSIDE so
-  samples on (or a rounding beyond) the box still have an owner.
-- Level per brick: a level-0 voxel (its longest edge) projects to p pixels at the brick's
-  nearest point; the brick wants the coarsest level L with cells.coarseness[L] <= -log2(p) +
-  lod_bias (floor(-log2(p) + lod_bias) where every level halves every axis: voxels of about a
-  pixel at lod_bias 0), clamped to the pyramid and to at least ``floor_level``; ``plan_frame``
+- The bricks are cells of the pyramid's octree, each owning a half-open box of the samples
+  (vgraph.bricks.brick_geometry); the selection walks the octree from the coarsest level down, so
+  the chosen cells ("bricks") tile the volume whatever their levels. Each brick's level is the one
+  its footprint asks for (vgraph.bricks.level_tables), at least ``floor_level``; ``plan_frame``
   raises floor_level until the frame fits the budget.
 - Empty bricks: the per-brick ranges of the brick's level (``brick_ranges``), widened to the 3^3
   neighbouring bricks (a sample inside a brick filters voxels up to one voxel outside it),
@@ -35,7 +26,6 @@ Conventions (docs/explanations/bricked-ray-casting.md):
 from __future__ import annotations
 
 import math
-import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -43,13 +33,12 @@ import numpy as np
 from scipy import ndimage
 
 from vgraph import derived
+from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.cache import LoadLimit, bricks_bytes, usable_range
-from vgraph.bricks.cells import cell_factors, cell_grid, cells_of_bricks, coarseness
+from vgraph.bricks.level_tables import LevelTables
 from vgraph.bricks.pyramid import BrickSource
 from vgraph.bricks.walk_order import children, top_cells
 from vgraph.gl.raycasting.empty_space import occupied_blocks
-
-OUTSIDE = 1e6  # texture coordinate of the volume's outer faces in the ownership test
 
 
 @dataclass
@@ -89,57 +78,6 @@ class LeafPass:
     partial: tuple | None = field(default=None, repr=False)
 
 
-class BrickGeometry:
-    """Where a source's bricks are: level-0 voxel bounds, world boxes and ownership bounds.
-    ``BrickGeometry.of(source)``: the one kept per source (vgraph.derived), which holds the source
-    weakly (a kept value must not keep its source alive)."""
-
-    def __init__(self, source: BrickSource, weak: bool = False):
-        base = source.levels[0]
-        self._source = weakref.ref(source) if weak else (lambda: source)
-        self.dims0 = np.asarray(base.shape[::-1], dtype=np.float64)      # (x, y, z)
-        self.spacing0 = np.asarray(base.spacing, dtype=np.float64)
-        self.origin0 = np.asarray(base.origin, dtype=np.float64)
-        self.brick = np.asarray(source.brick, dtype=np.float64)          # (x, y, z)
-        factors = [np.asarray(f, dtype=np.int64) for f in cell_factors(source)]
-        self.spans = [self.brick * f for f in factors]                   # level-0 voxels per cell
-        self.ratios = [None] + [b // a for a, b in zip(factors, factors[1:])]  # children per axis
-        self.grids = [np.asarray(cell_grid(source, k)[::-1]) for k in range(len(source.levels))]
-        self.coarseness = coarseness(source)
-        # Level-0 samples per sample of each level (brick_span.glsl): the level's smallest cell
-        # edge over level 0's smallest voxel edge, whole (2^L where every axis halves).
-        finest = float(self.spacing0.min())
-        self.strides = [max(1, int(math.floor(float((f * self.spacing0).min()) / finest + 1e-9))) for f in factors]
-        self.per_brick: dict = {}  # key -> the brick's uniforms (targets.brick_uniforms), made once
-        self.per_level: dict = {}  # (what, level) -> a level's boxes and corners (kept_per_level)
-
-    @staticmethod
-    def of(source: BrickSource) -> BrickGeometry:
-        """The geometry of ``source``, made once per source (vgraph.derived)."""
-        return derived.value(source, "brick geometry", lambda: BrickGeometry(source, weak=True))
-
-    @property
-    def source(self) -> BrickSource:
-        return self._source()
-
-    def voxel_bounds(self, key) -> tuple[np.ndarray, np.ndarray]:
-        """Level-0 voxel bounds [lo, hi) (x, y, z) of a brick, hi clipped to the volume."""
-        level, index = key[0], np.asarray(key[1:][::-1], dtype=np.float64)
-        span = self.spans[level]
-        return index * span, np.minimum((index + 1) * span, self.dims0)
-
-    def owner_bounds(self, key) -> tuple[np.ndarray, np.ndarray]:
-        """Texture-space bounds [lo, hi) of the samples the brick owns (see the module docstring)."""
-        lo, hi = self.voxel_bounds(key)
-        index = np.asarray(key[1:][::-1])
-        t_lo = np.where(index == 0, -OUTSIDE, lo / self.dims0)
-        t_hi = np.where(index == self.grids[key[0]] - 1, OUTSIDE, hi / self.dims0)
-        return t_lo, t_hi
-
-    def eye_in_bricks(self, eye, level: int) -> np.ndarray:
-        """The eye's position in brick units of ``level`` (x, y, z)."""
-        return ((np.asarray(eye) - self.origin0) / self.spacing0 + 0.5) / self.spans[level]
-
 
 # --- emptiness ------------------------------------------------------------------------------------
 def normalised_ranges(source: BrickSource, level: int, value_range=None) -> tuple[np.ndarray, np.ndarray]:
@@ -175,114 +113,7 @@ def visible_bricks(source: BrickSource, level: int, mode: str, alpha=None, iso_l
     return high > 0.0  # mip: intensities are clamped to [0, 1]; 0 adds nothing to the maximum
 
 
-# --- per-level tables: boxes, level of detail, screen rectangles -----------------------------------
-KEPT_CELLS = 1 << 15  # levels of at most this many cells keep their boxes and corners (8 MB at most)
-
-
-def kept_per_level(geometry: BrickGeometry, what: str, level: int, make):
-    """``make()`` for ``level``, kept in the geometry (one per source) where the level is small:
-    the boxes and corners of a level depend on nothing else, so a frame need not make them again."""
-    if math.prod(int(n) for n in geometry.grids[level]) > KEPT_CELLS:
-        return make()
-    key = (what, level)
-    if key not in geometry.per_level:
-        geometry.per_level[key] = make()
-    return geometry.per_level[key]
-
-
-def level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.ndarray]:
-    """World boxes of the owned regions (inside the box of the voxel centres) of every brick of
-    ``level``: arrays [bz, by, bx, 3] (x, y, z), read-only."""
-    return kept_per_level(geometry, "boxes", level, lambda: _level_boxes(geometry, level))
-
-
-def _level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.ndarray]:
-    grid = geometry.grids[level]
-    index = np.stack(np.meshgrid(*[np.arange(n) for n in grid[::-1]], indexing="ij"), axis=-1)[..., ::-1]
-    span = geometry.spans[level]
-    top = geometry.dims0 - 1.0
-    lo = np.clip(index * span - 0.5, 0.0, top)
-    hi = np.clip(np.minimum((index + 1) * span, geometry.dims0) - 0.5, 0.0, top)
-    boxes = geometry.origin0 + lo * geometry.spacing0, geometry.origin0 + hi * geometry.spacing0
-    for box in boxes:
-        box.setflags(write=False)
-    return boxes
-
-
-def box_corners(geometry: BrickGeometry, level: int) -> np.ndarray:
-    """The 8 corners of every box of level_boxes, homogeneous: [bz, by, bx, 8, 4], read-only."""
-    def make() -> np.ndarray:
-        lo, hi = level_boxes(geometry, level)
-        corners = np.ones(lo.shape[:-1] + (8, 4))
-        for i in range(8):
-            for a in range(3):
-                corners[..., i, a] = (lo, hi)[i >> a & 1][..., a]
-        corners.setflags(write=False)
-        return corners
-    return kept_per_level(geometry, "corners", level, make)
-
-
-def pixels_per_world(camera, size, distance):
-    """Pixels per world unit at ``distance`` from the eye, in the full picture: a tile of it (a
-    camera with a ``window``, vgraph.distributed) draws its bricks at the levels the picture does."""
-    height = float(size[1])
-    if camera.window is not None:
-        _, _, bottom, top = camera.window
-        height *= 2.0 / (top - bottom)  # the window spans top - bottom of the full view's 2 in NDC
-    if camera.projection == "orthographic":
-        return np.full(np.shape(distance), height / (2.0 * camera.parallel_scale))
-    return height / (2.0 * np.maximum(distance, 1e-12) * math.tan(math.radians(camera.fov) / 2.0))
-
-
-def desired_levels(geometry: BrickGeometry, camera, size, level: int, lod_bias: float) -> np.ndarray:
-    """The level each brick of ``level`` asks for (module docstring), int [bz, by, bx]."""
-    lo, hi = level_boxes(geometry, level)
-    eye = np.asarray(camera.position, dtype=np.float64)
-    distance = np.linalg.norm(np.maximum(np.maximum(lo - eye, eye - hi), 0.0), axis=-1)
-    # The longest voxel edge: an anisotropic voxel is refined until its longest side is about a pixel.
-    pixels = float(geometry.spacing0.max()) * pixels_per_world(camera, size, distance)
-    allowed = -np.log2(np.maximum(pixels, 1e-30)) + lod_bias
-    return np.searchsorted(geometry.coarseness[1:], allowed, side="right").astype(np.int64)
-
-
-def screen_rects(geometry: BrickGeometry, view_projection, size, level: int) -> np.ndarray:
-    """Pixel rectangles (x, y, w, h) covering each brick of ``level`` with one pixel of margin, int
-    [bz, by, bx, 4]; w = 0 off screen; the whole viewport where a corner lies behind the eye."""
-    clip = box_corners(geometry, level) @ np.asarray(view_projection, dtype=np.float64).T  # [..., 8, 4]
-    w = clip[..., 3]
-    behind = (w <= 1e-9).any(axis=-1)
-    w = np.where(w > 1e-9, w, 1.0)
-    rects = []
-    for axis in range(2):  # each axis's corners contiguous: the min and max over 8 are the cost here
-        pixel = (clip[..., axis] / w * 0.5 + 0.5) * float(size[axis])
-        first = np.maximum(np.floor(pixel.min(axis=-1)) - 1, 0)
-        last = np.minimum(np.ceil(pixel.max(axis=-1)) + 1, float(size[axis]))
-        rects.append((first, np.maximum(last - first, 0)))
-    rects = np.stack([rects[0][0], rects[1][0], rects[0][1], rects[1][1]], axis=-1)
-    rects[behind] = (0, 0, size[0], size[1])
-    rects[(rects[..., 2] == 0) | (rects[..., 3] == 0)] = 0
-    return rects.astype(np.int64)
-
-
 # --- the walk ----------------------------------------------------------------------------------------
-class LevelTables:
-    """Per-level rectangles, wanted levels and visibility of one frame, computed on first use."""
-
-    def __init__(self, geometry: BrickGeometry, camera, size, view_projection, visible, lod_bias: float):
-        self.geometry, self.camera, self.size = geometry, camera, size
-        self.view_projection, self.visible, self.lod_bias = view_projection, visible, lod_bias
-        self._tables: dict = {}
-
-    def __call__(self, level: int, what: str) -> np.ndarray:
-        if (level, what) not in self._tables:
-            self._tables[level, what] = {
-                "rects": lambda: screen_rects(self.geometry, self.view_projection, self.size, level),
-                "wants": lambda: desired_levels(self.geometry, self.camera, self.size, level, self.lod_bias),
-                "visible": lambda: cells_of_bricks(self.geometry.source, level, self.visible(level)),
-            }[what]()
-        return self._tables[level, what]
-
-
 def select_bricks(source: BrickSource, camera, size, view_projection, visible, lod_bias: float,
                   floor_level: int = 0, geometry: BrickGeometry | None = None,
                   tables: LevelTables | None = None, too_coarse: Callable[[int], np.ndarray] | None = None) -> list:

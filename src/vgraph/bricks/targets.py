@@ -7,8 +7,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.cache import BLOCK, HALO, brick_extent
-from vgraph.bricks.selection import BrickGeometry
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl_context import bind_default_framebuffer, release_quietly
 

@@ -44,7 +44,7 @@ def axis_ranks(cells, counts, eye, towards: float, perspective: bool) -> np.ndar
 
 
 def top_cells(geometry, camera, forward, perspective: bool):
-    """Every cell (z, y, x int arrays) of the top level of ``geometry`` (a selection.BrickGeometry)
+    """Every cell (z, y, x int arrays) of the top level of ``geometry`` (a brick_geometry.BrickGeometry)
     and its order number: its rank in the top grid's front_to_back."""
     top = len(geometry.grids) - 1
     grid = np.asarray(geometry.grids[top], dtype=np.int64)  # (x, y, z)

@@ -1,0 +1,127 @@
+"""The per-level tables a frame's selection of bricks reads (vgraph.bricks.selection): the world
+boxes of a level's bricks and their corners (kept per source where the level is small), the level
+each brick asks for by its footprint, and its rectangle on the screen.
+
+Conventions (docs/explanations/bricked-ray-casting.md):
+- Level per brick: a level-0 voxel (its longest edge) projects to p pixels at the brick's
+  nearest point; the brick wants the coarsest level L with cells.coarseness[L] <= -log2(p) +
+  lod_bias (floor(-log2(p) + lod_bias) where every level halves every axis: voxels of about a
+  pixel at lod_bias 0), clamped to the pyramid and to at least ``floor_level``; ``plan_frame``
+  raises floor_level until the frame fits the budget.
+- A tile of the picture (a camera with a ``window``, vgraph.distributed) asks for the levels the
+  whole picture does (pixels_per_world).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vgraph.bricks.brick_geometry import BrickGeometry
+from vgraph.bricks.cells import cells_of_bricks
+
+KEPT_CELLS = 1 << 15  # levels of at most this many cells keep their boxes and corners (8 MB at most)
+
+
+def kept_per_level(geometry: BrickGeometry, what: str, level: int, make):
+    """``make()`` for ``level``, kept in the geometry (one per source) where the level is small:
+    the boxes and corners of a level depend on nothing else, so a frame need not make them again."""
+    if math.prod(int(n) for n in geometry.grids[level]) > KEPT_CELLS:
+        return make()
+    key = (what, level)
+    if key not in geometry.per_level:
+        geometry.per_level[key] = make()
+    return geometry.per_level[key]
+
+
+def level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.ndarray]:
+    """World boxes of the owned regions (inside the box of the voxel centres) of every brick of
+    ``level``: arrays [bz, by, bx, 3] (x, y, z), read-only."""
+    return kept_per_level(geometry, "boxes", level, lambda: _level_boxes(geometry, level))
+
+
+def _level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.ndarray]:
+    grid = geometry.grids[level]
+    index = np.stack(np.meshgrid(*[np.arange(n) for n in grid[::-1]], indexing="ij"), axis=-1)[..., ::-1]
+    span = geometry.spans[level]
+    top = geometry.dims0 - 1.0
+    lo = np.clip(index * span - 0.5, 0.0, top)
+    hi = np.clip(np.minimum((index + 1) * span, geometry.dims0) - 0.5, 0.0, top)
+    boxes = geometry.origin0 + lo * geometry.spacing0, geometry.origin0 + hi * geometry.spacing0
+    for box in boxes:
+        box.setflags(write=False)
+    return boxes
+
+
+def box_corners(geometry: BrickGeometry, level: int) -> np.ndarray:
+    """The 8 corners of every box of level_boxes, homogeneous: [bz, by, bx, 8, 4], read-only."""
+    def make() -> np.ndarray:
+        lo, hi = level_boxes(geometry, level)
+        corners = np.ones(lo.shape[:-1] + (8, 4))
+        for i in range(8):
+            for a in range(3):
+                corners[..., i, a] = (lo, hi)[i >> a & 1][..., a]
+        corners.setflags(write=False)
+        return corners
+    return kept_per_level(geometry, "corners", level, make)
+
+
+def pixels_per_world(camera, size, distance):
+    """Pixels per world unit at ``distance`` from the eye, in the full picture: a tile of it (a
+    camera with a ``window``, vgraph.distributed) draws its bricks at the levels the picture does."""
+    height = float(size[1])
+    if camera.window is not None:
+        _, _, bottom, top = camera.window
+        height *= 2.0 / (top - bottom)  # the window spans top - bottom of the full view's 2 in NDC
+    if camera.projection == "orthographic":
+        return np.full(np.shape(distance), height / (2.0 * camera.parallel_scale))
+    return height / (2.0 * np.maximum(distance, 1e-12) * math.tan(math.radians(camera.fov) / 2.0))
+
+
+def desired_levels(geometry: BrickGeometry, camera, size, level: int, lod_bias: float) -> np.ndarray:
+    """The level each brick of ``level`` asks for (module docstring), int [bz, by, bx]."""
+    lo, hi = level_boxes(geometry, level)
+    eye = np.asarray(camera.position, dtype=np.float64)
+    distance = np.linalg.norm(np.maximum(np.maximum(lo - eye, eye - hi), 0.0), axis=-1)
+    # The longest voxel edge: an anisotropic voxel is refined until its longest side is about a pixel.
+    pixels = float(geometry.spacing0.max()) * pixels_per_world(camera, size, distance)
+    allowed = -np.log2(np.maximum(pixels, 1e-30)) + lod_bias
+    return np.searchsorted(geometry.coarseness[1:], allowed, side="right").astype(np.int64)
+
+
+def screen_rects(geometry: BrickGeometry, view_projection, size, level: int) -> np.ndarray:
+    """Pixel rectangles (x, y, w, h) covering each brick of ``level`` with one pixel of margin, int
+    [bz, by, bx, 4]; w = 0 off screen; the whole viewport where a corner lies behind the eye."""
+    clip = box_corners(geometry, level) @ np.asarray(view_projection, dtype=np.float64).T  # [..., 8, 4]
+    w = clip[..., 3]
+    behind = (w <= 1e-9).any(axis=-1)
+    w = np.where(w > 1e-9, w, 1.0)
+    rects = []
+    for axis in range(2):  # each axis's corners contiguous: the min and max over 8 are the cost here
+        pixel = (clip[..., axis] / w * 0.5 + 0.5) * float(size[axis])
+        first = np.maximum(np.floor(pixel.min(axis=-1)) - 1, 0)
+        last = np.minimum(np.ceil(pixel.max(axis=-1)) + 1, float(size[axis]))
+        rects.append((first, np.maximum(last - first, 0)))
+    rects = np.stack([rects[0][0], rects[1][0], rects[0][1], rects[1][1]], axis=-1)
+    rects[behind] = (0, 0, size[0], size[1])
+    rects[(rects[..., 2] == 0) | (rects[..., 3] == 0)] = 0
+    return rects.astype(np.int64)
+
+
+class LevelTables:
+    """Per-level rectangles, wanted levels and visibility of one frame, computed on first use."""
+
+    def __init__(self, geometry: BrickGeometry, camera, size, view_projection, visible, lod_bias: float):
+        self.geometry, self.camera, self.size = geometry, camera, size
+        self.view_projection, self.visible, self.lod_bias = view_projection, visible, lod_bias
+        self._tables: dict = {}
+
+    def __call__(self, level: int, what: str) -> np.ndarray:
+        if (level, what) not in self._tables:
+            self._tables[level, what] = {
+                "rects": lambda: screen_rects(self.geometry, self.view_projection, self.size, level),
+                "wants": lambda: desired_levels(self.geometry, self.camera, self.size, level, self.lod_bias),
+                "visible": lambda: cells_of_bricks(self.geometry.source, level, self.visible(level)),
+            }[what]()
+        return self._tables[level, what]
