@@ -152,7 +152,7 @@ def test_percentiles_ignore_nonfinite_voxels_and_work_slab_by_slab(monkeypatch):
     data[0, 0, :6] = [np.nan, np.inf, -np.inf, np.nan, np.inf, -np.inf]
     finite = data[np.isfinite(data)]
     whole = Volume(data.copy()).percentiles(PERCENTS)
-    monkeypatch.setattr("vgraph.volume._SLAB_VOXELS", 1000)  # 5 slabs, one partial
+    monkeypatch.setattr("vgraph.volume.SLAB_VOXELS", 1000)  # 5 slabs, one partial
     sliced = Volume(data.copy())
     np.testing.assert_array_equal(sliced.percentiles(PERCENTS), whole)
     assert sliced.value_range == (float(finite.min()), float(finite.max()))

@@ -42,25 +42,16 @@ import numpy as np
 
 from vgraph import derived
 from vgraph.errors import VGraphError
-from vgraph.memory import OutOfMemoryError, format_bytes, out_of_memory
 from vgraph.rank_table import RankTable
-from vgraph.value_range import checked_range, from_unit, range_of, to_unit
+from vgraph.value_range import checked_range, from_unit, range_of
 from vgraph.volume_grid import (IDENTITY, Matrix3, VolumeGeometryError, box_corners, check_box,  # noqa: F401
                                 checked_direction, checked_vec3, grid_affine, is_identity)
+from vgraph.volume_texture import (FLOAT32_SAFE, SIXTEEN_BIT_CODES, SLAB_VOXELS, TEXTURE_FORMATS, sixteen_bit_codes,
+                                   upload_texture)
 
 Vec3 = tuple[float, float, float]
 
-# Texture formats by dtype: (moderngl dtype, full-scale value of a normalised sample). uint8 is
-# uploaded as R16 holding value * 257 (so a sample is still value / 255): llvmpipe, like many GPUs,
-# filters 8-bit textures with 8-bit weights, errors up to 0.007, while R16 filters exactly enough
-# and was measured no slower.
-TEXTURE_FORMATS = {np.dtype(np.uint8): ("nu2", 255.0), np.dtype(np.uint16): ("nu2", 65535.0)}
-# float32 keeps ~7 digits from 1.2e-38 to 3.4e38; values and ranges inside these bounds leave room
-# for the shaders' arithmetic (scale, offset, differences) without overflow or subnormals.
-FLOAT32_SAFE = 1e30
-_SLAB_VOXELS = 2**22  # normalising in float64 slab by slab bounds the temporary memory
 PRECISIONS = ("full", "16bit")  # of at_precision(): the stored values, or 16-bit codes
-SIXTEEN_BIT_CODES = 65535.0  # the largest code of a 16-bit copy: normalised intensity = q / 65535
 # What a volume keeps from its values alone (the grid does not enter): shared by with_overrides.
 _VALUE_STATISTICS = ("nonfinite_count", "finite_extremes", "value_range", "_ranks", "_histograms")
 
@@ -209,8 +200,8 @@ class Volume:
 
     def _slabs(self):
         flat = self.data.reshape(-1)
-        for start in range(0, flat.size, _SLAB_VOXELS):
-            yield flat[start:start + _SLAB_VOXELS]
+        for start in range(0, flat.size, SLAB_VOXELS):
+            yield flat[start:start + SLAB_VOXELS]
 
     def normalized(self, values) -> np.ndarray:
         """Stored values -> normalised intensities (not clamped)."""
@@ -283,7 +274,7 @@ class Volume:
         """The volume as a 3D texture on ``ctx`` (R16 normalised for 8 and 16 bit, otherwise R32F), uploaded
         once per context and released with the volume or the context (vgraph.derived). Non-finite
         voxels are uploaded clamped to the value range so that no shader ever samples NaN."""
-        return derived.value(self, "volume texture", lambda: self._upload(ctx), ctx=ctx)
+        return derived.value(self, "volume texture", lambda: upload_texture(self, ctx), ctx=ctx)
 
     def texture_scale_offset(self) -> tuple[float, float]:
         """(scale, offset) with normalised intensity = texture sample * scale + offset."""
@@ -296,7 +287,7 @@ class Volume:
     @property
     def texture_is_r16(self) -> bool:
         """Whether the texture is R16 normalised (8- and 16-bit data, 16-bit copies): its texels
-        are r16_texels(data)."""
+        are vgraph.volume_texture.r16_texels(data)."""
         return self.data.dtype in TEXTURE_FORMATS
 
     @property
@@ -306,58 +297,6 @@ class Volume:
             return False
         lo, hi = self.value_range
         return max(abs(lo), abs(hi)) > FLOAT32_SAFE or hi - lo < 1.0 / FLOAT32_SAFE
-
-    def _upload(self, ctx):
-        limit = ctx.info["GL_MAX_3D_TEXTURE_SIZE"]
-        if max(self.dims) > limit:
-            where = f" from {self.source}" if self.source else ""
-            raise VGraphError(f"volume{where}: {' x '.join(map(str, self.dims))} voxels is larger than "
-                              f"this GL's 3D texture limit of {limit} per axis (GL_MAX_3D_TEXTURE_SIZE); "
-                              f"render it with the RayCaster or BrickedRayCaster (brick by brick), or "
-                              f"crop or downsample it")
-        gl_dtype, _ = TEXTURE_FORMATS.get(self.data.dtype, ("f4", 1.0))
-        texel_bytes = 2 if self.texture_is_r16 else 4
-        size = int(np.prod(self.dims, dtype=np.int64)) * texel_bytes
-        what = (f"making the {' x '.join(map(str, self.dims))} {'R16' if texel_bytes == 2 else 'R32F'} "
-                f"3D texture of the volume{f' from {self.source}' if self.source else ''}")
-        try:
-            texels = np.ascontiguousarray(self._texels(gl_dtype))
-            ctx.error  # reading clears it: an older error is not this upload's
-            texture = ctx.texture3d(self.dims, 1, texels, dtype=gl_dtype, alignment=1)
-        except MemoryError as error:
-            raise out_of_memory(error, what, size) from error
-        if ctx.error == "GL_OUT_OF_MEMORY":  # llvmpipe holds at most 1 GiB per texture
-            texture.release()
-            raise OutOfMemoryError(f"out of memory: the GL could not allocate {format_bytes(size)} "
-                                   f"(GL_OUT_OF_MEMORY) while {what}: render it brick by brick "
-                                   f"(the BrickedRayCaster, or vgraph convert into a store: "
-                                   f"docs/guide/large-data.md), or crop or downsample it", size)
-        texture.repeat_x = texture.repeat_y = texture.repeat_z = False
-        return texture
-
-    def _texels(self, gl_dtype: str) -> np.ndarray:
-        """The texture's values: R16 texels, normalised or clamped float32, or the data."""
-        data = self.data
-        if self.texture_is_r16:
-            return r16_texels(data)
-        if self.texture_is_normalized:
-            return self._normalized_float32()
-        if gl_dtype == "f4":
-            data = data.astype(np.float32, copy=False)
-            if self.nonfinite_count:
-                lo, hi = self.value_range
-                data = np.nan_to_num(data, nan=lo, posinf=hi, neginf=lo)
-        return data
-
-    def _normalized_float32(self) -> np.ndarray:
-        """(value - lo) / (hi - lo) in float64, stored as float32; NaN -> 0, +-Inf -> 1 / 0."""
-        lo, hi = self.value_range
-        flat = self.data.reshape(-1)
-        out = np.empty(flat.size, dtype=np.float32)
-        for start in range(0, flat.size, _SLAB_VOXELS):
-            slab = (flat[start:start + _SLAB_VOXELS].astype(np.float64) - lo) / (hi - lo)
-            out[start:start + _SLAB_VOXELS] = np.nan_to_num(slab, nan=0.0, posinf=1.0, neginf=0.0)
-        return out.reshape(self.data.shape)
 
     def with_data(self, data: np.ndarray, **changes) -> "Volume":
         """A new volume on the same grid with other voxel values."""
@@ -389,14 +328,6 @@ def keep_value_statistics(source: Volume, target: Volume) -> None:
     target.__dict__.update({key: value for key, value in source.__dict__.items() if key in _VALUE_STATISTICS})
 
 
-def r16_texels(data: np.ndarray) -> np.ndarray:
-    """The R16 texels of 8- or 16-bit voxels: uint16 as they are, uint8 as value * 257 (the same
-    normalised value, TEXTURE_FORMATS)."""
-    if data.dtype == np.uint8:
-        return data.astype(np.uint16) * np.uint16(257)
-    return data
-
-
 @dataclass(eq=False)
 class SixteenBitCopy(Volume):
     """A volume as 16-bit codes q over the original's value range (Volume.at_precision): ``data``
@@ -409,27 +340,7 @@ class SixteenBitCopy(Volume):
     @classmethod
     def of(cls, volume: Volume) -> "SixteenBitCopy":
         lo, hi = volume.value_range
-        flat = volume.data.reshape(-1)
-        codes = np.empty(flat.size, dtype=np.uint16)
-        # In float64 (float32 would put codes near a half off by one), slab by slab in one
-        # reused buffer: fresh 8-byte temporaries of a whole volume cost more than the arithmetic.
-        with np.errstate(over="ignore"):
-            span = hi - lo  # inf for float64 data near +-1.8e308: then to_unit's scaled form
-        buffer = np.empty(min(flat.size, _SLAB_VOXELS), dtype=np.float64)
-        for start in range(0, flat.size, _SLAB_VOXELS):
-            slab = flat[start:start + _SLAB_VOXELS]
-            unit = buffer[:slab.size]
-            np.copyto(unit, slab, casting="unsafe")
-            if np.isfinite(span):
-                unit -= lo
-                unit *= SIXTEEN_BIT_CODES / span
-            else:
-                unit[...] = to_unit(unit, lo, hi) * SIXTEEN_BIT_CODES
-            if volume.nonfinite_count:  # as the full texture: NaN -> lo, +-Inf -> the ends
-                np.nan_to_num(unit, copy=False, nan=0.0, posinf=SIXTEEN_BIT_CODES, neginf=0.0)
-            np.clip(unit, 0.0, SIXTEEN_BIT_CODES, out=unit)
-            codes[start:start + _SLAB_VOXELS] = np.rint(unit, out=unit)
-        return cls(codes.reshape(volume.data.shape), spacing=volume.spacing, origin=volume.origin,
+        return cls(sixteen_bit_codes(volume), spacing=volume.spacing, origin=volume.origin,
                    declared_range=(lo, hi), is_spline_coefficients=volume.is_spline_coefficients,
                    source=volume.source, time_steps=volume.time_steps, direction=volume.direction,
                    holds_labels=volume.holds_labels)

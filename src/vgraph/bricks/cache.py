@@ -37,7 +37,7 @@ from vgraph.bricks.cells import cell_extent, table_of
 from vgraph.bricks.pyramid import BrickSource
 from vgraph.gl_context import release_quietly
 from vgraph.progress import report
-from vgraph.volume import FLOAT32_SAFE, TEXTURE_FORMATS
+from vgraph.volume_texture import FLOAT32_SAFE, TEXTURE_FORMATS
 
 HALO = 2
 BLOCK = 8  # voxels per block edge of the empty-space skipping inside a brick

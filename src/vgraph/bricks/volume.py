@@ -33,8 +33,9 @@ from vgraph.errors import VGraphError
 from vgraph.memory import check_memory, format_bytes
 from vgraph.rank_table import RankTable
 from vgraph.value_range import checked_range, range_of
-from vgraph.volume import TEXTURE_FORMATS, FLOAT32_SAFE, Volume
+from vgraph.volume import Volume
 from vgraph.volume_grid import IDENTITY, check_box, checked_direction, checked_vec3
+from vgraph.volume_texture import FLOAT32_SAFE, TEXTURE_FORMATS
 
 DEFAULT_MEMORY_BUDGET_MB = 1024
 SUMMARY_VOXELS = 2**22  # voxels read for percentiles and histograms: 4 M, a second at most

@@ -34,7 +34,8 @@ from vgraph.numerics.reference_sampling import GRADIENT_STEPS, gradient_scale
 # The voxel gradients live beside the CPU models, so the light volume classifies with the same ones.
 from vgraph.numerics.voxel_gradients import padded_slab as _padded_slab
 from vgraph.progress import steps
-from vgraph.volume import Volume, r16_texels
+from vgraph.volume import Volume
+from vgraph.volume_texture import r16_texels
 
 SLAB_VOXELS = 2**22  # voxels per numpy slab: ~100 MB of float64 temporaries
 PROGRESS_VOXELS = 32 * 2**20  # show a progress bar (stderr) above this many voxels
