@@ -90,26 +90,42 @@ void cell_box(vec3 t, vec3 scale, ivec3 grid, out vec3 lo, out vec3 hi) {
 
 
 #ifdef PAGED_BLOCKS
-// Skipping inside the atlas's bricks (vgraph.bricks.atlas_blocks): per block of BLOCK^3 core voxels
-// of a slot, k >= 1 where every block within Chebyshev distance k - 1 adds nothing this frame (a ray
-// jumps over that cube), -k where every block within k - 1 may add something (a run spans that
-// cube: no look-up inside it). empty_space.glsl's radii over the flags laid out as the slots:
-// blocks of other slots lie within a cube only outside the cell, which bounds every box; unknown
-// blocks count as occupied. Slot s's blocks start at texel slot * blocks_per_slot.
+// Skipping inside the atlas's bricks (vgraph.bricks.atlas_blocks, block_radii): per block of BLOCK^3
+// core voxels of a slot and per octant of ray directions, k >= 1 where every block of the box from
+// it k - 1 blocks ahead along each axis (in the volume) adds nothing this frame (a ray jumps over
+// that box, across cell faces), -k where every block of that box in the slot may add something (a
+// run spans it, cut at the cell: no look-up inside it); unknown blocks count as occupied. Slot s's
+// blocks start at texel slot * blocks_per_slot of its octant's values.
 #define PAGE_BLOCK 8.0
 #define PAGE_APRON 2.0
 uniform sampler3D block_flags;   // .g (PAGED_MIP): the block's largest normalised intensity
 uniform ivec3 blocks_per_slot;
+ivec3 block_octant;              // the ray's octant's values: ray_octant()
 #ifdef PAGED_MIP
 float paged_best = 0.0;          // the ray's running maximum: compositing_mip.glsl's plain march sets it
 #endif
+
+// The first texel of the values of the octant of directions `step` lies in (block_radii.py: the
+// octants side by side, 2 x 2 x 2; a ray going down an axis reads the second half along it).
+ivec3 ray_octant(vec3 step) {
+    return ivec3(lessThan(step, vec3(0.0))) * (textureSize(block_flags, 0) / 2);
+}
+
+// [lo, hi) from the box of blocks [cube_lo, cube_hi) (only its faces ahead of the ray are its
+// octant's): an empty box as it is, across the cell's faces (its distance counts the blocks of the
+// neighbouring cells: vgraph.bricks.block_radii); an occupied box cut at the cell, whose slot the
+// run reads.
+void cube_box(bool empty, vec3 cube_lo, vec3 cube_hi, inout vec3 lo, inout vec3 hi) {
+    lo = empty ? cube_lo : max(lo, cube_lo);
+    hi = empty ? cube_hi : min(hi, cube_hi);
+}
 
 // Whether the sample at t, at atlas texel p of the slot whose first texel is `slot_origin`, lies in
 // a block that adds nothing; narrows [lo, hi) to the box in t of the cube of blocks around it that
 // all add nothing or all may add something (texel_offset, scale: t = (p - texel_offset) / scale).
 bool in_empty_block(vec3 p, vec3 slot_origin, vec3 texel_offset, vec3 scale, inout vec3 lo, inout vec3 hi) {
     vec3 k = clamp(floor((p - slot_origin - PAGE_APRON) / PAGE_BLOCK), vec3(0.0), vec3(blocks_per_slot - 1));
-    vec4 block = texelFetch(block_flags, ivec3(slot_origin / slot_texels + 0.5) * blocks_per_slot + ivec3(k), 0);
+    vec4 block = texelFetch(block_flags, ivec3(slot_origin / slot_texels + 0.5) * blocks_per_slot + ivec3(k) + block_octant, 0);
     float radius = block.r;
     float reach = abs(radius);
 #ifdef PAGED_MIP
@@ -119,8 +135,7 @@ bool in_empty_block(vec3 p, vec3 slot_origin, vec3 texel_offset, vec3 scale, ino
     radius = radius < 0.5 && block.g <= paged_best ? 1.0 : radius;
 #endif
     vec3 block_lo = (slot_origin + PAGE_APRON + k * PAGE_BLOCK - texel_offset) / scale;
-    lo = max(lo, block_lo - (reach - 1.0) * PAGE_BLOCK / scale);
-    hi = min(hi, block_lo + reach * PAGE_BLOCK / scale);
+    cube_box(radius > 0.5, block_lo - (reach - 1.0) * PAGE_BLOCK / scale, block_lo + reach * PAGE_BLOCK / scale, lo, hi);
     return radius > 0.5;
 }
 #endif
@@ -153,6 +168,7 @@ void paged_run(inout int i, inout int run_end, Ray ray) {
     vec3 slot_origin = floor((t * scale + texel_offset) / slot_texels) * slot_texels;
     bool skip = !drawn;
 #ifdef PAGED_BLOCKS
+    block_octant = ray_octant(ray.step);
     if (drawn) {
         skip = in_empty_block(t * scale + texel_offset, slot_origin, texel_offset, scale, lo, hi);
     }

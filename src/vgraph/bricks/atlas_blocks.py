@@ -8,9 +8,9 @@ Conventions:
   its range (normalised min and max) covers every voxel those samples filter. Every slot has
   ``per_slot`` blocks per axis (those of the largest brick); a smaller brick's blocks past its
   core, and every free slot, are unknown: never skipped.
-- ``flags(skippable)`` lays the flags out as the atlas lays out its slots: slot s's blocks start
-  at texel ``slot_index(s) * per_slot`` of one R32F 3D texture (1: skip, 0: sample), so the shader
-  finds a sample's block from its atlas texel alone (bricks/paged_sampling.glsl).
+- ``laid_out`` lays per-block values out as the atlas lays out its slots: slot s's blocks start
+  at texel ``slot_index(s) * per_slot`` of one 3D texture (vgraph.bricks.block_radii's radii), so
+  the shader finds a sample's block from its atlas texel alone (bricks/paged_sampling.glsl).
 """
 
 from __future__ import annotations
@@ -41,19 +41,22 @@ class AtlasBlocks:
         nz, ny, nx = ranges.shape[:3]
         self.ranges[slot, :nz, :ny, :nx] = ranges
 
-    def flags(self, skippable) -> np.ndarray:
-        """float32 [z, y, x] over all slots' blocks: 1 where ``skippable(low, high)`` (bool arrays of
-        the blocks' normalised ranges) says no sample in the block adds anything."""
+    def skippable(self, skippable) -> np.ndarray:
+        """bool [slot, bz, by, bx]: True where ``skippable(low, high)`` (bool arrays of the blocks'
+        normalised ranges) says no sample in the block adds anything; unknown blocks False
+        (vgraph.bricks.block_radii turns them into the shader's radii)."""
         low, high = self.ranges[..., 0], self.ranges[..., 1]
         known = np.isfinite(low) & np.isfinite(high)
         skip = np.zeros(low.shape, dtype=bool)
         skip[known] = skippable(low[known], high[known])
-        return self.laid_out(skip)
+        return skip
 
-    def maxima(self) -> np.ndarray:
-        """float32 [z, y, x] laid out as ``flags``: each block's largest normalised intensity, 1e30
-        where unknown (a mip ray skips a block not above its running maximum: never these)."""
-        return self.laid_out(np.nan_to_num(self.ranges[..., 1], nan=1e30))
+    def maxima(self, whole: np.ndarray) -> np.ndarray:
+        """float32 [z, y, x] laid out as the slots: each block's largest normalised intensity, 1e30
+        where unknown or in a slot not drawn wholly from its brick (``whole``, bool per slot;
+        vgraph.bricks.block_radii): a mip ray skips a block not above its running maximum, never these."""
+        maxima = np.where(whole[:, None, None, None], self.ranges[..., 1], np.nan)
+        return self.laid_out(np.nan_to_num(maxima, nan=1e30))
 
     def laid_out(self, values: np.ndarray) -> np.ndarray:
         """Per-block values [slot, bz, by, bx] as the atlas lays out its slots, float32 [z, y, x]."""

@@ -50,6 +50,8 @@ import numpy as np
 from vgraph.bricks.atlas import BrickAtlas
 from vgraph.bricks.cache import MB, bricks_bytes
 from vgraph.bricks import leaf_pages
+from vgraph.bricks.block_radii import block_radii, wholly_drawn
+from vgraph.bricks.cells import table_of
 from vgraph.bricks.coarse_step import sample_stride, strided
 from vgraph.bricks.page_table import PageTable, texel_offsets
 from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
@@ -60,7 +62,7 @@ from vgraph.errors import VGraphError
 from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, IsoSurface, Sampling,
                                              TransferFunctionLut, ray_main_missed)
-from vgraph.gl.raycasting.empty_space import occupied_blocks, skip_radii
+from vgraph.gl.raycasting.empty_space import occupied_blocks
 from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.gradient_classification import GradientClassification
 from vgraph.gl.raycasting.light import Gradients, Light
@@ -126,7 +128,7 @@ class PagedSampling(Component):
         requests = processor.parts[RayRequests]
         requests.prepare(frame.ctx, resolved)  # the rays ask for what they reach of these
         self.frame_binding = self.binding_of(frame, geometry, source, resolved, leaf)
-        blocks = self.block_flags(frame, atlas)
+        blocks = self.block_flags(frame, atlas, source, plan)
         if blocks is not None:
             self.frame_binding = self.frame_binding.merge(blocks)
         # march.glsl's runs: every sample is read from the slot its run's look-up found (also where
@@ -245,13 +247,13 @@ class PagedSampling(Component):
         self.warned_level = fitted.floor_level if fitted is not plan else None
         return fitted
 
-    def block_flags(self, frame: Frame, atlas: BrickAtlas) -> Binding | None:
+    def block_flags(self, frame: Frame, atlas: BrickAtlas, source, plan: FramePlan) -> Binding | None:
         """With ``empty_space_skipping``, the flags of the atlas's blocks that add nothing this frame
         (vgraph.bricks.atlas_blocks; dvr: no opacity over the block's range, iso: below the level,
         mip: nothing above 0, and each block's maximum for the skipping below the ray's); None when
-        no block is skipped. The last frame's, neither computed
-        nor uploaded again, while the atlas uploaded no brick and the rule is the same (a frame
-        that only moves the camera)."""
+        no block is skipped. The last frame's, neither computed nor uploaded again, while the atlas
+        uploaded no brick and the rule and the leaf table are the same (a frame that only moves the
+        camera and keeps its plan)."""
         processor = self.processor
         if not processor.empty_space_skipping:
             return None
@@ -266,21 +268,26 @@ class PagedSampling(Component):
             rule, skippable = (mode,), lambda low, high: high <= 0.0
         kept = self.flags_kept
         texture = atlas.gl.get("block_flags")
-        if kept is not None and kept[0] is atlas.blocks and kept[1] == (atlas.stats["uploads"], rule) \
+        state = (atlas.stats["uploads"], rule, self.table_key)  # the radii follow the cells drawn too
+        if kept is not None and kept[0] is atlas.blocks and kept[1] == state \
                 and (kept[2] is None or (texture is not None and texture.ctx is frame.ctx)):
             return kept[2]
-        flags = atlas.blocks.flags(skippable)
         binding = None
-        if flags.any() or mode == "mip":
-            # jumps over cubes of empty blocks, runs over cubes of occupied ones (paged_sampling.glsl);
-            # mip: with each block's maximum, skipped where not above the ray's maximum (PAGED_MIP)
-            values = skip_radii(flags == 0.0) - skip_radii(flags != 0.0)
+        skip = atlas.blocks.skippable(skippable)
+        if skip.any() or mode == "mip":
+            # jumps over boxes of empty blocks ahead of the ray across cells, runs over boxes of
+            # occupied ones (vgraph.bricks.block_radii); mip: with each block's maximum, skipped
+            # where not above the ray's maximum (PAGED_MIP), never in a slot not drawn wholly from
+            # its brick
+            drawn = set(plan.keys())
+            values = block_radii(atlas.blocks, skip, atlas.slots, drawn, table_of(source).spans)
             if mode == "mip":
-                values = np.stack([values, atlas.blocks.maxima()], axis=-1)
+                maxima = atlas.blocks.maxima(wholly_drawn(len(skip), atlas.slots, drawn))
+                values = np.stack([values, np.tile(maxima, (2, 2, 2))], axis=-1)  # beside each octant's
             binding = Binding({"PAGED_BLOCKS": True, "PAGED_MIP": mode == "mip"},
                               textures={"block_flags": atlas.blocks.upload(frame.ctx, values)},
                               uniforms={"blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
-        self.flags_kept = (atlas.blocks, (atlas.stats["uploads"], rule), binding)
+        self.flags_kept = (atlas.blocks, state, binding)
         return binding
 
     def ensure_atlas(self, ctx, source, fmt) -> BrickAtlas:

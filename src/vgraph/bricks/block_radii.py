@@ -1,0 +1,154 @@
+"""How far a ray of the single pass jumps or runs from a block of the brick atlas (issue #33;
+bricks/paged_sampling.glsl, in_empty_block; vgraph.bricks.atlas_blocks holds the blocks' ranges).
+
+Conventions:
+- Distances per octant of ray directions (the signs of x, y, z): a ray only leaves a box through
+  the faces ahead of it, so a box that reaches ahead from the block is all it needs (the
+  anisotropic Chebyshev distances of Deakin and Knackstedt 2020). For the octant s, block b's value
+  is k >= 1 where the block adds nothing this frame and so does every block of the box from b to
+  b + s (k - 1) *in the volume*, at the block's own level (a ray jumps to where it leaves that box,
+  across the faces of its cell); -k where every block of that box in b's slot may add something
+  (one run spans it; the shader cuts runs at the run's level-0 cell, whose slot they read).
+- Laid out as AtlasBlocks.laid_out, the octants side by side in 2 x 2 x 2: the octant whose ray
+  goes down x (y, z) at the second half along x (y, z).
+- A box reaches into a neighbouring cell only where that cell is drawn wholly from a brick of the
+  same level whose blocks continue the same grid: every core of the level but the last along an
+  axis is a whole number of blocks, and the cells lie in a box of at most ``BOX_CELLS`` times as
+  many cells as are drawn (else each slot's boxes stay in its own cell). Blocks of cells drawn
+  otherwise (coarser, finer, not at all, missing) count as occupied.
+- A slot not drawn wholly from its own brick this frame (a coarse brick that stands in for missing
+  finer ones, a brick kept from an earlier frame) has no empty block: a jump there could cross
+  cells drawn from finer bricks. Nor has a block that reaches past its cell's core (a core that is
+  no whole number of blocks), except at the volume's end.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from vgraph.bricks.cache import BLOCK
+
+BOX_CELLS = 8  # a level's boxes cross cells only while the box of its drawn cells is at most this many times as many
+OCTANTS = list(itertools.product((1, -1), repeat=3))  # the signs of (z, y, x), z slowest
+
+
+def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans) -> np.ndarray:
+    """float32 [2 z, 2 y, 2 x] laid out as the slots, per octant (module docstring). ``blocks``: the
+    atlas's AtlasBlocks; ``skip`` bool [slot, bz, by, bx], the blocks that add nothing under the
+    frame's rule (unknown ones False); ``slots`` brick key -> slot; ``drawn`` the keys drawn wholly
+    from their own brick (the plan's resident ones); ``spans[level]`` per axis [z, y, x] the cores'
+    (starts, stops) in the level's voxels (vgraph.bricks.cells)."""
+    jumpable = skip & wholly_drawn(len(skip), slots, drawn)[:, None, None, None]
+    per = np.asarray(skip.shape[1:])  # [z, y, x]
+    groups = []  # (slots, coords or None): the slots whose boxes cross cells together, or stay in their own
+    by_level: dict = {}
+    for key, slot in slots.items():
+        if key in drawn:
+            by_level.setdefault(int(key[0]), []).append((np.asarray(key[1:], dtype=np.int64), slot))
+    for level, cells in by_level.items():
+        starts, stops = [np.asarray(s[0]) for s in spans[level]], [np.asarray(s[1]) for s in spans[level]]
+        coords = np.stack([cell for cell, _ in cells])
+        mine = np.asarray([slot for _, slot in cells])
+        if _aligned(starts, stops, per) and _box_fits(coords):
+            groups.append((mine, coords))
+        else:
+            jumpable[mine] &= _inside_cores(coords, starts, stops, per)
+    octants = []
+    for signs in OCTANTS:
+        radii = _within_cells(jumpable, signs)
+        for mine, coords in groups:
+            radii[mine] = _across_cells(jumpable[mine], coords, per, signs)
+        octants.append(blocks.laid_out(radii - _within_cells(~jumpable, signs)))
+    halves = [np.concatenate(octants[i:i + 2], axis=2) for i in range(0, 8, 2)]  # x
+    halves = [np.concatenate(halves[i:i + 2], axis=1) for i in range(0, 4, 2)]  # y
+    return np.concatenate(halves, axis=0)  # z
+
+
+def wholly_drawn(count: int, slots: dict, drawn) -> np.ndarray:
+    """bool per slot: whether its brick is one of ``drawn``."""
+    whole = np.zeros(count, dtype=bool)
+    for key, slot in slots.items():
+        whole[slot] = key in drawn
+    return whole
+
+
+def _aligned(starts, stops, per) -> bool:
+    """Whether every core of the level but the last along each axis is ``per`` blocks, end to end."""
+    for axis in range(3):
+        width = int(per[axis]) * BLOCK
+        expected = starts[axis][0] + width * np.arange(len(starts[axis]))
+        if not (np.array_equal(starts[axis], expected) and np.all(stops[axis][:-1] - starts[axis][:-1] == width)):
+            return False
+    return True
+
+
+def _box_fits(coords: np.ndarray) -> bool:
+    box = coords.max(axis=0) - coords.min(axis=0) + 1
+    return int(np.prod(box)) <= BOX_CELLS * len(coords)
+
+
+def _across_cells(mask: np.ndarray, coords: np.ndarray, per: np.ndarray, signs) -> np.ndarray:
+    """The distances of the blocks of cells ``coords`` [n, (z, y, x)] (``mask`` [n, bz, by, bx]) laid
+    side by side as in the volume, cells not among them False (and a border around the box)."""
+    low = coords.min(axis=0)
+    box = coords.max(axis=0) - low + 1
+    grid = np.zeros(tuple(box * per + 2), dtype=bool)
+    corners = (coords - low) * per + 1
+    for corner, tile in zip(corners, mask):
+        grid[tuple(slice(c, c + p) for c, p in zip(corner, per))] = tile
+    distance = forward_distances(grid, signs)
+    return np.stack([distance[tuple(slice(c, c + p) for c, p in zip(corner, per))] for corner in corners])
+
+
+def _within_cells(mask: np.ndarray, signs) -> np.ndarray:
+    """The distances of each slot's blocks [n, bz, by, bx] within its own cell (each tile padded
+    with False, the tiles stacked along z)."""
+    padded = np.pad(mask, ((0, 0), (1, 1), (1, 1), (1, 1)))
+    n, pz, py, px = padded.shape
+    distance = forward_distances(padded.reshape(n * pz, py, px), signs).reshape(padded.shape)
+    return distance[:, 1:-1, 1:-1, 1:-1]
+
+
+def forward_distances(mask: np.ndarray, signs) -> np.ndarray:
+    """float32 per element of the bool [z, y, x] ``mask``: the largest k such that the box from it to
+    it + signs * (k - 1) is all True (0 where False; what lies past the array counts as False). The
+    box of side k + 1 at b is the union of those of side k at b and b + signs along each axis, so k
+    rounds of three shifted ANDs."""
+    distance = np.zeros(mask.shape, dtype=np.float32)
+    box = mask.copy()
+    while box.any():
+        distance += box
+        for axis, sign in enumerate(signs):
+            box &= _shifted(box, axis, sign)
+    return distance
+
+
+def _shifted(mask: np.ndarray, axis: int, sign: int) -> np.ndarray:
+    """mask[b + sign along axis], False past the end."""
+    out = np.zeros_like(mask)
+    ahead = [slice(None)] * 3
+    here = [slice(None)] * 3
+    if sign > 0:
+        here[axis], ahead[axis] = slice(0, -1), slice(1, None)
+    else:
+        here[axis], ahead[axis] = slice(1, None), slice(0, -1)
+    out[tuple(here)] = mask[tuple(ahead)]
+    return out
+
+
+def _inside_cores(coords: np.ndarray, starts, stops, per: np.ndarray) -> np.ndarray:
+    """bool [n, bz, by, bx]: the blocks that lie inside their cell's core, or past it only at the
+    volume's end (a core of no whole number of blocks: a block reaching past it covers part of the
+    next cell, which a jump must not cross)."""
+    inside = np.ones((len(coords),) + tuple(int(p) for p in per), dtype=bool)
+    for axis in range(3):
+        core = stops[axis][coords[:, axis]] - starts[axis][coords[:, axis]]
+        last = coords[:, axis] == len(starts[axis]) - 1
+        ends = (np.arange(int(per[axis])) + 1) * BLOCK
+        ok = (ends[None, :] <= core[:, None]) | last[:, None]
+        shape = [len(coords), 1, 1, 1]
+        shape[1 + axis] = int(per[axis])
+        inside &= ok.reshape(shape)
+    return inside
