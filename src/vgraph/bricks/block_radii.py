@@ -31,6 +31,7 @@ import numpy as np
 from vgraph.bricks.cache import BLOCK
 
 BOX_CELLS = 8  # a level's boxes cross cells only while the box of its drawn cells is at most this many times as many
+FARTHEST = 8   # the largest distance kept (a cell of 64^3 voxels): each one more costs a pass over the blocks
 OCTANTS = list(itertools.product((1, -1), repeat=3))  # the signs of (z, y, x), z slowest
 
 
@@ -55,11 +56,15 @@ def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans) -> np.ndarr
             groups.append((mine, coords))
         else:
             jumpable[mine] &= _inside_cores(coords, starts, stops, per)
+    grids = [(mine, coords, _volume_grid(jumpable[mine], coords, per)) for mine, coords in groups]
+    alone = jumpable.copy()  # the jumpable blocks whose boxes stay in their cell
+    for mine, _, _ in grids:
+        alone[mine] = False
     octants = []
     for signs in OCTANTS:
-        radii = _within_cells(jumpable, signs)
-        for mine, coords in groups:
-            radii[mine] = _across_cells(jumpable[mine], coords, per, signs)
+        radii = _within_cells(alone, signs)
+        for mine, coords, grid in grids:
+            radii[mine] = _cells_of(forward_distances(grid, signs), coords, per)
         octants.append(blocks.laid_out(radii - _within_cells(~jumpable, signs)))
     halves = [np.concatenate(octants[i:i + 2], axis=2) for i in range(0, 8, 2)]  # x
     halves = [np.concatenate(halves[i:i + 2], axis=1) for i in range(0, 4, 2)]  # y
@@ -89,17 +94,23 @@ def _box_fits(coords: np.ndarray) -> bool:
     return int(np.prod(box)) <= BOX_CELLS * len(coords)
 
 
-def _across_cells(mask: np.ndarray, coords: np.ndarray, per: np.ndarray, signs) -> np.ndarray:
-    """The distances of the blocks of cells ``coords`` [n, (z, y, x)] (``mask`` [n, bz, by, bx]) laid
-    side by side as in the volume, cells not among them False (and a border around the box)."""
-    low = coords.min(axis=0)
-    box = coords.max(axis=0) - low + 1
-    grid = np.zeros(tuple(box * per + 2), dtype=bool)
-    corners = (coords - low) * per + 1
-    for corner, tile in zip(corners, mask):
-        grid[tuple(slice(c, c + p) for c, p in zip(corner, per))] = tile
-    distance = forward_distances(grid, signs)
-    return np.stack([distance[tuple(slice(c, c + p) for c, p in zip(corner, per))] for corner in corners])
+def _volume_grid(mask: np.ndarray, coords: np.ndarray, per: np.ndarray) -> np.ndarray:
+    """The blocks of cells ``coords`` [n, (z, y, x)] (``mask`` [n, bz, by, bx]) laid side by side as
+    in the volume over the cells' box, cells not among them False, with a border of False."""
+    cells = coords - coords.min(axis=0)
+    box = tuple(int(n) for n in cells.max(axis=0) + 1)
+    tiles = np.zeros(box + mask.shape[1:], dtype=bool)
+    tiles[tuple(cells.T)] = mask
+    return np.pad(tiles.transpose(0, 3, 1, 4, 2, 5).reshape(tuple(np.asarray(box) * per)), 1)
+
+
+def _cells_of(grid: np.ndarray, coords: np.ndarray, per: np.ndarray) -> np.ndarray:
+    """The inverse of _volume_grid: the values [n, bz, by, bx] of the cells ``coords``."""
+    cells = coords - coords.min(axis=0)
+    inner = grid[1:-1, 1:-1, 1:-1]
+    box = np.asarray(inner.shape) // per
+    tiles = inner.reshape(box[0], per[0], box[1], per[1], box[2], per[2]).transpose(0, 2, 4, 1, 3, 5)
+    return tiles[tuple(cells.T)]
 
 
 def _within_cells(mask: np.ndarray, signs) -> np.ndarray:
@@ -111,18 +122,20 @@ def _within_cells(mask: np.ndarray, signs) -> np.ndarray:
     return distance[:, 1:-1, 1:-1, 1:-1]
 
 
-def forward_distances(mask: np.ndarray, signs) -> np.ndarray:
-    """float32 per element of the bool [z, y, x] ``mask``: the largest k such that the box from it to
-    it + signs * (k - 1) is all True (0 where False; what lies past the array counts as False). The
-    box of side k + 1 at b is the union of those of side k at b and b + signs along each axis, so k
-    rounds of three shifted ANDs."""
-    distance = np.zeros(mask.shape, dtype=np.float32)
+def forward_distances(mask: np.ndarray, signs, farthest: int = FARTHEST) -> np.ndarray:
+    """float32 per element of the bool [z, y, x] ``mask``: the largest k <= ``farthest`` such that the
+    box from it to it + signs * (k - 1) is all True (0 where False; what lies past the array counts
+    as False). The box of side k + 1 at b is the union of those of side k at b and b + signs along
+    each axis, so k rounds of three shifted ANDs."""
+    distance = np.zeros(mask.shape, dtype=np.uint8 if farthest < 256 else np.int32)
     box = mask.copy()
-    while box.any():
+    for _ in range(farthest):
+        if not box.any():
+            break
         distance += box
         for axis, sign in enumerate(signs):
             box &= _shifted(box, axis, sign)
-    return distance
+    return distance.astype(np.float32)
 
 
 def _shifted(mask: np.ndarray, axis: int, sign: int) -> np.ndarray:
