@@ -41,7 +41,8 @@ def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans) -> np.ndarr
     frame's rule (unknown ones False); ``slots`` brick key -> slot; ``drawn`` the keys drawn wholly
     from their own brick (the plan's resident ones); ``spans[level]`` per axis [z, y, x] the cores'
     (starts, stops) in the level's voxels (vgraph.bricks.cells)."""
-    jumpable = skip & wholly_drawn(len(skip), slots, drawn)[:, None, None, None]
+    whole = wholly_drawn(len(skip), slots, drawn)
+    jumpable = skip & whole[:, None, None, None]
     per = np.asarray(skip.shape[1:])  # [z, y, x]
     groups = []  # (slots, coords or None): the slots whose boxes cross cells together, or stay in their own
     by_level: dict = {}
@@ -65,7 +66,10 @@ def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans) -> np.ndarr
         radii = _within_cells(alone, signs)
         for mine, coords, grid in grids:
             radii[mine] = _cells_of(forward_distances(grid, signs), coords, per)
-        octants.append(blocks.laid_out(radii - _within_cells(~jumpable, signs)))
+        runs = np.empty(radii.shape, dtype=np.float32)
+        runs[whole] = _within_cells(~jumpable[whole], signs)
+        runs[~whole] = _within_cells(np.ones((1,) + radii.shape[1:], dtype=bool), signs)  # all occupied
+        octants.append(blocks.laid_out(radii - runs))
     halves = [np.concatenate(octants[i:i + 2], axis=2) for i in range(0, 8, 2)]  # x
     halves = [np.concatenate(halves[i:i + 2], axis=1) for i in range(0, 4, 2)]  # y
     return np.concatenate(halves, axis=0)  # z
