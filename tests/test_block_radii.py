@@ -78,3 +78,25 @@ def test_a_core_of_no_whole_number_of_blocks_keeps_jumps_in_the_cell():
     values = octant(block_radii(blocks, skip, slots, set(slots), spans), 0, (2, 2, 4))
     assert values[0, 0, 0] == 1 and values[0, 0, 1] == -1  # block 1 reaches past the first core
     assert values[0, 0, 2] == 2  # the last cell's blocks may reach past the volume's end
+
+
+def test_boxes_cross_the_cells_the_plan_leaves_out_at_level_0():
+    # cells 0 and 2 along x drawn, cell 1 between them left out by the plan (it adds nothing)
+    blocks = AtlasBlocks((2 * 8 + 4,) * 3, (3, 1, 1), None, {})
+    rng = np.random.default_rng(7)
+    skip = rng.random((3, 2, 2, 2)) < 0.8
+    skip[2] = False  # slot 2 is free: its blocks are unknown
+    skip[0, :, :, 1] = True  # cell 0's blocks next to the left-out cell add nothing
+    slots = {(0, 0, 0, 0): 0, (0, 0, 0, 2): 1}
+    spans = {0: [(np.array([0]), np.array([16])), (np.array([0]), np.array([16])),
+                 (np.array([0, 16, 32]), np.array([16, 32, 48]))]}
+    empty_cells = np.array([[[False, True, False]]])
+    values = block_radii(blocks, skip, slots, set(slots), spans, empty_cells)
+    jumpable = np.concatenate([skip[0], np.ones((2, 2, 2), dtype=bool), skip[1]], axis=2)
+    for index, signs in enumerate(OCTANTS):
+        got = octant(values, index, (2, 2, 6))
+        expected = brute_forward(jumpable, signs)
+        np.testing.assert_array_equal(np.maximum(got[:, :, :2], 0.0), expected[:, :, :2])  # slot 0: cell 0
+        np.testing.assert_array_equal(np.maximum(got[:, :, 2:4], 0.0), expected[:, :, 4:])  # slot 1: cell 2
+    without = octant(block_radii(blocks, skip, slots, set(slots), spans), 0, (2, 2, 6))
+    assert octant(values, 0, (2, 2, 6))[0, 0, 1] > without[0, 0, 1]  # reaches into the left-out cell

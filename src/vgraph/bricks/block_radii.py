@@ -12,10 +12,11 @@ Conventions:
 - Laid out as AtlasBlocks.laid_out, the octants side by side in 2 x 2 x 2: the octant whose ray
   goes down x (y, z) at the second half along x (y, z).
 - A box reaches into a neighbouring cell only where that cell is drawn wholly from a brick of the
-  same level whose blocks continue the same grid: every core of the level but the last along an
+  same level whose blocks continue the same grid (every core of the level but the last along an
   axis is a whole number of blocks, and the cells lie in a box of at most ``BOX_CELLS`` times as
-  many cells as are drawn (else each slot's boxes stay in its own cell). Blocks of cells drawn
-  otherwise (coarser, finer, not at all, missing) count as occupied.
+  many cells as are drawn; else each slot's boxes stay in its own cell), or, at level 0, where
+  the plan leaves the cell out (it adds nothing: the leaf table says so, ``empty_cells``). Blocks
+  of cells drawn otherwise (coarser, finer, missing) count as occupied.
 - A slot not drawn wholly from its own brick this frame (a coarse brick that stands in for missing
   finer ones, a brick kept from an earlier frame) has no empty block: a jump there could cross
   cells drawn from finer bricks. Nor has a block that reaches past its cell's core (a core that is
@@ -35,16 +36,18 @@ FARTHEST = 8   # the largest distance kept (a cell of 64^3 voxels): each one mor
 OCTANTS = list(itertools.product((1, -1), repeat=3))  # the signs of (z, y, x), z slowest
 
 
-def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans) -> np.ndarray:
+def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans, empty_cells=None) -> np.ndarray:
     """float32 [2 z, 2 y, 2 x] laid out as the slots, per octant (module docstring). ``blocks``: the
     atlas's AtlasBlocks; ``skip`` bool [slot, bz, by, bx], the blocks that add nothing under the
     frame's rule (unknown ones False); ``slots`` brick key -> slot; ``drawn`` the keys drawn wholly
     from their own brick (the plan's resident ones); ``spans[level]`` per axis [z, y, x] the cores'
-    (starts, stops) in the level's voxels (vgraph.bricks.cells)."""
+    (starts, stops) in the level's voxels (vgraph.bricks.cells); ``empty_cells`` (or None) bool
+    [z, y, x] per level-0 cell, True where nothing is drawn and nothing is missing (the plan leaves
+    it out: it adds nothing), whose blocks a box at level 0 may cross."""
     whole = wholly_drawn(len(skip), slots, drawn)
     jumpable = skip & whole[:, None, None, None]
     per = np.asarray(skip.shape[1:])  # [z, y, x]
-    groups = []  # (slots, coords or None): the slots whose boxes cross cells together, or stay in their own
+    groups = []  # (level, slots, coords): the slots of a level whose boxes cross cells together
     by_level: dict = {}
     for key, slot in slots.items():
         if key in drawn:
@@ -54,10 +57,11 @@ def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans) -> np.ndarr
         coords = np.stack([cell for cell, _ in cells])
         mine = np.asarray([slot for _, slot in cells])
         if _aligned(starts, stops, per) and _box_fits(coords):
-            groups.append((mine, coords))
+            groups.append((level, mine, coords))
         else:
             jumpable[mine] &= _inside_cores(coords, starts, stops, per)
-    grids = [(mine, coords, _volume_grid(jumpable[mine], coords, per)) for mine, coords in groups]
+    grids = [(mine, coords, _volume_grid(jumpable[mine], coords, per, empty_cells if level == 0 else None))
+             for level, mine, coords in groups]
     alone = jumpable.copy()  # the jumpable blocks whose boxes stay in their cell
     for mine, _, _ in grids:
         alone[mine] = False
@@ -98,12 +102,16 @@ def _box_fits(coords: np.ndarray) -> bool:
     return int(np.prod(box)) <= BOX_CELLS * len(coords)
 
 
-def _volume_grid(mask: np.ndarray, coords: np.ndarray, per: np.ndarray) -> np.ndarray:
+def _volume_grid(mask: np.ndarray, coords: np.ndarray, per: np.ndarray, empty_cells=None) -> np.ndarray:
     """The blocks of cells ``coords`` [n, (z, y, x)] (``mask`` [n, bz, by, bx]) laid side by side as
-    in the volume over the cells' box, cells not among them False, with a border of False."""
-    cells = coords - coords.min(axis=0)
+    in the volume over the cells' box, cells not among them False but those of ``empty_cells``
+    (bool [z, y, x] over the level's cells, or None) True, with a border of False."""
+    low = coords.min(axis=0)
+    cells = coords - low
     box = tuple(int(n) for n in cells.max(axis=0) + 1)
     tiles = np.zeros(box + mask.shape[1:], dtype=bool)
+    if empty_cells is not None:
+        tiles[empty_cells[tuple(slice(int(a), int(a) + n) for a, n in zip(low, box))]] = True
     tiles[tuple(cells.T)] = mask
     return np.pad(tiles.transpose(0, 3, 1, 4, 2, 5).reshape(tuple(np.asarray(box) * per)), 1)
 

@@ -280,7 +280,8 @@ class PagedSampling(Component):
             # where not above the ray's maximum (PAGED_MIP), never in a slot not drawn wholly from
             # its brick
             drawn = set(plan.keys())
-            values = block_radii(atlas.blocks, skip, atlas.slots, drawn, table_of(source).spans)
+            values = block_radii(atlas.blocks, skip, atlas.slots, drawn, table_of(source).spans,
+                                 self.empty_cells())
             if mode == "mip":
                 maxima = atlas.blocks.maxima(wholly_drawn(len(skip), atlas.slots, drawn))
                 values = np.stack([values, np.tile(maxima, (2, 2, 2))], axis=-1)  # beside each octant's
@@ -289,6 +290,14 @@ class PagedSampling(Component):
                               uniforms={"blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
         self.flags_kept = (atlas.blocks, state, binding)
         return binding
+
+    def empty_cells(self):
+        """bool [z, y, x] per level-0 cell of a flat leaf table: nothing drawn, nothing missing (the
+        plan leaves it out); None with a directory (its final entries cover many cells)."""
+        resolved = self.resolved
+        if resolved.level != 0:
+            return None
+        return (resolved.table[..., 3] < 0.0) & (resolved.wanted == 0.0)
 
     def ensure_atlas(self, ctx, source, fmt) -> BrickAtlas:
         processor = self.processor
