@@ -252,8 +252,8 @@ class PagedSampling(Component):
         (vgraph.bricks.atlas_blocks; dvr: no opacity over the block's range, iso: below the level,
         mip: nothing above 0, and each block's maximum for the skipping below the ray's); None when
         no block is skipped. The last frame's, neither computed nor uploaded again, while the atlas
-        uploaded no brick and the rule and the leaf table are the same (a frame that only moves the
-        camera and keeps its plan)."""
+        uploaded no brick and the rule and the plan's bricks are the same (a frame that only moves
+        the camera and keeps its bricks)."""
         processor = self.processor
         if not processor.empty_space_skipping:
             return None
@@ -268,7 +268,8 @@ class PagedSampling(Component):
             rule, skippable = (mode,), lambda low, high: high <= 0.0
         kept = self.flags_kept
         texture = atlas.gl.get("block_flags")
-        state = (atlas.stats["uploads"], rule, self.table_key)  # the radii follow the cells drawn too
+        # the distances follow the cells drawn too (their set: a camera that turns reorders the plan)
+        state = (atlas.stats["uploads"], atlas.stats["evictions"], rule, frozenset(plan.keys()))
         if kept is not None and kept[0] is atlas.blocks and kept[1] == state \
                 and (kept[2] is None or (texture is not None and texture.ctx is frame.ctx)):
             return kept[2]
