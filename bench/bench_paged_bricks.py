@@ -2,7 +2,8 @@
 its pass per brick and the in-core RayCaster, everything resident at level 0.
 
 Usage:  python bench/bench_paged_bricks.py [--volume FILE | --implicit FUNCTION:N] [--size 256] [--rounds 3]
-                                          [--bricks 32 64] [--cpu]
+                                          [--bricks 32 64] [--cpu] [--modes dvr shaded mip iso]
+                                          [--methods passes single_pass]
 
 Per compositing mode, the variants draw one untimed frame, then take turns frame by frame
 (bench/interleave.py), each frame re-planned (the sampling rate is nudged so the processor
@@ -73,6 +74,9 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--bricks", type=int, nargs="+", default=[32, 64])
     parser.add_argument("--cpu", action="store_true", help="CPU seconds of the process, not wall seconds")
+    parser.add_argument("--modes", nargs="+", choices=["dvr", "shaded", "mip", "iso"], default=["dvr", "shaded", "mip", "iso"],
+                        help="the cases to run (shaded: dvr shaded with early termination 0.99)")
+    parser.add_argument("--methods", nargs="+", choices=["passes", "single_pass"], default=["passes", "single_pass"])
     args = parser.parse_args()
     clock = cpu_seconds if args.cpu else time.perf_counter
     if args.implicit:
@@ -86,12 +90,14 @@ def main() -> None:
           f"{'CPU' if args.cpu else 'wall'})")
     for name, properties in CASES:
         mode = name.split(" ")[0].rstrip(",")
+        if ("shaded" if "shaded" in name else mode) not in args.modes:
+            continue
         properties = {"shading": "none", "compositing": mode, **properties}
         variants, images = {}, {}
         variants["RayCaster"] = frame_of(ray_caster_network(volume, camera, "RayCaster", **properties),
                                          size, images, "RayCaster", clock)
         for brick in args.bricks:
-            for method in ("passes", "single_pass"):
+            for method in args.methods:
                 label = f"{method} {brick}^3"
                 network = ray_caster_network(volume, camera, "BrickedRayCaster", brick_size=brick, lod_bias=-16.0,
                                              method=method, **properties)
