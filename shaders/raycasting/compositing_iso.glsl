@@ -8,6 +8,15 @@
 #ifdef COMPOSITING_ISO
 #include "raycasting/iso_refinement.glsl"
 
+// Sample i: its value, and whether it is the hit: at or above the level and neither masked nor cut
+// away (weight below 1/2, sample_weight.glsl; after such a sample the hit is the sample itself: the
+// surface is cut there).
+bool is_hit(Ray ray, int i, out float value, inout Result result) {
+    value = intensity(sample_point(ray, float(i)));
+    result.taken++;
+    return value >= iso_level && sample_weight(sample_point(ray, float(i))) >= 0.5;
+}
+
 Result march(Ray ray) {
     Result result = empty_result();
     float previous = 0.0;
@@ -23,17 +32,25 @@ Result march(Ray ray) {
             have_previous = false;
             if (cursor.i >= ray.samples) break;
         }
-        value = intensity(sample_point(ray, float(cursor.i)));
-        result.taken++;
-        // A masked or cut-away sample (weight below 1/2, sample_weight.glsl) is no hit; after one,
-        // the hit is the sample itself: the surface is cut there.
-        if (value >= iso_level && sample_weight(sample_point(ray, float(cursor.i))) >= 0.5) {
+#ifdef PAGED_SKIPPING
+        // the single pass: the run's samples in a loop of their own, as compositing_dvr.glsl's
+        // composited_run (bonsai iso 42 -> 35 ms)
+        int stop = run_stop(cursor, ray);
+        while (cursor.i < stop && !(hit_found = is_hit(ray, cursor.i, value, result))) {
+            previous = value;
+            have_previous = true;
+            ++cursor.i;
+        }
+        if (hit_found) break;
+#else
+        if (is_hit(ray, cursor.i, value, result)) {
             hit_found = true;
             break;
         }
         previous = value;
         have_previous = true;
         ++cursor.i;
+#endif
     }
     if (hit_found) {
         int i = cursor.i;
