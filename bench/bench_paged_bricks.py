@@ -2,7 +2,8 @@
 its pass per brick and the in-core RayCaster, everything resident at level 0.
 
 Usage:  python bench/bench_paged_bricks.py [--volume FILE | --implicit FUNCTION:N] [--size 256] [--rounds 3]
-                                          [--bricks 32 64] [--cpu] [--modes dvr iso ...] [--methods single_pass]
+                                          [--bricks 32 64] [--cpu] [--modes dvr shaded mip iso]
+                                          [--methods passes single_pass]
 
 Per compositing mode, the variants draw one untimed frame, then take turns frame by frame
 (bench/interleave.py), each frame re-planned (the sampling rate is nudged so the processor
@@ -42,11 +43,6 @@ CASES = [("dvr", {"transfer_function": WINDOW, "early_termination": 1.0}),
          ("mip", {}), ("iso", {"iso_level": 0.3})]
 
 
-def case_mode(name: str) -> str:
-    """The compositing mode of a case of CASES."""
-    return name.split(" ")[0].rstrip(",")
-
-
 def psnr(a, b) -> float:
     mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
     return float("inf") if mse == 0.0 else 10.0 * np.log10(1.0 / mse)
@@ -78,10 +74,9 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--bricks", type=int, nargs="+", default=[32, 64])
     parser.add_argument("--cpu", action="store_true", help="CPU seconds of the process, not wall seconds")
-    parser.add_argument("--modes", nargs="+", choices=[case_mode(name) for name, _ in CASES], default=None,
-                        help="only these compositing modes (dvr takes both dvr cases)")
-    parser.add_argument("--methods", nargs="+", choices=["passes", "single_pass"], default=["passes", "single_pass"],
-                        help="the bricked methods beside the RayCaster")
+    parser.add_argument("--modes", nargs="+", choices=["dvr", "shaded", "mip", "iso"], default=["dvr", "shaded", "mip", "iso"],
+                        help="the cases to run (shaded: dvr shaded with early termination 0.99)")
+    parser.add_argument("--methods", nargs="+", choices=["passes", "single_pass"], default=["passes", "single_pass"])
     args = parser.parse_args()
     clock = cpu_seconds if args.cpu else time.perf_counter
     if args.implicit:
@@ -94,8 +89,8 @@ def main() -> None:
     print(f"{args.volume}: {volume.dims}, {size[0]} x {size[1]}, {args.rounds} rounds (min / median / max ms, "
           f"{'CPU' if args.cpu else 'wall'})")
     for name, properties in CASES:
-        mode = case_mode(name)
-        if args.modes is not None and mode not in args.modes:
+        mode = name.split(" ")[0].rstrip(",")
+        if ("shaded" if "shaded" in name else mode) not in args.modes:
             continue
         properties = {"shading": "none", "compositing": mode, **properties}
         variants, images = {}, {}

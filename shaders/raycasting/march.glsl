@@ -97,6 +97,13 @@ bool next_occupied_sample(inout March cursor, Ray ray) {
     skip_empty_space(cursor, ray);
     return cursor.i < ray.samples;
 }
+
+// The first sample past the run cursor.i lies in (after next_occupied_sample): the samples before
+// it read the run's slot with no look-up, so a mode may take them in a loop of its own
+// (compositing_dvr.glsl).
+int run_stop(March cursor, Ray ray) {
+    return min(cursor.run_end, ray.samples);
+}
 #else
 // Literals, not functions returning them: Mesa then compiles exactly the plain loop (with a
 // function the tricubic CurvatureVolumeRaycaster's colours moved by a float rounding, 4e-7).
