@@ -147,3 +147,72 @@ def test_bricked_skipping_changes_neither_image_nor_depth(volume_name):
         assert np.ptp(outputs[1][0][..., 0]) > 0.1
         np.testing.assert_array_equal(outputs[0][0], outputs[1][0])
         np.testing.assert_array_equal(outputs[0][1], outputs[1][1])
+
+
+# --- the single-pass bricked ray caster's MIP (PAGED_MIP_WALK: vgraph.bricks.mip_walk) -----------
+@pytest.mark.parametrize("brick", [8, 16])
+@pytest.mark.parametrize("volume_name", list(VOLUMES))
+def test_single_pass_walk_changes_neither_image_nor_depth(volume_name, brick):
+    """The single pass walks a grid of its bricks' block maxima in the RayCaster's order (largest
+    first): image and depth sample as its plain march (no skipping), where ties and margins decide
+    the depth sample; the image within an 8-bit step of the in-core RayCaster's (its depth sample
+    may differ on plateaus: the two textures round a tie differently, far_from_zero)."""
+    from vgraph.testing import ray_caster_network
+    volume = VOLUMES[volume_name]()
+    for camera_name in ("perspective", "inside"):
+        camera = cameras(volume)[camera_name]
+        network = ray_caster_network(volume, camera, "BrickedRayCaster", compositing="mip", transfer_function=RAMP,
+                                     brick_size=brick, lod_bias=-16.0, method="single_pass")
+        outputs = []
+        for skipping in (True, False):
+            network.set("rc.empty_space_skipping", skipping)
+            outputs.append((network.evaluate("rc.image", size=SIZE), network.evaluate("rc.depth", size=SIZE)))
+            assert network["rc"].passes[-1].defines.get("PAGED_MIP_WALK", False) is skipping
+        assert np.ptp(outputs[1][0][..., 0]) > 0.1
+        assert_same_picture(*outputs)
+        assert outputs[0][1][..., 2].sum() <= outputs[1][1][..., 2].sum()  # no more samples (noise: as many)
+        image, depth = with_and_without_skipping(volume, camera)[1]  # the RayCaster's plain march
+        assert np.abs(np.asarray(outputs[0][0]) - np.asarray(image)).max() <= 1 / 255
+        np.testing.assert_array_equal(outputs[0][1][..., 3] > 0, depth[..., 3] > 0)
+
+
+@pytest.mark.parametrize("brick", [16, 12])
+def test_the_walk_grid_bounds_every_sample_and_equals_the_bricks_blocks_at_level_0(brick):
+    """Each block of the grid bounds every sample in it, trilinear from the level drawn (random
+    positions; level 0, and level 1 whose bricks cover 2^3 level-0 cells); at level 0 in bricks
+    of a multiple of 8 it is exactly its brick's block: the maximum over the voxels its samples
+    filter. Bricks of 12 (another tool's chunks): the grid's blocks straddle cells."""
+    from scipy.ndimage import map_coordinates
+    from vgraph.bricks.cache import texture_format
+    from vgraph.bricks.pyramid import ArrayPyramid
+    from vgraph.bricks.selection import BrickGeometry
+    from vgraph.bricks.mip_walk import walk_grid
+    data = noise((40, 27, 35)).data
+    source = ArrayPyramid(data, brick=(brick,) * 3)
+    geometry = BrickGeometry(source)
+    fmt = texture_format(source.dtype, source.value_range)
+    lo, hi = source.value_range
+    points = np.random.default_rng(3).random((20000, 3)) * np.asarray(data.shape)  # t * dims0, [z, y, x]
+    for level in (0, 1):
+        keys = [(level, z, y, x) for z in range(geometry.grids[level][2]) for y in range(geometry.grids[level][1])
+                for x in range(geometry.grids[level][0])]
+        ranges = np.stack([block_ranges(source, key, fmt) for key in keys])
+        grid, block = walk_grid(source, geometry, keys, {key: i for i, key in enumerate(keys)}.__getitem__, ranges)
+        assert block == 8 and grid.shape == (5, 4, 5)
+        voxels = (source.read(level, (0, 0, 0), source.levels[level].shape).astype(np.float64) - lo) / (hi - lo)
+        values = map_coordinates(voxels, (points.T - 0.5) / 2 ** level - (0.5 - 0.5 / 2 ** level), order=1, mode="nearest")
+        blocks = tuple((points // 8).astype(int).T)
+        assert np.all(values <= grid[blocks] + 1e-6)
+        if level == 0 and brick % 8 == 0:
+            padded = np.pad(voxels, 1, mode="edge")
+            truth = [padded[8 * z:8 * z + 10, 8 * y:8 * y + 10, 8 * x:8 * x + 10].max() for z, y, x in np.ndindex(grid.shape)]
+            np.testing.assert_allclose(grid.ravel(), truth, atol=1e-6)
+
+
+def block_ranges(source, key, fmt):
+    """A brick's blocks' ranges as the atlas records them, padded to a slot of the largest brick's blocks."""
+    from vgraph.bricks.cache import block_ranges_of, read_with_halo, to_texture_values
+    ranges = block_ranges_of(to_texture_values(read_with_halo(source, key), fmt, source.value_range), fmt)
+    out = np.full((2, 2, 2, 2), np.nan, dtype=np.float32)  # blocks of 8 in a slot of 16 (or 12) voxels
+    out[:ranges.shape[0], :ranges.shape[1], :ranges.shape[2]] = ranges
+    return out

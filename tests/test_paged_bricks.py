@@ -214,17 +214,34 @@ def test_skipping_empty_blocks_inside_the_atlas_bricks_leaves_the_image_and_save
     assert got_depth[..., 2].sum() < 0.7 * every_depth[..., 2].sum()  # depth's b: the samples evaluated
 
 
-def test_mip_skips_blocks_below_the_rays_maximum_with_the_same_image_and_depth(bonsai):
+@pytest.mark.parametrize("frame", ["complete", "refining"])
+def test_mip_skips_blocks_below_the_rays_maximum_with_the_same_image_and_depth(bonsai, frame):
     """A block whose maximum is not above the ray's running maximum holds no sample that changes the
-    maximum or its first sample (PAGED_MIP): image and depth as without skipping, fewer samples."""
+    maximum or its first sample: image and depth as without skipping, fewer samples. A complete
+    frame walks the grid of its bricks' block maxima, largest first (PAGED_MIP_WALK,
+    vgraph.bricks.mip_walk); a frame with missing bricks (drawn from level 1 here) marches front to
+    back so that its rays ask for them (PAGED_MIP)."""
     properties = {**UNSHADED_RAMP, "compositing": "mip", "brick_size": 32, "lod_bias": FINEST}
     camera = oblique(bonsai)
-    every, every_depth, _ = single_pass(bonsai, camera, empty_space_skipping=False, **properties)
-    got, got_depth, rc = single_pass(bonsai, camera, **properties)
-    assert "PAGED_MIP" in rc.passes[-1].defines
+    outputs = []
+    for skipping in (False, True):
+        network = ray_caster_network(bonsai, camera, "BrickedRayCaster", method="single_pass",
+                                     empty_space_skipping=skipping, **properties)
+        context = None
+        if frame == "refining":
+            network.set("rc.finest_level", 1)
+            network.evaluate("rc.image", size=SIZE)  # reads the level-1 bricks
+            network.set("rc.finest_level", 0)
+            context = FrameContext(load_limit=LoadLimit(bricks=0))
+        outputs.append([np.asarray(network.evaluate(f"rc.{port}", size=SIZE, context=context)) for port in ("image", "depth")])
+        rc = network["rc"]
+        assert rc.last_frame["complete"] is (frame == "complete")
+    (every, every_depth), (got, got_depth) = outputs
+    assert rc.passes[-1].defines.get("PAGED_MIP_WALK" if frame == "complete" else "PAGED_MIP")
     assert np.abs(got - every).max() <= 1e-6 and got[..., :3].std() > 0.01
     np.testing.assert_allclose(got_depth[..., :2], every_depth[..., :2], atol=1e-5)
-    assert got_depth[..., 2].sum() < 0.7 * every_depth[..., 2].sum()  # depth's b: the samples evaluated
+    # depth's b: the samples evaluated (level 1's blocks of 8 span 16 level-0 voxels: fewer skipped)
+    assert got_depth[..., 2].sum() < (0.7 if frame == "complete" else 0.95) * every_depth[..., 2].sum()
 
 
 def sparse_ball() -> Volume:

@@ -188,6 +188,29 @@ void paged_run(inout int i, inout int run_end, Ray ray) {
     }
 }
 
+#ifdef PAGED_MIP_WALK
+// mip's passes over the grid of block maxima (compositing_mip.glsl) take stretches in any order, so
+// the run raw_sample() reads is kept as [paged_run_start, paged_run_end): a stretch that starts in
+// it looks nothing up.
+int paged_run_start = 0;
+int paged_run_end = 0;
+
+// Sample j ready to read: its run's slot set, or j moved past the cells and blocks that add
+// nothing (paged_run, in a loop of its own); false once j reaches `end`.
+bool paged_ready(inout int j, int end, Ray ray) {
+    while (j < end && (j < paged_run_start || j >= paged_run_end)) {
+        int before = j;
+        int run_end = j;
+        paged_run(j, run_end, ray);
+        if (j == before) {  // a run starts at j
+            paged_run_start = j;
+            paged_run_end = run_end;
+        }
+    }
+    return j < end;
+}
+#endif
+
 // Shaded iso (iso_refinement.glsl's iso_surface_colour): the gradient at the refined hit, which
 // may lie up to a step before the run's cell, reads the slot of the hit's own cell where that cell
 // is drawn (differences from the run's slot would reach 2 voxels past it, beyond its apron).

@@ -6,7 +6,9 @@
 //   ray may jump to where it leaves that cube of (2k - 1)^3 blocks;
 // - mip: the block's maximum normalised intensity (a block not above the current maximum is skipped).
 // Skipped samples keep their positions start + i * step, so skipping changes no image, only work.
-#ifdef SKIP_EMPTY_SPACE
+// The grid and its walk (BlockWalk, block_value) also serve the single-pass bricked ray caster's
+// mip (PAGED_MIP_WALK: a grid of block maxima over the frame's bricks, bricks/paged_sampling.glsl).
+#if defined(SKIP_EMPTY_SPACE) || defined(PAGED_MIP_WALK)
 uniform sampler3D blocks;
 uniform vec3 block_scale;   // texture -> block coordinates: q = t * scale + offset
 uniform vec3 block_offset;
@@ -28,12 +30,14 @@ BlockWalk block_walk(Ray ray) {
     return walk;
 }
 
-ivec3 block_of(BlockWalk walk, int i) {
-    return clamp(ivec3(walk.start + float(i) * walk.step), ivec3(0), block_count - 1);
-}
-
 float block_value(ivec3 block) {
     return texelFetch(blocks, block, 0).r;
+}
+#endif
+
+#ifdef SKIP_EMPTY_SPACE
+ivec3 block_of(BlockWalk walk, int i) {
+    return clamp(ivec3(walk.start + float(i) * walk.step), ivec3(0), block_count - 1);
 }
 
 // The first sample index after sample i outside the cube of blocks within Chebyshev distance

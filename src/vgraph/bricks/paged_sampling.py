@@ -49,7 +49,7 @@ import numpy as np
 
 from vgraph.bricks.atlas import BrickAtlas
 from vgraph.bricks.cache import MB, bricks_bytes
-from vgraph.bricks import leaf_pages
+from vgraph.bricks import leaf_pages, mip_walk
 from vgraph.bricks.block_radii import block_radii, wholly_drawn
 from vgraph.bricks.cells import table_of
 from vgraph.bricks.coarse_step import sample_stride, strided
@@ -90,6 +90,7 @@ class PagedSampling(Component):
         self.warned_level = None  # the level the atlas's slots last raised the frame to
         self.table_key = None     # what the leaf table was built from (leaf_table)
         self.flags_kept = None    # (the atlas's blocks, (its uploads, the rule), binding): block_flags
+        self.walk_kept = None     # (the leaf table's key, binding): mip_walk
 
     def bind(self, frame: Frame) -> Binding:
         return self.frame_binding  # made by draw_frame, which draws the pass
@@ -128,9 +129,12 @@ class PagedSampling(Component):
         requests = processor.parts[RayRequests]
         requests.prepare(frame.ctx, resolved)  # the rays ask for what they reach of these
         self.frame_binding = self.binding_of(frame, geometry, source, resolved, leaf)
-        blocks = self.block_flags(frame, atlas, source, plan)
-        if blocks is not None:
-            self.frame_binding = self.frame_binding.merge(blocks)
+        walk = self.mip_walk(frame, source, geometry, plan, atlas, missing)
+        # (mip's walk grid already holds what the blocks' flags say: without them a run is its cell)
+        blocks = self.block_flags(frame, atlas, source, plan) if walk is None else None
+        for extra in (blocks, walk):
+            if extra is not None:
+                self.frame_binding = self.frame_binding.merge(extra)
         # march.glsl's runs: every sample is read from the slot its run's look-up found (also where
         # every cell is drawn: one look-up a run, not one a sample)
         self.frame_binding.defines["PAGED_SKIPPING"] = True
@@ -246,6 +250,29 @@ class PagedSampling(Component):
                 f"level {fitted.floor_level} or coarser ({len(fitted.bricks)} bricks)")
         self.warned_level = fitted.floor_level if fitted is not plan else None
         return fitted
+
+    def mip_walk(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas,
+                 missing) -> Binding | None:
+        """mip with ``empty_space_skipping`` where the atlas holds every planned brick: the grid of
+        block maxima the rays walk in the RayCaster's order (vgraph.bricks.mip_walk, define
+        PAGED_MIP_WALK); None otherwise (front to back, PAGED_MIP). Kept while the leaf table is."""
+        processor = self.processor
+        if processor.compositing != "mip" or not processor.empty_space_skipping or len(missing):
+            return None
+        kept = self.walk_kept
+        texture = atlas.gl.get("mip_walk")
+        if kept is not None and kept[0] == self.table_key and texture is not None and texture.ctx is frame.ctx:
+            return kept[1]
+        grid, block = mip_walk.walk_grid(source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks.ranges)
+        size = grid.shape[::-1]
+        if texture is None or texture.ctx is not frame.ctx or texture.size != size:
+            release_quietly({"mip_walk": atlas.gl.pop("mip_walk", None) or {}})
+            texture = atlas.gl["mip_walk"] = frame.ctx.texture3d(size, 1, dtype="f4")
+        texture.write(grid.tobytes())
+        binding = Binding({"PAGED_MIP_WALK": True}, textures={"blocks": texture},
+                          uniforms=mip_walk.uniforms(geometry, block, grid))
+        self.walk_kept = (self.table_key, binding)
+        return binding
 
     def block_flags(self, frame: Frame, atlas: BrickAtlas, source, plan: FramePlan) -> Binding | None:
         """With ``empty_space_skipping``, the flags of the atlas's blocks that add nothing this frame
