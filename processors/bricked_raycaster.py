@@ -17,7 +17,7 @@ Conventions (docs/explanations/bricked-ray-casting.md explains each with the num
   RayCaster's shader, early termination across bricks; under a load limit its rays ask for the
   missing bricks they reach (RayRequests, vgraph.bricks.ray_requests), which are read after the
   frame. ``auto`` (the default) takes per frame the one vgraph.bricks.methods chooses: the single
-  pass for dvr and iso, where it measured faster, passes for mip and for the leaves split.
+  pass for dvr, iso and mip, where it measured faster, passes for the leaves split.
 - Masks and cut-aways (vgraph.masking; docs/guide/clipping.md) as the RayCaster's: the optional
   inport ``mask`` and ``mask_labels``, ``mask_mode``, ``mask_boundary``, ``mask_smoothing``,
   ``cutaway*`` (the Mask and CutAway components) weigh each sample in every mode and method.
@@ -80,8 +80,8 @@ class BrickedRayCaster(RaycasterBase):
     method = OptionProperty("auto", choices=list(METHODS),
                             doc="passes: a fullscreen pass per brick, blended; single_pass: one pass whose "
                                 "rays walk a page table of the bricks in an atlas (gl_budget MB), with early "
-                                "termination across bricks (issue #33); auto: single_pass for dvr and iso "
-                                "(faster there), passes for mip and the leaves split")
+                                "termination across bricks (issue #33); auto: single_pass for dvr, iso and mip "
+                                "(faster there), passes for the leaves split")
     empty_space_skipping = BoolProperty(True, doc="inside a brick, skip blocks of 8^3 voxels that cannot "
                                                   "contribute (same image, faster); empty bricks are always skipped")
 

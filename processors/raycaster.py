@@ -31,7 +31,7 @@ Conventions (docs/explanations/ray-casting.md explains each property with pictur
 - A volume wider than the GL's 3D-texture limit, or a BrickedVolume (an OME-Zarr store) larger
   than its memory budget, is drawn from bricks instead of VolumeSampling, by the method the
   BrickedRayCaster's ``method`` auto chooses (vgraph.bricks.methods): through the PagedSampling
-  component in one pass (dvr, iso) or the BrickSampling component, a pass per brick (mip)
+  component in one pass (dvr, iso, mip) or the BrickSampling component, a pass per brick
   (vgraph.bricks.paged_sampling, vgraph.bricks.sampling; docs/explanations/bricked-ray-casting.md),
   as the BrickedRayCaster draws: its properties ``brick_size``, ``lod_bias``, ``max_error``,
   ``ram_budget`` and ``gl_budget`` are this processor's and apply only then. dvr, mip and iso only; ``precomputed``

@@ -4,12 +4,11 @@ vgraph.bricks.sampling) or one pass through a page table (PagedSampling, vgraph.
 ``auto`` (the BrickedRayCaster's default, and the rule of the RayCaster's hand-over for a volume
 one texture cannot hold) takes the single pass where it measured faster and passes elsewhere
 (docs/explanations/bricked-ray-casting.md, "Which method draws"):
-- dvr (shaded or not, with or without early termination) and iso: the single pass, 1.5-3x faster
-  than a pass per brick on llvmpipe (bench/bench_paged_bricks.py, bonsai 256^3 and a 512^3
-  volume, 32^3 and 64^3 bricks);
-- mip: passes. Its single pass skips blocks below the running maximum front to back only (the
-  pass per brick takes each brick's stretch with the largest block maximum first, as the
-  RayCaster) and measured 1.1-1.2x slower with 64^3 bricks;
+- dvr (shaded or not, with or without early termination), iso and mip: the single pass, 1.5-3x
+  faster than a pass per brick on llvmpipe in dvr and iso, 2-3x in mip since its rays walk a grid
+  of block maxima largest first as the RayCaster's (vgraph.bricks.mip_walk; before, front to back,
+  it was 1.1-1.2x slower) (bench/bench_paged_bricks.py, bonsai 256^3 and a 512^3 volume, 32^3 and
+  64^3 bricks);
 - a frame of the leaves split (FrameContext.leaf, vgraph.distributed.leaves): passes. A leaf draws
   its run of bricks into an accumulation that the next worker continues; the single pass has no
   such partial frame;
@@ -44,7 +43,7 @@ from vgraph.errors import VGraphError
 from vgraph.memory import format_bytes
 
 METHODS = ("auto", "passes", "single_pass")
-SINGLE_PASS_MODES = ("dvr", "iso")  # where the single pass measured faster (module docstring)
+SINGLE_PASS_MODES = ("dvr", "iso", "mip")  # where the single pass measured faster (module docstring)
 # The single pass's leaf table (vgraph.bricks.leaf_pages: RGBA32F entries and R32F wanted values),
 # held about this many times while a frame builds and uploads it (leaf, fallback, gathers, bytes)
 LEAF_TABLE_COPIES = 4

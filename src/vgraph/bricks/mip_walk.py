@@ -5,9 +5,11 @@ the stretches that can still change the result), looking the page table up only 
 
 Conventions:
 - The grid covers level 0's voxels in blocks of ``block`` level-0 voxels per axis (WALK_BLOCK, as
-  the RayCaster's walk, doubled until the grid has at most MAX_TEXELS): block g holds the samples at
-  t * dims0 in [block * g, block * (g + 1)), so its coordinate is q = t * dims0 / block
-  (``uniforms``: the empty-space grid's block_scale, block_offset 0 and block_count).
+  the RayCaster's walk, doubled until the grid has at most MAX_TEXELS, and MAX_AXIS along an axis):
+  block g holds the samples at t * dims0 in [block * g, block * (g + 1)), so its coordinate is
+  q = t * dims0 / block (``uniforms``: the empty-space grid's block_scale, block_offset 0 and
+  block_count). A stretch of a ray in a block may span several cells: its samples are read run by
+  run (compositing_mip.glsl's take_stretch).
 - Its value bounds every sample a ray takes in it: the largest maximum of the blocks of the atlas's
   bricks (vgraph.bricks.atlas_blocks, whose ranges cover what their samples filter, half a voxel
   past them) that overlap it, within the cell each brick is drawn in; 0 (adds nothing) where no
@@ -30,15 +32,20 @@ from vgraph.bricks.selection import BrickGeometry
 from vgraph.gl.raycasting.empty_space import WALK_BLOCK
 
 MAX_TEXELS = 128 ** 3  # the grid's size at most (8 MiB of R32F): a coarser block beyond
+MAX_AXIS = 2048        # texels along an axis at most: every GL 4 holds a 3D texture this wide
 EDGE = 1e-3            # level-0 voxels a coarser brick's blocks reach past their faces (module docstring)
 
 
 def walk_block(geometry: BrickGeometry) -> int:
     """Level-0 voxels per block of the grid along each axis (module docstring)."""
     block = WALK_BLOCK
-    while math.prod(-(-int(n) // block) for n in geometry.dims0) > MAX_TEXELS:
+    while math.prod(_counts(geometry, block)) > MAX_TEXELS or max(_counts(geometry, block)) > MAX_AXIS:
         block *= 2
     return block
+
+
+def _counts(geometry: BrickGeometry, block: int) -> list[int]:
+    return [-(-int(n) // block) for n in geometry.dims0]
 
 
 def walk_grid(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray) -> tuple[np.ndarray, int]:
@@ -47,7 +54,7 @@ def walk_grid(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray
     [slot, bz, by, bx, (min, max)] (AtlasBlocks.ranges). Whole levels at a time in numpy (the 4096
     bricks of 32^3 of a 512^3 volume: a loop over the bricks took 0.3 s)."""
     block = walk_block(geometry)
-    grid = np.zeros([-(-int(n) // block) for n in geometry.dims0[::-1]], dtype=np.float32)  # [z, y, x]
+    grid = np.zeros(_counts(geometry, block)[::-1], dtype=np.float32)  # [z, y, x]
     keys = np.asarray(keys, dtype=np.int64).reshape(-1, 4)
     slots = np.fromiter((slot_of(tuple(int(v) for v in key)) for key in keys), dtype=np.int64, count=len(keys))
     for level in np.unique(keys[:, 0]):
