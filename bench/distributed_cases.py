@@ -69,7 +69,7 @@ def bricked_network_of(path: Path, **properties) -> Network:
     """VolumeSource of ``path`` -> EntryExitPoints -> BrickedRayCaster 'rc' (16^3 bricks, all at
     level 0, unless ``properties`` say otherwise) -> Canvas, an oblique view. ``method`` passes
     unless told: its tiles are the single-process picture bit for bit and its leaves are what the
-    leaves split draws (``auto`` draws dvr and iso in one pass, whose tiles agree within float
+    leaves split draws (``auto`` draws dvr, iso and mip in one pass, whose tiles agree within float
     rounding: docs/explanations/bricked-ray-casting.md, "Which method draws")."""
     network = Network(base_dir=Path(path).parent)
     network.add("VolumeSource", id="source", path=str(path))
