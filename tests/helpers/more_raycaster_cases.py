@@ -92,7 +92,7 @@ BRICKED = [{"compositing": m, "brick_size": 16, "lod_bias": -16.0} for m in ("dv
 
 
 def bricked_cases():
-    # method passes, as recorded (the default auto draws dvr and iso in one pass since issue #33,
+    # method passes, as recorded (the default auto draws dvr, iso and mip in one pass since issue #33,
     # item 3; tests/test_paged_bricks.py holds the single pass to the RayCaster's image)
     for properties in BRICKED:
         yield (f"BrickedRayCaster {properties}",
