@@ -211,7 +211,8 @@ def big_volume() -> Volume:
 def test_a_budget_of_a_few_bricks_evicts_and_reads_again_but_frames_stay_complete():
     volume = big_volume()
     network = ray_caster_network(volume, corner_camera(volume, False), "BrickedRayCaster", compositing="mip",
-                                 brick_size=32, lod_bias=FINEST, ram_budget=4.0, gl_budget=4.0, **UNSHADED_RAMP)
+                                 brick_size=32, lod_bias=FINEST, ram_budget=4.0, gl_budget=4.0, method="passes",
+                                 **UNSHADED_RAMP)
     rc = network["rc"]
     frames = []
     for right in (False, True, False):
@@ -360,7 +361,7 @@ def test_the_raycaster_draws_a_volume_wider_than_the_texture_limit_brick_by_bric
     camera = oblique(volume)
     got, _, rc = render(volume, camera, "RayCaster", compositing="mip")
     want, _, _ = render(volume, camera, compositing="mip", brick_size=64, early_termination=0.99)
-    assert rc.passes and rc.passes[0][0].startswith("bricks/")
+    assert rc.passes and rc.frame_summary().startswith("single pass")  # auto: mip in one pass (bricks/methods.py)
     assert got[..., :3].max() > 0.5 and psnr(got, want) >= MIN_PSNR
     with pytest.raises(ProcessorError, match="rc.compositing: .* offers dvr, mip, iso, not xray"):
         render(volume, camera, "RayCaster", compositing="xray")
@@ -446,7 +447,8 @@ def test_a_budget_that_cannot_hold_a_coarse_frame_and_the_planned_bricks_draws_t
     count = planned.last_frame["bricks"]
     budget = (count + 1) * (32 + 2 * HALO) ** 3 * 4 / MB
     network = ray_caster_network(volume, oblique(volume), "BrickedRayCaster", compositing="mip", brick_size=32,
-                                 lod_bias=FINEST, ram_budget=budget, gl_budget=budget, **UNSHADED_RAMP)
+                                 lod_bias=FINEST, ram_budget=budget, gl_budget=budget, method="passes",
+                                 **UNSHADED_RAMP)
     network.evaluate("rc.image", size=SIZE, context=FrameContext(load_limit=LoadLimit(bricks=8)))
     assert network["rc"].last_frame["levels"] == [1] and network["rc"].last_frame["bricks_read"] == 9
     seen = refine(network, SIZE, LoadLimit(bricks=2))
@@ -475,7 +477,9 @@ def test_a_raycaster_drawing_a_store_brick_by_brick_refines_under_a_load_limit(t
     network = ray_caster_network(bricked, camera, "RayCaster", compositing="mip", **UNSHADED_RAMP)
     seen = refine(network, SIZE, LoadLimit(bricks=6))
     assert not seen[0][0]["complete"] and len(seen) > 1
-    np.testing.assert_array_equal(seen[-1][1], planned)
+    # (auto draws mip in one pass: the still frame walks the block maxima, a refining one marches
+    # front to back, and a sample at a cell's face may read either slot: a rounding apart)
+    np.testing.assert_allclose(seen[-1][1], planned, atol=1e-5)
     small = Volume(field((20, 20, 20)))                  # one texture holds it: no bricks, no last frame
     network["src"].volume = small
     network.invalidate_downstream("src")
