@@ -185,7 +185,7 @@ def test_the_walk_grid_bounds_every_sample_and_equals_the_bricks_blocks_at_level
     from scipy.ndimage import map_coordinates
     from vgraph.bricks.cache import texture_format
     from vgraph.bricks.pyramid import ArrayPyramid
-    from vgraph.bricks.selection import BrickGeometry
+    from vgraph.bricks.brick_geometry import BrickGeometry
     from vgraph.bricks.mip_walk import walk_grid
     data = noise((40, 27, 35)).data
     source = ArrayPyramid(data, brick=(brick,) * 3)

@@ -28,7 +28,7 @@ import numpy as np
 
 from vgraph.bricks.cache import BLOCK
 from vgraph.bricks.cells import table_of
-from vgraph.bricks.selection import BrickGeometry
+from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.gl.raycasting.empty_space import WALK_BLOCK
 
 MAX_TEXELS = 128 ** 3  # the grid's size at most (8 MiB of R32F): a coarser block beyond
