@@ -28,6 +28,7 @@ from collections import OrderedDict
 
 import numpy as np
 
+from vgraph import derived
 from vgraph.bricks.atlas_blocks import AtlasBlocks
 from vgraph.bricks.cache import HALO, TextureFormat
 from vgraph.bricks.cells import table_of
@@ -35,8 +36,14 @@ from vgraph.gl_context import release_quietly
 
 
 def slot_shape_of(source) -> tuple[int, int, int]:
-    """(x, y, z) texels of the largest brick of any level with its apron."""
-    spans = table_of(source).spans  # per level, per axis [z, y, x]: (starts, stops)
+    """(x, y, z) texels of the largest brick of any level with its apron (made once per table of
+    cells, vgraph.derived: every frame asks, and it depends on the pyramid alone)."""
+    table = table_of(source)
+    return derived.value(table, "atlas slot shape", lambda: _slot_shape(table))
+
+
+def _slot_shape(table) -> tuple[int, int, int]:
+    spans = table.spans  # per level, per axis [z, y, x]: (starts, stops)
     largest = [max(int(np.max(stops - starts)) for level in spans for starts, stops in [level[axis]])
                for axis in range(3)]
     return tuple(n + 2 * HALO for n in largest[::-1])

@@ -91,6 +91,7 @@ class PagedSampling(Component):
         self.table_key = None     # what the leaf table was built from (leaf_table)
         self.flags_kept = None    # (the atlas's blocks, (its uploads, the rule), binding): block_flags
         self.walk_kept = None     # (the leaf table's key, binding): mip_walk
+        self.kept_uniforms = None  # (what they depend on, the pyramid's uniforms): pyramid_uniforms
 
     def bind(self, frame: Frame) -> Binding:
         return self.frame_binding  # made by draw_frame, which draws the pass
@@ -351,7 +352,27 @@ class PagedSampling(Component):
         (bricks/paged_sampling.glsl)."""
         processor, atlas = self.processor, self.atlas
         fmt = processor.parts[BrickSampling].cache.format
-        levels = len(source.levels)
+        uniforms = {**self.pyramid_uniforms(geometry, source, fmt),
+                    "page_cells": tuple(int(n) for n in resolved.page_cells)}
+        defines = {"PAGE_LEVELS": len(source.levels), "PAGE_DIRECTORY": resolved.level > 0}
+        if frame.lit:
+            gradients = processor.parts[Gradients]
+            gradients.check()
+            derivatives = processor.parts[BrickSampling].derivatives()
+            defines.update(gradients.defines(derivatives))
+            voxel, spacing = level_voxel(geometry, 0)
+            uniforms.update(gradients.uniforms(float(fmt.scale), voxel, spacing, derivatives))
+        return Binding(defines, textures={"volume": atlas.texture, "page_table": leaf},
+                       samplers={"volume": linear_sampler(frame.ctx)}, uniforms=uniforms)
+
+    def pyramid_uniforms(self, geometry: BrickGeometry, source, fmt) -> dict:
+        """The uniforms of the pyramid, the atlas's shape and the bricks' format (paged_sampling.glsl):
+        the last frame's while these are the same (a new camera changes none of them)."""
+        atlas = self.atlas
+        key = (geometry, tuple(atlas.size), tuple(atlas.slot_shape), float(fmt.scale), float(fmt.offset))
+        kept = self.kept_uniforms
+        if kept is not None and kept[0][0] is geometry and kept[0][1:] == key[1:]:
+            return kept[1]
         spacing0, origin0, dims0 = geometry.spacing0, geometry.origin0, geometry.dims0
         level_scale, level_offset = [], []
         for level in source.levels:
@@ -366,18 +387,9 @@ class PagedSampling(Component):
                     "leaf_grid": tuple(int(n) for n in geometry.grids[0]),
                     "leaf_scale": vec(dims0 / geometry.spans[0]),
                     "level_scale": np.asarray(level_scale, dtype=np.float32),
-                    "level_offset": np.asarray(level_offset, dtype=np.float32),
-                    "page_cells": tuple(int(n) for n in resolved.page_cells)}
-        defines = {"PAGE_LEVELS": levels, "PAGE_DIRECTORY": resolved.level > 0}
-        if frame.lit:
-            gradients = processor.parts[Gradients]
-            gradients.check()
-            derivatives = processor.parts[BrickSampling].derivatives()
-            defines.update(gradients.defines(derivatives))
-            voxel, spacing = level_voxel(geometry, 0)
-            uniforms.update(gradients.uniforms(float(fmt.scale), voxel, spacing, derivatives))
-        return Binding(defines, textures={"volume": atlas.texture, "page_table": leaf},
-                       samplers={"volume": linear_sampler(frame.ctx)}, uniforms=uniforms)
+                    "level_offset": np.asarray(level_offset, dtype=np.float32)}
+        self.kept_uniforms = (key, uniforms)
+        return uniforms
 
     def draw(self, frame: Frame, target, own: Binding) -> None:
         """The one pass: the RayCaster's shader with the parts of PAGED_PARTS; the processor's

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from vgraph.bricks.level_tables import kept_per_level
 from vgraph.gl.tetrahedra.cells import axis_order
 
 
@@ -48,10 +49,27 @@ def top_cells(geometry, camera, forward, perspective: bool):
     and its order number: its rank in the top grid's front_to_back."""
     top = len(geometry.grids) - 1
     grid = np.asarray(geometry.grids[top], dtype=np.int64)  # (x, y, z)
-    z, y, x = (axis.ravel() for axis in np.meshgrid(*[np.arange(n) for n in grid[::-1]], indexing="ij"))
+    z, y, x = kept_per_level(geometry, "top cells", top, lambda: _cell_indices(grid))
     eye = geometry.eye_in_bricks(camera.position, top)
     ranks = [axis_ranks(cells, grid[a], eye[a], float(forward[a]), perspective) for a, cells in enumerate((x, y, z))]
     return z, y, x, (ranks[2] * grid[1] + ranks[1]) * grid[0] + ranks[0]
+
+
+def _cell_indices(grid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every cell (z, y, x int arrays, read-only) of a (x, y, z) ``grid``."""
+    cells = tuple(axis.ravel() for axis in np.meshgrid(*[np.arange(n) for n in grid[::-1]], indexing="ij"))
+    for axis in cells:
+        axis.setflags(write=False)
+    return cells
+
+
+def _child_offsets(rx: int, ry: int, rz: int) -> list[np.ndarray]:
+    """The children's offsets in their parent's block, [1, r] per axis (x, y, z), read-only."""
+    dz, dy, dx = np.meshgrid(np.arange(rz), np.arange(ry), np.arange(rx), indexing="ij")
+    local = [d.ravel()[None, :] for d in (dx, dy, dz)]
+    for axis in local:
+        axis.setflags(write=False)
+    return local
 
 
 def children(geometry, camera, forward, perspective: bool, level: int, z, y, x, order):
@@ -65,14 +83,13 @@ def children(geometry, camera, forward, perspective: bool, level: int, z, y, x, 
     first = parents * ratio                                            # [n, 3] (x, y, z)
     counts = np.minimum(first + ratio, grid) - first
     rx, ry, rz = (int(r) for r in ratio)
-    dz, dy, dx = np.meshgrid(np.arange(rz), np.arange(ry), np.arange(rx), indexing="ij")
-    local = [d.ravel()[None, :] for d in (dx, dy, dz)]                 # [1, r] per axis (x, y, z)
-    inside = np.ones((len(parents), rx * ry * rz), dtype=bool)
-    ranks = []
-    for a in range(3):
-        count = counts[:, a:a + 1]
-        inside &= local[a] < count
-        ranks.append(axis_ranks(local[a], count, eye[a] - first[:, a:a + 1], float(forward[a]), perspective))
+    local = kept_per_level(geometry, "child offsets", level, lambda: _child_offsets(rx, ry, rz))
+    inside = (local[0] < counts[:, 0:1]) & (local[1] < counts[:, 1:2]) & (local[2] < counts[:, 2:3])
+    if perspective:  # the three axes stacked [3, n, r], one call: the walk is mostly numpy's call overhead
+        ranks = axis_ranks(np.stack(local), counts.T[:, :, None],
+                           (eye[:, None] - first.T)[:, :, None], 0.0, True)
+    else:
+        ranks = [axis_ranks(local[a], counts[:, a:a + 1], None, float(forward[a]), False) for a in range(3)]
     digits = (ranks[2] * ry + ranks[1]) * rx + ranks[0]
     numbers = (order[:, None] * (rx * ry * rz) + digits)[inside]
     cx, cy, cz = ((first[:, a:a + 1] + local[a]) for a in range(3))
