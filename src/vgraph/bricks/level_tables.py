@@ -27,12 +27,14 @@ KEPT_CELLS = 1 << 15  # levels of at most this many cells keep their boxes and c
 def kept_per_level(geometry: BrickGeometry, what: str, level: int, make):
     """``make()`` for ``level``, kept in the geometry (one per source) where the level is small:
     the boxes and corners of a level depend on nothing else, so a frame need not make them again."""
+    key = (what, level)
+    kept = geometry.per_level.get(key)
+    if kept is not None:
+        return kept
     if math.prod(int(n) for n in geometry.grids[level]) > KEPT_CELLS:
         return make()
-    key = (what, level)
-    if key not in geometry.per_level:
-        geometry.per_level[key] = make()
-    return geometry.per_level[key]
+    kept = geometry.per_level[key] = make()
+    return kept
 
 
 def level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.ndarray]:
@@ -97,13 +99,12 @@ def screen_rects(geometry: BrickGeometry, view_projection, size, level: int) -> 
     w = clip[..., 3]
     behind = (w <= 1e-9).any(axis=-1)
     w = np.where(w > 1e-9, w, 1.0)
-    rects = []
-    for axis in range(2):  # each axis's corners contiguous: the min and max over 8 are the cost here
-        pixel = (clip[..., axis] / w * 0.5 + 0.5) * float(size[axis])
-        first = np.maximum(np.floor(pixel.min(axis=-1)) - 1, 0)
-        last = np.minimum(np.ceil(pixel.max(axis=-1)) + 1, float(size[axis]))
-        rects.append((first, np.maximum(last - first, 0)))
-    rects = np.stack([rects[0][0], rects[1][0], rects[0][1], rects[1][1]], axis=-1)
+    # x and y together ([..., 8, 2]): a level's arrays are small, numpy's calls are the cost here
+    extent = np.asarray(size[:2], dtype=np.float64)
+    pixel = (clip[..., :2] / w[..., None] * 0.5 + 0.5) * extent
+    first = np.maximum(np.floor(pixel.min(axis=-2)) - 1, 0)
+    last = np.minimum(np.ceil(pixel.max(axis=-2)) + 1, extent)
+    rects = np.concatenate([first, np.maximum(last - first, 0)], axis=-1)
     rects[behind] = (0, 0, size[0], size[1])
     rects[(rects[..., 2] == 0) | (rects[..., 3] == 0)] = 0
     return rects.astype(np.int64)

@@ -51,7 +51,10 @@ def top_cells(geometry, camera, forward, perspective: bool):
     grid = np.asarray(geometry.grids[top], dtype=np.int64)  # (x, y, z)
     z, y, x = kept_per_level(geometry, "top cells", top, lambda: _cell_indices(grid))
     eye = geometry.eye_in_bricks(camera.position, top)
-    ranks = [axis_ranks(cells, grid[a], eye[a], float(forward[a]), perspective) for a, cells in enumerate((x, y, z))]
+    if perspective:  # the three axes stacked [3, m], one call (as children)
+        ranks = axis_ranks(np.stack((x, y, z)), grid[:, None], eye[:, None], 0.0, True)
+    else:
+        ranks = [axis_ranks(cells, grid[a], None, float(forward[a]), False) for a, cells in enumerate((x, y, z))]
     return z, y, x, (ranks[2] * grid[1] + ranks[1]) * grid[0] + ranks[0]
 
 

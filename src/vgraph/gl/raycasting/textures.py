@@ -44,7 +44,7 @@ class LookupTexture:
             self.texture.repeat_x = self.texture.repeat_y = False
             self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
             self.key = None
-        if key != self.key:
+        if key is not self.key and key != self.key:
             self.texture.write(np.ascontiguousarray(table(), dtype=np.float32).tobytes())
             self.key = key
         return self.texture
@@ -59,13 +59,21 @@ class TransferFunctionTexture(LookupTexture):
         self.alpha: np.ndarray | None = None
 
     def update(self, ctx: moderngl.Context, transfer_function: TransferFunction, volume: Volume):
-        resolved = transfer_function.for_volume(volume)
+        resolved = placed_for(transfer_function, volume)
         return super().update(ctx, resolved, lambda: self._table(resolved))
 
     def _table(self, resolved: TransferFunction) -> np.ndarray:
         lut = resolved.lut()
         self.alpha = lut[:, 3].copy()
         return lut
+
+
+def placed_for(transfer_function: TransferFunction, volume: Volume) -> TransferFunction:
+    """transfer_function.for_volume(volume), kept per volume while the TF (frozen) is the same
+    (vgraph.derived): a frame asks for it once per texture it binds and per skipping table, and it
+    depends on the TF and the volume's values alone."""
+    return derived.value(volume, "transfer function placed", lambda: transfer_function.for_volume(volume),
+                         params=transfer_function)
 
 
 def needs_bricks(volume: Volume, ctx) -> bool:
