@@ -32,6 +32,7 @@ from typing import Annotated
 import numpy as np
 from pydantic import AfterValidator, Field, StrictInt
 
+from vgraph import derived
 from vgraph.bricks.cache import MB, BrickCache, LoadLimit
 from vgraph.bricks.lod_error import LodErrors, TransferFunctionSpread
 from vgraph.bricks.pyramid import ArrayPyramid
@@ -122,7 +123,17 @@ class BrickPlanning(Component):
         mode, processor = self.compositing, self.processor
         alpha = skipping_alpha(processor, frame) if mode == "dvr" else None
         value_range = frame.volume.value_range
-        return lambda level: visible_bricks(source, level, mode, alpha, processor.iso_level, value_range)
+        iso_level = processor.iso_level
+        # level -> the bricks, kept per source while the rule is the same (a new camera keeps it)
+        rule = (mode, None if alpha is None else alpha.tobytes(), float(iso_level), tuple(value_range))
+        kept = derived.value(source, "visible bricks", dict, params=rule)
+
+        def visible(level: int) -> np.ndarray:
+            if level not in kept:
+                kept[level] = visible_bricks(source, level, mode, alpha, iso_level, value_range)
+                kept[level].setflags(write=False)
+            return kept[level]
+        return visible
 
     def budget(self) -> int:
         return int(min(self.processor.ram_budget, self.processor.gl_budget) * MB)

@@ -156,7 +156,8 @@ def selected_arrays(source: BrickSource, camera, size, view_projection, visible,
         rects = tables(level, "rects")[z, y, x]
         on_screen = rects[:, 2] != 0
         wants = tables(level, "wants")[z, y, x]
-        refined = on_screen & (level > np.minimum(np.maximum(np.maximum(wants, floor_level), 0), top))
+        # level > min(max(wants, floor_level, 0), top), level <= top: in fewer of numpy's calls
+        refined = on_screen & (wants < level) if level > max(floor_level, 0) else np.zeros(len(z), dtype=bool)
         rest = on_screen & ~refined
         if too_coarse is not None and level > floor_level and rest.any():
             refined |= rest & too_coarse(level)[z, y, x]
