@@ -105,7 +105,8 @@ def screen_rects(geometry: BrickGeometry, view_projection, size, level: int) -> 
     first = np.maximum(np.floor(pixel.min(axis=-2)) - 1, 0)
     last = np.minimum(np.ceil(pixel.max(axis=-2)) + 1, extent)
     rects = np.concatenate([first, np.maximum(last - first, 0)], axis=-1)
-    rects[behind] = (0, 0, size[0], size[1])
+    if behind.any():
+        rects[behind] = (0, 0, size[0], size[1])
     rects[(rects[..., 2] == 0) | (rects[..., 3] == 0)] = 0
     return rects.astype(np.int64)
 

@@ -66,12 +66,11 @@ def _cell_indices(grid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return cells
 
 
-def _child_offsets(rx: int, ry: int, rz: int) -> list[np.ndarray]:
-    """The children's offsets in their parent's block, [1, r] per axis (x, y, z), read-only."""
+def _child_offsets(rx: int, ry: int, rz: int) -> np.ndarray:
+    """The children's offsets in their parent's block, [3 (x, y, z), 1, r], read-only."""
     dz, dy, dx = np.meshgrid(np.arange(rz), np.arange(ry), np.arange(rx), indexing="ij")
-    local = [d.ravel()[None, :] for d in (dx, dy, dz)]
-    for axis in local:
-        axis.setflags(write=False)
+    local = np.stack([d.ravel()[None, :] for d in (dx, dy, dz)])
+    local.setflags(write=False)
     return local
 
 
@@ -82,19 +81,18 @@ def children(geometry, camera, forward, perspective: bool, level: int, z, y, x, 
     ratio = np.asarray(geometry.ratios[level], dtype=np.int64)        # (x, y, z) children per parent
     grid = np.asarray(geometry.grids[level - 1], dtype=np.int64)      # (x, y, z)
     eye = geometry.eye_in_bricks(camera.position, level) * ratio      # as front_to_back is given it
-    parents = np.stack([x, y, z], axis=1)
-    first = parents * ratio                                            # [n, 3] (x, y, z)
-    counts = np.minimum(first + ratio, grid) - first
+    # the axes stacked (x, y, z first): [3, n] per parent, [3, n, r] per child; a level's arrays
+    # are small, so numpy's calls are the cost and fewer calls on stacked arrays pay
+    first = np.stack([x, y, z]) * ratio[:, None]
+    counts = (np.minimum(first + ratio[:, None], grid[:, None]) - first)[:, :, None]
     rx, ry, rz = (int(r) for r in ratio)
     local = kept_per_level(geometry, "child offsets", level, lambda: _child_offsets(rx, ry, rz))
-    inside = (local[0] < counts[:, 0:1]) & (local[1] < counts[:, 1:2]) & (local[2] < counts[:, 2:3])
-    if perspective:  # the three axes stacked [3, n, r], one call: the walk is mostly numpy's call overhead
-        ranks = axis_ranks(np.stack(local), counts.T[:, :, None],
-                           (eye[:, None] - first.T)[:, :, None], 0.0, True)
+    inside = (local < counts).all(axis=0)                               # [n, r]
+    if perspective:
+        ranks = axis_ranks(local, counts, (eye[:, None] - first)[:, :, None], 0.0, True)
     else:
-        ranks = [axis_ranks(local[a], counts[:, a:a + 1], None, float(forward[a]), False) for a in range(3)]
+        ranks = [axis_ranks(local[a], counts[a], None, float(forward[a]), False) for a in range(3)]
     digits = (ranks[2] * ry + ranks[1]) * rx + ranks[0]
     numbers = (order[:, None] * (rx * ry * rz) + digits)[inside]
-    cx, cy, cz = ((first[:, a:a + 1] + local[a]) for a in range(3))
-    return (np.broadcast_to(cz, inside.shape)[inside], np.broadcast_to(cy, inside.shape)[inside],
-            np.broadcast_to(cx, inside.shape)[inside], numbers)
+    cells = (first[:, :, None] + local)[:, inside]                      # [3, m] (x, y, z)
+    return cells[2], cells[1], cells[0], numbers
