@@ -39,6 +39,7 @@ import numpy as np
 from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.cache import HALO
 from vgraph.bricks.cells import table_of
+from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl_context import release_quietly
 
 RESIDENT, REFINE, EMPTY = 1, 2, 4
@@ -169,3 +170,23 @@ class PageTable:
     def release(self) -> None:
         release_quietly(self.gl)
         self.gl.clear()
+
+
+def pyramid_uniforms(geometry: BrickGeometry, source, atlas_size, slot_shape, fmt) -> dict:
+    """The uniforms of the pyramid, the atlas's shape and the bricks' format that
+    bricks/paged_sampling.glsl reads beside the page table."""
+    spacing0, origin0, dims0 = geometry.spacing0, geometry.origin0, geometry.dims0
+    level_scale, level_offset = [], []
+    for level in source.levels:
+        spacing, origin = np.asarray(level.spacing), np.asarray(level.origin)
+        level_scale.append(dims0 * spacing0 / spacing)
+        level_offset.append((origin0 - 0.5 * spacing0 - origin) / spacing)
+    return {"intensity_scale": float(fmt.scale), "intensity_offset": float(fmt.offset),
+            "atlas_texels": vec(np.asarray(atlas_size, dtype=np.float64)),
+            "slot_texels": vec(np.asarray(slot_shape, dtype=np.float64)),
+            "page_grid": np.asarray([np.asarray(g) for g in geometry.grids], dtype=np.int32),
+            "cell_scale": np.asarray([dims0 / span for span in geometry.spans], dtype=np.float32),
+            "leaf_grid": tuple(int(n) for n in geometry.grids[0]),
+            "leaf_scale": vec(dims0 / geometry.spans[0]),
+            "level_scale": np.asarray(level_scale, dtype=np.float32),
+            "level_offset": np.asarray(level_offset, dtype=np.float32)}

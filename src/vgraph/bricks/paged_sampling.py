@@ -53,7 +53,7 @@ from vgraph.bricks import leaf_pages, mip_walk
 from vgraph.bricks.block_radii import block_radii, wholly_drawn
 from vgraph.bricks.cells import table_of
 from vgraph.bricks.coarse_step import sample_stride, strided
-from vgraph.bricks.page_table import PageTable, texel_offsets
+from vgraph.bricks.page_table import PageTable, pyramid_uniforms, texel_offsets
 from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
 from vgraph.bricks.sampling import BrickSampling, level_span, skipping_alpha
 from vgraph.bricks.selection import BrickGeometry, FramePlan, coarse_first, normalised_ranges
@@ -63,7 +63,6 @@ from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, IsoSurface, Sampling,
                                              TransferFunctionLut, ray_main_missed)
 from vgraph.gl.raycasting.empty_space import occupied_blocks
-from vgraph.gl.raycasting.geometry import vec
 from vgraph.gl.raycasting.gradient_classification import GradientClassification
 from vgraph.gl.raycasting.light import Gradients, Light
 from vgraph.gl.raycasting.mask import CutAway, Mask
@@ -373,21 +372,7 @@ class PagedSampling(Component):
         kept = self.kept_uniforms
         if kept is not None and kept[0][0] is geometry and kept[0][1:] == key[1:]:
             return kept[1]
-        spacing0, origin0, dims0 = geometry.spacing0, geometry.origin0, geometry.dims0
-        level_scale, level_offset = [], []
-        for level in source.levels:
-            spacing, origin = np.asarray(level.spacing), np.asarray(level.origin)
-            level_scale.append(dims0 * spacing0 / spacing)
-            level_offset.append((origin0 - 0.5 * spacing0 - origin) / spacing)
-        uniforms = {"intensity_scale": float(fmt.scale), "intensity_offset": float(fmt.offset),
-                    "atlas_texels": vec(np.asarray(atlas.size, dtype=np.float64)),
-                    "slot_texels": vec(np.asarray(atlas.slot_shape, dtype=np.float64)),
-                    "page_grid": np.asarray([np.asarray(g) for g in geometry.grids], dtype=np.int32),
-                    "cell_scale": np.asarray([dims0 / span for span in geometry.spans], dtype=np.float32),
-                    "leaf_grid": tuple(int(n) for n in geometry.grids[0]),
-                    "leaf_scale": vec(dims0 / geometry.spans[0]),
-                    "level_scale": np.asarray(level_scale, dtype=np.float32),
-                    "level_offset": np.asarray(level_offset, dtype=np.float32)}
+        uniforms = pyramid_uniforms(geometry, source, atlas.size, atlas.slot_shape, fmt)
         self.kept_uniforms = (key, uniforms)
         return uniforms
 
