@@ -57,16 +57,18 @@ def _level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.nd
 
 
 def box_corners(geometry: BrickGeometry, level: int) -> np.ndarray:
-    """The 8 corners of every box of level_boxes, homogeneous: [bz, by, bx, 8, 4], read-only."""
+    """The 8 corners of every box of level_boxes, homogeneous, a column each: [bz, by, bx, 4, 8]
+    (screen_rects multiplies them by the view-projection and reduces over the 8 contiguous),
+    read-only."""
     def make() -> np.ndarray:
         lo, hi = level_boxes(geometry, level)
-        corners = np.ones(lo.shape[:-1] + (8, 4))
+        corners = np.ones(lo.shape[:-1] + (4, 8))
         for i in range(8):
             for a in range(3):
-                corners[..., i, a] = (lo, hi)[i >> a & 1][..., a]
+                corners[..., a, i] = (lo, hi)[i >> a & 1][..., a]
         corners.setflags(write=False)
         return corners
-    return kept_per_level(geometry, "corners", level, make)
+    return kept_per_level(geometry, "corner columns", level, make)
 
 
 def pixels_per_world(camera, size, distance):
@@ -95,15 +97,16 @@ def desired_levels(geometry: BrickGeometry, camera, size, level: int, lod_bias: 
 def screen_rects(geometry: BrickGeometry, view_projection, size, level: int) -> np.ndarray:
     """Pixel rectangles (x, y, w, h) covering each brick of ``level`` with one pixel of margin, int
     [bz, by, bx, 4]; w = 0 off screen; the whole viewport where a corner lies behind the eye."""
-    clip = box_corners(geometry, level) @ np.asarray(view_projection, dtype=np.float64).T  # [..., 8, 4]
-    w = clip[..., 3]
+    # corners last ([..., 4, 8]): the min and max over the 8 run along contiguous memory, and
+    # x and y go together (a level's arrays are small: numpy's calls are the cost there)
+    clip = np.asarray(view_projection, dtype=np.float64) @ box_corners(geometry, level)
+    w = clip[..., 3, :]
     behind = (w <= 1e-9).any(axis=-1)
     w = np.where(w > 1e-9, w, 1.0)
-    # x and y together ([..., 8, 2]): a level's arrays are small, numpy's calls are the cost here
     extent = np.asarray(size[:2], dtype=np.float64)
-    pixel = (clip[..., :2] / w[..., None] * 0.5 + 0.5) * extent
-    first = np.maximum(np.floor(pixel.min(axis=-2)) - 1, 0)
-    last = np.minimum(np.ceil(pixel.max(axis=-2)) + 1, extent)
+    pixel = (clip[..., :2, :] / w[..., None, :] * 0.5 + 0.5) * extent[:, None]
+    first = np.maximum(np.floor(pixel.min(axis=-1)) - 1, 0)
+    last = np.minimum(np.ceil(pixel.max(axis=-1)) + 1, extent)
     rects = np.concatenate([first, np.maximum(last - first, 0)], axis=-1)
     if behind.any():
         rects[behind] = (0, 0, size[0], size[1])
