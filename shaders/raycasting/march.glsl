@@ -41,6 +41,10 @@ struct March {
     BlockWalk walk;  // for modes with their own rule on the block values (mip)
 #elif defined(PAGED_SKIPPING)
     int run_end;     // samples before it lie in the run bricks/paged_sampling.glsl's paged_run() found
+#ifdef PAGED_WALK
+    BlockWalk walk;  // the frame's grid of skip radii over its bricks (paged_walk below)
+    int block_end;   // samples before it lie in the occupied block of the grid the walk last read
+#endif
 #endif
 };
 
@@ -57,6 +61,10 @@ March start_march(Ray ray) {
     cursor.walk = block_walk(ray);
 #elif defined(PAGED_SKIPPING)
     cursor.run_end = 0;
+#ifdef PAGED_WALK
+    cursor.walk = block_walk(ray);
+    cursor.block_end = 0;
+#endif
 #endif
     return cursor;
 }
@@ -85,11 +93,35 @@ bool next_occupied_sample(inout March cursor, Ray ray) {
 // only when one of a SIMD group's rays leaves its run), which jumps over the cells and blocks that
 // add nothing and starts the next run; with PAGED_REQUESTS a ray also asks there for the missing
 // cells it reaches (bricks/ray_requests.glsl).
+#ifdef PAGED_WALK
+// A frame whose bricks are all in the atlas (dvr, iso; vgraph.bricks.mip_walk.skip_radii): the
+// RayCaster's own walk over a frame-wide grid of skip radii jumps the empty regions, across cells,
+// and the page table is looked up only where a sample of an occupied block leaves its run (a whole
+// drawn cell: no PAGED_BLOCKS). A run's samples stop at the end of the block the walk last read.
+void paged_walk(inout March cursor, Ray ray) {
+    if (cursor.i >= cursor.block_end) {
+        ivec3 block = block_of(cursor.walk, cursor.i);
+        float radius = block_value(block);
+        int next = next_sample_outside(cursor.walk, cursor.i, block, max(radius, 1.0), ray.samples);
+        cursor.i = radius > 0.0 ? next : cursor.i;
+        cursor.block_end = radius > 0.0 ? cursor.block_end : next;
+    } else {
+        paged_run(cursor.i, cursor.run_end, ray);
+    }
+}
+#endif
+
 bool skip_empty_space(inout March cursor, Ray ray) {
     int before = cursor.i;
+#ifdef PAGED_WALK
+    while (cursor.i < ray.samples && (cursor.i >= cursor.block_end || cursor.i >= cursor.run_end)) {
+        paged_walk(cursor, ray);
+    }
+#else
     while (cursor.i < ray.samples && cursor.i >= cursor.run_end) {
         paged_run(cursor.i, cursor.run_end, ray);
     }
+#endif
     return cursor.i != before;
 }
 
@@ -102,7 +134,11 @@ bool next_occupied_sample(inout March cursor, Ray ray) {
 // it read the run's slot with no look-up, so a mode may take them in a loop of its own
 // (compositing_dvr.glsl).
 int run_stop(March cursor, Ray ray) {
+#ifdef PAGED_WALK
+    return min(min(cursor.run_end, cursor.block_end), ray.samples);
+#else
     return min(cursor.run_end, ray.samples);
+#endif
 }
 #else
 // Literals, not functions returning them: Mesa then compiles exactly the plain loop (with a

@@ -29,7 +29,7 @@ import numpy as np
 from vgraph.bricks.cache import BLOCK
 from vgraph.bricks.cells import table_of
 from vgraph.bricks.brick_geometry import BrickGeometry
-from vgraph.gl.raycasting.empty_space import WALK_BLOCK
+from vgraph.gl.raycasting.empty_space import WALK_BLOCK, radii_if_worthwhile
 
 MAX_TEXELS = 128 ** 3  # the grid's size at most (8 MiB of R32F): a coarser block beyond
 MAX_AXIS = 2048        # texels along an axis at most: every GL 4 holds a 3D texture this wide
@@ -51,23 +51,46 @@ def _counts(geometry: BrickGeometry, block: int) -> list[int]:
 def walk_grid(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray) -> tuple[np.ndarray, int]:
     """(float32 [z, y, x] block maxima, block): the grid over the bricks ``keys`` (level, z, y, x),
     each drawn in its own cell; ``slot_of(key)`` its atlas slot, ``ranges`` the atlas's block ranges
-    [slot, bz, by, bx, (min, max)] (AtlasBlocks.ranges). Whole levels at a time in numpy (the 4096
-    bricks of 32^3 of a 512^3 volume: a loop over the bricks took 0.3 s)."""
+    [slot, bz, by, bx, (min, max)] (AtlasBlocks.ranges)."""
+    maxima = np.nan_to_num(ranges[..., 1], nan=np.inf)  # unknown: never skipped
+    return _reduced_grid(source, geometry, keys, slot_of, maxima, np.maximum, 0.0)
+
+
+def skip_radii(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray, occupied) -> tuple[np.ndarray | None, int]:
+    """dvr's and iso's grid (PAGED_WALK, march.glsl): (float32 [z, y, x] skip radii as the
+    RayCaster's (empty_space.skip_radii), block), over the same blocks as walk_grid; a block is
+    occupied where ``occupied(low, high)`` (the RayCaster's rule on normalised ranges) holds for the
+    range of the atlas blocks overlapping it; blocks no brick is drawn in are empty. None for the
+    radii where skipping would not pay (empty_space.radii_if_worthwhile)."""
+    low, block = _reduced_grid(source, geometry, keys, slot_of, np.nan_to_num(ranges[..., 0], nan=-np.inf),
+                               np.minimum, np.inf)  # unknown: always occupied
+    high, _ = _reduced_grid(source, geometry, keys, slot_of, np.nan_to_num(ranges[..., 1], nan=np.inf),
+                            np.maximum, -np.inf)
+    drawn = low <= high  # the others: no brick's samples reach the block
+    occupied_blocks = drawn & occupied(np.where(drawn, low, 0.0), np.where(drawn, high, 0.0))
+    return radii_if_worthwhile(occupied_blocks), block
+
+
+def _reduced_grid(source, geometry: BrickGeometry, keys, slot_of, values: np.ndarray, reducer, fill: float) -> tuple[np.ndarray, int]:
+    """(float32 [z, y, x], block): ``reducer`` (np.maximum, np.minimum) over ``values`` [slot, bz, by,
+    bx] of the atlas blocks overlapping each block of the grid, within the cell each brick ``keys``
+    is drawn in; ``fill`` where none does. Whole levels at a time in numpy (the 4096 bricks of 32^3
+    of a 512^3 volume: a loop over the bricks took 0.3 s)."""
     block = walk_block(geometry)
-    grid = np.zeros(_counts(geometry, block)[::-1], dtype=np.float32)  # [z, y, x]
+    grid = np.full(_counts(geometry, block)[::-1], fill, dtype=np.float32)  # [z, y, x]
     keys = np.asarray(keys, dtype=np.int64).reshape(-1, 4)
     slots = np.fromiter((slot_of(tuple(int(v) for v in key)) for key in keys), dtype=np.int64, count=len(keys))
     for level in np.unique(keys[:, 0]):
         mine = keys[:, 0] == level
-        maxima = np.nan_to_num(ranges[slots[mine], ..., 1], nan=np.inf)  # [brick, bz, by, bx]; unknown: never skipped
-        (gz, vz), (gy, vy), (gx, vx) = [_overlaps(geometry, source, int(level), axis, keys[mine], block, maxima.shape[1 + axis])
+        brick_values = values[slots[mine]]  # [brick, bz, by, bx]
+        (gz, vz), (gy, vy), (gx, vx) = [_overlaps(geometry, source, int(level), axis, keys[mine], block, brick_values.shape[1 + axis])
                                         for axis in range(3)]  # [brick, k, c]: the grid's blocks block k overlaps
-        shape = (len(maxima), gz.shape[1], gz.shape[2], gy.shape[1], gy.shape[2], gx.shape[1], gx.shape[2])
+        shape = (len(brick_values), gz.shape[1], gz.shape[2], gy.shape[1], gy.shape[2], gx.shape[1], gx.shape[2])
         z, y, x = gz[:, :, :, None, None, None, None], gy[:, None, None, :, :, None, None], gx[:, None, None, None, None, :, :]
         valid = np.broadcast_to(vz[:, :, :, None, None, None, None] & vy[:, None, None, :, :, None, None]
                                 & vx[:, None, None, None, None, :, :], shape)
-        values = np.broadcast_to(maxima[:, :, None, :, None, :, None], shape)[valid]
-        np.maximum.at(grid, tuple(np.broadcast_to(g, shape)[valid] for g in (z, y, x)), values)
+        picked = np.broadcast_to(brick_values[:, :, None, :, None, :, None], shape)[valid]
+        reducer.at(grid, tuple(np.broadcast_to(g, shape)[valid] for g in (z, y, x)), picked)
     return grid, block
 
 

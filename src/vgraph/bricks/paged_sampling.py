@@ -253,26 +253,47 @@ class PagedSampling(Component):
 
     def mip_walk(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas,
                  missing) -> Binding | None:
-        """mip with ``empty_space_skipping`` where the atlas holds every planned brick: the grid of
-        block maxima the rays walk in the RayCaster's order (vgraph.bricks.mip_walk, define
-        PAGED_MIP_WALK); None otherwise (front to back, PAGED_MIP). Kept while the leaf table is."""
+        """With ``empty_space_skipping`` where the atlas holds every planned brick, the grid the rays
+        walk as the RayCaster walks its blocks (vgraph.bricks.mip_walk): mip's block maxima in the
+        RayCaster's order (define PAGED_MIP_WALK), dvr's and iso's skip radii (PAGED_WALK, march.glsl);
+        None otherwise (front to back, the slots' block flags). Kept while the leaf table is."""
         processor = self.processor
-        if processor.compositing != "mip" or not processor.empty_space_skipping or len(missing):
+        mode = processor.compositing
+        if mode not in ("mip", "dvr", "iso") or not processor.empty_space_skipping or len(missing):
             return None
-        kept = self.walk_kept
+        depends, occupied = self.walk_rule(frame)
+        key, kept = (self.table_key, mode, depends), self.walk_kept
         texture = atlas.gl.get("mip_walk")
-        if kept is not None and kept[0] == self.table_key and texture is not None and texture.ctx is frame.ctx:
+        if kept is not None and kept[0] == key and (kept[1] is None or texture is not None and texture.ctx is frame.ctx):
             return kept[1]
-        grid, block = mip_walk.walk_grid(source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks.ranges)
-        size = grid.shape[::-1]
-        if texture is None or texture.ctx is not frame.ctx or texture.size != size:
-            release_quietly({"mip_walk": atlas.gl.pop("mip_walk", None) or {}})
-            texture = atlas.gl["mip_walk"] = frame.ctx.texture3d(size, 1, dtype="f4")
-        texture.write(grid.tobytes())
-        binding = Binding({"PAGED_MIP_WALK": True}, textures={"blocks": texture},
-                          uniforms=mip_walk.uniforms(geometry, block, grid))
-        self.walk_kept = (self.table_key, binding)
+        args = (source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks.ranges)
+        if mode == "mip":
+            (grid, block), define = mip_walk.walk_grid(*args), "PAGED_MIP_WALK"
+        else:
+            (grid, block), define = mip_walk.skip_radii(*args, occupied), "PAGED_WALK"
+        binding = None
+        if grid is not None:
+            size = grid.shape[::-1]
+            if texture is None or texture.ctx is not frame.ctx or texture.size != size:
+                release_quietly({"mip_walk": atlas.gl.pop("mip_walk", None) or {}})
+                texture = atlas.gl["mip_walk"] = frame.ctx.texture3d(size, 1, dtype="f4")
+            texture.write(np.ascontiguousarray(grid, dtype=np.float32).tobytes())
+            binding = Binding({define: True}, textures={"blocks": texture},
+                              uniforms=mip_walk.uniforms(geometry, block, grid))
+        self.walk_kept = (key, binding)
         return binding
+
+    def walk_rule(self, frame: Frame):
+        """(what the walk's grid depends on besides the bricks, occupied(low, high)): the
+        RayCaster's rule for the mode (processors/raycaster.py skip_values)."""
+        processor = self.processor
+        if processor.compositing == "dvr":
+            alpha = skipping_alpha(processor, frame)
+            return alpha.tobytes(), lambda low, high: occupied_blocks(low, high, alpha)
+        if processor.compositing == "iso":
+            level = float(processor.iso_level)
+            return level, lambda low, high: high >= level
+        return None, None
 
     def block_flags(self, frame: Frame, atlas: BrickAtlas, source, plan: FramePlan) -> Binding | None:
         """With ``empty_space_skipping``, the flags of the atlas's blocks that add nothing this frame
