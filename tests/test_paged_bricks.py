@@ -204,10 +204,10 @@ def test_clip_planes_cut_the_single_pass_as_the_raycaster(mode):
 @pytest.mark.parametrize("frame", ["complete", "refining"])
 @pytest.mark.parametrize("mode", ["dvr", "iso"])
 def test_skipping_empty_blocks_inside_the_atlas_bricks_leaves_the_image_and_saves_samples(bonsai, mode, frame):
-    """The bonsai's bricks of 32 all hold something; their blocks of 8^3 often do not. A complete
-    frame of iso walks the grid of its bricks' skip radii (PAGED_WALK, vgraph.bricks.mip_walk;
-    unshaded dvr: test_paged_walk); shaded dvr, and a frame with missing bricks (drawn from level 1
-    here) so that its rays ask for them, jump by the slots' block distances (PAGED_BLOCKS)."""
+    """The bonsai's bricks of 32 all hold something; their blocks of 8^3 often do not. Shaded dvr
+    and iso jump by the slots' block distances (PAGED_BLOCKS), complete or not (unshaded dvr walks
+    a grid of skip radii where complete: test_paged_walk); a frame with missing bricks (drawn from
+    level 1 here) so that its rays ask for them."""
     properties = {**UNSHADED_RAMP, "compositing": mode, "brick_size": 32, "lod_bias": FINEST,
                   **({"transfer_function": WINDOW, "shading": "blinn_phong"} if mode == "dvr" else {"iso_level": 0.3})}
     camera = oblique(bonsai)
@@ -225,7 +225,7 @@ def test_skipping_empty_blocks_inside_the_atlas_bricks_leaves_the_image_and_save
         rc = network["rc"]
         assert rc.last_frame["complete"] is (frame == "complete")
     (every, every_depth), (got, got_depth) = outputs
-    assert rc.passes[-1].defines.get("PAGED_WALK" if frame == "complete" and mode == "iso" else "PAGED_BLOCKS")
+    assert rc.passes[-1].defines.get("PAGED_BLOCKS")
     assert np.abs(got - every).max() <= 1e-6 and got[..., :3].std() > 0.01
     # depth's b: the samples evaluated (refining: the level-1 bricks drawn under missing cells are not
     # drawn wholly from their slots, whose blocks are then never skipped: block_radii.wholly_drawn)

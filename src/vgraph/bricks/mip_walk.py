@@ -2,6 +2,8 @@
 maxima over the frame's bricks, which rays walk as the RayCaster walks its volume's blocks
 (shaders/raycasting/compositing_mip.glsl: the stretch with the largest maximum first, then only
 the stretches that can still change the result), looking the page table up only where they sample.
+The same grid, of skip radii (``skip_radii``: the RayCaster's empty_space.skip_radii of the blocks
+occupied under its rule), serves unshaded dvr (PAGED_WALK, shaders/raycasting/march.glsl).
 
 Conventions:
 - The grid covers level 0's voxels in blocks of ``block`` level-0 voxels per axis (WALK_BLOCK, as
@@ -57,7 +59,7 @@ def walk_grid(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray
 
 
 def skip_radii(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray, occupied) -> tuple[np.ndarray | None, int]:
-    """dvr's and iso's grid (PAGED_WALK, march.glsl): (float32 [z, y, x] skip radii as the
+    """unshaded dvr's grid (PAGED_WALK, march.glsl): (float32 [z, y, x] skip radii as the
     RayCaster's (empty_space.skip_radii), block), over the same blocks as walk_grid; a block is
     occupied where ``occupied(low, high)`` (the RayCaster's rule on normalised ranges) holds for the
     range of the atlas blocks overlapping it; blocks no brick is drawn in are empty. None for the

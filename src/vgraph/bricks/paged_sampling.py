@@ -255,12 +255,13 @@ class PagedSampling(Component):
                  missing) -> Binding | None:
         """With ``empty_space_skipping`` where the atlas holds every planned brick, the grid the rays
         walk as the RayCaster walks its blocks (vgraph.bricks.mip_walk): mip's block maxima in the
-        RayCaster's order (define PAGED_MIP_WALK), unshaded dvr's and iso's skip radii (PAGED_WALK,
-        march.glsl); None otherwise (front to back, the slots' block flags). Kept while the leaf table is."""
+        RayCaster's order (define PAGED_MIP_WALK), unshaded dvr's skip radii (PAGED_WALK, march.glsl);
+        None otherwise (front to back, the slots' block flags). Kept while the leaf table is."""
         processor = self.processor
         mode = processor.compositing
-        if mode not in ("mip", "dvr", "iso") or not processor.empty_space_skipping or len(missing) \
-                or mode == "dvr" and frame.lit:  # shaded dvr: the slots' distances paid more (bricked-ray-casting.md)
+        # shaded dvr and iso: the slots' distances paid as much or more (bricked-ray-casting.md)
+        if mode not in ("mip", "dvr") or mode == "dvr" and frame.lit or not processor.empty_space_skipping \
+                or len(missing):
             return None
         depends, occupied = self.walk_rule(frame)
         key, kept = (self.table_key, mode, depends), self.walk_kept
@@ -291,9 +292,6 @@ class PagedSampling(Component):
         if processor.compositing == "dvr":
             alpha = skipping_alpha(processor, frame)
             return alpha.tobytes(), lambda low, high: occupied_blocks(low, high, alpha)
-        if processor.compositing == "iso":
-            level = float(processor.iso_level)
-            return level, lambda low, high: high >= level
         return None, None
 
     def block_flags(self, frame: Frame, atlas: BrickAtlas, source, plan: FramePlan) -> Binding | None:
