@@ -31,7 +31,7 @@ import numpy as np
 from vgraph.bricks.cache import BLOCK
 from vgraph.bricks.cells import table_of
 from vgraph.bricks.brick_geometry import BrickGeometry
-from vgraph.gl.raycasting.empty_space import WALK_BLOCK, radii_if_worthwhile
+from vgraph.gl.raycasting.empty_space import WALK_BLOCK, occupied_blocks, radii_if_worthwhile
 
 MAX_TEXELS = 128 ** 3  # the grid's size at most (8 MiB of R32F): a coarser block beyond
 MAX_AXIS = 2048        # texels along an axis at most: every GL 4 holds a 3D texture this wide
@@ -48,6 +48,15 @@ def walk_block(geometry: BrickGeometry) -> int:
 
 def _counts(geometry: BrickGeometry, block: int) -> list[int]:
     return [-(-int(n) // block) for n in geometry.dims0]
+
+
+def frame_grid(alpha, source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray):
+    """(grid or None, block, define): mip's block maxima (``alpha`` None; PAGED_MIP_WALK), else dvr's
+    skip radii under the opacity per value ``alpha`` (PAGED_WALK; None where skipping would not pay)."""
+    if alpha is None:
+        return (*walk_grid(source, geometry, keys, slot_of, ranges), "PAGED_MIP_WALK")
+    occupied = lambda low, high: occupied_blocks(low, high, alpha)  # noqa: E731 (the RayCaster's rule)
+    return (*skip_radii(source, geometry, keys, slot_of, ranges, occupied), "PAGED_WALK")
 
 
 def walk_grid(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray) -> tuple[np.ndarray, int]:

@@ -257,42 +257,26 @@ class PagedSampling(Component):
         walk as the RayCaster walks its blocks (vgraph.bricks.mip_walk): mip's block maxima in the
         RayCaster's order (define PAGED_MIP_WALK), unshaded dvr's skip radii (PAGED_WALK, march.glsl);
         None otherwise (front to back, the slots' block flags). Kept while the leaf table is."""
-        processor = self.processor
-        mode = processor.compositing
+        processor, mode = self.processor, self.processor.compositing
         # shaded dvr and iso: the slots' distances paid as much or more (bricked-ray-casting.md)
-        if mode not in ("mip", "dvr") or mode == "dvr" and frame.lit or not processor.empty_space_skipping \
-                or len(missing):
+        if mode not in ("mip", "dvr") or mode == "dvr" and frame.lit or not processor.empty_space_skipping or len(missing):
             return None
-        depends, occupied = self.walk_rule(frame)
-        key, kept = (self.table_key, mode, depends), self.walk_kept
+        alpha = skipping_alpha(processor, frame) if mode == "dvr" else None  # (mip: maxima)
+        key, kept = (self.table_key, mode, None if alpha is None else alpha.tobytes()), self.walk_kept
         texture = atlas.gl.get("mip_walk")
         if kept is not None and kept[0] == key and (kept[1] is None or texture is not None and texture.ctx is frame.ctx):
             return kept[1]
-        args = (source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks.ranges)
-        if mode == "mip":
-            (grid, block), define = mip_walk.walk_grid(*args), "PAGED_MIP_WALK"
-        else:
-            (grid, block), define = mip_walk.skip_radii(*args, occupied), "PAGED_WALK"
+        grid, block, define = mip_walk.frame_grid(alpha, source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks.ranges)
         binding = None
         if grid is not None:
             size = grid.shape[::-1]
             if texture is None or texture.ctx is not frame.ctx or texture.size != size:
                 release_quietly({"mip_walk": atlas.gl.pop("mip_walk", None) or {}})
                 texture = atlas.gl["mip_walk"] = frame.ctx.texture3d(size, 1, dtype="f4")
-            texture.write(np.ascontiguousarray(grid, dtype=np.float32).tobytes())
-            binding = Binding({define: True}, textures={"blocks": texture},
-                              uniforms=mip_walk.uniforms(geometry, block, grid))
+            texture.write(grid.tobytes())
+            binding = Binding({define: True}, textures={"blocks": texture}, uniforms=mip_walk.uniforms(geometry, block, grid))
         self.walk_kept = (key, binding)
         return binding
-
-    def walk_rule(self, frame: Frame):
-        """(what the walk's grid depends on besides the bricks, occupied(low, high)): the
-        RayCaster's rule for the mode (processors/raycaster.py skip_values)."""
-        processor = self.processor
-        if processor.compositing == "dvr":
-            alpha = skipping_alpha(processor, frame)
-            return alpha.tobytes(), lambda low, high: occupied_blocks(low, high, alpha)
-        return None, None
 
     def block_flags(self, frame: Frame, atlas: BrickAtlas, source, plan: FramePlan) -> Binding | None:
         """With ``empty_space_skipping``, the flags of the atlas's blocks that add nothing this frame
