@@ -201,19 +201,12 @@ def test_clip_planes_cut_the_single_pass_as_the_raycaster(mode):
     assert np.abs(images["BrickedRayCaster"] - uncut).max() > 0.1  # the plane removed something seen
 
 
-@pytest.mark.parametrize("frame", ["complete", "refining"])
-@pytest.mark.parametrize("mode", ["dvr", "iso"])
-def test_skipping_empty_blocks_inside_the_atlas_bricks_leaves_the_image_and_saves_samples(bonsai, mode, frame):
-    """The bonsai's bricks of 32 all hold something; their blocks of 8^3 often do not. Shaded dvr
-    and iso jump by the slots' block distances (PAGED_BLOCKS), complete or not (unshaded dvr walks
-    a grid of skip radii where complete: test_paged_walk); a frame with missing bricks (drawn from
-    level 1 here) so that its rays ask for them."""
-    properties = {**UNSHADED_RAMP, "compositing": mode, "brick_size": 32, "lod_bias": FINEST,
-                  **({"transfer_function": WINDOW, "shading": "blinn_phong"} if mode == "dvr" else {"iso_level": 0.3})}
-    camera = oblique(bonsai)
+def without_and_with_skipping(bonsai, properties, frame):
+    """(image, depth) of the single pass without and with empty-space skipping, and the last
+    processor; ``frame`` "refining": level-1 bricks read first, level 0 then missing (no loads)."""
     outputs = []
     for skipping in (False, True):
-        network = ray_caster_network(bonsai, camera, "BrickedRayCaster", method="single_pass",
+        network = ray_caster_network(bonsai, oblique(bonsai), "BrickedRayCaster", method="single_pass",
                                      empty_space_skipping=skipping, **properties)
         context = None
         if frame == "refining":
@@ -224,7 +217,19 @@ def test_skipping_empty_blocks_inside_the_atlas_bricks_leaves_the_image_and_save
         outputs.append([np.asarray(network.evaluate(f"rc.{port}", size=SIZE, context=context)) for port in ("image", "depth")])
         rc = network["rc"]
         assert rc.last_frame["complete"] is (frame == "complete")
-    (every, every_depth), (got, got_depth) = outputs
+    return outputs[0], outputs[1], rc
+
+
+@pytest.mark.parametrize("frame", ["complete", "refining"])
+@pytest.mark.parametrize("mode", ["dvr", "iso"])
+def test_skipping_empty_blocks_inside_the_atlas_bricks_leaves_the_image_and_saves_samples(bonsai, mode, frame):
+    """The bonsai's bricks of 32 all hold something; their blocks of 8^3 often do not. Shaded dvr
+    and iso jump by the slots' block distances (PAGED_BLOCKS), complete or not (unshaded dvr walks
+    a grid of skip radii where complete: test_paged_walk); a frame with missing bricks (drawn from
+    level 1 here) so that its rays ask for them."""
+    properties = {**UNSHADED_RAMP, "compositing": mode, "brick_size": 32, "lod_bias": FINEST,
+                  **({"transfer_function": WINDOW, "shading": "blinn_phong"} if mode == "dvr" else {"iso_level": 0.3})}
+    (every, every_depth), (got, got_depth), rc = without_and_with_skipping(bonsai, properties, frame)
     assert rc.passes[-1].defines.get("PAGED_BLOCKS")
     assert np.abs(got - every).max() <= 1e-6 and got[..., :3].std() > 0.01
     # depth's b: the samples evaluated (refining: the level-1 bricks drawn under missing cells are not
@@ -240,21 +245,7 @@ def test_mip_skips_blocks_below_the_rays_maximum_with_the_same_image_and_depth(b
     vgraph.bricks.mip_walk); a frame with missing bricks (drawn from level 1 here) marches front to
     back so that its rays ask for them (PAGED_MIP)."""
     properties = {**UNSHADED_RAMP, "compositing": "mip", "brick_size": 32, "lod_bias": FINEST}
-    camera = oblique(bonsai)
-    outputs = []
-    for skipping in (False, True):
-        network = ray_caster_network(bonsai, camera, "BrickedRayCaster", method="single_pass",
-                                     empty_space_skipping=skipping, **properties)
-        context = None
-        if frame == "refining":
-            network.set("rc.finest_level", 1)
-            network.evaluate("rc.image", size=SIZE)  # reads the level-1 bricks
-            network.set("rc.finest_level", 0)
-            context = FrameContext(load_limit=LoadLimit(bricks=0))
-        outputs.append([np.asarray(network.evaluate(f"rc.{port}", size=SIZE, context=context)) for port in ("image", "depth")])
-        rc = network["rc"]
-        assert rc.last_frame["complete"] is (frame == "complete")
-    (every, every_depth), (got, got_depth) = outputs
+    (every, every_depth), (got, got_depth), rc = without_and_with_skipping(bonsai, properties, frame)
     assert rc.passes[-1].defines.get("PAGED_MIP_WALK" if frame == "complete" else "PAGED_MIP")
     assert np.abs(got - every).max() <= 1e-6 and got[..., :3].std() > 0.01
     np.testing.assert_allclose(got_depth[..., :2], every_depth[..., :2], atol=1e-5)
