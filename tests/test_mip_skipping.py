@@ -150,7 +150,7 @@ def test_bricked_skipping_changes_neither_image_nor_depth(volume_name):
         np.testing.assert_array_equal(outputs[0][1], outputs[1][1])
 
 
-# --- the single-pass bricked ray caster's MIP (PAGED_MIP_WALK: vgraph.bricks.mip_walk) -----------
+# --- the single-pass bricked ray caster's MIP (PAGED_MIP_WALK: vgraph.bricks.walk_grids) -----------
 @pytest.mark.parametrize("brick", [8, 16])
 @pytest.mark.parametrize("volume_name", list(VOLUMES))
 def test_single_pass_walk_changes_neither_image_nor_depth(volume_name, brick):
@@ -187,7 +187,7 @@ def test_the_walk_grid_bounds_every_sample_and_equals_the_bricks_blocks_at_level
     from vgraph.bricks.cache import texture_format
     from vgraph.bricks.pyramid import ArrayPyramid
     from vgraph.bricks.brick_geometry import BrickGeometry
-    from vgraph.bricks.mip_walk import walk_grid
+    from vgraph.bricks.walk_grids import walk_grid
     data = noise((40, 27, 35)).data
     source = ArrayPyramid(data, brick=(brick,) * 3)
     geometry = BrickGeometry(source)

@@ -242,7 +242,7 @@ def test_mip_skips_blocks_below_the_rays_maximum_with_the_same_image_and_depth(b
     """A block whose maximum is not above the ray's running maximum holds no sample that changes the
     maximum or its first sample: image and depth as without skipping, fewer samples. A complete
     frame walks the grid of its bricks' block maxima, largest first (PAGED_MIP_WALK,
-    vgraph.bricks.mip_walk); a frame with missing bricks (drawn from level 1 here) marches front to
+    vgraph.bricks.walk_grids); a frame with missing bricks (drawn from level 1 here) marches front to
     back so that its rays ask for them (PAGED_MIP)."""
     properties = {**UNSHADED_RAMP, "compositing": "mip", "brick_size": 32, "lod_bias": FINEST}
     (every, every_depth), (got, got_depth), rc = without_and_with_skipping(bonsai, properties, frame)

@@ -1,5 +1,5 @@
 """The single-pass bricked ray caster's unshaded dvr over a frame-wide grid of skip radii
-(PAGED_WALK: vgraph.bricks.mip_walk.skip_radii, walked by the RayCaster's own empty_space.glsl code
+(PAGED_WALK: vgraph.bricks.walk_grids.skip_radii, walked by the RayCaster's own empty_space.glsl code
 in march.glsl): where the atlas holds every planned brick, image and depth sample as the plain
 march (no skipping), fewer samples, and the image within an 8-bit step of the in-core RayCaster's;
 shaded dvr and iso, which keep the slots' block distances, the same checks; bricks of 16 (two of

@@ -27,7 +27,7 @@
 // next_sample_outside): up to 20 % less, never more.
 //
 // The single-pass bricked ray caster (PAGED_MIP_WALK, bricks/paged_sampling.glsl) takes the same
-// three passes over a grid of block maxima it builds over the frame's bricks (vgraph.bricks.mip_walk);
+// three passes over a grid of block maxima it builds over the frame's bricks (vgraph.bricks.walk_grids);
 // a stretch's samples read their cells' slots through its runs (paged_ready), so a ray looks the
 // page table up only where it samples: front to back it looked up every block on its way.
 #ifdef COMPOSITING_MIP

@@ -6,7 +6,7 @@ one texture cannot hold) takes the single pass where it measured faster and pass
 (docs/explanations/bricked-ray-casting.md, "Which method draws"):
 - dvr (shaded or not, with or without early termination), iso and mip: the single pass, 1.5-3x
   faster than a pass per brick on llvmpipe in dvr and iso, 2-3x in mip since its rays walk a grid
-  of block maxima largest first as the RayCaster's (vgraph.bricks.mip_walk; before, front to back,
+  of block maxima largest first as the RayCaster's (vgraph.bricks.walk_grids; before, front to back,
   it was 1.1-1.2x slower) (bench/bench_paged_bricks.py, bonsai 256^3 and a 512^3 volume, 32^3 and
   64^3 bricks);
 - a frame of the leaves split (FrameContext.leaf, vgraph.distributed.leaves): passes. A leaf draws

@@ -49,7 +49,7 @@ import numpy as np
 
 from vgraph.bricks.atlas import BrickAtlas
 from vgraph.bricks.cache import MB, bricks_bytes
-from vgraph.bricks import leaf_pages, mip_walk
+from vgraph.bricks import leaf_pages, walk_grids
 from vgraph.bricks.block_radii import block_radii, wholly_drawn
 from vgraph.bricks.cells import table_of
 from vgraph.bricks.coarse_step import sample_stride, strided
@@ -89,7 +89,7 @@ class PagedSampling(Component):
         self.warned_level = None  # the level the atlas's slots last raised the frame to
         self.table_key = None     # what the leaf table was built from (leaf_table)
         self.flags_kept = None    # (the atlas's blocks, (its uploads, the rule), binding): block_flags
-        self.walk_kept = None     # (the leaf table's key, binding): mip_walk
+        self.walk_kept = None     # (the leaf table's key, binding): walk_grid
         self.kept_uniforms = None  # (what they depend on, the pyramid's uniforms): pyramid_uniforms
 
     def bind(self, frame: Frame) -> Binding:
@@ -129,7 +129,7 @@ class PagedSampling(Component):
         requests = processor.parts[RayRequests]
         requests.prepare(frame.ctx, resolved)  # the rays ask for what they reach of these
         self.frame_binding = self.binding_of(frame, geometry, source, resolved, leaf)
-        walk = self.mip_walk(frame, source, geometry, plan, atlas, missing)
+        walk = self.walk_grid(frame, source, geometry, plan, atlas, missing)
         # (mip's walk grid already holds what the blocks' flags say: without them a run is its cell)
         blocks = self.block_flags(frame, atlas, source, plan) if walk is None else None
         for extra in (blocks, walk):
@@ -251,10 +251,10 @@ class PagedSampling(Component):
         self.warned_level = fitted.floor_level if fitted is not plan else None
         return fitted
 
-    def mip_walk(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas,
-                 missing) -> Binding | None:
+    def walk_grid(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas,
+                  missing) -> Binding | None:
         """With ``empty_space_skipping`` where the atlas holds every planned brick, the grid the rays
-        walk as the RayCaster walks its blocks (vgraph.bricks.mip_walk): mip's block maxima in the
+        walk as the RayCaster walks its blocks (vgraph.bricks.walk_grids): mip's block maxima in the
         RayCaster's order (define PAGED_MIP_WALK), unshaded dvr's skip radii (PAGED_WALK, march.glsl);
         None otherwise (front to back, the slots' block flags). Kept while the leaf table is."""
         processor, mode = self.processor, self.processor.compositing
@@ -263,18 +263,18 @@ class PagedSampling(Component):
             return None
         alpha = skipping_alpha(processor, frame) if mode == "dvr" else None  # (mip: maxima)
         key, kept = (self.table_key, mode, None if alpha is None else alpha.tobytes()), self.walk_kept
-        texture = atlas.gl.get("mip_walk")
+        texture = atlas.gl.get("walk_grid")
         if kept is not None and kept[0] == key and (kept[1] is None or texture is not None and texture.ctx is frame.ctx):
             return kept[1]
-        grid, block, define = mip_walk.frame_grid(alpha, source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks.ranges)
+        grid, block, define = walk_grids.frame_grid(alpha, source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks.ranges)
         binding = None
         if grid is not None:
             size = grid.shape[::-1]
             if texture is None or texture.ctx is not frame.ctx or texture.size != size:
-                release_quietly({"mip_walk": atlas.gl.pop("mip_walk", None) or {}})
-                texture = atlas.gl["mip_walk"] = frame.ctx.texture3d(size, 1, dtype="f4")
+                release_quietly({"walk_grid": atlas.gl.pop("walk_grid", None) or {}})
+                texture = atlas.gl["walk_grid"] = frame.ctx.texture3d(size, 1, dtype="f4")
             texture.write(grid.tobytes())
-            binding = Binding({define: True}, textures={"blocks": texture}, uniforms=mip_walk.uniforms(geometry, block, grid))
+            binding = Binding({define: True}, textures={"blocks": texture}, uniforms=walk_grids.uniforms(geometry, block, grid))
         self.walk_kept = (key, binding)
         return binding
 

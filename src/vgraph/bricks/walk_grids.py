@@ -1,5 +1,5 @@
-"""The single-pass bricked ray caster's mip in the RayCaster's order (issue #33): a grid of block
-maxima over the frame's bricks, which rays walk as the RayCaster walks its volume's blocks
+"""The grids the single-pass bricked ray caster's rays walk as the RayCaster's do (issue #33). For
+mip, a grid of block maxima over the frame's bricks, which rays walk as the RayCaster walks its volume's blocks
 (shaders/raycasting/compositing_mip.glsl: the stretch with the largest maximum first, then only
 the stretches that can still change the result), looking the page table up only where they sample.
 The same grid, of skip radii (``skip_radii``: the RayCaster's empty_space.skip_radii of the blocks
