@@ -66,12 +66,17 @@ class AtlasBlocks:
         return np.ascontiguousarray(grid.reshape(gz * bz, gy * by, gx * bx), dtype=np.float32)
 
     def upload(self, ctx, flags: np.ndarray):
-        """The flags as a 3D texture, R32F, or with ``flags`` [z, y, x, c] one of c float channels
-        (kept while its size, channels and context stay)."""
-        size, components = (flags.shape[2], flags.shape[1], flags.shape[0]), (flags.shape[3] if flags.ndim == 4 else 1)
-        texture = self.gl.get("block_flags")
-        if texture is None or texture.ctx is not ctx or texture.size != size or texture.components != components:
-            release_quietly({"block_flags": self.gl.pop("block_flags", None) or {}})
-            texture = self.gl["block_flags"] = ctx.texture3d(size, components, dtype="f4")
-        texture.write(flags.tobytes())
-        return texture
+        """The flags as a 3D texture, R32F, or with ``flags`` [z, y, x, c] one of c float channels."""
+        return kept_texture(self.gl, "block_flags", ctx, flags)
+
+
+def kept_texture(gl: dict, name: str, ctx, values: np.ndarray):
+    """``values`` float32 [z, y, x] (or [z, y, x, c]) written to the 3D texture ``gl[name]``, made
+    anew only when its size, channels or context change (the atlas's per-frame grids)."""
+    size, components = (values.shape[2], values.shape[1], values.shape[0]), (values.shape[3] if values.ndim == 4 else 1)
+    texture = gl.get(name)
+    if texture is None or texture.ctx is not ctx or texture.size != size or texture.components != components:
+        release_quietly({name: gl.pop(name, None) or {}})
+        texture = gl[name] = ctx.texture3d(size, components, dtype="f4")
+    texture.write(np.ascontiguousarray(values, dtype=np.float32).tobytes())
+    return texture

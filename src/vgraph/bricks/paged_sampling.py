@@ -48,6 +48,7 @@ import weakref
 import numpy as np
 
 from vgraph.bricks.atlas import BrickAtlas
+from vgraph.bricks.atlas_blocks import kept_texture
 from vgraph.bricks.cache import MB, bricks_bytes
 from vgraph.bricks import leaf_pages, walk_grids
 from vgraph.bricks.block_radii import block_radii, wholly_drawn
@@ -55,8 +56,10 @@ from vgraph.bricks.cells import table_of
 from vgraph.bricks.coarse_step import sample_stride, strided
 from vgraph.bricks.page_table import PageTable, pyramid_uniforms, texel_offsets
 from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
-from vgraph.bricks.sampling import BrickSampling, level_span, skipping_alpha
-from vgraph.bricks.selection import BrickGeometry, FramePlan, coarse_first, normalised_ranges
+from vgraph.bricks.brick_planning import skipping_alpha
+from vgraph.bricks.sampling import BrickSampling, level_span
+from vgraph.bricks.brick_geometry import BrickGeometry
+from vgraph.bricks.selection import FramePlan, coarse_first, normalised_ranges
 from vgraph.bricks.targets import level_voxel
 from vgraph.errors import VGraphError
 from vgraph.frame_context import FrameContext
@@ -269,11 +272,7 @@ class PagedSampling(Component):
         grid, block, define = walk_grids.frame_grid(alpha, source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks.ranges)
         binding = None
         if grid is not None:
-            size = grid.shape[::-1]
-            if texture is None or texture.ctx is not frame.ctx or texture.size != size:
-                release_quietly({"walk_grid": atlas.gl.pop("walk_grid", None) or {}})
-                texture = atlas.gl["walk_grid"] = frame.ctx.texture3d(size, 1, dtype="f4")
-            texture.write(grid.tobytes())
+            texture = kept_texture(atlas.gl, "walk_grid", frame.ctx, grid)
             binding = Binding({define: True}, textures={"blocks": texture}, uniforms=walk_grids.uniforms(geometry, block, grid))
         self.walk_kept = (key, binding)
         return binding
