@@ -10,14 +10,12 @@ uniform sampler2D exit_points;
 uniform sampler2D geometry_depth;
 uniform vec3 texture_to_world_scale;  // p = t * scale + offset (vgraph.gl.raycasting.geometry)
 uniform vec3 texture_to_world_offset;
-uniform vec2 viewport_size;
-uniform vec3 near_centre;   // Camera.rays: the pixel centre (ndc_x, ndc_y) starts at
-uniform vec3 near_right;    // near_centre + ndc_x near_right + ndc_y near_up
-uniform vec3 near_up;
+// Camera.rays: the pixel centre (ndc_x, ndc_y) starts at near_point(ndc) (pixel_depth.glsl; also
+// world_length, world units per unit of the frame the rays are in: framed_view) ...
+#include "raycasting/pixel_depth.glsl"
 uniform vec3 direction_centre;  // ... in direction direction_centre + ndc_x direction_right
 uniform vec3 direction_right;   // + ndc_y direction_up (not normalised)
 uniform vec3 direction_up;
-uniform float world_length;  // world units per unit of the frame the rays are in (framed_view)
 
 layout(location = 0) out vec4 entry_out;
 layout(location = 1) out vec4 exit_out;
@@ -36,8 +34,8 @@ void main() {
     if (entry_point.a == 0.0 || exit_point.a == 0.0 || surface.a == 0.0) {
         return;
     }
-    vec2 ndc = gl_FragCoord.xy / viewport_size * 2.0 - 1.0;
-    vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
+    vec2 ndc = pixel_ndc();  // pixel_offset stays 0: the rays are this image's own (ray_uniforms)
+    vec3 origin = near_point(ndc);
     vec3 direction = normalize(direction_centre + ndc.x * direction_right + ndc.y * direction_up);
     float entry_t = along_ray(entry_point.xyz, origin, direction);
     float exit_t = along_ray(exit_point.xyz, origin, direction);

@@ -1,5 +1,7 @@
 // Where the pixel's ray starts and the depth of a point on it, for every renderer that writes the
-// ray casters' depth output (depth_output.glsl; the tetrahedra renderers, tetrahedra/*.frag.glsl).
+// ray casters' depth output (depth_output.glsl; the tetrahedra renderers, tetrahedra/*.frag.glsl)
+// and every pass that follows the pixels' rays (entry_exit_point.glsl, ray_bounds.frag.glsl,
+// geometry/geometry_entry_exit.frag.glsl).
 // Rays start on the near plane, as Camera.rays; a tile's pixels take the whole picture's rays
 // (vgraph.gl.raycasting.geometry.pixel_rays binds these uniforms).
 uniform mat4 view_projection;
@@ -11,9 +13,15 @@ uniform vec3 near_up;
 uniform float world_length;  // world units per unit of the frame it is drawn in (an extreme box's
                              // or a mesh's normalised frame, framed_view, tetrahedra.frame; else 1)
 
+// The normalised device coordinates in the whole picture of ``window``, a point in this image's
+// window coordinates (ray_bounds.frag.glsl: the centre of a tile of pixels).
+vec2 picture_ndc(vec2 window) {
+    return (window + pixel_offset) / viewport_size * 2.0 - 1.0;
+}
+
 // The normalised device coordinates of this pixel's centre in the whole picture.
 vec2 pixel_ndc() {
-    return (gl_FragCoord.xy + pixel_offset) / viewport_size * 2.0 - 1.0;
+    return picture_ndc(gl_FragCoord.xy);
 }
 
 // Where the ray of the pixel centre at ``ndc`` starts, on the near plane.

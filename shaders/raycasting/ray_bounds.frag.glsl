@@ -3,14 +3,12 @@
 // origin on the near plane, parameter s = depth from it, clipped to [0, far - near]) inside this
 // fragment's box, as (enter, -leave); the target blends with MIN, so it ends up holding the nearest
 // entry and the farthest exit over all boxes. Rays that miss the box are discarded.
-uniform vec2 viewport_size;     // of the whole picture (a tile's too: geometry.pixel_rays)
-uniform vec2 pixel_offset;      // where this image lies in it
+// The ray of a point (ndc_x, ndc_y) of the whole picture starts at near_point(ndc) (pixel_depth.glsl,
+// geometry.pixel_rays: a tile's too).
+#include "raycasting/pixel_depth.glsl"
 uniform int ray_bounds_tile;    // pixels per tile and axis
-uniform vec3 near_centre;       // near-plane point of pixel centre (ndc_x, ndc_y):
-uniform vec3 near_right;        //   near_centre + ndc_x * near_right + ndc_y * near_up
-uniform vec3 near_up;
-uniform vec3 direction_centre;  // its direction (component 1 along the view), likewise
-uniform vec3 direction_right;
+uniform vec3 direction_centre;  // its direction (component 1 along the view): direction_centre
+uniform vec3 direction_right;   // + ndc_x * direction_right + ndc_y * direction_up
 uniform vec3 direction_up;
 uniform float near_to_far;      // far - near
 
@@ -20,8 +18,8 @@ flat in vec3 hi;
 layout(location = 0) out vec2 bounds;
 
 void main() {
-    vec2 ndc = (gl_FragCoord.xy * float(ray_bounds_tile) + pixel_offset) / viewport_size * 2.0 - 1.0;
-    vec3 origin = near_centre + ndc.x * near_right + ndc.y * near_up;
+    vec2 ndc = picture_ndc(gl_FragCoord.xy * float(ray_bounds_tile));  // the tile's centre
+    vec3 origin = near_point(ndc);
     vec3 direction = direction_centre + ndc.x * direction_right + ndc.y * direction_up;
     vec3 inverse = vec3(direction.x != 0.0 ? 1.0 / direction.x : 1e30,
                         direction.y != 0.0 ? 1.0 / direction.y : 1e30,
