@@ -124,21 +124,22 @@ def test_the_kept_geometry_is_one_per_source_and_does_not_keep_it_alive():
     assert alive() is None
 
 
-@pytest.mark.parametrize("shading", ["none", "blinn_phong"])
-def test_a_still_frame_makes_no_new_block_flags_or_leaf_table(shading):
-    """Unshaded dvr walks the frame's grid of skip radii (walk_grids), shaded dvr jumps by the
+@pytest.mark.parametrize("shading, compositing", [("none", "dvr"), ("blinn_phong", "dvr"), ("none", "iso")])
+def test_a_still_frame_makes_no_new_block_flags_or_leaf_table(shading, compositing):
+    """dvr, shaded or not, walks the frame's grid of skip radii (walk_grids), iso jumps by the
     slots' block distances (block flags): either is made once while the plan stays."""
     volume = Volume(field((40, 36, 44)))
     camera = Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
     network = ray_caster_network(volume, camera, "BrickedRayCaster", brick_size=16, lod_bias=-16.0,
-                                 method="single_pass", shading=shading, transfer_function=WINDOW)
+                                 method="single_pass", shading=shading, transfer_function=WINDOW,
+                                 compositing=compositing, iso_level=0.5)
     first = np.asarray(network.evaluate("rc.image", size=(48, 40)))
     paged = network["rc"].parts[PagedSampling]
     flags, walk, table = paged.flags_kept, paged.walk_kept, paged.resolved
     network.set("rc.sampling_rate", 1.0 + 1e-6)  # evaluates again, the plan unchanged
     second = np.asarray(network.evaluate("rc.image", size=(48, 40)))
     assert paged.flags_kept is flags and paged.walk_kept is walk and paged.resolved is table
-    if shading == "none":
+    if compositing == "dvr":
         assert walk is not None and walk[1] is not None  # the frame walks a grid made once
     else:
         assert flags[2] is not None  # the frame skips blocks: a flag texture was made once

@@ -71,11 +71,11 @@ bool composited_run(Ray ray, inout March cursor, inout vec4 sum, inout Result re
 
 #ifdef PAGED_WALK
 // With the frame-wide grid (march.glsl's PAGED_WALK) the RayCaster's loop instead: up to 4 samples
-// of the run per pass, the grid asked again past each occupied block (so samples in a cell's empty
-// blocks are jumped, not taken: bonsai dvr 81 -> 56 a pixel), the lanes in step. Cutting runs at
-// blocks in composited_run's loop cost more loop heads than it saved samples; here a pass whose
-// lane leaves its run early costs that lane at most 3 samples. Composites from cursor.i (in its
-// run); true once the ray is opaque enough to stop.
+// of the run per pass (2 shaded, as the RayCaster's), the grid asked again past each occupied block
+// (so samples in a cell's empty blocks are jumped, not taken: bonsai dvr 81 -> 56 a pixel), the
+// lanes in step. Cutting runs at blocks in composited_run's loop cost more loop heads than it saved
+// samples; here a pass whose lane leaves its run early costs that lane at most 3 samples.
+// Composites from cursor.i (in its run); true once the ray is opaque enough to stop.
 bool composited_stretch(Ray ray, inout March cursor, inout vec4 sum, inout Result result) {
     int stop = run_stop(cursor, ray);
     if (composited(ray, cursor.i, sum, result)) return true;
@@ -85,16 +85,37 @@ bool composited_stretch(Ray ray, inout March cursor, inout vec4 sum, inout Resul
         if (composited(ray, cursor.i, sum, result)) return true;
         ++cursor.i;
     }
+#ifndef SHADING_BLINN_PHONG
     if (cursor.i < stop) {
         if (composited(ray, cursor.i, sum, result)) return true;
         ++cursor.i;
     }
     if (cursor.i < stop) {
         if (composited(ray, cursor.i, sum, result)) return true;
+        ++cursor.i;
+    }
+#endif
+    return false;
+}
+
+#ifdef SHADING_BLINN_PHONG
+// The same for the samples before the first visible one (3 a pass, as the RayCaster's): true at
+// the first visible sample, left for the shading loop.
+bool visible_stretch(Ray ray, inout March cursor, inout Result result) {
+    int stop = run_stop(cursor, ray);
+    if (visible(ray, cursor.i, result)) return true;
+    ++cursor.i;
+    if (cursor.i < stop) {
+        if (visible(ray, cursor.i, result)) return true;
+        ++cursor.i;
+    }
+    if (cursor.i < stop) {
+        if (visible(ray, cursor.i, result)) return true;
         ++cursor.i;
     }
     return false;
 }
+#endif
 #endif
 
 #ifdef SHADING_BLINN_PHONG
@@ -121,7 +142,9 @@ Result march(Ray ray) {
     // runs a branch for a whole group of pixels when one of them takes it (a GPU's warp) or always
     // (llvmpipe's 8 lanes), so in a single loop rays still in empty space would pay for shading.
     while (cursor.i < ray.samples) {
-#ifdef PAGED_SKIPPING
+#ifdef PAGED_WALK
+        if (!next_occupied_sample(cursor, ray) || visible_stretch(ray, cursor, result)) break;
+#elif defined(PAGED_SKIPPING)
         if (!next_occupied_sample(cursor, ray) || visible_in_run(ray, cursor, result)) break;
 #else
         if (!next_occupied_sample(cursor, ray) || visible(ray, cursor.i, result)) break;
@@ -136,7 +159,7 @@ Result march(Ray ray) {
     }
 #endif
     while (cursor.i < ray.samples) {
-#if defined(PAGED_WALK) && !defined(SHADING_BLINN_PHONG)
+#ifdef PAGED_WALK
         if (!next_occupied_sample(cursor, ray) || composited_stretch(ray, cursor, sum, result)) break;
 #elif defined(PAGED_SKIPPING) && !defined(SHADING_BLINN_PHONG)
         if (!next_occupied_sample(cursor, ray) || composited_run(ray, cursor, sum, result)) break;

@@ -8,7 +8,7 @@
 // Skipped samples keep their positions start + i * step, so skipping changes no image, only work.
 // The grid and its walk (BlockWalk, block_value) also serve the single-pass bricked ray caster's
 // mip (PAGED_MIP_WALK: a grid of block maxima over the frame's bricks, bricks/paged_sampling.glsl)
-// and its unshaded dvr (PAGED_WALK: a grid of skip radii over the frame's bricks, march.glsl).
+// and its dvr (PAGED_WALK: a grid of skip radii over the frame's bricks, march.glsl).
 #if defined(SKIP_EMPTY_SPACE) || defined(PAGED_MIP_WALK) || defined(PAGED_WALK)
 uniform sampler3D blocks;
 uniform vec3 block_scale;   // texture -> block coordinates: q = t * scale + offset

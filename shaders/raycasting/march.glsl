@@ -94,7 +94,7 @@ bool next_occupied_sample(inout March cursor, Ray ray) {
 // add nothing and starts the next run; with PAGED_REQUESTS a ray also asks there for the missing
 // cells it reaches (bricks/ray_requests.glsl).
 #ifdef PAGED_WALK
-// A frame of unshaded dvr whose bricks are all in the atlas (vgraph.bricks.walk_grids.skip_radii): the
+// A frame of dvr whose bricks are all in the atlas (vgraph.bricks.walk_grids.skip_radii): the
 // RayCaster's own walk over a frame-wide grid of skip radii jumps the empty regions, across cells,
 // and the page table is looked up only where a sample of an occupied block leaves its run (a whole
 // drawn cell: no PAGED_BLOCKS). One jump over the grid: past the empty region around cursor.i, or,

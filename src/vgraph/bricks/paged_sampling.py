@@ -258,11 +258,12 @@ class PagedSampling(Component):
                   missing) -> Binding | None:
         """With ``empty_space_skipping`` where the atlas holds every planned brick, the grid the rays
         walk as the RayCaster walks its blocks (vgraph.bricks.walk_grids): mip's block maxima in the
-        RayCaster's order (define PAGED_MIP_WALK), unshaded dvr's skip radii (PAGED_WALK, march.glsl);
+        RayCaster's order (define PAGED_MIP_WALK), dvr's skip radii (PAGED_WALK, march.glsl);
         None otherwise (front to back, the slots' block flags). Kept while the leaf table is."""
         processor, mode = self.processor, self.processor.compositing
-        # shaded dvr and iso: the slots' distances paid as much or more (bricked-ray-casting.md)
-        if mode not in ("mip", "dvr") or mode == "dvr" and frame.lit or not processor.empty_space_skipping or len(missing):
+        # iso: the slots' distances paid as much or more (bricked-ray-casting.md); shaded dvr walks
+        # since its loops take the RayCaster's stretches of 2-3 samples (compositing_dvr.glsl)
+        if mode not in ("mip", "dvr") or not processor.empty_space_skipping or len(missing):
             return None
         alpha = skipping_alpha(processor, frame) if mode == "dvr" else None  # (mip: maxima)
         key, kept = (self.table_key, mode, None if alpha is None else alpha.tobytes()), self.walk_kept
