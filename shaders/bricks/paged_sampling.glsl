@@ -60,20 +60,18 @@ vec4 leaf_entry(vec3 t) {
 // slot. Set once per run, so a sample and its gradient's reads fetch no leaf entry.
 vec3 run_scale;   // t -> normalised atlas coordinate: t * run_scale + run_offset
 vec3 run_offset;
-vec3 run_low;     // the run's slot (its apron included) as normalised atlas coordinates of its
-vec3 run_high;    //   outermost texel centres: no read leaves the slot
 
+// Not clamped to the run's slot: every read lies within its cell's core and apron (above), and the
+// clamp cost 5 % of a frame (torus 512^3 dvr 306 -> 291 ms of CPU).
 float raw_sample(vec3 t) {
-    return textureLod(volume, clamp(t * run_scale + run_offset, run_low, run_high), 0.0).r;
+    return textureLod(volume, t * run_scale + run_offset, 0.0).r;
 }
 
-// raw_sample() from now on reads the slot at `slot_origin` (atlas texels), where the level's voxel
-// coordinate t * scale + level offset lies at texel + texel_offset.
-void read_from(vec3 scale, vec3 texel_offset, vec3 slot_origin) {
+// raw_sample() from now on reads the slot where the level's voxel coordinate t * scale + level
+// offset lies at texel + texel_offset.
+void read_from(vec3 scale, vec3 texel_offset) {
     run_scale = scale / atlas_texels;
     run_offset = texel_offset / atlas_texels;
-    run_low = (slot_origin + 0.5) / atlas_texels;
-    run_high = (slot_origin + slot_texels - 0.5) / atlas_texels;
 }
 
 float intensity(vec3 t) {
@@ -184,7 +182,7 @@ void paged_run(inout int i, inout int run_end, Ray ray) {
         i = end;
     } else {
         run_end = end;
-        read_from(scale, texel_offset, slot_origin);
+        read_from(scale, texel_offset);
     }
 }
 
@@ -219,8 +217,7 @@ void paged_seat(vec3 t) {
     int level = max(int(entry.a + 0.5) - 1, 0);
     vec3 scale = level_scale[level];
     vec3 texel_offset = level_offset[level] + entry.rgb;
-    vec3 slot_origin = floor((t * scale + texel_offset) / slot_texels) * slot_texels;
     if (entry.a > 0.0) {
-        read_from(scale, texel_offset, slot_origin);
+        read_from(scale, texel_offset);
     }
 }
