@@ -23,6 +23,27 @@ Result march(Ray ray) {
     bool have_previous = false;  // false after a skip: the sample before was not evaluated
     float value = 0.0;
     bool hit_found = false;
+#ifdef PAGED_ISO_GRID
+    // the single pass in a complete frame of level-0 bricks: the RayCaster's loop over its blocks,
+    // whose texels say where to read (bricks/paged_sampling.glsl, iso_grid_skip)
+    IsoWalk walk = iso_walk(ray);
+    int i = 0;
+    while (i < ray.samples) {
+        if (iso_grid_skip(walk, i, ray.samples)) {
+            have_previous = false;
+            if (i >= ray.samples) break;
+        }
+        if (is_hit(ray, i, value, result)) {
+            hit_found = true;
+            break;
+        }
+        previous = value;
+        have_previous = true;
+        ++i;
+    }
+    March cursor;
+    cursor.i = i;
+#else
     March cursor = start_march(ray);
     // The loop only finds the first sample at or above the level; the refinement and the shading
     // come after it: llvmpipe runs an `if` body in a loop in every pass for all 8 lanes, and they
@@ -52,6 +73,7 @@ Result march(Ray ray) {
         ++cursor.i;
 #endif
     }
+#endif
     if (hit_found) {
         int i = cursor.i;
         float hit = float(i);

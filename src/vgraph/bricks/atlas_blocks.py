@@ -11,6 +11,10 @@ Conventions:
 - ``laid_out`` lays per-block values out as the atlas lays out its slots: slot s's blocks start
   at texel ``slot_index(s) * per_slot`` of one 3D texture (vgraph.bricks.block_radii's radii), so
   the shader finds a sample's block from its atlas texel alone (bricks/paged_sampling.glsl).
+- ``fine_maxima``: each slot's largest texture value per block of FINE^3 core voxels (the
+  RayCaster's skipping blocks, over the same windows: a sample in block k filters voxels
+  FINE k - 1 .. FINE (k + 1)), in the bricks' texture values; iso's frame-wide grid of a complete
+  frame (vgraph.bricks.walk_grids.iso_grid) reads them. 0.3 ms a brick of 64^3 besides the ranges.
 """
 
 from __future__ import annotations
@@ -19,6 +23,8 @@ import numpy as np
 
 from vgraph.bricks.cache import BLOCK, HALO, TextureFormat, block_ranges_of
 from vgraph.gl_context import release_quietly
+
+FINE = 4  # voxels per block edge of fine_maxima (the RayCaster's empty_space.BLOCK)
 
 
 class AtlasBlocks:
@@ -33,6 +39,8 @@ class AtlasBlocks:
         # [slot, bz, by, bx, (min, max)]; NaN: unknown (never skipped)
         self.ranges = np.full((gx * gy * gz, bz, by, bx, 2), np.nan, dtype=np.float32)
         self.gl = gl  # the atlas's GL objects: the flags go with them ("block_flags")
+        self.fine_per_slot = tuple(-(-(n - 2 * HALO) // FINE) for n in slot_shape)  # (x, y, z)
+        self.fine_maxima = None  # [slot, fz, fy, fx] in the bricks' texture dtype, made at the first record
 
     def record(self, slot: int, data: np.ndarray) -> None:
         """The ranges of the brick now in ``slot`` (``data``: its voxels with the apron, in texture values)."""
@@ -40,6 +48,18 @@ class AtlasBlocks:
         self.ranges[slot] = np.nan
         nz, ny, nx = ranges.shape[:3]
         self.ranges[slot, :nz, :ny, :nx] = ranges
+        maxima = fine_maxima_of(data)
+        if self.fine_maxima is None or self.fine_maxima.dtype != maxima.dtype:
+            fx, fy, fz = self.fine_per_slot
+            self.fine_maxima = np.zeros((len(self.ranges), fz, fy, fx), dtype=maxima.dtype)
+        nz, ny, nx = maxima.shape
+        self.fine_maxima[slot] = np.iinfo(maxima.dtype).max if maxima.dtype.kind in "ui" else np.inf  # unknown
+        self.fine_maxima[slot, :nz, :ny, :nx] = maxima
+
+    def normalised(self, values: np.ndarray) -> np.ndarray:
+        """Texture values (fine_maxima's) as normalised intensities, float64 (as block_ranges_of)."""
+        full = 65535.0 if self.format.gl_dtype == "nu2" else 1.0
+        return np.asarray(values, dtype=np.float64) / full * self.format.scale + self.format.offset
 
     def skippable(self, skippable) -> np.ndarray:
         """bool [slot, bz, by, bx]: True where ``skippable(low, high)`` (bool arrays of the blocks'
@@ -68,6 +88,25 @@ class AtlasBlocks:
     def upload(self, ctx, flags: np.ndarray):
         """The flags as a 3D texture, R32F, or with ``flags`` [z, y, x, c] one of c float channels."""
         return kept_texture(self.gl, "block_flags", ctx, flags)
+
+
+def fine_maxima_of(data: np.ndarray, block: int = FINE) -> np.ndarray:
+    """The largest texture value per block of ``block`` core voxels of a brick (``data``: with its
+    halo), over the voxels its samples filter, block k - 1 .. block (k + 1) (block_ranges_of's
+    windows, its maxima exactly); vectorised per axis (block_ranges_of's loop over the blocks took
+    3 ms a brick of 64^3 at blocks of 4, this 0.3)."""
+    reduced = data
+    for axis in range(3):
+        count = -(-(data.shape[axis] - 2 * HALO) // block)
+        moved = np.moveaxis(reduced, axis, 0)
+        need = block * count + 2 * HALO + 2
+        if moved.shape[0] < need:  # a last block past the data: its window is clamped (edge values add nothing)
+            moved = np.pad(moved, [(0, need - moved.shape[0])] + [(0, 0)] * (moved.ndim - 1), mode="edge")
+        core = moved[HALO:HALO + block * count].reshape((count, block) + moved.shape[1:]).max(axis=1)
+        margins = np.maximum(moved[HALO - 1:HALO - 1 + block * count:block],
+                             moved[HALO + block:HALO + block + block * count:block])
+        reduced = np.moveaxis(np.maximum(core, margins), 0, axis)
+    return np.ascontiguousarray(reduced)
 
 
 def kept_texture(gl: dict, name: str, ctx, values: np.ndarray):

@@ -261,8 +261,9 @@ class PagedSampling(Component):
         RayCaster's order (define PAGED_MIP_WALK), dvr's skip radii (PAGED_WALK, march.glsl);
         None otherwise (front to back, the slots' block flags). Kept while the leaf table is."""
         processor, mode = self.processor, self.processor.compositing
-        # iso: the slots' distances paid as much or more (bricked-ray-casting.md); shaded dvr walks
-        # since its loops take the RayCaster's stretches of 2-3 samples (compositing_dvr.glsl)
+        if mode == "iso":
+            return self.iso_grid(frame, source, geometry, plan, atlas, missing)
+        # shaded dvr walks since its loops take the RayCaster's stretches of 2-3 samples (compositing_dvr.glsl)
         if mode not in ("mip", "dvr") or not processor.empty_space_skipping or len(missing):
             return None
         alpha = skipping_alpha(processor, frame) if mode == "dvr" else None  # (mip: maxima)
@@ -275,6 +276,31 @@ class PagedSampling(Component):
         if grid is not None:
             texture = kept_texture(atlas.gl, "walk_grid", frame.ctx, grid)
             binding = Binding({define: True}, textures={"blocks": texture}, uniforms=walk_grids.uniforms(geometry, block, grid))
+        self.walk_kept = (key, binding)
+        return binding
+
+    def iso_grid(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas,
+                 missing) -> Binding | None:
+        """iso's grid of blocks of 4 level-0 voxels holding each block's skip radius and its cell's
+        slot (vgraph.bricks.walk_grids.iso_grid; define PAGED_ISO_GRID): where the atlas holds every
+        planned brick, all of level 0, in a flat leaf table; None otherwise (the slots' distances).
+        Kept while the plan's bricks, the atlas's and the level are the same."""
+        processor = self.processor
+        if not processor.empty_space_skipping or len(missing) or self.resolved.level != 0:
+            return None
+        key = (frozenset(plan.keys()), atlas.key, atlas.stats["uploads"], atlas.stats["evictions"],
+               float(processor.iso_level), id(atlas.blocks))
+        kept, texture = self.walk_kept, atlas.gl.get("iso_grid")
+        if kept is not None and kept[0] == key and (kept[1] is None or texture is not None and texture.ctx is frame.ctx):
+            return kept[1]
+        grid = walk_grids.iso_grid(source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks,
+                                   self.resolved.table, float(processor.iso_level), atlas.size)
+        binding = None
+        if grid is not None:
+            binding = Binding({"PAGED_ISO_GRID": True},
+                              textures={"iso_grid": kept_texture(atlas.gl, "iso_grid", frame.ctx, grid)},
+                              uniforms={"iso_grid_scale": tuple(float(n) / walk_grids.FINE for n in geometry.dims0),
+                                        "iso_grid_count": tuple(int(n) for n in grid.shape[2::-1])})
         self.walk_kept = (key, binding)
         return binding
 

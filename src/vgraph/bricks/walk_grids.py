@@ -28,6 +28,7 @@ import math
 
 import numpy as np
 
+from vgraph.bricks.atlas_blocks import FINE
 from vgraph.bricks.cache import BLOCK
 from vgraph.bricks.cells import table_of
 from vgraph.bricks.brick_geometry import BrickGeometry
@@ -35,6 +36,7 @@ from vgraph.gl.raycasting.empty_space import WALK_BLOCK, occupied_blocks, radii_
 
 MAX_TEXELS = 128 ** 3  # the grid's size at most (8 MiB of R32F): a coarser block beyond
 MAX_AXIS = 2048        # texels along an axis at most: every GL 4 holds a 3D texture this wide
+NOT_DRAWN = -1e6      # iso_grid's offset of a block whose cell is not drawn (never read: its samples are jumped)
 EDGE = 1e-3            # level-0 voxels a coarser brick's blocks reach past their faces (module docstring)
 
 
@@ -134,3 +136,51 @@ def uniforms(geometry: BrickGeometry, block: int, grid: np.ndarray) -> dict:
     """The empty-space grid's uniforms (empty_space.glsl) for the walk grid."""
     return {"block_scale": tuple(float(n) / block for n in geometry.dims0), "block_offset": (0.0, 0.0, 0.0),
             "block_count": tuple(int(n) for n in grid.shape[::-1])}
+
+
+def iso_grid(source, geometry: BrickGeometry, keys, slot_of, blocks, table: np.ndarray, level: float,
+             atlas_size) -> np.ndarray | None:
+    """iso's grid of a complete frame whose bricks are all of level 0 (PAGED_ISO_GRID,
+    compositing_iso.glsl): float32 [z, y, x, 4] per block of FINE (4) level-0 voxels, the
+    RayCaster's own blocks: r = the RayCaster's skip radius (0 where the block may reach ``level``:
+    its largest value, AtlasBlocks.fine_maxima, is not below it; blocks of cells not drawn are
+    empty), gba = where the block's cell is drawn, the normalised atlas coordinate that t * dims0
+    / atlas_size adds to read its slot (its leaf entry's texel offset, level 0's half-voxel shift,
+    over the atlas's size), else NOT_DRAWN: a sample's one fetch of the grid gives both whether to
+    jump and where to read. ``table``: the flat leaf table [cz, cy, cx, 4] (leaf_pages, directory
+    level 0). None where it does not apply: a brick of another level, cells that are no whole
+    number of blocks (the block's cell must be one), over MAX_TEXELS blocks, or under
+    empty_space.MIN_EMPTY_FRACTION of the blocks empty."""
+    keys = np.asarray(keys, dtype=np.int64).reshape(-1, 4)
+    span = geometry.spans[0].astype(np.int64)  # (x, y, z)
+    counts = _counts(geometry, FINE)  # (x, y, z)
+    if len(keys) == 0 or keys[:, 0].any() or (span % FINE).any() or math.prod(counts) > MAX_TEXELS \
+            or max(counts) > MAX_AXIS:
+        return None
+    spans = table_of(source).spans[0]
+    per = (span // FINE)[::-1]  # blocks per cell, [z, y, x]
+    for axis in range(3):  # the cores start where the cells do (cells.py): block k of a brick is block per * cell + k
+        starts = np.asarray(spans[axis][0], dtype=np.int64)
+        if (starts != np.arange(len(starts)) * int(span[2 - axis])).any():
+            return None
+    shape = tuple(counts[::-1])
+    maxima = np.full(shape, -np.inf)  # not drawn: empty
+    fz, fy, fx = blocks.fine_maxima.shape[1:]
+    for key in keys:
+        z, y, x = (int(v) * int(n) for v, n in zip(key[1:], per))
+        nz, ny, nx = min(fz, shape[0] - z), min(fy, shape[1] - y), min(fx, shape[2] - x)
+        maxima[z:z + nz, y:y + ny, x:x + nx] = blocks.fine_maxima[slot_of(tuple(int(v) for v in key)), :nz, :ny, :nx]
+    occupied = ~(blocks.normalised(maxima) < level)  # (the single pass's rule: a block below the level adds nothing)
+    radii = radii_if_worthwhile(occupied)
+    if radii is None:
+        return None
+    grid = np.empty(shape + (4,), dtype=np.float32)
+    grid[..., 0] = radii
+    cells = table
+    for axis, n in enumerate(per):
+        cells = np.repeat(cells, int(n), axis=axis)
+    cells = cells[:shape[0], :shape[1], :shape[2]]
+    drawn = cells[..., 3:4] > 0.0
+    offset = (cells[..., :3].astype(np.float64) - 0.5) / np.asarray(atlas_size, dtype=np.float64)
+    grid[..., 1:] = np.where(drawn, offset, NOT_DRAWN)
+    return grid
