@@ -164,23 +164,24 @@ def iso_grid(source, geometry: BrickGeometry, keys, slot_of, blocks, table: np.n
         if (starts != np.arange(len(starts)) * int(span[2 - axis])).any():
             return None
     shape = tuple(counts[::-1])
-    maxima = np.full(shape, -np.inf)  # not drawn: empty
-    fz, fy, fx = blocks.fine_maxima.shape[1:]
-    for key in keys:
+    occupied = np.zeros(shape, dtype=bool)  # blocks of cells not drawn: empty
+    slots = [slot_of(tuple(int(v) for v in key)) for key in keys]
+    # (the single pass's rule: a block below the level adds nothing; unknown blocks' maxima are the dtype's largest)
+    reaching = ~(blocks.normalised(blocks.fine_maxima[slots]) < level)
+    fz, fy, fx = reaching.shape[1:]
+    for key, reach in zip(keys, reaching):
         z, y, x = (int(v) * int(n) for v, n in zip(key[1:], per))
         nz, ny, nx = min(fz, shape[0] - z), min(fy, shape[1] - y), min(fx, shape[2] - x)
-        maxima[z:z + nz, y:y + ny, x:x + nx] = blocks.fine_maxima[slot_of(tuple(int(v) for v in key)), :nz, :ny, :nx]
-    occupied = ~(blocks.normalised(maxima) < level)  # (the single pass's rule: a block below the level adds nothing)
+        occupied[z:z + nz, y:y + ny, x:x + nx] = reach[:nz, :ny, :nx]
     radii = radii_if_worthwhile(occupied)
     if radii is None:
         return None
-    grid = np.empty(shape + (4,), dtype=np.float32)
+    # each cell's offset, then the cells' blocks by broadcasting (a repeat of the blocks' array took 60 ms at 128^3)
+    offset = (table[..., :3].astype(np.float64) - 0.5) / np.asarray(atlas_size, dtype=np.float64)
+    offset = np.where(table[..., 3:4] > 0.0, offset, NOT_DRAWN).astype(np.float32)  # [cz, cy, cx, 3]
+    (cz, cy, cx), (pz, py, px) = table.shape[:3], (int(n) for n in per)
+    blocks_of_cells = np.empty((cz, pz, cy, py, cx, px, 4), dtype=np.float32)
+    blocks_of_cells[..., 1:] = offset[:, None, :, None, :, None, :]
+    grid = blocks_of_cells.reshape(cz * pz, cy * py, cx * px, 4)[:shape[0], :shape[1], :shape[2]]
     grid[..., 0] = radii
-    cells = table
-    for axis, n in enumerate(per):
-        cells = np.repeat(cells, int(n), axis=axis)
-    cells = cells[:shape[0], :shape[1], :shape[2]]
-    drawn = cells[..., 3:4] > 0.0
-    offset = (cells[..., :3].astype(np.float64) - 0.5) / np.asarray(atlas_size, dtype=np.float64)
-    grid[..., 1:] = np.where(drawn, offset, NOT_DRAWN)
     return grid
