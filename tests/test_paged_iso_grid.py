@@ -9,6 +9,7 @@ maxima (vgraph.bricks.atlas_blocks.fine_maxima_of) equal block_ranges_of's at bl
 import numpy as np
 import pytest
 
+from vgraph.bricks import walk_grids
 from vgraph.bricks.atlas_blocks import fine_maxima_of
 from vgraph.bricks.cache import HALO, LoadLimit, TextureFormat, block_ranges_of
 from vgraph.bricks.paged_sampling import PagedSampling
@@ -62,24 +63,31 @@ def test_shaded_iso_over_the_grid_is_the_ray_casters(camera_name):
     assert np.abs(image - want).max() <= 1 / 255
 
 
-def test_the_grid_holds_the_ray_casters_radii_and_each_cells_slot():
+@pytest.mark.parametrize("block, most", [(4, walk_grids.MAX_TEXELS), (8, 6 ** 3), (16, 3 ** 3)])
+def test_the_grid_holds_the_ray_casters_radii_and_each_cells_slot(block, most, monkeypatch):
+    """Blocks of 4 voxels, or (fewer texels allowed, as past 512^3 voxels) of 8 and 16, whose maxima
+    are those of their blocks of 4 together."""
+    monkeypatch.setattr(walk_grids, "MAX_TEXELS", most)
     volume = sample("torus", 45, "float32")
-    network = single_pass(volume, cameras(volume)["perspective"], 8)
-    network.evaluate("rc.image", size=SIZE)
+    network = single_pass(volume, cameras(volume)["perspective"], 16)
+    image = np.asarray(network.evaluate("rc.image", size=SIZE))
+    assert grid_used(network)
     paged = network["rc"].parts[PagedSampling]
-    grid = np.frombuffer(paged.walk_kept[1].textures["iso_grid"].read(), dtype=np.float32).reshape(12, 12, 12, 4)
-    # block k holds the samples at t * dims in [4 k, 4 k + 4), which filter voxels 4 k - 1 .. 4 k + 4
+    n = -(-45 // block)
+    grid = np.frombuffer(paged.walk_kept[1].textures["iso_grid"].read(), dtype=np.float32).reshape(n, n, n, 4)
+    # block k holds the samples at t * dims in [b k, b k + b), which filter voxels b k - 1 .. b k + b
     data = volume.normalized(volume.data)
-    high = np.zeros((12, 12, 12))
+    high = np.zeros((n, n, n))
     for k in np.ndindex(high.shape):
-        window = tuple(slice(max(4 * i - 1, 0), 4 * i + 5) for i in k)
-        high[k] = data[window].max()
+        high[k] = data[tuple(slice(max(block * i - 1, 0), block * i + block + 1) for i in k)].max()
     np.testing.assert_array_equal(grid[..., 0], skip_radii(high >= 0.5))
     atlas, table = paged.atlas, paged.resolved.table
     for key, slot in atlas.slots.items():  # a drawn block's slot: its cell's leaf entry
         cell = table[key[1], key[2], key[3]]
-        block = grid[2 * key[1], 2 * key[2], 2 * key[3], 1:]
-        np.testing.assert_allclose(block * np.asarray(atlas.size), cell[:3] - 0.5, atol=1e-3)
+        first = grid[16 // block * key[1], 16 // block * key[2], 16 // block * key[3], 1:]
+        np.testing.assert_allclose(first * np.asarray(atlas.size), cell[:3] - 0.5, atol=1e-3)
+    reference = ray_caster_network(volume, cameras(volume)["perspective"], **ISO)
+    assert np.abs(image - np.asarray(reference.evaluate("rc.image", size=SIZE))).max() <= 1 / 255
 
 
 def test_frames_with_coarser_or_missing_bricks_keep_the_slots_distances():

@@ -224,7 +224,7 @@ void paged_seat(vec3 t) {
 
 #ifdef PAGED_ISO_GRID
 // iso in a complete frame of level-0 bricks (vgraph.bricks.walk_grids.iso_grid; compositing_iso.glsl):
-// the RayCaster's walk over its own blocks of 4 voxels, whose texels also say where their cell's
+// the RayCaster's walk over its own blocks of 4 voxels (8, ... past 512^3), whose texels also say where their cell's
 // slot is, so one fetch per sample says both whether to jump and where to read (no leaf table, no
 // runs). r = the skip radius (0: the block may reach the level), gba = the normalised atlas
 // coordinate t * dims0 / atlas_texels adds to read the block's cell's slot. A sample, iso's
@@ -232,8 +232,9 @@ void paged_seat(vec3 t) {
 // sampling rates from 2/3) read the hit's cell's slot, whose apron of 2 voxels holds them; the
 // shaded gradient's reads go through paged_seat (its own cell).
 uniform sampler3D iso_grid;
-uniform vec3 iso_grid_scale;   // t -> block coordinates: dims0 / 4
+uniform vec3 iso_grid_scale;   // t -> block coordinates: dims0 / the block (4 voxels, 8, ... past 512^3)
 uniform ivec3 iso_grid_count;
+uniform vec3 iso_read_scale;   // t -> normalised atlas coordinate, less the block's offset: dims0 / atlas_texels
 
 struct IsoWalk {
     vec3 start;           // block coordinates of sample 0
@@ -248,7 +249,7 @@ IsoWalk iso_walk(Ray ray) {
     walk.steps_per_unit = vec3(walk.step.x != 0.0 ? 1.0 / walk.step.x : 1e30,
                                walk.step.y != 0.0 ? 1.0 / walk.step.y : 1e30,
                                walk.step.z != 0.0 ? 1.0 / walk.step.z : 1e30);
-    run_scale = iso_grid_scale * 4.0 / atlas_texels;  // level 0: t -> its voxel coordinate (t * dims0)
+    run_scale = iso_read_scale;
     return walk;
 }
 

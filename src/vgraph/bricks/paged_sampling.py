@@ -281,8 +281,8 @@ class PagedSampling(Component):
 
     def iso_grid(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas,
                  missing) -> Binding | None:
-        """iso's grid of blocks of 4 level-0 voxels holding each block's skip radius and its cell's
-        slot (vgraph.bricks.walk_grids.iso_grid; define PAGED_ISO_GRID): where the atlas holds every
+        """iso's grid of blocks of 4 level-0 voxels (8, ... past 512^3) holding each block's skip
+        radius and its cell's slot (vgraph.bricks.walk_grids.iso_grid; define PAGED_ISO_GRID): where the atlas holds every
         planned brick, all of level 0, in a flat leaf table; None otherwise (the slots' distances).
         Kept while the plan's bricks, the atlas's and the level are the same."""
         processor = self.processor
@@ -293,14 +293,15 @@ class PagedSampling(Component):
         kept, texture = self.walk_kept, atlas.gl.get("iso_grid")
         if kept is not None and kept[0] == key and (kept[1] is None or texture is not None and texture.ctx is frame.ctx):
             return kept[1]
-        grid = walk_grids.iso_grid(source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks,
-                                   self.resolved.table, float(processor.iso_level), atlas.size)
+        grid, block = walk_grids.iso_grid(source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks,
+                                          self.resolved.table, float(processor.iso_level), atlas.size)
         binding = None
         if grid is not None:
             binding = Binding({"PAGED_ISO_GRID": True},
                               textures={"iso_grid": kept_texture(atlas.gl, "iso_grid", frame.ctx, grid)},
-                              uniforms={"iso_grid_scale": tuple(float(n) / walk_grids.FINE for n in geometry.dims0),
-                                        "iso_grid_count": tuple(int(n) for n in grid.shape[2::-1])})
+                              uniforms={"iso_grid_scale": tuple(float(n) / block for n in geometry.dims0),
+                                        "iso_grid_count": tuple(int(n) for n in grid.shape[2::-1]),
+                                        "iso_read_scale": tuple(float(n) / float(m) for n, m in zip(geometry.dims0, atlas.size))})
         self.walk_kept = (key, binding)
         return binding
 

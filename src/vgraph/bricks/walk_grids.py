@@ -138,36 +138,49 @@ def uniforms(geometry: BrickGeometry, block: int, grid: np.ndarray) -> dict:
             "block_count": tuple(int(n) for n in grid.shape[::-1])}
 
 
+def iso_block(geometry: BrickGeometry) -> int:
+    """Level-0 voxels per block of iso_grid: FINE, doubled until the grid has at most MAX_TEXELS
+    (and MAX_AXIS along an axis), as walk_block."""
+    block = FINE
+    while math.prod(_counts(geometry, block)) > MAX_TEXELS or max(_counts(geometry, block)) > MAX_AXIS:
+        block *= 2
+    return block
+
+
 def iso_grid(source, geometry: BrickGeometry, keys, slot_of, blocks, table: np.ndarray, level: float,
-             atlas_size) -> np.ndarray | None:
+             atlas_size) -> tuple[np.ndarray | None, int]:
     """iso's grid of a complete frame whose bricks are all of level 0 (PAGED_ISO_GRID,
-    compositing_iso.glsl): float32 [z, y, x, 4] per block of FINE (4) level-0 voxels, the
-    RayCaster's own blocks: r = the RayCaster's skip radius (0 where the block may reach ``level``:
-    its largest value, AtlasBlocks.fine_maxima, is not below it; blocks of cells not drawn are
-    empty), gba = where the block's cell is drawn, the normalised atlas coordinate that t * dims0
-    / atlas_size adds to read its slot (its leaf entry's texel offset, level 0's half-voxel shift,
-    over the atlas's size), else NOT_DRAWN: a sample's one fetch of the grid gives both whether to
-    jump and where to read. ``table``: the flat leaf table [cz, cy, cx, 4] (leaf_pages, directory
-    level 0). None where it does not apply: a brick of another level, cells that are no whole
-    number of blocks (the block's cell must be one), over MAX_TEXELS blocks, or under
-    empty_space.MIN_EMPTY_FRACTION of the blocks empty."""
+    compositing_iso.glsl): (float32 [z, y, x, 4] or None, block) per block of ``block`` level-0
+    voxels (iso_block: FINE = 4, the RayCaster's own blocks, up to 512^3 voxels): r = the
+    RayCaster's skip radius (0 where the block may reach ``level``: its largest value, from
+    AtlasBlocks.fine_maxima, is not below it; blocks of cells not drawn are empty), gba = where the
+    block's cell is drawn, the normalised atlas coordinate that t * dims0 / atlas_size adds to read
+    its slot (its leaf entry's texel offset, level 0's half-voxel shift, over the atlas's size),
+    else NOT_DRAWN: a sample's one fetch of the grid gives both whether to jump and where to read.
+    ``table``: the flat leaf table [cz, cy, cx, 4] (leaf_pages, directory level 0). None where it
+    does not apply: a brick of another level, cells that are no whole number of blocks (the
+    block's cell must be one), or under empty_space.MIN_EMPTY_FRACTION of the blocks empty."""
     keys = np.asarray(keys, dtype=np.int64).reshape(-1, 4)
     span = geometry.spans[0].astype(np.int64)  # (x, y, z)
-    counts = _counts(geometry, FINE)  # (x, y, z)
-    if len(keys) == 0 or keys[:, 0].any() or (span % FINE).any() or math.prod(counts) > MAX_TEXELS \
-            or max(counts) > MAX_AXIS:
-        return None
+    block = iso_block(geometry)
+    counts = _counts(geometry, block)  # (x, y, z)
+    if len(keys) == 0 or keys[:, 0].any() or (span % block).any():
+        return None, block
     spans = table_of(source).spans[0]
-    per = (span // FINE)[::-1]  # blocks per cell, [z, y, x]
+    per = (span // block)[::-1]  # blocks per cell, [z, y, x]
     for axis in range(3):  # the cores start where the cells do (cells.py): block k of a brick is block per * cell + k
         starts = np.asarray(spans[axis][0], dtype=np.int64)
         if (starts != np.arange(len(starts)) * int(span[2 - axis])).any():
-            return None
+            return None, block
     shape = tuple(counts[::-1])
     occupied = np.zeros(shape, dtype=bool)  # blocks of cells not drawn: empty
     slots = [slot_of(tuple(int(v) for v in key)) for key in keys]
     # (the single pass's rule: a block below the level adds nothing; unknown blocks' maxima are the dtype's largest)
-    reaching = ~(blocks.normalised(blocks.fine_maxima[slots]) < level)
+    maxima = blocks.fine_maxima[slots]
+    for _ in range(block.bit_length() - FINE.bit_length()):  # blocks of 8, 16, ...: their halves' windows together
+        for axis in (1, 2, 3):  # (empty_space.pairs_reduced, per slot)
+            maxima = np.maximum.reduceat(maxima, np.arange(0, maxima.shape[axis], 2), axis=axis)
+    reaching = ~(blocks.normalised(maxima) < level)
     fz, fy, fx = reaching.shape[1:]
     for key, reach in zip(keys, reaching):
         z, y, x = (int(v) * int(n) for v, n in zip(key[1:], per))
@@ -175,7 +188,7 @@ def iso_grid(source, geometry: BrickGeometry, keys, slot_of, blocks, table: np.n
         occupied[z:z + nz, y:y + ny, x:x + nx] = reach[:nz, :ny, :nx]
     radii = radii_if_worthwhile(occupied)
     if radii is None:
-        return None
+        return None, block
     # each cell's offset, then the cells' blocks by broadcasting (a repeat of the blocks' array took 60 ms at 128^3)
     offset = (table[..., :3].astype(np.float64) - 0.5) / np.asarray(atlas_size, dtype=np.float64)
     offset = np.where(table[..., 3:4] > 0.0, offset, NOT_DRAWN).astype(np.float32)  # [cz, cy, cx, 3]
@@ -184,4 +197,4 @@ def iso_grid(source, geometry: BrickGeometry, keys, slot_of, blocks, table: np.n
     blocks_of_cells[..., 1:] = offset[:, None, :, None, :, None, :]
     grid = blocks_of_cells.reshape(cz * pz, cy * py, cx * px, 4)[:shape[0], :shape[1], :shape[2]]
     grid[..., 0] = radii
-    return grid
+    return grid, block
