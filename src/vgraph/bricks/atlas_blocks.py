@@ -49,11 +49,12 @@ class AtlasBlocks:
         nz, ny, nx = ranges.shape[:3]
         self.ranges[slot, :nz, :ny, :nx] = ranges
         maxima = fine_maxima_of(data)
+        unknown = np.iinfo(maxima.dtype).max if maxima.dtype.kind in "ui" else np.inf  # never below a level
         if self.fine_maxima is None or self.fine_maxima.dtype != maxima.dtype:
             fx, fy, fz = self.fine_per_slot
-            self.fine_maxima = np.zeros((len(self.ranges), fz, fy, fx), dtype=maxima.dtype)
+            self.fine_maxima = np.full((len(self.ranges), fz, fy, fx), unknown, dtype=maxima.dtype)
         nz, ny, nx = maxima.shape
-        self.fine_maxima[slot] = np.iinfo(maxima.dtype).max if maxima.dtype.kind in "ui" else np.inf  # unknown
+        self.fine_maxima[slot] = unknown  # (a smaller brick's blocks past its core)
         self.fine_maxima[slot, :nz, :ny, :nx] = maxima
 
     def normalised(self, values: np.ndarray) -> np.ndarray:
