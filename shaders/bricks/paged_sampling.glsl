@@ -226,20 +226,15 @@ void paged_seat(vec3 t) {
 // iso in a complete frame of level-0 bricks (vgraph.bricks.walk_grids.iso_grid; compositing_iso.glsl):
 // the RayCaster's walk over its own blocks of 4 voxels (8, ... past 512^3), whose texels also say where their cell's
 // slot is, so one fetch per sample says both whether to jump and where to read (no leaf table, no
-// runs). r = the skip radius, or where the block may reach the level, minus its cell's level (0 at
-// level 0); gba = the normalised atlas coordinate t * dims0 / atlas_texels adds to read the block's
-// cell's slot (with PAGED_ISO_LEVELS, where some cell is coarser: t * its level's scale). A sample, iso's
+// runs). r = the skip radius (0: the block may reach the level), gba = the normalised atlas
+// coordinate t * dims0 / atlas_texels adds to read the block's cell's slot. A sample, iso's
 // sample before a hit and its refinement (within a step of the hit: up to 1.5 voxels at
 // sampling rates from 2/3) read the hit's cell's slot, whose apron of 2 voxels holds them; the
 // shaded gradient's reads go through paged_seat (its own cell).
 uniform sampler3D iso_grid;
 uniform vec3 iso_grid_scale;   // t -> block coordinates: dims0 / the block (4 voxels, 8, ... past 512^3)
 uniform ivec3 iso_grid_count;
-#ifdef PAGED_ISO_LEVELS
-uniform vec3 iso_read_scales[PAGE_LEVELS];  // per level: t -> normalised atlas coordinate, less the block's offset
-#else
-uniform vec3 iso_read_scale;   // every cell at level 0: dims0 / atlas_texels
-#endif
+uniform vec3 iso_read_scale;   // t -> normalised atlas coordinate, less the block's offset: dims0 / atlas_texels
 
 struct IsoWalk {
     vec3 start;           // block coordinates of sample 0
@@ -254,9 +249,7 @@ IsoWalk iso_walk(Ray ray) {
     walk.steps_per_unit = vec3(walk.step.x != 0.0 ? 1.0 / walk.step.x : 1e30,
                                walk.step.y != 0.0 ? 1.0 / walk.step.y : 1e30,
                                walk.step.z != 0.0 ? 1.0 / walk.step.z : 1e30);
-#ifndef PAGED_ISO_LEVELS
     run_scale = iso_read_scale;
-#endif
     return walk;
 }
 
@@ -275,9 +268,6 @@ bool iso_grid_skip(IsoWalk walk, inout int i, int samples) {
         i += 1 + int(clamp(min(min(ahead.x, ahead.y), ahead.z), 0.0, float(samples)));
     }
     run_offset = texel.gba;
-#ifdef PAGED_ISO_LEVELS
-    run_scale = iso_read_scales[int(0.5 - texel.r)];  // (r = minus the level of an occupied block's cell)
-#endif
     return i != before;
 }
 #endif

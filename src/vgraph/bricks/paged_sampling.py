@@ -282,10 +282,9 @@ class PagedSampling(Component):
     def iso_grid(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas,
                  missing) -> Binding | None:
         """iso's grid of blocks of 4 level-0 voxels (8, ... past 512^3) holding each block's skip
-        radius and its cell's slot (vgraph.bricks.walk_grids.iso_grid; define PAGED_ISO_GRID, and
-        PAGED_ISO_LEVELS where some brick is coarser): where the atlas holds every planned brick,
-        in a flat leaf table; None otherwise (the slots' distances). Kept while the plan's bricks,
-        the atlas's and the level are the same."""
+        radius and its cell's slot (vgraph.bricks.walk_grids.iso_grid; define PAGED_ISO_GRID): where the atlas holds every
+        planned brick, all of level 0, in a flat leaf table; None otherwise (the slots' distances).
+        Kept while the plan's bricks, the atlas's and the level are the same."""
         processor = self.processor
         if not processor.empty_space_skipping or len(missing) or self.resolved.level != 0:
             return None
@@ -298,12 +297,11 @@ class PagedSampling(Component):
                                           self.resolved.table, float(processor.iso_level), atlas.size)
         binding = None
         if grid is not None:
-            scales, levels = walk_grids.read_scales(source, geometry, atlas.size), any(key[0] for key in plan.keys())
-            binding = Binding({"PAGED_ISO_GRID": True, "PAGED_ISO_LEVELS": levels},
+            binding = Binding({"PAGED_ISO_GRID": True},
                               textures={"iso_grid": kept_texture(atlas.gl, "iso_grid", frame.ctx, grid)},
                               uniforms={"iso_grid_scale": tuple(float(n) / block for n in geometry.dims0),
                                         "iso_grid_count": tuple(int(n) for n in grid.shape[2::-1]),
-                                        **({"iso_read_scales": scales} if levels else {"iso_read_scale": tuple(scales[0])})})
+                                        "iso_read_scale": tuple(float(n) / float(m) for n, m in zip(geometry.dims0, atlas.size))})
         self.walk_kept = (key, binding)
         return binding
 

@@ -84,22 +84,19 @@ def skip_radii(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarra
     return radii_if_worthwhile(occupied_blocks), block
 
 
-def _reduced_grid(source, geometry: BrickGeometry, keys, slot_of, values: np.ndarray, reducer, fill: float,
-                  block: int | None = None, atlas_block: int = BLOCK) -> tuple[np.ndarray, int]:
+def _reduced_grid(source, geometry: BrickGeometry, keys, slot_of, values: np.ndarray, reducer, fill: float) -> tuple[np.ndarray, int]:
     """(float32 [z, y, x], block): ``reducer`` (np.maximum, np.minimum) over ``values`` [slot, bz, by,
     bx] of the atlas blocks overlapping each block of the grid, within the cell each brick ``keys``
     is drawn in; ``fill`` where none does. Whole levels at a time in numpy (the 4096 bricks of 32^3
-    of a 512^3 volume: a loop over the bricks took 0.3 s). ``block``: the grid's (walk_block's by
-    default); ``atlas_block``: the core voxels per block of ``values`` (the atlas's BLOCK, or FINE)."""
-    block = walk_block(geometry) if block is None else block
+    of a 512^3 volume: a loop over the bricks took 0.3 s)."""
+    block = walk_block(geometry)
     grid = np.full(_counts(geometry, block)[::-1], fill, dtype=np.float32)  # [z, y, x]
     keys = np.asarray(keys, dtype=np.int64).reshape(-1, 4)
     slots = np.fromiter((slot_of(tuple(int(v) for v in key)) for key in keys), dtype=np.int64, count=len(keys))
     for level in np.unique(keys[:, 0]):
         mine = keys[:, 0] == level
         brick_values = values[slots[mine]]  # [brick, bz, by, bx]
-        (gz, vz), (gy, vy), (gx, vx) = [_overlaps(geometry, source, int(level), axis, keys[mine], block, brick_values.shape[1 + axis],
-                                                  atlas_block)
+        (gz, vz), (gy, vy), (gx, vx) = [_overlaps(geometry, source, int(level), axis, keys[mine], block, brick_values.shape[1 + axis])
                                         for axis in range(3)]  # [brick, k, c]: the grid's blocks block k overlaps
         shape = (len(brick_values), gz.shape[1], gz.shape[2], gy.shape[1], gy.shape[2], gx.shape[1], gx.shape[2])
         z, y, x = gz[:, :, :, None, None, None, None], gy[:, None, None, :, :, None, None], gx[:, None, None, None, None, :, :]
@@ -110,8 +107,7 @@ def _reduced_grid(source, geometry: BrickGeometry, keys, slot_of, values: np.nda
     return grid, block
 
 
-def _overlaps(geometry: BrickGeometry, source, level: int, axis: int, keys: np.ndarray, block: int, n: int,
-              atlas_block: int = BLOCK):
+def _overlaps(geometry: BrickGeometry, source, level: int, axis: int, keys: np.ndarray, block: int, n: int):
     """Along ``axis`` ([z, y, x] numbering) of the bricks ``keys`` of ``level``: (g, valid), int and
     bool [brick, k, c], the grid's blocks whose samples those of each brick's block k overlap within
     the brick's cell, c of them at most (valid: one of them)."""
@@ -124,8 +120,8 @@ def _overlaps(geometry: BrickGeometry, source, level: int, axis: int, keys: np.n
     start = np.asarray(table_of(source).spans[level][axis][0], dtype=np.float64)[index]  # the cores' first voxels
     span = float(geometry.spans[level][xyz])
     lo, hi = index * span, np.minimum((index + 1) * span, float(geometry.dims0[xyz]))  # the cells, level-0 voxels
-    a = (start[:, None] + atlas_block * np.arange(n) - 0.5) * ratio + shift  # the samples of block k: [a, b)
-    b = a + atlas_block * ratio
+    a = (start[:, None] + BLOCK * np.arange(n) - 0.5) * ratio + shift  # the samples of block k: [a, b)
+    b = a + BLOCK * ratio
     edge = EDGE if level > 0 else 0.0
     a, b = np.maximum(a, lo[:, None]) - edge, np.minimum(b, hi[:, None]) + edge
     first = np.maximum(np.floor(a / block).astype(np.int64), 0)
@@ -153,23 +149,22 @@ def iso_block(geometry: BrickGeometry) -> int:
 
 def iso_grid(source, geometry: BrickGeometry, keys, slot_of, blocks, table: np.ndarray, level: float,
              atlas_size) -> tuple[np.ndarray | None, int]:
-    """iso's grid of a complete frame (PAGED_ISO_GRID, compositing_iso.glsl): (float32 [z, y, x, 4]
-    or None, block) per block of ``block`` level-0 voxels (iso_block: FINE = 4, the RayCaster's own
-    blocks, up to 512^3 voxels): r = the RayCaster's skip radius where no sample in the block may
-    reach ``level`` (the largest value of the blocks of 4 voxels of its brick's level that its
-    samples overlap, from AtlasBlocks.fine_maxima, is below it; blocks of cells not drawn are
-    empty), else minus the level its cell is drawn at (0 at level 0); gba = where the block's cell
-    is drawn, the normalised atlas coordinate that t * read_scales[level] adds to read its slot
-    (its leaf entry's texel offset plus its level's voxel offset, over the atlas's size), else
-    NOT_DRAWN: a sample's one fetch of the grid gives both whether to jump and where to read.
+    """iso's grid of a complete frame whose bricks are all of level 0 (PAGED_ISO_GRID,
+    compositing_iso.glsl): (float32 [z, y, x, 4] or None, block) per block of ``block`` level-0
+    voxels (iso_block: FINE = 4, the RayCaster's own blocks, up to 512^3 voxels): r = the
+    RayCaster's skip radius (0 where the block may reach ``level``: its largest value, from
+    AtlasBlocks.fine_maxima, is not below it; blocks of cells not drawn are empty), gba = where the
+    block's cell is drawn, the normalised atlas coordinate that t * dims0 / atlas_size adds to read
+    its slot (its leaf entry's texel offset, level 0's half-voxel shift, over the atlas's size),
+    else NOT_DRAWN: a sample's one fetch of the grid gives both whether to jump and where to read.
     ``table``: the flat leaf table [cz, cy, cx, 4] (leaf_pages, directory level 0). None where it
-    does not apply: level-0 cells that are no whole number of blocks (the block's cell must be
-    one), or under empty_space.MIN_EMPTY_FRACTION of the blocks empty."""
+    does not apply: a brick of another level, cells that are no whole number of blocks (the
+    block's cell must be one), or under empty_space.MIN_EMPTY_FRACTION of the blocks empty."""
     keys = np.asarray(keys, dtype=np.int64).reshape(-1, 4)
     span = geometry.spans[0].astype(np.int64)  # (x, y, z)
     block = iso_block(geometry)
     counts = _counts(geometry, block)  # (x, y, z)
-    if len(keys) == 0 or (span % block).any():
+    if len(keys) == 0 or keys[:, 0].any() or (span % block).any():
         return None, block
     spans = table_of(source).spans[0]
     per = (span // block)[::-1]  # blocks per cell, [z, y, x]
@@ -178,12 +173,7 @@ def iso_grid(source, geometry: BrickGeometry, keys, slot_of, blocks, table: np.n
         if (starts != np.arange(len(starts)) * int(span[2 - axis])).any():
             return None, block
     shape = tuple(counts[::-1])
-    coarse, keys = keys[keys[:, 0] > 0], keys[keys[:, 0] == 0]
     occupied = np.zeros(shape, dtype=bool)  # blocks of cells not drawn: empty
-    if len(coarse):  # the blocks of 4 of the level's voxels that each block's samples overlap (walk_grid's way)
-        maxima, _ = _reduced_grid(source, geometry, coarse, slot_of, blocks.normalised(blocks.fine_maxima),
-                                  np.maximum, -np.inf, block, FINE)
-        occupied = ~(maxima < level)
     slots = [slot_of(tuple(int(v) for v in key)) for key in keys]
     # (the single pass's rule: a block below the level adds nothing; unknown blocks' maxima are the dtype's largest)
     maxima = blocks.fine_maxima[slots]
@@ -199,33 +189,12 @@ def iso_grid(source, geometry: BrickGeometry, keys, slot_of, blocks, table: np.n
     radii = radii_if_worthwhile(occupied)
     if radii is None:
         return None, block
-    # each cell's offset (its level's voxel coordinate's offset, leaf_pages' rgb, over the atlas) and
-    # level, then the cells' blocks by broadcasting (a repeat of the blocks' array took 60 ms at 128^3)
-    drawn = table[..., 3] > 0.0
-    cell_level = np.where(drawn, np.rint(table[..., 3]) - 1, 0).astype(np.int64)
-    offset = (level_offsets(source)[cell_level] + table[..., :3]) / np.asarray(atlas_size, dtype=np.float64)
-    cells = np.concatenate([-cell_level[..., None], np.where(drawn[..., None], offset, NOT_DRAWN)], axis=-1)
+    # each cell's offset, then the cells' blocks by broadcasting (a repeat of the blocks' array took 60 ms at 128^3)
+    offset = (table[..., :3].astype(np.float64) - 0.5) / np.asarray(atlas_size, dtype=np.float64)
+    offset = np.where(table[..., 3:4] > 0.0, offset, NOT_DRAWN).astype(np.float32)  # [cz, cy, cx, 3]
     (cz, cy, cx), (pz, py, px) = table.shape[:3], (int(n) for n in per)
     blocks_of_cells = np.empty((cz, pz, cy, py, cx, px, 4), dtype=np.float32)
-    blocks_of_cells[...] = cells[:, None, :, None, :, None, :]
+    blocks_of_cells[..., 1:] = offset[:, None, :, None, :, None, :]
     grid = blocks_of_cells.reshape(cz * pz, cy * py, cx * px, 4)[:shape[0], :shape[1], :shape[2]]
-    # r: the radius, or where the block may reach the level, minus its cell's level (0 at level 0)
-    grid[..., 0] = np.where(occupied, grid[..., 0], radii)
+    grid[..., 0] = radii
     return grid, block
-
-
-def level_offsets(source) -> np.ndarray:
-    """float64 [level, (x, y, z)]: level_offset of page_table.pyramid_uniforms, the offset of each
-    level's voxel coordinate u = t * level_scale + offset (t * dims0 - 1/2 at level 0)."""
-    base = source.levels[0]
-    spacing0, origin0 = np.asarray(base.spacing, dtype=np.float64), np.asarray(base.origin, dtype=np.float64)
-    return np.stack([(origin0 - 0.5 * spacing0 - np.asarray(level.origin, dtype=np.float64))
-                     / np.asarray(level.spacing, dtype=np.float64) for level in source.levels])
-
-
-def read_scales(source, geometry: BrickGeometry, atlas_size) -> np.ndarray:
-    """float32 [level, (x, y, z)]: level_scale of page_table.pyramid_uniforms over the atlas's size,
-    t -> normalised atlas coordinate less a block's offset (iso_grid)."""
-    spacing0 = np.asarray(source.levels[0].spacing, dtype=np.float64)
-    return np.stack([geometry.dims0 * spacing0 / np.asarray(level.spacing, dtype=np.float64)
-                     / np.asarray(atlas_size, dtype=np.float64) for level in source.levels]).astype(np.float32)
