@@ -3,7 +3,12 @@ mip, a grid of block maxima over the frame's bricks, which rays walk as the RayC
 (shaders/raycasting/compositing_mip.glsl: the stretch with the largest maximum first, then only
 the stretches that can still change the result), looking the page table up only where they sample.
 The same grid, of skip radii (``skip_radii``: the RayCaster's empty_space.skip_radii of the blocks
-occupied under its rule), serves unshaded dvr (PAGED_WALK, shaders/raycasting/march.glsl).
+occupied under its rule), serves unshaded dvr (PAGED_WALK, shaders/raycasting/march.glsl). iso's
+grid (``iso_grid``, PAGED_ISO_GRID, compositing_iso.glsl) is the RayCaster's own: blocks of 4
+level-0 voxels from the slots' maxima per block of 4 (AtlasBlocks.fine_maxima), each texel also
+holding where its cell's slot is, so that a sample's one fetch says whether to jump and where to
+read (frames whose bricks are all of level 0; coarser bricks keep the slots' distances: at their
+39-59 samples a pixel on the bonsai the runs, which read no grid per sample, were faster).
 
 Conventions:
 - The grid covers level 0's voxels in blocks of ``block`` level-0 voxels per axis (WALK_BLOCK, as
