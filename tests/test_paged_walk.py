@@ -2,7 +2,7 @@
 (PAGED_WALK: vgraph.bricks.walk_grids.skip_radii, walked by the RayCaster's own empty_space.glsl code
 in march.glsl): where the atlas holds every planned brick, image and depth sample as the plain
 march (no skipping), fewer samples, and the image within an 8-bit step of the in-core RayCaster's;
-iso, which keeps the slots' block distances, the same checks; bricks of 16 (two of
+iso, which walks a grid of its own (test_paged_iso_grid), the same checks; bricks of 16 (two of
 the grid's blocks of 8 voxels) and 8 on a volume of 45^3 (its last cores smaller than a block)."""
 
 import numpy as np
@@ -20,7 +20,7 @@ WINDOW = TransferFunction(points=[(0.0, 0.0, 0.0, 0.0, 0.0), (0.4, 0.2, 0.5, 0.9
                                   (0.5, 0.9, 0.6, 0.3, 0.6), (1.0, 1.0, 0.9, 0.6, 1.0)])
 
 CASES = {"dvr": {"compositing": "dvr", "early_termination": 1.0, "shading": "none"},
-         # iso keeps the slots' distances (the walk paid nothing more there): no walk
+         # iso walks a grid of its own (PAGED_ISO_GRID, test_paged_iso_grid), not this one
          "shaded": {"compositing": "dvr", "shading": "blinn_phong", "early_termination": 0.99},
          "iso": {"compositing": "iso", "iso_level": 0.5, "shading": "none"}}
 
