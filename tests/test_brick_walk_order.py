@@ -126,8 +126,8 @@ def test_the_kept_geometry_is_one_per_source_and_does_not_keep_it_alive():
 
 @pytest.mark.parametrize("shading, compositing", [("none", "dvr"), ("blinn_phong", "dvr"), ("none", "iso")])
 def test_a_still_frame_makes_no_new_block_flags_or_leaf_table(shading, compositing):
-    """dvr, shaded or not, walks the frame's grid of skip radii (walk_grids), iso jumps by the
-    slots' block distances (block flags): either is made once while the plan stays."""
+    """dvr, shaded or not, walks the frame's grid of skip radii (walk_grids), iso its grid of
+    blocks of 4 with their slots (walk_grids.iso_grid): either is made once while the plan stays."""
     volume = Volume(field((40, 36, 44)))
     camera = Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
     network = ray_caster_network(volume, camera, "BrickedRayCaster", brick_size=16, lod_bias=-16.0,
@@ -139,8 +139,6 @@ def test_a_still_frame_makes_no_new_block_flags_or_leaf_table(shading, compositi
     network.set("rc.sampling_rate", 1.0 + 1e-6)  # evaluates again, the plan unchanged
     second = np.asarray(network.evaluate("rc.image", size=(48, 40)))
     assert paged.flags_kept is flags and paged.walk_kept is walk and paged.resolved is table
-    if compositing == "dvr":
-        assert walk is not None and walk[1] is not None  # the frame walks a grid made once
-    else:
-        assert flags[2] is not None  # the frame skips blocks: a flag texture was made once
+    assert walk is not None and walk[1] is not None  # the frame walks a grid made once
+    assert network["rc"].passes[-1].defines.get("PAGED_ISO_GRID" if compositing == "iso" else "PAGED_WALK")
     np.testing.assert_allclose(second, first, atol=1e-5)
