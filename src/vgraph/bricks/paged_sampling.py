@@ -409,11 +409,13 @@ class PagedSampling(Component):
 
     def draw(self, frame: Frame, target, own: Binding) -> None:
         """The one pass: the RayCaster's shader with the parts of PAGED_PARTS; the processor's
-        ``own`` binding last (its compositing define)."""
+        ``own`` binding last (its compositing define); the depth output where ``target`` has its
+        image (the processor's depth is read)."""
         processor = self.processor
+        with_depth = target.count > 1
         processor.draw(frame, SHADER, target, parts=PAGED_PARTS,
-                       own=own.merge(Binding(defines={"DEPTH_OUTPUT": True})),
-                       missed=ray_main_missed(processor.background, True))
+                       own=own.merge(Binding(defines={"DEPTH_OUTPUT": with_depth})),
+                       missed=ray_main_missed(processor.background, with_depth))
 
 
 # The one pass: the GLSL and bindings of these parts, in this order, ahead of the RayCaster's shader
