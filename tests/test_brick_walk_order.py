@@ -73,7 +73,10 @@ def cameras(source):
 
 
 @pytest.mark.parametrize("spacing", [(1.0, 1.0, 1.0), (0.7, 1.0, 2.1)])
-def test_the_array_walk_draws_the_recursive_walks_bricks_in_its_order(spacing):
+@pytest.mark.parametrize("kept_cells", [1 << 15, 20, 0])  # every level joined, the top two, none
+def test_the_array_walk_draws_the_recursive_walks_bricks_in_its_order(monkeypatch, spacing, kept_cells):
+    """The small levels at the top walked whole (walk_order.JoinedCells), the rest level by level."""
+    monkeypatch.setattr(level_tables, "KEPT_CELLS", kept_cells)
     source = ArrayPyramid(field((37, 50, 61)), spacing=spacing, origin=(3.0, -2.0, 1.0), brick=(8, 8, 8))
     rng = np.random.default_rng(3)
     empty = {level: rng.random(brick_grid(source.levels[level].shape, source.brick)) < 0.2

@@ -178,9 +178,11 @@ class LevelTables:
             table = self.visible(level)
             if not geometry.cells_are_bricks[level]:
                 table = cells_of_bricks(geometry.source, level, table)
-        elif level >= joined_levels(geometry):
-            self._join(what)
-            return self._tables[level, what]
+        elif level >= joined_levels(geometry):  # a view of the joined table
+            joined = self.joined(what)
+            grid = tuple(int(n) for n in geometry.grids[level][::-1])
+            start = int(sum(math.prod(int(n) for n in geometry.grids[k]) for k in range(joined_levels(geometry), level)))
+            table = joined[start:start + math.prod(grid)].reshape(grid + joined.shape[1:])
         elif what == "rects":
             table = screen_rects(geometry, self.view_projection, self.size, level)
         else:
@@ -188,17 +190,16 @@ class LevelTables:
         self._tables[level, what] = table
         return table
 
-    def _join(self, what: str) -> None:
-        """``what`` ("rects" or "wants") of every level from joined_levels up, made in one go."""
-        geometry = self.geometry
-        lo, hi, corners = joined_boxes(geometry)
-        if what == "rects":
-            joined = _screen_rects(corners, self.view_projection, self.size)
-        else:
-            joined = _desired_levels(geometry, self.camera, self.size, lo, hi, self.lod_bias)
-        start = 0
-        for level in range(joined_levels(geometry), len(geometry.grids)):
-            grid = tuple(int(n) for n in geometry.grids[level][::-1])
-            stop = start + math.prod(grid)
-            self._tables[level, what] = joined[start:stop].reshape(grid + joined.shape[1:])
-            start = stop
+    def joined(self, what: str) -> np.ndarray:
+        """``what`` ("rects" or "wants") of every cell of the levels from joined_levels up, flat in
+        joined_boxes' order, made in one go."""
+        table = self._tables.get(("joined", what))
+        if table is None:
+            geometry = self.geometry
+            lo, hi, corners = joined_boxes(geometry)
+            if what == "rects":
+                table = _screen_rects(corners, self.view_projection, self.size)
+            else:
+                table = _desired_levels(geometry, self.camera, self.size, lo, hi, self.lod_bias)
+            self._tables["joined", what] = table
+        return table
