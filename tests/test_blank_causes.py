@@ -18,7 +18,7 @@ from vgraph.cli import main
 from vgraph.clipping import ClipPlane
 from vgraph.network import Network
 from vgraph.registry import registry
-from vgraph.scheduler import BlankImageWarning
+from vgraph.scheduler import BlankImageWarning, blank_image_warning
 from vgraph.shown_content import voxels_under
 from vgraph.testing import GivenVolume, ray_caster_network
 from vgraph.time_series import TimeSeriesWarning
@@ -85,6 +85,20 @@ def test_a_transparent_transfer_function_is_named_and_not_the_camera_that_looks_
     message = blank_warning(ray_caster_network(Volume(ball()), AWAY, transfer_function=TRANSPARENT))
     assert "rc.transfer_function is transparent at every intensity" in message
     blames_only(message, "rc.transfer_function")
+
+
+def test_an_image_with_one_pixel_of_another_colour_is_not_blank_wherever_it_lies():
+    """The check looks at every 7th pixel of every 7th row first, then at every pixel: a pixel off
+    that grid that differs still makes the image not blank."""
+    network = ray_caster_network(Volume(ball()), CAMERA, transfer_function=TRANSPARENT)
+    with pytest.warns(BlankImageWarning):
+        pixels = np.asarray(network.evaluate("rc.image", size=SIZE)).copy()
+    assert "rc.transfer_function is transparent" in blank_image_warning(network, "rc.image", pixels)
+    pixels[10, 19, 2] += 0.5  # row 10 and column 19: neither on the grid of every 7th
+    assert blank_image_warning(network, "rc.image", pixels) is None
+    pixels[10, 19, 2] -= 0.5
+    pixels[14, 21, 0] += 0.5  # on it
+    assert blank_image_warning(network, "rc.image", pixels) is None
 
 
 def test_values_beyond_the_value_range_name_the_value_range():

@@ -16,7 +16,9 @@ from vgraph.bricks.cells import cell_grid
 from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.pyramid import ArrayPyramid, brick_grid
 from vgraph.bricks.brick_geometry import BrickGeometry
-from vgraph.bricks.level_tables import LevelTables
+from vgraph.bricks import level_tables
+from vgraph.bricks.cells import cells_are_bricks, cells_of_bricks
+from vgraph.bricks.level_tables import LevelTables, desired_levels, joined_levels, screen_rects
 from vgraph.bricks.selection import select_bricks
 from vgraph.bricks.walk_order import axis_ranks, front_to_back
 from vgraph.camera import Camera
@@ -71,7 +73,10 @@ def cameras(source):
 
 
 @pytest.mark.parametrize("spacing", [(1.0, 1.0, 1.0), (0.7, 1.0, 2.1)])
-def test_the_array_walk_draws_the_recursive_walks_bricks_in_its_order(spacing):
+@pytest.mark.parametrize("kept_cells", [1 << 15, 20, 0])  # every level joined, the top two, none
+def test_the_array_walk_draws_the_recursive_walks_bricks_in_its_order(monkeypatch, spacing, kept_cells):
+    """The small levels at the top walked whole (walk_order.JoinedCells), the rest level by level."""
+    monkeypatch.setattr(level_tables, "KEPT_CELLS", kept_cells)
     source = ArrayPyramid(field((37, 50, 61)), spacing=spacing, origin=(3.0, -2.0, 1.0), brick=(8, 8, 8))
     rng = np.random.default_rng(3)
     empty = {level: rng.random(brick_grid(source.levels[level].shape, source.brick)) < 0.2
@@ -90,6 +95,41 @@ def test_the_array_walk_draws_the_recursive_walks_bricks_in_its_order(spacing):
                                      floor_level) == expected
                 compared += len({key[0] for key, _ in expected}) > 1  # frames of several levels
     assert compared >= 5  # the walk was checked where it goes down to several levels
+
+
+@pytest.mark.parametrize("kept_cells", [1 << 15, 20, 0])
+def test_the_levels_tables_made_in_one_go_are_each_levels_own(monkeypatch, kept_cells):
+    """LevelTables makes the rectangles and wanted levels of the small levels together (joined_levels):
+    each level's equal screen_rects' and desired_levels' of that level alone, whether all levels,
+    the coarser ones or none are joined."""
+    monkeypatch.setattr(level_tables, "KEPT_CELLS", kept_cells)
+    source = ArrayPyramid(field((37, 50, 61)), spacing=(0.7, 1.0, 2.1), brick=(8, 8, 8))
+    geometry = BrickGeometry(source)
+    assert joined_levels(geometry) == {1 << 15: 0, 20: 2, 0: len(source.levels)}[kept_cells]
+    for camera in cameras(source):
+        size = (200, 120)
+        view_projection = camera.view_projection(size[0] / size[1])
+        tables = LevelTables(geometry, camera, size, view_projection, None, -1.0)
+        for level in range(len(source.levels)):
+            np.testing.assert_array_equal(tables(level, "rects"), screen_rects(geometry, view_projection, size, level))
+            np.testing.assert_array_equal(tables(level, "wants"), desired_levels(geometry, camera, size, level, -1.0))
+
+
+def test_cells_are_bricks_where_cells_of_bricks_changes_nothing(tmp_path):
+    from test_foreign_ome_zarr import ome_zarr_py_image, opened
+    data = (field((24, 60, 50)) * 60000).astype(np.uint16)
+    path = ome_zarr_py_image(tmp_path / "image.zarr", data, scale_factors=[2, 4, 8, 16],  # y and x floored
+                             storage_options={"chunks": (8, 8, 8)})
+    store = opened(path)
+    rng = np.random.default_rng(5)
+    found = set()
+    for level in range(len(store.levels)):
+        per_brick = rng.random(brick_grid(store.levels[level].shape, store.brick)) < 0.5
+        cells = cells_of_bricks(store, level, per_brick)
+        same = cells.shape == per_brick.shape and np.array_equal(cells, per_brick)
+        assert cells_are_bricks(store, level) == same
+        found.add(cells_are_bricks(store, level))
+    assert found == {True, False}  # both kinds of level were checked
 
 
 @pytest.mark.parametrize("count", [1, 2, 5])
@@ -135,10 +175,10 @@ def test_a_still_frame_makes_no_new_block_flags_or_leaf_table(shading, compositi
                                  compositing=compositing, iso_level=0.5)
     first = np.asarray(network.evaluate("rc.image", size=(48, 40)))
     paged = network["rc"].parts[PagedSampling]
-    flags, walk, table = paged.flags_kept, paged.walk_kept, paged.resolved
+    flags, walk, table = paged.kept.flags.value, paged.kept.walk.value, paged.resolved
     network.set("rc.sampling_rate", 1.0 + 1e-6)  # evaluates again, the plan unchanged
     second = np.asarray(network.evaluate("rc.image", size=(48, 40)))
-    assert paged.flags_kept is flags and paged.walk_kept is walk and paged.resolved is table
-    assert walk is not None and walk[1] is not None  # the frame walks a grid made once
+    assert paged.kept.flags.value is flags and paged.kept.walk.value is walk and paged.resolved is table
+    assert walk is not None  # the frame walks a grid made once
     assert network["rc"].passes[-1].defines.get("PAGED_ISO_GRID" if compositing == "iso" else "PAGED_WALK")
     np.testing.assert_allclose(second, first, atol=1e-5)

@@ -304,7 +304,11 @@ def blank_image_warning(network: Network, target: str, pixels: np.ndarray) -> st
     (vgraph.blank_causes: the value range, the transfer function, clip planes or crop box, a slice
     off the volume, the camera); None otherwise. Of several renderers upstream, the nearest whose
     inputs show something is diagnosed, else the nearest that shows nothing."""
-    if pixels.ndim != 3 or pixels.size == 0 or not np.all(pixels == pixels[:1, :1]):
+    if pixels.ndim != 3 or pixels.size == 0:
+        return None
+    # every 7th pixel of every 7th row first: an image with something in it (nearly every frame)
+    # differs there already, at a 49th of the whole comparison's cost (0.5 ms a 256^2 frame)
+    if not np.all(pixels[::7, ::7] == pixels[:1, :1]) or not np.all(pixels == pixels[:1, :1]):
         return None
     if "." in target and split_address(target)[1] != "image":
         return None  # depth, positions, curvature values: flat is no sign of a wrong view

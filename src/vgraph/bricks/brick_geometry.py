@@ -22,7 +22,7 @@ import weakref
 import numpy as np
 
 from vgraph import derived
-from vgraph.bricks.cells import cell_factors, cell_grid, coarseness
+from vgraph.bricks.cells import cell_factors, cell_grid, cells_are_bricks, coarseness
 from vgraph.bricks.pyramid import BrickSource
 
 OUTSIDE = 1e6  # texture coordinate of the volume's outer faces in the ownership test
@@ -49,6 +49,9 @@ class BrickGeometry:
         # edge over level 0's smallest voxel edge, whole (2^L where every axis halves).
         finest = float(self.spacing0.min())
         self.strides = [max(1, int(math.floor(float((f * self.spacing0).min()) / finest + 1e-9))) for f in factors]
+        # per level: whether its cells are its bricks (cells_of_bricks changes nothing there), not asked
+        # per frame
+        self.cells_are_bricks = [cells_are_bricks(source, k) for k in range(len(source.levels))]
         self.per_brick: dict = {}  # key -> the brick's uniforms (targets.brick_uniforms), made once
         self.per_level: dict = {}  # (what, level) -> a level's boxes and corners (kept_per_level)
 

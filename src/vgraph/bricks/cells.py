@@ -119,17 +119,30 @@ def cell_extent(source, key) -> tuple[np.ndarray, np.ndarray]:
 def cells_of_bricks(source, level: int, per_brick: np.ndarray) -> np.ndarray:
     """A bool per brick of the level's own grid ([z, y, x], brick_grid) -> a bool per cell: true
     where any brick the cell's core touches is (the same array where cells are the bricks)."""
-    spans = table_of(source).spans[level]
-    brick = tuple(int(b) for b in source.brick)[::-1]  # [z, y, x]
     out = np.asarray(per_brick, dtype=bool)
-    for axis, (starts, stops) in enumerate(spans):
-        first, last = starts // brick[axis], (stops - 1) // brick[axis] + 1
-        if len(first) == out.shape[axis] and np.array_equal(first, np.arange(len(first))) \
-                and np.array_equal(last, first + 1):
-            continue
-        out = np.stack([np.take(out, range(a, b), axis=axis).any(axis=axis)
-                        for a, b in zip(first, last)], axis=axis)
+    for axis, (first, last) in enumerate(_bricks_of_cells(source, level)):
+        if not _one_to_one(first, last, out.shape[axis]):
+            out = np.stack([np.take(out, range(a, b), axis=axis).any(axis=axis)
+                            for a, b in zip(first, last)], axis=axis)
     return out
+
+
+def cells_are_bricks(source, level: int) -> bool:
+    """Whether each cell of ``level`` is one brick of it, cell i brick i (cells_of_bricks is the
+    identity there)."""
+    grid = [-(-int(n) // int(b)) for n, b in zip(source.levels[level].shape, tuple(source.brick)[::-1])]  # [z, y, x]
+    return all(_one_to_one(first, last, n) for (first, last), n in zip(_bricks_of_cells(source, level), grid))
+
+
+def _bricks_of_cells(source, level: int):
+    """Per axis [z, y, x]: the first and past-the-last brick of the level each cell's core touches."""
+    brick = tuple(int(b) for b in source.brick)[::-1]  # [z, y, x]
+    return [(starts // brick[axis], (stops - 1) // brick[axis] + 1)
+            for axis, (starts, stops) in enumerate(table_of(source).spans[level])]
+
+
+def _one_to_one(first, last, bricks: int) -> bool:
+    return len(first) == bricks and np.array_equal(first, np.arange(len(first))) and np.array_equal(last, first + 1)
 
 
 def coarseness(source) -> np.ndarray:

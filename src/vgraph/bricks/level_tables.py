@@ -37,6 +37,15 @@ def kept_per_level(geometry: BrickGeometry, what: str, level: int, make):
     return kept
 
 
+def kept_whole(geometry: BrickGeometry, what: str, make):
+    """``make()``, kept in the geometry (what joins levels of KEPT_CELLS at most together)."""
+    key = (what, None)
+    kept = geometry.per_level.get(key)
+    if kept is None:
+        kept = geometry.per_level[key] = make()
+    return kept
+
+
 def level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.ndarray]:
     """World boxes of the owned regions (inside the box of the voxel centres) of every brick of
     ``level``: arrays [bz, by, bx, 3] (x, y, z), read-only."""
@@ -85,7 +94,11 @@ def pixels_per_world(camera, size, distance):
 
 def desired_levels(geometry: BrickGeometry, camera, size, level: int, lod_bias: float) -> np.ndarray:
     """The level each brick of ``level`` asks for (module docstring), int [bz, by, bx]."""
-    lo, hi = level_boxes(geometry, level)
+    return _desired_levels(geometry, camera, size, *level_boxes(geometry, level), lod_bias)
+
+
+def _desired_levels(geometry: BrickGeometry, camera, size, lo, hi, lod_bias: float) -> np.ndarray:
+    """desired_levels of the boxes ``lo``, ``hi`` ([..., 3]) of any levels' cells."""
     eye = np.asarray(camera.position, dtype=np.float64)
     distance = np.linalg.norm(np.maximum(np.maximum(lo - eye, eye - hi), 0.0), axis=-1)
     # The longest voxel edge: an anisotropic voxel is refined until its longest side is about a pixel.
@@ -97,9 +110,14 @@ def desired_levels(geometry: BrickGeometry, camera, size, level: int, lod_bias: 
 def screen_rects(geometry: BrickGeometry, view_projection, size, level: int) -> np.ndarray:
     """Pixel rectangles (x, y, w, h) covering each brick of ``level`` with one pixel of margin, int
     [bz, by, bx, 4]; w = 0 off screen; the whole viewport where a corner lies behind the eye."""
+    return _screen_rects(box_corners(geometry, level), view_projection, size)
+
+
+def _screen_rects(corners: np.ndarray, view_projection, size) -> np.ndarray:
+    """screen_rects of the boxes whose corners (box_corners' columns) are ``corners`` [..., 4, 8]."""
     # corners last ([..., 4, 8]): the min and max over the 8 run along contiguous memory, and
     # x and y go together (a level's arrays are small: numpy's calls are the cost there)
-    clip = np.asarray(view_projection, dtype=np.float64) @ box_corners(geometry, level)
+    clip = np.asarray(view_projection, dtype=np.float64) @ corners
     w = clip[..., 3, :]
     behind = (w <= 1e-9).any(axis=-1)
     w = np.where(w > 1e-9, w, 1.0)
@@ -114,8 +132,37 @@ def screen_rects(geometry: BrickGeometry, view_projection, size, level: int) -> 
     return rects.astype(np.int64)
 
 
+def joined_levels(geometry: BrickGeometry) -> int:
+    """The finest level from which up to the top the levels' cells are KEPT_CELLS at most together:
+    a frame makes their rectangles and wanted levels in one go, as one level's (numpy's calls, not
+    the cells, are the cost of such small levels)."""
+    def make() -> int:
+        total, first = 0, len(geometry.grids)
+        for level in range(len(geometry.grids) - 1, -1, -1):
+            total += math.prod(int(n) for n in geometry.grids[level])
+            if total > KEPT_CELLS:
+                break
+            first = level
+        return first
+    return kept_whole(geometry, "joined from", make)
+
+
+def joined_boxes(geometry: BrickGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The boxes (lo, hi [n, 3]) and corner columns ([n, 4, 8]) of the cells of the levels from
+    joined_levels up, the finest level's first, each level's in its [z, y, x] order, read-only."""
+    def make():
+        levels = range(joined_levels(geometry), len(geometry.grids))
+        lo, hi = (np.concatenate([level_boxes(geometry, level)[i].reshape(-1, 3) for level in levels]) for i in (0, 1))
+        corners = np.concatenate([box_corners(geometry, level).reshape(-1, 4, 8) for level in levels])
+        for array in (lo, hi, corners):
+            array.setflags(write=False)
+        return lo, hi, corners
+    return kept_whole(geometry, "joined boxes", make)
+
+
 class LevelTables:
-    """Per-level rectangles, wanted levels and visibility of one frame, computed on first use."""
+    """Per-level rectangles, wanted levels and visibility of one frame, computed on first use (the
+    rectangles and wanted levels of the levels from joined_levels up in one go)."""
 
     def __init__(self, geometry: BrickGeometry, camera, size, view_projection, visible, lod_bias: float):
         self.geometry, self.camera, self.size = geometry, camera, size
@@ -123,10 +170,36 @@ class LevelTables:
         self._tables: dict = {}
 
     def __call__(self, level: int, what: str) -> np.ndarray:
-        if (level, what) not in self._tables:
-            self._tables[level, what] = {
-                "rects": lambda: screen_rects(self.geometry, self.view_projection, self.size, level),
-                "wants": lambda: desired_levels(self.geometry, self.camera, self.size, level, self.lod_bias),
-                "visible": lambda: cells_of_bricks(self.geometry.source, level, self.visible(level)),
-            }[what]()
-        return self._tables[level, what]
+        table = self._tables.get((level, what))
+        if table is not None:
+            return table
+        geometry = self.geometry
+        if what == "visible":
+            table = self.visible(level)
+            if not geometry.cells_are_bricks[level]:
+                table = cells_of_bricks(geometry.source, level, table)
+        elif level >= joined_levels(geometry):  # a view of the joined table
+            joined = self.joined(what)
+            grid = tuple(int(n) for n in geometry.grids[level][::-1])
+            start = int(sum(math.prod(int(n) for n in geometry.grids[k]) for k in range(joined_levels(geometry), level)))
+            table = joined[start:start + math.prod(grid)].reshape(grid + joined.shape[1:])
+        elif what == "rects":
+            table = screen_rects(geometry, self.view_projection, self.size, level)
+        else:
+            table = desired_levels(geometry, self.camera, self.size, level, self.lod_bias)
+        self._tables[level, what] = table
+        return table
+
+    def joined(self, what: str) -> np.ndarray:
+        """``what`` ("rects" or "wants") of every cell of the levels from joined_levels up, flat in
+        joined_boxes' order, made in one go."""
+        table = self._tables.get(("joined", what))
+        if table is None:
+            geometry = self.geometry
+            lo, hi, corners = joined_boxes(geometry)
+            if what == "rects":
+                table = _screen_rects(corners, self.view_projection, self.size)
+            else:
+                table = _desired_levels(geometry, self.camera, self.size, lo, hi, self.lod_bias)
+            self._tables["joined", what] = table
+        return table

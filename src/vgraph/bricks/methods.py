@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 
+from vgraph import derived
 from vgraph.bricks.atlas import brick_count, slot_shape_of
 from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.cache import HALO, MB, texture_format
@@ -66,9 +67,12 @@ def whole_volume_level(source, budget_bytes: float) -> int:
 def leaf_table_need(source, gl_budget_mb: float) -> tuple[int, int]:
     """(texels, bytes) of the single pass's leaf table for ``source`` (a BrickSource) at most, with
     the atlas's slots of ``gl_budget_mb`` (as many as one byte a voxel gives: the most)."""
-    slots = min(int(gl_budget_mb * MB) // math.prod(slot_shape_of(source)), brick_count(source))
-    texels = table_bound(BrickGeometry.of(source), max(slots, 1))
-    return texels, texels * TEXEL_BYTES * LEAF_TABLE_COPIES
+    def need() -> tuple[int, int]:
+        slots = min(int(gl_budget_mb * MB) // math.prod(slot_shape_of(source)), brick_count(source))
+        texels = table_bound(BrickGeometry.of(source), max(slots, 1))
+        return texels, texels * TEXEL_BYTES * LEAF_TABLE_COPIES
+    # asked every frame (chosen_method): made once per source and budget (vgraph.derived)
+    return derived.value(source, "leaf table need", need, params=(float(gl_budget_mb),))
 
 
 def chosen_method(processor, source, leaf, name: str) -> str:

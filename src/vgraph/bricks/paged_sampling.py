@@ -54,6 +54,7 @@ from vgraph.bricks import leaf_pages, walk_grids
 from vgraph.bricks.block_radii import block_radii, wholly_drawn
 from vgraph.bricks.cells import table_of
 from vgraph.bricks.coarse_step import sample_stride, strided
+from vgraph.bricks.kept_frame import KeptFrame, on_context
 from vgraph.bricks.page_table import PageTable, pyramid_uniforms, texel_offsets
 from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
 from vgraph.bricks.brick_planning import skipping_alpha
@@ -90,10 +91,12 @@ class PagedSampling(Component):
         self.frame_binding = Binding()
         self.last_frame: dict = {}
         self.warned_level = None  # the level the atlas's slots last raised the frame to
-        self.table_key = None     # what the leaf table was built from (leaf_table)
-        self.flags_kept = None    # (the atlas's blocks, (its uploads, the rule), binding): block_flags
-        self.walk_kept = None     # (the leaf table's key, binding): walk_grid
-        self.kept_uniforms = None  # (what they depend on, the pyramid's uniforms): pyramid_uniforms
+        self.kept = KeptFrame()
+
+    @property
+    def resolved(self):
+        """The last frame's leaf table (vgraph.bricks.leaf_pages.LeafPages)."""
+        return self.kept.table.value
 
     def bind(self, frame: Frame) -> Binding:
         return self.frame_binding  # made by draw_frame, which draws the pass
@@ -229,14 +232,15 @@ class PagedSampling(Component):
         build)."""
         key = (id(source), frame.volume.value_range, tuple(plan.keys()), atlas.key, atlas.stats["uploads"],
                atlas.stats["evictions"], id(atlas.gl.get("texture")))
-        if self.table_key != key or self.page_table.gl.get("texture") is None \
-                or self.page_table.gl["texture"].ctx is not frame.ctx:
+
+        def build():
             keys, origins = atlas.resident()
-            self.resolved = leaf_pages.build(geometry, plan.keys(), keys, texel_offsets(source, keys, origins),
-                                             self.lows(source, geometry, frame), atlas.capacity)
-            self.page_table.upload(frame.ctx, self.resolved.table)
-            self.table_key = key
-        return self.resolved, self.page_table.gl["texture"]
+            resolved = leaf_pages.build(geometry, plan.keys(), keys, texel_offsets(source, keys, origins),
+                                        self.lows(source, geometry, frame), atlas.capacity)
+            self.page_table.upload(frame.ctx, resolved.table)
+            return resolved
+        resolved = self.kept.table.get(key, build, lambda _: on_context(self.page_table.gl, "texture", frame.ctx))
+        return resolved, self.page_table.gl["texture"]
 
     def fitted(self, plan: FramePlan, source, slots: int) -> FramePlan:
         """``plan``, or the finest coarser one whose bricks fit the atlas's ``slots`` (a slot has the
@@ -267,17 +271,16 @@ class PagedSampling(Component):
         if mode not in ("mip", "dvr") or not processor.empty_space_skipping or len(missing):
             return None
         alpha = skipping_alpha(processor, frame) if mode == "dvr" else None  # (mip: maxima)
-        key, kept = (self.table_key, mode, None if alpha is None else alpha.tobytes()), self.walk_kept
-        texture = atlas.gl.get("walk_grid")
-        if kept is not None and kept[0] == key and (kept[1] is None or texture is not None and texture.ctx is frame.ctx):
-            return kept[1]
-        grid, block, define = walk_grids.frame_grid(alpha, source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks.ranges)
-        binding = None
-        if grid is not None:
+
+        def build() -> Binding | None:
+            grid, block, define = walk_grids.frame_grid(alpha, source, geometry, plan.keys(), atlas.slots.__getitem__,
+                                                        atlas.blocks.ranges)
+            if grid is None:
+                return None
             texture = kept_texture(atlas.gl, "walk_grid", frame.ctx, grid)
-            binding = Binding({define: True}, textures={"blocks": texture}, uniforms=walk_grids.uniforms(geometry, block, grid))
-        self.walk_kept = (key, binding)
-        return binding
+            return Binding({define: True}, textures={"blocks": texture}, uniforms=walk_grids.uniforms(geometry, block, grid))
+        key = (self.kept.table.key, mode, None if alpha is None else alpha.tobytes())
+        return self.kept.walk.get(key, build, lambda binding: binding is None or on_context(atlas.gl, "walk_grid", frame.ctx))
 
     def iso_grid(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas,
                  missing) -> Binding | None:
@@ -288,22 +291,21 @@ class PagedSampling(Component):
         processor = self.processor
         if not processor.empty_space_skipping or len(missing) or self.resolved.level != 0:
             return None
-        key = (frozenset(plan.keys()), atlas.key, atlas.stats["uploads"], atlas.stats["evictions"],
+
+        def build() -> Binding | None:
+            grid, block = walk_grids.iso_grid(source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks,
+                                              self.resolved.table, float(processor.iso_level), atlas.size)
+            if grid is None:
+                return None
+            return Binding({"PAGED_ISO_GRID": True},
+                           textures={"iso_grid": kept_texture(atlas.gl, "iso_grid", frame.ctx, grid)},
+                           uniforms={"iso_grid_scale": tuple(float(n) / block for n in geometry.dims0),
+                                     "iso_grid_count": tuple(int(n) for n in grid.shape[2::-1]),
+                                     "iso_read_scale": tuple(float(n) / float(m) for n, m in zip(geometry.dims0, atlas.size))})
+        # (kept where walk_grid's is: a frame has one or the other)
+        key = ("iso", frozenset(plan.keys()), atlas.key, atlas.stats["uploads"], atlas.stats["evictions"],
                float(processor.iso_level), id(atlas.blocks))
-        kept, texture = self.walk_kept, atlas.gl.get("iso_grid")
-        if kept is not None and kept[0] == key and (kept[1] is None or texture is not None and texture.ctx is frame.ctx):
-            return kept[1]
-        grid, block = walk_grids.iso_grid(source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks,
-                                          self.resolved.table, float(processor.iso_level), atlas.size)
-        binding = None
-        if grid is not None:
-            binding = Binding({"PAGED_ISO_GRID": True},
-                              textures={"iso_grid": kept_texture(atlas.gl, "iso_grid", frame.ctx, grid)},
-                              uniforms={"iso_grid_scale": tuple(float(n) / block for n in geometry.dims0),
-                                        "iso_grid_count": tuple(int(n) for n in grid.shape[2::-1]),
-                                        "iso_read_scale": tuple(float(n) / float(m) for n, m in zip(geometry.dims0, atlas.size))})
-        self.walk_kept = (key, binding)
-        return binding
+        return self.kept.walk.get(key, build, lambda binding: binding is None or on_context(atlas.gl, "iso_grid", frame.ctx))
 
     def block_flags(self, frame: Frame, atlas: BrickAtlas, source, plan: FramePlan) -> Binding | None:
         """With ``empty_space_skipping``, the flags of the atlas's blocks that add nothing this frame
@@ -324,16 +326,11 @@ class PagedSampling(Component):
             rule, skippable = (mode, float(level)), lambda low, high: high < level
         else:
             rule, skippable = (mode,), lambda low, high: high <= 0.0
-        kept = self.flags_kept
-        texture = atlas.gl.get("block_flags")
-        # the distances follow the cells drawn too (their set: a camera that turns reorders the plan)
-        state = (atlas.stats["uploads"], atlas.stats["evictions"], rule, frozenset(plan.keys()))
-        if kept is not None and kept[0] is atlas.blocks and kept[1] == state \
-                and (kept[2] is None or (texture is not None and texture.ctx is frame.ctx)):
-            return kept[2]
-        binding = None
-        skip = atlas.blocks.skippable(skippable)
-        if skip.any() or mode == "mip":
+
+        def build() -> Binding | None:
+            skip = atlas.blocks.skippable(skippable)
+            if not skip.any() and mode != "mip":
+                return None
             # jumps over boxes of empty blocks ahead of the ray across cells, runs over boxes of
             # occupied ones (vgraph.bricks.block_radii); mip: with each block's maximum, skipped
             # where not above the ray's maximum (PAGED_MIP), never in a slot not drawn wholly from
@@ -344,16 +341,18 @@ class PagedSampling(Component):
             if mode == "mip":
                 maxima = atlas.blocks.maxima(wholly_drawn(len(skip), atlas.slots, drawn))
                 values = np.stack([values, np.tile(maxima, (2, 2, 2))], axis=-1)  # beside each octant's
-            binding = Binding({"PAGED_BLOCKS": True, "PAGED_MIP": mode == "mip"},
-                              textures={"block_flags": atlas.blocks.upload(frame.ctx, values)},
-                              uniforms={"blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
-        self.flags_kept = (atlas.blocks, state, binding)
-        return binding
+            return Binding({"PAGED_BLOCKS": True, "PAGED_MIP": mode == "mip"},
+                           textures={"block_flags": atlas.blocks.upload(frame.ctx, values)},
+                           uniforms={"blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
+        # the distances follow the cells drawn too (their set: a camera that turns reorders the plan)
+        key = (atlas.blocks, atlas.stats["uploads"], atlas.stats["evictions"], rule, frozenset(plan.keys()))
+        return self.kept.flags.get(key, build,
+                                   lambda binding: binding is None or on_context(atlas.gl, "block_flags", frame.ctx))
 
     def empty_cells(self):
         """bool [z, y, x] per level-0 cell of a flat leaf table: nothing drawn, nothing missing (the
         plan leaves it out); None with a directory (its final entries cover many cells)."""
-        resolved = self.resolved
+        resolved = self.kept.table.value
         if resolved.level != 0:
             return None
         return (resolved.table[..., 3] < 0.0) & (resolved.wanted == 0.0)
@@ -399,21 +398,19 @@ class PagedSampling(Component):
         """The uniforms of the pyramid, the atlas's shape and the bricks' format (paged_sampling.glsl):
         the last frame's while these are the same (a new camera changes none of them)."""
         atlas = self.atlas
+        # (the geometry by identity: one per source)
         key = (geometry, tuple(atlas.size), tuple(atlas.slot_shape), float(fmt.scale), float(fmt.offset))
-        kept = self.kept_uniforms
-        if kept is not None and kept[0][0] is geometry and kept[0][1:] == key[1:]:
-            return kept[1]
-        uniforms = pyramid_uniforms(geometry, source, atlas.size, atlas.slot_shape, fmt)
-        self.kept_uniforms = (key, uniforms)
-        return uniforms
+        return self.kept.uniforms.get(key, lambda: pyramid_uniforms(geometry, source, atlas.size, atlas.slot_shape, fmt))
 
     def draw(self, frame: Frame, target, own: Binding) -> None:
         """The one pass: the RayCaster's shader with the parts of PAGED_PARTS; the processor's
-        ``own`` binding last (its compositing define)."""
+        ``own`` binding last (its compositing define); the depth output where ``target`` has its
+        image (the processor's depth is read)."""
         processor = self.processor
+        with_depth = target.count > 1
         processor.draw(frame, SHADER, target, parts=PAGED_PARTS,
-                       own=own.merge(Binding(defines={"DEPTH_OUTPUT": True})),
-                       missed=ray_main_missed(processor.background, True))
+                       own=own.merge(Binding(defines={"DEPTH_OUTPUT": with_depth})),
+                       missed=ray_main_missed(processor.background, with_depth))
 
 
 # The one pass: the GLSL and bindings of these parts, in this order, ahead of the RayCaster's shader

@@ -35,9 +35,9 @@ from scipy import ndimage
 from vgraph import derived
 from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.cache import LoadLimit, bricks_bytes, usable_range
-from vgraph.bricks.level_tables import LevelTables
+from vgraph.bricks.level_tables import LevelTables, joined_levels
 from vgraph.bricks.pyramid import BrickSource
-from vgraph.bricks.walk_order import children, top_cells
+from vgraph.bricks.walk_order import children, joined_cells, top_cells
 from vgraph.gl.raycasting.empty_space import occupied_blocks
 
 
@@ -145,12 +145,13 @@ def selected_arrays(source: BrickSource, camera, size, view_projection, visible,
     the numbers is the order of the recursive walk."""
     geometry = geometry or BrickGeometry.of(source)
     tables = tables or LevelTables(geometry, camera, size, view_projection, visible, lod_bias)
-    top = len(source.levels) - 1
     perspective = camera.projection == "perspective"
     forward = camera.basis()[2]
-    z, y, x, order = top_cells(geometry, camera, forward, perspective)
     kept_keys, kept_rects, kept_order = [], [], []
-    for level in range(top, -1, -1):
+    # the small levels at the top whole (walk_order.JoinedCells), then level by level on the cells reached
+    z, y, x, order, start = _joined_walk(geometry, tables, camera, forward, perspective, floor_level, too_coarse,
+                                         (kept_keys, kept_rects, kept_order))
+    for level in range(start, -1, -1):
         if len(z) == 0:
             break
         rects = tables(level, "rects")[z, y, x]
@@ -164,11 +165,8 @@ def selected_arrays(source: BrickSource, camera, size, view_projection, visible,
             rest &= ~refined
         if rest.any():
             rest &= tables(level, "visible")[z, y, x]
-            # Zeros for the levels below: the order number as if the cell were walked down to level 0.
-            below = math.prod(int(np.prod(geometry.ratios[k])) for k in range(1, level + 1))
-            kept_keys.append(np.stack([np.full(int(rest.sum()), level), z[rest], y[rest], x[rest]], axis=1))
-            kept_rects.append(rects[rest])
-            kept_order.append(order[rest] * below)
+            _keep(geometry, level, (z[rest], y[rest], x[rest]), rects[rest], order[rest],
+                  (kept_keys, kept_rects, kept_order))
         if level > 0:
             z, y, x, order = children(geometry, camera, forward, perspective, level, z[refined], y[refined],
                                       x[refined], order[refined])
@@ -177,6 +175,57 @@ def selected_arrays(source: BrickSource, camera, size, view_projection, visible,
     front_first = np.argsort(np.concatenate(kept_order), kind="stable")
     return (np.concatenate(kept_keys).astype(np.int64)[front_first],
             np.concatenate(kept_rects).astype(np.int64)[front_first])
+
+
+def _keep(geometry: BrickGeometry, level: int, cells, rects, order, kept) -> None:
+    """Append the kept cells (z, y, x) of ``level``, their rectangles and order numbers to ``kept``
+    (keys, rects, numbers); the numbers padded with zeros for the levels below, as if the cells were
+    walked down to level 0."""
+    below = math.prod(int(np.prod(geometry.ratios[k])) for k in range(1, level + 1))
+    kept[0].append(np.stack([np.full(len(cells[0]), level), *cells], axis=1))
+    kept[1].append(rects)
+    kept[2].append(order * below)
+
+
+def _joined_walk(geometry: BrickGeometry, tables: LevelTables, camera, forward, perspective: bool, floor_level: int,
+                 too_coarse, kept):
+    """selected_arrays' walk over the levels from joined_levels up, each level whole: a cell is
+    reached where every ancestor was refined. Keeps (``kept``) what it chooses there; returns the
+    cells (z, y, x), order numbers and level the walk goes on with (the children of the finest
+    joined level's refined cells; none: level -1)."""
+    top = len(geometry.grids) - 1
+    if joined_levels(geometry) > top:  # not even the top level is small: the top cells, level by level
+        return (*top_cells(geometry, camera, forward, perspective), top)
+    joined = joined_cells(geometry)
+    digits = joined.digits(geometry, camera, forward, perspective)
+    rects_all, wants_all = tables.joined("rects"), tables.joined("wants")
+    reached = order = None
+    for level in range(top, joined.first_level - 1, -1):
+        cells = joined.cells(level)
+        parent = joined.parent[cells]
+        order = digits[cells] if order is None else order[parent] * joined.radix[level - joined.first_level] + digits[cells]
+        rects = rects_all[cells]
+        here = rects[:, 2] != 0
+        if reached is not None:
+            here &= reached[parent]
+        refined = here & (wants_all[cells] < level) if level > max(floor_level, 0) else np.zeros(len(here), dtype=bool)
+        rest = here & ~refined
+        if too_coarse is not None and level > floor_level and rest.any():
+            refined |= rest & too_coarse(level).ravel()
+            rest &= ~refined
+        if rest.any():
+            rest &= tables(level, "visible").ravel()
+            _keep(geometry, level, (joined.z[cells][rest], joined.y[cells][rest], joined.x[cells][rest]), rects[rest],
+                  order[rest], kept)
+        if not refined.any():
+            return None, None, None, None, -1
+        reached = refined
+    level = joined.first_level
+    if level == 0:
+        return None, None, None, None, -1
+    cells = joined.cells(level)
+    z, y, x = (axis[cells][reached] for axis in (joined.z, joined.y, joined.x))
+    return (*children(geometry, camera, forward, perspective, level, z, y, x, order[reached]), level - 1)
 
 
 def plan_frame(source: BrickSource, camera, size, view_projection, visible, lod_bias: float,

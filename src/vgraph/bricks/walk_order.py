@@ -11,13 +11,18 @@ Conventions (docs/explanations/bricked-ray-casting.md):
   (``axis_ranks`` per axis). Sorting those numbers (a cell kept at a coarser level padded with
   zeros, as no kept cell is another's ancestor) gives the recursive walk's order exactly, for
   orthographic and perspective cameras alike.
+- The small levels at the top (level_tables.joined_levels) are walked whole (JoinedCells): every
+  cell's digit in one axis_ranks call, the top level's as the children of one block (the grid),
+  where the walk level by level paid numpy's calls per level (their cost, not the cells', there).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from vgraph.bricks.level_tables import kept_per_level
+from vgraph.bricks.level_tables import joined_levels, kept_per_level, kept_whole
 from vgraph.gl.tetrahedra.cells import axis_order
 
 
@@ -96,3 +101,63 @@ def children(geometry, camera, forward, perspective: bool, level: int, z, y, x, 
     numbers = (order[:, None] * (rx * ry * rz) + digits)[inside]
     cells = (first[:, :, None] + local)[:, inside]                      # [3, m] (x, y, z)
     return cells[2], cells[1], cells[0], numbers
+
+
+class JoinedCells:
+    """The cells of the levels from joined_levels up, flat, the finest level's first and each
+    level's in [z, y, x] order (as level_tables.joined_boxes), with what their digits need: each
+    cell's (x, y, z) place in its parent's block (``local`` [3, n]), the block's first cell and
+    extent (``first``, ``counts``), its radices and its parent's index within the parent's level.
+    The top level's block is the whole grid (top_cells' ranks as digits). Made once per geometry."""
+
+    def __init__(self, geometry):
+        top = len(geometry.grids) - 1
+        self.first_level = joined_levels(geometry)
+        levels = range(self.first_level, top + 1)
+        per_level = []
+        for level in levels:
+            grid = np.asarray(geometry.grids[level], dtype=np.int64)  # (x, y, z)
+            z, y, x = _cell_indices(grid)
+            cells = np.stack([x, y, z])
+            if level == top:
+                ratio, parent_grid = grid, np.ones(3, dtype=np.int64)
+            else:
+                ratio, parent_grid = np.asarray(geometry.ratios[level + 1], dtype=np.int64), geometry.grids[level + 1]
+            parents = cells // ratio[:, None]
+            first = parents * ratio[:, None]
+            counts = np.minimum(first + ratio[:, None], grid[:, None]) - first
+            parent = (parents[2] * int(parent_grid[1]) + parents[1]) * int(parent_grid[0]) + parents[0]
+            per_level.append((z, y, x, cells - first, first, counts, parent, np.broadcast_to(ratio[:, None], cells.shape)))
+        self.offsets = np.cumsum([0] + [len(parts[0]) for parts in per_level]).tolist()
+        self.z, self.y, self.x, self.local, self.first, self.counts, self.parent, radices = (
+            np.concatenate([parts[i] for parts in per_level], axis=-1) for i in range(8))
+        self.radix_x, self.radix_y = radices[0], radices[1]
+        self.radix = [math.prod(int(r) for r in parts[7][:, 0]) if len(parts[0]) else 1 for parts in per_level]
+        self.level_of = np.repeat(np.arange(len(levels)), np.diff(self.offsets))
+        # the eye in the units of each level's blocks: eye_in_bricks of the parent level times the
+        # ratio, as children() has it (the same operations: the same floats)
+        self.spans = np.stack([geometry.spans[min(level + 1, top)] for level in levels])
+        self.ratios = np.stack([np.ones(3) if level == top else geometry.ratios[level + 1] for level in levels])
+        for array in (self.z, self.y, self.x, self.local, self.first, self.counts, self.parent, self.radix_x,
+                      self.radix_y, self.level_of):
+            array.setflags(write=False)
+
+    def cells(self, level: int) -> slice:
+        """The flat range of ``level``'s cells."""
+        index = level - self.first_level
+        return slice(self.offsets[index], self.offsets[index + 1])
+
+    def digits(self, geometry, camera, forward, perspective: bool) -> np.ndarray:
+        """Every cell's rank among its block's cells, front to back (children's digits; the top
+        level's: top_cells' order numbers), flat."""
+        if perspective:
+            eye = ((np.asarray(camera.position) - geometry.origin0) / geometry.spacing0 + 0.5) / self.spans * self.ratios
+            ranks = axis_ranks(self.local, self.counts, eye[self.level_of].T - self.first, 0.0, True)
+        else:
+            ranks = [axis_ranks(self.local[a], self.counts[a], None, float(forward[a]), False) for a in range(3)]
+        return (ranks[2] * self.radix_y + ranks[1]) * self.radix_x + ranks[0]
+
+
+def joined_cells(geometry) -> JoinedCells:
+    """The JoinedCells of ``geometry``, made once (kept in it)."""
+    return kept_whole(geometry, "joined cells", lambda: JoinedCells(geometry))
