@@ -74,7 +74,7 @@ def test_the_grid_holds_the_ray_casters_radii_and_each_cells_slot(block, most, m
     assert grid_used(network)
     paged = network["rc"].parts[PagedSampling]
     n = -(-45 // block)
-    grid = np.frombuffer(paged.kept.walk.value.textures["iso_grid"].read(), dtype=np.float32).reshape(n, n, n, 4)
+    grid = np.frombuffer(paged.kept.walk.value.textures["blocks"].read(), dtype=np.float32).reshape(n, n, n, 4)
     # block k holds the samples at t * dims in [b k, b k + b), which filter voxels b k - 1 .. b k + b
     data = volume.normalized(volume.data)
     high = np.zeros((n, n, n))

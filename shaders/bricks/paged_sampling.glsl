@@ -223,51 +223,19 @@ void paged_seat(vec3 t) {
 }
 
 #ifdef PAGED_ISO_GRID
-// iso in a complete frame of level-0 bricks (vgraph.bricks.walk_grids.iso_grid; compositing_iso.glsl):
-// the RayCaster's walk over its own blocks of 4 voxels (8, ... past 512^3), whose texels also say where their cell's
-// slot is, so one fetch per sample says both whether to jump and where to read (no leaf table, no
-// runs). r = the skip radius (0: the block may reach the level), gba = the normalised atlas
-// coordinate t * dims0 / atlas_texels adds to read the block's cell's slot. A sample, iso's
-// sample before a hit and its refinement (within a step of the hit: up to 1.5 voxels at
-// sampling rates from 2/3) read the hit's cell's slot, whose apron of 2 voxels holds them; the
-// shaded gradient's reads go through paged_seat (its own cell).
-uniform sampler3D iso_grid;
-uniform vec3 iso_grid_scale;   // t -> block coordinates: dims0 / the block (4 voxels, 8, ... past 512^3)
-uniform ivec3 iso_grid_count;
+// iso in a complete frame of level-0 bricks (vgraph.bricks.walk_grids.iso_grid; march.glsl's
+// iso_grid_skip): the RayCaster's walk over its own blocks of 4 voxels (8, ... past 512^3), whose
+// texels also say where their cell's slot is, so one fetch per sample says both whether to jump and
+// where to read (no leaf table, no runs). r = the skip radius (0: the block may reach the level),
+// gba = the normalised atlas coordinate t * dims0 / atlas_texels adds to read the block's cell's
+// slot. A sample, iso's sample before a hit and its refinement (within a step of the hit: up to 1.5
+// voxels at sampling rates from 2/3) read the hit's cell's slot, whose apron of 2 voxels holds
+// them; the shaded gradient's reads go through paged_seat (its own cell).
 uniform vec3 iso_read_scale;   // t -> normalised atlas coordinate, less the block's offset: dims0 / atlas_texels
 
-struct IsoWalk {
-    vec3 start;           // block coordinates of sample 0
-    vec3 step;
-    vec3 steps_per_unit;  // 1 / step per axis (1e30 where the ray does not move along the axis)
-};
-
-IsoWalk iso_walk(Ray ray) {
-    IsoWalk walk;
-    walk.start = ray.start * iso_grid_scale;
-    walk.step = ray.step * iso_grid_scale;
-    walk.steps_per_unit = vec3(walk.step.x != 0.0 ? 1.0 / walk.step.x : 1e30,
-                               walk.step.y != 0.0 ? 1.0 / walk.step.y : 1e30,
-                               walk.step.z != 0.0 ? 1.0 / walk.step.z : 1e30);
+// raw_sample() from now on reads the slot of the grid block whose texel is `texel`.
+void read_block_slot(vec4 texel) {
     run_scale = iso_read_scale;
-    return walk;
-}
-
-// Move i past the empty regions it lies in (empty_space.glsl's skipped_empty_region, in a loop of
-// its own) and read the slot of the block it stops in; whether it moved.
-bool iso_grid_skip(IsoWalk walk, inout int i, int samples) {
-    int before = i;
-    vec4 texel = vec4(0.0);
-    while (i < samples) {
-        vec3 q = walk.start + float(i) * walk.step;
-        ivec3 block = clamp(ivec3(q), ivec3(0), iso_grid_count - 1);
-        texel = texelFetch(iso_grid, block, 0);
-        if (texel.r <= 0.0) break;
-        vec3 bound = vec3(block) + mix(vec3(1.0 - texel.r), vec3(texel.r), step(vec3(0.0), walk.step));
-        vec3 ahead = (bound - q) * walk.steps_per_unit;
-        i += 1 + int(clamp(min(min(ahead.x, ahead.y), ahead.z), 0.0, float(samples)));
-    }
     run_offset = texel.gba;
-    return i != before;
 }
 #endif

@@ -25,8 +25,8 @@ Result march(Ray ray) {
     bool hit_found = false;
 #ifdef PAGED_ISO_GRID
     // the single pass in a complete frame of level-0 bricks: the RayCaster's loop over its blocks,
-    // whose texels say where to read (bricks/paged_sampling.glsl, iso_grid_skip)
-    IsoWalk walk = iso_walk(ray);
+    // whose texels say where to read (march.glsl's iso_grid_skip)
+    BlockWalk walk = block_walk(ray);
     int i = 0;
     while (i < ray.samples) {
         if (iso_grid_skip(walk, i, ray.samples)) {

@@ -7,9 +7,10 @@
 // - mip: the block's maximum normalised intensity (a block not above the current maximum is skipped).
 // Skipped samples keep their positions start + i * step, so skipping changes no image, only work.
 // The grid and its walk (BlockWalk, block_value) also serve the single-pass bricked ray caster's
-// mip (PAGED_MIP_WALK: a grid of block maxima over the frame's bricks, bricks/paged_sampling.glsl)
-// and its dvr (PAGED_WALK: a grid of skip radii over the frame's bricks, march.glsl).
-#if defined(SKIP_EMPTY_SPACE) || defined(PAGED_MIP_WALK) || defined(PAGED_WALK)
+// mip (PAGED_MIP_WALK: a grid of block maxima over the frame's bricks, bricks/paged_sampling.glsl),
+// its dvr (PAGED_WALK: a grid of skip radii over the frame's bricks, march.glsl) and its iso
+// (PAGED_ISO_GRID: skip radii whose texels also say where to read, march.glsl).
+#if defined(SKIP_EMPTY_SPACE) || defined(PAGED_MIP_WALK) || defined(PAGED_WALK) || defined(PAGED_ISO_GRID)
 uniform sampler3D blocks;
 uniform vec3 block_scale;   // texture -> block coordinates: q = t * scale + offset
 uniform vec3 block_offset;
@@ -36,7 +37,7 @@ float block_value(ivec3 block) {
 }
 #endif
 
-#if defined(SKIP_EMPTY_SPACE) || defined(PAGED_WALK)
+#if defined(SKIP_EMPTY_SPACE) || defined(PAGED_WALK) || defined(PAGED_ISO_GRID)
 ivec3 block_of(BlockWalk walk, int i) {
     return clamp(ivec3(walk.start + float(i) * walk.step), ivec3(0), block_count - 1);
 }

@@ -108,6 +108,24 @@ void paged_jump(inout March cursor, Ray ray) {
 }
 #endif
 
+#ifdef PAGED_ISO_GRID
+// iso in a complete frame of level-0 bricks (compositing_iso.glsl; bricks/paged_sampling.glsl): move
+// i past the empty regions it lies in, as skipped_empty_region does, in a loop of its own, and read
+// the slot of the block it stops in, which the grid's texel names; whether it moved.
+bool iso_grid_skip(BlockWalk walk, inout int i, int samples) {
+    int before = i;
+    vec4 texel = vec4(0.0);
+    while (i < samples) {
+        ivec3 block = block_of(walk, i);
+        texel = texelFetch(blocks, block, 0);
+        if (texel.r <= 0.0) break;
+        i = next_sample_outside(walk, i, block, texel.r, samples);
+    }
+    read_block_slot(texel);
+    return i != before;
+}
+#endif
+
 bool skip_empty_space(inout March cursor, Ray ray) {
     int before = cursor.i;
 #ifdef PAGED_WALK

@@ -297,11 +297,10 @@ class PagedSampling(Component):
                                               self.resolved.table, float(processor.iso_level), atlas.size)
             if grid is None:
                 return None
+            read_scale = tuple(float(n) / float(m) for n, m in zip(geometry.dims0, atlas.size))
             return Binding({"PAGED_ISO_GRID": True},
-                           textures={"iso_grid": kept_texture(atlas.gl, "iso_grid", frame.ctx, grid)},
-                           uniforms={"iso_grid_scale": tuple(float(n) / block for n in geometry.dims0),
-                                     "iso_grid_count": tuple(int(n) for n in grid.shape[2::-1]),
-                                     "iso_read_scale": tuple(float(n) / float(m) for n, m in zip(geometry.dims0, atlas.size))})
+                           textures={"blocks": kept_texture(atlas.gl, "iso_grid", frame.ctx, grid)},
+                           uniforms={**walk_grids.uniforms(geometry, block, grid[..., 0]), "iso_read_scale": read_scale})
         # (kept where walk_grid's is: a frame has one or the other)
         key = ("iso", frozenset(plan.keys()), atlas.key, atlas.stats["uploads"], atlas.stats["evictions"],
                float(processor.iso_level), id(atlas.blocks))

@@ -3,7 +3,7 @@ mip, a grid of block maxima over the frame's bricks, which rays walk as the RayC
 (shaders/raycasting/compositing_mip.glsl: the stretch with the largest maximum first, then only
 the stretches that can still change the result), looking the page table up only where they sample.
 The same grid, of skip radii (``skip_radii``: the RayCaster's empty_space.skip_radii of the blocks
-occupied under its rule), serves unshaded dvr (PAGED_WALK, shaders/raycasting/march.glsl). iso's
+occupied under its rule), serves dvr, shaded or not (PAGED_WALK, shaders/raycasting/march.glsl). iso's
 grid (``iso_grid``, PAGED_ISO_GRID, compositing_iso.glsl) is the RayCaster's own: blocks of 4
 level-0 voxels from the slots' maxima per block of 4 (AtlasBlocks.fine_maxima), each texel also
 holding where its cell's slot is, so that a sample's one fetch says whether to jump and where to
@@ -75,7 +75,7 @@ def walk_grid(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray
 
 
 def skip_radii(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray, occupied) -> tuple[np.ndarray | None, int]:
-    """unshaded dvr's grid (PAGED_WALK, march.glsl): (float32 [z, y, x] skip radii as the
+    """dvr's grid (PAGED_WALK, march.glsl): (float32 [z, y, x] skip radii as the
     RayCaster's (empty_space.skip_radii), block), over the same blocks as walk_grid; a block is
     occupied where ``occupied(low, high)`` (the RayCaster's rule on normalised ranges) holds for the
     range of the atlas blocks overlapping it; blocks no brick is drawn in are empty. None for the
