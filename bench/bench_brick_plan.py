@@ -20,7 +20,7 @@ from __future__ import annotations
 import argparse
 import time
 
-import vgraph.bricks.sampling as sampling_module
+import vgraph.bricks.brick_planning as planning_module
 from vgraph.camera import Camera
 from vgraph.implicit import sample
 from vgraph.io import read_volume
@@ -34,7 +34,7 @@ PLAN_SECONDS: list = [0.0]  # thread CPU seconds spent in plan_frame since the l
 
 
 def timed_plan_frame(plan_frame):
-    """``plan_frame`` adding its thread CPU time to PLAN_SECONDS (BrickSampling.plan calls it
+    """``plan_frame`` adding its thread CPU time to PLAN_SECONDS (BrickPlanning.plan calls it
     through its module, for both methods)."""
     def timed(*args, **kwargs):
         began = time.thread_time()
@@ -74,7 +74,7 @@ def main() -> None:
         volume, args.volume = sample(function, int(count), "uint8"), f"implicit {args.implicit}"
     else:
         volume = read_volume(args.volume)
-    sampling_module.plan_frame = timed_plan_frame(sampling_module.plan_frame)
+    planning_module.plan_frame = timed_plan_frame(planning_module.plan_frame)
     camera = Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
     size = (args.size, args.size)
     properties = {"shading": "none", "compositing": "dvr", "transfer_function": WINDOW}
