@@ -30,10 +30,12 @@ class KeptFrame:
     skipping opacity, or iso's grid's (walk_grids.iso_grid) of the plan's bricks, the atlas's and
     the level; ``flags``: the block flags' binding of the atlas's blocks, the rule and the
     plan's bricks; ``uniforms``: the pyramid's uniforms of the geometry, the atlas's shape and the
-    bricks' format."""
+    bricks' format; ``placed``: the keys the last frame placed, every one in the atlas, with the
+    atlas's state after (key, uploads, evictions), or None."""
 
     def __init__(self):
         self.table, self.walk, self.flags, self.uniforms = Kept(), Kept(), Kept(), Kept()
+        self.placed = None
 
 
 def on_context(gl: dict, name: str, ctx) -> bool:
