@@ -277,32 +277,36 @@ def test_empty_bricks_are_neither_read_nor_drawn_and_the_image_stays(compositing
     assert np.abs(got - want).max() <= ONE_STEP and want[..., :3].max() > 0.2
 
 
-def test_a_still_frame_places_nothing_again_and_a_changed_plan_places_its_bricks():
-    """PagedSampling.placed: where the last frame placed the same bricks, all resident, and the atlas
-    changed nothing since, the frame skips its loops over them; the atlas's least-recently-used
-    order and the image are what placing them again would give."""
+def test_a_frame_of_the_same_bricks_places_nothing_again_and_another_plan_places_its_own():
+    """PagedSampling.placed: where the last frame placed the same bricks (a nudged sampling rate, a
+    turned camera that sees them all), all resident, and the atlas changed nothing since, the frame
+    skips its loops over them and draws what placing them again would; a plan of other bricks places them."""
     volume = odd_volume()
     camera = oblique(volume)
     network = ray_caster_network(volume, camera, "BrickedRayCaster", method="single_pass", brick_size=8,
                                  lod_bias=FINEST, early_termination=1.0, **UNSHADED_RAMP)
     first = np.asarray(network.evaluate("rc.image", size=SIZE))
-    paged = network["rc"].parts[PagedSampling]
+    rc = network["rc"]
+    paged = rc.parts[PagedSampling]
     atlas = paged.atlas
-    keys, order, uploads = list(paged.kept.placed[0]), list(atlas.slots), atlas.stats["uploads"]
-    assert keys and set(keys) <= set(order)
-    atlas.place_all = None  # a still frame must not call it
+    bricks, uploads = paged.kept.placed[0], atlas.stats["uploads"]
+    assert bricks == frozenset(atlas.slots) and len(bricks) == rc.last_frame["bricks"]
+    atlas.place_all = None  # frames of the same bricks must not call it
     network.set("rc.sampling_rate", 1.0 + 1e-6)
     again = np.asarray(network.evaluate("rc.image", size=SIZE))
-    assert list(atlas.slots) == order and atlas.stats["uploads"] == uploads
     assert np.abs(again - first).max() < 1e-4  # (the sampling rate nudged by 1e-6 so that the frame is drawn)
-    assert network["rc"].last_frame["bricks"] == len(keys) and network["rc"].last_frame["complete"]
+    turned = Camera.looking_at_box(*volume_box(volume), direction=(0.3, -0.4, -1.0))
+    network.set("eep.camera", turned)  # the same bricks in another order
+    image = np.asarray(network.evaluate("rc.image", size=SIZE))
+    want, _, _ = render(volume, turned, "RayCaster", early_termination=1.0)
+    assert np.abs(image - want).max() <= ONE_STEP and rc.last_frame["complete"]
+    assert atlas.stats["uploads"] == uploads and paged.kept.placed[0] == bricks
     del atlas.place_all  # (the class's again)
-    turned_camera = Camera.looking_at_box(*volume_box(volume), direction=(0.3, -0.4, -1.0))
-    network.set("eep.camera", turned_camera)  # another order of the bricks
-    turned = np.asarray(network.evaluate("rc.image", size=SIZE))
-    want, _, _ = render(volume, turned_camera, "RayCaster", early_termination=1.0)
-    assert paged.kept.placed[0] != keys and list(atlas.slots)[-len(keys):] == paged.kept.placed[0]
-    assert np.abs(turned - want).max() <= ONE_STEP
+    network.set("rc.finest_level", 1)  # a plan of level-1 bricks
+    coarse = np.asarray(network.evaluate("rc.image", size=SIZE))
+    assert rc.last_frame["levels"] == [1] and atlas.stats["uploads"] > uploads
+    assert paged.kept.placed[0] != bricks and all(key[0] == 1 for key in paged.kept.placed[0])
+    assert np.abs(coarse - image).max() > ONE_STEP  # another image: the level-1 bricks were placed and drawn
 
 
 def test_missing_bricks_are_drawn_from_a_coarser_resident_level():
