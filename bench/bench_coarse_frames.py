@@ -38,9 +38,9 @@ from bench_interaction import STORE, store_network  # noqa: E402
 
 # cProfile entries reported, (function name, a part of its file's name)
 PARTS = {"plan": ("plan", "sampling.py"), "leaf table": ("leaf_table", "paged_sampling.py"),
-         "block flags": ("block_flags", "paged_sampling.py"), "ray requests": ("read", "ray_requests.py"),
+         "block flags": ("block_flags", "paged_grids.py"), "ray requests": ("read", "ray_requests.py"),
          "uniforms": ("binding_of", "paged_sampling.py"), "entry/exit points": ("process", "entry_exit_points.py"),
-         "frame report": ("drawn_report", "paged_sampling.py")}
+         "frame report": ("drawn_report", "paged_report.py")}
 
 
 def turned(camera, degrees: float):

@@ -21,15 +21,17 @@ Conventions (docs/explanations/bricked-ray-casting.md, "One pass, a page table")
   frame with missing bricks reads only a coarser plan within the limit (``fallback``, for those
   ancestors); the planned bricks that rays reached missing are counted by the shader
   (vgraph.bricks.ray_requests) and read after the frame by priority within what is left of the
-  limit, never a brick no ray reached. ``last_frame``: ``complete`` (no ray reached a missing
-  brick), ``levels`` drawn and ``coarsest_level``, ``error_bound`` (dvr, lod_error), ``missing``
-  (bricks rays reached missing), ``unreached`` (planned, missing, reached by no ray) and
-  ``requests`` ((key, pixels), in the order read), ``sample_stride`` (level-0 steps per sample: 1,
+  limit, never a brick no ray reached. ``last_frame`` (vgraph.bricks.paged_report): ``complete``
+  (no ray reached a missing brick), ``levels`` drawn and ``coarsest_level``, ``error_bound`` (dvr,
+  lod_error), ``missing`` (bricks rays reached missing), ``unreached`` (planned, missing, reached by
+  no ray) and ``requests`` ((key, pixels), in the order read), ``sample_stride`` (level-0 steps per sample: 1,
   or in a drag's frame, ``FrameContext.interactive``, the finest planned level's,
   vgraph.bricks.coarse_step; such a frame reports no ``error_bound``).
 - ``empty_space_skipping``: the blocks of 8^3 voxels inside the atlas's bricks that add nothing
   this frame (vgraph.bricks.atlas_blocks) are jumped over too, by cubes of them as the RayCaster's
-  skipping (their Chebyshev radii; occupied blocks' radii size the runs) (define PAGED_BLOCKS).
+  skipping (their Chebyshev radii; occupied blocks' radii size the runs) (define PAGED_BLOCKS);
+  where every planned brick is resident, rays walk a grid of the frame as the RayCaster's walk
+  (vgraph.bricks.paged_grids makes both).
 - The atlas holds ``gl_budget`` MB of slots at most (no more than the pyramid's bricks); a budget
   that needs a texture past GL_MAX_3D_TEXTURE_SIZE, or holds not one brick, is a VGraphError
   naming ``<processor>.gl_budget``.
@@ -48,17 +50,13 @@ import weakref
 import numpy as np
 
 from vgraph.bricks.atlas import BrickAtlas
-from vgraph.bricks.atlas_blocks import kept_texture
 from vgraph.bricks.cache import MB, bricks_bytes
-from vgraph.bricks import leaf_pages, walk_grids
-from vgraph.bricks.block_radii import block_radii, wholly_drawn
-from vgraph.bricks.cells import table_of
+from vgraph.bricks import leaf_pages, paged_grids, paged_report
 from vgraph.bricks.coarse_step import sample_stride, strided
 from vgraph.bricks.kept_frame import KeptFrame, on_context
 from vgraph.bricks.page_table import PageTable, pyramid_uniforms, texel_offsets
-from vgraph.bricks.ray_requests import RayRequests, by_priority, drawn_from
-from vgraph.bricks.brick_planning import skipping_alpha
-from vgraph.bricks.sampling import BrickSampling, level_span
+from vgraph.bricks.ray_requests import RayRequests, by_priority
+from vgraph.bricks.sampling import BrickSampling
 from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.selection import FramePlan, coarse_first, normalised_ranges
 from vgraph.bricks.targets import level_voxel
@@ -66,7 +64,6 @@ from vgraph.errors import VGraphError
 from vgraph.frame_context import FrameContext
 from vgraph.gl.raycasting.components import (Background, CameraRays, EntryExit, FrontToBack, IsoSurface, Sampling,
                                              TransferFunctionLut, ray_main_missed)
-from vgraph.gl.raycasting.empty_space import occupied_blocks
 from vgraph.gl.raycasting.gradient_classification import GradientClassification
 from vgraph.gl.raycasting.light import Gradients, Light
 from vgraph.gl.raycasting.mask import CutAway, Mask
@@ -138,9 +135,9 @@ class PagedSampling(Component):
         requests = processor.parts[RayRequests]
         requests.prepare(frame.ctx, resolved)  # the rays ask for what they reach of these
         self.frame_binding = self.binding_of(frame, geometry, source, resolved, leaf)
-        walk = self.walk_grid(frame, source, geometry, plan, atlas, missing)
+        walk = paged_grids.walk_grid(processor, self.kept, frame, source, geometry, plan, atlas, missing)
         # (mip's walk grid already holds what the blocks' flags say: without them a run is its cell)
-        blocks = self.block_flags(frame, atlas, source, plan) if walk is None else None
+        blocks = paged_grids.block_flags(processor, self.kept, frame, atlas, source, plan) if walk is None else None
         for extra in (blocks, walk):
             if extra is not None:
                 self.frame_binding = self.frame_binding.merge(extra)
@@ -158,7 +155,7 @@ class PagedSampling(Component):
                              cache.stats["read_seconds"] - seconds_before)
         self.last_frame = {"bricks": len(placed), "floor_level": drawn.floor_level, "bytes": drawn.bytes,
                            # lod_error bounds level-0 steps, not a drag's longer ones: no bound then
-                           **self.drawn_report(frame, geometry, plan, atlas, requested, errors if stride == 1 else None),
+                           **paged_report.drawn_report(frame, geometry, plan, atlas, requested, errors if stride == 1 else None),
                            "planned_floor_level": plan.floor_level, "missing": len(requested),
                            "unreached": len(missing) - len(requested), "requests": by_priority(requested),
                            "bricks_read": cache.stats["bricks_read"] - read_before,
@@ -210,46 +207,9 @@ class PagedSampling(Component):
         cache.begin_frame(pinned)
         return drawn
 
-    @staticmethod
-    def drawn_report(frame: Frame, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas, requested,
-                     errors) -> dict:
-        """What the frame drew of its plan: the planned cells rays could see (resident, or missing
-        and reached) each from itself or its finest resident ancestor; ``complete`` when no ray
-        reached a missing cell (the image is the planned frame's: cells no ray reached change no
-        pixel), the levels drawn, the coarsest, and (dvr) the error bound of lod_error over those
-        bricks (1 where a ray reached a cell with nothing resident above it)."""
-        resident, reached = atlas.slots, {key for key, _ in requested}
-        if reached or not all(map(resident.__contains__, plan.keys())):
-            sources = [(key if key in resident else drawn_from(geometry, key, resident), rect)
-                       for key, rect in plan.bricks if key in resident or key in reached]
-        else:  # every planned brick drawn from itself (a complete frame of thousands: no loop in Python)
-            sources = plan.bricks
-        levels = sorted({key[0] for key, _ in sources if key is not None})
-        if errors is None:
-            bound = None
-        elif any(key is None for key, _ in sources):
-            bound = 1.0
-        else:
-            bound = errors.frame_bound(sources, frame.size)
-        return {"complete": not requested, "levels": levels, "coarsest_level": levels[-1] if levels else None,
-                "error_bound": bound}
-
     def summary(self) -> str:
-        """The last frame in a line (the inspector's, Processor.frame_summary), as BrickSampling's:
-        its levels and bricks, the atlas, and whether it is still refining."""
-        frame = self.last_frame
-        if not frame:
-            return ""
-        line = f"single pass: level {level_span(frame['levels'])}, {frame['bricks']} bricks in an atlas of {frame['atlas_slots']} slots"
-        if frame["missing"]:
-            line += f", {frame['missing']} missing bricks reached (drawn coarser)"
-        if frame["sample_stride"] > 1:
-            line += f", a sample every {frame['sample_stride']} level-0 steps (dragging)"
-        if frame["error_bound"] is not None:
-            line += f"; error bound {frame['error_bound']:.3g} against the level-0 frame"
-        if frame["complete"]:
-            return line + "; complete"
-        return line + f"; coarsest level {frame['coarsest_level']}; refining"
+        """The last frame in a line (the inspector's, Processor.frame_summary; paged_report)."""
+        return paged_report.summary(self.last_frame)
 
     def leaf_table(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas):
         """The frame's leaf table (vgraph.bricks.leaf_pages.LeafPages) and its texture: the page
@@ -283,104 +243,6 @@ class PagedSampling(Component):
                 f"level {fitted.floor_level} or coarser ({len(fitted.bricks)} bricks)")
         self.warned_level = fitted.floor_level if fitted is not plan else None
         return fitted
-
-    def walk_grid(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas,
-                  missing) -> Binding | None:
-        """With ``empty_space_skipping`` where the atlas holds every planned brick, the grid the rays
-        walk as the RayCaster walks its blocks (vgraph.bricks.walk_grids): mip's block maxima in the
-        RayCaster's order (define PAGED_MIP_WALK), dvr's skip radii (PAGED_WALK, march.glsl);
-        None otherwise (front to back, the slots' block flags). Kept while the leaf table is."""
-        processor, mode = self.processor, self.processor.compositing
-        if mode == "iso":
-            return self.iso_grid(frame, source, geometry, plan, atlas, missing)
-        # shaded dvr walks since its loops take the RayCaster's stretches of 2-3 samples (compositing_dvr.glsl)
-        if mode not in ("mip", "dvr") or not processor.empty_space_skipping or len(missing):
-            return None
-        alpha = skipping_alpha(processor, frame) if mode == "dvr" else None  # (mip: maxima)
-
-        def build() -> Binding | None:
-            grid, block, define = walk_grids.frame_grid(alpha, source, geometry, plan.keys(), atlas.slots.__getitem__,
-                                                        atlas.blocks.ranges)
-            if grid is None:
-                return None
-            texture = kept_texture(atlas.gl, "walk_grid", frame.ctx, grid)
-            return Binding({define: True}, textures={"blocks": texture}, uniforms=walk_grids.uniforms(geometry, block, grid))
-        key = (self.kept.table.key, mode, None if alpha is None else alpha.tobytes())
-        return self.kept.walk.get(key, build, lambda binding: binding is None or on_context(atlas.gl, "walk_grid", frame.ctx))
-
-    def iso_grid(self, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas,
-                 missing) -> Binding | None:
-        """iso's grid of blocks of 4 level-0 voxels (8, ... past 512^3) holding each block's skip
-        radius and its cell's slot (vgraph.bricks.walk_grids.iso_grid; define PAGED_ISO_GRID): where the atlas holds every
-        planned brick, all of level 0, in a flat leaf table; None otherwise (the slots' distances).
-        Kept while the plan's bricks, the atlas's and the level are the same."""
-        processor = self.processor
-        if not processor.empty_space_skipping or len(missing) or self.resolved.level != 0:
-            return None
-
-        def build() -> Binding | None:
-            grid, block = walk_grids.iso_grid(source, geometry, plan.keys(), atlas.slots.__getitem__, atlas.blocks,
-                                              self.resolved.table, float(processor.iso_level), atlas.size)
-            if grid is None:
-                return None
-            read_scale = tuple(float(n) / float(m) for n, m in zip(geometry.dims0, atlas.size))
-            return Binding({"PAGED_ISO_GRID": True},
-                           textures={"blocks": kept_texture(atlas.gl, "iso_grid", frame.ctx, grid)},
-                           uniforms={**walk_grids.uniforms(geometry, block, grid[..., 0]), "iso_read_scale": read_scale})
-        # (kept where walk_grid's is: a frame has one or the other)
-        key = ("iso", frozenset(plan.keys()), atlas.key, atlas.stats["uploads"], atlas.stats["evictions"],
-               float(processor.iso_level), id(atlas.blocks))
-        return self.kept.walk.get(key, build, lambda binding: binding is None or on_context(atlas.gl, "iso_grid", frame.ctx))
-
-    def block_flags(self, frame: Frame, atlas: BrickAtlas, source, plan: FramePlan) -> Binding | None:
-        """With ``empty_space_skipping``, the flags of the atlas's blocks that add nothing this frame
-        (vgraph.bricks.atlas_blocks; dvr: no opacity over the block's range, iso: below the level,
-        mip: nothing above 0, and each block's maximum for the skipping below the ray's); None when
-        no block is skipped. The last frame's, neither computed nor uploaded again, while the atlas
-        uploaded no brick and the rule and the plan's bricks are the same (a frame that only moves
-        the camera and keeps its bricks)."""
-        processor = self.processor
-        if not processor.empty_space_skipping:
-            return None
-        mode = processor.compositing
-        if mode == "dvr":
-            alpha = skipping_alpha(processor, frame)  # the 1D TF's, or the 2D TF's largest per value
-            rule, skippable = (mode, alpha.tobytes()), lambda low, high: ~occupied_blocks(low, high, alpha)
-        elif mode == "iso":
-            level = processor.iso_level
-            rule, skippable = (mode, float(level)), lambda low, high: high < level
-        else:
-            rule, skippable = (mode,), lambda low, high: high <= 0.0
-
-        def build() -> Binding | None:
-            skip = atlas.blocks.skippable(skippable)
-            if not skip.any() and mode != "mip":
-                return None
-            # jumps over boxes of empty blocks ahead of the ray across cells, runs over boxes of
-            # occupied ones (vgraph.bricks.block_radii); mip: with each block's maximum, skipped
-            # where not above the ray's maximum (PAGED_MIP), never in a slot not drawn wholly from
-            # its brick
-            drawn = set(plan.keys())
-            values = block_radii(atlas.blocks, skip, atlas.slots, drawn, table_of(source).spans,
-                                 self.empty_cells())
-            if mode == "mip":
-                maxima = atlas.blocks.maxima(wholly_drawn(len(skip), atlas.slots, drawn))
-                values = np.stack([values, np.tile(maxima, (2, 2, 2))], axis=-1)  # beside each octant's
-            return Binding({"PAGED_BLOCKS": True, "PAGED_MIP": mode == "mip"},
-                           textures={"block_flags": atlas.blocks.upload(frame.ctx, values)},
-                           uniforms={"blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
-        # the distances follow the cells drawn too (their set: a camera that turns reorders the plan)
-        key = (atlas.blocks, atlas.stats["uploads"], atlas.stats["evictions"], rule, frozenset(plan.keys()))
-        return self.kept.flags.get(key, build,
-                                   lambda binding: binding is None or on_context(atlas.gl, "block_flags", frame.ctx))
-
-    def empty_cells(self):
-        """bool [z, y, x] per level-0 cell of a flat leaf table: nothing drawn, nothing missing (the
-        plan leaves it out); None with a directory (its final entries cover many cells)."""
-        resolved = self.kept.table.value
-        if resolved.level != 0:
-            return None
-        return (resolved.table[..., 3] < 0.0) & (resolved.wanted == 0.0)
 
     def ensure_atlas(self, ctx, source, fmt) -> BrickAtlas:
         processor = self.processor
