@@ -11,11 +11,9 @@ uniform sampler2D geometry_depth;
 uniform vec3 texture_to_world_scale;  // p = t * scale + offset (vgraph.gl.raycasting.geometry)
 uniform vec3 texture_to_world_offset;
 // Camera.rays: the pixel centre (ndc_x, ndc_y) starts at near_point(ndc) (pixel_depth.glsl; also
-// world_length, world units per unit of the frame the rays are in: framed_view) ...
-#include "raycasting/pixel_depth.glsl"
-uniform vec3 direction_centre;  // ... in direction direction_centre + ndc_x direction_right
-uniform vec3 direction_right;   // + ndc_y direction_up (not normalised)
-uniform vec3 direction_up;
+// world_length, world units per unit of the frame the rays are in: framed_view) in direction
+// ray_direction(ndc) (pixel_direction.glsl; not normalised).
+#include "raycasting/pixel_direction.glsl"
 
 layout(location = 0) out vec4 entry_out;
 layout(location = 1) out vec4 exit_out;
@@ -36,7 +34,7 @@ void main() {
     }
     vec2 ndc = pixel_ndc();  // pixel_offset stays 0: the rays are this image's own (ray_uniforms)
     vec3 origin = near_point(ndc);
-    vec3 direction = normalize(direction_centre + ndc.x * direction_right + ndc.y * direction_up);
+    vec3 direction = normalize(ray_direction(ndc));
     float entry_t = along_ray(entry_point.xyz, origin, direction);
     float exit_t = along_ray(exit_point.xyz, origin, direction);
     float surface_t = surface.g / world_length;

@@ -21,11 +21,8 @@
 // shows the inside (capping), for every ray caster, as they march from entry to exit point. A
 // crop box needs no code here: EntryExitPoints narrows box_min/box_max (and the hit box) to it.
 // The pixel's ray start: pixel_ndc() in the whole picture (a tile's too: geometry.pixel_rays),
-// near_point(ndc) on the near plane.
-#include "raycasting/pixel_depth.glsl"
-uniform vec3 direction_centre;  // its direction: direction_centre + ndc_x * direction_right + ...
-uniform vec3 direction_right;   // (given apart from the points: near_point - eye would lose
-uniform vec3 direction_up;      //  digits when the near plane is close to the eye)
+// near_point(ndc) on the near plane; its direction ray_direction(ndc).
+#include "raycasting/pixel_direction.glsl"
 uniform float near_to_far;      // far - near
 
 uniform vec3 box_min;      // world: the box of the voxel centres (or the union of several)
@@ -90,11 +87,8 @@ vec3 texture_point(vec3 origin, vec3 direction, float s) {
 void box_points(out vec4 entry, out vec4 exit) {
     vec2 ndc = pixel_ndc();
     vec3 origin = near_point(ndc);
-    vec3 direction = direction_centre + ndc.x * direction_right + ndc.y * direction_up;
-    // A ray parallel to a slab is inside it for all or no t: a huge 1/d gives +-huge or 0 there.
-    vec3 inverse = vec3(direction.x != 0.0 ? 1.0 / direction.x : 1e30,
-                        direction.y != 0.0 ? 1.0 / direction.y : 1e30,
-                        direction.z != 0.0 ? 1.0 / direction.z : 1e30);
+    vec3 direction = ray_direction(ndc);
+    vec3 inverse = inverse_direction(direction);
     // Hit or miss by the grown box; the points from the box itself (the grown box's faces lie
     // off the voxel-centre box by BOX_EPSILON, which oblique rays would carry sideways).
     vec2 grown = slab_interval(origin, inverse, hit_box_min, hit_box_max);

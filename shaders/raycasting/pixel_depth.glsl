@@ -1,7 +1,7 @@
 // Where the pixel's ray starts and the depth of a point on it, for every renderer that writes the
 // ray casters' depth output (depth_output.glsl; the tetrahedra renderers, tetrahedra/*.frag.glsl)
 // and every pass that follows the pixels' rays (entry_exit_point.glsl, ray_bounds.frag.glsl,
-// geometry/geometry_entry_exit.frag.glsl).
+// geometry/geometry_entry_exit.frag.glsl; their rays' direction: pixel_direction.glsl).
 // Rays start on the near plane, as Camera.rays; a tile's pixels take the whole picture's rays
 // (vgraph.gl.raycasting.geometry.pixel_rays binds these uniforms).
 uniform mat4 view_projection;

@@ -4,12 +4,9 @@
 // fragment's box, as (enter, -leave); the target blends with MIN, so it ends up holding the nearest
 // entry and the farthest exit over all boxes. Rays that miss the box are discarded.
 // The ray of a point (ndc_x, ndc_y) of the whole picture starts at near_point(ndc) (pixel_depth.glsl,
-// geometry.pixel_rays: a tile's too).
-#include "raycasting/pixel_depth.glsl"
+// geometry.pixel_rays: a tile's too) along ray_direction(ndc) (pixel_direction.glsl).
+#include "raycasting/pixel_direction.glsl"
 uniform int ray_bounds_tile;    // pixels per tile and axis
-uniform vec3 direction_centre;  // its direction (component 1 along the view): direction_centre
-uniform vec3 direction_right;   // + ndc_x * direction_right + ndc_y * direction_up
-uniform vec3 direction_up;
 uniform float near_to_far;      // far - near
 
 flat in vec3 lo;
@@ -20,10 +17,7 @@ layout(location = 0) out vec2 bounds;
 void main() {
     vec2 ndc = picture_ndc(gl_FragCoord.xy * float(ray_bounds_tile));  // the tile's centre
     vec3 origin = near_point(ndc);
-    vec3 direction = direction_centre + ndc.x * direction_right + ndc.y * direction_up;
-    vec3 inverse = vec3(direction.x != 0.0 ? 1.0 / direction.x : 1e30,
-                        direction.y != 0.0 ? 1.0 / direction.y : 1e30,
-                        direction.z != 0.0 ? 1.0 / direction.z : 1e30);
+    vec3 inverse = inverse_direction(ray_direction(ndc));
     vec3 t0 = (lo - origin) * inverse;
     vec3 t1 = (hi - origin) * inverse;
     vec3 near_t = min(t0, t1);

@@ -18,14 +18,13 @@
 // Second output (the depth image, with DEPTH_OUTPUT): as project.frag.glsl's, for the first piece
 // with opacity.
 #include "segment.glsl"
-#include "raycasting/pixel_depth.glsl"
+#include "raycasting/pixel_direction.glsl"
 
 flat in vec4 unit_origin;  // cells.geom.glsl
 flat in vec4 planes[5];
 uniform vec3 spacing;
-uniform vec3 direction_centre;  // the ray of the pixel centre (ndc_x, ndc_y) starts at
-uniform vec3 direction_right;   // near_point(ndc) (pixel_depth.glsl) and goes along direction_centre
-uniform vec3 direction_up;      // + ndc_x direction_right + ndc_y direction_up (Camera.rays)
+// the ray of the pixel centre (ndc_x, ndc_y) starts at near_point(ndc) (pixel_depth.glsl) and goes
+// along ray_direction(ndc) (pixel_direction.glsl; Camera.rays)
 
 layout(location = 0) out vec4 color;
 #ifdef DEPTH_OUTPUT
@@ -62,7 +61,7 @@ void add_piece(float a, float b) {
 void main() {
     vec2 ndc = pixel_ndc();
     origin = near_point(ndc);
-    direction = direction_centre + ndc.x * direction_right + ndc.y * direction_up;
+    direction = ray_direction(ndc);
     scale = length(direction);
     vec3 to_unit = vec3(unit_origin.w, 1.0, 1.0) / spacing;
     o = (origin - unit_origin.xyz) * to_unit;
