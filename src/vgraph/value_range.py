@@ -29,6 +29,19 @@ def range_of(extremes) -> tuple[float, float]:
     return (lo, lo + max(1.0, abs(lo) * 1e-6))  # a constant data set still maps somewhere
 
 
+def blockwise_extremes(blocks) -> tuple | None:
+    """(min, max) of the finite values of ``blocks`` (arrays, read one at a time: a mask of a big
+    float volume would cost as much memory as the volume) as numpy scalars of their type (exact for
+    64-bit integers), or None when no value is finite."""
+    lo = hi = None
+    for block in blocks:
+        finite = block[np.isfinite(block)] if block.dtype.kind == "f" else block
+        if finite.size:
+            lo = finite.min() if lo is None else min(lo, finite.min())
+            hi = finite.max() if hi is None else max(hi, finite.max())
+    return None if lo is None else (lo, hi)
+
+
 def to_unit(values, lo: float, hi: float):
     """(v - lo) / (hi - lo) in float64, also when hi - lo overflows (float64 data near 1.8e308):
     then computed on values divided by the larger magnitude."""

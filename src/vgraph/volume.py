@@ -43,7 +43,7 @@ import numpy as np
 from vgraph import derived
 from vgraph.errors import VGraphError
 from vgraph.rank_table import RankTable
-from vgraph.value_range import checked_range, from_unit, range_of
+from vgraph.value_range import blockwise_extremes, checked_range, from_unit, range_of
 from vgraph.volume_grid import (IDENTITY, Matrix3, VolumeGeometryError, box_corners, check_box,  # noqa: F401
                                 checked_direction, checked_vec3, grid_affine, is_identity)
 from vgraph.volume_texture import (FLOAT32_SAFE, SIXTEEN_BIT_CODES, SLAB_VOXELS, TEXTURE_FORMATS, sixteen_bit_codes,
@@ -151,13 +151,7 @@ class Volume:
         would cost as much memory as the volume."""
         if not self.nonfinite_count:
             return self.data.min(), self.data.max()
-        lo = hi = None
-        for slab in self._slabs():
-            finite = slab[np.isfinite(slab)]
-            if finite.size:
-                lo = finite.min() if lo is None else min(lo, finite.min())
-                hi = finite.max() if hi is None else max(hi, finite.max())
-        return None if lo is None else (lo, hi)
+        return blockwise_extremes(self._slabs())
 
     @cached_property
     def value_range(self) -> tuple[float, float]:

@@ -50,7 +50,7 @@ from vgraph.byte_order import to_native
 from vgraph.errors import VGraphError, VolumeFileError
 from vgraph.errors import TimeStepError
 from vgraph.memory import check_memory
-from vgraph.value_range import range_of
+from vgraph.value_range import blockwise_extremes, range_of
 from vgraph.volume_grid import IDENTITY
 
 SAMPLE_VOXELS = 2**22  # voxels read for another tool's value range: 4 M ...
@@ -151,13 +151,9 @@ class BrickStore:
             return self.ours["data_range"]
         small = (k for k, level in enumerate(self.levels) if math.prod(level.shape) <= SAMPLE_VOXELS
                  and math.prod(brick_grid(level.shape, self.brick)) <= SAMPLE_BRICKS)
-        low = high = None
-        for block in sample_blocks(self, next(small, len(self.levels) - 1), SAMPLE_VOXELS, SAMPLE_BRICKS):
-            finite = block[np.isfinite(block)] if block.dtype.kind == "f" else block
-            if finite.size:
-                low = finite.min() if low is None else min(low, finite.min())
-                high = finite.max() if high is None else max(high, finite.max())
-        return None if low is None else (float(low), float(high))
+        blocks = sample_blocks(self, next(small, len(self.levels) - 1), SAMPLE_VOXELS, SAMPLE_BRICKS)
+        extremes = blockwise_extremes(blocks)
+        return None if extremes is None else (float(extremes[0]), float(extremes[1]))
 
     @property
     def nonfinite(self) -> int | None:

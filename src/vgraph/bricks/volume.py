@@ -32,7 +32,7 @@ from vgraph.bricks.pyramid import Level, brick_grid, sample_blocks
 from vgraph.errors import VGraphError
 from vgraph.memory import check_memory, format_bytes
 from vgraph.rank_table import RankTable
-from vgraph.value_range import checked_range, range_of
+from vgraph.value_range import blockwise_extremes, checked_range, range_of
 from vgraph.volume import Volume
 from vgraph.volume_grid import IDENTITY, check_box, checked_direction, checked_vec3
 from vgraph.volume_texture import FLOAT32_SAFE, TEXTURE_FORMATS
@@ -181,13 +181,7 @@ class BrickedVolume(Volume):
         return RankTable.of(summary)
 
     def _summary_extremes(self):
-        lo = hi = None
-        for slab in self._slabs():
-            finite = slab[np.isfinite(slab)] if slab.dtype.kind == "f" else slab
-            if finite.size:
-                lo = finite.min() if lo is None else min(lo, finite.min())
-                hi = finite.max() if hi is None else max(hi, finite.max())
-        return None if lo is None else (lo, hi)
+        return blockwise_extremes(self._slabs())
 
     def percentiles(self, percents) -> np.ndarray:
         if self.finite_extremes is None and self._summary_extremes() is None:

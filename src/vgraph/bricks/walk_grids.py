@@ -47,7 +47,11 @@ EDGE = 1e-3            # level-0 voxels a coarser brick's blocks reach past thei
 
 def walk_block(geometry: BrickGeometry) -> int:
     """Level-0 voxels per block of the grid along each axis (module docstring)."""
-    block = WALK_BLOCK
+    return _fitting(geometry, WALK_BLOCK)
+
+
+def _fitting(geometry: BrickGeometry, block: int) -> int:
+    """``block`` doubled until the grid has at most MAX_TEXELS, and MAX_AXIS along an axis."""
     while math.prod(_counts(geometry, block)) > MAX_TEXELS or max(_counts(geometry, block)) > MAX_AXIS:
         block *= 2
     return block
@@ -146,10 +150,7 @@ def uniforms(geometry: BrickGeometry, block: int, grid: np.ndarray) -> dict:
 def iso_block(geometry: BrickGeometry) -> int:
     """Level-0 voxels per block of iso_grid: FINE, doubled until the grid has at most MAX_TEXELS
     (and MAX_AXIS along an axis), as walk_block."""
-    block = FINE
-    while math.prod(_counts(geometry, block)) > MAX_TEXELS or max(_counts(geometry, block)) > MAX_AXIS:
-        block *= 2
-    return block
+    return _fitting(geometry, FINE)
 
 
 def iso_grid(source, geometry: BrickGeometry, keys, slot_of, blocks, table: np.ndarray, level: float,
