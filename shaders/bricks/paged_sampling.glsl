@@ -63,6 +63,9 @@ vec3 run_offset;
 
 // Not clamped to the run's slot: every read lies within its cell's core and apron (above), and the
 // clamp cost up to 5-8 % of a frame (torus 512^3 shaded dvr 231 -> 212 ms of CPU, mip 128 -> 120).
+// The atlas's texel coordinate is a larger number than the in-core texture's, so the texture unit's
+// weights round differently (up to ~1e-4 texel): samples differ in their last bits, which only
+// ill-conditioned gradients show (tests/test_paged_ridge.py; weights by hand doubled the frame).
 float raw_sample(vec3 t) {
     return textureLod(volume, t * run_scale + run_offset, 0.0).r;
 }
