@@ -98,6 +98,7 @@ class BrickPlanning(Component):
         self.warned_level = 0  # the budget's level last warned about (0: none)
         self.spread = (None, None)  # (the resolved TF and lighting, its TransferFunctionSpread)
         self.warned_mode = None  # the compositing mode last warned about max_error not applying to
+        self.pinned_plan = None  # (the cache's pinned set, the KeyArray of the plan it pinned) (pin)
 
     @property
     def compositing(self) -> str:
@@ -180,7 +181,7 @@ class BrickPlanning(Component):
             budget = min(processor.ram_budget, processor.gl_budget)
             message = (f"{processor.type_name} '{processor.id}': the budget ({budget:g} MB) "
                        f"cannot hold the frame's finer bricks; rendering at level {plan.floor_level} "
-                       f"or coarser ({len(plan.bricks)} bricks, {plan.bytes / MB:.2f} MB)")
+                       f"or coarser ({len(plan)} bricks, {plan.bytes / MB:.2f} MB)")
             bound = errors.frame_bound(plan.bricks, frame.size) if errors is not None else None
             if bound is not None and bound > processor.max_error:
                 message += f"; its error bound {bound:.3g} is over max_error {processor.max_error:g}"
@@ -188,10 +189,19 @@ class BrickPlanning(Component):
         self.warned_level = plan.floor_level
         return plan
 
+    def pin(self, plan: FramePlan) -> None:
+        """Pin the plan's bricks in the cache; nothing to do where the cache's pinned set is still
+        the one this pinned for a plan of the same bricks (a frame of thousands makes no set)."""
+        cache, last = self.cache, self.pinned_plan
+        if last is not None and cache.pinned is last[0] and last[1] == plan.key_set():
+            return
+        cache.begin_frame(plan.keys())
+        self.pinned_plan = (cache.pinned, plan.key_set())
+
     def limited(self, source, plan: FramePlan, ctx, load_limit: LoadLimit | None) -> FramePlan:
         """The plan to draw, pinned in the caches: ``plan``, or a coarser one under ``load_limit``."""
         if load_limit is None:
-            self.cache.begin_frame(plan.keys())
+            self.pin(plan)
             return plan
         resident = self.cache.resident(ctx)
         drawn = coarse_first(source, plan, resident, load_limit, self.cache.seconds_per_byte(), self.budget())

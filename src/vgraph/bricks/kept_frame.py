@@ -30,8 +30,8 @@ class KeptFrame:
     skipping opacity, or iso's grid's (walk_grids.iso_grid) of the plan's bricks, the atlas's and
     the level; ``flags``: the block flags' binding of the atlas's blocks, the rule and the
     plan's bricks; ``uniforms``: the pyramid's uniforms of the geometry, the atlas's shape and the
-    bricks' format; ``placed``: the set of keys the last frame placed, every one in the atlas,
-    with the atlas's state after (paged_sampling.atlas_state), or None."""
+    bricks' format; ``placed``: the set of keys the last frame placed (selection.KeyArray),
+    every one in the atlas, with the atlas's state after (paged_sampling.atlas_state), or None."""
 
     def __init__(self):
         self.table, self.walk, self.flags, self.uniforms = Kept(), Kept(), Kept(), Kept()

@@ -66,18 +66,18 @@ def _level_boxes(geometry: BrickGeometry, level: int) -> tuple[np.ndarray, np.nd
 
 
 def box_corners(geometry: BrickGeometry, level: int) -> np.ndarray:
-    """The 8 corners of every box of level_boxes, homogeneous, a column each: [bz, by, bx, 4, 8]
-    (screen_rects multiplies them by the view-projection and reduces over the 8 contiguous),
-    read-only."""
+    """The 8 corners of every box of level_boxes, homogeneous: [4, 8, bz * by * bx] (coordinate,
+    corner, box; screen_rects multiplies them by the view-projection in one product and reduces
+    over the corners, whole rows of boxes at a time), read-only."""
     def make() -> np.ndarray:
-        lo, hi = level_boxes(geometry, level)
-        corners = np.ones(lo.shape[:-1] + (4, 8))
+        lo, hi = (box.reshape(-1, 3) for box in level_boxes(geometry, level))
+        corners = np.ones((4, 8, len(lo)))
         for i in range(8):
             for a in range(3):
-                corners[..., a, i] = (lo, hi)[i >> a & 1][..., a]
+                corners[a, i] = (lo, hi)[i >> a & 1][:, a]
         corners.setflags(write=False)
         return corners
-    return kept_per_level(geometry, "corner columns", level, make)
+    return kept_per_level(geometry, "corner rows", level, make)
 
 
 def pixels_per_world(camera, size, distance):
@@ -110,25 +110,28 @@ def _desired_levels(geometry: BrickGeometry, camera, size, lo, hi, lod_bias: flo
 def screen_rects(geometry: BrickGeometry, view_projection, size, level: int) -> np.ndarray:
     """Pixel rectangles (x, y, w, h) covering each brick of ``level`` with one pixel of margin, int
     [bz, by, bx, 4]; w = 0 off screen; the whole viewport where a corner lies behind the eye."""
-    return _screen_rects(box_corners(geometry, level), view_projection, size)
+    grid = tuple(int(n) for n in geometry.grids[level][::-1])
+    return _screen_rects(box_corners(geometry, level), view_projection, size).reshape(grid + (4,))
 
 
 def _screen_rects(corners: np.ndarray, view_projection, size) -> np.ndarray:
-    """screen_rects of the boxes whose corners (box_corners' columns) are ``corners`` [..., 4, 8]."""
-    # corners last ([..., 4, 8]): the min and max over the 8 run along contiguous memory, and
-    # x and y go together (a level's arrays are small: numpy's calls are the cost there)
-    clip = np.asarray(view_projection, dtype=np.float64) @ corners
-    w = clip[..., 3, :]
-    behind = (w <= 1e-9).any(axis=-1)
+    """screen_rects of the boxes whose corners (box_corners' rows) are ``corners`` [4, 8, n]: [n, 4]."""
+    # one product for every corner ([4, 4] @ [4, 8n]), then the 8 corners reduced row against
+    # row along the boxes (contiguous): a reduction over 8 contiguous values per box cost numpy
+    # several times more (a frame's joined levels: thousands of boxes)
+    count = corners.shape[-1]
+    clip = (np.asarray(view_projection, dtype=np.float64) @ corners.reshape(4, -1)).reshape(4, 8, count)
+    w = clip[3]
+    behind = (w <= 1e-9).any(axis=0)
     w = np.where(w > 1e-9, w, 1.0)
     extent = np.asarray(size[:2], dtype=np.float64)
-    pixel = (clip[..., :2, :] / w[..., None, :] * 0.5 + 0.5) * extent[:, None]
-    first = np.maximum(np.floor(pixel.min(axis=-1)) - 1, 0)
-    last = np.minimum(np.ceil(pixel.max(axis=-1)) + 1, extent)
-    rects = np.concatenate([first, np.maximum(last - first, 0)], axis=-1)
+    pixel = (clip[:2] / w * 0.5 + 0.5) * extent[:, None, None]
+    first = np.maximum(np.floor(pixel.min(axis=1)) - 1, 0)
+    last = np.minimum(np.ceil(pixel.max(axis=1)) + 1, extent[:, None])
+    rects = np.concatenate([first, np.maximum(last - first, 0)]).T
     if behind.any():
         rects[behind] = (0, 0, size[0], size[1])
-    rects[(rects[..., 2] == 0) | (rects[..., 3] == 0)] = 0
+    rects[(rects[:, 2] == 0) | (rects[:, 3] == 0)] = 0
     return rects.astype(np.int64)
 
 
@@ -148,12 +151,12 @@ def joined_levels(geometry: BrickGeometry) -> int:
 
 
 def joined_boxes(geometry: BrickGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The boxes (lo, hi [n, 3]) and corner columns ([n, 4, 8]) of the cells of the levels from
+    """The boxes (lo, hi [n, 3]) and corner rows ([4, 8, n]) of the cells of the levels from
     joined_levels up, the finest level's first, each level's in its [z, y, x] order, read-only."""
     def make():
         levels = range(joined_levels(geometry), len(geometry.grids))
         lo, hi = (np.concatenate([level_boxes(geometry, level)[i].reshape(-1, 3) for level in levels]) for i in (0, 1))
-        corners = np.concatenate([box_corners(geometry, level).reshape(-1, 4, 8) for level in levels])
+        corners = np.concatenate([box_corners(geometry, level) for level in levels], axis=-1)
         for array in (lo, hi, corners):
             array.setflags(write=False)
         return lo, hi, corners

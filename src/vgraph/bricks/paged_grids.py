@@ -83,7 +83,7 @@ def _iso_grid(processor, kept: KeptFrame, frame: Frame, source, geometry: BrickG
         read_scale = tuple(float(n) / float(m) for n, m in zip(geometry.dims0, atlas.size))
         return grid, {"PAGED_ISO_GRID": True}, {**walk_grids.uniforms(geometry, block, grid[..., 0]),
                                                  "iso_read_scale": read_scale}
-    key = ("iso", frozenset(plan.keys()), atlas.key, atlas.stats["uploads"], atlas.stats["evictions"],
+    key = ("iso", plan.key_set(), atlas.key, atlas.stats["uploads"], atlas.stats["evictions"],
            float(processor.iso_level), id(atlas.blocks))
     return key, "iso_grid", make
 
@@ -128,7 +128,7 @@ def block_flags(processor, kept: KeptFrame, frame: Frame, atlas: BrickAtlas, sou
                        textures={"block_flags": atlas.blocks.upload(frame.ctx, values)},
                        uniforms={"blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
     # the distances follow the cells drawn too (their set: a camera that turns reorders the plan)
-    key = (atlas.blocks, atlas.stats["uploads"], atlas.stats["evictions"], rule, frozenset(plan.keys()))
+    key = (atlas.blocks, atlas.stats["uploads"], atlas.stats["evictions"], rule, plan.key_set())
     return kept.flags.get(key, build, lambda binding: binding is None or on_context(atlas.gl, "block_flags", frame.ctx))
 
 

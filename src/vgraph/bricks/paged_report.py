@@ -12,19 +12,20 @@ from vgraph.gl.raycasting.raycaster_base import Frame
 
 
 def drawn_report(frame: Frame, geometry: BrickGeometry, plan: FramePlan, atlas: BrickAtlas, requested,
-                 errors) -> dict:
+                 errors, every_resident: bool = False) -> dict:
     """What the frame drew of its plan: the planned cells rays could see (resident, or missing
     and reached) each from itself or its finest resident ancestor; ``complete`` when no ray
     reached a missing cell (the image is the planned frame's: cells no ray reached change no
     pixel), the levels drawn, the coarsest, and (dvr) the error bound of lod_error over those
-    bricks (1 where a ray reached a cell with nothing resident above it)."""
+    bricks (1 where a ray reached a cell with nothing resident above it). ``every_resident``: the
+    atlas is known to hold every planned brick (PagedSampling.placed), so no key is looked up."""
     resident, reached = atlas.slots, {key for key, _ in requested}
-    if reached or not all(map(resident.__contains__, plan.keys())):
+    if reached or not (every_resident or all(map(resident.__contains__, plan.keys()))):
         sources = [(key if key in resident else drawn_from(geometry, key, resident), rect)
                    for key, rect in plan.bricks if key in resident or key in reached]
+        levels = sorted({key[0] for key, _ in sources if key is not None})
     else:  # every planned brick drawn from itself (a complete frame of thousands: no loop in Python)
-        sources = plan.bricks
-    levels = sorted({key[0] for key, _ in sources if key is not None})
+        sources, levels = (plan.bricks if errors is not None else []), plan.levels()
     if errors is None:
         bound = None
     elif any(key is None for key, _ in sources):

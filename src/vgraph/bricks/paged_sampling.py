@@ -130,6 +130,7 @@ class PagedSampling(Component):
         # and they do not fit together, every brick rays asked for still gets a slot and refining
         # ends (a fallback brick left out leaves its missing cells undrawn until their own come).
         placed = self.placed(plan, drawn, atlas, cache)
+        every_resident = self.kept.placed is not None  # (placed: set where every planned brick has a slot)
         resolved, leaf = self.leaf_table(frame, source, geometry, plan, atlas)
         missing = resolved.missing  # the plan's cells the atlas misses
         requests = processor.parts[RayRequests]
@@ -145,7 +146,7 @@ class PagedSampling(Component):
         # every cell is drawn: one look-up a run, not one a sample)
         self.frame_binding.defines["PAGED_SKIPPING"] = True
         # a drag's frame steps at the finest planned level's step (vgraph.bricks.coarse_step)
-        stride = sample_stride(geometry, plan.keys(), context.interactive)
+        stride = sample_stride(geometry, plan.keys() if context.interactive else (), context.interactive)
         self.draw(strided(frame, stride), target, own)
         requested = requests.read(frame.ctx, missing)  # (key, pixels) of the missing cells rays reached
         if requested and context.load_limit is not None:  # the next frame refines (the GUI asks again)
@@ -155,7 +156,8 @@ class PagedSampling(Component):
                              cache.stats["read_seconds"] - seconds_before)
         self.last_frame = {"bricks": len(placed), "floor_level": drawn.floor_level, "bytes": drawn.bytes,
                            # lod_error bounds level-0 steps, not a drag's longer ones: no bound then
-                           **paged_report.drawn_report(frame, geometry, plan, atlas, requested, errors if stride == 1 else None),
+                           **paged_report.drawn_report(frame, geometry, plan, atlas, requested,
+                                                        errors if stride == 1 else None, every_resident),
                            "planned_floor_level": plan.floor_level, "missing": len(requested),
                            "unreached": len(missing) - len(requested), "requests": by_priority(requested),
                            "bricks_read": cache.stats["bricks_read"] - read_before,
@@ -170,10 +172,11 @@ class PagedSampling(Component):
         bricks skips its loops over them (the 768^3 torus in 1728 bricks: about 0.6 ms of Python a
         frame). Their least-recently-used order stays the last frame's: the bricks of one frame are
         all pinned and used alike."""
+        same = plan.key_set()  # (arrays compared: no set of thousands of keys made a frame)
+        if (self.kept.placed == (same, atlas_state(atlas))
+                and (drawn is plan or drawn.key_sequence() == plan.key_sequence())):
+            return plan.key_array
         keys = plan.keys()
-        same = frozenset(keys)
-        if self.kept.placed == (same, atlas_state(atlas)) and drawn.keys() == keys:
-            return keys
         resident_before = set(atlas.slots)
         wanted = list(dict.fromkeys([key for key in keys if key in cache.ram] + drawn.keys()))
         atlas.begin_frame(set(wanted) | (set(keys) & resident_before))
@@ -216,7 +219,7 @@ class PagedSampling(Component):
         table of the plan and the atlas's bricks, resolved into a directory and pages; the last
         frame's while neither the plan nor the atlas's bricks changed (a still camera: no table to
         build)."""
-        key = (id(source), frame.volume.value_range, tuple(plan.keys()), atlas.key, atlas.stats["uploads"],
+        key = (id(source), frame.volume.value_range, plan.key_sequence(), atlas.key, atlas.stats["uploads"],
                atlas.stats["evictions"], id(atlas.gl.get("texture")))
 
         def build():
@@ -233,7 +236,7 @@ class PagedSampling(Component):
         shape of the largest brick, so bricks that fit the budget in bytes may not fit in slots);
         said once per level, as BrickSampling says a level the budget raised."""
         fitted = plan
-        while len(fitted.bricks) > slots and fitted.floor_level < len(source.levels) - 1:
+        while len(fitted) > slots and fitted.floor_level < len(source.levels) - 1:
             fitted = fitted.at_floor(fitted.floor_level + 1, source)
         if fitted is not plan and fitted.floor_level != self.warned_level:
             processor = self.processor

@@ -41,25 +41,102 @@ from vgraph.bricks.walk_order import children, joined_cells, top_cells
 from vgraph.gl.raycasting.empty_space import occupied_blocks
 
 
-@dataclass
+class KeyArray:
+    """Keys int64 [n, 4] as a value that compares by content (==, hash): what a frame keeps
+    from the last (vgraph.bricks.kept_frame) asks whether the plan's bricks are the same in one
+    array comparison, not a tuple or set of thousands of keys made a frame."""
+
+    __slots__ = ("array", "_hash")
+
+    def __init__(self, array: np.ndarray):
+        self.array = array
+        self.array.setflags(write=False)
+        self._hash = None
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, KeyArray) and np.array_equal(self.array, other.array)
+
+    def __hash__(self) -> int:
+        if self._hash is None:
+            self._hash = hash(self.array.tobytes())
+        return self._hash
+
+
+_KEY_BITS = 19  # bits per brick index in a packed key (levels need fewer); wider grids: rows sorted
+
+
+def key_set(keys) -> KeyArray:
+    """The set of ``keys`` (int64 [n, 4], or an iterable of key tuples) as a sorted array (one int64
+    per key where every index fits _KEY_BITS bits, else the rows in lexicographic order): equal for
+    the same bricks in any order."""
+    keys = keys if isinstance(keys, np.ndarray) else np.asarray(list(keys), dtype=np.int64).reshape(-1, 4)
+    if len(keys) == 0 or int(keys.max()) < 1 << _KEY_BITS:
+        packed = ((keys[:, 0] << _KEY_BITS | keys[:, 1]) << _KEY_BITS | keys[:, 2]) << _KEY_BITS | keys[:, 3]
+        return KeyArray(np.sort(packed))
+    return KeyArray(keys[np.lexsort(keys.T[::-1])])
+
+
 class FramePlan:
-    bricks: list = field(default_factory=list)  # (key, (x, y, w, h) scissor rect), front to back
-    floor_level: int = 0                        # the finest level the budget allowed
-    bytes: int = 0                              # the frame's bricks with halo
-    # floor level -> (the bricks at that floor, their bytes) (the same walk, its tables reused): coarser plans
-    select: Callable[[int], tuple[list, int]] | None = field(default=None, repr=False, compare=False)
-    _keys: list | None = field(default=None, init=False, repr=False, compare=False)
+    """A frame's bricks, front to back: their keys (level, z, y, x) and scissor rectangles (x, y, w,
+    h), as int64 arrays [n, 4] (``key_array``, ``rect_array``) and, made on first use, as Python
+    tuples (``bricks``: [(key, rect)], ``keys()``): a frame of thousands of bricks that only
+    compares its bricks with the last frame's (key_set, key_sequence) or reads their levels makes
+    no tuple per brick. ``floor_level``: the finest level the budget allowed; ``bytes``: the
+    bricks' with halo; ``select(floor level)``: ((keys, rects) arrays, bytes) of the same walk at
+    a coarser floor (its tables reused). Do not change what it returns."""
+
+    def __init__(self, bricks=(), floor_level: int = 0, nbytes: int = 0, select: Callable | None = None,
+                 arrays: tuple[np.ndarray, np.ndarray] | None = None):
+        if arrays is None:
+            bricks = list(bricks)
+            arrays = tuple(np.asarray([brick[i] for brick in bricks], dtype=np.int64).reshape(-1, 4) for i in (0, 1))
+            self._bricks = bricks
+        else:
+            self._bricks = None
+        self.key_array, self.rect_array = arrays
+        self.floor_level, self.bytes, self.select = floor_level, nbytes, select
+        self._keys = self._set = self._sequence = None
+
+    def __len__(self) -> int:
+        return len(self.key_array)
+
+    def __repr__(self) -> str:
+        return f"FramePlan({len(self)} bricks, floor_level={self.floor_level}, bytes={self.bytes})"
+
+    @property
+    def bricks(self) -> list:
+        """[(key, rect)] as Python ints, front to back."""
+        if self._bricks is None:
+            self._bricks = brick_list(self.key_array, self.rect_array)
+        return self._bricks
+
+    def keys(self) -> list:
+        """The bricks' keys as tuples, front to back."""
+        if self._keys is None:
+            self._keys = ([key for key, _ in self._bricks] if self._bricks is not None
+                          else list(zip(*self.key_array.T.tolist())) if len(self) else [])
+        return self._keys
+
+    def key_set(self) -> KeyArray:
+        """The set of the bricks' keys, comparable with another plan's (any order)."""
+        if self._set is None:
+            self._set = key_set(self.key_array)
+        return self._set
+
+    def key_sequence(self) -> KeyArray:
+        """The bricks' keys in their order, comparable with another plan's."""
+        if self._sequence is None:
+            self._sequence = KeyArray(self.key_array)
+        return self._sequence
+
+    def levels(self) -> list:
+        """The levels the plan's bricks are at, ascending."""
+        return np.unique(self.key_array[:, 0]).tolist()
 
     def at_floor(self, floor_level: int, source: BrickSource) -> FramePlan:
         """This frame's plan with ``floor_level`` as the finest level allowed."""
-        bricks, nbytes = self.select(floor_level)
-        return FramePlan(bricks, floor_level, nbytes, self.select)
-
-    def keys(self) -> list:
-        """The bricks' keys, front to back (made once: a frame asks several times; do not change it)."""
-        if self._keys is None:
-            self._keys = [key for key, _ in self.bricks]
-        return self._keys
+        arrays, nbytes = self.select(floor_level)
+        return FramePlan((), floor_level, nbytes, self.select, arrays)
 
 
 @dataclass
@@ -250,22 +327,21 @@ def plan_frame(source: BrickSource, camera, size, view_projection, visible, lod_
         return selected_arrays(source, camera, size, view_projection, visible, lod_bias, floor_level, geometry,
                                tables, None if share is None else too_coarse)
 
-    def select(floor_level: int) -> tuple[list, int]:
+    def select(floor_level: int) -> tuple[tuple[np.ndarray, np.ndarray], int]:
         if errors is None or max_error >= 1.0:
             keys, rects = select_at(floor_level, None)
-            return brick_list(keys, rects), bricks_bytes(source, keys)
+            return (keys, rects), bricks_bytes(source, keys)
         for share in (max_error, max_error / 8.0, 0.0):
             keys, rects = select_at(floor_level, share)
-            bricks = brick_list(keys, rects)
-            if errors.frame_bound(bricks, size) <= max_error:
+            if errors.frame_bound(brick_list(keys, rects), size) <= max_error:
                 break
-        return bricks, bricks_bytes(source, keys)
+        return (keys, rects), bricks_bytes(source, keys)
 
     for floor_level in range(min(finest_level, len(source.levels) - 1), len(source.levels)):
-        bricks, total = select(floor_level)
+        arrays, total = select(floor_level)
         if total <= budget_bytes:
-            return FramePlan(bricks, floor_level, total, select)
-    raise ValueError(f"the {len(bricks)} bricks of the coarsest level need {total / 2**20:.2f} MB "
+            return FramePlan((), floor_level, total, select, arrays)
+    raise ValueError(f"the {len(arrays[0])} bricks of the coarsest level need {total / 2**20:.2f} MB "
                      f"but the budget is {budget_bytes / 2**20:.2f} MB")
 
 
@@ -281,7 +357,7 @@ def coarse_first(source: BrickSource, plan: FramePlan, resident: set, limit: Loa
         missing = [key for key in candidate.keys() if key not in resident]
         if limit.allows(len(missing), bricks_bytes(source, missing), seconds_per_byte):
             break
-    if candidate is plan or set(candidate.keys()) == set(plan.keys()):
+    if candidate is plan or candidate.key_set() == plan.key_set():
         return plan
     pinned = set(candidate.keys()) | (set(plan.keys()) & resident)
     return candidate if bricks_bytes(source, pinned) <= budget_bytes else plan
