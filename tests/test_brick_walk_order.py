@@ -19,7 +19,7 @@ from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks import level_tables
 from vgraph.bricks.cells import cells_are_bricks, cells_of_bricks
 from vgraph.bricks.level_tables import LevelTables, desired_levels, joined_levels, screen_rects
-from vgraph.bricks.selection import select_bricks
+from vgraph.bricks.selection import FramePlan, key_set, select_bricks, selected_arrays
 from vgraph.bricks.walk_order import axis_ranks, front_to_back
 from vgraph.camera import Camera
 from vgraph.gl.tetrahedra.cells import axis_order
@@ -113,6 +113,63 @@ def test_the_levels_tables_made_in_one_go_are_each_levels_own(monkeypatch, kept_
         for level in range(len(source.levels)):
             np.testing.assert_array_equal(tables(level, "rects"), screen_rects(geometry, view_projection, size, level))
             np.testing.assert_array_equal(tables(level, "wants"), desired_levels(geometry, camera, size, level, -1.0))
+
+
+def box_rect(lo, hi, view_projection, size):
+    """The rectangle of one box (x, y, w, h), corner by corner: its 8 corners projected, a pixel
+    of margin, clamped to the viewport; the whole viewport where a corner is behind the eye, 0 where
+    nothing is left."""
+    xs, ys = [], []
+    for corner in itertools.product(*zip(lo, hi)):
+        clip = np.asarray(view_projection, dtype=np.float64) @ np.array([*corner, 1.0])
+        if clip[3] <= 1e-9:
+            return (0, 0, size[0], size[1])
+        xs.append((clip[0] / clip[3] * 0.5 + 0.5) * size[0])
+        ys.append((clip[1] / clip[3] * 0.5 + 0.5) * size[1])
+    x0, y0 = max(np.floor(min(xs)) - 1, 0), max(np.floor(min(ys)) - 1, 0)
+    w, h = max(min(np.ceil(max(xs)) + 1, size[0]) - x0, 0), max(min(np.ceil(max(ys)) + 1, size[1]) - y0, 0)
+    return (0, 0, 0, 0) if w == 0 or h == 0 else (int(x0), int(y0), int(w), int(h))
+
+
+def test_screen_rects_are_each_boxs_corners_projected():
+    """screen_rects (one product over every corner, reduced row against row) gives each brick the
+    rectangle of its own 8 corners, for cameras outside, inside (corners behind the eye) and
+    orthographic."""
+    source = ArrayPyramid(field((37, 50, 61)), spacing=(0.7, 1.0, 2.1), brick=(8, 8, 8))
+    geometry = BrickGeometry(source)
+    for camera in cameras(source):
+        size = (200, 120)
+        view_projection = camera.view_projection(size[0] / size[1])
+        for level in range(len(source.levels)):
+            rects = screen_rects(geometry, view_projection, size, level)
+            lo, hi = level_tables.level_boxes(geometry, level)
+            for index in np.ndindex(rects.shape[:3]):
+                assert tuple(rects[index]) == box_rect(lo[index], hi[index], view_projection, size), (level, index)
+
+
+def test_a_plan_of_arrays_gives_the_bricks_of_the_walk_and_compares_its_keys_as_sets():
+    """FramePlan made of the walk's arrays: its bricks and keys are select_bricks' tuples, its levels
+    theirs; key_set is the same for the same keys in any order (packed, or rows past 2^19 bricks
+    an axis) and differs for others; key_sequence follows the order."""
+    source = ArrayPyramid(field((37, 50, 61)), spacing=(0.7, 1.0, 2.1), brick=(8, 8, 8))
+    camera = list(cameras(source))[-1]  # (the eye inside: bricks of two levels)
+    size = (40, 40)
+    view_projection = camera.view_projection(size[0] / size[1])
+    args = (source, camera, size, view_projection, lambda level: np.ones(brick_grid(source.levels[level].shape, source.brick), bool), 1.5)
+    plan = FramePlan((), 0, 0, None, selected_arrays(*args))
+    assert plan.bricks == select_bricks(*args) and plan.keys() == [key for key, _ in plan.bricks]
+    assert len(plan) == len(plan.bricks) and plan.levels() == sorted({key[0] for key in plan.keys()})
+    assert len(plan.levels()) > 1  # (a walk of several levels)
+    listed = FramePlan(plan.bricks)
+    np.testing.assert_array_equal(listed.key_array, plan.key_array)
+    reordered = plan.keys()[::-1]
+    assert key_set(reordered) == plan.key_set() and hash(key_set(reordered)) == hash(plan.key_set())
+    assert FramePlan([(key, (0, 0, 1, 1)) for key in reordered]).key_sequence() != plan.key_sequence()
+    assert listed.key_sequence() == plan.key_sequence()
+    assert key_set(plan.keys()[1:]) != plan.key_set()
+    wide = [(0, 1 << 20, 3, 4), (1, 2, 3, 4), (0, 5, 1 << 19, 0)]
+    assert key_set(wide) == key_set(wide[::-1]) and key_set(wide) != key_set(wide[:2])
+    assert key_set([(0, 0, 0, 1 << 19)]) != key_set([(0, 0, 1, 0)])  # (not packed: no carry into the next index)
 
 
 def test_cells_are_bricks_where_cells_of_bricks_changes_nothing(tmp_path):
