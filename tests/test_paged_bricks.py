@@ -380,3 +380,23 @@ def test_an_atlas_past_the_gl_texture_limit_names_the_processor_and_property(mon
     monkeypatch.setattr(atlas_module, "max_texture_size", lambda ctx: 40)  # 2 slots of 20 per axis
     with pytest.raises(ProcessorError, match=r"rc\.gl_budget: .*larger than this GL's limit of 40 texels"):
         single_pass(volume, oblique(volume), brick_size=16, lod_bias=FINEST)
+
+
+def test_a_complete_frame_of_coarse_bricks_reports_the_error_bound_of_all_its_bricks():
+    """paged_report.drawn_report, every planned brick in the atlas: dvr's error bound (lod_error over
+    the plan's coarser bricks alone, level 0 moving nothing) and levels are the pass per brick's,
+    which bounds every drawn brick; 0 where every brick is of level 0."""
+    volume = odd_volume()
+    camera = oblique(volume)
+    for lod_bias, levels in ((FINEST, [0]), (1.0, None)):
+        reports = {}
+        for method in ("passes", "single_pass"):
+            _, _, rc = render(volume, camera, method=method, brick_size=8, lod_bias=lod_bias, early_termination=1.0,
+                              transfer_function=WINDOW)
+            reports[method] = rc.last_frame
+        assert reports["single_pass"]["complete"] and reports["single_pass"]["levels"] == reports["passes"]["levels"]
+        assert reports["single_pass"]["error_bound"] == reports["passes"]["error_bound"]
+        if levels == [0]:
+            assert reports["single_pass"]["levels"] == [0] and reports["single_pass"]["error_bound"] == 0.0
+        else:  # bricks of several levels, coarse ones among them: a bound above 0
+            assert len(reports["single_pass"]["levels"]) > 1 and reports["single_pass"]["error_bound"] > 0.0

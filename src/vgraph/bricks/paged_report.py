@@ -7,7 +7,7 @@ from vgraph.bricks.atlas import BrickAtlas
 from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.ray_requests import drawn_from
 from vgraph.bricks.sampling import level_span
-from vgraph.bricks.selection import FramePlan
+from vgraph.bricks.selection import FramePlan, brick_list
 from vgraph.gl.raycasting.raycaster_base import Frame
 
 
@@ -25,7 +25,10 @@ def drawn_report(frame: Frame, geometry: BrickGeometry, plan: FramePlan, atlas: 
                    for key, rect in plan.bricks if key in resident or key in reached]
         levels = sorted({key[0] for key, _ in sources if key is not None})
     else:  # every planned brick drawn from itself (a complete frame of thousands: no loop in Python)
-        sources, levels = (plan.bricks if errors is not None else []), plan.levels()
+        # (dvr's bound: only the coarser bricks, as tuples; a level-0 brick moves no pixel, lod_error)
+        coarse = plan.key_array[:, 0] > 0
+        sources = brick_list(plan.key_array[coarse], plan.rect_array[coarse]) if errors is not None else []
+        levels = plan.levels()
     if errors is None:
         bound = None
     elif any(key is None for key, _ in sources):
