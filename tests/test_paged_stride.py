@@ -26,6 +26,11 @@ ROUNDING = 1e-5  # float32 sums of a few hundred samples, regrouped by the passe
 SIZE = (48, 48)
 
 
+def level_strides(rc) -> np.ndarray:
+    """The frame's strides per level, negative where a level is not whole (paged_strides)."""
+    return np.asarray(rc.parts[PagedSampling].frame_binding.uniforms["level_strides"])
+
+
 def both(volume, camera, **properties):
     """(single pass, pass per brick) images and the single pass's processor."""
     single, depth, rc = render(volume, camera, size=SIZE, method="single_pass", **properties)
@@ -46,7 +51,8 @@ def test_a_coarse_single_pass_frame_is_the_pass_per_brick_frame(plan, skipping):
     if "finest_level" not in plan:
         assert len(levels) >= 2, levels  # levels by footprint: seams between levels
     defines = rc.passes[-1].defines
-    assert defines.get("PAGED_STRIDE") and defines.get("PAGED_STRIDE_BRICKS")
+    assert defines.get("PAGED_STRIDE") and (level_strides(rc) > 0).all()  # every level whole: runs span cells
+    assert list(level_strides(rc)[:3]) == [1, 2, 4]
     # skipping: the frame-wide walk, or the slots' distances where the walk would not pay
     assert bool(defines.get("PAGED_WALK") or defines.get("PAGED_BLOCKS")) is skipping
     assert single[..., 3].max() > 0.5  # something in the picture
@@ -100,7 +106,8 @@ def test_frames_refining_under_a_load_limit_have_no_gap_at_the_borders_of_ancest
         if len(frame["levels"]) > 1:
             mixed += 1
             assert network["rc"].passes[-1].defines.get("PAGED_STRIDE")
-            assert not network["rc"].passes[-1].defines.get("PAGED_STRIDE_BRICKS")
+            partial = level_strides(network["rc"]) < 0
+            assert partial[max(frame["levels"])] and not partial[0]  # ancestors beside finer cells
         assert np.abs(image - want[count % 2]).max() <= ROUNDING, (frame["levels"], np.abs(image - want[count % 2]).max())
         if frame["complete"]:
             break

@@ -162,7 +162,11 @@ void paged_run(inout int i, inout int run_end, Ray ray) {
     bool drawn = entry.a > 0.0;
     // drawn: the level drawn, its level-0 cell; else: the cell where the walk stopped
     int level = int(abs(entry.a) + 0.5) - 1;
+#ifdef PAGED_STRIDE
+    int box_level = drawn ? stride_box_level(level) : level;  // (paged_stride.glsl)
+#else
     int box_level = drawn ? 0 : level;
+#endif
     vec3 lo, hi;
     cell_box(t, cell_scale[box_level], page_grid[box_level], lo, hi);
     vec3 scale = level_scale[level];

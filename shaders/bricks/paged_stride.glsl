@@ -7,16 +7,19 @@
 // and seams are unchanged, and a coarse cell costs a stride-th of its samples. A level-0 cell's
 // stride is 1: every sample, weight 1, corrected_opacity itself.
 //
-// A brick owns the samples in its cell. With PAGED_STRIDE_BRICKS (every planned brick in the atlas)
-// every level-0 cell inside a drawn cell is drawn from its brick; with missing bricks a cell drawn
-// from a resident ancestor may border a finer one inside the ancestor's cell, and the span is cut
-// there (stride_run): no gap and no overlap either way.
+// A brick owns the samples in its cell. Where a level is whole (level_strides > 0: every level-0
+// cell inside each of its drawn cells is drawn from that cell's brick, as in every frame whose
+// planned bricks are all in the atlas) a run is the whole drawn cell; else (a cell drawn from a
+// resident ancestor in place of missing bricks, beside finer cells inside the ancestor's cell, or
+// cells not drawn) runs are level-0 cells and a brick's span is cut where the cells beside it are
+// drawn otherwise (stride_run): no gap and no overlap either way.
 // Samples the march skips lie in empty blocks and add nothing; where a skip lands between taken
 // samples the one that stands for it was skipped, so the march moves on to the next taken one
 // (stride_from), as a pass per brick's block skipping does.
 // Needs ray.glsl, bricks/paged_sampling.glsl's cell_box and uniforms (the opacity: compositing_dvr.glsl).
 #ifdef PAGED_STRIDE
-uniform int level_strides[PAGE_LEVELS];  // frame steps per sample of each level's lattice (1: level 0)
+// frame steps per sample of each level's lattice (1: level 0), negative where the level is not whole
+uniform int level_strides[PAGE_LEVELS];
 
 int stride_step = 1;   // the current run's level's stride
 int stride_first = 0;  // the first sample its brick owns
@@ -38,24 +41,30 @@ ivec2 box_samples(vec3 lo, vec3 hi, Ray ray) {
     return ivec2(clamp(vec2(first, end), 0.0, float(ray.samples)));  // (far faces: no int overflow)
 }
 
-#ifndef PAGED_STRIDE_BRICKS
+// The level of the box that a run of a drawn cell of `level` spans (paged_run): the cell's own
+// where the level is whole, else its level-0 cell.
+int stride_box_level(int level) {
+    return level_strides[level] > 0 ? level : 0;
+}
+
 // Whether sample i lies in a cell drawn otherwise than from the brick of leaf entry `entry`.
 bool stride_other(int i, vec4 entry, Ray ray) {
     return any(notEqual(leaf_entry(sample_point(ray, float(i))), entry));
 }
-#endif
 
 // paged_run's hook: a run of the drawn cell of sample i (at t, its leaf entry `entry`) starts, up
 // to run_end.
 void stride_run(vec3 t, vec4 entry, int i, int run_end, Ray ray) {
     int level = int(entry.a + 0.5) - 1;
-    stride_step = level_strides[level];
+    stride_step = abs(level_strides[level]);
     vec3 lo, hi;
     cell_box(t, cell_scale[level], page_grid[level], lo, hi);
     ivec2 span = box_samples(lo, hi, ray);
     stride_first = min(span.x, i);  // (a rounding may put i before the box's first)
     stride_end = max(span.y, run_end);
-#ifndef PAGED_STRIDE_BRICKS
+    if (level_strides[level] > 0) {
+        return;  // a whole level: the run is its cell, the brick's span
+    }
     // With missing bricks a cell drawn from a resident ancestor may border, inside the ancestor's
     // cell, a finer cell drawn from its own brick: the ancestor's span stops there. A sample's
     // weight reaches up to stride - 1 samples ahead, across a level-0 cell's face (and past a cell
@@ -77,7 +86,6 @@ void stride_run(vec3 t, vec4 entry, int i, int run_end, Ray ray) {
     if (cell.y < stride_end && (stride_other(cell.y, entry, ray) || stride_other(reach, entry, ray))) {
         stride_end = cell.y;
     }
-#endif
 }
 
 // The first sample at or after i (in the current run's brick) that the brick takes.
