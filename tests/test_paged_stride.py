@@ -51,7 +51,8 @@ def test_a_coarse_single_pass_frame_is_the_pass_per_brick_frame(plan, skipping):
     if "finest_level" not in plan:
         assert len(levels) >= 2, levels  # levels by footprint: seams between levels
     defines = rc.passes[-1].defines
-    assert defines.get("PAGED_STRIDE") and (level_strides(rc) > 0).all()  # every level whole: runs span cells
+    # every level whole: runs span cells, no look-ups at their borders
+    assert defines.get("PAGED_STRIDE") and defines.get("PAGED_STRIDE_WHOLE") and (level_strides(rc) > 0).all()
     assert list(level_strides(rc)[:3]) == [1, 2, 4]
     # skipping: the frame-wide walk, or the slots' distances where the walk would not pay
     assert bool(defines.get("PAGED_WALK") or defines.get("PAGED_BLOCKS")) is skipping
@@ -108,6 +109,7 @@ def test_frames_refining_under_a_load_limit_have_no_gap_at_the_borders_of_ancest
             assert network["rc"].passes[-1].defines.get("PAGED_STRIDE")
             partial = level_strides(network["rc"]) < 0
             assert partial[max(frame["levels"])] and not partial[0]  # ancestors beside finer cells
+            assert not network["rc"].passes[-1].defines.get("PAGED_STRIDE_WHOLE")
         assert np.abs(image - want[count % 2]).max() <= ROUNDING, (frame["levels"], np.abs(image - want[count % 2]).max())
         if frame["complete"]:
             break

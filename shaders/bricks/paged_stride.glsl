@@ -19,6 +19,7 @@
 // Needs ray.glsl, bricks/paged_sampling.glsl's cell_box and uniforms (the opacity: compositing_dvr.glsl).
 #ifdef PAGED_STRIDE
 // frame steps per sample of each level's lattice (1: level 0), negative where the level is not whole
+// (PAGED_STRIDE_WHOLE: every level is, as in each frame whose planned bricks are all in the atlas)
 uniform int level_strides[PAGE_LEVELS];
 
 int stride_step = 1;   // the current run's level's stride
@@ -44,7 +45,11 @@ ivec2 box_samples(vec3 lo, vec3 hi, Ray ray) {
 // The level of the box that a run of a drawn cell of `level` spans (paged_run): the cell's own
 // where the level is whole, else its level-0 cell.
 int stride_box_level(int level) {
+#ifdef PAGED_STRIDE_WHOLE
+    return level;
+#else
     return level_strides[level] > 0 ? level : 0;
+#endif
 }
 
 // Whether sample i lies in a cell drawn otherwise than from the brick of leaf entry `entry`.
@@ -62,6 +67,7 @@ void stride_run(vec3 t, vec4 entry, int i, int run_end, Ray ray) {
     ivec2 span = box_samples(lo, hi, ray);
     stride_first = min(span.x, i);  // (a rounding may put i before the box's first)
     stride_end = max(span.y, run_end);
+#ifndef PAGED_STRIDE_WHOLE  // (every level whole: compiled out, as llvmpipe runs an if's body for all lanes)
     if (level_strides[level] > 0) {
         return;  // a whole level: the run is its cell, the brick's span
     }
@@ -86,6 +92,7 @@ void stride_run(vec3 t, vec4 entry, int i, int run_end, Ray ray) {
     if (cell.y < stride_end && (stride_other(cell.y, entry, ray) || stride_other(reach, entry, ray))) {
         stride_end = cell.y;
     }
+#endif
 }
 
 // The first sample at or after i (in the current run's brick) that the brick takes.

@@ -19,7 +19,8 @@ def stride_binding(mode: str, geometry, plan_keys, missing, resident, frame_stri
     with ``missing`` planned keys the atlas misses (``resident``: the atlas's keys), sampled every
     ``frame_stride`` level-0 steps (a drag's frame, vgraph.bricks.coarse_step: a level's stride
     counts the frame's steps); None where no cell it draws has a stride above 1. ``level_strides``:
-    each level's stride, negative where the level is not whole (partial_levels)."""
+    each level's stride, negative where the level is not whole (partial_levels);
+    ``PAGED_STRIDE_WHOLE`` where every level is (the look-ups at partial cells' borders compiled out)."""
     if mode != "dvr":
         return None
     strides = np.maximum(np.asarray(geometry.strides, dtype=np.int64) // max(int(frame_stride), 1), 1)
@@ -29,10 +30,12 @@ def stride_binding(mode: str, geometry, plan_keys, missing, resident, frame_stri
     levels = {key[0] for key in sources if key is not None}
     if all(strides[level] == 1 for level in levels):
         return None
+    # (every planned brick drawn from itself: every level whole)
+    partial = list(partial_levels(geometry, keys, sources)) if len(missing) else []
     signs = np.ones(len(strides), dtype=np.int64)
-    if len(missing):  # (every planned brick drawn from itself: every level whole)
-        signs[list(partial_levels(geometry, keys, sources))] = -1
-    return Binding({"PAGED_STRIDE": True}, uniforms={"level_strides": (strides * signs).astype(np.int32)})
+    signs[partial] = -1
+    return Binding({"PAGED_STRIDE": True, "PAGED_STRIDE_WHOLE": not partial},
+                   uniforms={"level_strides": (strides * signs).astype(np.int32)})
 
 
 def partial_levels(geometry, keys, sources) -> set:
