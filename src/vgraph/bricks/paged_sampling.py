@@ -148,7 +148,7 @@ class PagedSampling(Component):
         self.frame_binding.defines["PAGED_SKIPPING"] = True
         # a drag's frame steps at the finest planned level's step (vgraph.bricks.coarse_step)
         stride = sample_stride(geometry, plan.keys() if context.interactive else (), context.interactive)
-        lattice = stride_binding(processor.compositing, geometry, plan.keys(), missing, atlas.slots, stride)
+        lattice = stride_binding(processor.compositing, geometry, plan, missing, atlas.slots, stride)
         if lattice is not None:  # dvr's coarse cells on their own lattice (vgraph.bricks.paged_strides)
             self.frame_binding = self.frame_binding.merge(lattice)
         self.draw(strided(frame, stride), target, own)

@@ -14,23 +14,25 @@ from vgraph.bricks.ray_requests import drawn_from
 from vgraph.gl.raycasting.raycaster_base import Binding
 
 
-def stride_binding(mode: str, geometry, plan_keys, missing, resident, frame_stride: int) -> Binding | None:
-    """The binding of PAGED_STRIDE for a frame of ``mode`` drawing ``plan_keys`` (keys (level, z, y, x))
-    with ``missing`` planned keys the atlas misses (``resident``: the atlas's keys), sampled every
+def stride_binding(mode: str, geometry, plan, missing, resident, frame_stride: int) -> Binding | None:
+    """The binding of PAGED_STRIDE for a frame of ``mode`` drawing ``plan`` (a FramePlan) with
+    ``missing`` planned keys the atlas misses (``resident``: the atlas's keys), sampled every
     ``frame_stride`` level-0 steps (a drag's frame, vgraph.bricks.coarse_step: a level's stride
     counts the frame's steps); None where no cell it draws has a stride above 1. ``level_strides``:
     each level's stride, negative where the level is not whole (partial_levels);
-    ``PAGED_STRIDE_WHOLE`` where every level is (the look-ups at partial cells' borders compiled out)."""
+    ``PAGED_STRIDE_WHOLE`` where every level is (the look-ups at partial cells' borders compiled out).
+    A complete frame reads only the plan's levels (no tuple per brick)."""
     if mode != "dvr":
         return None
     strides = np.maximum(np.asarray(geometry.strides, dtype=np.int64) // max(int(frame_stride), 1), 1)
-    keys = list(plan_keys)
-    sources = keys if not len(missing) else [drawn_from(geometry, tuple(int(i) for i in key), resident)
-                                             for key in keys]
-    levels = {key[0] for key in sources if key is not None}
+    if len(missing):  # cells drawn from resident ancestors
+        keys = plan.keys()
+        sources = [drawn_from(geometry, key, resident) for key in keys]
+        levels = {key[0] for key in sources if key is not None}
+    else:  # every planned brick drawn from itself: every level whole
+        levels = plan.levels()
     if all(strides[level] == 1 for level in levels):
         return None
-    # (every planned brick drawn from itself: every level whole)
     partial = list(partial_levels(geometry, keys, sources)) if len(missing) else []
     signs = np.ones(len(strides), dtype=np.int64)
     signs[partial] = -1
