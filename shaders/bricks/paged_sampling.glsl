@@ -142,6 +142,7 @@ bool in_empty_block(vec3 p, vec3 slot_origin, vec3 texel_offset, vec3 scale, ino
 #endif
 
 #include "bricks/ray_requests.glsl"
+#include "bricks/paged_stride.glsl"  // PAGED_STRIDE: coarse cells on their own lattice (dvr)
 
 // march.glsl's PAGED_SKIPPING hook, called whenever sample i is past the run (i >= run_end), in a
 // loop of its own: looks up the leaf entry of sample i. Where its cell is not drawn (or, with
@@ -161,7 +162,11 @@ void paged_run(inout int i, inout int run_end, Ray ray) {
     bool drawn = entry.a > 0.0;
     // drawn: the level drawn, its level-0 cell; else: the cell where the walk stopped
     int level = int(abs(entry.a) + 0.5) - 1;
+#ifdef PAGED_STRIDE
+    int box_level = drawn ? stride_box_level(level) : level;  // (paged_stride.glsl)
+#else
     int box_level = drawn ? 0 : level;
+#endif
     vec3 lo, hi;
     cell_box(t, cell_scale[box_level], page_grid[box_level], lo, hi);
     vec3 scale = level_scale[level];
@@ -186,6 +191,9 @@ void paged_run(inout int i, inout int run_end, Ray ray) {
     } else {
         run_end = end;
         read_from(scale, texel_offset);
+#ifdef PAGED_STRIDE
+        stride_run(t, entry, i, end, ray);
+#endif
     }
 }
 

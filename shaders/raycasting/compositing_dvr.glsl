@@ -16,6 +16,18 @@
 #ifdef COMPOSITING_DVR
 uniform float early_termination;
 
+// The sample after the current one: with PAGED_STRIDE (the single pass, bricks/paged_stride.glsl)
+// the next one its cell's brick takes (a coarse level's lattice), each sample's opacity that of the
+// level-0 steps it stands for; else the next.
+#ifdef PAGED_STRIDE
+#include "bricks/stepped_opacity.glsl"
+#define NEXT_SAMPLE(cursor) cursor.i = stride_next(cursor.i)
+#define SAMPLE_OPACITY(alpha, i) stepped_opacity(alpha, stride_next(i) - (i))
+#else
+#define NEXT_SAMPLE(cursor) ++cursor.i
+#define SAMPLE_OPACITY(alpha, i) corrected_opacity(alpha)
+#endif
+
 // Sample i of the ray composited into sum; true once the ray is opaque enough to stop.
 bool composited(Ray ray, int i, inout vec4 sum, inout Result result) {
     vec3 t = sample_point(ray, float(i));
@@ -24,7 +36,7 @@ bool composited(Ray ray, int i, inout vec4 sum, inout Result result) {
     color.a *= sample_weight(t);  // 0: masked or cut away (sample_weight.glsl)
     result.taken++;
     if (color.a > 0.0) {
-        float alpha = corrected_opacity(color.a);
+        float alpha = SAMPLE_OPACITY(color.a, i);
 #ifdef SHADING_BLINN_PHONG
         color.rgb = shade(color.rgb, texel_gradient(t, texel), -ray.direction);
 #endif
@@ -64,7 +76,7 @@ bool composited_run(Ray ray, inout March cursor, inout vec4 sum, inout Result re
     int stop = run_stop(cursor, ray);
     while (cursor.i < stop) {
         if (composited(ray, cursor.i, sum, result)) return true;
-        ++cursor.i;
+        NEXT_SAMPLE(cursor);
     }
     return false;
 }
@@ -79,20 +91,20 @@ bool composited_run(Ray ray, inout March cursor, inout vec4 sum, inout Result re
 bool composited_stretch(Ray ray, inout March cursor, inout vec4 sum, inout Result result) {
     int stop = run_stop(cursor, ray);
     if (composited(ray, cursor.i, sum, result)) return true;
-    ++cursor.i;
+    NEXT_SAMPLE(cursor);
     // (unrolled: the same within noise as a loop of 3 passes, bonsai 36 / 37 ms)
     if (cursor.i < stop) {
         if (composited(ray, cursor.i, sum, result)) return true;
-        ++cursor.i;
+        NEXT_SAMPLE(cursor);
     }
 #ifndef SHADING_BLINN_PHONG
     if (cursor.i < stop) {
         if (composited(ray, cursor.i, sum, result)) return true;
-        ++cursor.i;
+        NEXT_SAMPLE(cursor);
     }
     if (cursor.i < stop) {
         if (composited(ray, cursor.i, sum, result)) return true;
-        ++cursor.i;
+        NEXT_SAMPLE(cursor);
     }
 #endif
     return false;
@@ -104,14 +116,14 @@ bool composited_stretch(Ray ray, inout March cursor, inout vec4 sum, inout Resul
 bool visible_stretch(Ray ray, inout March cursor, inout Result result) {
     int stop = run_stop(cursor, ray);
     if (visible(ray, cursor.i, result)) return true;
-    ++cursor.i;
+    NEXT_SAMPLE(cursor);
     if (cursor.i < stop) {
         if (visible(ray, cursor.i, result)) return true;
-        ++cursor.i;
+        NEXT_SAMPLE(cursor);
     }
     if (cursor.i < stop) {
         if (visible(ray, cursor.i, result)) return true;
-        ++cursor.i;
+        NEXT_SAMPLE(cursor);
     }
     return false;
 }
@@ -126,7 +138,7 @@ bool visible_in_run(Ray ray, inout March cursor, inout Result result) {
     int stop = run_stop(cursor, ray);
     while (cursor.i < stop) {
         if (visible(ray, cursor.i, result)) return true;
-        ++cursor.i;
+        NEXT_SAMPLE(cursor);
     }
     return false;
 }
@@ -148,7 +160,7 @@ Result march(Ray ray) {
         if (!next_occupied_sample(cursor, ray) || visible_in_run(ray, cursor, result)) break;
 #else
         if (!next_occupied_sample(cursor, ray) || visible(ray, cursor.i, result)) break;
-        ++cursor.i;
+        NEXT_SAMPLE(cursor);
 #endif
 #ifdef SKIP_EMPTY_SPACE
         if (cursor.i >= ray.samples || visible(ray, cursor.i, result)) break;
@@ -165,7 +177,7 @@ Result march(Ray ray) {
         if (!next_occupied_sample(cursor, ray) || composited_run(ray, cursor, sum, result)) break;
 #else
         if (!next_occupied_sample(cursor, ray) || composited(ray, cursor.i, sum, result)) break;
-        ++cursor.i;
+        NEXT_SAMPLE(cursor);
 #endif
 #ifdef SKIP_EMPTY_SPACE
         if (cursor.i >= ray.samples || composited(ray, cursor.i, sum, result)) break;

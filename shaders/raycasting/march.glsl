@@ -126,6 +126,15 @@ bool iso_grid_skip(BlockWalk walk, inout int i, int samples) {
 }
 #endif
 
+// PAGED_STRIDE (bricks/paged_stride.glsl): a sample where the skips stop, inside a run of a coarse
+// cell but between the samples its brick takes, moves on to the next one it takes (the one that
+// stands for it lay in an empty block and was skipped: it adds nothing); may leave the run.
+#ifdef PAGED_STRIDE
+void stride_landing(inout March cursor) {
+    cursor.i = cursor.i < cursor.run_end ? stride_from(cursor.i) : cursor.i;
+}
+#endif
+
 bool skip_empty_space(inout March cursor, Ray ray) {
     int before = cursor.i;
 #ifdef PAGED_WALK
@@ -140,7 +149,17 @@ bool skip_empty_space(inout March cursor, Ray ray) {
         while (cursor.i < ray.samples && cursor.i < cursor.block_end && cursor.i >= cursor.run_end) {
             paged_run(cursor.i, cursor.run_end, ray);
         }
+#ifdef PAGED_STRIDE
+        stride_landing(cursor);
+#endif
     } while (cursor.i < ray.samples && (cursor.i >= cursor.block_end || cursor.i >= cursor.run_end));
+#elif defined(PAGED_STRIDE)
+    do {
+        while (cursor.i < ray.samples && cursor.i >= cursor.run_end) {
+            paged_run(cursor.i, cursor.run_end, ray);
+        }
+        stride_landing(cursor);
+    } while (cursor.i < ray.samples && cursor.i >= cursor.run_end);
 #else
     while (cursor.i < ray.samples && cursor.i >= cursor.run_end) {
         paged_run(cursor.i, cursor.run_end, ray);

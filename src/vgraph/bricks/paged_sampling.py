@@ -55,6 +55,7 @@ from vgraph.bricks import leaf_pages, paged_grids, paged_report
 from vgraph.bricks.coarse_step import sample_stride, strided
 from vgraph.bricks.kept_frame import KeptFrame, on_context
 from vgraph.bricks.page_table import PageTable, pyramid_uniforms, texel_offsets
+from vgraph.bricks.paged_strides import stride_binding
 from vgraph.bricks.ray_requests import RayRequests, by_priority
 from vgraph.bricks.sampling import BrickSampling
 from vgraph.bricks.brick_geometry import BrickGeometry
@@ -147,6 +148,9 @@ class PagedSampling(Component):
         self.frame_binding.defines["PAGED_SKIPPING"] = True
         # a drag's frame steps at the finest planned level's step (vgraph.bricks.coarse_step)
         stride = sample_stride(geometry, plan.keys() if context.interactive else (), context.interactive)
+        lattice = stride_binding(processor.compositing, geometry, plan, missing, atlas.slots, stride)
+        if lattice is not None:  # dvr's coarse cells on their own lattice (vgraph.bricks.paged_strides)
+            self.frame_binding = self.frame_binding.merge(lattice)
         self.draw(strided(frame, stride), target, own)
         requested = requests.read(frame.ctx, missing)  # (key, pixels) of the missing cells rays reached
         if requested and context.load_limit is not None:  # the next frame refines (the GUI asks again)
