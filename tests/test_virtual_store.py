@@ -158,8 +158,8 @@ def test_a_8192_store_renders_a_frame_within_the_memory_budget():
     grown = peak_rss_mib() - before
     frame = network["rc"].last_frame
     assert network["src"].outputs["volume"].dims == (8192, 8192, 8192)
-    # auto: passes, which step each level's lattice (the budgets hold the volume from level 5 up;
-    # the single pass samples level 0's: bricks/methods.py)
+    # auto: passes (the budgets hold the volume from level 5 up; the single pass's atlas on top of
+    # the cache grew the peak memory past this bound: bricks/methods.py)
     assert network["rc"].drawn_method == "passes"
     assert image[..., 3].max() > 0.5 and 0 < frame["bricks_read"] <= 64
     assert grown < BUDGET_MB, f"peak RSS grew {grown:.0f} MiB drawing the 8192^3 store"

@@ -20,12 +20,13 @@ one texture cannot hold) takes the single pass where it measured faster and pass
 - a volume whose budgets hold its whole pyramid only from level COARSE_LEVEL up
   (``whole_volume_level`` of min(ram_budget, gl_budget); the 8192^3 and 16384^3 virtual stores
   in 64^3 bricks under 256 MB: levels 5 and 6):
-  passes. The single pass samples level 0's lattice in every brick (the in-core lattice, so level
-  0 equals the RayCaster's image), up to 2^L samples per voxel of a level-L brick, where a pass
-  per brick steps its level's lattice: the 8192^3 store drawn at level 5 took 135 s to the first
-  frame in one pass against 13 s by passes (bench/bench_virtual_store.py; docs/reports/
-  performance.md, "Virtual stores"). The 1024^3 bonsai store (level 2) stays on the single pass
-  (measured 2.4x slower there too: its GUI frames are issue #33's other work).
+  passes, for memory: the 8192^3 store under 128 + 128 MB grew the process's peak memory by
+  324 MiB in one pass, past the 256 MB tests/test_virtual_store.py bounds it by, where passes
+  stay within it. Speed no longer decides since the single pass steps each level's lattice
+  (PAGED_STRIDE, vgraph.bricks.paged_strides): its first frame 5.5-9.4 s against 5.3-6.0 by
+  passes (135 s when it sampled level 0's lattice everywhere), each still frame after 3x faster
+  (bench/bench_virtual_store.py; docs/explanations/bricked-ray-casting.md, "Which method draws").
+  The 1024^3 bonsai store (level 2) stays on the single pass.
 ``passes`` and ``single_pass`` force one; ``single_pass`` refuses a leaf frame and a leaf table
 past the budgets by name.
 """
