@@ -242,17 +242,17 @@ def test_skipping_empty_blocks_inside_the_atlas_bricks_leaves_the_image_and_save
 @pytest.mark.parametrize("frame", ["complete", "refining"])
 def test_mip_skips_blocks_below_the_rays_maximum_with_the_same_image_and_depth(bonsai, frame):
     """A block whose maximum is not above the ray's running maximum holds no sample that changes the
-    maximum or its first sample: image and depth as without skipping, fewer samples. A complete
-    frame walks the grid of its bricks' block maxima, largest first (PAGED_MIP_WALK,
-    vgraph.bricks.walk_grids); a frame with missing bricks (drawn from level 1 here) marches front to
-    back so that its rays ask for them (PAGED_MIP)."""
+    maximum or its first sample: image and depth as without skipping, fewer samples. Every frame
+    walks the grid of its bricks' block maxima, largest first (PAGED_MIP_WALK,
+    vgraph.bricks.walk_grids); a frame with missing bricks (drawn from level 1 here) with the blocks
+    where its rays ask for them (PAGED_MIP_ASKS: test_paged_mip_refining)."""
     properties = {**UNSHADED_RAMP, "compositing": "mip", "brick_size": 32, "lod_bias": FINEST}
     (every, every_depth), (got, got_depth), rc = without_and_with_skipping(bonsai, properties, frame)
-    assert rc.passes[-1].defines.get("PAGED_MIP_WALK" if frame == "complete" else "PAGED_MIP")
+    assert rc.passes[-1].defines.get("PAGED_MIP_WALK")
+    assert bool(rc.passes[-1].defines.get("PAGED_MIP_ASKS")) is (frame == "refining")
     assert np.abs(got - every).max() <= 1e-6 and got[..., :3].std() > 0.01
     np.testing.assert_allclose(got_depth[..., :2], every_depth[..., :2], atol=1e-5)
-    # depth's b: the samples evaluated (refining: the level-1 bricks drawn under missing cells are
-    # not drawn wholly from their slots, whose maxima are then never skipped: block_radii.wholly_drawn)
+    # depth's b: the samples evaluated
     assert got_depth[..., 2].sum() <= (0.7 if frame == "complete" else 1.0) * every_depth[..., 2].sum()
 
 

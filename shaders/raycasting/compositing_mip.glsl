@@ -30,6 +30,13 @@
 // three passes over a grid of block maxima it builds over the frame's bricks (vgraph.bricks.walk_grids);
 // a stretch's samples read their cells' slots through its runs (paged_ready), so a ray looks the
 // page table up only where it samples: front to back it looked up every block on its way.
+// A frame with missing bricks (PAGED_MIP_ASKS, under PAGED_REQUESTS) walks too, and asks for the
+// missing cells its rays reach exactly as the plain march does (bricks/ray_requests.glsl: at a run's
+// start, once per ray, a cell behind the first sample of 1 never): the grid's .g flags the blocks
+// of missing cells, which pass 1 leaves out of the two stretches of pass 2 (so no ray asks out of
+// order or past that sample) but not out of `ceiling`, and pass 3 goes on to that sample or the
+// ray's end, visiting the flagged blocks' runs (take_and_ask) besides sampling what can change
+// the result.
 #ifdef COMPOSITING_MIP
 #if defined(SKIP_EMPTY_SPACE) || defined(PAGED_MIP_WALK)
 // The walk over the blocks (a 3D DDA, Amanatides & Woo 1987, in block coordinates of
@@ -105,6 +112,30 @@ void take_stretch(Ray ray, int start, int end, float bound, inout float best, in
 #endif
 }
 
+#ifdef PAGED_MIP_ASKS
+// Whether the block holds a cell the atlas misses (the grid's .g: vgraph.bricks.walk_grids.asking_grid).
+bool block_asks(ivec3 block) {
+    return texelFetch(blocks, block, 0).g > 0.5;
+}
+
+// A stretch of a flagged block, in one pass forward over its runs (paged_ready; a run's start in a
+// missing cell asks for it, paged_run): its samples taken while `sample` (while they can change the
+// result: take_samples), then its runs only looked up, up to the sample holding a maximum of 1,
+// where the plain march stops. (Taking, then walking the runs again from `start`, asked twice for
+// a cell out of order, which bricks/ray_requests.glsl counts twice: it keeps only the last one.)
+void take_and_ask(Ray ray, int start, int end, bool sample, float bound, inout float best, inout int best_sample,
+                  inout Result result) {
+    int j = start;
+    while (paged_ready(j, best >= 1.0 ? min(end, best_sample + 1) : end, ray)) {
+        int stop = min(end, paged_run_end);
+        if (sample) {
+            sample = take_samples(ray, j, stop, bound, best, best_sample, result);
+        }
+        j = stop;
+    }
+}
+#endif
+
 Result march(Ray ray) {
     Result result = empty_result();
     BlockWalk walk = block_walk(ray);
@@ -123,6 +154,11 @@ Result march(Ray ray) {
     float second = -1e30;
     int second_start = -1;
     int second_end = -1;
+#ifdef PAGED_MIP_ASKS
+    float top_all = -1e30;  // the largest bound, the missing cells' blocks too
+    top_start = -1;
+    top_end = -1;
+#endif
     Cells cells = first_cell(walk);
     for (int i = 0; i < ray.samples;) {
         ivec3 block;
@@ -131,6 +167,13 @@ Result march(Ray ray) {
             continue;  // no sample in this block
         }
         float bound = block_value(block);
+#ifdef PAGED_MIP_ASKS
+        top_all = max(top_all, bound);
+        if (block_asks(block)) {
+            i = next;
+            continue;
+        }
+#endif
         if (bound > top) {
             second = top;
             second_start = top_start;
@@ -149,33 +192,65 @@ Result march(Ray ray) {
     // neutral, so a top stretch bounded by 0 or less is not sampled.
     float best = 0.0;
     int best_sample = 0;
+#ifdef PAGED_MIP_ASKS
+    float ceiling = min(top_all, 1.0);  // no sample can count above this
+    float end_at = 1.0;                 // the plain march asks up to the first sample of 1
+    if (min(top, 1.0) > 0.0) {
+        take_stretch(ray, top_start, top_end, min(top, 1.0), best, best_sample, result);
+    }
+#else
     float ceiling = min(top, 1.0);  // no sample can count above this
+    float end_at = ceiling;
     if (ceiling > 0.0) {
         take_stretch(ray, top_start, top_end, ceiling, best, best_sample, result);
     }
+#endif
     take_stretch(ray, second_start, second_end, min(second, 1.0), best, best_sample, result);
     // 3. The rest, front to back: the walk to the next stretch that can change the result, then
-    // its samples (until best reaches its bound).
+    // its samples (until best reaches its bound). (PAGED_MIP_ASKS: past `ceiling` no stretch can,
+    // only the flagged blocks' runs are visited.)
     int i = 0;
     cells = first_cell(walk);  // the same walk again
-    while (i < ray.samples && !(i > best_sample && best >= ceiling)) {
+    while (i < ray.samples && !(i > best_sample && best >= end_at)) {
         int stretch_end = i;
         float stretch_bound = 0.0;
-        while (i < ray.samples && !(i > best_sample && best >= ceiling)) {
+#ifdef PAGED_MIP_ASKS
+        bool asks = false;
+        bool changes = false;
+#endif
+        while (i < ray.samples && !(i > best_sample && best >= end_at)) {
             ivec3 block;
             int next = leave_cell(cells, ray.samples, block);
             if (next <= i) {
                 continue;
             }
             float bound = block_value(block);
+#ifdef PAGED_MIP_ASKS
+            changes = (i < best_sample ? bound + tie_slack >= best : bound > best) && i != top_start && i != second_start;
+            asks = block_asks(block);
+            if (changes || asks) {
+                stretch_end = next;
+                stretch_bound = changes ? min(bound, 1.0) : 0.0;
+                break;
+            }
+#else
             if ((i < best_sample ? bound + tie_slack >= best : bound > best) && i != top_start && i != second_start) {
                 stretch_end = next;
                 stretch_bound = min(bound, 1.0);
                 break;
             }
+#endif
             i = next;
         }
+#ifdef PAGED_MIP_ASKS
+        if (asks) {
+            take_and_ask(ray, i, stretch_end, changes, stretch_bound, best, best_sample, result);
+        } else {
+            take_stretch(ray, i, stretch_end, stretch_bound, best, best_sample, result);
+        }
+#else
         take_stretch(ray, i, stretch_end, stretch_bound, best, best_sample, result);
+#endif
         i = max(i, stretch_end);
     }
     vec4 color = classify(best);

@@ -1,10 +1,11 @@
 """The grids the single pass's rays skip by (vgraph.bricks.paged_sampling, with
 ``empty_space_skipping``), as bindings of its pass, each kept across frames while what it is made
 from stays (vgraph.bricks.kept_frame):
-- ``walk_grid``: where the atlas holds every planned brick, the grid the rays walk as the
-  RayCaster walks its blocks (vgraph.bricks.walk_grids): mip's block maxima in the RayCaster's order
-  (define PAGED_MIP_WALK), dvr's skip radii (PAGED_WALK, march.glsl), iso's blocks of 4 level-0
-  voxels with their cells' slots (PAGED_ISO_GRID; a flat leaf table only).
+- ``walk_grid``: the grid the rays walk as the RayCaster walks its blocks (vgraph.bricks.walk_grids):
+  mip's block maxima in the RayCaster's order (define PAGED_MIP_WALK; where bricks are missing,
+  with the blocks where rays ask for them, PAGED_MIP_ASKS), and, where the atlas holds every
+  planned brick, dvr's skip radii (PAGED_WALK, march.glsl), iso's blocks of 4 level-0 voxels with
+  their cells' slots (PAGED_ISO_GRID; a flat leaf table only).
 - ``block_flags``: otherwise, the flags of the atlas's blocks that add nothing this frame
   (vgraph.bricks.atlas_blocks) with their Chebyshev radii (vgraph.bricks.block_radii; PAGED_BLOCKS).
 """
@@ -21,6 +22,7 @@ from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.brick_planning import skipping_alpha
 from vgraph.bricks.cells import table_of
 from vgraph.bricks.kept_frame import KeptFrame, on_context
+from vgraph.bricks.ray_requests import drawn_from
 from vgraph.bricks.selection import FramePlan
 from vgraph.gl.raycasting.empty_space import occupied_blocks
 from vgraph.gl.raycasting.raycaster_base import Binding, Frame
@@ -28,15 +30,16 @@ from vgraph.gl.raycasting.raycaster_base import Binding, Frame
 
 def walk_grid(processor, kept: KeptFrame, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan,
               atlas: BrickAtlas, missing) -> Binding | None:
-    """With ``empty_space_skipping`` where the atlas holds every planned brick, the binding of the
-    grid the rays walk, made by the mode's builder (``_mip_dvr_grid``, ``_iso_grid``); None
-    otherwise (front to back, the slots' block flags) or where the builder makes no grid. Kept in
-    ``kept.walk`` under the builder's key (a frame has one grid or none)."""
+    """With ``empty_space_skipping``, the binding of the grid the rays walk, made by the mode's
+    builder (``_mip_dvr_grid``, ``_iso_grid``): mip's in every frame, dvr's and iso's where the atlas
+    holds every planned brick (with ``missing`` cells, [n, 4], their rays march front to back with
+    the slots' block flags, asking as they go); None otherwise or where the builder makes no grid.
+    Kept in ``kept.walk`` under the builder's key (a frame has one grid or none)."""
     mode = processor.compositing
     # shaded dvr walks since its loops take the RayCaster's stretches of 2-3 samples (compositing_dvr.glsl)
-    if mode not in GRIDS or not processor.empty_space_skipping or len(missing):
+    if mode not in GRIDS or not processor.empty_space_skipping or (len(missing) and mode != "mip"):
         return None
-    grid = GRIDS[mode](processor, kept, frame, source, geometry, plan, atlas)
+    grid = GRIDS[mode](processor, kept, frame, source, geometry, plan, atlas, missing)
     if grid is None:
         return None
     key, name, make = grid
@@ -51,14 +54,21 @@ def walk_grid(processor, kept: KeptFrame, frame: Frame, source, geometry: BrickG
 
 
 def _mip_dvr_grid(processor, kept: KeptFrame, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan,
-                  atlas: BrickAtlas):
-    """mip's block maxima (PAGED_MIP_WALK), dvr's skip radii (PAGED_WALK): (key, texture name, make),
-    make() -> (grid, defines, uniforms) or None. Kept while the leaf table, the mode and the skipping
-    opacity are."""
+                  atlas: BrickAtlas, missing):
+    """mip's block maxima (PAGED_MIP_WALK; with ``missing`` cells, walk_grids.asking_grid and
+    PAGED_MIP_ASKS), dvr's skip radii (PAGED_WALK): (key, texture name, make), make() -> (grid,
+    defines, uniforms) or None. Kept while the leaf table (the plan's keys, the atlas's bricks), the
+    mode and the skipping opacity are."""
     mode = processor.compositing
     alpha = skipping_alpha(processor, frame) if mode == "dvr" else None  # (mip: maxima)
 
     def make():
+        if len(missing):  # (mip) each cell drawn from itself or its finest resident ancestor, as the leaf table
+            keys = plan.keys()
+            bricks = [drawn_from(geometry, key, atlas.slots) for key in keys]
+            grid, block = walk_grids.asking_grid(source, geometry, keys, atlas.slots.__getitem__, atlas.blocks.ranges,
+                                                 bricks, missing)
+            return grid, {"PAGED_MIP_WALK": True, "PAGED_MIP_ASKS": True}, walk_grids.uniforms(geometry, block, grid[..., 0])
         grid, block, define = walk_grids.frame_grid(alpha, source, geometry, plan.keys(), atlas.slots.__getitem__,
                                                     atlas.blocks.ranges)
         return None if grid is None else (grid, {define: True}, walk_grids.uniforms(geometry, block, grid))
@@ -66,7 +76,7 @@ def _mip_dvr_grid(processor, kept: KeptFrame, frame: Frame, source, geometry: Br
 
 
 def _iso_grid(processor, kept: KeptFrame, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan,
-              atlas: BrickAtlas):
+              atlas: BrickAtlas, missing):
     """iso's grid of blocks of 4 level-0 voxels (8, ... past 512^3) holding each block's skip radius
     and its cell's slot (vgraph.bricks.walk_grids.iso_grid; PAGED_ISO_GRID): all of level 0, in a
     flat leaf table; None otherwise (the slots' distances). (key, texture name, make) as

@@ -21,10 +21,14 @@ Conventions:
   bricks (vgraph.bricks.atlas_blocks, whose ranges cover what their samples filter, half a voxel
   past them) that overlap it, within the cell each brick is drawn in; 0 (adds nothing) where no
   brick is drawn. At level 0, in bricks of a multiple of 8 voxels, a block of the grid is one of a
-  brick's blocks. A coarser brick's blocks reach EDGE level-0 voxels past their faces, so a sample
-  that rounding puts in the block across a cell face is still bounded.
-- Only frames whose planned bricks are all in the atlas walk the grid: a missing brick's rays must
-  look its cell up to ask for it (vgraph.bricks.ray_requests), which the front-to-back march does.
+  brick's blocks. A coarser brick's blocks reach EDGE level-0 voxels past the faces of the cell it is
+  drawn in, so a sample that rounding puts in the block across a cell face is still bounded (inside
+  the cell the next block's range bounds the same samples: it covers half a voxel past them).
+- mip's frames with missing bricks walk it too (``asking_grid``, PAGED_MIP_ASKS): a missing cell's
+  blocks bound what its finest resident ancestor draws there (0 where nothing is drawn), and a
+  second channel flags the blocks within EDGE of a missing cell, which the walk visits front to
+  back to ask for them as the plain march would (compositing_mip.glsl). dvr's and iso's grids are
+  made only for frames whose planned bricks are all in the atlas (their missing bricks' rays march).
 """
 
 from __future__ import annotations
@@ -63,19 +67,41 @@ def _counts(geometry: BrickGeometry, block: int) -> list[int]:
 
 def frame_grid(alpha, source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray):
     """(grid or None, block, define): mip's block maxima (``alpha`` None; PAGED_MIP_WALK), else dvr's
-    skip radii under the opacity per value ``alpha`` (PAGED_WALK; None where skipping would not pay)."""
+    skip radii under the opacity per value ``alpha`` (PAGED_WALK; None where skipping would not pay).
+    Every key drawn from its own brick (a complete frame); mip's frames with missing bricks:
+    asking_grid."""
     if alpha is None:
         return (*walk_grid(source, geometry, keys, slot_of, ranges), "PAGED_MIP_WALK")
     occupied = lambda low, high: occupied_blocks(low, high, alpha)  # noqa: E731 (the RayCaster's rule)
     return (*skip_radii(source, geometry, keys, slot_of, ranges, occupied), "PAGED_WALK")
 
 
-def walk_grid(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray) -> tuple[np.ndarray, int]:
-    """(float32 [z, y, x] block maxima, block): the grid over the bricks ``keys`` (level, z, y, x),
-    each drawn in its own cell; ``slot_of(key)`` its atlas slot, ``ranges`` the atlas's block ranges
+def walk_grid(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray, bricks=None) -> tuple[np.ndarray, int]:
+    """(float32 [z, y, x] block maxima, block): the grid over the cells ``keys`` (level, z, y, x),
+    each drawn from its own brick, or from ``bricks[i]`` (a resident ancestor; None: nothing drawn
+    there, 0); ``slot_of(key)`` a brick's atlas slot, ``ranges`` the atlas's block ranges
     [slot, bz, by, bx, (min, max)] (AtlasBlocks.ranges)."""
     maxima = np.nan_to_num(ranges[..., 1], nan=np.inf)  # unknown: never skipped
-    return _reduced_grid(source, geometry, keys, slot_of, maxima, np.maximum, 0.0)
+    return _reduced_grid(source, geometry, keys, slot_of, maxima, np.maximum, 0.0, bricks)
+
+
+def asking_grid(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray, bricks, missing) -> tuple[np.ndarray, int]:
+    """mip's grid for a frame with missing bricks (PAGED_MIP_WALK and PAGED_MIP_ASKS): (float32
+    [z, y, x, 2], block), r = walk_grid's maxima over the cells ``keys`` each drawn from ``bricks[i]``
+    (itself, its finest resident ancestor, None), g = 1 where the block lies within EDGE level-0
+    voxels of one of the ``missing`` cells [n, 4] (the walk asks there: module docstring), else 0."""
+    maxima, block = walk_grid(source, geometry, keys, slot_of, ranges, bricks)
+    flags = np.zeros_like(maxima)
+    count = np.asarray(flags.shape[::-1], dtype=np.int64)  # (x, y, z)
+    dims0 = np.asarray(geometry.dims0, dtype=np.float64)
+    for key in np.asarray(missing, dtype=np.int64).reshape(-1, 4):
+        span = geometry.spans[int(key[0])].astype(np.float64)  # (x, y, z) level-0 voxels a cell
+        cell = key[1:][::-1].astype(np.float64)
+        lo, hi = cell * span - EDGE, np.minimum((cell + 1.0) * span, dims0) + EDGE
+        first = np.maximum(np.floor(lo / block).astype(np.int64), 0)
+        last = np.minimum(np.ceil(hi / block).astype(np.int64), count)
+        flags[first[2]:last[2], first[1]:last[1], first[0]:last[0]] = 1.0
+    return np.stack([maxima, flags], axis=-1), block
 
 
 def skip_radii(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray, occupied) -> tuple[np.ndarray | None, int]:
@@ -93,20 +119,32 @@ def skip_radii(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarra
     return radii_if_worthwhile(occupied_blocks), block
 
 
-def _reduced_grid(source, geometry: BrickGeometry, keys, slot_of, values: np.ndarray, reducer, fill: float) -> tuple[np.ndarray, int]:
+def _reduced_grid(source, geometry: BrickGeometry, keys, slot_of, values: np.ndarray, reducer, fill: float,
+                  bricks=None) -> tuple[np.ndarray, int]:
     """(float32 [z, y, x], block): ``reducer`` (np.maximum, np.minimum) over ``values`` [slot, bz, by,
-    bx] of the atlas blocks overlapping each block of the grid, within the cell each brick ``keys``
-    is drawn in; ``fill`` where none does. Whole levels at a time in numpy (the 4096 bricks of 32^3
-    of a 512^3 volume: a loop over the bricks took 0.3 s)."""
+    bx] of the atlas blocks overlapping each block of the grid, within the cell ``keys[i]`` each is
+    drawn in, from its own brick or from ``bricks[i]`` (None: nothing drawn); ``fill`` where none
+    is. Whole levels at a time in numpy (the 4096 bricks of 32^3 of a 512^3 volume: a loop over the
+    bricks took 0.3 s)."""
     block = walk_block(geometry)
     grid = np.full(_counts(geometry, block)[::-1], fill, dtype=np.float32)  # [z, y, x]
-    keys = np.asarray(keys, dtype=np.int64).reshape(-1, 4)
+    cells = np.asarray(keys, dtype=np.int64).reshape(-1, 4)
+    if bricks is None:
+        keys = cells
+    else:  # the cells drawn from some brick, with it
+        drawn = [i for i, brick in enumerate(bricks) if brick is not None]
+        cells = cells[drawn]
+        keys = np.asarray([bricks[i] for i in drawn], dtype=np.int64).reshape(-1, 4)
     slots = np.fromiter((slot_of(tuple(int(v) for v in key)) for key in keys), dtype=np.int64, count=len(keys))
-    for level in np.unique(keys[:, 0]):
-        mine = keys[:, 0] == level
+    for level, cell_level in np.unique(np.stack([keys[:, 0], cells[:, 0]], axis=-1), axis=0):
+        mine = (keys[:, 0] == level) & (cells[:, 0] == cell_level)
         brick_values = values[slots[mine]]  # [brick, bz, by, bx]
-        (gz, vz), (gy, vy), (gx, vx) = [_overlaps(geometry, source, int(level), axis, keys[mine], block, brick_values.shape[1 + axis])
-                                        for axis in range(3)]  # [brick, k, c]: the grid's blocks block k overlaps
+        # [brick, m, c]: the grid's blocks that the brick's m blocks in its cell overlap, and which they are
+        (gz, vz, kz), (gy, vy, ky), (gx, vx, kx) = [_overlaps(geometry, source, int(level), axis, keys[mine], block,
+                                                              brick_values.shape[1 + axis], cells[mine])
+                                                    for axis in range(3)]
+        brick_values = brick_values[np.arange(len(brick_values))[:, None, None, None], kz[:, :, None, None],
+                                    ky[:, None, :, None], kx[:, None, None, :]]  # the blocks in the cell
         shape = (len(brick_values), gz.shape[1], gz.shape[2], gy.shape[1], gy.shape[2], gx.shape[1], gx.shape[2])
         z, y, x = gz[:, :, :, None, None, None, None], gy[:, None, None, :, :, None, None], gx[:, None, None, None, None, :, :]
         valid = np.broadcast_to(vz[:, :, :, None, None, None, None] & vy[:, None, None, :, :, None, None]
@@ -116,10 +154,13 @@ def _reduced_grid(source, geometry: BrickGeometry, keys, slot_of, values: np.nda
     return grid, block
 
 
-def _overlaps(geometry: BrickGeometry, source, level: int, axis: int, keys: np.ndarray, block: int, n: int):
-    """Along ``axis`` ([z, y, x] numbering) of the bricks ``keys`` of ``level``: (g, valid), int and
-    bool [brick, k, c], the grid's blocks whose samples those of each brick's block k overlap within
-    the brick's cell, c of them at most (valid: one of them)."""
+def _overlaps(geometry: BrickGeometry, source, level: int, axis: int, keys: np.ndarray, block: int, n: int,
+              cells: np.ndarray):
+    """Along ``axis`` ([z, y, x] numbering) of the bricks ``keys`` of ``level``: (g, valid, k), int,
+    bool and int [brick, m, c] and [brick, m]: the grid's blocks whose samples those of each brick's
+    block k overlap within the cell ``cells[brick]`` it is drawn in (its own, or a finer one of a
+    single level), c of them at most (valid: one of them), for the m blocks k of the brick that
+    overlap the cell (a coarser brick drawn in a finer cell: only those few, not all n)."""
     xyz = 2 - axis
     base, own = source.levels[0], source.levels[level]
     # the level's voxel coordinate u (centres at integers) -> level-0 coordinate t * dims0
@@ -127,18 +168,26 @@ def _overlaps(geometry: BrickGeometry, source, level: int, axis: int, keys: np.n
     shift = (float(own.origin[xyz]) - float(base.origin[xyz])) / float(base.spacing[xyz]) + 0.5
     index = keys[:, 1 + axis]
     start = np.asarray(table_of(source).spans[level][axis][0], dtype=np.float64)[index]  # the cores' first voxels
-    span = float(geometry.spans[level][xyz])
-    lo, hi = index * span, np.minimum((index + 1) * span, float(geometry.dims0[xyz]))  # the cells, level-0 voxels
+    span = float(geometry.spans[int(cells[0, 0]) if len(cells) else level][xyz])
+    cell = cells[:, 1 + axis]
+    lo, hi = (cell * span)[:, None], np.minimum((cell + 1) * span, float(geometry.dims0[xyz]))[:, None]  # level-0 voxels
     a = (start[:, None] + BLOCK * np.arange(n) - 0.5) * ratio + shift  # the samples of block k: [a, b)
     b = a + BLOCK * ratio
-    edge = EDGE if level > 0 else 0.0
-    a, b = np.maximum(a, lo[:, None]) - edge, np.minimum(b, hi[:, None]) + edge
+    a, b = np.maximum(a, lo), np.minimum(b, hi)
+    inside = a < b  # the blocks in the cell (a smaller brick's past its core: none)
+    count = inside.sum(axis=1)
+    m = max(int(count.max(initial=0)), 1)
+    k = np.minimum(np.argmax(inside, axis=1)[:, None] + np.arange(m), n - 1)  # (contiguous)
+    rows = np.arange(len(k))[:, None]
+    a, b, inside = a[rows, k], b[rows, k], inside[rows, k] & (np.arange(m) < count[:, None])
+    if level > 0:  # past the cell's faces only (inside it the next block bounds the same samples)
+        a, b = np.where(a <= lo, a - EDGE, a), np.where(b >= hi, b + EDGE, b)
     first = np.maximum(np.floor(a / block).astype(np.int64), 0)
     last = np.minimum(np.ceil(b / block).astype(np.int64) - 1, -(-int(geometry.dims0[xyz]) // block) - 1)
-    last = np.where(a < b, last, first - 1)  # a block past the cell (a smaller brick's): none
+    last = np.where(inside, last, first - 1)
     c = max(int((last - first).max(initial=0)) + 1, 1)
     g = first[:, :, None] + np.arange(c)
-    return np.minimum(g, np.maximum(last[:, :, None], 0)), g <= last[:, :, None]
+    return np.minimum(g, np.maximum(last[:, :, None], 0)), g <= last[:, :, None], k
 
 
 def uniforms(geometry: BrickGeometry, block: int, grid: np.ndarray) -> dict:
