@@ -25,9 +25,11 @@ Conventions (docs/explanations/bricked-ray-casting.md explains each with the num
   RayCaster's sum and stops where it does, drawing into a scratch pair copied back per brick.
 - Inside a brick, blocks of 8^3 voxels that cannot contribute are jumped over (the processor's
   ``empty_space_skipping``; the brick's block ranges go up with it, cache.block_ranges_of).
-- Shading normals: the Gradients component's finite differences with each brick level's voxel
-  (Gradients.uniforms); ``precomputed`` derivatives are drawn as ``central`` (a gradient volume of
-  a volume that large is what bricking avoids; inside the box both give the same gradient up to
+- Shading normals: the Gradients component's finite differences one voxel of level 0 apart at every
+  level, as the single pass's (a coarse brick's halo of 2 of its voxels covers them; nearer the
+  level-0 image than one voxel of the level: tests/test_paged_coarse_gradients.py),
+  Gradients.uniforms; ``precomputed`` derivatives are drawn as ``central`` (a gradient volume of a
+  volume that large is what bricking avoids; inside the box both give the same gradient up to
   16-bit steps).
 - The frame's bricks, their levels and budgets are BrickPlanning's (vgraph.bricks.brick_planning,
   the base of this component: its properties, pyramid, cache and plan).
@@ -183,10 +185,10 @@ class BrickSampling(BrickPlanning):
                                                     "intensity_offset": float(fmt.offset)})
 
     def brick_binding(self, frame: Frame, geometry, key) -> dict:
-        """The uniforms of one brick: where it lies and its level's finite differences."""
+        """The uniforms of one brick: where it lies and the finite differences (level 0's voxel)."""
         uniforms = brick_uniforms(geometry, key)
         if frame.lit:
-            voxel, spacing = level_voxel(geometry, key[0])
+            voxel, spacing = level_voxel(geometry, 0)
             uniforms.update(self.processor.parts[Gradients].uniforms(self.cache.format.scale, voxel, spacing,
                                                                       self.derivatives()))
         return uniforms
