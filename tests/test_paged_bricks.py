@@ -223,15 +223,17 @@ def without_and_with_skipping(bonsai, properties, frame):
 @pytest.mark.parametrize("frame", ["complete", "refining"])
 @pytest.mark.parametrize("mode", ["dvr", "iso"])
 def test_skipping_empty_blocks_inside_the_atlas_bricks_leaves_the_image_and_saves_samples(bonsai, mode, frame):
-    """The bonsai's bricks of 32 all hold something; their blocks of 8^3 often do not. iso jumps by
-    the slots' block distances (PAGED_BLOCKS) where bricks are missing (where complete it walks a
-    grid of blocks of 4 holding their slots: test_paged_iso_grid), shaded dvr where bricks are
+    """The bonsai's bricks of 32 all hold something; their blocks of 8^3 often do not. iso walks a
+    grid of skip radii where bricks are missing (PAGED_WALK: test_paged_iso_refining; where complete
+    a grid of blocks of 4 holding their slots: test_paged_iso_grid), shaded dvr jumps by the slots'
+    block distances (PAGED_BLOCKS) where bricks are
     missing (where complete it walks a grid of skip radii, as unshaded dvr: test_paged_walk); a
     frame with missing bricks (drawn from level 1 here) so that its rays ask for them."""
     properties = {**UNSHADED_RAMP, "compositing": mode, "brick_size": 32, "lod_bias": FINEST,
                   **({"transfer_function": WINDOW, "shading": "blinn_phong"} if mode == "dvr" else {"iso_level": 0.3})}
     (every, every_depth), (got, got_depth), rc = without_and_with_skipping(bonsai, properties, frame)
-    expected = {("dvr", "complete"): "PAGED_WALK", ("iso", "complete"): "PAGED_ISO_GRID"}.get((mode, frame), "PAGED_BLOCKS")
+    expected = {("dvr", "complete"): "PAGED_WALK", ("iso", "complete"): "PAGED_ISO_GRID",
+                ("iso", "refining"): "PAGED_WALK"}.get((mode, frame), "PAGED_BLOCKS")
     assert rc.passes[-1].defines.get(expected)
     assert np.abs(got - every).max() <= 1e-6 and got[..., :3].std() > 0.01
     # depth's b: the samples evaluated (refining: the level-1 bricks drawn under missing cells are not

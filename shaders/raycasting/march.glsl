@@ -94,7 +94,8 @@ bool next_occupied_sample(inout March cursor, Ray ray) {
 // add nothing and starts the next run; with PAGED_REQUESTS a ray also asks there for the missing
 // cells it reaches (bricks/ray_requests.glsl).
 #ifdef PAGED_WALK
-// A frame of dvr whose bricks are all in the atlas (vgraph.bricks.walk_grids.skip_radii): the
+// A frame of dvr whose bricks are all in the atlas, or of iso with missing bricks (PAGED_WALK_ASKS;
+// vgraph.bricks.walk_grids.skip_radii): the
 // RayCaster's own walk over a frame-wide grid of skip radii jumps the empty regions, across cells,
 // and the page table is looked up only where a sample of an occupied block leaves its run (a whole
 // drawn cell: no PAGED_BLOCKS). One jump over the grid: past the empty region around cursor.i, or,
@@ -102,6 +103,21 @@ bool next_occupied_sample(inout March cursor, Ray ray) {
 void paged_jump(inout March cursor, Ray ray) {
     ivec3 block = block_of(cursor.walk, cursor.i);
     float radius = block_value(block);
+#ifdef PAGED_WALK_ASKS
+    // A refining frame (PAGED_REQUESTS): an empty block where a missing cell may start (radius < 0,
+    // vgraph.bricks.walk_grids.ASKING; no jump enters one) starts a run, which asks for the cell as
+    // the front-to-back march's run there does (or jumps the undrawn box as it does), and is left
+    // block by block: the ray asks for every missing cell it has a sample in, in order, before any
+    // sample in it, and none past where it stops. (dvr's refining frames march: walked this way
+    // they asked for a few more pixels than the march, whose coarse cells take only their lattice's
+    // samples, PAGED_STRIDE, and were slower: vgraph.bricks.walk_grids.)
+    if (radius < 0.0) {
+        int before = cursor.i;
+        paged_run(cursor.i, cursor.run_end, ray);
+        cursor.i = cursor.i != before ? cursor.i : next_sample_outside(cursor.walk, cursor.i, block, 1.0, ray.samples);
+        return;
+    }
+#endif
     int next = next_sample_outside(cursor.walk, cursor.i, block, max(radius, 1.0), ray.samples);
     cursor.i = radius > 0.0 ? next : cursor.i;
     cursor.block_end = radius > 0.0 ? cursor.block_end : next;

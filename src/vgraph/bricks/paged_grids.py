@@ -5,7 +5,8 @@ from stays (vgraph.bricks.kept_frame):
   mip's block maxima in the RayCaster's order (define PAGED_MIP_WALK; where bricks are missing,
   with the blocks where rays ask for them, PAGED_MIP_ASKS), and, where the atlas holds every
   planned brick, dvr's skip radii (PAGED_WALK, march.glsl), iso's blocks of 4 level-0 voxels with
-  their cells' slots (PAGED_ISO_GRID; a flat leaf table only).
+  their cells' slots (PAGED_ISO_GRID; a flat leaf table only); where bricks are missing, iso's skip
+  radii with the blocks where rays ask for them (PAGED_WALK with PAGED_WALK_ASKS).
 - ``block_flags``: otherwise, the flags of the atlas's blocks that add nothing this frame
   (vgraph.bricks.atlas_blocks) with their Chebyshev radii (vgraph.bricks.block_radii; PAGED_BLOCKS).
 """
@@ -31,15 +32,19 @@ from vgraph.gl.raycasting.raycaster_base import Binding, Frame
 def walk_grid(processor, kept: KeptFrame, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan,
               atlas: BrickAtlas, missing) -> Binding | None:
     """With ``empty_space_skipping``, the binding of the grid the rays walk, made by the mode's
-    builder (``_mip_dvr_grid``, ``_iso_grid``): mip's in every frame, dvr's and iso's where the atlas
-    holds every planned brick (with ``missing`` cells, [n, 4], their rays march front to back with
-    the slots' block flags, asking as they go); None otherwise or where the builder makes no grid.
-    Kept in ``kept.walk`` under the builder's key (a frame has one grid or none)."""
+    builder (``_mip_dvr_grid``, ``_iso_grid``, with ``missing`` cells [n, 4] ``_iso_asking_grid``):
+    mip's and iso's in every frame, dvr's where the atlas holds every planned brick (with missing
+    cells its rays march front to back with the slots' block flags, asking as they go); None
+    otherwise or where the builder makes no grid. Kept in ``kept.walk`` under the builder's key (a
+    frame has one grid or none)."""
     mode = processor.compositing
-    # shaded dvr walks since its loops take the RayCaster's stretches of 2-3 samples (compositing_dvr.glsl)
-    if mode not in GRIDS or not processor.empty_space_skipping or (len(missing) and mode != "mip"):
+    # shaded dvr walks since its loops take the RayCaster's stretches of 2-3 samples (compositing_dvr.glsl);
+    # its refining frames march: walked, they asked for other pixels than the march and were
+    # slower (vgraph.bricks.walk_grids)
+    if mode not in GRIDS or not processor.empty_space_skipping or (len(missing) and mode == "dvr"):
         return None
-    grid = GRIDS[mode](processor, kept, frame, source, geometry, plan, atlas, missing)
+    grid = (_iso_asking_grid if mode == "iso" and len(missing) else GRIDS[mode])(processor, kept, frame, source,
+                                                                                geometry, plan, atlas, missing)
     if grid is None:
         return None
     key, name, make = grid
@@ -96,6 +101,25 @@ def _iso_grid(processor, kept: KeptFrame, frame: Frame, source, geometry: BrickG
     key = ("iso", plan.key_set(), atlas.key, atlas.stats["uploads"], atlas.stats["evictions"],
            float(processor.iso_level), id(atlas.blocks))
     return key, "iso_grid", make
+
+
+def _iso_asking_grid(processor, kept: KeptFrame, frame: Frame, source, geometry: BrickGeometry, plan: FramePlan,
+                     atlas: BrickAtlas, missing):
+    """iso's grid of a frame with ``missing`` cells: skip radii (walk_grids.skip_radii; PAGED_WALK
+    with PAGED_WALK_ASKS, march.glsl), a block occupied where its largest value reaches the level,
+    each cell drawn from itself or its finest resident ancestor as the leaf table draws it, the
+    empty blocks of missing cells asking. (key, texture name, make) as _mip_dvr_grid's; kept while
+    the leaf table and the level are."""
+    level = float(processor.iso_level)
+
+    def make():
+        keys = plan.keys()
+        bricks = [drawn_from(geometry, key, atlas.slots) for key in keys]
+        grid, block = walk_grids.skip_radii(source, geometry, keys, atlas.slots.__getitem__, atlas.blocks.ranges,
+                                            lambda low, high: ~(high < level), bricks, missing, lows=False)
+        return None if grid is None else (grid, {"PAGED_WALK": True, "PAGED_WALK_ASKS": True},
+                                          walk_grids.uniforms(geometry, block, grid))
+    return (kept.table.key, "iso asking", level), "walk_grid", make
 
 
 GRIDS = {"mip": _mip_dvr_grid, "dvr": _mip_dvr_grid, "iso": _iso_grid}  # mode -> its grid's builder

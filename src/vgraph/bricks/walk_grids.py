@@ -27,8 +27,14 @@ Conventions:
 - mip's frames with missing bricks walk it too (``asking_grid``, PAGED_MIP_ASKS): a missing cell's
   blocks bound what its finest resident ancestor draws there (0 where nothing is drawn), and a
   second channel flags the blocks within EDGE of a missing cell, which the walk visits front to
-  back to ask for them as the plain march would (compositing_mip.glsl). dvr's and iso's grids are
-  made only for frames whose planned bricks are all in the atlas (their missing bricks' rays march).
+  back to ask for them as the plain march would (compositing_mip.glsl). So do iso's (``skip_radii``
+  with ``missing``, PAGED_WALK with PAGED_WALK_ASKS): skip radii from what each cell's finest
+  resident ancestor draws there, the empty blocks within EDGE of a missing cell ASKING (march.glsl).
+  dvr's grid is made only for frames whose planned bricks are all in the atlas: its refining frames'
+  rays march (walked the same way, they asked for a few more pixels per missing cell than the
+  march, whose coarse cells take only their lattice's samples (PAGED_STRIDE) and so, it seems, hop
+  over thin slices of cells without asking; and they were 1.2-1.3x slower on the bonsai and the
+  512^3 torus).
 """
 
 from __future__ import annotations
@@ -41,12 +47,14 @@ from vgraph.bricks.atlas_blocks import FINE
 from vgraph.bricks.cache import BLOCK
 from vgraph.bricks.cells import table_of
 from vgraph.bricks.brick_geometry import BrickGeometry
-from vgraph.gl.raycasting.empty_space import WALK_BLOCK, occupied_blocks, radii_if_worthwhile
+from vgraph.gl.raycasting.empty_space import MIN_EMPTY_FRACTION, WALK_BLOCK, occupied_blocks, radii_if_worthwhile
+from vgraph.gl.raycasting.empty_space import skip_radii as empty_radii
 
 MAX_TEXELS = 128 ** 3  # the grid's size at most (8 MiB of R32F): a coarser block beyond
 MAX_AXIS = 2048        # texels along an axis at most: every GL 4 holds a 3D texture this wide
 NOT_DRAWN = -1e6      # iso_grid's offset of a block whose cell is not drawn (never read: its samples are jumped)
 EDGE = 1e-3            # level-0 voxels a coarser brick's blocks reach past their faces (module docstring)
+ASKING = -1.0          # skip_radii's value of an empty block where rays ask for a missing cell (march.glsl)
 
 
 def walk_block(geometry: BrickGeometry) -> int:
@@ -69,7 +77,7 @@ def frame_grid(alpha, source, geometry: BrickGeometry, keys, slot_of, ranges: np
     """(grid or None, block, define): mip's block maxima (``alpha`` None; PAGED_MIP_WALK), else dvr's
     skip radii under the opacity per value ``alpha`` (PAGED_WALK; None where skipping would not pay).
     Every key drawn from its own brick (a complete frame); mip's frames with missing bricks:
-    asking_grid."""
+    asking_grid, iso's: skip_radii with ``missing``."""
     if alpha is None:
         return (*walk_grid(source, geometry, keys, slot_of, ranges), "PAGED_MIP_WALK")
     occupied = lambda low, high: occupied_blocks(low, high, alpha)  # noqa: E731 (the RayCaster's rule)
@@ -91,8 +99,14 @@ def asking_grid(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarr
     (itself, its finest resident ancestor, None), g = 1 where the block lies within EDGE level-0
     voxels of one of the ``missing`` cells [n, 4] (the walk asks there: module docstring), else 0."""
     maxima, block = walk_grid(source, geometry, keys, slot_of, ranges, bricks)
-    flags = np.zeros_like(maxima)
-    count = np.asarray(flags.shape[::-1], dtype=np.int64)  # (x, y, z)
+    return np.stack([maxima, _asking(geometry, maxima.shape, block, missing).astype(np.float32)], axis=-1), block
+
+
+def _asking(geometry: BrickGeometry, shape, block: int, missing) -> np.ndarray:
+    """bool [z, y, x] over a grid of ``shape``: the blocks within EDGE level-0 voxels of one of the
+    ``missing`` cells [n, 4] (where rays ask for them: module docstring)."""
+    flags = np.zeros(shape, dtype=bool)
+    count = np.asarray(shape[::-1], dtype=np.int64)  # (x, y, z)
     dims0 = np.asarray(geometry.dims0, dtype=np.float64)
     for key in np.asarray(missing, dtype=np.int64).reshape(-1, 4):
         span = geometry.spans[int(key[0])].astype(np.float64)  # (x, y, z) level-0 voxels a cell
@@ -100,23 +114,41 @@ def asking_grid(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarr
         lo, hi = cell * span - EDGE, np.minimum((cell + 1.0) * span, dims0) + EDGE
         first = np.maximum(np.floor(lo / block).astype(np.int64), 0)
         last = np.minimum(np.ceil(hi / block).astype(np.int64), count)
-        flags[first[2]:last[2], first[1]:last[1], first[0]:last[0]] = 1.0
-    return np.stack([maxima, flags], axis=-1), block
+        flags[first[2]:last[2], first[1]:last[1], first[0]:last[0]] = True
+    return flags
 
 
-def skip_radii(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray, occupied) -> tuple[np.ndarray | None, int]:
-    """dvr's grid (PAGED_WALK, march.glsl): (float32 [z, y, x] skip radii as the
+def skip_radii(source, geometry: BrickGeometry, keys, slot_of, ranges: np.ndarray, occupied, bricks=None,
+               missing=(), lows: bool = True) -> tuple[np.ndarray | None, int]:
+    """dvr's grid (PAGED_WALK, march.glsl), iso's in refining frames: (float32 [z, y, x] skip radii as the
     RayCaster's (empty_space.skip_radii), block), over the same blocks as walk_grid; a block is
     occupied where ``occupied(low, high)`` (the RayCaster's rule on normalised ranges) holds for the
     range of the atlas blocks overlapping it; blocks no brick is drawn in are empty. None for the
-    radii where skipping would not pay (empty_space.radii_if_worthwhile)."""
-    low, block = _reduced_grid(source, geometry, keys, slot_of, np.nan_to_num(ranges[..., 0], nan=-np.inf),
-                               np.minimum, np.inf)  # unknown: always occupied
-    high, _ = _reduced_grid(source, geometry, keys, slot_of, np.nan_to_num(ranges[..., 1], nan=np.inf),
-                            np.maximum, -np.inf)
-    drawn = low <= high  # the others: no brick's samples reach the block
+    radii where skipping would not pay (empty_space.radii_if_worthwhile). A frame with ``missing``
+    cells [n, 4] (PAGED_WALK with PAGED_WALK_ASKS, under PAGED_REQUESTS): each of the cells
+    ``keys`` drawn from ``bricks[i]`` (itself, its finest resident ancestor, None) as walk_grid's,
+    and the empty blocks within EDGE of a missing cell ASKING: no jump enters one, a ray that lands
+    in one starts a run there (which asks for the missing cell, march.glsl) and moves past the
+    block, so that it asks for every missing cell it has a sample in, as the front-to-back march
+    does, before any sample in it. ``lows`` False: a rule on the maxima only (iso's; ``low`` is then
+    0, not reduced, half the time)."""
+    high, block = _reduced_grid(source, geometry, keys, slot_of, np.nan_to_num(ranges[..., 1], nan=np.inf),
+                                np.maximum, -np.inf, bricks)  # unknown: always occupied
+    if lows:
+        low, _ = _reduced_grid(source, geometry, keys, slot_of, np.nan_to_num(ranges[..., 0], nan=-np.inf),
+                               np.minimum, np.inf, bricks)
+        drawn = low <= high  # the others: no brick's samples reach the block
+    else:
+        low, drawn = np.zeros_like(high), high > -np.inf
     occupied_blocks = drawn & occupied(np.where(drawn, low, 0.0), np.where(drawn, high, 0.0))
-    return radii_if_worthwhile(occupied_blocks), block
+    if not len(missing):
+        return radii_if_worthwhile(occupied_blocks), block
+    # the empty blocks where rays ask: no jump enters them (their radii count them as occupied), a
+    # ray landing in one asks there and leaves it (ASKING); worthwhile by the blocks that add nothing
+    asking = _asking(geometry, occupied_blocks.shape, block, missing) & ~occupied_blocks
+    if 1.0 - occupied_blocks.mean() < MIN_EMPTY_FRACTION:
+        return None, block
+    return np.where(asking, ASKING, empty_radii(occupied_blocks | asking)).astype(np.float32), block
 
 
 def _reduced_grid(source, geometry: BrickGeometry, keys, slot_of, values: np.ndarray, reducer, fill: float,
