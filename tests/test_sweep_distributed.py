@@ -156,7 +156,28 @@ def test_leaves_read_each_leaf_once_in_all_and_report_it_per_worker(client, stor
         assert task.bricks_read == last - first + 1 and task.seconds > 0
     assert sum(task.bytes_read for task in frame.tasks if not task.task.startswith("run ")) == 0
     again = render_report(net, client, split="leaves", size=SIZE, runs=3, target="leaves_bytes.image")
-    assert again.bytes_read == 0 and np.array_equal(again.image, frame.image)  # kept by the workers' caches
+    assert np.array_equal(again.image, frame.image)
+    # A run on the worker that drew it last frame reads nothing (that worker's caches keep its
+    # leaves); Dask's work stealing may hand a run waiting behind another to an idle worker, which
+    # then reads its leaves once (docs/guide/distributed.md, "Where runs go").
+    before = {task.task: task for task in runs}
+    for task in again.tasks:
+        if task.task.startswith("run "):
+            moved = task.worker != before[task.task].worker
+            assert task.bytes_read == (before[task.task].bytes_read if moved else 0), task
+        else:
+            assert task.bytes_read == 0, task
+
+
+def test_one_run_per_worker_is_read_once_and_kept_by_its_worker_frame_after_frame(client, store):
+    net = network(store / "ball.zarr", renderer="leaves_kept", early_termination=1.0)
+    net.evaluate("leaves_kept.image", size=SIZE)
+    single = net["leaves_kept"].last_sweep
+    frames = [render_report(net, client, split="leaves", size=SIZE, target="leaves_kept.image")
+              for _ in range(3)]
+    assert frames[0].bytes_read == single["bytes_read"]
+    assert [frame.bytes_read for frame in frames[1:]] == [0, 0]  # each worker busy with its own run: none moves
+    assert all(np.array_equal(frame.image, frames[0].image) for frame in frames[1:])
 
 
 # --- the leaves split with early termination -------------------------------------------------------------
