@@ -9,35 +9,19 @@ image in as many frames; the grid bounds every sample a coarser brick draws in a
 flags the blocks of missing cells."""
 
 import numpy as np
-import pytest
 
-from vgraph.bricks import paged_grids
-from vgraph.bricks.cache import LoadLimit
-from vgraph.bricks.paged_sampling import PagedSampling
-from vgraph.bricks.sampling import BrickSampling
-from vgraph.frame_context import FrameContext
 from vgraph.testing import ray_caster_network
 
+import helpers.refining
 import test_bricked_raycaster
 from helpers.networks import UNSHADED_RAMP
-from test_bricked_raycaster import FINEST, SIZE, oblique
+from helpers.refining import (assert_level_0_image, assert_refines, assert_same_image_and_requests,
+                              frames_until_complete, leave_cells_with_nothing_drawn, two_missing_cells)
+from test_bricked_raycaster import FINEST, oblique
 from test_mip_skipping import block_ranges, noise
-from test_ray_requests import ONE_STEP
 
 bonsai = test_bricked_raycaster.bonsai  # the fixture: the CT bonsai at 64^3
-
-
-@pytest.fixture
-def march_where_missing(monkeypatch):
-    """Networks whose processor has ``march = True`` draw frames with missing bricks front to back
-    (the tree before: no walk grid where bricks are missing, the slots' block flags instead)."""
-    walk_grid = paged_grids.walk_grid
-
-    def chosen(processor, kept, frame, source, geometry, plan, atlas, missing):
-        if getattr(processor, "march", False) and len(missing):
-            return None
-        return walk_grid(processor, kept, frame, source, geometry, plan, atlas, missing)
-    monkeypatch.setattr(paged_grids, "walk_grid", chosen)
+march_where_missing = helpers.refining.march_where_missing  # the fixture: networks with march = True march
 
 
 def mip_network(volume, march: bool, brick: int = 16):
@@ -47,24 +31,11 @@ def mip_network(volume, march: bool, brick: int = 16):
     return network
 
 
-def frame(network, number: int, limit: LoadLimit | None):
-    """(image, depth, last_frame, defines) of a new frame under ``limit``."""
-    network.set("rc.sampling_rate", 1.0 + 1e-6 * number)  # (a new frame each time)
-    context = FrameContext(load_limit=limit) if limit is not None else None
-    image = np.asarray(network.evaluate("rc.image", size=SIZE, context=context))
-    depth = np.asarray(network.evaluate("rc.depth", size=SIZE, context=context))  # (the same frame: nothing read)
-    rc = network["rc"]
-    return image, depth, dict(rc.last_frame), dict(rc.passes[-1].defines)
-
-
 def assert_same_frame(walked, marched):
-    image, depth, report, defines = walked
-    np.testing.assert_array_equal(image, marched[0])
-    np.testing.assert_array_equal(depth[..., :2], marched[1][..., :2])  # (b: the samples taken differ)
-    assert report["requests"] == marched[2]["requests"]  # keys and pixels, in the order read
-    assert report["complete"] is marched[2]["complete"]
+    assert_same_image_and_requests(walked, marched)
+    report, defines = walked.report, walked.defines
     assert bool(defines.get("PAGED_MIP_ASKS")) is (not report["complete"]) and defines.get("PAGED_MIP_WALK")
-    assert not marched[3].get("PAGED_MIP_WALK") or marched[2]["complete"]
+    assert not marched.defines.get("PAGED_MIP_WALK") or marched.report["complete"]
 
 
 def test_refining_frames_walk_with_the_marchs_image_and_requests_and_refine_to_level_0(bonsai,
@@ -73,21 +44,9 @@ def test_refining_frames_walk_with_the_marchs_image_and_requests_and_refine_to_l
     depth, requests with their pixels), as many frames until complete, the last one level 0's
     image (the frame drawn without a limit, everything read at once)."""
     walked, marched = mip_network(bonsai, False), mip_network(bonsai, True)
-    frames = []
-    for number in range(1, 40):
-        pair = [frame(network, number, LoadLimit(bricks=3)) for network in (walked, marched)]
-        assert_same_frame(*pair)
-        frames.append(pair[0])
-        if pair[0][2]["complete"]:
-            break
-    assert frames[-1][2]["complete"] and frames[-1][2]["levels"] == [0]
-    refining = [f for f in frames if not f[2]["complete"]]
-    assert len(refining) >= 3 and max(len(f[2]["requests"]) for f in refining) > 4
-    assert any(f[2]["coarsest_level"] > 0 for f in refining)  # missing cells drawn from coarser bricks
-    whole = mip_network(bonsai, False)
-    image, _, report, _ = frame(whole, 1, None)
-    assert report["complete"] and report["levels"] == [0]
-    assert np.abs(frames[-1][0] - image).max() <= ONE_STEP and image[..., :3].std() > 0.01
+    frames = frames_until_complete(walked, marched, range(1, 40), 3, assert_same_frame)
+    assert_refines(frames)
+    assert_level_0_image(frames[-1], mip_network(bonsai, False))
 
 
 def test_cells_with_nothing_drawn_are_asked_for_as_the_march_asks(bonsai, march_where_missing):
@@ -96,20 +55,8 @@ def test_cells_with_nothing_drawn_are_asked_for_as_the_march_asks(bonsai, march_
     read (each frame reads the brick most pixels asked for) until complete again."""
     pair = [mip_network(bonsai, march) for march in (False, True)]
     for network in pair:
-        frame(network, 1, None)  # complete: every level-0 brick in the atlas
-        rc = network["rc"]
-        atlas, cache = rc.parts[PagedSampling].atlas, rc.parts[BrickSampling].cache
-        gone = [key for key in list(atlas.slots) if key[0] > 0 or (key[1] == 1 and key[2] >= 1)]
-        for key in gone:
-            atlas.evict(key)
-            cache.ram.pop(key, None)
-    reports = []
-    for number in range(2, 30):
-        both = [frame(network, number, LoadLimit(bricks=0)) for network in pair]
-        assert_same_frame(*both)
-        reports.append(both[0][2])
-        if both[0][2]["complete"]:
-            break
+        leave_cells_with_nothing_drawn(network)
+    reports = [f.report for f in frames_until_complete(*pair, range(2, 30), 0, assert_same_frame)]
     assert reports[-1]["complete"] and len(reports) >= 3
     assert len(reports[0]["requests"]) >= 2 and reports[0]["error_bound"] is None  # (mip: no bound)
 
@@ -120,33 +67,19 @@ def test_the_asking_grid_bounds_what_coarser_bricks_draw_in_finer_cells_and_flag
     .g is 1 exactly on the blocks within EDGE of the
     missing cells (here: the blocks of those cells and the ring of blocks around them)."""
     from scipy.ndimage import map_coordinates
-    from vgraph.bricks.cache import texture_format
-    from vgraph.bricks.pyramid import ArrayPyramid
-    from vgraph.bricks.brick_geometry import BrickGeometry
     from vgraph.bricks.walk_grids import asking_grid
     data = noise((40, 32, 48)).data
-    source = ArrayPyramid(data, brick=(16, 16, 16))
-    geometry = BrickGeometry(source)
-    fmt = texture_format(source.dtype, source.value_range)
+    case = two_missing_cells(data, block_ranges)
+    source = case.source
     lo, hi = source.value_range
-    level1 = [(1, z, y, x) for z in range(geometry.grids[1][2]) for y in range(geometry.grids[1][1])
-              for x in range(geometry.grids[1][0])]
-    ranges = np.stack([block_ranges(source, key, fmt) for key in level1])
-    slot_of = {key: i for i, key in enumerate(level1)}.__getitem__
-    cells = [(0, z, y, x) for z in range(geometry.grids[0][2]) for y in range(geometry.grids[0][1])
-             for x in range(geometry.grids[0][0])]
-    parent = [(1, z // 2, y // 2, x // 2) for _, z, y, x in cells]
-    nothing = (0, 2, 1, 2)  # a missing cell with nothing resident above it
-    bricks = [None if cell == nothing else brick for cell, brick in zip(cells, parent)]
-    missing = np.asarray([(0, 1, 0, 1), nothing])
-    grid, block = asking_grid(source, geometry, cells, slot_of, ranges, bricks, missing)
-    every, _ = asking_grid(source, geometry, cells, slot_of, ranges, parent, missing)
+    grid, block = asking_grid(*case.grid_inputs, case.bricks, case.missing)
+    every, _ = asking_grid(*case.grid_inputs, case.parents, case.missing)
     assert block == 8 and grid.shape == (5, 4, 6, 2)
     maxima = grid[..., 0]
     assert np.all(maxima <= every[..., 0])
     points = np.random.default_rng(5).random((20000, 3)) * np.asarray(data.shape)  # t * dims0, [z, y, x]
     blocks = tuple((points // 8).astype(int).T)
-    drawn = ~np.all((points // 16).astype(int) == np.asarray(nothing[1:]), axis=1)
+    drawn = ~np.all((points // 16).astype(int) == np.asarray(case.nothing[1:]), axis=1)
     voxels = (source.read(1, (0, 0, 0), source.levels[1].shape).astype(np.float64) - lo) / (hi - lo)
     values = map_coordinates(voxels, (points.T - 0.5) / 2 - 0.25, order=1, mode="nearest")
     assert np.all(values[drawn] <= maxima[blocks][drawn] + 1e-6)
