@@ -23,7 +23,7 @@ from vgraph.bricks.brick_geometry import BrickGeometry
 from vgraph.bricks.brick_planning import skipping_alpha
 from vgraph.bricks.cells import table_of
 from vgraph.bricks.kept_frame import KeptFrame, on_context
-from vgraph.bricks.ray_requests import drawn_from
+from vgraph.bricks.ray_requests import drawn_bricks
 from vgraph.bricks.selection import FramePlan
 from vgraph.gl.raycasting.empty_space import occupied_blocks
 from vgraph.gl.raycasting.raycaster_base import Binding, Frame
@@ -70,7 +70,7 @@ def _mip_dvr_grid(processor, kept: KeptFrame, frame: Frame, source, geometry: Br
     def make():
         if len(missing):  # (mip) each cell drawn from itself or its finest resident ancestor, as the leaf table
             keys = plan.keys()
-            bricks = [drawn_from(geometry, key, atlas.slots) for key in keys]
+            bricks = drawn_bricks(geometry, keys, atlas.slots)
             grid, block = walk_grids.asking_grid(source, geometry, keys, atlas.slots.__getitem__, atlas.blocks.ranges,
                                                  bricks, missing)
             return grid, {"PAGED_MIP_WALK": True, "PAGED_MIP_ASKS": True}, walk_grids.uniforms(geometry, block, grid[..., 0])
@@ -114,7 +114,7 @@ def _iso_asking_grid(processor, kept: KeptFrame, frame: Frame, source, geometry:
 
     def make():
         keys = plan.keys()
-        bricks = [drawn_from(geometry, key, atlas.slots) for key in keys]
+        bricks = drawn_bricks(geometry, keys, atlas.slots)
         grid, block = walk_grids.skip_radii(source, geometry, keys, atlas.slots.__getitem__, atlas.blocks.ranges,
                                             lambda low, high: ~(high < level), bricks, missing, lows=False)
         return None if grid is None else (grid, {"PAGED_WALK": True, "PAGED_WALK_ASKS": True},

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from vgraph.bricks.ray_requests import drawn_from
+from vgraph.bricks.ray_requests import drawn_bricks
 from vgraph.gl.raycasting.raycaster_base import Binding
 
 
@@ -27,7 +27,7 @@ def stride_binding(mode: str, geometry, plan, missing, resident, frame_stride: i
     strides = np.maximum(np.asarray(geometry.strides, dtype=np.int64) // max(int(frame_stride), 1), 1)
     if len(missing):  # cells drawn from resident ancestors
         keys = plan.keys()
-        sources = [drawn_from(geometry, key, resident) for key in keys]
+        sources = drawn_bricks(geometry, keys, resident)
         levels = {key[0] for key in sources if key is not None}
     else:  # every planned brick drawn from itself: every level whole
         levels = plan.levels()

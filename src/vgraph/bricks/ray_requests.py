@@ -18,8 +18,9 @@ Conventions:
   differences across a cell face is not asked for (a limit: such a pixel refines once a ray enters
   the cell).
 - ``by_priority``: the most pixels first (screen coverage), then the coarser level, then the key.
-- ``drawn_bricks``: what each planned brick was drawn from, itself or its finest resident
-  ancestor (the page table's walk), for the frame's report and error bound.
+- ``drawn_from`` (``drawn_bricks``: for each of a list of keys): what a planned brick is drawn
+  from, itself or its finest resident ancestor (the page table's walk), for the frame's report,
+  its error bound, its strides and its walk grids.
 """
 
 from __future__ import annotations
@@ -57,6 +58,11 @@ def drawn_from(geometry: BrickGeometry, key, resident) -> tuple | None:
     while key is not None and key not in resident:
         key = parent_of(geometry, key)
     return key
+
+
+def drawn_bricks(geometry: BrickGeometry, keys, resident) -> list:
+    """drawn_from of each of ``keys`` (a frame's planned cells), in their order."""
+    return [drawn_from(geometry, key, resident) for key in keys]
 
 
 class RayRequests(Component):
