@@ -11,4 +11,5 @@ another test module: what two test files share belongs here.
 - ``gui``: mouse helpers for the GUI tests
 - ``networks``: networks the rendering tests build
 - ``curvature``: the curvature ray casters' networks and CPU references
+- ``refining``: the single pass's refining frames drawn walked and marched (mip and iso tests)
 """
