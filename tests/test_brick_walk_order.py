@@ -27,7 +27,7 @@ from vgraph.numerics.reference_raycast import volume_box
 from vgraph.testing import ray_caster_network
 from vgraph.volume import Volume
 
-from test_bricked_raycaster import WINDOW, field
+from helpers.bricked import WINDOW, field
 
 
 def recursive_walk(source, camera, size, view_projection, visible, lod_bias, floor_level):

@@ -11,8 +11,7 @@ import pytest
 from vgraph import VGraphError
 from vgraph.gradient_opacity import GradientOpacity
 
-from test_bricked_mask import SIZE
-from test_bricked_raycaster import FINEST, WINDOW, odd_volume, oblique, render
+from helpers.bricked import FINEST, SIZE, WINDOW, odd_volume, oblique, render
 
 # float32 differences of the interpolated field against the gradient volume's 16-bit rounding
 # (the same numbers otherwise: the shader says why), far below one step of an 8-bit image.

@@ -14,7 +14,7 @@ from vgraph.bricks.lod_error import RangeExtremes, TransferFunctionSpread, segme
 from vgraph.camera import Camera
 from vgraph.transfer_function import TransferFunction
 
-from test_bricked_raycaster import FINEST, big_volume, oblique, render
+from helpers.bricked import FINEST, big_volume, oblique, render
 
 # GPU float32 against the bound's exact arithmetic: sums of a few hundred samples in float32
 # (measured below 2e-6 on llvmpipe for the cases here).

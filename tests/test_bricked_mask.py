@@ -10,10 +10,9 @@ import pytest
 from vgraph.testing import GivenVolume, ray_caster_network
 from vgraph.volume import Volume
 
+from helpers.bricked import FINEST, SIZE, WINDOW, odd_volume, oblique
 from helpers.networks import UNSHADED_RAMP
-from test_bricked_raycaster import FINEST, WINDOW, odd_volume, oblique
 
-SIZE = (64, 56)
 ONE_STEP = 1.0 / 255.0  # what the task promises: equal within one step of an 8-bit image
 MODES = {"dvr": {"compositing": "dvr", "transfer_function": WINDOW, "early_termination": 1.0},
          "mip": {"compositing": "mip"},

@@ -17,7 +17,7 @@ from vgraph.frame_context import FrameContext
 from vgraph.testing import ray_caster_network
 from vgraph.volume import Volume
 
-from test_bricked_raycaster import FINEST, SIZE, WINDOW, field, oblique, odd_volume, render
+from helpers.bricked import FINEST, SIZE, WINDOW, field, oblique, odd_volume, render
 
 ONE_STEP = 1.0 / 255.0
 BRICK_SHADER, ONE_PASS_SHADER = "bricks/brick.frag.glsl", "raycasting/raycaster.frag.glsl"

@@ -20,8 +20,8 @@ from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.brick_geometry import BrickGeometry
 
+from helpers.bricked import FINEST, WINDOW, odd_volume, oblique, render
 from helpers.networks import UNSHADED_RAMP
-from test_bricked_raycaster import FINEST, WINDOW, odd_volume, oblique, render
 
 
 def looked_up(leaf, grid0) -> tuple[np.ndarray, np.ndarray]:

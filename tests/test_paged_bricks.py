@@ -28,9 +28,9 @@ from vgraph.numerics.reference_raycast import volume_box
 from vgraph.testing import ray_caster_network
 from vgraph.volume import Volume
 
+import helpers.bricked
+from helpers.bricked import FINEST, SIZE, WINDOW, field, oblique, odd_volume, render
 from helpers.networks import UNSHADED_RAMP
-import test_bricked_raycaster
-from test_bricked_raycaster import FINEST, SIZE, WINDOW, field, oblique, odd_volume, render
 
 ONE_STEP = 1.0 / 255.0  # the bound: images within one 8-bit step of the in-core RayCaster
 
@@ -143,7 +143,7 @@ def test_single_pass_at_level_0_equals_the_in_core_raycaster(case):
     np.testing.assert_allclose(got_depth[..., :2][hit], want_depth[..., :2][hit], atol=1e-3 * volume.dims[0])
 
 
-bonsai = test_bricked_raycaster.bonsai  # the fixture: the CT bonsai at 64^3
+bonsai = helpers.bricked.bonsai  # the fixture: the CT bonsai at 64^3
 
 
 @pytest.mark.parametrize("mode", ["dvr", "mip", "iso"])

@@ -13,7 +13,7 @@ docs/explanations/bricked-ray-casting.md. No timings."""
 import numpy as np
 import pytest
 
-from test_bricked_raycaster import WINDOW, big_volume, oblique, psnr, render
+from helpers.bricked import WINDOW, big_volume, oblique, psnr, render
 
 SIZE = (48, 48)
 AGREEMENT = 5e-5  # float rounding: measured up to 8.7e-6 (iso, level 2); 0.004-0.09 with the level's step by passes

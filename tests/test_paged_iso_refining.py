@@ -14,14 +14,14 @@ import pytest
 
 from vgraph.testing import ray_caster_network
 
+import helpers.bricked
 import helpers.refining
-import test_bricked_raycaster
+from helpers.bricked import FINEST, oblique
 from helpers.networks import UNSHADED_RAMP
 from helpers.refining import (assert_level_0_image, assert_refines, assert_same_image_and_requests,
                               frames_until_complete, leave_cells_with_nothing_drawn, two_missing_cells)
-from test_bricked_raycaster import FINEST, oblique
 
-bonsai = test_bricked_raycaster.bonsai  # the fixture: the CT bonsai at 64^3
+bonsai = helpers.bricked.bonsai  # the fixture: the CT bonsai at 64^3
 march_where_missing = helpers.refining.march_where_missing  # the fixture: networks with march = True march
 
 # (at 0.3 this bonsai's rays reach every missing cell in an occupied block, where any walk asks: at

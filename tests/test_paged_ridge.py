@@ -31,7 +31,7 @@ from vgraph.numerics.reference_raycast import volume_box
 from vgraph.testing import ray_caster_network
 from vgraph.volume import Volume
 
-from test_bricked_raycaster import WINDOW
+from helpers.bricked import WINDOW
 
 ONE_STEP = 1.0 / 255.0
 SIZE = (256, 256)

@@ -22,8 +22,8 @@ from vgraph.testing import ray_caster_network
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
+from helpers.bricked import FINEST, SIZE, field, oblique, odd_volume, render
 from helpers.networks import UNSHADED_RAMP
-from test_bricked_raycaster import FINEST, SIZE, field, oblique, odd_volume, render
 
 ONE_STEP = 1.0 / 255.0
 # Opaque at 1 (the slab), translucent around 0.5 (the rest): rays stop in the slab.

@@ -11,5 +11,6 @@ another test module: what two test files share belongs here.
 - ``gui``: mouse helpers for the GUI tests
 - ``networks``: networks the rendering tests build
 - ``curvature``: the curvature ray casters' networks and CPU references
+- ``bricked``: the bricked ray caster's test volumes, cameras, transfer function and render()
 - ``refining``: the single pass's refining frames drawn walked and marched (mip and iso tests)
 """

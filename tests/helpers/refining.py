@@ -26,7 +26,8 @@ from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.sampling import BrickSampling
 from vgraph.frame_context import FrameContext
 
-SIZE = (64, 56)  # the frames' size (test_bricked_raycaster's, whose oblique camera the networks use)
+from helpers.bricked import SIZE  # the frames' size (that of the oblique camera the networks use)
+
 ONE_STEP = 1.0 / 255.0  # one step of an 8-bit channel: the refined image against level 0's
 
 
