@@ -8,23 +8,17 @@ evaluated on the torus."""
 import numpy as np
 import pytest
 
-from vgraph.camera import Camera
 from vgraph.implicit import sample
 from vgraph.io import read_volume
-from vgraph.numerics.reference_raycast import volume_box
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
 from helpers.networks import rendering_network
 from helpers.paths import DATA
+from helpers.skipping import SIZE, assert_same_picture, block_ranges, cameras, noise
 
-SIZE = (64, 48)
 RAMP = TransferFunction(points=[(0.0, 0.0, 0.0, 0.2, 0.0), (0.4, 0.2, 0.5, 0.9, 0.3),
                                 (1.0, 1.0, 0.9, 0.6, 1.0)])
-
-
-def noise(shape=(37, 29, 41), seed=5):
-    return Volume(np.random.default_rng(seed).random(shape).astype(np.float32), spacing=(1.0, 0.9, 1.2))
 
 
 def plateaus():
@@ -56,18 +50,6 @@ VOLUMES = {"torus": lambda: sample("torus", 64, "float32"), "noise": noise, "pla
            "far_from_zero": far_from_zero, "spike_in_a_margin": spike_in_a_margin}
 
 
-def cameras(volume):
-    lo, hi = volume_box(volume)
-    centre = (lo + hi) / 2
-    inside = Camera(position=tuple(centre + 0.3 * (hi - lo) * np.array([0.2, -0.3, 0.4])),
-                    focus=tuple(centre + (hi - lo) * np.array([0.5, 0.2, -0.3])),
-                    near=0.01 * float(np.max(hi - lo)), far=10.0 * float(np.max(hi - lo)), fov=70)
-    return {"perspective": Camera.looking_at_box(lo, hi, direction=(-0.5, -0.3, -1.0)),
-            "orthographic": Camera.looking_at_box(lo, hi, direction=(0.3, -0.6, -1.0),
-                                                  projection="orthographic"),
-            "inside": inside}
-
-
 def with_and_without_skipping(volume, camera, size=SIZE, **properties):
     """(image, depth) with empty-space skipping, then without."""
     network = rendering_network(volume, camera, compositing="mip", transfer_function=RAMP, **properties)
@@ -77,13 +59,6 @@ def with_and_without_skipping(volume, camera, size=SIZE, **properties):
         outputs.append((network.evaluate("rc.image", size=size), network.evaluate("rc.depth", size=size)))
     assert network["rc"].passes[-1][1].get("SKIP_EMPTY_SPACE") is not True  # the second one did not skip
     return outputs
-
-
-def assert_same_picture(skipped, plain):
-    (image, depth), (plain_image, plain_depth) = skipped, plain
-    np.testing.assert_array_equal(image, plain_image)
-    # depth: window depth, distance, (b = samples evaluated, differs), has a depth sample
-    np.testing.assert_array_equal(depth[..., [0, 1, 3]], plain_depth[..., [0, 1, 3]])
 
 
 @pytest.mark.parametrize("camera_name", ["perspective", "orthographic", "inside"])
@@ -208,12 +183,3 @@ def test_the_walk_grid_bounds_every_sample_and_equals_the_bricks_blocks_at_level
             padded = np.pad(voxels, 1, mode="edge")
             truth = [padded[8 * z:8 * z + 10, 8 * y:8 * y + 10, 8 * x:8 * x + 10].max() for z, y, x in np.ndindex(grid.shape)]
             np.testing.assert_allclose(grid.ravel(), truth, atol=1e-6)
-
-
-def block_ranges(source, key, fmt):
-    """A brick's blocks' ranges as the atlas records them, padded to a slot of the largest brick's blocks."""
-    from vgraph.bricks.cache import block_ranges_of, read_with_halo, to_texture_values
-    ranges = block_ranges_of(to_texture_values(read_with_halo(source, key), fmt, source.value_range), fmt)
-    out = np.full((2, 2, 2, 2), np.nan, dtype=np.float32)  # blocks of 8 in a slot of 16 (or 12) voxels
-    out[:ranges.shape[0], :ranges.shape[1], :ranges.shape[2]] = ranges
-    return out

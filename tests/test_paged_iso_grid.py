@@ -18,7 +18,7 @@ from vgraph.gl.raycasting.empty_space import skip_radii
 from vgraph.implicit import sample
 from vgraph.testing import ray_caster_network
 
-from test_mip_skipping import SIZE, assert_same_picture, cameras
+from helpers.skipping import SIZE, assert_same_picture, cameras
 
 ISO = {"compositing": "iso", "iso_level": 0.5, "shading": "none"}
 

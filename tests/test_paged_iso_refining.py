@@ -80,7 +80,7 @@ def test_the_grid_asks_in_the_empty_blocks_of_missing_cells_and_no_jump_enters_t
     whose drawn range reaches the level, and every other block's radius r jumps only blocks of
     neither kind (the cube of Chebyshev radius r - 1 around it)."""
     from vgraph.bricks.walk_grids import ASKING, asking_grid, skip_radii
-    from test_mip_skipping import block_ranges, noise
+    from helpers.skipping import block_ranges, noise
     case = two_missing_cells(noise((40, 32, 48)).data, block_ranges)
     maxima, _ = asking_grid(*case.grid_inputs, case.bricks, case.missing)
     level = float(np.quantile(maxima[..., 0], 0.6))  # (the noise's blocks: about 40 % reach it)

@@ -18,7 +18,7 @@ from helpers.bricked import FINEST, oblique
 from helpers.networks import UNSHADED_RAMP
 from helpers.refining import (assert_level_0_image, assert_refines, assert_same_image_and_requests,
                               frames_until_complete, leave_cells_with_nothing_drawn, two_missing_cells)
-from test_mip_skipping import block_ranges, noise
+from helpers.skipping import block_ranges, noise
 
 bonsai = helpers.bricked.bonsai  # the fixture: the CT bonsai at 64^3
 march_where_missing = helpers.refining.march_where_missing  # the fixture: networks with march = True march

@@ -13,7 +13,7 @@ from vgraph.testing import ray_caster_network
 
 from vgraph.transfer_function import TransferFunction
 
-from test_mip_skipping import SIZE, assert_same_picture, cameras
+from helpers.skipping import SIZE, assert_same_picture, cameras
 
 # transparent below 0.4: the torus's outer parts are empty space (its values lie in (0, 0.61))
 WINDOW = TransferFunction(points=[(0.0, 0.0, 0.0, 0.0, 0.0), (0.4, 0.2, 0.5, 0.9, 0.0),
