@@ -17,12 +17,10 @@ from vgraph.network import Network
 
 from vgraph.gui.workspace import Workspace
 
+from helpers.canvas import SIZE, drag, make_view
 from helpers.gui import open_and_compare_with_run, send_mouse
 from helpers.networks import bricked_sphere_network
 from helpers.paths import REPO
-
-SIZE = (200, 160)  # widget width, height
-
 
 @pytest.fixture
 def ws(qtbot, tmp_path):
@@ -41,24 +39,6 @@ def build_raycasting(ws):
     ws.connect("eep.entry", "rc.entry")
     ws.connect("eep.exit", "rc.exit")
     ws.connect("rc.image", "canvas.image")
-
-
-def make_view(qtbot, ws, canvas_id="canvas"):
-    view = CanvasView(ws, canvas_id)
-    qtbot.addWidget(view)
-    view.resize(*SIZE)
-    view.show()
-    qtbot.waitExposed(view)
-    return view
-
-
-def drag(view, start, end, button=Qt.LeftButton, modifiers=Qt.NoModifier, steps=5):
-    send_mouse(view, QEvent.MouseButtonPress, start, button, button, modifiers)
-    for i in range(1, steps + 1):
-        t = i / steps
-        pos = (start[0] + (end[0] - start[0]) * t, start[1] + (end[1] - start[1]) * t)
-        send_mouse(view, QEvent.MouseMove, pos, Qt.NoButton, button, modifiers)
-    send_mouse(view, QEvent.MouseButtonRelease, end, button, Qt.NoButton, modifiers)
 
 
 def wheel(view, delta):

@@ -14,7 +14,7 @@ from vgraph.gui.clip_planes_editor import ClipPlanesEditor
 from vgraph.gui.inspector import PropertyInspector
 from vgraph.gui.workspace import Workspace
 
-from test_gui_canvas import SIZE, drag, make_view
+from helpers.canvas import SIZE, drag, make_view
 
 # Orthographic down -z, 2 world units high: 1 Qt pixel = 2 / 160 world units in a 200 x 160 view
 # with no frame shown (the view height is the widget's).

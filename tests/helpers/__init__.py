@@ -9,6 +9,7 @@ another test module: what two test files share belongs here.
   the scripted user; conftest puts it on sys.path) and DATA (the shared data sets beside it)
 - ``toy_processors``: small CPU processors (no GL); conftest registers them for every test
 - ``gui``: mouse helpers for the GUI tests
+- ``canvas``: a canvas view alone, shown at SIZE, and a mouse drag in it
 - ``networks``: networks the rendering tests build
 - ``curvature``: the curvature ray casters' networks and CPU references
 - ``bricked``: the bricked ray caster's test volumes, cameras, transfer function and render()
