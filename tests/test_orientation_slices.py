@@ -11,9 +11,7 @@ import nibabel as nib
 import numpy as np
 import pydicom
 import pytest
-from pydicom.dataset import Dataset, FileMetaDataset
 from pydicom.pixels import apply_modality_lut
-from pydicom.uid import CTImageStorage, ExplicitVRLittleEndian, generate_uid
 from scipy import ndimage
 
 from vgraph import VGraphError
@@ -23,6 +21,8 @@ from vgraph.processors.slice_viewer import SliceViewer
 from vgraph.slicing import GridBox, plane_axes
 from vgraph.volume import Volume
 from vgraph.volume_grid import IDENTITY
+
+from helpers.dicom import write_ct_slice
 
 MRI = Path(__file__).parents[1].parent / "shared" / "data" / "mri_head_t1" / "MR.nii.gz"
 LPS_TO_RAS = np.diag([-1.0, -1.0, 1.0])
@@ -43,27 +43,6 @@ def rotation_about_x(degrees: float) -> np.ndarray:
 
 
 # --- DICOM: the axial slice is pydicom's array ------------------------------------------------------
-def write_ct_slice(path: Path, pixels: np.ndarray) -> None:
-    """A one-slice axial CT (ImageOrientationPatient [1, 0, 0, 0, 1, 0]) written by pydicom."""
-    meta = FileMetaDataset()
-    meta.MediaStorageSOPClassUID = CTImageStorage
-    meta.MediaStorageSOPInstanceUID = generate_uid()
-    meta.TransferSyntaxUID = ExplicitVRLittleEndian
-    ds = Dataset()
-    ds.file_meta = meta
-    ds.SOPClassUID, ds.SOPInstanceUID = CTImageStorage, meta.MediaStorageSOPInstanceUID
-    ds.Modality, ds.PatientName = "CT", "Phantom^Axial"
-    ds.Rows, ds.Columns = pixels.shape
-    ds.PixelSpacing, ds.SliceThickness = [0.5, 0.5], 2.0
-    ds.ImageOrientationPatient = [1, 0, 0, 0, 1, 0]
-    ds.ImagePositionPatient = [-120.0, -95.5, 42.0]
-    ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
-    ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, 16, 15, 1
-    ds.RescaleIntercept, ds.RescaleSlope = -1024, 1
-    ds.PixelData = pixels.astype("<i2").tobytes()
-    ds.save_as(path, enforce_file_format=True)
-
-
 def dicom_volume(ds) -> Volume:
     """The slice as a Volume in RAS, as the DICOM reader makes it: index i along the rows'
     cosines, j along the columns', k along their cross product, LPS -> RAS by negating x and y."""

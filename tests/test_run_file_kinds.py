@@ -20,8 +20,8 @@ from vgraph.io import read_volume
 from vgraph.io.vti import write_vti
 from vgraph.volume import Volume
 
+from helpers.dicom import write_ct_slice
 from helpers.paths import DATA, REPO
-from test_orientation_slices import write_ct_slice
 
 REAL_VOLUMES = ["ct_bonsai/bonsai.nii.gz", "ct_engine/engine.nii.gz", "ct_head_headsq/quarter.nhdr",
                 "cta_stent/stent.npz", "dicom_mr_scout", "mri_head_t1/MR.nii.gz",
