@@ -16,44 +16,19 @@ from vgraph.numerics.multivolume_reference import render_channels
 from vgraph.network import Network
 from vgraph.scheduler import BlankImageWarning
 from vgraph.numerics.reference_raycast import Shading, volume_box
-from vgraph.testing import GivenVolume, ray_caster_network
+from vgraph.testing import ray_caster_network
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
 from helpers.multivolume import (BLUE, GREEN_RAMP, ORANGE, RED_RAMP, REFERENCE_TOLERANCE,
-                                 assert_cut_like_the_reference, shifted)
+                                 assert_cut_like_the_reference, multivolume_network, oblique_camera, shifted)
 from helpers.paths import DATA, REPO
 
 SIZE = (56, 44)
 
 
-EEP_PORTS = ("volume", "volume2", "volume3", "volume4")
-
-
-def multivolume_network(volumes, camera, ports=None, **properties) -> Network:
-    """GivenVolume 'src{n}' per volume -> MultiVolumeRayCaster 'mv' (on inports ``ports``, by
-    default volume1, volume2, ...); all volumes also feed the EntryExitPoints 'eep' (its
-    ``volume``, ``volume2``, ...), so the rays span the union of their boxes."""
-    network = Network()
-    network.add("EntryExitPoints", id="eep", camera=camera)
-    network.add("MultiVolumeRayCaster", id="mv", **properties)
-    network.link("eep.camera", "mv.camera")
-    ports = ports or [f"volume{n}" for n in range(1, len(volumes) + 1)]
-    for n, (volume, port) in enumerate(zip(volumes, ports), start=1):
-        network.add(GivenVolume(id=f"src{n}", volume=volume))
-        network.connect(f"src{n}.volume", f"mv.{port}")
-        network.connect(f"src{n}.volume", f"eep.{EEP_PORTS[n - 1]}")
-    for source, target in (("eep.entry", "mv.entry"), ("eep.exit", "mv.exit")):
-        network.connect(source, target)
-    return network
-
-
 def render_gl(volumes, camera, size=SIZE, output="image", **properties):
     return multivolume_network(volumes, camera, **properties).evaluate(f"mv.{output}", size=size)
-
-
-def oblique_camera(volume):
-    return Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
 
 
 def aligned_camera(volume):

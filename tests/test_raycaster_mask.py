@@ -309,8 +309,7 @@ def test_mask_labels_take_a_number_or_a_list_as_text():
 def test_the_multi_volume_raycaster_weighs_every_channel_as_the_cpu_reference(blend):
     """Two channels (torus, shifted copy); a mask of label 1 on its own 0.25-unit grid turned by
     30 degrees, and a sphere cut away: GL and the multivolume CPU reference with the same weights."""
-    from helpers.multivolume import BLUE, ORANGE, REFERENCE_TOLERANCE, shifted
-    from test_multi_volume_raycaster import multivolume_network, oblique_camera
+    from helpers.multivolume import BLUE, ORANGE, REFERENCE_TOLERANCE, multivolume_network, oblique_camera, shifted
     from vgraph.implicit import sample
     from vgraph.numerics.multivolume_reference import render_channels
     torus = sample("torus", 28, "float32")

@@ -1,11 +1,14 @@
-"""What the MultiVolumeRayCaster's tests share: their transfer functions, the tolerance against the
-CPU reference, moved copies of a volume, and the check that clip planes and a crop box of the
-EntryExitPoints cut every channel as they cut the reference's rays."""
+"""What the MultiVolumeRayCaster's tests share: their network and oblique camera, their transfer
+functions, the tolerance against the CPU reference, moved copies of a volume, and the check that
+clip planes and a crop box of the EntryExitPoints cut every channel as they cut the reference's rays."""
 
 import numpy as np
 
+from vgraph.camera import Camera
+from vgraph.network import Network
 from vgraph.numerics.multivolume_reference import render_channels
-from vgraph.numerics.reference_raycast import Shading
+from vgraph.numerics.reference_raycast import Shading, volume_box
+from vgraph.testing import GivenVolume
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
@@ -37,3 +40,28 @@ def assert_cut_like_the_reference(network, channels, camera, size, planes, crop)
     whole = render_channels(channels, camera, size, shading=Shading())
     assert np.abs(reference - whole).max() > 0.3
     np.testing.assert_allclose(gl, reference, atol=REFERENCE_TOLERANCE)
+
+
+EEP_PORTS = ("volume", "volume2", "volume3", "volume4")
+
+
+def multivolume_network(volumes, camera, ports=None, **properties) -> Network:
+    """GivenVolume 'src{n}' per volume -> MultiVolumeRayCaster 'mv' (on inports ``ports``, by
+    default volume1, volume2, ...); all volumes also feed the EntryExitPoints 'eep' (its
+    ``volume``, ``volume2``, ...), so the rays span the union of their boxes."""
+    network = Network()
+    network.add("EntryExitPoints", id="eep", camera=camera)
+    network.add("MultiVolumeRayCaster", id="mv", **properties)
+    network.link("eep.camera", "mv.camera")
+    ports = ports or [f"volume{n}" for n in range(1, len(volumes) + 1)]
+    for n, (volume, port) in enumerate(zip(volumes, ports), start=1):
+        network.add(GivenVolume(id=f"src{n}", volume=volume))
+        network.connect(f"src{n}.volume", f"mv.{port}")
+        network.connect(f"src{n}.volume", f"eep.{EEP_PORTS[n - 1]}")
+    for source, target in (("eep.entry", "mv.entry"), ("eep.exit", "mv.exit")):
+        network.connect(source, target)
+    return network
+
+
+def oblique_camera(volume):
+    return Camera.looking_at_box(*volume_box(volume), direction=(-0.5, -0.3, -1.0))
