@@ -173,7 +173,7 @@ def test_a_plan_of_arrays_gives_the_bricks_of_the_walk_and_compares_its_keys_as_
 
 
 def test_cells_are_bricks_where_cells_of_bricks_changes_nothing(tmp_path):
-    from test_foreign_ome_zarr import ome_zarr_py_image, opened
+    from helpers.foreign_stores import ome_zarr_py_image, opened
     data = (field((24, 60, 50)) * 60000).astype(np.uint16)
     path = ome_zarr_py_image(tmp_path / "image.zarr", data, scale_factors=[2, 4, 8, 16],  # y and x floored
                              storage_options={"chunks": (8, 8, 8)})

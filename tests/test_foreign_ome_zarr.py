@@ -30,13 +30,13 @@ from vgraph.errors import VGraphError, VolumeFileError
 from vgraph.network import Network
 from vgraph.numerics.reference_raycast import volume_box
 from vgraph.testing import ray_caster_network
-from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
 ome_writer = pytest.importorskip("ome_zarr.writer")  # the test extra (pyproject.toml)
 from ome_zarr.format import FormatV04, FormatV05  # noqa: E402
 
-FORMATS = {"0.4": FormatV04, "0.5": FormatV05}
+from helpers.foreign_stores import FORMATS, RAMP, ome_zarr_py_image, opened  # noqa: E402
+
 MIN_PSNR = 50.0  # as tests/test_bricked_raycaster.py: the bricks' picture against the RayCaster's
 
 
@@ -45,16 +45,6 @@ def field(shape) -> np.ndarray:
     z, y, x = np.meshgrid(*[np.linspace(-1, 1, n) for n in shape], indexing="ij")
     values = np.clip(1.0 - np.sqrt((x - 0.2) ** 2 + 1.3 * y * y + z * z), 0, 1) + 0.1 * np.sin(3 * x) * np.cos(2 * z)
     return (values - values.min()) / (values.max() - values.min())
-
-
-def ome_zarr_py_image(path, data, version="0.5", axes="zyx", **options):
-    """``data`` written by ome-zarr-py's write_image (its default pyramid: x and y halved and
-    floored per level, z kept) into a new store of the format's zarr version."""
-    group = zarr.open_group(str(path), mode="w", zarr_format=2 if version == "0.4" else 3)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # ome-zarr-py's own deprecation notes
-        ome_writer.write_image(data, group, axes=axes, fmt=FORMATS[version](), **options)
-    return path
 
 
 def spec_levels(path) -> list[tuple[np.ndarray, np.ndarray, tuple]]:
@@ -94,12 +84,6 @@ def assert_levels_as_the_spec_says(store: BrickStore, path) -> None:
         index = np.array(shape) - 1
         np.testing.assert_allclose(np.array(level.origin) + index[::-1] * level.spacing,
                                    (scale * index + translation)[::-1], rtol=1e-12)
-
-
-def opened(path, **options) -> BrickStore:
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", StoreLevelsWarning)  # no level may be dropped
-        return BrickStore(path, **options)
 
 
 # --- geometry: every level where its transformations put it ------------------------------------------
@@ -236,9 +220,6 @@ def test_every_cell_of_every_level_samples_its_level_where_the_transformations_p
 def psnr(a, b) -> float:
     mse = float(np.mean((np.asarray(a, np.float64) - np.asarray(b, np.float64)) ** 2))
     return float("inf") if mse == 0.0 else 10.0 * np.log10(1.0 / mse)
-
-
-RAMP = TransferFunction(points=[(0.0, 0, 0, 0, 0), (1.0, 1, 1, 1, 1)])
 
 
 def render(volume, camera, processor, **properties):

@@ -163,7 +163,7 @@ def test_bonsai_at_level_0_equals_the_in_core_raycaster(bonsai, mode):
 def test_an_ome_zarr_py_store_kept_in_z_renders_each_level_as_the_pass_per_brick(tmp_path):
     """Cells that are not each level's bricks (ome-zarr-py keeps z, halves y and x: vgraph.bricks.cells):
     level 0 equals the array in memory, each coarser level the pass per brick's picture of it."""
-    foreign = pytest.importorskip("test_foreign_ome_zarr")  # (skips without ome-zarr-py)
+    foreign = pytest.importorskip("helpers.foreign_stores")  # (skips without ome-zarr-py)
     data = (field((24, 96, 80)) * 60000).astype(np.uint16)
     path = foreign.ome_zarr_py_image(tmp_path / "image.zarr", data, scale_factors=[2, 4, 8],
                                      scale={"z": 2.0, "y": 0.5, "x": 0.5}, storage_options={"chunks": (8, 32, 32)})

@@ -11,6 +11,7 @@ another test module: what two test files share belongs here.
 - ``gui``: mouse helpers for the GUI tests
 - ``canvas``: a canvas view alone, shown at SIZE, and a mouse drag in it
 - ``dicom``: DICOM files written by pydicom (a one-slice axial CT)
+- ``foreign_stores``: OME-Zarr images written by ome-zarr-py, opened with every level (skips without it)
 - ``networks``: networks the rendering tests build
 - ``curvature``: the curvature ray casters' networks and CPU references
 - ``bricked``: the bricked ray caster's test volumes, cameras, transfer function and render()
