@@ -14,7 +14,7 @@ from vgraph.bricks.lod_error import RangeExtremes, TransferFunctionSpread, segme
 from vgraph.camera import Camera
 from vgraph.transfer_function import TransferFunction
 
-from helpers.bricked import FINEST, big_volume, oblique, render
+from helpers.bricked import FINEST, FLAT, big_volume, oblique, render
 
 # GPU float32 against the bound's exact arithmetic: sums of a few hundred samples in float32
 # (measured below 2e-6 on llvmpipe for the cases here).
@@ -23,7 +23,6 @@ SIZE = (48, 48)
 GENTLE = TransferFunction(points=[(0.0, 0.6, 0.6, 0.6, 0.01), (1.0, 0.6, 0.6, 0.6, 0.013)])
 SPIKE = TransferFunction(points=[(0.0, 1, 0.8, 0.3, 0.0), (0.49, 1, 0.8, 0.3, 0.0), (0.5, 1, 0.8, 0.3, 0.5),
                                  (0.51, 1, 0.8, 0.3, 0.0), (1.0, 1, 0.8, 0.3, 0.0)])
-FLAT = TransferFunction(points=[(0.0, 0.2, 0.7, 0.9, 0.03), (1.0, 0.2, 0.7, 0.9, 0.03)])
 FAINT_FLAT = TransferFunction(points=[(0.0, 0.2, 0.7, 0.9, 1e-6), (1.0, 0.2, 0.7, 0.9, 1e-6)])
 
 

@@ -19,8 +19,7 @@ from vgraph.bricks.sampling import BrickSampling
 from vgraph.frame_context import FrameContext
 from vgraph.testing import ray_caster_network
 
-from test_bricked_lod_error import FLAT
-from helpers.bricked import FINEST, WINDOW, big_volume, oblique, render
+from helpers.bricked import FINEST, FLAT, WINDOW, big_volume, oblique, render
 from helpers.networks import UNSHADED_RAMP
 
 ROUNDING = 1e-5  # float32 sums of a few hundred samples, regrouped by the passes' blending

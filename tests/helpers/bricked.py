@@ -2,8 +2,8 @@
 RayCaster's: what tests/test_bricked_raycaster.py and the bricks' other tests (paged, leaf, mask,
 method, level-of-detail, ray requests) share.
 
-- ``SIZE``, ``FINEST``, ``WINDOW``: the frames' size, the lod_bias that keeps every brick at level 0,
-  a windowed transfer function
+- ``SIZE``, ``FINEST``, ``WINDOW``, ``FLAT``: the frames' size, the lod_bias that keeps every brick
+  at level 0, a windowed transfer function and one of constant opacity (a uniform medium)
 - ``field``, ``odd_volume``, ``big_volume``: synthetic volumes whose features cross brick borders
 - ``oblique``: a camera looking at a volume's box obliquely
 - ``render``: a ray caster's image, depth and processor (the pass per brick unless told)
@@ -28,6 +28,7 @@ SIZE = (64, 56)
 FINEST = -16.0  # lod_bias that keeps every brick at level 0
 WINDOW = TransferFunction(points=[(0.0, 0, 0, 0, 0), (0.3, 0.2, 0.4, 0.9, 0.0),
                                   (0.6, 1.0, 0.7, 0.2, 0.3), (1.0, 1, 1, 1, 0.6)])
+FLAT = TransferFunction(points=[(0.0, 0.2, 0.7, 0.9, 0.03), (1.0, 0.2, 0.7, 0.9, 0.03)])  # a uniform medium
 
 
 def psnr(a, b) -> float:
