@@ -9,11 +9,12 @@ place (docs/explanations/sweep-plane.md, "Error against the exact reference").""
 from __future__ import annotations
 
 import pytest
-from test_sweep_plane import PROJECTIONS, SIZE, TF, camera, exact, psnr, smooth_volume, step_volume
 
 from vgraph.network import Network
 from vgraph.sweep.render import render
 from vgraph.testing import GivenVolume
+
+from helpers.sweep import PROJECTIONS, SIZE, TF, camera, exact, psnr, smooth_volume, step_volume
 
 # Measured (64 x 64, 24^3): sweep - tetrahedra = +6.1 / +6.5 dB smooth, -2.0 / -1.0 dB step
 # (perspective / orthographic); the band allows the sweep 3 dB below the tetrahedra.

@@ -15,6 +15,7 @@ another test module: what two test files share belongs here.
 - ``networks``: networks the rendering tests build
 - ``curvature``: the curvature ray casters' networks and CPU references
 - ``bricked``: the bricked ray caster's test volumes, cameras, transfer function and render()
+- ``sweep``: the SweepPlaneRenderer's volumes, cameras, transfer function and exact reference
 - ``refining``: the single pass's refining frames drawn walked and marched (mip and iso tests)
 - ``skipping``: empty-space skipping's pictures compared bit for bit, their cameras, a noise volume,
   a brick's blocks' ranges
