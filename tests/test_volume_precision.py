@@ -13,7 +13,7 @@ from vgraph.numerics.reference_raycast import Shading, render
 from vgraph.volume import SIXTEEN_BIT_CODES, SixteenBitCopy, Volume
 
 from helpers.networks import rendering_network
-from test_raycaster import COLOURED, IDENTITY, REFERENCE_TOLERANCE, SIZE, oblique_camera
+from helpers.raycaster import COLOURED, IDENTITY, REFERENCE_TOLERANCE, SIZE, oblique_camera
 
 HALF_STEP = 0.5 / SIXTEEN_BIT_CODES  # 7.6e-6: the largest quantisation error, normalised
 

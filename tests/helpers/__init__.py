@@ -13,6 +13,8 @@ another test module: what two test files share belongs here.
 - ``dicom``: DICOM files written by pydicom (a one-slice axial CT)
 - ``foreign_stores``: OME-Zarr images written by ome-zarr-py, opened with every level (skips without it)
 - ``networks``: networks the rendering tests build
+- ``raycaster``: the RayCaster's tolerance against the CPU reference, its transfer functions, SIZE and
+  oblique camera
 - ``curvature``: the curvature ray casters' networks and CPU references
 - ``bricked``: the bricked ray caster's test volumes, cameras, transfer function and render()
 - ``sweep``: the SweepPlaneRenderer's volumes, cameras, transfer function and exact reference
