@@ -10,7 +10,7 @@ from PySide6.QtWidgets import QFileDialog
 
 from vgraph.gui.markups_editor import MarkupsEditor
 
-from test_markups import SLICER_LINE
+from helpers.markups_files import SLICER_LINE
 
 
 def markups_editor(window):

@@ -19,6 +19,8 @@ from vgraph.markups_files import MarkupsFileError, read_markups, write_markups
 
 from picking_sphere import CENTRE, RADIUS, sphere_network
 
+from helpers.markups_files import SLICER_LINE
+
 SIZE = 201  # the overlay tests' image (odd: the view's centre is pixel 100); the view is 2 x 1.3 R high
 PER_UNIT = SIZE / (2 * 1.3 * RADIUS)
 
@@ -134,23 +136,6 @@ def test_csv_has_one_row_per_point_with_every_digit(tmp_path):
     rows = list(csv.reader((tmp_path / "p.csv").open()))
     assert rows == [["name", "kind", "point", "x", "y", "z"],
                     ["p1", "points", "0", "-1.5", "2.25", "7.0"], ["p1", "points", "1", "0.125", "0.001", "-2.0"]]
-
-
-SLICER_LINE = """{
-  "@schema": "https://raw.githubusercontent.com/slicer/slicer/master/Modules/Loadable/Markups/Resources/Schema/markups-schema-v1.0.3.json#",
-  "markups": [{
-    "type": "Line", "coordinateSystem": "LPS", "coordinateUnits": "mm", "locked": false,
-    "controlPoints": [
-      {"id": "1", "label": "L-1", "position": [10.5, -20.0, 30.0], "orientation": [-1.0, -0.0, -0.0, -0.0, -1.0, -0.0, 0.0, 0.0, 1.0], "selected": true, "locked": false, "visibility": true, "positionStatus": "defined"},
-      {"id": "2", "label": "L-2", "position": [13.5, -16.0, 30.0], "selected": true, "locked": false, "visibility": true, "positionStatus": "defined"}],
-    "measurements": [{"name": "length", "enabled": true, "value": 5.0, "units": "mm", "printFormat": "%-#4.4gmm"}],
-    "display": {"visibility": true, "opacity": 1.0}
-  }, {
-    "type": "Angle", "coordinateSystem": "RAS",
-    "controlPoints": [{"label": "A-1", "position": [1.0, 0.0, 0.0]}, {"label": "A-2", "position": [0.0, 0.0, 0.0]},
-                      {"label": "A-3", "position": [0.0, 2.0, 0.0]}]
-  }]
-}"""
 
 
 def test_a_slicer_file_in_lps_is_read_into_ras(tmp_path):
