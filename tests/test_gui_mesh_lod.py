@@ -10,7 +10,7 @@ from vgraph.live.render_messages import RenderJob
 from vgraph.live.render_server import RenderServer
 
 from helpers.gui import send_mouse
-from test_mesh_lod import blob_network
+from helpers.meshes import blob_network
 
 
 def rendered(network, scale: float) -> np.ndarray:

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import math
 
-import nibabel as nib
 import numpy as np
 import pytest
 
@@ -20,6 +19,7 @@ from vgraph.mesh import RegularGrid, TetMesh
 from vgraph.mesh_lod import clustered, clustering_factor, coarse_mesh
 from vgraph.tetrahedralize import volume_tetrahedra
 
+from helpers.meshes import blob, blob_network
 from helpers.paths import REPO
 
 DRAG = FrameContext(interactive=True)
@@ -29,12 +29,6 @@ DRAG = FrameContext(interactive=True)
 BONSAI_DRAG_PSNR = 23.0
 # The 48^3 blob of these tests clustered 3^3 (20 k of 519 k tetrahedra) at 64 x 64: 31.9 dB measured.
 BLOB_DRAG_PSNR = 30.0
-
-
-def blob(n: int) -> np.ndarray:
-    """[z, y, x] float32: a smooth blob on an n^3 grid."""
-    z, y, x = np.mgrid[0:n, 0:n, 0:n] / (n - 1)
-    return np.exp(-((x - 0.45) ** 2 + (y - 0.5) ** 2 + (z - 0.55) ** 2) / 0.12).astype(np.float32)
 
 
 def grid_mesh(data: np.ndarray, keep: np.ndarray | None = None, with_grid: bool = True) -> TetMesh:
@@ -107,21 +101,6 @@ def test_the_coarse_mesh_is_made_once_per_mesh_and_a_small_mesh_is_its_own():
 
 
 # --- frames while dragging ----------------------------------------------------------------------
-def blob_network(tmp_path, n: int = 48, coarse: int = 20_000) -> vgraph.Network:
-    """A volume on disk cut into tetrahedra and projected onto a 64 x 64 canvas."""
-    path = tmp_path / "blob.nii.gz"
-    nib.save(nib.Nifti1Image(np.ascontiguousarray(blob(n).T), np.eye(4)), str(path))
-    network = vgraph.Network()
-    network.add("VolumeSource", id="source", path=str(path))
-    network.add("VolumeToTetMesh", id="tets")
-    network.add("ProjectedTetrahedra", id="pt", coarse_tetrahedra=coarse)
-    network.add("Canvas", id="canvas", size=[64, 64])
-    network.connect("source.volume", "tets.volume")
-    network.connect("tets.mesh", "pt.mesh")
-    network.connect("pt.image", "canvas.image")
-    return network
-
-
 def turned(network: vgraph.Network, degrees: float) -> None:
     camera = network.get("pt.camera")
     angle = math.radians(degrees)

@@ -13,6 +13,7 @@ another test module: what two test files share belongs here.
 - ``dicom``: DICOM files written by pydicom (a one-slice axial CT)
 - ``foreign_stores``: OME-Zarr images written by ome-zarr-py, opened with every level (skips without it)
 - ``markups_files``: markups files of other tools (a 3D Slicer .mrk.json)
+- ``meshes``: the tetrahedral meshes' blob volume and its network (written, cut, projected)
 - ``networks``: networks the rendering tests build
 - ``raycaster``: the RayCaster's tolerance against the CPU reference, its transfer functions, SIZE and
   oblique camera
