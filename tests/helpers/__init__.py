@@ -4,6 +4,8 @@
 Fixtures (``window``, ``renderer``, ``gl``, ``data_dir``, ``test_shader_dir``) live in
 ``tests/conftest.py``, which pytest gives every test without an import. No test module imports
 another test module: what two test files share belongs here.
+A fixture that only some test modules share is defined in its helper and named in each of them
+(``bonsai = helpers.bricked.bonsai``), as pytest finds fixtures only in test modules and conftest.
 
 - ``paths``: REPO (the repository), BENCH (the tools the bench shares with the tests: fuzz cases,
   the scripted user; conftest puts it on sys.path) and DATA (the shared data sets beside it)
