@@ -11,10 +11,13 @@ import re
 import pytest
 
 from helpers.paths import REPO
-from helpers.slow_source import slow_network, slow_source  # noqa: F401 (slow_source: a fixture)
+import helpers.slow_source
+from helpers.slow_source import slow_network
 from vgraph.live.evaluator import ProcessorStatus
 from vgraph.gui.inspector import running_text, timing_text
 from vgraph.progress import Progress
+
+slow_source = helpers.slow_source.slow_source  # a fixture these tests take
 
 TOOK = re.compile(r"took ([0-9.]+) (ms|s) \((\d+) % of the frame\)")
 

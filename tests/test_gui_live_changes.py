@@ -115,7 +115,6 @@ def test_refining_renders_the_same_state_again_and_stops_when_a_frame_reads_noth
 def test_an_edit_while_a_bricked_frame_refines_takes_over(window, jobs, qtbot, tmp_path):
     """Refining renders the state it was asked for; an edit made meanwhile goes out as a change
     (the normal flow) and the window ends at the complete frame of the edited state."""
-    import vgraph
     from vgraph.imagefile import to_uint8
     network = bricked_sphere_network((64, 48))
     network.save(tmp_path / "bricked.json")

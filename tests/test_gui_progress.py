@@ -9,9 +9,12 @@ guessed sleep.
 
 import numpy as np
 
-from helpers.slow_source import slow_network, slow_source  # noqa: F401 (slow_source: a fixture)
+import helpers.slow_source
+from helpers.slow_source import slow_network
 from vgraph.gui.progress_view import STALE_PREFIX
 from vgraph.progress import Progress
+
+slow_source = helpers.slow_source.slow_source  # a fixture these tests take
 
 
 
