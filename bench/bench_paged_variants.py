@@ -69,7 +69,8 @@ FINEST = -16.0  # lod_bias: every brick at the finest level allowed (finest_leve
 MODES = {"dvr": {"compositing": "dvr", "transfer_function": WINDOW, "early_termination": 1.0},
          "shaded": {"compositing": "dvr", "transfer_function": WINDOW, "early_termination": 0.99,
                     "shading": "blinn_phong"},
-         "mip": {"compositing": "mip"}, "iso": {"compositing": "iso", "iso_level": 0.3}}
+         "mip": {"compositing": "mip"}, "iso": {"compositing": "iso", "iso_level": 0.3},
+         "shaded_iso": {"compositing": "iso", "iso_level": 0.3, "shading": "blinn_phong"}}
 SHADED = {"dvr central": {**MODES["shaded"], "derivatives": "central"},
           "dvr sobel": {**MODES["shaded"], "derivatives": "sobel"},
           # (the processor's default transfer function, as bench_paged_bricks.py's iso; the test's iso
@@ -140,6 +141,40 @@ def dvr_walks_where_missing():
     return replaced((paged_grids, "walk_grid", chosen))
 
 
+def iso_grid_reducing_minima():
+    # Before 3b9c401 settled on lows=False, iso's refining grid reduced the blocks' minima as well as
+    # their maxima (skip_radii's default; iso's rule reads only the maxima): the same grid, twice
+    # the build.
+    original = walk_grids.skip_radii
+    return replaced((walk_grids, "skip_radii", lambda *args, **kwargs: original(*args, **{**kwargs, "lows": True})))
+
+
+# The functions that build the grids and flags rays skip by (timed per frame, the calling thread's CPU)
+BUILDERS = ((walk_grids, "skip_radii"), (walk_grids, "asking_grid"), (walk_grids, "frame_grid"),
+            (walk_grids, "iso_grid"), (paged_grids, "block_radii"))
+
+
+@contextlib.contextmanager
+def timing_builds(spent: list):
+    """While the block runs, the BUILDERS add the thread CPU seconds they take to spent[0] (the
+    outermost call only: frame_grid calls skip_radii)."""
+    depth = [0]
+
+    def timed_builder(function):
+        def run(*args, **kwargs):
+            depth[0] += 1
+            began = time.thread_time()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                depth[0] -= 1
+                if depth[0] == 0:
+                    spent[0] += time.thread_time() - began
+        return run
+    with replaced(*[(module, name, timed_builder(getattr(module, name))) for module, name in BUILDERS]):
+        yield
+
+
 # --- frames -----------------------------------------------------------------------------------------
 class Variant:
     """One network and how its frames are drawn: ``older`` (a context manager factory, or None)
@@ -149,7 +184,7 @@ class Variant:
     def __init__(self, network, size, clock, older=None, context=None, rebuild=False):
         self.network, self.size, self.clock = network, size, clock
         self.older, self.context, self.rebuild = older, context, rebuild
-        self.count, self.image = 0, None
+        self.count, self.image, self.builds = 0, None, []
 
     @property
     def rc(self):
@@ -161,10 +196,21 @@ class Variant:
         if self.rebuild:
             kept = self.rc.parts[PagedSampling].kept
             kept.walk, kept.flags = Kept(), Kept()
-        with self.older() if self.older else contextlib.nullcontext():
+        spent = [0.0]
+        with timing_builds(spent), self.older() if self.older else contextlib.nullcontext():
             began = self.clock()
             self.image = np.asarray(self.network.evaluate("rc.image", size=self.size, context=self.context))
-            return self.clock() - began
+            seconds = self.clock() - began
+        self.builds.append(spent[0])
+        return seconds
+
+    def samples(self) -> float:
+        """Samples a pixel whose ray took any, after the timed frames (untimed): the depth output's
+        counter (b) of the same frame, drawn under the variant's path."""
+        with self.older() if self.older else contextlib.nullcontext():
+            depth = np.asarray(self.network.evaluate("rc.depth", size=self.size, context=self.context))
+        taken = depth[..., 2]
+        return float(taken.sum() / max(int((taken > 0).sum()), 1))
 
     def defines(self) -> str:
         defines = self.rc.passes[-1].defines if getattr(self.rc, "passes", None) else {}
@@ -179,8 +225,9 @@ class Variant:
         return f"levels {frame.get('levels')}, {'complete' if frame.get('complete') else 'refining'}"
 
 
-def timed(variants: dict, rounds: int, unit: str) -> dict:
-    """Interleave ``variants`` (name -> Variant) and print each one's ms and difference from the first."""
+def timed(variants: dict, rounds: int, unit: str, samples: bool = False) -> dict:
+    """Interleave ``variants`` (name -> Variant) and print each one's ms and difference from the first
+    (``samples``: and the samples a pixel of its last frame)."""
     seconds, _ = interleaved({name: variant.frame for name, variant in variants.items()}, [None] * rounds, None)
     first = next(iter(variants.values()))
     base = float(np.median(seconds[next(iter(variants))]))
@@ -189,6 +236,10 @@ def timed(variants: dict, rounds: int, unit: str) -> dict:
         median = float(np.median(seconds[name]))
         line = (f"  {name:>34}: {spread([v * 1e3 for v in seconds[name]], 0)} ms {unit}  ({median / base:.2f}x; "
                 f"max difference {steps:.2f} steps)  [{variant.drawn()}; {variant.defines()}]")
+        if samples:
+            line += f"  {variant.samples():.1f} samples a pixel"
+        if variant.rebuild:  # (the timed frames' builds: the warm-up frame's is the first)
+            line += f"  grids built {1e3 * float(np.median(variant.builds[1:])):.1f} ms a frame"
         if variant.rc.last_frame and variant.rc.last_frame.get("requests"):
             requests = variant.rc.last_frame["requests"]
             line += f"  requests {len(requests)} cells, {sum(p for _, p in requests)} pixels"
@@ -213,7 +264,7 @@ def stride_case(args, volume, camera, clock, unit) -> None:
                 "single pass, the level's lattice": Variant(bricked(volume, camera, method="single_pass", **properties),
                                                             args.size, clock)}
             print(f"{mode}, level {level}:")
-            timed(variants, args.rounds, unit)
+            timed(variants, args.rounds, unit, args.samples)
 
 
 def frozen(variant: Variant, after: int, limit: int) -> None:
@@ -236,7 +287,7 @@ def refining_case(args, volume, camera, clock, unit) -> None:
                                 "changes)"))
     for mode in args.modes:
         properties = {"shading": "none", **MODES[mode], "brick_size": args.bricks, "method": "single_pass"}
-        if mode == "dvr":
+        if MODES[mode]["compositing"] == "dvr":
             older = {"march (as drawn)": None, "walk (did not pay)": dvr_walks_where_missing}
         else:
             older = {"march (before)": lambda: no_walk_grid(only_where_missing=True), "walk (as drawn)": None}
@@ -247,11 +298,15 @@ def refining_case(args, volume, camera, clock, unit) -> None:
                 variants["no empty-space skipping"] = Variant(
                     bricked(volume, camera, empty_space_skipping=False, **properties), args.size, clock,
                     context=context, rebuild=not args.keep_grids)
+            if args.lows and MODES[mode]["compositing"] == "iso":
+                variants["walk, minima reduced too (before)"] = Variant(
+                    bricked(volume, camera, **properties), args.size, clock, older=iso_grid_reducing_minima,
+                    context=context, rebuild=not args.keep_grids)
             for variant in variants.values():
                 with variant.older() if variant.older else contextlib.nullcontext():
                     frozen(variant, after, args.limit)
             print(f"{mode}, after {after} refining frames:")
-            timed(variants, args.rounds, unit)
+            timed(variants, args.rounds, unit, args.samples)
 
 
 def walk_case(args, volume, camera, clock, unit) -> None:
@@ -270,7 +325,7 @@ def walk_case(args, volume, camera, clock, unit) -> None:
                 bricked(volume, camera, brick_size=args.bricks, method="single_pass", empty_space_skipping=False,
                         **properties), args.size, clock)
         print(f"{mode}:")
-        timed(variants, args.rounds, unit)
+        timed(variants, args.rounds, unit, args.samples)
 
 
 def level_step(level: int):
@@ -327,11 +382,14 @@ def main(argv=None) -> None:
     parser.add_argument("--bricks", type=int, default=64)
     parser.add_argument("--cpu", action="store_true", help="CPU seconds of the process, not wall seconds")
     parser.add_argument("--modes", nargs="+", choices=list(MODES), help="stride: dvr shaded; refining: mip iso dvr; "
-                        "walk: dvr shaded mip iso (the defaults)")
+                        "walk: dvr shaded mip iso (the defaults); shaded: dvr shaded, early termination 0.99")
     parser.add_argument("--levels", type=int, nargs="+", help="stride: 1 2 3, gradients: 1 2 (the defaults)")
     parser.add_argument("--after", type=int, nargs="+", default=[0, 3], help="refining: frames drawn before the state timed")
     parser.add_argument("--limit", type=int, default=8, help="refining: bricks a frame may read")
+    parser.add_argument("--samples", action="store_true", help="timed cases: also the samples a pixel (the depth "
+                        "output's counter, untimed, after the timed frames)")
     parser.add_argument("--keep-grids", action="store_true", help="refining: the grids and flags not built again each frame")
+    parser.add_argument("--lows", action="store_true", help="refining: also iso's grid reducing the minima too")
     parser.add_argument("--no-skipping", action="store_true", help="refining, walk: also empty_space_skipping False")
     parser.add_argument("--method", choices=["single_pass", "passes"], default="single_pass", help="gradients")
     args = parser.parse_args(argv)

@@ -54,8 +54,10 @@ def test_refining_rows_march_and_walk_the_same_frozen_state(gl, capsys, untouche
     # the tests' 64^3 bonsai: after 3 frames its coarse cells have empty blocks (iso's and dvr's
     # grids are made only where skipping pays; a tiny ball has too few empty blocks)
     bench.main(["refining", "--subsample", "4", "--bricks", "16", "--size", "32", "--rounds", "1", "--cpu",
-                "--modes", "mip", "iso", "dvr", "--after", "3", "--limit", "8"])
-    parsed = rows(capsys.readouterr().out)
+                "--modes", "mip", "iso", "dvr", "--after", "3", "--limit", "8", "--lows"])
+    out = capsys.readouterr().out
+    parsed = rows(out)
+    assert len(re.findall(r"grids built [\d.]+ ms a frame", out)) == len(parsed) == 7  # 2 a mode, iso's lows
     for mode, march, walk, walk_define in (("mip", "march (before)", "walk (as drawn)", "PAGED_MIP_ASKS"),
                                            ("iso", "march (before)", "walk (as drawn)", "PAGED_WALK_ASKS"),
                                            ("dvr", "march (as drawn)", "walk (did not pay)", "PAGED_WALK_ASKS")):
@@ -66,11 +68,15 @@ def test_refining_rows_march_and_walk_the_same_frozen_state(gl, capsys, untouche
         assert parsed[heading, walk]["drawn"].endswith("refining")  # still missing bricks: the state held
         if mode != "dvr":  # mip's and iso's walks draw the march's image (dvr's walk did not)
             assert float(parsed[heading, walk]["steps"]) == 0.0
+    assert "PAGED_WALK_ASKS" in parsed["iso, after 3 refining frames", "walk, minima reduced too (before)"]["defines"]
 
 
 def test_walk_rows_and_gradient_psnrs(gl, capsys, untouched):
-    bench.main(["walk", *TINY, "--modes", "iso"])
-    parsed = rows(capsys.readouterr().out)
+    bench.main(["walk", *TINY, "--modes", "iso", "--samples"])
+    out = capsys.readouterr().out
+    parsed = rows(out)
+    samples = [float(n) for n in re.findall(r"([\d.]+) samples a pixel", out)]
+    assert len(samples) == 3 and all(n > 0 for n in samples)  # the RayCaster's, the slots' distances', the grid's
     assert "PAGED_ISO_GRID" not in parsed["iso", "slots' distances (before)"]["defines"]
     assert "PAGED_ISO_GRID" in parsed["iso", "walk grid (as drawn)"]["defines"]
     bench.main(["gradients", "--ball", "32", "--bricks", "8", "--size", "32", "--levels", "1"])
