@@ -55,7 +55,7 @@ from vgraph.bricks.brick_planning import skipping_alpha  # noqa: E402
 from vgraph.bricks.cache import LoadLimit  # noqa: E402
 from vgraph.bricks.kept_frame import Kept, on_context  # noqa: E402
 from vgraph.bricks.paged_sampling import PagedSampling  # noqa: E402
-from vgraph.bricks.ray_requests import drawn_from  # noqa: E402
+from vgraph.bricks.ray_requests import drawn_bricks  # noqa: E402
 from vgraph.camera import Camera  # noqa: E402
 from vgraph.frame_context import FrameContext  # noqa: E402
 from vgraph.gl.raycasting.empty_space import occupied_blocks  # noqa: E402
@@ -128,7 +128,7 @@ def dvr_walks_where_missing():
 
         def build() -> Binding | None:
             keys = plan.keys()
-            bricks = [drawn_from(geometry, key, atlas.slots) for key in keys]
+            bricks = drawn_bricks(geometry, keys, atlas.slots)
             grid, block = walk_grids.skip_radii(source, geometry, keys, atlas.slots.__getitem__, atlas.blocks.ranges,
                                                 lambda low, high: occupied_blocks(low, high, alpha), bricks, missing)
             if grid is None:
