@@ -7,8 +7,9 @@ single pass's frames at levels 1 and 2 (shaded dvr with central and Sobel differ
 a smooth field, 48 x 48) are at least as near it as the floors below, set halfway between the PSNRs
 measured with the level-0 step and with the level's step, so a renderer that differenced one voxel
 of the level apart fails; and both methods, which sample a coarse level on the same lattice (dvr:
-PAGED_STRIDE), give the same frame within float rounding. On the bonsai too:
-docs/explanations/bricked-ray-casting.md. No timings."""
+PAGED_STRIDE), give the same frame within float rounding. On the bonsai and a 128^3 ball too: the
+PSNR table of docs/explanations/bricked-ray-casting.md, "Coarse levels sample their own lattice"
+(`python bench/bench_paged_variants.py gradients`). No timings."""
 
 import numpy as np
 import pytest
