@@ -22,7 +22,7 @@ from vgraph.testing import ray_caster_network
 from vgraph.transfer_function import TransferFunction
 from vgraph.volume import Volume
 
-from helpers.bricked import FINEST, SIZE, field, oblique, odd_volume, render
+from helpers.bricked import FINEST, SIZE, WINDOW, field, oblique, odd_volume, render
 from helpers.networks import UNSHADED_RAMP
 
 ONE_STEP = 1.0 / 255.0
@@ -178,3 +178,30 @@ def test_without_room_for_a_fallback_the_frame_still_reads_only_what_rays_ask_fo
     assert (0, 0, 0, 0) not in network["rc"].parts[BrickSampling].cache.ram
     want, _, _ = render(volume, camera, "RayCaster", **properties)
     assert np.abs(images[-1] - want).max() <= ONE_STEP and want[..., :3].max() > 0.5
+
+
+@pytest.mark.parametrize("shading", ["none", "blinn_phong"])
+def test_dvr_asks_for_the_same_cells_with_empty_space_skipping_or_without(shading):
+    """The first frame draws every level-0 cell from its level-1 ancestor (a whole level: runs used
+    to span the ancestor's cell, and jumps its empty blocks, asking only where they started), so
+    without skipping rays asked for none of the cells on the far side of each ancestor (the bonsai:
+    56 of 64 cells against 64 with it). Every frame's requests (keys and pixels) and image are the
+    same either way, the first one asks for every planned cell (nothing hides any: no early
+    termination), and both end at the in-core image."""
+    volume = Volume(field((64, 64, 64)))
+    camera = oblique(volume)
+    properties = {"transfer_function": WINDOW, "shading": shading, "early_termination": 1.0}
+    networks = [ray_caster_network(volume, camera, "BrickedRayCaster", method="single_pass", brick_size=16,
+                                   lod_bias=FINEST, empty_space_skipping=skipping, **properties)
+                for skipping in (True, False)]
+    pairs = [refine(network, LoadLimit(bricks=8)) for network in networks]
+    (images, reports), (plain_images, plain_reports) = pairs
+    assert [r["requests"] for r in reports] == [r["requests"] for r in plain_reports]
+    for image, plain in zip(images, plain_images):
+        np.testing.assert_array_equal(image, plain)
+    first = reports[0]
+    assert first["levels"] == [1] and first["unreached"] == 0 and len(first["requests"]) > 16
+    assert all(pixels > 0 for _, pixels in first["requests"])
+    assert reports[-1]["complete"] and reports[-1]["levels"] == [0] and len(reports) > 2
+    want, _, _ = render(volume, camera, "RayCaster", **properties)
+    assert np.abs(images[-1] - want).max() <= 2 * ONE_STEP  # (the sampling rate moved by a few 1e-6)

@@ -179,6 +179,16 @@ void paged_run(inout int i, inout int run_end, Ray ray) {
         skip = in_empty_block(t * scale + texel_offset, slot_origin, texel_offset, scale, lo, hi);
     }
 #endif
+#if defined(PAGED_REQUESTS) && defined(COMPOSITING_DVR)
+    // dvr asks for every missing cell a ray has a sample in up to where it stops, whatever the
+    // boxes: a run through an ancestor's whole cell (PAGED_STRIDE) or a jump over its empty blocks
+    // would cross its missing level-0 cells unasked (which ones depended on empty_space_skipping),
+    // so in a frame that asks every box ends at its level-0 cell.
+    vec3 cell_lo, cell_hi;
+    cell_box(t, cell_scale[0], page_grid[0], cell_lo, cell_hi);
+    lo = max(lo, cell_lo);
+    hi = min(hi, cell_hi);
+#endif
     // Per axis, the sample index where the ray leaves the box (the face ahead of it).
     vec3 face = mix(lo, hi, step(vec3(0.0), ray.step));
     vec3 ahead = vec3(ray.step.x != 0.0 ? (face.x - ray.start.x) / ray.step.x : 1e30,
