@@ -2,8 +2,9 @@
 the shader counts the planned cells the atlas misses that its rays reach; the CPU loads them by
 priority under the load limit and the next frame refines. Asserted: the requests name exactly the
 missing cells rays reached with the pixels that reached them, their order, frames that refine to
-the in-core RayCaster's image while the report says incomplete (coarsest level, error bound), and
-bricks hidden behind an opaque slab never read, where the plan's read-ahead reads them all."""
+the in-core RayCaster's image while the report says incomplete (coarsest level, error bound),
+bricks hidden behind an opaque slab never read, where the plan's read-ahead reads them all, and dvr
+asking for the same cells and pixels with empty-space skipping or without."""
 
 import numpy as np
 import pytest

@@ -2,9 +2,10 @@
 // the frame's plan that the atlas does not hold and that a ray reached are counted, one count per
 // ray (a pixel), in `requests`, one counter per missing cell (cell i at texel (i % request_row,
 // i / request_row, 0)); the CPU reads it back after the frame and loads what rays asked for. A ray
-// asks at the start of every run and every jump (paged_run: a run lies in one level-0 cell), so a
-// cell behind the sample where the ray stopped (early termination, mip's maximum of 1) is never
-// asked for. Included by paged_sampling.glsl (after leaf_texel).
+// asks at the start of every run and every jump (paged_run: a run lies in one level-0 cell; in
+// dvr a jump too, so it asks for every cell it has a sample in, with empty_space_skipping or
+// without), so a cell behind the sample where the ray stopped (early termination, mip's maximum of
+// 1) is never asked for. Included by paged_sampling.glsl (after leaf_texel).
 #ifdef PAGED_REQUESTS
 uniform sampler3D wanted_table;           // laid out as the leaf table (leaf_texel): 1 + the index
                                           // of the missing planned cell there, 0 where none is
