@@ -15,6 +15,11 @@ Conventions:
   RayCaster's skipping blocks, over the same windows: a sample in block k filters voxels
   FINE k - 1 .. FINE (k + 1)), in the bricks' texture values; iso's frame-wide grid of a complete
   frame (vgraph.bricks.walk_grids.iso_grid) reads them. 0.3 ms a brick of 64^3 besides the ranges.
+- ``of_slot``: what else is made from a slot's ranges (the walk grids' reduction of its brick
+  within each cell it is drawn in, vgraph.bricks.walk_grids, under keys naming the brick), kept
+  until another brick is recorded in the slot: a refining frame reduces only the bricks it newly
+  draws somewhere. (A brick's ranges are those of its voxels, so what is kept for it is right for
+  as long as it is in the slot; dropping it on a record bounds what is kept.)
 """
 
 from __future__ import annotations
@@ -41,10 +46,12 @@ class AtlasBlocks:
         self.gl = gl  # the atlas's GL objects: the flags go with them ("block_flags")
         self.fine_per_slot = tuple(-(-(n - 2 * HALO) // FINE) for n in slot_shape)  # (x, y, z)
         self.fine_maxima = None  # [slot, fz, fy, fx] in the bricks' texture dtype, made at the first record
+        self.derived: dict = {}  # slot -> {key: value} (of_slot)
 
     def record(self, slot: int, data: np.ndarray) -> None:
         """The ranges of the brick now in ``slot`` (``data``: its voxels with the apron, in texture values)."""
         ranges = block_ranges_of(data, self.format)
+        self.derived.pop(slot, None)  # (made from the brick that was there)
         self.ranges[slot] = np.nan
         nz, ny, nx = ranges.shape[:3]
         self.ranges[slot, :nz, :ny, :nx] = ranges
@@ -56,6 +63,11 @@ class AtlasBlocks:
         nz, ny, nx = maxima.shape
         self.fine_maxima[slot] = unknown  # (a smaller brick's blocks past its core)
         self.fine_maxima[slot, :nz, :ny, :nx] = maxima
+
+    def of_slot(self, slot: int) -> dict:
+        """The values made from the ranges of the brick now in ``slot`` (module docstring): a dict
+        (key -> value) the maker fills, emptied when another brick is recorded there."""
+        return self.derived.setdefault(slot, {})
 
     def normalised(self, values: np.ndarray) -> np.ndarray:
         """Texture values (fine_maxima's) as normalised intensities, float64 (as block_ranges_of)."""

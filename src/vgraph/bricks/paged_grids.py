@@ -6,7 +6,9 @@ from stays (vgraph.bricks.kept_frame):
   with the blocks where rays ask for them, PAGED_MIP_ASKS), and, where the atlas holds every
   planned brick, dvr's skip radii (PAGED_WALK, march.glsl), iso's blocks of 4 level-0 voxels with
   their cells' slots (PAGED_ISO_GRID; a flat leaf table only); where bricks are missing, iso's skip
-  radii with the blocks where rays ask for them (PAGED_WALK with PAGED_WALK_ASKS).
+  radii with the blocks where rays ask for them (PAGED_WALK with PAGED_WALK_ASKS). mip's, dvr's and
+  iso's asking grid reduce only the bricks new to the cells they are drawn in (the atlas's
+  AtlasBlocks keeps the rest from the frames before: walk_grids).
 - ``block_flags``: otherwise, the flags of the atlas's blocks that add nothing this frame
   (vgraph.bricks.atlas_blocks) with their Chebyshev radii (vgraph.bricks.block_radii; PAGED_BLOCKS).
 """
@@ -72,10 +74,10 @@ def _mip_dvr_grid(processor, kept: KeptFrame, frame: Frame, source, geometry: Br
             keys = plan.keys()
             bricks = drawn_bricks(geometry, keys, atlas.slots)
             grid, block = walk_grids.asking_grid(source, geometry, keys, atlas.slots.__getitem__, atlas.blocks.ranges,
-                                                 bricks, missing)
+                                                 bricks, missing, memo=atlas.blocks)
             return grid, {"PAGED_MIP_WALK": True, "PAGED_MIP_ASKS": True}, walk_grids.uniforms(geometry, block, grid[..., 0])
         grid, block, define = walk_grids.frame_grid(alpha, source, geometry, plan.keys(), atlas.slots.__getitem__,
-                                                    atlas.blocks.ranges)
+                                                    atlas.blocks.ranges, memo=atlas.blocks)
         return None if grid is None else (grid, {define: True}, walk_grids.uniforms(geometry, block, grid))
     return (kept.table.key, mode, None if alpha is None else alpha.tobytes()), "walk_grid", make
 
@@ -116,7 +118,8 @@ def _iso_asking_grid(processor, kept: KeptFrame, frame: Frame, source, geometry:
         keys = plan.keys()
         bricks = drawn_bricks(geometry, keys, atlas.slots)
         grid, block = walk_grids.skip_radii(source, geometry, keys, atlas.slots.__getitem__, atlas.blocks.ranges,
-                                            lambda low, high: ~(high < level), bricks, missing, lows=False)
+                                            lambda low, high: ~(high < level), bricks, missing, lows=False,
+                                            memo=atlas.blocks)
         return None if grid is None else (grid, {"PAGED_WALK": True, "PAGED_WALK_ASKS": True},
                                           walk_grids.uniforms(geometry, block, grid))
     return (kept.table.key, "iso asking", level), "walk_grid", make
