@@ -50,7 +50,7 @@ from interleave import interleaved, spread  # noqa: E402
 
 from vgraph.bricks import paged_grids, paged_sampling, walk_grids  # noqa: E402
 from vgraph.bricks import sampling as brick_sampling  # noqa: E402
-from vgraph.bricks.atlas_blocks import kept_texture  # noqa: E402
+from vgraph.bricks.atlas_blocks import AtlasBlocks, kept_texture  # noqa: E402
 from vgraph.bricks.brick_planning import skipping_alpha  # noqa: E402
 from vgraph.bricks.cache import LoadLimit  # noqa: E402
 from vgraph.bricks.kept_frame import Kept, on_context  # noqa: E402
@@ -175,20 +175,47 @@ def timing_builds(spent: list):
         yield
 
 
+# The slots each atlas stored bricks in, in order (id of its AtlasBlocks -> slots): refining frames
+# forget what the grids keep for the last ones (Variant.forget_loaded).
+STORED: dict = {}
+
+
+@contextlib.contextmanager
+def logging_stored_slots():
+    record = AtlasBlocks.record
+
+    def logged(blocks, slot, data):
+        STORED.setdefault(id(blocks), []).append(slot)
+        return record(blocks, slot, data)
+    with replaced((AtlasBlocks, "record", logged)):
+        yield
+
+
 # --- frames -----------------------------------------------------------------------------------------
 class Variant:
     """One network and how its frames are drawn: ``older`` (a context manager factory, or None)
     wraps each of its frames; ``context`` the frame context (a load limit); ``rebuild``: the grids
-    and flags made again every frame, as a refining frame does (its atlas changes each frame)."""
+    and flags made again every frame, as a refining frame does (its atlas changes each frame), and
+    what they keep for the last ``loads`` bricks stored forgotten, as if the frame had loaded them."""
 
-    def __init__(self, network, size, clock, older=None, context=None, rebuild=False):
+    def __init__(self, network, size, clock, older=None, context=None, rebuild=False, loads=0):
         self.network, self.size, self.clock = network, size, clock
-        self.older, self.context, self.rebuild = older, context, rebuild
+        self.older, self.context, self.rebuild, self.loads = older, context, rebuild, loads
         self.count, self.image, self.builds = 0, None, []
 
     @property
     def rc(self):
         return self.network["rc"]
+
+    def forget_loaded(self) -> None:
+        """Drop what the walk grids keep for the slots of the last ``self.loads`` bricks stored in
+        the atlas (AtlasBlocks.of_slot): a refining frame that had loaded them would reduce their
+        cells again, and a frozen state loads none, so its grids would be made from what is kept."""
+        atlas = getattr(self.rc.parts[PagedSampling], "atlas", None)
+        blocks = getattr(atlas, "blocks", None)
+        if blocks is not None and self.loads:
+            for slot in STORED.get(id(blocks), [])[-self.loads:]:
+                blocks.derived.pop(slot, None)
 
     def frame(self, _argument=None) -> float:
         self.count += 1
@@ -196,6 +223,7 @@ class Variant:
         if self.rebuild:
             kept = self.rc.parts[PagedSampling].kept
             kept.walk, kept.flags = Kept(), Kept()
+            self.forget_loaded()
         spent = [0.0]
         with timing_builds(spent), self.older() if self.older else contextlib.nullcontext():
             began = self.clock()
@@ -278,13 +306,18 @@ def frozen(variant: Variant, after: int, limit: int) -> None:
 
 
 def refining_case(args, volume, camera, clock, unit) -> None:
+    with logging_stored_slots():
+        drawn_refining(args, volume, camera, clock, unit)
+
+
+def drawn_refining(args, volume, camera, clock, unit) -> None:
     limit = LoadLimit(bricks=args.limit)
     context = FrameContext(load_limit=limit)
     print(f"refining: {args.bricks}^3 bricks, level 0 planned (lod_bias {FINEST}), from an empty cache under "
           f"LoadLimit(bricks={args.limit}); each state frozen after its refining frames (no brick read after "
           f"a timed frame); " + ("the walk grid and block flags kept across the timed frames" if args.keep_grids else
-                                "the walk grid and block flags built again every frame (as a refining frame's, whose atlas "
-                                "changes)"))
+                                f"the walk grid and block flags built again every frame, what they keep for the last {args.limit} "
+                                "bricks stored forgotten (as a refining frame's, whose atlas changes)"))
     for mode in args.modes:
         properties = {"shading": "none", **MODES[mode], "brick_size": args.bricks, "method": "single_pass"}
         if MODES[mode]["compositing"] == "dvr":
@@ -293,15 +326,15 @@ def refining_case(args, volume, camera, clock, unit) -> None:
             older = {"march (before)": lambda: no_walk_grid(only_where_missing=True), "walk (as drawn)": None}
         for after in args.after:
             variants = {name: Variant(bricked(volume, camera, **properties), args.size, clock, older=make,
-                                      context=context, rebuild=not args.keep_grids) for name, make in older.items()}
+                                      context=context, rebuild=not args.keep_grids, loads=args.limit) for name, make in older.items()}
             if args.no_skipping:
                 variants["no empty-space skipping"] = Variant(
                     bricked(volume, camera, empty_space_skipping=False, **properties), args.size, clock,
-                    context=context, rebuild=not args.keep_grids)
+                    context=context, rebuild=not args.keep_grids, loads=args.limit)
             if args.lows and MODES[mode]["compositing"] == "iso":
                 variants["walk, minima reduced too (before)"] = Variant(
                     bricked(volume, camera, **properties), args.size, clock, older=iso_grid_reducing_minima,
-                    context=context, rebuild=not args.keep_grids)
+                    context=context, rebuild=not args.keep_grids, loads=args.limit)
             for variant in variants.values():
                 with variant.older() if variant.older else contextlib.nullcontext():
                     frozen(variant, after, args.limit)
