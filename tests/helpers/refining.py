@@ -25,6 +25,7 @@ from vgraph.bricks.paged_sampling import PagedSampling
 from vgraph.bricks.pyramid import ArrayPyramid
 from vgraph.bricks.sampling import BrickSampling
 from vgraph.frame_context import FrameContext
+from vgraph.scheduler import evaluate, target_data, to_numpy
 
 from helpers.bricked import SIZE  # the frames' size (that of the oblique camera the networks use)
 
@@ -55,8 +56,10 @@ def frame(network, number: int, limit: LoadLimit | None) -> Frame:
     """A new frame of ``network`` (its processor ``rc``) under ``limit``."""
     network.set("rc.sampling_rate", 1.0 + 1e-6 * number)  # (a new frame each time)
     context = FrameContext(load_limit=limit) if limit is not None else None
-    image = np.asarray(network.evaluate("rc.image", size=SIZE, context=context))
-    depth = np.asarray(network.evaluate("rc.depth", size=SIZE, context=context))  # (the same frame: nothing read)
+    # Image and depth of one frame: one evaluation (a second one under a load limit draws the next
+    # frame, reading more bricks).
+    evaluate(network, ["rc.image", "rc.depth"], size=SIZE, context=context)
+    image, depth = (np.asarray(to_numpy(target_data(network, t))) for t in ("rc.image", "rc.depth"))
     rc = network["rc"]
     return Frame(image, depth, dict(rc.last_frame), dict(rc.passes[-1].defines))
 
