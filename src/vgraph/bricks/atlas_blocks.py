@@ -16,10 +16,12 @@ Conventions:
   FINE k - 1 .. FINE (k + 1)), in the bricks' texture values; iso's frame-wide grid of a complete
   frame (vgraph.bricks.walk_grids.iso_grid) reads them. 0.3 ms a brick of 64^3 besides the ranges.
 - ``of_slot``: what else is made from a slot's ranges (the walk grids' reduction of its brick
-  within each cell it is drawn in, vgraph.bricks.walk_grids, under keys naming the brick), kept
+  within each cell it is drawn in, vgraph.bricks.walk_grids, and its blocks' distances within its
+  cell under the frame's rule, vgraph.bricks.block_radii, under keys naming the brick), kept
   until another brick is recorded in the slot: a refining frame reduces only the bricks it newly
-  draws somewhere. (A brick's ranges are those of its voxels, so what is kept for it is right for
-  as long as it is in the slot; dropping it on a record bounds what is kept.)
+  draws somewhere, and finds only their distances. (A brick's ranges are those of its voxels, so
+  what is kept for it is right for as long as it is in the slot; dropping it on a record bounds
+  what is kept.)
 """
 
 from __future__ import annotations

@@ -36,14 +36,17 @@ FARTHEST = 8   # the largest distance kept (a cell of 64^3 voxels): each one mor
 OCTANTS = list(itertools.product((1, -1), repeat=3))  # the signs of (z, y, x), z slowest
 
 
-def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans, empty_cells=None) -> np.ndarray:
+def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans, empty_cells=None, rule=None) -> np.ndarray:
     """float32 [2 z, 2 y, 2 x] laid out as the slots, per octant (module docstring). ``blocks``: the
     atlas's AtlasBlocks; ``skip`` bool [slot, bz, by, bx], the blocks that add nothing under the
     frame's rule (unknown ones False); ``slots`` brick key -> slot; ``drawn`` the keys drawn wholly
     from their own brick (the plan's resident ones); ``spans[level]`` per axis [z, y, x] the cores'
     (starts, stops) in the level's voxels (vgraph.bricks.cells); ``empty_cells`` (or None) bool
     [z, y, x] per level-0 cell, True where nothing is drawn and nothing is missing (the plan leaves
-    it out: it adds nothing), whose blocks a box at level 0 may cross."""
+    it out: it adds nothing), whose blocks a box at level 0 may cross. ``rule`` (hashable, or None):
+    what ``skip`` was made by from the slots' ranges (the mode and its TF or level); given, each
+    wholly drawn slot's distances within its cell are kept with the slot (AtlasBlocks.of_slot) and
+    made again only for slots whose brick, rule or grouping changed (_within_slots)."""
     whole = wholly_drawn(len(skip), slots, drawn)
     jumpable = skip & whole[:, None, None, None]
     per = np.asarray(skip.shape[1:])  # [z, y, x]
@@ -62,21 +65,61 @@ def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans, empty_cells
             jumpable[mine] &= _inside_cores(coords, starts, stops, per)
     grids = [(mine, coords, _volume_grid(jumpable[mine], coords, per, empty_cells if level == 0 else None))
              for level, mine, coords in groups]
-    alone = jumpable.copy()  # the jumpable blocks whose boxes stay in their cell
+    grouped = np.zeros(len(skip), dtype=bool)
     for mine, _, _ in grids:
-        alone[mine] = False
-    octants = []
-    for signs in OCTANTS:
-        radii = _within_cells(alone, signs)
-        for mine, coords, grid in grids:
-            radii[mine] = _cells_of(forward_distances(grid, signs), coords, per)
-        runs = np.empty(radii.shape, dtype=np.float32)
-        runs[whole] = _within_cells(~jumpable[whole], signs)
-        runs[~whole] = _within_cells(np.ones((1,) + radii.shape[1:], dtype=bool), signs)  # all occupied
-        octants.append(blocks.laid_out(radii - runs))
-    halves = [np.concatenate(octants[i:i + 2], axis=2) for i in range(0, 8, 2)]  # x
-    halves = [np.concatenate(halves[i:i + 2], axis=1) for i in range(0, 4, 2)]  # y
-    return np.concatenate(halves, axis=0)  # z
+        grouped[mine] = True
+    values = _within_slots(blocks, jumpable, whole, grouped, slots, rule)
+    for mine, coords, grid in grids:  # (radii - runs: whole numbers, exact in either order)
+        for octant, signs in enumerate(OCTANTS):
+            values[mine, octant] += _cells_of(forward_distances(grid, signs), coords, per)
+    return _octants_laid_out(blocks, values)
+
+
+def _within_slots(blocks, jumpable: np.ndarray, whole: np.ndarray, grouped: np.ndarray, slots: dict, rule):
+    """float32 [slot, octant, bz, by, bx]: each slot's radii within its cell (0 in ``grouped``
+    slots, whose boxes cross cells: block_radii adds them) less its runs. A slot not drawn wholly has
+    none jumpable and runs over all its blocks (the same for every such slot); a wholly drawn one's
+    depend only on its brick's blocks, the rule and whether it is grouped (its jumpable blocks:
+    ``skip`` under the rule, and in a level not grouped those inside its cell's core, fixed by the
+    brick's cell), so with a ``rule`` they are kept with the slot under those (one entry a slot:
+    a new rule replaces the last one's) and only new ones made."""
+    shape = jumpable.shape[1:]
+    values = np.empty((len(jumpable), len(OCTANTS)) + shape, dtype=np.float32)
+    occupied = np.ones((1,) + shape, dtype=bool)
+    values[~whole] = np.stack([-_within_cells(occupied, signs)[0] for signs in OCTANTS])
+    todo, keys = [], []
+    for key, slot in slots.items():
+        if not whole[slot]:
+            continue
+        memo_key = (key, rule, bool(grouped[slot]))
+        kept = blocks.of_slot(slot).get("block radii") if rule is not None else None
+        if kept is not None and kept[0] == memo_key:
+            values[slot] = kept[1]
+        else:
+            todo.append(slot)
+            keys.append(memo_key)
+    if todo:
+        mine = np.asarray(todo)
+        mask = jumpable[mine]
+        alone = mask & ~grouped[mine, None, None, None]
+        for octant, signs in enumerate(OCTANTS):
+            values[mine, octant] = _within_cells(alone, signs) - _within_cells(~mask, signs)
+        if rule is not None:
+            for slot, memo_key in zip(todo, keys):
+                blocks.of_slot(slot)["block radii"] = (memo_key, values[slot].copy())
+    return values
+
+
+def _octants_laid_out(blocks, values: np.ndarray) -> np.ndarray:
+    """The per-slot octants [slot, octant, bz, by, bx] laid out as AtlasBlocks.laid_out, the octants
+    side by side in 2 x 2 x 2 (OCTANTS: z slowest, +1 first), float32 [2 z, 2 y, 2 x]."""
+    gx, gy, gz = blocks.slot_grid
+    bz, by, bx = values.shape[2:]
+    out = np.empty((2, gz, bz, 2, gy, by, 2, gx, bx), dtype=np.float32)
+    octants = values.reshape(gz, gy, gx, 2, 2, 2, bz, by, bx)
+    for oz, oy, ox in itertools.product(range(2), repeat=3):
+        out[oz, :, :, oy, :, :, ox, :, :] = octants[:, :, :, oz, oy, ox].transpose(0, 3, 1, 4, 2, 5)
+    return out.reshape(2 * gz * bz, 2 * gy * by, 2 * gx * bx)
 
 
 def wholly_drawn(count: int, slots: dict, drawn) -> np.ndarray:

@@ -157,7 +157,7 @@ def block_flags(processor, kept: KeptFrame, frame: Frame, atlas: BrickAtlas, sou
         # its brick
         drawn = set(plan.keys())
         values = block_radii(atlas.blocks, skip, atlas.slots, drawn, table_of(source).spans,
-                             empty_cells(kept.table.value))
+                             empty_cells(kept.table.value), rule)
         if mode == "mip":
             maxima = atlas.blocks.maxima(wholly_drawn(len(skip), atlas.slots, drawn))
             values = np.stack([values, np.tile(maxima, (2, 2, 2))], axis=-1)  # beside each octant's
