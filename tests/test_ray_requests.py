@@ -182,6 +182,35 @@ def test_without_room_for_a_fallback_the_frame_still_reads_only_what_rays_ask_fo
 
 
 @pytest.mark.parametrize("shading", ["none", "blinn_phong"])
+def test_a_dvr_frame_with_nothing_to_skip_compiles_no_block_flags_and_one_with_something_does(shading):
+    """dvr's refining frames march over the slots' block flags (mip's and iso's walk their grids).
+    One that draws every cell from a coarser stand-in (whose blocks are never skipped) has no block
+    a ray could skip: it marches without the flags (their build and look-ups would buy nothing) and
+    draws and asks as the frame without skipping does; once bricks of their own are drawn, the
+    flags come back."""
+    volume = Volume(field((64, 64, 64)))
+    properties = {"transfer_function": WINDOW, "shading": shading, "early_termination": 1.0}
+    networks = [ray_caster_network(volume, oblique(volume), "BrickedRayCaster", method="single_pass", brick_size=16,
+                                   lod_bias=FINEST, empty_space_skipping=skipping, **properties)
+                for skipping in (True, False)]
+    marched = []
+    for number in range(1, 30):
+        frames = []
+        for network in networks:
+            network.set("rc.sampling_rate", 1.0 + 1e-6 * number)
+            image = network.evaluate("rc.image", size=SIZE, context=FrameContext(load_limit=LoadLimit(bricks=8)))
+            frames.append((np.asarray(image), dict(network["rc"].last_frame), dict(network["rc"].passes[-1].defines)))
+        (image, report, defines), (plain_image, plain_report, _) = frames
+        np.testing.assert_array_equal(image, plain_image)
+        assert report["requests"] == plain_report["requests"]
+        marched.append((report["levels"], report["complete"], bool(defines.get("PAGED_BLOCKS"))))
+        if report["complete"]:
+            break
+    assert marched[0] == ([1], False, False)  # every cell drawn from level 1: nothing to skip
+    assert any(levels == [0, 1] and flags for levels, complete, flags in marched if not complete)
+
+
+@pytest.mark.parametrize("shading", ["none", "blinn_phong"])
 def test_dvr_asks_for_the_same_cells_with_empty_space_skipping_or_without(shading):
     """The first frame draws every level-0 cell from its level-1 ancestor (a whole level: runs used
     to span the ancestor's cell, and jumps its empty blocks, asking only where they started), so
