@@ -182,12 +182,20 @@ def test_without_room_for_a_fallback_the_frame_still_reads_only_what_rays_ask_fo
 
 
 @pytest.mark.parametrize("shading", ["none", "blinn_phong"])
-def test_a_dvr_frame_with_nothing_to_skip_compiles_no_block_flags_and_one_with_something_does(shading):
+def test_dvr_refining_frames_skip_the_stand_ins_empty_blocks_and_draw_and_ask_as_without_skipping(shading, monkeypatch):
     """dvr's refining frames march over the slots' block flags (mip's and iso's walk their grids).
-    One that draws every cell from a coarser stand-in (whose blocks are never skipped) has no block
-    a ray could skip: it marches without the flags (their build and look-ups would buy nothing) and
-    draws and asks as the frame without skipping does; once bricks of their own are drawn, the
-    flags come back."""
+    Every box of a frame that asks ends at its level-0 cell, so the first one, which draws every
+    cell from a level-1 stand-in, skips the stand-ins' empty blocks (PAGED_BLOCKS) within the
+    level-0 cell the ray is in, and draws and asks (keys and pixels) as the frame without skipping
+    does, bit for bit; so do the part-loaded ones and the complete one."""
+    from vgraph.bricks import paged_grids
+    built, radii = paged_grids.block_radii, []
+
+    def recording(blocks, skip, slots, drawn, spans, empty_cells=None, rule=None, stand_ins=False):
+        values = built(blocks, skip, slots, drawn, spans, empty_cells, rule, stand_ins)
+        radii.append((stand_ins, any(key in drawn for key in slots), bool((values > 0.5).any())))
+        return values
+    monkeypatch.setattr(paged_grids, "block_radii", recording)
     volume = Volume(field((64, 64, 64)))
     properties = {"transfer_function": WINDOW, "shading": shading, "early_termination": 1.0}
     networks = [ray_caster_network(volume, oblique(volume), "BrickedRayCaster", method="single_pass", brick_size=16,
@@ -206,7 +214,8 @@ def test_a_dvr_frame_with_nothing_to_skip_compiles_no_block_flags_and_one_with_s
         marched.append((report["levels"], report["complete"], bool(defines.get("PAGED_BLOCKS"))))
         if report["complete"]:
             break
-    assert marched[0] == ([1], False, False)  # every cell drawn from level 1: nothing to skip
+    assert marched[0] == ([1], False, True)  # every cell drawn from a level-1 stand-in, skipped in
+    assert radii[0] == (True, False, True)  # no slot drawn wholly, yet blocks to jump: the stand-ins'
     assert any(levels == [0, 1] and flags for levels, complete, flags in marched if not complete)
 
 

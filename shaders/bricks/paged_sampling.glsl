@@ -197,6 +197,16 @@ void paged_run(inout int i, inout int run_end, Ray ray) {
     float leave = min(min(ahead.x, ahead.y), ahead.z);
     int end = max(i + 1, int(min(ceil(leave), float(ray.samples))));
     if (skip) {
+#ifdef PAGED_STRIDE
+        if (drawn) {
+            // A jump over a drawn cell's empty blocks lands where the march over all its blocks
+            // would take its next sample (its brick's lattice, up to the brick's span), so the
+            // next look-up, and what it asks for, is at the same sample as without the flags
+            // (a jump in a stand-in's level-0 cell would else ask at a sample no run reaches).
+            stride_run(t, entry, i, end, ray);
+            end = max(end, min(stride_from(end), stride_end));
+        }
+#endif
         i = end;
     } else {
         run_end = end;

@@ -19,8 +19,12 @@ Conventions:
   of cells drawn otherwise (coarser, finer, missing) count as occupied.
 - A slot not drawn wholly from its own brick this frame (a coarse brick that stands in for missing
   finer ones, a brick kept from an earlier frame) has no empty block: a jump there could cross
-  cells drawn from finer bricks. Nor has a block that reaches past its cell's core (a core that is
-  no whole number of blocks), except at the volume's end.
+  cells drawn from finer bricks, or missing ones unasked. Nor has a block that reaches past its
+  cell's core (a core that is no whole number of blocks), except at the volume's end.
+- But in a frame whose every box ends at its level-0 cell (``stand_ins``: dvr's frames that ask,
+  bricks/paged_sampling.glsl's cut) a jump never leaves the level-0 cell it starts in, which is
+  drawn wholly from the slot the ray reads there: such a slot's empty blocks (its own data's
+  ranges, what is drawn there) are jumped within its cell as a wholly drawn one's are.
 """
 
 from __future__ import annotations
@@ -36,7 +40,8 @@ FARTHEST = 8   # the largest distance kept (a cell of 64^3 voxels): each one mor
 OCTANTS = list(itertools.product((1, -1), repeat=3))  # the signs of (z, y, x), z slowest
 
 
-def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans, empty_cells=None, rule=None) -> np.ndarray:
+def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans, empty_cells=None, rule=None,
+                stand_ins: bool = False) -> np.ndarray:
     """float32 [2 z, 2 y, 2 x] laid out as the slots, per octant (module docstring). ``blocks``: the
     atlas's AtlasBlocks; ``skip`` bool [slot, bz, by, bx], the blocks that add nothing under the
     frame's rule (unknown ones False); ``slots`` brick key -> slot; ``drawn`` the keys drawn wholly
@@ -46,9 +51,12 @@ def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans, empty_cells
     it out: it adds nothing), whose blocks a box at level 0 may cross. ``rule`` (hashable, or None):
     what ``skip`` was made by from the slots' ranges (the mode and its TF or level); given, each
     wholly drawn slot's distances within its cell are kept with the slot (AtlasBlocks.of_slot) and
-    made again only for slots whose brick, rule or grouping changed (_within_slots)."""
+    made again only for slots whose brick, rule or grouping changed (_within_slots). ``stand_ins``:
+    every box of the frame ends at its level-0 cell, so slots not drawn wholly skip their empty
+    blocks within their own cell too (module docstring)."""
     whole = wholly_drawn(len(skip), slots, drawn)
-    jumpable = skip & whole[:, None, None, None]
+    own = wholly_drawn(len(skip), slots, slots) if stand_ins else whole  # the slots whose empty blocks count
+    jumpable = skip & own[:, None, None, None]
     per = np.asarray(skip.shape[1:])  # [z, y, x]
     groups = []  # (level, slots, coords): the slots of a level whose boxes cross cells together
     by_level: dict = {}
@@ -68,30 +76,33 @@ def block_radii(blocks, skip: np.ndarray, slots: dict, drawn, spans, empty_cells
     grouped = np.zeros(len(skip), dtype=bool)
     for mine, _, _ in grids:
         grouped[mine] = True
-    values = _within_slots(blocks, jumpable, whole, grouped, slots, rule)
+    values = _within_slots(blocks, jumpable, whole, own, grouped, slots, rule)
     for mine, coords, grid in grids:  # (radii - runs: whole numbers, exact in either order)
         for octant, signs in enumerate(OCTANTS):
             values[mine, octant] += _cells_of(forward_distances(grid, signs), coords, per)
     return _octants_laid_out(blocks, values)
 
 
-def _within_slots(blocks, jumpable: np.ndarray, whole: np.ndarray, grouped: np.ndarray, slots: dict, rule):
+def _within_slots(blocks, jumpable: np.ndarray, whole: np.ndarray, own: np.ndarray, grouped: np.ndarray,
+                  slots: dict, rule):
     """float32 [slot, octant, bz, by, bx]: each slot's radii within its cell (0 in ``grouped``
-    slots, whose boxes cross cells: block_radii adds them) less its runs. A slot not drawn wholly has
-    none jumpable and runs over all its blocks (the same for every such slot); a wholly drawn one's
-    depend only on its brick's blocks, the rule and whether it is grouped (its jumpable blocks:
-    ``skip`` under the rule, and in a level not grouped those inside its cell's core, fixed by the
-    brick's cell), so with a ``rule`` they are kept with the slot under those (one entry a slot:
-    a new rule replaces the last one's) and only new ones made."""
+    slots, whose boxes cross cells: block_radii adds them) less its runs. A slot not ``own`` has
+    none jumpable and runs over all its blocks (the same for every such slot); an own one's
+    depend only on its brick's blocks, the rule, whether it is grouped and whether it is drawn
+    wholly (its jumpable blocks: ``skip`` under the rule, and in a level not grouped those inside
+    its cell's core, fixed by the brick's cell; a stand-in's: all its ``skip``), so with a
+    ``rule`` they are kept with the slot under those (one entry a slot: a new rule replaces the
+    last one's; a stand-in's is never taken for the same brick drawn wholly) and only new ones
+    made."""
     shape = jumpable.shape[1:]
     values = np.empty((len(jumpable), len(OCTANTS)) + shape, dtype=np.float32)
     occupied = np.ones((1,) + shape, dtype=bool)
-    values[~whole] = np.stack([-_within_cells(occupied, signs)[0] for signs in OCTANTS])
+    values[~own] = np.stack([-_within_cells(occupied, signs)[0] for signs in OCTANTS])
     todo, keys = [], []
     for key, slot in slots.items():
-        if not whole[slot]:
+        if not own[slot]:
             continue
-        memo_key = (key, rule, bool(grouped[slot]))
+        memo_key = (key, rule, bool(grouped[slot]), not whole[slot])
         kept = blocks.of_slot(slot).get("block radii") if rule is not None else None
         if kept is not None and kept[0] == memo_key:
             values[slot] = kept[1]

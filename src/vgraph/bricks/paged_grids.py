@@ -132,9 +132,10 @@ def block_flags(processor, kept: KeptFrame, frame: Frame, atlas: BrickAtlas, sou
     """With ``empty_space_skipping``, the flags of the atlas's blocks that add nothing this frame
     (vgraph.bricks.atlas_blocks; dvr: no opacity over the block's range, iso: below the level,
     mip: nothing above 0, and each block's maximum for the skipping below the ray's); None when
-    no block can be skipped (none, or none in a slot drawn wholly from its brick). The last frame's, neither computed nor uploaded again, while the atlas
-    uploaded no brick and the rule and the plan's bricks are the same (a frame that only moves
-    the camera and keeps its bricks)."""
+    no block can be skipped (none, or none in a slot drawn wholly from its brick, or in dvr's frames
+    that ask, in any slot: there the stand-ins skip too). The last frame's, neither computed nor
+    uploaded again, while the atlas uploaded no brick and the rule and the plan's bricks are the
+    same (a frame that only moves the camera and keeps its bricks)."""
     if not processor.empty_space_skipping:
         return None
     mode = processor.compositing
@@ -155,14 +156,16 @@ def block_flags(processor, kept: KeptFrame, frame: Frame, atlas: BrickAtlas, sou
         # its brick
         drawn = set(plan.keys())
         whole = wholly_drawn(len(skip), atlas.slots, drawn)
-        if not (whole.any() if mode == "mip" else (skip & whole[:, None, None, None]).any()):
-            # Nothing a ray could skip (a refining frame drawing every cell from a coarser
-            # stand-in, whose blocks are never skipped): the march without flags draws and asks
-            # the same, without their build and the look-ups (the bonsai's first refining dvr
-            # frame: as fast as no skipping at all, where the flags made it 1.3x slower).
+        # dvr's frames that ask end every box at its level-0 cell (bricks/paged_sampling.glsl), so
+        # the stand-ins for missing cells skip their own empty blocks too (block_radii)
+        stand_ins = mode == "dvr" and len(kept.table.value.missing) > 0
+        own = wholly_drawn(len(skip), atlas.slots, atlas.slots) if stand_ins else whole
+        if not (whole.any() if mode == "mip" else (skip & own[:, None, None, None]).any()):
+            # Nothing a ray could skip (no empty block in a slot whose blocks may be skipped):
+            # the march without flags draws and asks the same, without their build and look-ups.
             return None
         values = block_radii(atlas.blocks, skip, atlas.slots, drawn, table_of(source).spans,
-                             empty_cells(kept.table.value), rule)
+                             empty_cells(kept.table.value), rule, stand_ins)
         if mode == "mip":
             maxima = atlas.blocks.maxima(whole)
             values = np.stack([values, np.tile(maxima, (2, 2, 2))], axis=-1)  # beside each octant's
@@ -170,7 +173,8 @@ def block_flags(processor, kept: KeptFrame, frame: Frame, atlas: BrickAtlas, sou
                        textures={"block_flags": atlas.blocks.upload(frame.ctx, values)},
                        uniforms={"blocks_per_slot": tuple(int(n) for n in atlas.blocks.per_slot)})
     # the distances follow the cells drawn too (their set: a camera that turns reorders the plan)
-    key = (atlas.blocks, atlas.stats["uploads"], atlas.stats["evictions"], rule, plan.key_set())
+    key = (atlas.blocks, atlas.stats["uploads"], atlas.stats["evictions"], rule, plan.key_set(),
+           len(kept.table.value.missing) > 0)
     return kept.flags.get(key, build, lambda binding: binding is None or on_context(atlas.gl, "block_flags", frame.ctx))
 
 
