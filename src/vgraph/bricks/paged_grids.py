@@ -153,7 +153,7 @@ def block_flags(processor, kept: KeptFrame, frame: Frame, atlas: BrickAtlas, sou
         # jumps over boxes of empty blocks ahead of the ray across cells, runs over boxes of
         # occupied ones (vgraph.bricks.block_radii); mip: with each block's maximum, skipped
         # where not above the ray's maximum (PAGED_MIP), never in a slot not drawn wholly from
-        # its brick
+        # its brick (dvr's stand-ins: below)
         drawn = set(plan.keys())
         whole = wholly_drawn(len(skip), atlas.slots, drawn)
         # dvr's frames that ask end every box at its level-0 cell (bricks/paged_sampling.glsl), so

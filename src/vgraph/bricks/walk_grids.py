@@ -33,8 +33,8 @@ Conventions:
   dvr's grid is made only for frames whose planned bricks are all in the atlas: its refining frames'
   rays march (walked the same way, they ask for the same cells and 0.1-0.3 % more pixels than the
   march, whose coarse cells take only their lattice's samples (PAGED_STRIDE) and so hop over thin
-  slices of cells without asking; and they were slower, 1.1-1.4x once the march left out the
-  flags of frames with nothing to skip: docs/explanations/bricked-ray-casting.md).
+  slices of cells without asking; and they were slower once level-0 bricks were resident, while
+  the march now skips the stand-ins' empty blocks too: docs/explanations/bricked-ray-casting.md).
 - Frame after frame (a refining frame's atlas changes each frame), which blocks of the grid a
   brick's blocks overlap within a cell it is drawn in, with their values, is found only for the
   (cell, brick) pairs new since the last frame: each pair's stays with the brick's atlas slot
